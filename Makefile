@@ -1,0 +1,138 @@
+# ndo — network deformable objects.
+#
+#   make            build lib/libndo.a and every tool into bin/
+#   make deps       install the Debian packages ndo needs (only those missing)
+#   make test       build with ASan + UBSan under build/asan/ and run every test
+#   make bench      build optimized and run the benchmarks (figures in docs/bench/)
+#   make demo       the main job, end to end (output in build/demo/)
+#   make install    PREFIX=/usr/local: binaries, shaders, headers, library,
+#                   pkg-config file, manual pages
+#   make clean      remove everything make made
+#
+# Each tool's sources and libraries are listed in tools/NAME/build.mk; the
+# tests' in tests/build.mk.
+
+.DEFAULT_GOAL := all
+VERSION := 0.1.0
+PREFIX ?= /usr/local
+DESTDIR ?=
+CC := gcc
+CXX := g++
+
+# Debian packages (make deps).  Grouped by who needs them.
+DEBS_BUILD := build-essential pkg-config zlib1g-dev libassimp-dev
+DEBS_TEST := python3 python3-numpy clang libclang-rt-14-dev libopenmesh-dev
+DEBS := $(DEBS_BUILD) $(DEBS_TEST) $(DEBS_TOOLS)
+
+# Two variants.  The default puts lib/libndo.a and bin/ in the tree; SAN=1
+# (what `make test` uses) builds everything again with AddressSanitizer and
+# UndefinedBehaviorSanitizer under build/asan/.
+ifeq ($(SAN),1)
+OUT := build/asan
+LIBNDO := build/asan/lib/libndo.a
+OPTFLAGS := -O1 -g -fno-omit-frame-pointer \
+            -fsanitize=address,undefined -fno-sanitize-recover=all
+else
+OUT := build
+LIBNDO := lib/libndo.a
+OPTFLAGS := -O2 -g
+endif
+OBJ := $(OUT)/obj
+BIN := $(if $(filter 1,$(SAN)),build/asan/bin,bin)
+TBIN := $(OUT)/tests
+
+WARN := -Wall -Wextra -Wno-unused-parameter
+CPPFLAGS += -Ilib -D_GNU_SOURCE -MMD -MP
+CFLAGS += -std=c11 $(OPTFLAGS) $(WARN)
+CXXFLAGS += -std=c++17 $(OPTFLAGS) $(WARN)
+LDFLAGS += $(filter -fsanitize=%,$(OPTFLAGS))
+# What a program linking lib/libndo.a links besides (ndo.pc says the same).
+NDO_LIBS := -lassimp -lz -lm
+
+LIB_SRCS := $(sort $(wildcard lib/*.c))
+LIB_OBJS := $(LIB_SRCS:%=$(OBJ)/%.o)
+
+TOOLS :=
+include $(sort $(wildcard tools/*/build.mk))
+include tests/build.mk
+
+ALL_OBJS := $(LIB_OBJS)
+define tool_rules
+$(1)_OBJS := $$($(1)_SRCS:%=$(OBJ)/%.o)
+ALL_OBJS += $$($(1)_OBJS)
+$(BIN)/$(1): $$($(1)_OBJS) $(LIBNDO)
+	@mkdir -p $$(@D)
+	$$(if $$(filter %.cpp,$$($(1)_SRCS)),$(CXX),$(CC)) $(LDFLAGS) -o $$@ \
+	    $$($(1)_OBJS) $(LIBNDO) $$($(1)_LIBS) $(NDO_LIBS)
+endef
+$(foreach t,$(TOOLS),$(eval $(call tool_rules,$(t))))
+
+.PHONY: all deps test check-build bench demo install clean help
+all: $(LIBNDO) $(TOOLS:%=$(BIN)/%)
+
+$(LIBNDO): $(LIB_OBJS)
+	@mkdir -p $(@D)
+	rm -f $@
+	ar rcs $@ $^
+
+$(OBJ)/%.c.o: %.c
+	@mkdir -p $(@D)
+	$(CC) $(CPPFLAGS) $(CFLAGS) $($(<D)_CPPFLAGS) -c -o $@ $<
+
+$(OBJ)/%.cpp.o: %.cpp
+	@mkdir -p $(@D)
+	$(CXX) $(CPPFLAGS) $(CXXFLAGS) $($(<D)_CPPFLAGS) -c -o $@ $<
+
+# Install the packages that are missing; `apt-get update` first when the
+# package lists are empty (a fresh machine) or an install fails.
+deps:
+	@missing=; for p in $(sort $(DEBS)); do \
+	  dpkg-query -W -f='$${Status}\n' $$p 2>/dev/null | grep -q '^install ok installed' \
+	    || missing="$$missing $$p"; \
+	done; \
+	if [ -z "$$missing" ]; then echo "deps: all $(words $(sort $(DEBS))) packages present"; exit 0; fi; \
+	sudo=; [ "$$(id -u)" = 0 ] || sudo=sudo; \
+	echo "deps: installing$$missing"; \
+	apt="$$sudo env DEBIAN_FRONTEND=noninteractive apt-get -y -q"; \
+	if [ -z "$$(ls /var/lib/apt/lists 2>/dev/null | grep -v -e lock -e partial -e auxfiles)" ]; then \
+	  $$apt update || exit 1; fi; \
+	$$apt install --no-install-recommends $$missing \
+	  || { $$apt update && $$apt install --no-install-recommends $$missing; }
+
+# The test suite runs against the sanitizer build.
+test: deps
+	$(MAKE) SAN=1 check-build
+	tests/run build/asan
+
+check-build: all $(TEST_PROGS)
+
+bench: deps
+	$(MAKE) all $(BENCH_PROGS)
+	tests/bench/run
+
+demo: deps
+	$(MAKE) all
+	samples/demo.sh
+
+install: all
+	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/lib/pkgconfig \
+	    $(DESTDIR)$(PREFIX)/include/ndo $(DESTDIR)$(PREFIX)/share/man/man1 \
+	    $(DESTDIR)$(PREFIX)/share/ndo/shaders
+	install -m 755 $(TOOLS:%=bin/%) $(DESTDIR)$(PREFIX)/bin
+	install -m 644 lib/libndo.a $(DESTDIR)$(PREFIX)/lib
+	install -m 644 lib/ndo/*.h $(DESTDIR)$(PREFIX)/include/ndo
+	install -m 644 $(wildcard tools/*.1) $(DESTDIR)$(PREFIX)/share/man/man1
+	$(if $(wildcard shaders/*),install -m 644 $(wildcard shaders/*) $(DESTDIR)$(PREFIX)/share/ndo/shaders)
+	printf '%s\n' 'prefix=$(PREFIX)' 'libdir=$${prefix}/lib' \
+	    'includedir=$${prefix}/include' '' 'Name: ndo' \
+	    'Description: network deformable objects: regular grids, butterfly subdivision, grid files' \
+	    'Version: $(VERSION)' 'Libs: -L$${libdir} -lndo $(NDO_LIBS)' \
+	    'Cflags: -I$${includedir}' > $(DESTDIR)$(PREFIX)/lib/pkgconfig/ndo.pc
+
+clean:
+	rm -rf build bin lib/libndo.a
+
+help:
+	@sed -n '3,12s/^# //p' Makefile
+
+-include $(ALL_OBJS:.o=.d) $(TEST_OBJS:.o=.d)

@@ -1,0 +1,35 @@
+/* ndo/io.h — output files that are never left half-written.
+ *
+ * ndo_out_open() opens a temporary file beside the destination;
+ * ndo_out_commit() flushes, checks every write and renames it over the
+ * destination; ndo_out_abort() removes it.  A path of "-" (or NULL) means
+ * standard output, which is flushed and checked on commit.  A destination
+ * that exists and is not a regular file (a FIFO, /dev/null, /dev/full) is
+ * written in place: renaming over a device would replace the device.
+ */
+#ifndef NDO_IO_H
+#define NDO_IO_H
+
+#include <stdio.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct ndo_outfile {
+	FILE *f;         /* write here */
+	char *path;      /* destination (NULL for stdout) */
+	char *tmp;       /* temporary name, NULL when writing in place */
+} ndo_outfile;
+
+/* 1 when `path` means standard input/output ("-" or NULL). */
+int ndo_is_stdio(const char *path);
+
+int ndo_out_open(const char *path, ndo_outfile *o);
+int ndo_out_commit(ndo_outfile *o);
+void ndo_out_abort(ndo_outfile *o);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

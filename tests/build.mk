@@ -1,0 +1,35 @@
+# Test and benchmark programs (included by the Makefile).
+#
+# tests/unit/test_*.c and *.cpp: one program each, linked with libndo;
+# *.cpp files may use OpenMesh (the independent reference).
+# tests/fuzz/fuzz_*.c: libFuzzer targets, built with clang in the
+# sanitizer variant only.
+# tests/bench/bench_*.c/cpp: benchmark programs, built optimized.
+
+UNIT_SRCS := $(sort $(wildcard tests/unit/test_*.c tests/unit/test_*.cpp))
+TEST_PROGS := $(foreach s,$(UNIT_SRCS),$(TBIN)/$(basename $(notdir $(s))))
+TEST_OBJS := $(UNIT_SRCS:%=$(OBJ)/%.o)
+OPENMESH_LIBS := -lOpenMeshCore
+
+define unit_rule
+$(TBIN)/$(basename $(notdir $(1))): $(OBJ)/$(1).o $(LIBNDO)
+	@mkdir -p $$(@D)
+	$(if $(filter %.cpp,$(1)),$(CXX),$(CC)) $(LDFLAGS) -o $$@ $$< $(LIBNDO) \
+	    $(if $(filter %.cpp,$(1)),$(OPENMESH_LIBS)) $(NDO_LIBS)
+endef
+$(foreach s,$(UNIT_SRCS),$(eval $(call unit_rule,$(s))))
+
+# libFuzzer targets: clang, with the library's sources compiled in.
+FUZZ_SRCS := $(sort $(wildcard tests/fuzz/fuzz_*.c))
+ifeq ($(SAN),1)
+TEST_PROGS += $(FUZZ_SRCS:tests/fuzz/%.c=$(TBIN)/%)
+endif
+$(TBIN)/fuzz_%: tests/fuzz/fuzz_%.c $(LIB_SRCS) $(wildcard lib/ndo/*.h)
+	@mkdir -p $(@D)
+	clang -std=c11 -D_GNU_SOURCE -Ilib -g -O1 -fsanitize=fuzzer,address,undefined \
+	    -o $@ $< $(LIB_SRCS) $(NDO_LIBS)
+
+BENCH_SRCS := $(sort $(wildcard tests/bench/bench_*.c tests/bench/bench_*.cpp))
+BENCH_PROGS := $(foreach s,$(BENCH_SRCS),$(TBIN)/$(basename $(notdir $(s))))
+TEST_OBJS += $(BENCH_SRCS:%=$(OBJ)/%.o)
+$(foreach s,$(BENCH_SRCS),$(eval $(call unit_rule,$(s))))

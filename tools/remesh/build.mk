@@ -1,0 +1,2 @@
+TOOLS += remesh
+remesh_SRCS := tools/remesh/main.c

@@ -1,0 +1,2 @@
+TOOLS += subdivide
+subdivide_SRCS := tools/subdivide/main.c
