@@ -53,7 +53,7 @@ LIB_SRCS := $(sort $(wildcard lib/*.c))
 LIB_OBJS := $(LIB_SRCS:%=$(OBJ)/%.o)
 
 TOOLS :=
-include $(sort $(wildcard tools/*/build.mk))
+include $(sort $(wildcard lib/*/build.mk tools/*/build.mk))
 include tests/build.mk
 
 ALL_OBJS := $(LIB_OBJS)
