@@ -6,6 +6,7 @@
 #include "ndo/status.h"
 
 #include <errno.h>
+#include <getopt.h>
 #include <limits.h>
 #include <math.h>
 #include <signal.h>
@@ -18,6 +19,7 @@
 const char *ndo_progname = "ndo";
 static int saved_argc;
 static char **saved_argv;
+static char **cli_argv_live; /* the array getopt permutes */
 
 void ndo_cli_init(int argc, char **argv)
 {
@@ -25,9 +27,27 @@ void ndo_cli_init(int argc, char **argv)
 		const char *slash = strrchr(argv[0], '/');
 		ndo_progname = slash ? slash + 1 : argv[0];
 	}
+	/* getopt_long permutes argv: keep the order the user typed */
+	cli_argv_live = argv;
 	saved_argc = argc;
-	saved_argv = argv;
+	saved_argv = calloc((size_t)argc + 1, sizeof *saved_argv);
+	if (saved_argv)
+		memcpy(saved_argv, argv, (size_t)argc * sizeof *argv);
+	else
+		saved_argc = 0;
+	opterr = 0; /* ndo_bad_option() words the message */
 	signal(SIGPIPE, SIG_IGN);
+}
+
+void ndo_bad_option(int c)
+{
+	char **argv = cli_argv_live;
+	const char *opt = optind > 0 && argv ? argv[optind - 1] : "?";
+	if (c == ':')
+		ndo_usage_error("option '%s' needs a value", opt);
+	if (optopt && opt[0] == '-' && opt[1] != '-')
+		ndo_usage_error("unknown option '-%c'", optopt);
+	ndo_usage_error("unknown option '%s'", opt);
 }
 
 int ndo_cli_argc(void) { return saved_argc; }

@@ -37,6 +37,11 @@ void ndo_die(const char *fmt, ...) __attribute__((format(printf, 1, 2), noreturn
 void ndo_usage_error(const char *fmt, ...) __attribute__((format(printf, 1, 2), noreturn));
 void ndo_warn(const char *fmt, ...) __attribute__((format(printf, 1, 2)));
 
+/* The usage error for getopt_long's '?' (unknown option) or ':' (missing
+ * value; put ':' first in the short-option string to get it), naming the
+ * option as the user typed it. */
+void ndo_bad_option(int c) __attribute__((noreturn));
+
 /* Print "prog (ndo) VERSION" and exit 0. */
 void ndo_print_version(void) __attribute__((noreturn));
 

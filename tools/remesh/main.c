@@ -50,7 +50,7 @@ int main(int argc, char **argv)
 		{"version", no_argument, 0, OPT_VERSION},
 		{0, 0, 0, 0}};
 	int c;
-	while ((c = getopt_long(argc, argv, "s:l:o:h", opts, NULL)) != -1) {
+	while ((c = getopt_long(argc, argv, ":s:l:o:h", opts, NULL)) != -1) {
 		switch (c) {
 		case 's': shape = optarg; break;
 		case 'l': level = ndo_opt_level("--level", optarg); break;
@@ -68,7 +68,7 @@ int main(int argc, char **argv)
 		case OPT_FREQ: sp.frequency = ndo_opt_double("--frequency", optarg, 0, 1000); break;
 		case 'h': usage();
 		case OPT_VERSION: ndo_print_version();
-		default: ndo_usage_error("unknown option");
+		default: ndo_bad_option(c);
 		}
 	}
 	if (optind < argc)

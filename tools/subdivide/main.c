@@ -54,7 +54,7 @@ int main(int argc, char **argv)
 		{"version", no_argument, 0, OPT_VERSION},
 		{0, 0, 0, 0}};
 	int c;
-	while ((c = getopt_long(argc, argv, "l:o:vh", opts, NULL)) != -1) {
+	while ((c = getopt_long(argc, argv, ":l:o:vh", opts, NULL)) != -1) {
 		switch (c) {
 		case 'l': levels = ndo_opt_level("--levels", optarg); break;
 		case 'o': out = optarg; break;
@@ -69,7 +69,7 @@ int main(int argc, char **argv)
 			break;
 		case 'h': usage();
 		case OPT_VERSION: ndo_print_version();
-		default: ndo_usage_error("unknown option");
+		default: ndo_bad_option(c);
 		}
 	}
 	if (optind + 1 < argc)
