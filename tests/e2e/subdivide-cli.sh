@@ -1,0 +1,80 @@
+#!/usr/bin/env bash
+# subdivide and remesh --shape as a user runs them: pipes, files, formats,
+# the history a grid keeps, and every expected failure (one line, the
+# right exit code, no output file left behind).
+. "$(dirname "$0")/lib.sh"
+
+# -- what works --
+check "pipe remesh into subdivide" bash -c 'remesh --shape sphere -l 3 | subdivide -l 2 >s5.tgrid'
+check "file to file" subdivide -l 1 s5.tgrid -o s6.tgrid
+check "dash means stdin and stdout" bash -c 'subdivide -l 1 - -o - <s5.tgrid >s6b.tgrid'
+if cmp -s s6.tgrid s6b.tgrid; then fail "stdin/stdout output differs from file output"; else :; fi
+# the two differ only in the history line (the command), so compare sizes of data instead
+if [ "$(stat -c %s s6.tgrid)" -gt 100000 ]; then pass "level 6 output has the expected size"; else fail "level 6 output too small"; fi
+if grep -aq 'remesh --shape sphere -l 3' s6.tgrid && grep -aq 'subdivide -l 1 s5.tgrid -o s6.tgrid' s6.tgrid; then
+	pass "history records every command line"
+else
+	fail "history records every command line"
+fi
+check "level 0 copies" subdivide -l 0 s5.tgrid -o s5copy.tgrid
+check "thesis corners" subdivide --corners thesis s5.tgrid -o s6t.tgrid
+for ext in obj ply stl glb gltf; do
+	check "export .$ext" subdivide -l 0 s5.tgrid -o "s5.$ext"
+done
+if [ "$(grep -c '^v ' s5.obj)" = 2050 ] && [ "$(grep -c '^f ' s5.obj)" = 4096 ]; then
+	pass "obj has 2·4^5+2 vertices and 4^6 faces"
+else
+	fail "obj counts" "$(grep -c '^v ' s5.obj) vertices, $(grep -c '^f ' s5.obj) faces"
+fi
+if subdivide --help | grep -q -- '--corners' && subdivide --help | grep -q -- '--levels' &&
+	subdivide --version | grep -Eq '^subdivide \(ndo\) [0-9]'; then
+	pass "--help and --version"
+else
+	fail "--help and --version"
+fi
+v=$(subdivide -v -l 1 s5.tgrid -o /dev/null 2>&1)
+if grep -q 'level 5 → 6: 2145 → 8385 stored nodes' <<<"$v"; then pass "--verbose says what it did"; else fail "--verbose" "$v"; fi
+
+# -- what fails, with one line and the right code --
+expect_error "unknown option" 2 "unknown option '--frobnicate'" subdivide --frobnicate s5.tgrid
+expect_error "unknown short option" 2 "unknown option '-x'" subdivide -x s5.tgrid
+expect_error "option without its value" 2 "option '-o' needs a value" subdivide s5.tgrid -o
+expect_error "level 11 refused, saying why" 2 "level 11 is outside 0\.\.10 \(it would store" subdivide -l 11 s5.tgrid
+expect_error "negative level" 2 "level -1 is outside" subdivide -l -1 s5.tgrid
+expect_error "non-numeric level" 2 "'two' is not an integer" subdivide -l two s5.tgrid
+expect_error "result beyond level 10" 2 "level 5 \+ 6 exceeds the largest level, 10" subdivide -l 6 s5.tgrid
+expect_error "bad corner rule" 2 "--corners: 'loop' is not zorin or thesis" subdivide --corners loop s5.tgrid
+expect_error "missing input" 1 "^subdivide: nothing\.tgrid: cannot open: No such file" subdivide nothing.tgrid
+expect_error "two inputs" 2 "more than one input" subdivide s5.tgrid s6.tgrid
+head -c 5000 s5.tgrid >cut.tgrid
+expect_error "truncated input" 1 "cut\.tgrid: truncated in channel 'position'" subdivide cut.tgrid -o never.tgrid
+printf 'hello, I am not a grid\n' >text.tgrid
+expect_error "not a grid" 1 "text\.tgrid: not an ndo grid file" subdivide text.tgrid -o never.tgrid
+cp s5.tgrid flip.tgrid
+printf '\x01' | dd of=flip.tgrid bs=1 seek=3000 conv=notrunc status=none
+expect_error "corrupt data" 1 "flip\.tgrid: data checksum mismatch" subdivide flip.tgrid -o never.tgrid
+expect_error "empty input" 1 "standard input: empty input" subdivide </dev/null
+if [ ! -e never.tgrid ]; then pass "no output file after a failed read"; else fail "a failed run left never.tgrid"; fi
+cp s6.tgrid keep.tgrid
+subdivide cut.tgrid -o keep.tgrid 2>/dev/null
+if cmp -s s6.tgrid keep.tgrid; then pass "a failed run leaves an existing output untouched"; else fail "existing output clobbered"; fi
+expect_error "unknown output extension" 2 "x\.png: unknown output extension" subdivide s5.tgrid -o x.png
+expect_error "missing output directory" 1 "no/such/dir/x\.tgrid: cannot write" subdivide s5.tgrid -o no/such/dir/x.tgrid
+if [ -w /dev/full ]; then
+	expect_error "full disk" 1 "/dev/full: write error.*No space left" subdivide s5.tgrid -o /dev/full
+	expect_error "full disk on stdout" 1 "No space left on device" bash -c 'subdivide s5.tgrid >/dev/full'
+fi
+subdivide -l 3 s6.tgrid 2>pipe.err | head -c 100 >/dev/null
+codes=("${PIPESTATUS[@]}")
+if [ "${codes[0]}" = 1 ] && grep -q 'Broken pipe' pipe.err && [ "$(wc -l <pipe.err)" = 1 ]; then
+	pass "closed pipe: one line, exit 1"
+else
+	fail "closed pipe" "exit ${codes[0]}: $(cat pipe.err)"
+fi
+if ls ./*.tmp.* >/dev/null 2>&1; then fail "temporary files left behind" "$(ls ./*.tmp.*)"; else pass "no temporary files left"; fi
+
+expect_error "remesh: unknown shape" 2 "unknown shape 'cube'" remesh --shape cube -o x.tgrid
+expect_error "remesh: level 11" 2 "level 11 is outside" remesh --shape sphere -l 11
+expect_error "remesh: bad axes" 2 "--axes: '1,2' is not 3 comma-separated numbers" remesh --shape ellipsoid --axes 1,2
+expect_error "remesh: zero axis" 2 "--axes: 0 is outside" remesh --shape ellipsoid --axes 1,0,1
+expect_error "remesh: no shape" 2 "no --shape given" remesh -l 3
