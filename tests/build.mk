@@ -36,3 +36,6 @@ $(foreach s,$(BENCH_SRCS),$(eval $(call unit_rule,$(s))))
 
 # OpenMesh's headers trip g++ 12's -Wmaybe-uninitialized inside std::vector.
 $(OBJ)/tests/unit/%.cpp.o: CXXFLAGS += -Wno-maybe-uninitialized
+# Benchmarks compare against OpenMesh and Bullet at their release settings:
+# assertions off, -O3.
+$(OBJ)/tests/bench/%.cpp.o: CXXFLAGS += -O3 -DNDEBUG -Wno-maybe-uninitialized

@@ -284,6 +284,59 @@ static void corner_rules_differ_only_at_corners(void)
 	}
 }
 
+/* Why the default is Zorin's rule: refining the tetrahedron, the three
+ * triangles at a corner must flatten out (a C¹ limit surface: the spread
+ * of their normals halves with each level), while the thesis' duplicated
+ * edges keep the corner a sharp cone for ever (docs/subdivide.md). */
+static double corner_normal_spread(const ndo_grid *f)
+{
+	int n = f->n;
+	const double *x = f->ch[0].data, *c = x + 3 * ndo_node(f->w, n, 0); /* corner B */
+	size_t nb[6];
+	ndo_neighbors(f->level, n, 0, nb);
+	double nrm[3][3], worst = 0;
+	for (int k = 0; k < 3; k++) {
+		const double *a = x + 3 * nb[k], *b = x + 3 * nb[k + 1];
+		double u[3], v[3];
+		for (int q = 0; q < 3; q++)
+			u[q] = a[q] - c[q], v[q] = b[q] - c[q];
+		nrm[k][0] = u[1] * v[2] - u[2] * v[1];
+		nrm[k][1] = u[2] * v[0] - u[0] * v[2];
+		nrm[k][2] = u[0] * v[1] - u[1] * v[0];
+		double r = sqrt(nrm[k][0] * nrm[k][0] + nrm[k][1] * nrm[k][1] + nrm[k][2] * nrm[k][2]);
+		for (int q = 0; q < 3; q++)
+			nrm[k][q] /= r;
+	}
+	for (int a = 0; a < 3; a++)
+		for (int b = 0; b < a; b++)
+			worst = fmax(worst, acos(fmin(1, nrm[a][0] * nrm[b][0] + nrm[a][1] * nrm[b][1] +
+			                                     nrm[a][2] * nrm[b][2])));
+	return worst * 180 / M_PI;
+}
+
+static void zorin_corners_smooth_thesis_corners_stay_sharp(void)
+{
+	ndo_grid *g;
+	ndo_shape_make("tetra", 1, NULL, &g);
+	double prev = 0;
+	for (int level = 4; level <= 7; level++) {
+		ndo_grid *z, *t;
+		ndo_subdivide_levels(g, level - 1, NDO_CORNERS_ZORIN, &z);
+		ndo_subdivide_levels(g, level - 1, NDO_CORNERS_THESIS, &t);
+		double sz = corner_normal_spread(z), st = corner_normal_spread(t);
+		CHECK(st > 109 && st < 110, "level %d: thesis corner spread %.2f°, expected the "
+		      "tetrahedron's 109.47° for ever", level, st);
+		if (level > 4)
+			CHECK(sz < 0.55 * prev, "level %d: Zorin corner spread %.2f° did not halve from %.2f°",
+			      level, sz, prev);
+		prev = sz;
+		ndo_grid_destroy(z);
+		ndo_grid_destroy(t);
+	}
+	CHECK(prev < 5, "Zorin corner spread at level 7 is %.2f°", prev);
+	ndo_grid_destroy(g);
+}
+
 static void constants_and_labels(void)
 {
 	ndo_grid *g, *f;
@@ -382,6 +435,7 @@ int main(void)
 	RUN(fast_matches_slow_reference);
 	RUN(interpolates_bit_for_bit_and_duplicates_agree);
 	RUN(corner_rules_differ_only_at_corners);
+	RUN(zorin_corners_smooth_thesis_corners_stay_sharp);
 	RUN(constants_and_labels);
 	RUN(float_channels_follow_doubles);
 	RUN(reused_buffers_and_limits);
