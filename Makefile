@@ -118,8 +118,8 @@ install: all
 	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/lib/pkgconfig \
 	    $(DESTDIR)$(PREFIX)/include/ndo $(DESTDIR)$(PREFIX)/share/man/man1 \
 	    $(DESTDIR)$(PREFIX)/share/ndo/shaders
-	install -m 755 $(TOOLS:%=bin/%) $(DESTDIR)$(PREFIX)/bin
-	install -m 644 lib/libndo.a $(DESTDIR)$(PREFIX)/lib
+	install -m 755 $(TOOLS:%=$(BIN)/%) $(DESTDIR)$(PREFIX)/bin
+	install -m 644 $(LIBNDO) $(DESTDIR)$(PREFIX)/lib/libndo.a
 	install -m 644 lib/ndo/*.h $(DESTDIR)$(PREFIX)/include/ndo
 	install -m 644 $(wildcard tools/*.1) $(DESTDIR)$(PREFIX)/share/man/man1
 	$(if $(wildcard shaders/*),install -m 644 $(wildcard shaders/*) $(DESTDIR)$(PREFIX)/share/ndo/shaders)
