@@ -8,7 +8,7 @@ if [ ! -x "$fz" ]; then
 	exit 0
 fi
 mkdir -p corpus
-if "$fz" -max_total_time=20 -rss_limit_mb=1024 corpus >fuzz.log 2>&1; then
+if "$fz" -max_total_time=20 -print_final_stats=1 -rss_limit_mb=1024 corpus >fuzz.log 2>&1; then
 	pass "20 s of random messages: no crash ($(grep -o 'stat::number_of_executed_units: *[0-9]*' fuzz.log | grep -o '[0-9]*$' || echo '?') runs)"
 else
 	fail "fuzz_msg found a problem" "$(grep -m1 -E 'ERROR|SUMMARY' fuzz.log)"
