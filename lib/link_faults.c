@@ -88,7 +88,8 @@ static int fault_poll(ndo_link *base, double now, ndo_link_fn fn, void *user)
 		l->failed = 0;
 		return ndo__fail(NDO_ENOMEM, "fault injection: out of memory");
 	}
-	qsort(l->q, l->count, sizeof *l->q, by_release);
+	if (l->count)
+		qsort(l->q, l->count, sizeof *l->q, by_release);
 	size_t k = 0;
 	while (k < l->count && l->q[k].release <= now) {
 		fn(user, l->q[k].channel, l->q[k].data, l->q[k].len);
@@ -96,7 +97,8 @@ static int fault_poll(ndo_link *base, double now, ndo_link_fn fn, void *user)
 		free(l->q[k].data);
 		k++;
 	}
-	memmove(l->q, l->q + k, (l->count - k) * sizeof *l->q);
+	if (k)
+		memmove(l->q, l->q + k, (l->count - k) * sizeof *l->q);
 	l->count -= k;
 	return (int)k;
 }

@@ -84,7 +84,8 @@ static int mem_publish(ndo_link *base, const char *channel, const void *data, si
 		free(m->data);
 		return ndo__fail(NDO_ENOMEM, "out of memory");
 	}
-	memcpy(m->data, data, len);
+	if (len)
+		memcpy(m->data, data, len);
 	m->len = len;
 	b->count++;
 	return 0;

@@ -357,7 +357,8 @@ static int on_description(ndo_session *s, const ndo_msg_description_t *d)
 	s->scene = malloc((size_t)d->scene_len + 1);
 	if (!s->scene)
 		return NDO_ENOMEM;
-	memcpy(s->scene, d->scene, (size_t)d->scene_len);
+	if (d->scene_len)
+		memcpy(s->scene, d->scene, (size_t)d->scene_len);
 	s->scene[d->scene_len] = 0;
 	s->method = (ndo_part_method)d->partition;
 	s->have = calloc(g->count, 1);

@@ -72,7 +72,9 @@ static void on_msg(const lcm_recv_buf_t *rb, const char *ch, void *user)
 {
 	counter *c = user;
 	if (c->count < 256)
-		c->ids[c->count] = rb->data_size >= 4 ? ((const int *)rb->data)[0] : -1;
+		c->ids[c->count] = -1;
+	if (c->count < 256 && rb->data_size >= 4)
+		memcpy(&c->ids[c->count], rb->data, sizeof(int));
 	c->count++;
 	c->bytes += rb->data_size;
 }
