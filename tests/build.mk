@@ -24,10 +24,12 @@ FUZZ_SRCS := $(sort $(wildcard tests/fuzz/fuzz_*.c))
 ifeq ($(SAN),1)
 TEST_PROGS += $(FUZZ_SRCS:tests/fuzz/%.c=$(TBIN)/%)
 endif
-$(TBIN)/fuzz_%: tests/fuzz/fuzz_%.c $(LIB_SRCS) $(wildcard lib/ndo/*.h)
+# LCM_GEN_SRCS/DIR/STAMP: the generated message code (lib/lcmtypes/build.mk).
+$(TBIN)/fuzz_%: tests/fuzz/fuzz_%.c $(LIB_SRCS) $(LCM_GEN_STAMP) $(wildcard lib/ndo/*.h)
 	@mkdir -p $(@D)
-	clang -std=c11 -D_GNU_SOURCE -Ilib -g -O1 -fsanitize=fuzzer,address,undefined \
-	    -o $@ $< $(LIB_SRCS) $(NDO_LIBS)
+	clang -std=c11 -D_GNU_SOURCE -Ilib $(if $(LCM_GEN_DIR),-I$(LCM_GEN_DIR)) -g -O1 \
+	    -fsanitize=fuzzer,address,undefined \
+	    -o $@ $< $(LIB_SRCS) $(LCM_GEN_SRCS) $(NDO_LIBS)
 
 BENCH_SRCS := $(sort $(wildcard tests/bench/bench_*.c tests/bench/bench_*.cpp))
 BENCH_PROGS := $(foreach s,$(BENCH_SRCS),$(TBIN)/$(basename $(notdir $(s))))

@@ -1,0 +1,15 @@
+/* link_private.h — what a link implementation provides (ndo/link.h). */
+#ifndef NDO_LINK_PRIVATE_H
+#define NDO_LINK_PRIVATE_H
+
+#include "ndo/link.h"
+
+struct ndo_link {
+	int (*publish)(ndo_link *, const char *channel, const void *data, size_t len);
+	int (*poll)(ndo_link *, double now, ndo_link_fn fn, void *user);
+	int (*fileno)(ndo_link *);
+	void (*destroy)(ndo_link *);
+	uint64_t injected;
+};
+
+#endif

@@ -1,0 +1,87 @@
+/* ndo/net.h — typed messages over a link: publish with a header, drain
+ * without blocking, validate, count, keep the latest tile per range
+ * (docs/protocol.md, "Transport").
+ *
+ * ndo_net_poll() drains everything the link has (LCM: lcm_handle_timeout
+ * 0 until empty), and for each message: decode (ndo_msg_decode), drop own
+ * messages, validate (ndo_msg_validate against ndo_net_ctx()), then check
+ * its sequence number against the sender's last one on that channel —
+ * older or equal is stale, a jump is a gap (counted).  Tiles are kept per
+ * (sender, quad-tree node, channels), newest only, until taken with
+ * ndo_net_take_tiles(); every other message waits in arrival order for
+ * ndo_net_next().  One thread only.
+ */
+#ifndef NDO_NET_H
+#define NDO_NET_H
+
+#include <stdint.h>
+
+#include "ndo/link.h"
+#include "ndo/msg.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct ndo_net ndo_net;
+
+typedef struct ndo_net_stats {
+	uint64_t received;             /* messages the link handed over */
+	uint64_t accepted;             /* passed every check */
+	uint64_t own;                  /* our own, looped back (not drops) */
+	uint64_t dropped[NDO_DROP_N];  /* by reason; [NDO_DROP_INJECTED] from faults */
+	uint64_t gaps;                 /* messages missing by sequence numbers */
+	uint64_t late;                 /* arrived after a later one (reordered) */
+	uint64_t superseded;           /* tiles replaced by a newer one before use */
+	uint64_t published, publish_failed;
+	uint64_t bytes_in, bytes_out;
+} ndo_net_stats;
+
+/* Take ownership of `link`; channels are PREFIX_SUFFIX (ndo_msg_suffix).
+ * self_id: this peer's nonzero sender id. */
+int ndo_net_create(ndo_link *link, const char *prefix, int32_t self_id, ndo_net **out);
+void ndo_net_destroy(ndo_net *n);
+
+/* The validation context (object id, level, self id): the session updates
+ * it once it knows the object. */
+ndo_msg_ctx *ndo_net_ctx(ndo_net *n);
+
+/* The receiver now belongs to object `object_id` at `level`: set the
+ * context and look again at the messages that arrived for it before (they
+ * were kept, up to 32 MiB, rather than dropped as unknown). */
+void ndo_net_attach(ndo_net *n, int64_t object_id, int level);
+
+/* Fill msg's header (version, object id from the context, sender, the next
+ * sequence number of this channel, utime) and publish it.  `msg` is the
+ * generated struct of type t.  0, or NDO_EIO/NDO_ENOMEM; a tile too large
+ * for one datagram is NDO_ERANGE (never sent fragmented). */
+int ndo_net_publish(ndo_net *n, ndo_msg_type t, void *msg);
+
+/* Drain the link (see above).  now: seconds, monotonic (fault delays).
+ * Returns messages accepted, or NDO_EIO. */
+int ndo_net_poll(ndo_net *n, double now);
+
+/* The next accepted non-tile message, in arrival order: 1 and *m (free it
+ * with ndo_msg_free), or 0 when none is left. */
+int ndo_net_next(ndo_net *n, ndo_msg *m);
+
+/* The newest tile of every (sender, node, channels) received since the
+ * last call: *tiles is a malloc'd array of *count messages; free each with
+ * ndo_msg_free() and the array with free(). 0 or NDO_ENOMEM. */
+int ndo_net_take_tiles(ndo_net *n, ndo_msg **tiles, size_t *count);
+
+/* Forget a sender's sequence numbers and pending tiles (it left; if it
+ * comes back with the same id its numbers start again). */
+void ndo_net_forget(ndo_net *n, int32_t sender);
+
+const ndo_net_stats *ndo_net_stats_get(const ndo_net *n);
+/* "received 120, accepted 118, dropped 2 (stale 1, range 1), gaps 0" */
+void ndo_net_stats_format(const ndo_net *n, char *buf, size_t size);
+
+/* The channel name of a type under this net's prefix. */
+const char *ndo_net_channel(const ndo_net *n, ndo_msg_type t);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

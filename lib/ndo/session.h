@@ -1,0 +1,130 @@
+/* ndo/session.h — one peer of a shared object: roles, joins, leaves,
+ * heartbeats, partitioning, tiles in and out (thesis §4.4–4.5, figure
+ * 4.14; docs/protocol.md "A session").  No physics: the caller integrates
+ * the nodes it owns and calls this once per step.
+ *
+ * The session owns the object's grid (ndo_session_grid()): channels
+ * position, velocity, rest (3 × f64), pin (u8) and owner (i32, the sender
+ * id of the peer that integrates each node).  A step of a peer:
+ *
+ *     ndo_session_update(s, ndo_now());        // drain, protocol, timers,
+ *                                              // others' tiles → grid
+ *     while (ndo_session_event(s, &ev)) ...    // READY, PARTITION, LEFT, ENDED
+ *     if (ndo_session_ready(s)) {
+ *         integrate nodes with owner == ndo_session_self(s), using the
+ *         grid's values of the other nodes (last step's boundary);
+ *         ndo_session_publish(s, step, time);  // own region as tiles
+ *     }
+ *
+ * Time is whatever monotonic clock the caller passes (tests pass a fake
+ * one).  One thread per session.
+ */
+#ifndef NDO_SESSION_H
+#define NDO_SESSION_H
+
+#include <stdint.h>
+
+#include "ndo/grid.h"
+#include "ndo/msg.h"
+#include "ndo/net.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct ndo_session ndo_session;
+
+typedef enum ndo_role { NDO_ROLE_OWNER = 1, NDO_ROLE_JOINER = 2 } ndo_role;
+
+/* leave_t.reason */
+enum { NDO_LEAVE_QUIT = 1, NDO_LEAVE_OWNER_QUIT = 2, NDO_LEAVE_TIMEOUT = 3,
+       NDO_LEAVE_ERROR = 4 };
+
+typedef struct ndo_session_opts {
+	ndo_role role;
+	const char *name;          /* shown to others; NULL: "peer" */
+	int32_t poi;               /* face asked for, −1: observe (owner: "anywhere") */
+	ndo_part_method partition; /* owner: the method (0: quadtree) */
+	double heartbeat;          /* seconds between heartbeats (0: 0.2) */
+	double timeout;            /* silence after which a peer is gone (0: 2.0) */
+	double retry;              /* joiner: re-ask for the description (0: 1.0) */
+	int64_t object_id;         /* owner: 0 = random; joiner: 0 = the first owner heard */
+	int32_t self_id;           /* 0 = random */
+	const char *scene;         /* owner: text for the description (≤ 8192 B) */
+	uint64_t seed;             /* for random ids (0: from time and pid) */
+} ndo_session_opts;
+
+typedef enum ndo_event_type {
+	NDO_EV_READY = 1,   /* the grid holds the whole object: simulate/render */
+	NDO_EV_PARTITION,   /* a new partition: owner channel changed */
+	NDO_EV_JOINED,      /* peer `peer` joined */
+	NDO_EV_LEFT,        /* peer `peer` left (reason: NDO_LEAVE_*) */
+	NDO_EV_FORCE,       /* forces from a peer: force.faces/forces */
+	NDO_EV_ENDED        /* the session is over (owner quit, timed out, ...) */
+} ndo_event_type;
+
+typedef struct ndo_event {
+	ndo_event_type type;
+	int32_t peer;
+	int reason;
+	int32_t epoch;
+	char message[256];
+	/* NDO_EV_FORCE: valid until the next ndo_session_event() call */
+	int nforces;
+	const int32_t *faces;
+	const double (*forces)[3];
+	int64_t step;
+} ndo_event;
+
+/* Create a session on `net` (taken over).  Owner: `grid` (taken over) is
+ * the object, with at least a position channel; the others are added.
+ * Joiner: grid must be NULL; it arrives with the description.  The owner
+ * starts with the whole grid as its region. */
+int ndo_session_create(const ndo_session_opts *o, ndo_net *net, ndo_grid *grid,
+                       ndo_session **out);
+
+/* Announce leaving (owner: the session ends for everyone) and free.
+ * message may be NULL.  Accepts NULL. */
+void ndo_session_destroy(ndo_session *s, const char *message);
+
+/* One step of protocol: drain the network, handle hellos, POIs, leaves,
+ * partitions, descriptions; apply the newest tiles of other peers to the
+ * nodes they own; send heartbeats (and the owner's periodic partition,
+ * peer list and description); time out silent peers.  0, or a negative
+ * status on a failed link. */
+int ndo_session_update(ndo_session *s, double now);
+
+/* The next event: 1 and *ev, or 0. */
+int ndo_session_event(ndo_session *s, ndo_event *ev);
+
+/* Publish this peer's region (its quad-tree leaves, split to the depth
+ * that fits a datagram) with position and velocity at `step`, `time`.
+ * Returns the number of tiles sent, or a negative status. */
+int ndo_session_publish(ndo_session *s, int64_t step, double time);
+
+/* Ask for a share of the work at face `face` (−1: withdraw, observe). */
+int ndo_session_set_poi(ndo_session *s, int32_t face);
+
+/* Send forces on faces to every peer (user interaction). */
+int ndo_session_send_forces(ndo_session *s, int64_t step, int n, const int32_t *faces,
+                            const double (*forces)[3]);
+
+ndo_grid *ndo_session_grid(ndo_session *s);      /* NULL before the description */
+int ndo_session_ready(const ndo_session *s);      /* grid whole and partition known */
+int ndo_session_ended(const ndo_session *s);
+int32_t ndo_session_self(const ndo_session *s);
+int64_t ndo_session_object(const ndo_session *s);
+int32_t ndo_session_owner_id(const ndo_session *s);
+const char *ndo_session_scene(const ndo_session *s); /* the description's text */
+/* The current partition: epoch, peers (ids) and the cell slots (2N × N,
+ * ndo/partition.h); NULL before one is known. */
+int32_t ndo_session_epoch(const ndo_session *s);
+const int32_t *ndo_session_cells(const ndo_session *s, int *npeers, const int32_t **peers);
+/* Nodes this peer integrates (owner == self). */
+size_t ndo_session_owned_nodes(const ndo_session *s);
+ndo_net *ndo_session_net(ndo_session *s);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

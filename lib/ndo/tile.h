@@ -1,0 +1,31 @@
+/* ndo/tile.h — grid ⇄ state tiles (ndo/msg.h tile_t, raw f64 encoding).
+ * Values are node-major over the range, row by row; each node carries
+ * its channels in bit order: position (3), velocity (3), rest (3), pin
+ * (1, as 0.0/1.0). */
+#ifndef NDO_TILE_H
+#define NDO_TILE_H
+
+#include "ndo/grid.h"
+#include "ndo/msg.h"
+#include "ndo/quadtree.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* Fill t's range, depth, channels, encoding and values (malloc'd: free
+ * t->values) from g for quad-tree node q.  The grid's channels must be
+ * f64 (pin u8); a missing channel sends zeros.  0 or NDO_ENOMEM. */
+int ndo_tile_pack(const ndo_grid *g, ndo_quad q, int channels, ndo_msg_tile_t *t);
+
+/* Write a validated tile into g: every node of its range where `owner` is
+ * NULL or owner[node] == `only` (the tile's sender normally).  Returns the
+ * nodes written.  Stored duplicates are made equal afterwards by the
+ * caller (ndo_grid_sync) once all tiles are in. */
+size_t ndo_tile_apply(ndo_grid *g, const ndo_msg_tile_t *t, const int32_t *owner,
+                      int32_t only);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,429 @@
+/* net.c — typed messages over a link (ndo/net.h). */
+#include "ndo/net.h"
+#include "ndo/quadtree.h"
+#include "ndo/status.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/time.h>
+
+#define MAX_SENDERS 64
+
+typedef struct sender {
+	int32_t id;
+	int64_t last[NDO_MSG_NTYPES]; /* last accepted seq, −1 none */
+	double heard;
+} sender;
+
+typedef struct tile_slot {
+	int32_t sender;  /* 0: empty */
+	int32_t code;
+	int16_t channels;
+	int64_t seq;     /* newest accepted */
+	ndo_msg *pending;
+} tile_slot;
+
+struct ndo_net {
+	ndo_link *link;
+	char prefix[72];
+	char channel[NDO_MSG_NTYPES][96];
+	ndo_msg_ctx ctx;
+	int64_t seq_out[NDO_MSG_NTYPES];
+	sender senders[MAX_SENDERS];
+	int nsenders;
+	tile_slot *slots;
+	size_t nslots, used;
+	ndo_msg *queue;
+	size_t qhead, qcount, qcap;
+	ndo_net_stats st;
+	double now;
+	/* messages that arrived before the object was known (a description
+	 * and the tiles right behind it come in one burst): kept as bytes and
+	 * looked at again by ndo_net_attach() */
+	struct parked { int type; uint8_t *data; size_t len; } *park;
+	size_t npark, parkcap, parkbytes;
+};
+
+#define PARK_MAX_BYTES (32u << 20)
+
+int ndo_net_create(ndo_link *link, const char *prefix, int32_t self_id, ndo_net **out)
+{
+	ndo__clear_error();
+	if (!prefix || strlen(prefix) > 64 || self_id == 0) {
+		ndo_link_destroy(link);
+		return ndo__fail(NDO_EINVAL, "net: bad prefix or sender id");
+	}
+	ndo_net *n = calloc(1, sizeof *n);
+	if (!n) {
+		ndo_link_destroy(link);
+		return ndo__fail(NDO_ENOMEM, "out of memory");
+	}
+	n->link = link;
+	snprintf(n->prefix, sizeof n->prefix, "%s", prefix);
+	for (int t = 0; t < NDO_MSG_NTYPES; t++)
+		snprintf(n->channel[t], sizeof n->channel[t], "%s_%s", prefix,
+		         ndo_msg_suffix((ndo_msg_type)t));
+	n->ctx = (ndo_msg_ctx){0, -1, self_id};
+	*out = n;
+	return 0;
+}
+
+static void clear_tiles(ndo_net *n)
+{
+	for (size_t k = 0; k < n->nslots; k++)
+		if (n->slots[k].pending) {
+			ndo_msg_free(n->slots[k].pending);
+			free(n->slots[k].pending);
+			n->slots[k].pending = NULL;
+		}
+}
+
+static void unpark_all(ndo_net *n)
+{
+	for (size_t k = 0; k < n->npark; k++)
+		free(n->park[k].data);
+	n->npark = n->parkbytes = 0;
+}
+
+void ndo_net_destroy(ndo_net *n)
+{
+	if (!n)
+		return;
+	unpark_all(n);
+	free(n->park);
+	clear_tiles(n);
+	free(n->slots);
+	for (size_t k = 0; k < n->qcount; k++)
+		ndo_msg_free(&n->queue[(n->qhead + k) % n->qcap]);
+	free(n->queue);
+	ndo_link_destroy(n->link);
+	free(n);
+}
+
+ndo_msg_ctx *ndo_net_ctx(ndo_net *n) { return &n->ctx; }
+const ndo_net_stats *ndo_net_stats_get(const ndo_net *n) { return &n->st; }
+const char *ndo_net_channel(const ndo_net *n, ndo_msg_type t) { return n->channel[t]; }
+
+int ndo_net_publish(ndo_net *n, ndo_msg_type t, void *msg)
+{
+	if ((unsigned)t >= NDO_MSG_NTYPES)
+		return ndo__fail(NDO_EINVAL, "publish: bad type");
+	ndo_msg_header_t *h = msg; /* every type starts with its header */
+	struct timeval tv;
+	gettimeofday(&tv, NULL);
+	h->version = NDO_PROTOCOL_VERSION;
+	h->object_id = n->ctx.object_id;
+	h->sender_id = n->ctx.self_id;
+	h->seq = n->seq_out[t]++;
+	h->utime = (int64_t)tv.tv_sec * 1000000 + tv.tv_usec;
+	uint8_t *buf;
+	size_t len;
+	int rc = ndo_msg_encode(t, msg, &buf, &len);
+	if (rc)
+		return rc;
+	if (len > ndo_msg_max_payload(n->channel[t])) {
+		free(buf);
+		n->st.publish_failed++;
+		return ndo__fail(NDO_ERANGE, "%s: %zu bytes do not fit one datagram (%zu)",
+		                 n->channel[t], len, ndo_msg_max_payload(n->channel[t]));
+	}
+	rc = ndo_link_publish(n->link, n->channel[t], buf, len);
+	free(buf);
+	if (rc) {
+		n->st.publish_failed++;
+		return rc;
+	}
+	n->st.published++;
+	n->st.bytes_out += len;
+	return 0;
+}
+
+static sender *find_sender(ndo_net *n, int32_t id, int create)
+{
+	for (int k = 0; k < n->nsenders; k++)
+		if (n->senders[k].id == id)
+			return &n->senders[k];
+	if (!create)
+		return NULL;
+	int k = n->nsenders;
+	if (k == MAX_SENDERS) { /* forget the one heard from longest ago */
+		k = 0;
+		for (int q = 1; q < MAX_SENDERS; q++)
+			if (n->senders[q].heard < n->senders[k].heard)
+				k = q;
+	} else {
+		n->nsenders++;
+	}
+	n->senders[k].id = id;
+	for (int t = 0; t < NDO_MSG_NTYPES; t++)
+		n->senders[k].last[t] = -1;
+	return &n->senders[k];
+}
+
+static size_t slot_hash(int32_t sender, int32_t code, int16_t ch, size_t mask)
+{
+	uint64_t h = (uint64_t)(uint32_t)sender * 0x9e3779b97f4a7c15ull ^
+	             (uint64_t)(uint32_t)code * 0xc2b2ae3d27d4eb4full ^ (uint64_t)(uint16_t)ch;
+	return (size_t)(h ^ (h >> 29)) & mask;
+}
+
+static tile_slot *find_slot(ndo_net *n, int32_t sender, int32_t code, int16_t ch)
+{
+	if (n->used * 2 >= n->nslots) { /* grow, rehash */
+		size_t cap = n->nslots ? 2 * n->nslots : 256;
+		tile_slot *s = calloc(cap, sizeof *s);
+		if (!s)
+			return NULL;
+		for (size_t k = 0; k < n->nslots; k++) {
+			tile_slot *o = &n->slots[k];
+			if (!o->sender)
+				continue;
+			size_t i = slot_hash(o->sender, o->code, o->channels, cap - 1);
+			while (s[i].sender)
+				i = (i + 1) & (cap - 1);
+			s[i] = *o;
+		}
+		free(n->slots);
+		n->slots = s;
+		n->nslots = cap;
+	}
+	size_t i = slot_hash(sender, code, ch, n->nslots - 1);
+	while (n->slots[i].sender &&
+	       !(n->slots[i].sender == sender && n->slots[i].code == code &&
+	         n->slots[i].channels == ch))
+		i = (i + 1) & (n->nslots - 1);
+	if (!n->slots[i].sender) {
+		n->slots[i] = (tile_slot){sender, code, ch, -1, NULL};
+		n->used++;
+	}
+	return &n->slots[i];
+}
+
+static int enqueue(ndo_net *n, ndo_msg *m)
+{
+	if (n->qcount == n->qcap) {
+		size_t cap = n->qcap ? 2 * n->qcap : 64;
+		ndo_msg *q = malloc(cap * sizeof *q);
+		if (!q)
+			return -1;
+		for (size_t k = 0; k < n->qcount; k++)
+			q[k] = n->queue[(n->qhead + k) % n->qcap];
+		free(n->queue);
+		n->queue = q;
+		n->qhead = 0;
+		n->qcap = cap;
+	}
+	n->queue[(n->qhead + n->qcount++) % n->qcap] = *m;
+	/* the union moved: point the header at the copy */
+	ndo_msg *c = &n->queue[(n->qhead + n->qcount - 1) % n->qcap];
+	c->hdr = (const ndo_msg_header_t *)&c->u;
+	return 0;
+}
+
+static void on_bytes(void *user, const char *channel, const void *data, size_t len)
+{
+	ndo_net *n = user;
+	n->st.received++;
+	n->st.bytes_in += len;
+	int t = ndo_msg_type_of(n->prefix, channel);
+	if (t < 0) {
+		n->st.dropped[NDO_DROP_CHANNEL]++;
+		return;
+	}
+	ndo_msg m;
+	ndo_drop r = ndo_msg_decode((ndo_msg_type)t, data, len, &m);
+	if (r != NDO_DROP_NONE) {
+		n->st.dropped[r]++;
+		return;
+	}
+	if (m.hdr->sender_id == n->ctx.self_id) {
+		n->st.own++;
+		ndo_msg_free(&m);
+		return;
+	}
+	r = ndo_msg_validate(&m, &n->ctx);
+	if (r == NDO_DROP_UNKNOWN && n->ctx.object_id == 0 && n->parkbytes + len <= PARK_MAX_BYTES) {
+		ndo_msg_free(&m);
+		if (n->npark == n->parkcap) {
+			size_t cap = n->parkcap ? 2 * n->parkcap : 64;
+			struct parked *p = realloc(n->park, cap * sizeof *p);
+			if (!p) {
+				n->st.dropped[r]++;
+				return;
+			}
+			n->park = p;
+			n->parkcap = cap;
+		}
+		uint8_t *copy = malloc(len);
+		if (!copy) {
+			n->st.dropped[r]++;
+			return;
+		}
+		memcpy(copy, data, len);
+		n->park[n->npark++] = (struct parked){t, copy, len};
+		n->parkbytes += len;
+		n->st.received--; /* counted again when looked at */
+		n->st.bytes_in -= len;
+		return;
+	}
+	if (r != NDO_DROP_NONE) {
+		n->st.dropped[r]++;
+		ndo_msg_free(&m);
+		return;
+	}
+	sender *s = find_sender(n, m.hdr->sender_id, 1);
+	s->heard = n->now;
+	int64_t seq = m.hdr->seq;
+	if (seq > s->last[t] + 1 && s->last[t] >= 0)
+		n->st.gaps += (uint64_t)(seq - s->last[t] - 1);
+	else if (seq < s->last[t] && n->st.gaps > 0) {
+		n->st.gaps--; /* a gap filled late: it was reordered, not lost */
+		n->st.late++;
+	}
+	if (t == NDO_MSG_TILE) {
+		ndo_quad q;
+		ndo_quad_from_range(n->ctx.level, m.u.tile.depth, m.u.tile.i0, m.u.tile.j0,
+		                    m.u.tile.i1, m.u.tile.j1, &q);
+		tile_slot *slot = find_slot(n, m.hdr->sender_id, ndo_quad_code(q), m.u.tile.channels);
+		ndo_msg *keep = malloc(sizeof *keep);
+		if (!slot || !keep) {
+			free(keep);
+			ndo_msg_free(&m);
+			return;
+		}
+		if (seq <= slot->seq) {
+			free(keep);
+			n->st.dropped[NDO_DROP_STALE]++;
+			ndo_msg_free(&m);
+			return;
+		}
+		if (seq > s->last[t])
+			s->last[t] = seq;
+		slot->seq = seq;
+		if (slot->pending) {
+			n->st.superseded++;
+			ndo_msg_free(slot->pending);
+			free(slot->pending);
+		}
+		*keep = m;
+		keep->hdr = (const ndo_msg_header_t *)&keep->u;
+		slot->pending = keep;
+		n->st.accepted++;
+		return;
+	}
+	if (seq <= s->last[t]) {
+		n->st.dropped[NDO_DROP_STALE]++;
+		ndo_msg_free(&m);
+		return;
+	}
+	s->last[t] = seq;
+	if (enqueue(n, &m) != 0) {
+		ndo_msg_free(&m);
+		return;
+	}
+	n->st.accepted++;
+}
+
+int ndo_net_poll(ndo_net *n, double now)
+{
+	n->now = now;
+	uint64_t before = n->st.accepted;
+	int rc = ndo_link_poll(n->link, now, on_bytes, n);
+	n->st.dropped[NDO_DROP_INJECTED] = ndo_link_injected_drops(n->link);
+	if (rc < 0)
+		return rc;
+	return (int)(n->st.accepted - before);
+}
+
+void ndo_net_attach(ndo_net *n, int64_t object_id, int level)
+{
+	n->ctx.object_id = object_id;
+	n->ctx.level = level;
+	size_t np = n->npark;
+	struct parked *p = n->park;
+	n->park = NULL;
+	n->npark = n->parkcap = n->parkbytes = 0;
+	for (size_t k = 0; k < np; k++) {
+		on_bytes(n, n->channel[p[k].type], p[k].data, p[k].len);
+		free(p[k].data);
+	}
+	free(p);
+}
+
+int ndo_net_next(ndo_net *n, ndo_msg *m)
+{
+	if (!n->qcount)
+		return 0;
+	*m = n->queue[n->qhead];
+	m->hdr = (const ndo_msg_header_t *)&m->u;
+	n->qhead = (n->qhead + 1) % n->qcap;
+	n->qcount--;
+	return 1;
+}
+
+int ndo_net_take_tiles(ndo_net *n, ndo_msg **tiles, size_t *count)
+{
+	size_t c = 0;
+	for (size_t k = 0; k < n->nslots; k++)
+		c += n->slots[k].pending != NULL;
+	*count = 0;
+	*tiles = NULL;
+	if (!c)
+		return 0;
+	ndo_msg *out = malloc(c * sizeof *out);
+	if (!out)
+		return ndo__fail(NDO_ENOMEM, "out of memory");
+	size_t i = 0;
+	for (size_t k = 0; k < n->nslots; k++)
+		if (n->slots[k].pending) {
+			out[i] = *n->slots[k].pending;
+			out[i].hdr = (const ndo_msg_header_t *)&out[i].u;
+			free(n->slots[k].pending);
+			n->slots[k].pending = NULL;
+			i++;
+		}
+	*tiles = out;
+	*count = c;
+	return 0;
+}
+
+void ndo_net_forget(ndo_net *n, int32_t id)
+{
+	for (int k = 0; k < n->nsenders; k++)
+		if (n->senders[k].id == id) {
+			n->senders[k] = n->senders[--n->nsenders];
+			break;
+		}
+	for (size_t k = 0; k < n->nslots; k++)
+		if (n->slots[k].sender == id) {
+			if (n->slots[k].pending) {
+				ndo_msg_free(n->slots[k].pending);
+				free(n->slots[k].pending);
+				n->slots[k].pending = NULL;
+			}
+			n->slots[k].seq = -1; /* keep the slot: open addressing */
+		}
+}
+
+void ndo_net_stats_format(const ndo_net *n, char *buf, size_t size)
+{
+	const ndo_net_stats *s = &n->st;
+	uint64_t dropped = 0;
+	for (int r = 1; r < NDO_DROP_N; r++)
+		dropped += s->dropped[r];
+	int len = snprintf(buf, size, "received %llu, accepted %llu, dropped %llu",
+	                   (unsigned long long)s->received, (unsigned long long)s->accepted,
+	                   (unsigned long long)dropped);
+	const char *sep = " (";
+	for (int r = 1; r < NDO_DROP_N && len > 0 && (size_t)len < size; r++)
+		if (s->dropped[r]) {
+			len += snprintf(buf + len, size - (size_t)len, "%s%s %llu", sep,
+			                ndo_drop_name((ndo_drop)r), (unsigned long long)s->dropped[r]);
+			sep = ", ";
+		}
+	if (len > 0 && (size_t)len < size)
+		snprintf(buf + len, size - (size_t)len, "%s, gaps %llu, published %llu",
+		         *sep == ',' ? ")" : "", (unsigned long long)s->gaps,
+		         (unsigned long long)s->published);
+}

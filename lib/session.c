@@ -1,0 +1,839 @@
+/* session.c — one peer of a shared object (ndo/session.h; thesis §4.4,
+ * figure 4.14). */
+#include "ndo/session.h"
+#include "ndo/partition.h"
+#include "ndo/quadtree.h"
+#include "ndo/status.h"
+#include "ndo/tile.h"
+#include "ndo/topology.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+#define NEV 64
+#define FULL_SEND_GAP 0.25 /* s: at most one full description burst per this */
+
+typedef struct member {
+	int32_t id, poi;
+	double heard;
+} member;
+
+struct ndo_session {
+	ndo_session_opts o;
+	char name[NDO_MAX_NAME + 1];
+	char *scene;
+	ndo_net *net;
+	ndo_grid *grid;
+	int32_t self, owner_id;
+	int64_t object;
+	int level, ended, ready, described;
+	member m[NDO_MAX_MEMBERS]; /* owner: everyone but itself; joiner: from PEERS */
+	int nm;
+	/* the partition in force */
+	int32_t epoch;
+	int npeers;
+	int32_t peers[NDO_MAX_PEERS], pois[NDO_MAX_PEERS];
+	ndo_part_method method;
+	int32_t *cells;
+	int32_t *leaf_codes, *leaf_slots; /* owner: to publish */
+	size_t nleaves;
+	int32_t *tiles;                   /* my transmit tiles (quad codes) */
+	size_t ntiles;
+	int tdepth_state, tdepth_rest;
+	/* joiner: which nodes have arrived */
+	uint8_t *have;
+	size_t have_rest, have_state;
+	/* clocks */
+	double now, next_hb, owner_heard, last_ask, last_full, next_poi;
+	int hb_count, full_pending;
+	int32_t poi_acked; /* the POI the owner's last partition shows for us */
+	ndo_event ev[NEV];
+	int evhead, evcount;
+	ndo_msg force;
+	int holding_force;
+	uint64_t rng;
+};
+
+static void push_event(ndo_session *s, ndo_event e)
+{
+	if (s->evcount == NEV) { /* drop the oldest rather than the newest */
+		s->evhead = (s->evhead + 1) % NEV;
+		s->evcount--;
+	}
+	s->ev[(s->evhead + s->evcount++) % NEV] = e;
+}
+
+static void event(ndo_session *s, ndo_event_type t, int32_t peer, int reason, const char *msg)
+{
+	ndo_event e;
+	memset(&e, 0, sizeof e);
+	e.type = t;
+	e.peer = peer;
+	e.reason = reason;
+	e.epoch = s->epoch;
+	if (msg)
+		snprintf(e.message, sizeof e.message, "%s", msg);
+	push_event(s, e);
+}
+
+static void count_authority(ndo_session *s)
+{
+	((ndo_net_stats *)ndo_net_stats_get(s->net))->dropped[NDO_DROP_AUTHORITY]++;
+}
+
+/* ---- grid and partition state ------------------------------------------ */
+static int prepare_grid(ndo_session *s)
+{
+	ndo_grid *g = s->grid;
+	if (ndo_grid_convert(g, NDO_CH_POSITION, NDO_F64) != 0)
+		return NDO_EINVAL;
+	const char *vecs[2] = {NDO_CH_VELOCITY, NDO_CH_REST};
+	for (int k = 0; k < 2; k++) {
+		ndo_channel *c = ndo_grid_find(g, vecs[k]);
+		if (c && c->comps == 3 && c->type != NDO_F64 && ndo_grid_convert(g, vecs[k], NDO_F64))
+			return NDO_EINVAL;
+		if (!c && ndo_grid_add(g, vecs[k], NDO_F64, 3, NULL) != 0)
+			return NDO_ENOMEM;
+	}
+	if (ndo_grid_add(g, NDO_CH_PIN, NDO_U8, 1, NULL) != 0 ||
+	    ndo_grid_add(g, NDO_CH_OWNER, NDO_I32, 1, NULL) != 0)
+		return ndo__fail(NDO_EINVAL, "the grid's pin/owner channels have another type");
+	s->level = g->level;
+	s->tdepth_state = ndo_tile_depth(g->level, NDO_TILE_POSITION | NDO_TILE_VELOCITY,
+	                                 ndo_net_channel(s->net, NDO_MSG_TILE));
+	s->tdepth_rest = ndo_tile_depth(g->level, NDO_TILE_REST | NDO_TILE_PIN,
+	                                ndo_net_channel(s->net, NDO_MSG_TILE));
+	return 0;
+}
+
+static int32_t *owner_channel(ndo_session *s)
+{
+	return ndo_grid_find(s->grid, NDO_CH_OWNER)->data;
+}
+
+/* Install a partition: cells (taken over), peers, pois, epoch. */
+static int install(ndo_session *s, int32_t *cells, int npeers, const int32_t *peers,
+                   const int32_t *pois, int32_t epoch, ndo_part_method method)
+{
+	free(s->cells);
+	s->cells = cells;
+	s->npeers = npeers;
+	memcpy(s->peers, peers, (size_t)npeers * sizeof *peers);
+	memcpy(s->pois, pois, (size_t)npeers * sizeof *pois);
+	s->epoch = epoch;
+	s->method = method;
+	ndo_partition_node_owner(s->level, cells, peers, owner_channel(s));
+	int slot = -1;
+	for (int p = 0; p < npeers; p++)
+		if (peers[p] == s->self)
+			slot = p;
+	s->poi_acked = slot >= 0 ? pois[slot] : -2;
+	/* my transmit tiles: my region's leaves, none shallower than the depth
+	 * at which a position+velocity tile fits a datagram */
+	free(s->tiles);
+	s->tiles = NULL;
+	s->ntiles = 0;
+	int32_t *codes, *labels;
+	size_t n;
+	if (ndo_quad_leaves(s->level, cells, s->tdepth_state, &codes, &labels, &n) != 0)
+		return NDO_ENOMEM;
+	size_t k = 0;
+	for (size_t i = 0; i < n; i++)
+		if (labels[i] == slot)
+			codes[k++] = codes[i];
+	s->tiles = codes;
+	s->ntiles = k;
+	free(labels);
+	/* the leaves as the owner sends them: as coarse as they come */
+	free(s->leaf_codes);
+	free(s->leaf_slots);
+	s->leaf_codes = s->leaf_slots = NULL;
+	return ndo_quad_leaves(s->level, cells, 0, &s->leaf_codes, &s->leaf_slots, &s->nleaves);
+}
+
+/* Owner: partition among itself and the members that gave a POI. */
+static int repartition(ndo_session *s)
+{
+	int32_t peers[NDO_MAX_PEERS], pois[NDO_MAX_PEERS], used[NDO_MAX_PEERS];
+	int k = 0;
+	peers[k] = s->self;
+	pois[k++] = s->o.poi;
+	for (int i = 0; i < s->nm && k < NDO_MAX_PEERS; i++)
+		if (s->m[i].poi >= 0) {
+			peers[k] = s->m[i].id;
+			pois[k++] = s->m[i].poi;
+		}
+	int32_t *cells = malloc(ndo_cell_count(s->level) * sizeof *cells);
+	if (!cells)
+		return NDO_ENOMEM;
+	int rc = ndo_partition(s->level, s->method, k, pois, cells, used);
+	if (rc) {
+		free(cells);
+		return rc;
+	}
+	/* the owner's own POI stays −1 on the wire when it gave none */
+	used[0] = s->o.poi;
+	for (int p = 1; p < k; p++)
+		used[p] = pois[p];
+	rc = install(s, cells, k, peers, used, s->epoch + 1, s->method);
+	event(s, NDO_EV_PARTITION, 0, 0, NULL);
+	return rc;
+}
+
+/* ---- publishing -------------------------------------------------------- */
+static int publish_partition(ndo_session *s)
+{
+	ndo_msg_partition_t p;
+	memset(&p, 0, sizeof p);
+	p.epoch = s->epoch;
+	p.method = (int8_t)s->method;
+	p.npeers = (int16_t)s->npeers;
+	p.peers = s->peers;
+	p.pois = s->pois;
+	p.nleaves = (int32_t)s->nleaves;
+	p.leaves = s->leaf_codes;
+	int8_t *slots = malloc(s->nleaves ? s->nleaves : 1);
+	if (!slots)
+		return NDO_ENOMEM;
+	for (size_t k = 0; k < s->nleaves; k++)
+		slots[k] = (int8_t)s->leaf_slots[k];
+	p.slots = slots;
+	int rc = ndo_net_publish(s->net, NDO_MSG_PARTITION, &p);
+	free(slots);
+	return rc;
+}
+
+static int publish_peers(ndo_session *s)
+{
+	int32_t ids[NDO_MAX_MEMBERS + 1], pois[NDO_MAX_MEMBERS + 1];
+	int n = 0;
+	ids[n] = s->self;
+	pois[n++] = s->o.poi;
+	for (int i = 0; i < s->nm; i++) {
+		ids[n] = s->m[i].id;
+		pois[n++] = s->m[i].poi;
+	}
+	ndo_msg_peers_t p = {.npeers = (int16_t)(n > NDO_MAX_MEMBERS ? NDO_MAX_MEMBERS : n),
+	                     .peers = ids, .pois = pois};
+	return ndo_net_publish(s->net, NDO_MSG_PEERS, &p);
+}
+
+static int publish_description(ndo_session *s)
+{
+	ndo_msg_description_t d = {.level = (int8_t)s->level, .owner_id = s->self,
+	                           .epoch = s->epoch, .partition = (int8_t)s->method,
+	                           .scene_len = (int16_t)strlen(s->scene),
+	                           .scene = (uint8_t *)s->scene};
+	return ndo_net_publish(s->net, NDO_MSG_DESCRIPTION, &d);
+}
+
+static int publish_tiles(ndo_session *s, const int32_t *codes, size_t n, int channels,
+                         int64_t step, double time)
+{
+	int sent = 0;
+	for (size_t k = 0; k < n; k++) {
+		ndo_quad q;
+		ndo_quad_decode(s->level, codes[k], &q);
+		ndo_msg_tile_t t;
+		memset(&t, 0, sizeof t);
+		int rc = ndo_tile_pack(s->grid, q, channels, &t);
+		if (rc)
+			return rc;
+		t.step = step;
+		t.time = time;
+		t.epoch = s->epoch;
+		rc = ndo_net_publish(s->net, NDO_MSG_TILE, &t);
+		free(t.values);
+		if (rc)
+			return rc;
+		sent++;
+	}
+	return sent;
+}
+
+/* Every tile of the whole grid at `depth`. */
+static int publish_everything(ndo_session *s, int depth, int channels)
+{
+	int cols, rows;
+	ndo_quad_dims(depth, &cols, &rows);
+	int32_t *codes = malloc((size_t)cols * rows * sizeof *codes);
+	if (!codes)
+		return NDO_ENOMEM;
+	for (int qj = 0; qj < rows; qj++)
+		for (int qi = 0; qi < cols; qi++)
+			codes[qj * cols + qi] = ndo_quad_code((ndo_quad){depth, qi, qj});
+	int rc = publish_tiles(s, codes, (size_t)cols * rows, channels, s->grid->step,
+	                       s->grid->time);
+	free(codes);
+	return rc;
+}
+
+/* The owner's answer to a hello or a description request (figure 4.14 b, e):
+ * description, partition, peers, the rest shape and the whole state. */
+static int full_send(ndo_session *s)
+{
+	int rc;
+	if ((rc = publish_description(s)) || (rc = publish_partition(s)) || (rc = publish_peers(s)))
+		return rc;
+	rc = publish_everything(s, s->tdepth_rest, NDO_TILE_REST | NDO_TILE_PIN);
+	if (rc >= 0)
+		rc = publish_everything(s, s->tdepth_state, NDO_TILE_POSITION | NDO_TILE_VELOCITY);
+	s->last_full = s->now;
+	s->full_pending = 0;
+	return rc < 0 ? rc : 0;
+}
+
+/* ---- members ----------------------------------------------------------- */
+static member *find_member(ndo_session *s, int32_t id)
+{
+	for (int i = 0; i < s->nm; i++)
+		if (s->m[i].id == id)
+			return &s->m[i];
+	return NULL;
+}
+
+static member *add_member(ndo_session *s, int32_t id, int32_t poi)
+{
+	member *m = find_member(s, id);
+	if (m || s->nm == NDO_MAX_MEMBERS - 1)
+		return m;
+	m = &s->m[s->nm++];
+	*m = (member){id, poi, s->now};
+	event(s, NDO_EV_JOINED, id, 0, NULL);
+	return m;
+}
+
+static int simulates(const ndo_session *s, int32_t id)
+{
+	for (int p = 0; p < s->npeers; p++)
+		if (s->peers[p] == id)
+			return 1;
+	return 0;
+}
+
+/* Owner: a member is gone (announced or timed out). */
+static int drop_member(ndo_session *s, int32_t id, int reason, const char *why)
+{
+	member *m = find_member(s, id);
+	if (!m)
+		return 0;
+	*m = s->m[--s->nm];
+	ndo_net_forget(s->net, id);
+	event(s, NDO_EV_LEFT, id, reason, why);
+	int rc = 0;
+	if (simulates(s, id) && (rc = repartition(s)) == 0)
+		rc = publish_partition(s);
+	if (!rc)
+		rc = publish_peers(s);
+	return rc;
+}
+
+/* ---- receiving --------------------------------------------------------- */
+static int on_description(ndo_session *s, const ndo_msg_description_t *d)
+{
+	if (s->o.role == NDO_ROLE_OWNER)
+		return 0;
+	if (s->described) {
+		if (d->hdr.sender_id != s->owner_id)
+			count_authority(s);
+		return 0;
+	}
+	if (s->o.object_id && d->hdr.object_id != s->o.object_id)
+		return 0;
+	ndo_grid *g;
+	int rc = ndo_grid_create(d->level, &g);
+	if (rc)
+		return rc;
+	s->grid = g;
+	s->object = d->hdr.object_id;
+	s->owner_id = d->hdr.sender_id;
+	s->owner_heard = s->now;
+	if ((rc = prepare_grid(s)) != 0)
+		return rc;
+	free(s->scene);
+	s->scene = malloc((size_t)d->scene_len + 1);
+	if (!s->scene)
+		return NDO_ENOMEM;
+	if (d->scene_len)
+		memcpy(s->scene, d->scene, (size_t)d->scene_len);
+	s->scene[d->scene_len] = 0;
+	s->method = (ndo_part_method)d->partition;
+	s->have = calloc(g->count, 1);
+	if (!s->have)
+		return NDO_ENOMEM;
+	/* until a partition says otherwise, the owner integrates everything */
+	int32_t *own = owner_channel(s);
+	for (size_t k = 0; k < g->count; k++)
+		own[k] = s->owner_id;
+	s->described = 1;
+	ndo_net_attach(s->net, s->object, s->level);
+	s->next_poi = s->now;
+	return 0;
+}
+
+static int on_partition(ndo_session *s, const ndo_msg_partition_t *p)
+{
+	if (p->hdr.sender_id != s->owner_id) {
+		count_authority(s);
+		return 0;
+	}
+	if (s->o.role == NDO_ROLE_OWNER || !s->described || p->epoch <= s->epoch)
+		return 0; /* old news (it is re-sent every heartbeat) */
+	int32_t *cells = malloc(ndo_cell_count(s->level) * sizeof *cells);
+	if (!cells)
+		return NDO_ENOMEM;
+	int w = 2 << s->level;
+	for (int k = 0; k < p->nleaves; k++) { /* validated: an exact cover */
+		ndo_quad q;
+		ndo_quad_decode(s->level, p->leaves[k], &q);
+		int i0, j0, i1, j1;
+		ndo_quad_range(s->level, q, &i0, &j0, &i1, &j1);
+		for (int j = j0; j < j1; j++)
+			for (int i = i0; i < i1; i++)
+				cells[j * w + i] = p->slots[k];
+	}
+	int rc = install(s, cells, p->npeers, p->peers, p->pois, p->epoch,
+	                 (ndo_part_method)p->method);
+	event(s, NDO_EV_PARTITION, 0, 0, NULL);
+	return rc;
+}
+
+static void on_peers(ndo_session *s, const ndo_msg_peers_t *p)
+{
+	if (p->hdr.sender_id != s->owner_id) {
+		count_authority(s);
+		return;
+	}
+	if (s->o.role == NDO_ROLE_OWNER)
+		return;
+	for (int i = 0; i < s->nm; i++) { /* gone from the list */
+		int there = 0;
+		for (int k = 0; k < p->npeers; k++)
+			there |= p->peers[k] == s->m[i].id;
+		if (!there) {
+			event(s, NDO_EV_LEFT, s->m[i].id, NDO_LEAVE_QUIT, NULL);
+			ndo_net_forget(s->net, s->m[i].id);
+			s->m[i--] = s->m[--s->nm];
+		}
+	}
+	for (int k = 0; k < p->npeers; k++)
+		if (p->peers[k] != s->self && p->peers[k] != s->owner_id && !find_member(s, p->peers[k]))
+			add_member(s, p->peers[k], p->pois[k]);
+}
+
+static int on_leave(ndo_session *s, const ndo_msg_leave_t *l)
+{
+	int32_t from = l->hdr.sender_id;
+	char why[300];
+	if (s->o.role == NDO_ROLE_OWNER) {
+		if (l->peer != from) { /* only the owner speaks for others */
+			count_authority(s);
+			return 0;
+		}
+		return drop_member(s, from, l->reason, l->message);
+	}
+	if (from == s->owner_id && (l->peer == from || l->reason == NDO_LEAVE_OWNER_QUIT)) {
+		snprintf(why, sizeof why, "the owner quit%s%s", *l->message ? ": " : "", l->message);
+		s->ended = 1;
+		event(s, NDO_EV_ENDED, from, NDO_LEAVE_OWNER_QUIT, why);
+		return 0;
+	}
+	if (l->peer == s->self && from == s->owner_id) {
+		snprintf(why, sizeof why, "the owner dropped this peer%s%s", *l->message ? ": " : "",
+		         l->message);
+		s->ended = 1;
+		event(s, NDO_EV_ENDED, from, l->reason, why);
+		return 0;
+	}
+	if (l->peer != from && from != s->owner_id) {
+		count_authority(s);
+		return 0;
+	}
+	member *m = find_member(s, l->peer);
+	if (m) {
+		*m = s->m[--s->nm];
+		ndo_net_forget(s->net, l->peer);
+		event(s, NDO_EV_LEFT, l->peer, l->reason, l->message);
+	}
+	return 0;
+}
+
+static int handle(ndo_session *s, ndo_msg *m)
+{
+	int32_t from = m->hdr->sender_id;
+	int owner = s->o.role == NDO_ROLE_OWNER;
+	member *mem = find_member(s, from);
+	if (mem)
+		mem->heard = s->now;
+	if (!owner && from == s->owner_id)
+		s->owner_heard = s->now;
+	switch (m->type) {
+	case NDO_MSG_HELLO:
+		if (owner && m->u.hello.role == NDO_ROLE_JOINER) {
+			add_member(s, from, -1);
+			s->full_pending = 1;
+			return publish_peers(s);
+		}
+		return 0;
+	case NDO_MSG_DESC_REQUEST:
+		if (owner && (m->u.desc_request.owner_id == 0 || m->u.desc_request.owner_id == s->self)) {
+			add_member(s, from, -1);
+			s->full_pending = 1;
+		}
+		return 0;
+	case NDO_MSG_HEARTBEAT:
+		if (owner && !mem)
+			add_member(s, from, -1); /* its hello was lost */
+		return 0;
+	case NDO_MSG_POI:
+		if (owner) {
+			member *p = add_member(s, from, -1);
+			if (p && p->poi != m->u.poi.face) {
+				p->poi = m->u.poi.face;
+				int rc = repartition(s);
+				return rc ? rc : publish_partition(s);
+			}
+		}
+		return 0;
+	case NDO_MSG_DESCRIPTION: return on_description(s, &m->u.description);
+	case NDO_MSG_PARTITION: return on_partition(s, &m->u.partition);
+	case NDO_MSG_PEERS: on_peers(s, &m->u.peers); return 0;
+	case NDO_MSG_LEAVE: return on_leave(s, &m->u.leave);
+	case NDO_MSG_FORCE: {
+		ndo_event e;
+		memset(&e, 0, sizeof e);
+		e.type = NDO_EV_FORCE;
+		e.peer = from;
+		e.step = m->u.force.step;
+		e.nforces = m->u.force.nforces;
+		push_event(s, e); /* faces/forces filled when popped */
+		if (s->holding_force)
+			ndo_msg_free(&s->force);
+		s->force = *m;
+		s->force.hdr = (const ndo_msg_header_t *)&s->force.u;
+		s->holding_force = 1;
+		m->hdr = NULL; /* kept */
+		return 0;
+	}
+	default:
+		return 0;
+	}
+}
+
+static void apply_tiles(ndo_session *s)
+{
+	ndo_msg *tiles;
+	size_t n;
+	if (ndo_net_take_tiles(s->net, &tiles, &n) != 0)
+		return;
+	if (!s->grid || !s->described)
+		goto out;
+	int32_t *own = owner_channel(s);
+	for (size_t k = 0; k < n; k++) {
+		const ndo_msg_tile_t *t = &tiles[k].u.tile;
+		int32_t from = t->hdr.sender_id;
+		if (t->channels & (NDO_TILE_REST | NDO_TILE_PIN)) {
+			if (from != s->owner_id || s->o.role == NDO_ROLE_OWNER) {
+				count_authority(s);
+				continue;
+			}
+			ndo_tile_apply(s->grid, t, NULL, 0);
+		} else {
+			/* before READY the owner's snapshot fills every node */
+			int fill = !s->ready && from == s->owner_id;
+			ndo_tile_apply(s->grid, t, fill ? NULL : own, from);
+		}
+		if (s->have) {
+			uint8_t bit = (t->channels & NDO_TILE_REST) ? 1 : 2;
+			for (int j = t->j0; j <= t->j1; j++)
+				for (int i = t->i0; i <= t->i1; i++) {
+					size_t node = ndo_node(s->grid->w, i, j);
+					if (bit == 2 && !(own[node] == from || from == s->owner_id))
+						continue;
+					if (!(s->have[node] & bit)) {
+						s->have[node] |= bit;
+						*(bit == 1 ? &s->have_rest : &s->have_state) += 1;
+					}
+				}
+		}
+		if (t->step > s->grid->step) {
+			s->grid->step = t->step;
+			s->grid->time = t->time;
+		}
+	}
+	ndo_grid_sync(s->grid);
+out:
+	for (size_t k = 0; k < n; k++)
+		ndo_msg_free(&tiles[k]);
+	free(tiles);
+}
+
+/* ---- the step ---------------------------------------------------------- */
+static int send_hello(ndo_session *s)
+{
+	ndo_msg_hello_t h = {.role = (int8_t)s->o.role, .name = s->name};
+	return ndo_net_publish(s->net, NDO_MSG_HELLO, &h);
+}
+
+int ndo_session_update(ndo_session *s, double now)
+{
+	s->now = now;
+	if (s->ended)
+		return 0;
+	int rc = ndo_net_poll(s->net, now);
+	if (rc < 0)
+		return rc;
+	ndo_msg m;
+	while (ndo_net_next(s->net, &m)) {
+		rc = handle(s, &m);
+		ndo_msg_free(&m);
+		if (rc < 0)
+			return rc;
+		if (s->ended)
+			return 0;
+	}
+	apply_tiles(s);
+	int owner = s->o.role == NDO_ROLE_OWNER;
+	if (owner) {
+		for (int i = 0; i < s->nm; i++)
+			if (now - s->m[i].heard > s->o.timeout) {
+				int32_t id = s->m[i].id;
+				char why[96];
+				snprintf(why, sizeof why, "no heartbeat for %.1f s", now - s->m[i].heard);
+				ndo_msg_leave_t l = {.peer = id, .reason = NDO_LEAVE_TIMEOUT, .message = why};
+				if ((rc = ndo_net_publish(s->net, NDO_MSG_LEAVE, &l)) ||
+				    (rc = drop_member(s, id, NDO_LEAVE_TIMEOUT, why)))
+					return rc;
+				i = -1; /* the list changed */
+			}
+		if (s->full_pending && now - s->last_full >= FULL_SEND_GAP && (rc = full_send(s)))
+			return rc;
+	} else {
+		if (!s->ready && s->described && s->cells && s->have_rest == s->grid->count &&
+		    s->have_state == s->grid->count) {
+			s->ready = 1;
+			event(s, NDO_EV_READY, s->owner_id, 0, NULL);
+		}
+		if (!s->ready && now - s->last_ask >= s->o.retry) {
+			/* a late joiner, or one that lost part of the description */
+			ndo_msg_desc_request_t d = {.owner_id = s->owner_id};
+			rc = s->described ? ndo_net_publish(s->net, NDO_MSG_DESC_REQUEST, &d) : send_hello(s);
+			if (rc)
+				return rc;
+			s->last_ask = now;
+		}
+		if (s->described && now - s->owner_heard > s->o.timeout) {
+			char why[96];
+			snprintf(why, sizeof why, "the owner timed out (silent for %.1f s)",
+			         now - s->owner_heard);
+			s->ended = 1;
+			event(s, NDO_EV_ENDED, s->owner_id, NDO_LEAVE_TIMEOUT, why);
+			return 0;
+		}
+		if (s->described && s->cells && s->poi_acked != s->o.poi && now >= s->next_poi &&
+		    !(s->o.poi < 0 && s->poi_acked == -2)) {
+			ndo_msg_poi_t p = {.face = s->o.poi};
+			if ((rc = ndo_net_publish(s->net, NDO_MSG_POI, &p)))
+				return rc;
+			s->next_poi = now + s->o.heartbeat;
+		}
+	}
+	if (now >= s->next_hb) {
+		ndo_msg_heartbeat_t h = {.step = s->grid ? s->grid->step : 0,
+		                         .time = s->grid ? s->grid->time : 0, .epoch = s->epoch};
+		if (s->described && (rc = ndo_net_publish(s->net, NDO_MSG_HEARTBEAT, &h)))
+			return rc;
+		if (owner) {
+			if ((rc = publish_partition(s)) || (rc = publish_peers(s)))
+				return rc;
+			if (s->hb_count % 5 == 0 && (rc = publish_description(s)))
+				return rc;
+		}
+		s->hb_count++;
+		s->next_hb = now + s->o.heartbeat;
+	}
+	return 0;
+}
+
+int ndo_session_event(ndo_session *s, ndo_event *ev)
+{
+	if (!s->evcount)
+		return 0;
+	*ev = s->ev[s->evhead];
+	s->evhead = (s->evhead + 1) % NEV;
+	s->evcount--;
+	if (ev->type == NDO_EV_FORCE && s->holding_force) {
+		ev->faces = s->force.u.force.faces;
+		ev->forces = (const double (*)[3])NULL;
+		ev->nforces = s->force.u.force.nforces;
+		/* the generated struct holds rows as double*: flatten for the caller */
+		static _Thread_local double flat[NDO_MAX_FORCES][3];
+		for (int k = 0; k < ev->nforces; k++)
+			memcpy(flat[k], s->force.u.force.forces[k], sizeof flat[k]);
+		ev->forces = (const double (*)[3])flat;
+	}
+	return 1;
+}
+
+int ndo_session_publish(ndo_session *s, int64_t step, double time)
+{
+	if (!s->grid || s->ended || (!s->ready && s->o.role != NDO_ROLE_OWNER))
+		return 0;
+	s->grid->step = step;
+	s->grid->time = time;
+	return publish_tiles(s, s->tiles, s->ntiles, NDO_TILE_POSITION | NDO_TILE_VELOCITY, step,
+	                     time);
+}
+
+int ndo_session_set_poi(ndo_session *s, int32_t face)
+{
+	if (s->level >= 0 && s->grid && (face < -1 || face >= (int64_t)4 << (2 * s->level)))
+		return ndo__fail(NDO_ERANGE, "point of interest %d: faces are 0..%lld", face,
+		                 ((long long)4 << (2 * s->level)) - 1);
+	s->o.poi = face;
+	if (s->o.role == NDO_ROLE_OWNER && s->grid) {
+		int rc = repartition(s);
+		return rc ? rc : publish_partition(s);
+	}
+	s->next_poi = s->now;
+	return 0;
+}
+
+int ndo_session_send_forces(ndo_session *s, int64_t step, int n, const int32_t *faces,
+                            const double (*forces)[3])
+{
+	if (n < 0 || n > NDO_MAX_FORCES)
+		return ndo__fail(NDO_ERANGE, "forces: %d (0..%d)", n, NDO_MAX_FORCES);
+	double *rows[NDO_MAX_FORCES];
+	for (int k = 0; k < n; k++)
+		rows[k] = (double *)forces[k];
+	ndo_msg_force_t f = {.step = step, .nforces = (int16_t)n, .faces = (int32_t *)faces,
+	                     .forces = rows};
+	return ndo_net_publish(s->net, NDO_MSG_FORCE, &f);
+}
+
+/* ---- life -------------------------------------------------------------- */
+int ndo_session_create(const ndo_session_opts *o, ndo_net *net, ndo_grid *grid,
+                       ndo_session **out)
+{
+	ndo__clear_error();
+	int owner = o->role == NDO_ROLE_OWNER;
+	if ((o->role != NDO_ROLE_OWNER && o->role != NDO_ROLE_JOINER) || (owner != !!grid) ||
+	    (o->scene && strlen(o->scene) > NDO_MAX_SCENE)) {
+		ndo_net_destroy(net);
+		ndo_grid_destroy(grid);
+		return ndo__fail(NDO_EINVAL, "session: an owner needs a grid, a joiner none; "
+		                 "scene ≤ %d bytes", NDO_MAX_SCENE);
+	}
+	ndo_session *s = calloc(1, sizeof *s);
+	if (!s) {
+		ndo_net_destroy(net);
+		ndo_grid_destroy(grid);
+		return ndo__fail(NDO_ENOMEM, "out of memory");
+	}
+	s->o = *o;
+	if (!s->o.heartbeat) s->o.heartbeat = 0.2;
+	if (!s->o.timeout) s->o.timeout = 2.0;
+	if (!s->o.retry) s->o.retry = 1.0;
+	if (!s->o.partition) s->o.partition = NDO_PART_QUADTREE;
+	snprintf(s->name, sizeof s->name, "%s", o->name ? o->name : "peer");
+	for (char *c = s->name; *c; c++)
+		if (*c < 32 || *c == 127)
+			*c = '?';
+	s->scene = strdup(o->scene ? o->scene : "");
+	s->net = net;
+	s->grid = grid;
+	s->level = -1;
+	s->epoch = 0;
+	s->method = s->o.partition;
+	s->rng = o->seed ? o->seed : (uint64_t)time(NULL) * 1000003u ^ (uint64_t)getpid() << 20 ^
+	                             (uint64_t)(ndo_now() * 1e9);
+	s->self = o->self_id ? o->self_id : (int32_t)((ndo_rng_next(&s->rng) & 0x7ffffffe) | 1);
+	ndo_msg_ctx *c = ndo_net_ctx(net);
+	c->self_id = s->self;
+	int rc = s->scene ? 0 : NDO_ENOMEM;
+	if (!rc && owner) {
+		s->object = o->object_id ? o->object_id
+		                         : (int64_t)((ndo_rng_next(&s->rng) >> 2) | 1);
+		s->owner_id = s->self;
+		c->object_id = s->object;
+		rc = prepare_grid(s);
+		c->level = s->level;
+		s->described = s->ready = 1;
+		if (!rc)
+			rc = repartition(s);
+		s->evcount = 0; /* the owner's first partition is no news */
+	} else if (!rc) {
+		s->object = o->object_id;
+		c->object_id = 0; /* attach to the first description that matches */
+		s->last_ask = -1e9;
+	}
+	if (rc) {
+		ndo_session_destroy(s, NULL);
+		return rc;
+	}
+	*out = s;
+	return 0;
+}
+
+void ndo_session_destroy(ndo_session *s, const char *message)
+{
+	if (!s)
+		return;
+	if (s->described && !s->ended) {
+		int owner = s->o.role == NDO_ROLE_OWNER;
+		ndo_msg_leave_t l = {.peer = s->self,
+		                     .reason = (int8_t)(owner ? NDO_LEAVE_OWNER_QUIT : NDO_LEAVE_QUIT),
+		                     .message = (char *)(message ? message : "")};
+		char buf[NDO_MAX_TEXT + 1];
+		snprintf(buf, sizeof buf, "%s", l.message);
+		l.message = buf;
+		/* twice: a lost leave costs the others a timeout */
+		ndo_net_publish(s->net, NDO_MSG_LEAVE, &l);
+		ndo_net_publish(s->net, NDO_MSG_LEAVE, &l);
+	}
+	if (s->holding_force)
+		ndo_msg_free(&s->force);
+	ndo_net_destroy(s->net);
+	ndo_grid_destroy(s->grid);
+	free(s->scene);
+	free(s->cells);
+	free(s->leaf_codes);
+	free(s->leaf_slots);
+	free(s->tiles);
+	free(s->have);
+	free(s);
+}
+
+ndo_grid *ndo_session_grid(ndo_session *s) { return s->described ? s->grid : NULL; }
+int ndo_session_ready(const ndo_session *s) { return s->ready && !s->ended; }
+int ndo_session_ended(const ndo_session *s) { return s->ended; }
+int32_t ndo_session_self(const ndo_session *s) { return s->self; }
+int64_t ndo_session_object(const ndo_session *s) { return s->object; }
+int32_t ndo_session_owner_id(const ndo_session *s) { return s->owner_id; }
+const char *ndo_session_scene(const ndo_session *s) { return s->scene; }
+int32_t ndo_session_epoch(const ndo_session *s) { return s->epoch; }
+ndo_net *ndo_session_net(ndo_session *s) { return s->net; }
+
+const int32_t *ndo_session_cells(const ndo_session *s, int *npeers, const int32_t **peers)
+{
+	if (npeers)
+		*npeers = s->npeers;
+	if (peers)
+		*peers = s->peers;
+	return s->cells;
+}
+
+size_t ndo_session_owned_nodes(const ndo_session *s)
+{
+	if (!s->grid || !s->described)
+		return 0;
+	const int32_t *own = ndo_grid_find(s->grid, NDO_CH_OWNER)->data;
+	size_t n = 0;
+	for (size_t k = 0; k < s->grid->count; k++)
+		n += own[k] == s->self;
+	return n;
+}

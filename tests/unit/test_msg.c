@@ -1,0 +1,253 @@
+/* test_msg — hostile input to the message layer: malformed, truncated,
+ * oversized, out-of-range, non-finite, stale and foreign messages are each
+ * dropped under their reason, never trusted (ndo/msg.h, ndo/net.h); tiles
+ * fit one datagram at every level; the quad tree's codes round-trip. */
+#include "check.h"
+#include "ndo/msg.h"
+#include "ndo/net.h"
+#include "ndo/quadtree.h"
+#include "ndo/tile.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+static ndo_msg_tile_t make_tile(int level, int depth)
+{
+	ndo_msg_tile_t t;
+	memset(&t, 0, sizeof t);
+	t.hdr = (ndo_msg_header_t){NDO_PROTOCOL_VERSION, 42, 7, 0, 0};
+	ndo_quad q = {depth, 0, 0};
+	ndo_quad_range(level, q, &t.i0, &t.j0, &t.i1, &t.j1);
+	t.depth = (int8_t)depth;
+	t.channels = NDO_TILE_POSITION | NDO_TILE_VELOCITY;
+	t.base_step = -1;
+	t.nvalues = (int32_t)(ndo_quad_node_count(level, depth) * 6);
+	t.values = calloc((size_t)t.nvalues, sizeof(double));
+	return t;
+}
+
+static ndo_drop roundtrip(ndo_msg_type type, const void *msg, const ndo_msg_ctx *c)
+{
+	uint8_t *buf;
+	size_t len;
+	if (ndo_msg_encode(type, msg, &buf, &len) != 0)
+		return NDO_DROP_N;
+	ndo_msg m;
+	ndo_drop r = ndo_msg_decode(type, buf, len, &m);
+	if (r == NDO_DROP_NONE) {
+		r = ndo_msg_validate(&m, c);
+		ndo_msg_free(&m);
+	}
+	free(buf);
+	return r;
+}
+
+static void tile_fields_checked(void)
+{
+	ndo_msg_ctx c = {42, 4, 1};
+	ndo_msg_tile_t t = make_tile(4, 2);
+	CHECK(roundtrip(NDO_MSG_TILE, &t, &c) == NDO_DROP_NONE, "a good tile passes");
+	ndo_msg_ctx foreign = {43, 4, 1};
+	CHECK(roundtrip(NDO_MSG_TILE, &t, &foreign) == NDO_DROP_FOREIGN, "foreign object");
+	ndo_msg_ctx unknown = {0, -1, 1};
+	CHECK(roundtrip(NDO_MSG_TILE, &t, &unknown) == NDO_DROP_UNKNOWN, "before the description");
+	t.hdr.version = 2;
+	CHECK(roundtrip(NDO_MSG_TILE, &t, &c) == NDO_DROP_VERSION, "version");
+	t.hdr.version = NDO_PROTOCOL_VERSION;
+	t.i1++;
+	CHECK(roundtrip(NDO_MSG_TILE, &t, &c) == NDO_DROP_RANGE, "range not a tree node");
+	t.i1--;
+	ndo_msg_ctx higher = {42, 3, 1};
+	CHECK(roundtrip(NDO_MSG_TILE, &t, &higher) != NDO_DROP_NONE, "range vs another level");
+	t.values[5] = NAN;
+	CHECK(roundtrip(NDO_MSG_TILE, &t, &c) == NDO_DROP_NONFINITE, "NaN");
+	t.values[5] = INFINITY;
+	CHECK(roundtrip(NDO_MSG_TILE, &t, &c) == NDO_DROP_NONFINITE, "infinity");
+	t.values[5] = 0;
+	t.nvalues -= 6;
+	CHECK(roundtrip(NDO_MSG_TILE, &t, &c) == NDO_DROP_LENGTH, "short values array");
+	t.nvalues += 6;
+	t.encoding = 3;
+	CHECK(roundtrip(NDO_MSG_TILE, &t, &c) == NDO_DROP_ENCODING, "unknown encoding");
+	t.encoding = 0;
+	t.channels = 64;
+	CHECK(roundtrip(NDO_MSG_TILE, &t, &c) == NDO_DROP_RANGE, "unknown channel bits");
+	free(t.values);
+}
+
+static void bytes_checked_before_decoding(void)
+{
+	ndo_msg_tile_t t = make_tile(4, 2);
+	uint8_t *buf;
+	size_t len;
+	ndo_msg_encode(NDO_MSG_TILE, &t, &buf, &len);
+	ndo_msg m;
+	for (size_t cut = 0; cut < len; cut += 37)
+		CHECK(ndo_msg_decode(NDO_MSG_TILE, buf, cut, &m) == NDO_DROP_MALFORMED,
+		      "truncated to %zu bytes", cut);
+	uint8_t *longer = malloc(len + 1);
+	memcpy(longer, buf, len);
+	longer[len] = 0;
+	CHECK(ndo_msg_decode(NDO_MSG_TILE, longer, len + 1, &m) == NDO_DROP_MALFORMED,
+	      "trailing byte");
+	free(longer);
+	/* nvalues claims 2^29+1 doubles: LCM's own decoder would overflow
+	 * (8 × count wraps to 8) — the walk refuses it */
+	size_t off = 8 + (2 + 8 + 4 + 8 + 8) + 8 + 8 + 4 + 1 + 16 + 2 + 1 + 8;
+	uint8_t save[4];
+	memcpy(save, buf + off, 4);
+	buf[off] = 0x20, buf[off + 1] = 0, buf[off + 2] = 0, buf[off + 3] = 1;
+	CHECK(ndo_msg_decode(NDO_MSG_TILE, buf, len, &m) == NDO_DROP_MALFORMED, "huge count");
+	buf[off] = 0xff, buf[off + 1] = 0xff, buf[off + 2] = 0xff, buf[off + 3] = 0xfe;
+	CHECK(ndo_msg_decode(NDO_MSG_TILE, buf, len, &m) == NDO_DROP_MALFORMED, "negative count");
+	memcpy(buf + off, save, 4);
+	CHECK(ndo_msg_decode(NDO_MSG_TILE, buf, len, &m) == NDO_DROP_NONE, "restored decodes");
+	ndo_msg_free(&m);
+	buf[0] ^= 1;
+	CHECK(ndo_msg_decode(NDO_MSG_TILE, buf, len, &m) == NDO_DROP_MALFORMED, "wrong type hash");
+	CHECK(ndo_msg_decode(NDO_MSG_HELLO, buf, len, &m) == NDO_DROP_MALFORMED, "other type");
+	free(buf);
+	free(t.values);
+	/* a string without its NUL */
+	ndo_msg_hello_t h = {{NDO_PROTOCOL_VERSION, 42, 7, 0, 0}, 2, "abc"};
+	ndo_msg_encode(NDO_MSG_HELLO, &h, &buf, &len);
+	buf[len - 1] = 'x';
+	CHECK(ndo_msg_decode(NDO_MSG_HELLO, buf, len, &m) == NDO_DROP_MALFORMED, "unterminated string");
+	free(buf);
+}
+
+static void control_messages_checked(void)
+{
+	ndo_msg_ctx c = {42, 3, 1};
+	ndo_msg_header_t hd = {NDO_PROTOCOL_VERSION, 42, 7, 0, 0};
+	ndo_msg_poi_t p = {hd, 4 << 6};
+	CHECK(roundtrip(NDO_MSG_POI, &p, &c) == NDO_DROP_RANGE, "POI beyond the faces");
+	p.face = (4 << 6) - 1;
+	CHECK(roundtrip(NDO_MSG_POI, &p, &c) == NDO_DROP_NONE, "last face");
+	int32_t peers[2] = {7, 7}, pois[2] = {0, 1}, leaves[2] = {1, 2};
+	int8_t slots[2] = {0, 1};
+	ndo_msg_partition_t part = {hd, 1, NDO_PART_QUADTREE, 2, peers, pois, 2, leaves, slots};
+	CHECK(roundtrip(NDO_MSG_PARTITION, &part, &c) == NDO_DROP_RANGE, "duplicate peer ids");
+	peers[1] = 8;
+	CHECK(roundtrip(NDO_MSG_PARTITION, &part, &c) == NDO_DROP_NONE, "two squares");
+	leaves[1] = 1;
+	CHECK(roundtrip(NDO_MSG_PARTITION, &part, &c) == NDO_DROP_RANGE, "overlapping leaves");
+	part.nleaves = 1;
+	CHECK(roundtrip(NDO_MSG_PARTITION, &part, &c) == NDO_DROP_RANGE, "uncovered cells");
+	double f0[3] = {0, 0, 1e300 * 1e300};
+	double *rows[1] = {f0};
+	int32_t faces[1] = {3};
+	ndo_msg_force_t f = {hd, 0, 1, faces, rows};
+	CHECK(roundtrip(NDO_MSG_FORCE, &f, &c) == NDO_DROP_NONFINITE, "infinite force");
+	ndo_msg_leave_t l = {hd, 7, 9, ""};
+	CHECK(roundtrip(NDO_MSG_LEAVE, &l, &c) == NDO_DROP_RANGE, "leave reason");
+	ndo_msg_hello_t h = {hd, 2, "a\033[2Jb"};
+	CHECK(roundtrip(NDO_MSG_HELLO, &h, &c) == NDO_DROP_RANGE, "control characters in a name");
+	ndo_msg_heartbeat_t hb = {hd, -1, 0, 0};
+	CHECK(roundtrip(NDO_MSG_HEARTBEAT, &hb, &c) == NDO_DROP_RANGE, "negative step");
+}
+
+/* Stale and duplicate messages through a real ndo_net on a bus. */
+static void stale_dropped_latest_kept(void)
+{
+	ndo_bus *bus;
+	ndo_bus_create(&bus);
+	ndo_link *a, *b;
+	ndo_link_open_mem(bus, &a);
+	ndo_link_open_mem(bus, &b);
+	ndo_net *rx;
+	ndo_net_create(b, "S", 1, &rx);
+	ndo_net_attach(rx, 42, 4);
+	ndo_msg_tile_t t = make_tile(4, 2);
+	t.hdr = (ndo_msg_header_t){NDO_PROTOCOL_VERSION, 42, 7, 0, 0};
+	uint8_t *buf[3];
+	size_t len[3];
+	for (int k = 0; k < 3; k++) {
+		t.hdr.seq = k;
+		t.step = k;
+		ndo_msg_encode(NDO_MSG_TILE, &t, &buf[k], &len[k]);
+	}
+	/* 2 arrives, then 0 (stale: older than what we hold for that range) */
+	ndo_link_publish(a, "S_TILE", buf[2], len[2]);
+	ndo_link_publish(a, "S_TILE", buf[0], len[0]);
+	ndo_net_poll(rx, 0);
+	ndo_msg *tiles;
+	size_t n;
+	ndo_net_take_tiles(rx, &tiles, &n);
+	CHECK(n == 1 && tiles[0].u.tile.step == 2, "the newest tile kept (%zu, step %lld)", n,
+	      n ? (long long)tiles[0].u.tile.step : -1LL);
+	for (size_t k = 0; k < n; k++)
+		ndo_msg_free(&tiles[k]);
+	free(tiles);
+	const ndo_net_stats *st = ndo_net_stats_get(rx);
+	CHECK(st->dropped[NDO_DROP_STALE] == 1, "one stale (%llu)",
+	      (unsigned long long)st->dropped[NDO_DROP_STALE]);
+	CHECK(st->gaps == 0, "gap 0..2 counted then filled: %llu", (unsigned long long)st->gaps);
+	for (int k = 0; k < 3; k++)
+		free(buf[k]);
+	free(t.values);
+	ndo_net_destroy(rx);
+	ndo_link_destroy(a);
+	ndo_bus_destroy(bus);
+}
+
+static void tiles_fit_one_datagram(void)
+{
+	for (int level = 0; level <= 10; level++) {
+		const int chs[2] = {NDO_TILE_POSITION | NDO_TILE_VELOCITY, NDO_TILE_REST | NDO_TILE_PIN};
+		for (int k = 0; k < 2; k++) {
+			int d = ndo_tile_depth(level, chs[k], "NDO_TILE");
+			ndo_msg_tile_t t = make_tile(level, d);
+			t.channels = (int16_t)chs[k];
+			t.nvalues = (int32_t)(ndo_quad_node_count(level, d) *
+			                      (size_t)ndo_tile_values_per_node(chs[k]));
+			size_t size = ndo_msg_encoded_size(NDO_MSG_TILE, &t);
+			CHECK(size <= ndo_msg_max_payload("NDO_TILE"),
+			      "level %d: %zu bytes > %zu", level, size, ndo_msg_max_payload("NDO_TILE"));
+			if (d > 0) { /* and one depth shallower would not */
+				t.nvalues = (int32_t)(ndo_quad_node_count(level, d - 1) *
+				                      (size_t)ndo_tile_values_per_node(chs[k]));
+				CHECK(ndo_msg_encoded_size(NDO_MSG_TILE, &t) > ndo_msg_max_payload("NDO_TILE"),
+				      "level %d depth %d is the shallowest that fits", level, d);
+			}
+			if (level == 7 && k == 0)
+				printf("    level 7 state tile: depth %d, %zu nodes, %zu bytes\n", d,
+				       ndo_quad_node_count(level, d), size);
+			free(t.values);
+		}
+	}
+}
+
+static void quad_codes_roundtrip(void)
+{
+	int level = 5, bad = 0;
+	for (int d = 0; d <= level + 1; d++) {
+		int cols, rows;
+		ndo_quad_dims(d, &cols, &rows);
+		for (int qj = 0; qj < rows; qj++)
+			for (int qi = 0; qi < cols; qi++) {
+				ndo_quad q = {d, qi, qj}, r;
+				int i0, j0, i1, j1;
+				ndo_quad_range(level, q, &i0, &j0, &i1, &j1);
+				bad += ndo_quad_decode(level, ndo_quad_code(q), &r) != 0 || r.depth != d ||
+				       r.qi != qi || r.qj != qj;
+				bad += ndo_quad_from_range(level, d, i0, j0, i1, j1, &r) != 0 || r.qi != qi;
+			}
+	}
+	CHECK(bad == 0, "%d quad-tree nodes fail to round-trip", bad);
+	ndo_quad r;
+	CHECK(ndo_quad_decode(level, 1 << 30, &r) != 0, "code beyond the tree");
+}
+
+int main(void)
+{
+	ck_program = "test_msg";
+	RUN(tile_fields_checked);
+	RUN(bytes_checked_before_decoding);
+	RUN(control_messages_checked);
+	RUN(stale_dropped_latest_kept);
+	RUN(tiles_fit_one_datagram);
+	RUN(quad_codes_roundtrip);
+	return ck_failed_cases != 0;
+}

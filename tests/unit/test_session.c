@@ -1,0 +1,267 @@
+/* test_session — the peer protocol without physics: an owner and joiners
+ * on an in-memory bus with a fake clock (ndo/session.h). Each peer writes
+ * a known function of (node, step) into the nodes it owns and publishes;
+ * every peer must end up holding the whole object. */
+#include "check.h"
+#include "ndo/ndo.h"
+#include "ndo/session.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+#define LEVEL 4
+
+static double value(size_t node, int d, int64_t step)
+{
+	return (double)node * 0.001 + d + 0.5 * (double)step;
+}
+
+static ndo_session *open_peer(ndo_bus *bus, ndo_role role, int32_t id, int32_t poi,
+                              const ndo_faults *f)
+{
+	ndo_link *l;
+	ndo_net *n;
+	ndo_session *s = NULL;
+	if (ndo_link_open_mem(bus, &l))
+		return NULL;
+	if (f && ndo_link_faults(l, f, &l))
+		return NULL;
+	if (ndo_net_create(l, "T", id, &n))
+		return NULL;
+	ndo_grid *g = NULL;
+	if (role == NDO_ROLE_OWNER) {
+		ndo_grid_create(LEVEL, &g);
+		ndo_grid_add(g, NDO_CH_REST, NDO_F64, 3, NULL);
+		double *r = ndo_grid_f64(g, NDO_CH_REST, 3);
+		for (size_t k = 0; k < 3 * g->count; k++)
+			r[k] = (double)k;
+	}
+	ndo_session_opts o = {.role = role, .poi = poi, .self_id = id, .object_id = role == NDO_ROLE_OWNER ? 77 : 0,
+	                      .scene = "sigma=1\nrho=1\n", .timeout = 1.0, .heartbeat = 0.1, .retry = 0.3};
+	if (ndo_session_create(&o, n, g, &s))
+		return NULL;
+	return s;
+}
+
+/* Every peer writes its nodes at `step` and publishes. */
+static void write_own(ndo_session *s, int64_t step)
+{
+	ndo_grid *g = ndo_session_grid(s);
+	if (!g || !ndo_session_ready(s))
+		return;
+	double *x = ndo_grid_f64(g, NDO_CH_POSITION, 3);
+	const int32_t *own = ndo_grid_find(g, NDO_CH_OWNER)->data;
+	for (size_t k = 0; k < g->count; k++)
+		if (own[k] == ndo_session_self(s))
+			for (int d = 0; d < 3; d++)
+				x[3 * k + d] = value(k, d, step);
+	ndo_session_publish(s, step, 0.01 * (double)step);
+}
+
+static int run(ndo_session **p, int n, double *t, int64_t *step, int steps)
+{
+	for (int k = 0; k < steps; k++) {
+		for (int i = 0; i < n; i++)
+			if (p[i] && ndo_session_update(p[i], *t) != 0)
+				return -1;
+		for (int i = 0; i < n; i++)
+			if (p[i])
+				write_own(p[i], *step);
+		*t += 0.01;
+		++*step;
+	}
+	return 0;
+}
+
+/* Nodes of s whose position differs from the known function at `step`. */
+static size_t wrong_nodes(ndo_session *s, int64_t step)
+{
+	ndo_grid *g = ndo_session_grid(s);
+	if (!g)
+		return (size_t)-1;
+	const double *x = ndo_grid_f64(g, NDO_CH_POSITION, 3);
+	size_t bad = 0;
+	for (size_t k = 0; k < g->count; k++) {
+		size_t c = ndo_canonical(LEVEL, (int)(k % (size_t)g->w), (int)(k / (size_t)g->w));
+		for (int d = 0; d < 3; d++)
+			if (x[3 * k + d] != value(c, d, step)) {
+				bad++;
+				break;
+			}
+	}
+	return bad;
+}
+
+static int count_events(ndo_session *s, ndo_event_type t, ndo_event *last)
+{
+	ndo_event e;
+	int n = 0;
+	while (ndo_session_event(s, &e))
+		if (e.type == t) {
+			n++;
+			if (last)
+				*last = e;
+		}
+	return n;
+}
+
+static void join_share_and_reassemble(void)
+{
+	ndo_bus *bus;
+	ndo_bus_create(&bus);
+	ndo_session *p[3] = {open_peer(bus, NDO_ROLE_OWNER, 1, 10, NULL),
+	                     open_peer(bus, NDO_ROLE_JOINER, 2, 700, NULL),
+	                     open_peer(bus, NDO_ROLE_JOINER, 3, -1, NULL)};
+	CHECK(p[0] && p[1] && p[2], "sessions open");
+	double t = 0;
+	int64_t step = 0;
+	run(p, 3, &t, &step, 100);
+	CHECK(ndo_session_ready(p[1]) && ndo_session_ready(p[2]), "joiners ready: %d %d",
+	      ndo_session_ready(p[1]), ndo_session_ready(p[2]));
+	CHECK(ndo_session_object(p[1]) == 77, "joiner attached to object %lld",
+	      (long long)ndo_session_object(p[1]));
+	CHECK(strcmp(ndo_session_scene(p[2]), "sigma=1\nrho=1\n") == 0, "scene travels");
+	int np;
+	ndo_session_cells(p[1], &np, NULL);
+	CHECK(np == 2, "two simulating peers (owner + POI joiner), got %d", np);
+	size_t o0 = ndo_session_owned_nodes(p[0]), o1 = ndo_session_owned_nodes(p[1]),
+	       o2 = ndo_session_owned_nodes(p[2]);
+	CHECK(o0 > 0 && o1 > 0 && o2 == 0, "owned nodes %zu %zu %zu", o0, o1, o2);
+	CHECK(o0 + o1 == ndo_session_grid(p[0])->count, "every node has one owner: %zu + %zu != %zu",
+	      o0, o1, ndo_session_grid(p[0])->count);
+	/* one more round without writing: everyone holds the last step */
+	for (int i = 0; i < 3; i++)
+		ndo_session_update(p[i], t);
+	for (int i = 0; i < 3; i++)
+		CHECK(wrong_nodes(p[i], step - 1) == 0, "peer %d: %zu nodes differ from step %lld", i,
+		      wrong_nodes(p[i], step - 1), (long long)step - 1);
+	/* rest shape came from the owner */
+	const double *r = ndo_grid_f64(ndo_session_grid(p[2]), NDO_CH_REST, 3);
+	CHECK(r && r[3 * 5 + 1] == 16.0, "rest shape arrived");
+	/* joiner 1 leaves: the owner takes its region back */
+	ndo_session_destroy(p[1], "bye");
+	p[1] = NULL;
+	count_events(p[0], NDO_EV_LEFT, NULL);
+	run(p, 3, &t, &step, 5);
+	ndo_event e;
+	CHECK(ndo_session_owned_nodes(p[0]) == ndo_session_grid(p[0])->count,
+	      "owner owns all again (%zu)", ndo_session_owned_nodes(p[0]));
+	(void)e;
+	/* the owner quits: the observer ends with a message */
+	ndo_session_destroy(p[0], "done");
+	p[0] = NULL;
+	run(p, 3, &t, &step, 2);
+	CHECK(ndo_session_ended(p[2]), "observer ended");
+	for (int i = 0; i < 3; i++)
+		ndo_session_destroy(p[i], NULL);
+	ndo_bus_destroy(bus);
+}
+
+static void timeout_detected_and_repartitioned(void)
+{
+	ndo_bus *bus;
+	ndo_bus_create(&bus);
+	ndo_session *p[3] = {open_peer(bus, NDO_ROLE_OWNER, 1, -1, NULL),
+	                     open_peer(bus, NDO_ROLE_JOINER, 2, 100, NULL),
+	                     open_peer(bus, NDO_ROLE_JOINER, 3, 900, NULL)};
+	double t = 0;
+	int64_t step = 0;
+	run(p, 3, &t, &step, 60);
+	int np;
+	ndo_session_cells(p[0], &np, NULL);
+	CHECK(np == 3, "three simulating peers, got %d", np);
+	count_events(p[0], NDO_EV_LEFT, NULL);
+	/* peer 2 falls silent (killed) */
+	ndo_session *silent = p[1];
+	p[1] = NULL;
+	double killed = t;
+	ndo_event e = {0};
+	double seen = -1;
+	for (int k = 0; k < 300 && seen < 0; k++) {
+		run(p, 3, &t, &step, 1);
+		if (count_events(p[0], NDO_EV_LEFT, &e))
+			seen = t;
+	}
+	CHECK(seen > 0 && e.peer == 2 && e.reason == NDO_LEAVE_TIMEOUT,
+	      "owner saw peer 2 time out (peer %d reason %d)", e.peer, e.reason);
+	CHECK(seen - killed <= 1.0 + 0.2, "detected within timeout + 2 heartbeats: %.2f s",
+	      seen - killed);
+	ndo_session_cells(p[0], &np, NULL);
+	CHECK(np == 2, "re-partitioned among 2, got %d", np);
+	run(p, 3, &t, &step, 30);
+	ndo_session_cells(p[2], &np, NULL);
+	CHECK(np == 2, "peer 3 got the new partition (%d)", np);
+	/* the silent peer wakes up: it was dropped, and ends */
+	p[1] = silent;
+	run(p, 3, &t, &step, 30);
+	CHECK(ndo_session_ended(p[1]), "the dropped peer ends");
+	for (int i = 0; i < 3; i++)
+		ndo_session_destroy(p[i], NULL);
+	ndo_bus_destroy(bus);
+}
+
+static void late_joiner_over_lossy_link(void)
+{
+	ndo_bus *bus;
+	ndo_bus_create(&bus);
+	ndo_faults f = {.drop = 0.2, .delay_ms = 5, .jitter_ms = 5, .reorder = 0.1, .seed = 9};
+	ndo_session *p[2] = {open_peer(bus, NDO_ROLE_OWNER, 1, -1, NULL), NULL};
+	double t = 0;
+	int64_t step = 0;
+	run(p, 2, &t, &step, 50);
+	p[1] = open_peer(bus, NDO_ROLE_JOINER, 2, 200, &f);
+	run(p, 2, &t, &step, 400);
+	CHECK(ndo_session_ready(p[1]), "late joiner became ready despite 20%% loss");
+	const ndo_net_stats *st = ndo_net_stats_get(ndo_session_net(p[1]));
+	CHECK(st->dropped[NDO_DROP_INJECTED] > 0, "losses were injected (%llu)",
+	      (unsigned long long)st->dropped[NDO_DROP_INJECTED]);
+	CHECK(st->gaps > 0, "gaps detected by sequence numbers (%llu)", (unsigned long long)st->gaps);
+	int np;
+	ndo_session_cells(p[1], &np, NULL);
+	CHECK(np == 2, "joined the partition (%d)", np);
+	char buf[512];
+	ndo_net_stats_format(ndo_session_net(p[1]), buf, sizeof buf);
+	printf("    lossy joiner: %s\n", buf);
+	for (int i = 0; i < 2; i++)
+		ndo_session_destroy(p[i], NULL);
+	ndo_bus_destroy(bus);
+}
+
+static void garbage_is_counted_not_trusted(void)
+{
+	ndo_bus *bus;
+	ndo_bus_create(&bus);
+	ndo_session *p[1] = {open_peer(bus, NDO_ROLE_OWNER, 1, -1, NULL)};
+	ndo_link *evil;
+	ndo_link_open_mem(bus, &evil);
+	uint8_t junk[300];
+	uint64_t rng = 5;
+	for (int k = 0; k < 200; k++) {
+		for (size_t b = 0; b < sizeof junk; b++)
+			junk[b] = (uint8_t)ndo_rng_next(&rng);
+		const char *chans[] = {"T_TILE", "T_HELLO", "T_PARTITION", "T_LEAVE", "T_NOPE"};
+		ndo_link_publish(evil, chans[k % 5], junk, (size_t)(k % 300));
+	}
+	double t = 0;
+	int64_t step = 0;
+	run(p, 1, &t, &step, 3);
+	const ndo_net_stats *st = ndo_net_stats_get(ndo_session_net(p[0]));
+	CHECK(st->dropped[NDO_DROP_MALFORMED] == 160 && st->dropped[NDO_DROP_CHANNEL] == 40,
+	      "malformed %llu (expected 160), channel %llu (expected 40)",
+	      (unsigned long long)st->dropped[NDO_DROP_MALFORMED],
+	      (unsigned long long)st->dropped[NDO_DROP_CHANNEL]);
+	CHECK(ndo_session_owned_nodes(p[0]) == ndo_session_grid(p[0])->count, "owner unaffected");
+	ndo_link_destroy(evil);
+	ndo_session_destroy(p[0], NULL);
+	ndo_bus_destroy(bus);
+}
+
+int main(void)
+{
+	ck_program = "test_session";
+	RUN(join_share_and_reassemble);
+	RUN(timeout_detected_and_repartitioned);
+	RUN(late_joiner_over_lossy_link);
+	RUN(garbage_is_counted_not_trusted);
+	return ck_failed_cases != 0;
+}
