@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
-# The libFuzzer targets (tests/fuzz/), each for a bounded time from seeds
-# made by the real tools.  A crash, a sanitizer report or a round-trip
+# The libFuzzer targets (tests/fuzz/), each for a bounded time, from seeds
+# made by the real tools where there are any: fuzz_gridfile (the grid file
+# reader), fuzz_msg (every LCM message decoder and validator, and the
+# receive path).  A crash, a sanitizer report or a round-trip
 # mismatch fails the case and leaves the input in the log.
 . "$(dirname "$0")/lib.sh"
 secs=${NDO_FUZZ_SECONDS:-20}
