@@ -132,7 +132,7 @@ int ndo_domain_spring(int level, int iterations, double *s)
 			}
 	}
 	for (int l = l0;; l++) {
-		relax(l, iterations, cur, area, tmp);
+		relax(l, l <= 2 ? iterations : 0, cur, area, tmp); /* see the header */
 		if (l == top)
 			break;
 		int nn = 1 << l, ww = 2 * nn + 1, n2 = 2 * nn, w2 = 2 * n2 + 1;

@@ -729,7 +729,8 @@ static void spring(const Mesh &m, const ParamOptions &o, std::vector<Vec3> &s)
 			for (const Edge &e : edges)
 				avg[e.a] = add(avg[e.a], x[e.b]), avg[e.b] = add(avg[e.b], x[e.a]);
 			for (size_t v = 0; v < nv; v++)
-				x[v] = unit(avg[v]);
+				if (norm(avg[v]) > 1e-9 * deg[v]) /* neighbours all round: stay */
+					x[v] = unit(avg[v]);
 		}
 		for (size_t v = 0; v < nv; v++)
 			x[v] = mul(x[v], o.spring_c); /* eq. 4.4 */
