@@ -190,6 +190,9 @@ static ndo_grid *remesh_file(const char *path, int level, const MeshOptions &o, 
 	r.t_validate = t2 - t1;
 	std::vector<Vec3> s;
 	parameterize(m, o.po, s, r.ps);
+	if (r.ps.placement_failures)
+		r.notes.push_back(std::to_string(r.ps.placement_failures) +
+		                  " vertex splits found no kernel point (flips possible)");
 	double t3 = now_seconds();
 	r.t_param = t3 - t2;
 	SphereLocator *loc = locator_create(m, s);

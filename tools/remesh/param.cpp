@@ -76,7 +76,7 @@ struct FaceGeom {
 	double L[3]; /* squared surface edge lengths opposite each corner */
 };
 
-static FaceGeom face_geom(const std::vector<Vec3> &X, const Tri &t)
+static FaceGeom face_geom(const std::vector<Vec3> &X, const Tri &t, bool floor = true)
 {
 	FaceGeom g;
 	const Vec3 &x0 = X[t[0]], &x1 = X[t[1]], &x2 = X[t[2]];
@@ -90,11 +90,13 @@ static FaceGeom face_geom(const std::vector<Vec3> &X, const Tri &t)
 	 * triangle with its mean squared edge (a change to the objective for
 	 * slivers only). */
 	double eq = std::sqrt(3.0) / 12 * (g.L[0] + g.L[1] + g.L[2]);
-	g.a3 = std::max(g.a3, 0.05 * eq);
+	if (floor)
+		g.a3 = std::max(g.a3, 0.05 * eq);
 	return g;
 }
 
-static double face_energy(const FaceGeom &g, const Vec3 &p0, const Vec3 &p1, const Vec3 &p2)
+static double face_energy(const FaceGeom &g, const Vec3 &p0, const Vec3 &p1, const Vec3 &p2,
+                          bool barrier = true)
 {
 	if (!valid_triangle(p0, p1, p2))
 		return INF;
@@ -109,7 +111,7 @@ static double face_energy(const FaceGeom &g, const Vec3 &p0, const Vec3 &p1, con
 	 * triangles of a fine mesh, → 0 for a triangle that spreads over a
 	 * hemisphere, whose flat area then says nothing of its spherical one;
 	 * without the barrier coarse levels would collapse onto great circles. */
-	double h = dot(c, add(add(p0, p1), p2)) / (3 * std::sqrt(c2));
+	double h = barrier ? dot(c, add(add(p0, p1), p2)) / (3 * std::sqrt(c2)) : 1;
 	return 0.5 * g.a3 * N / c2 / h;
 }
 
@@ -137,13 +139,17 @@ void param_measure(const Mesh &m, const std::vector<Vec3> &s, ParamStats &st)
 	double E = 0, A3 = 0, Ap = 0;
 	long flips = 0;
 	for (const Tri &t : m.f) {
-		FaceGeom g = face_geom(m.p, t);
+		FaceGeom g = face_geom(m.p, t, false);
 		const Vec3 &p0 = s[t[0]], &p1 = s[t[1]], &p2 = s[t[2]];
 		if (orient(p0, p1, p2) <= 0) {
 			flips++;
 			continue;
 		}
-		E += face_energy(g, p0, p1, p2);
+		/* Sander's measure as it is: no sliver floor, no barrier; a
+		 * valid triangle too thin for face_energy's margin counts too */
+		Vec3 a = sub(p1, p0), b = sub(p2, p0), e0 = sub(p2, p1);
+		Vec3 c = cross(a, b);
+		E += 0.5 * g.a3 * (g.L[0] * dot(a, b) - g.L[1] * dot(a, e0) + g.L[2] * dot(b, e0)) / dot(c, c);
 		A3 += g.a3;
 		Ap += 0.5 * norm(cross(sub(p1, p0), sub(p2, p0)));
 	}
@@ -536,8 +542,6 @@ struct Optimizer {
 				s[v] = bp;
 				return true;
 			}
-			if (getenv("REMESH_DEBUG") && (k % 10 == 0))
-				fprintf(stderr, "eps %g best %g\n", eps, best);
 		}
 		s[v] = su; /* no kernel point found: counted as a failure */
 		return false;
@@ -589,22 +593,9 @@ static void hierarchical(const Mesh &m, const ParamOptions &o, std::vector<Vec3>
 	for (size_t v = 0; v < m.p.size(); v++)
 		if (h.valive[v])
 			alive.push_back((int)v);
-	auto check = [&](const char *where, size_t k) {
-		if (!getenv("REMESH_DEBUG"))
-			return;
-		for (size_t fi = 0; fi < h.f.size(); fi++)
-			if (h.falive[fi] && orient(s[h.f[fi][0]], s[h.f[fi][1]], s[h.f[fi][2]]) <= 0) {
-				const Tri &t = h.f[fi];
-				fprintf(stderr, "invalid face %zu (%d %d %d) after %s at split %zu (v %d u %d) orient %g\n", fi, t[0], t[1], t[2], where, k, h.rec[k].v, h.rec[k].u, orient(s[t[0]], s[t[1]], s[t[2]]));
-				for (int w : t) fprintf(stderr, "  %d: %.17g %.17g %.17g alive %d\n", w, s[w][0], s[w][1], s[w][2], h.valive[w]);
-				exit(3);
-			}
-	};
-	check("base", 0);
 	for (int sweep = 0; sweep < 20; sweep++)
 		for (int v : alive)
 			opt.relax(v, 2);
-	check("base relax", 0);
 	size_t nsplit = h.rec.size();
 	double next = 8;
 	long failures = 0;
@@ -619,21 +610,10 @@ static void hierarchical(const Mesh &m, const ParamOptions &o, std::vector<Vec3>
 		alive.push_back(c.v);
 		if (!opt.place(c))
 			failures++;
-		check("place", k);
-		if (getenv("REMESH_DEBUG") && failures < 3) {
-			for (size_t fi = 0; fi < h.f.size(); fi++)
-				if (h.falive[fi] && orient(s[h.f[fi][0]], s[h.f[fi][1]], s[h.f[fi][2]]) <= 0) {
-					fprintf(stderr, "split %zu (v %d u %d): face %zu flipped\n", k, c.v, c.u, fi);
-					failures = 100;
-					break;
-				}
-		}
 		opt.relax(c.v, 4);
 		h.ring(c.v, ring);
-		check("relax v", k);
 		for (int w : ring)
 			opt.relax(w, 1);
-		check("relax ring", k);
 		if (alive.size() >= next) {
 			/* Praun–Hoppe optimize all vertices whenever the mesh has
 			 * grown by a constant factor: linear total cost per level. */
@@ -644,25 +624,12 @@ static void hierarchical(const Mesh &m, const ParamOptions &o, std::vector<Vec3>
 		if ((k & 511) == 0)
 			progress("parameterize", 1.0 - (double)k / (double)nsplit);
 	}
-	if (getenv("REMESH_DEBUG")) {
-		int v = alive[alive.size() / 2];
-		Vec3 g = opt.gradient(v), p = s[v];
-		double E0 = opt.energy(v, p), hh = 1e-7;
-		Vec3 t1 = unit(cross(p, Vec3{0.3, 0.5, 0.7})), t2 = cross(p, t1);
-		double d1 = (opt.energy(v, unit(add(p, mul(t1, hh)))) - opt.energy(v, unit(add(p, mul(t1, -hh))))) / (2 * hh);
-		double d2 = (opt.energy(v, unit(add(p, mul(t2, hh)))) - opt.energy(v, unit(add(p, mul(t2, -hh))))) / (2 * hh);
-		fprintf(stderr, "E0 %g grad.t1 %g fd %g grad.t2 %g fd %g\n", E0, dot(g, t1), d1, dot(g, t2), d2);
-		ParamStats ps;
-		param_measure(m, s, ps);
-		fprintf(stderr, "before sweeps: eff %g flips %ld\n", ps.efficiency, ps.flips);
-	}
 	for (int sweep = 0; sweep < o.sweeps; sweep++) {
 		for (int v : alive)
 			opt.relax(v, 2);
 		progress("optimize", (sweep + 1.0) / o.sweeps);
 	}
-	if (getenv("REMESH_DEBUG"))
-		fprintf(stderr, "placement failures: %ld\n", failures);
+	st.placement_failures = failures;
 }
 
 /* ---- the thesis' spring embedder ----------------------------------- */

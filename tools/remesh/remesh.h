@@ -60,6 +60,7 @@ struct ParamStats {
 	double efficiency = 0; /* L2 stretch efficiency (Sander 2001, 1 = isometric) */
 	long flips = 0;        /* spherical triangles with det(s_a, s_b, s_c) <= 0 */
 	int base_vertices = 0; /* hierarchical: vertices of the base mesh */
+	long placement_failures = 0; /* hierarchical: splits with no kernel point found (0 expected) */
 };
 void parameterize(const Mesh &m, const ParamOptions &o, std::vector<Vec3> &s,
                   ParamStats &st);
