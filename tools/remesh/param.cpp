@@ -447,9 +447,7 @@ struct Optimizer {
 	 * degenerate triangle. */
 	void relax(int v, int iters)
 	{
-		double E0 = energy(v, s[v]);
-		if (E0 == INF)
-			return;
+		double E0 = energy(v, s[v]); /* +∞ while below the margin: any valid move is taken */
 		for (int it = 0; it < iters; it++) {
 			Vec3 g = gradient(v);
 			double gl = norm(g);
@@ -459,7 +457,7 @@ struct Optimizer {
 			/* first step: half the ring's size, or E/|∇E| when smaller —
 			 * the distance to the barrier of a nearly degenerate
 			 * triangle, where E grows like 1/distance */
-			double t = std::min(0.5 * scale(v), E0 / gl);
+			double t = E0 < INF ? std::min(0.5 * scale(v), E0 / gl) : 0.5 * scale(v);
 			bool moved = false;
 			for (int k = 0; k < 30; k++, t *= 0.5) {
 				Vec3 p = unit(add(s[v], mul(d, t)));
@@ -519,7 +517,8 @@ struct Optimizer {
 			double ang = 2 * M_PI * (k + 0.5) / 48;
 			dirs.push_back(add(mul(e1, std::cos(ang)), mul(e2, std::sin(ang))));
 		}
-		double eps = 0.5 * std::max(la, lb);
+		double eps = 0.5 * std::max(la, lb), fallback_best = 0;
+		Vec3 fallback = su;
 		for (int k = 0; k < 80; k++, eps *= 0.5) {
 			double best = -INF;
 			Vec3 bp = su;
@@ -542,6 +541,14 @@ struct Optimizer {
 				s[v] = bp;
 				return true;
 			}
+			if (best > fallback_best)
+				fallback_best = best, fallback = bp;
+		}
+		if (fallback_best > 0) {
+			/* no point with the margin, but one where nothing flips:
+			 * take it; relax() moves v to a valid point when it can */
+			s[v] = fallback;
+			return true;
 		}
 		s[v] = su; /* no kernel point found: counted as a failure */
 		return false;
