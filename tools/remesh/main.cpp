@@ -1,0 +1,343 @@
+/* remesh — a regular grid from a closed genus-0 triangle mesh (thesis
+ * §4.2.2, DESIGN.md "Remeshing"), or from a procedural shape (--shape:
+ * the grids the other tools and the tests start from; ndo_shape_make()).
+ *
+ * The mesh path: load (load.cpp) → validate with CGAL → spherical
+ * parameterization (param.cpp) → domain map and its rotation, resampling
+ * (resample.cpp) → quality report (quality.cpp) → write. */
+#include "remesh.h"
+
+#include <getopt.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <stdexcept>
+#include <string>
+
+using namespace remesh;
+
+static __attribute__((noreturn)) void usage(void)
+{
+	printf("Usage: %s [INPUT] [-l L] [-o OUT] [options]\n"
+	       "       %s --shape NAME [-l L] [-o OUT] [shape options]\n"
+	       "Make a regular grid over the unfolded tetrahedron: from a closed genus-0\n"
+	       "triangle mesh (INPUT, any format assimp reads; '-' or none: stdin), or from\n"
+	       "a procedural shape.\n"
+	       "\n"
+	       "  -l, --level L         grid level, 0..10 (default 5)\n"
+	       "  -o, --output OUT      a grid file (.tgrid or no extension, '-' for\n"
+	       "                        stdout; the default) or a mesh: .obj .ply .stl .glb .gltf\n"
+	       "      --map MAP         tetrahedron → sphere: equal-area (default), gnomonic,\n"
+	       "                        or spring (meshes only: the thesis' stretch-optimized\n"
+	       "                        gnomonic projection)\n"
+	       "Meshes:\n"
+	       "      --param METHOD    spherical parameterization: hierarchical (default;\n"
+	       "                        coarse-to-fine stretch minimization, never flips) or\n"
+	       "                        spring (the thesis' spring embedder; may flip)\n"
+	       "      --sweeps N        hierarchical: final optimization sweeps, 0..100 (default 6)\n"
+	       "      --spring-steps N  spring: time steps, 1..100000 (default 400)\n"
+	       "      --no-relax        spring: without the relaxation step (eq. 4.7)\n"
+	       "      --no-rotation     keep the domain's rotation (default: optimized)\n"
+	       "      --report          print timings and quality on stderr (Hausdorff and\n"
+	       "                        RMS distance, fold-overs, self-intersections, stretch)\n"
+	       "      --json[=FILE]     the same as JSON, on stderr or into FILE ('-': stdout)\n"
+	       "Shapes:\n"
+	       "  -s, --shape NAME      tetra, sphere, ellipsoid or wavy\n"
+	       "      --axes A,B,C      ellipsoid semi-axes along x, y, z (default 1.5,1,0.75)\n"
+	       "      --amplitude A     wavy: radius 1 + A sin(Fx) sin(Fy) sin(Fz) (default 0.08)\n"
+	       "      --frequency F     wavy: F (default 5)\n"
+	       "  -h, --help            show this help and exit\n"
+	       "      --version         show the version and exit\n"
+	       "\n"
+	       "Exit status: 0 success, 1 bad input mesh or failed write, 2 usage error.\n",
+	       ndo_progname, ndo_progname);
+	ndo_close_stdout();
+	exit(NDO_EXIT_OK);
+}
+
+/* ---- progress ------------------------------------------------------ */
+
+static int progress_on = -1;
+static double progress_last = 0;
+
+void remesh::progress(const char *phase, double f)
+{
+	if (progress_on < 0)
+		progress_on = isatty(STDERR_FILENO);
+	if (!progress_on)
+		return;
+	double t = now_seconds();
+	if (t - progress_last < 0.1 && f < 1)
+		return;
+	progress_last = t;
+	int w = 30, k = (int)(std::min(1.0, std::max(0.0, f)) * w);
+	fprintf(stderr, "\r%-14s [%.*s%*s] %3d%%", phase, k, "##############################",
+	        w - k, "", (int)(100 * f));
+}
+
+void remesh::progress_done()
+{
+	if (progress_on > 0)
+		fprintf(stderr, "\r\033[K");
+}
+
+/* ---- the report ---------------------------------------------------- */
+
+struct Report {
+	std::string input;
+	size_t in_vertices = 0, in_faces = 0;
+	int level = 0;
+	const char *param = "", *map = "";
+	ParamStats ps;
+	bool rotated = false;
+	double rot_before = 0, rot_after = 0;
+	Quality q;
+	double t_load = 0, t_validate = 0, t_param = 0, t_rotation = 0, t_resample = 0,
+	       t_quality = 0;
+	std::vector<std::string> notes;
+};
+
+static std::string json_str(const std::string &s)
+{
+	std::string o = "\"";
+	for (char c : s) {
+		if (c == '"' || c == '\\')
+			o += '\\', o += c;
+		else if ((unsigned char)c < 0x20)
+			o += ' ';
+		else
+			o += c;
+	}
+	return o + "\"";
+}
+
+static void print_json(FILE *f, const Report &r)
+{
+	fprintf(f, "{\"input\": %s, \"input_vertices\": %zu, \"input_faces\": %zu, \"level\": %d,\n",
+	        json_str(r.input).c_str(), r.in_vertices, r.in_faces, r.level);
+	fprintf(f, " \"param\": \"%s\", \"map\": \"%s\", \"rotation_optimized\": %s,\n", r.param,
+	        r.map, r.rotated ? "true" : "false");
+	fprintf(f, " \"stretch_efficiency\": %.6g, \"flips\": %ld,\n", r.ps.efficiency, r.ps.flips);
+	fprintf(f, " \"remesh_stretch_efficiency\": %.6g, \"area_ratio\": %.6g, \"degenerate\": %ld,\n",
+	        r.q.efficiency, r.q.area_ratio, r.q.degenerate);
+	fprintf(f, " \"hausdorff_rel\": %.6g, \"rms_rel\": %.6g, \"flipped\": %ld, \"selfintersect\": %ld,\n",
+	        r.q.hausdorff, r.q.rms, r.q.flipped, r.q.selfintersect);
+	fprintf(f, " \"diagonal\": %.9g, \"closed_manifold\": %s, \"euler\": %d,\n", r.q.diag,
+	        r.q.closed_manifold ? "true" : "false", r.q.euler);
+	fprintf(f, " \"seconds\": {\"load\": %.3f, \"validate\": %.3f, \"parameterize\": %.3f, "
+	           "\"rotation\": %.3f, \"resample\": %.3f, \"quality\": %.3f},\n",
+	        r.t_load, r.t_validate, r.t_param, r.t_rotation, r.t_resample, r.t_quality);
+	fprintf(f, " \"notes\": [");
+	for (size_t i = 0; i < r.notes.size(); i++)
+		fprintf(f, "%s%s", i ? ", " : "", json_str(r.notes[i]).c_str());
+	fprintf(f, "]}\n");
+}
+
+static void print_report(FILE *f, const Report &r)
+{
+	size_t nv = ndo_vertex_count(r.level), nt = ndo_triangle_count(r.level);
+	fprintf(f, "%s: %zu vertices, %zu faces → level %d grid (%zu vertices, %zu triangles)\n",
+	        r.input.c_str(), r.in_vertices, r.in_faces, r.level, nv, nt);
+	fprintf(f, "  parameterization  %s: L2 stretch efficiency %.3f, %ld flipped spherical triangles\n",
+	        r.param, r.ps.efficiency, r.ps.flips);
+	if (r.rotated)
+		fprintf(f, "  domain            %s map, rotation optimized (grid stretch energy %.4g → %.4g)\n",
+		        r.map, r.rot_before, r.rot_after);
+	else
+		fprintf(f, "  domain            %s map, rotation not optimized\n", r.map);
+	fprintf(f, "  distance          Hausdorff %.4f%%, RMS %.5f%% of the bounding-box diagonal %.6g\n",
+	        100 * r.q.hausdorff, 100 * r.q.rms, r.q.diag);
+	fprintf(f, "  remesh            %ld fold-overs, %ld self-intersecting face pairs, %ld degenerate\n",
+	        r.q.flipped, r.q.selfintersect, r.q.degenerate);
+	fprintf(f, "                    triangle area min/max %.4f, L2 stretch efficiency %.3f\n",
+	        r.q.area_ratio, r.q.efficiency);
+	fprintf(f, "                    %s, Euler characteristic %d\n",
+	        r.q.closed_manifold ? "closed manifold" : "NOT a closed manifold", r.q.euler);
+	fprintf(f, "  seconds           load %.2f, validate %.2f, parameterize %.2f, rotation %.2f, "
+	           "resample %.2f, quality %.2f\n",
+	        r.t_load, r.t_validate, r.t_param, r.t_rotation, r.t_resample, r.t_quality);
+}
+
+/* ---- main ---------------------------------------------------------- */
+
+struct MeshOptions {
+	ParamOptions po;
+	DomainMap map = DomainMap::EqualArea;
+	bool rotate = true, report = false, json = false;
+	const char *json_path = nullptr;
+};
+
+static ndo_grid *remesh_file(const char *path, int level, const MeshOptions &o, Report &r)
+{
+	r.input = path && strcmp(path, "-") != 0 ? path : "stdin";
+	r.level = level;
+	double t = now_seconds();
+	Mesh m;
+	std::string why;
+	if (!load(path ? path : "-", m, r.notes, why))
+		ndo_die("%s: %s", r.input.c_str(), why.c_str());
+	double t1 = now_seconds();
+	r.t_load = t1 - t;
+	if (!validate(m, r.notes, why))
+		ndo_die("%s: %s", r.input.c_str(), why.c_str());
+	for (const std::string &n : r.notes)
+		ndo_warn("%s: %s", r.input.c_str(), n.c_str());
+	r.in_vertices = m.p.size(), r.in_faces = m.f.size();
+	double t2 = now_seconds();
+	r.t_validate = t2 - t1;
+	std::vector<Vec3> s;
+	parameterize(m, o.po, s, r.ps);
+	if (r.ps.placement_failures)
+		r.notes.push_back(std::to_string(r.ps.placement_failures) +
+		                  " vertex splits found no kernel point (flips possible)");
+	double t3 = now_seconds();
+	r.t_param = t3 - t2;
+	SphereLocator *loc = locator_create(m, s);
+	double R[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+	if (o.rotate) {
+		optimize_rotation(loc, o.map, R, &r.rot_before, &r.rot_after);
+		progress_done();
+		r.rotated = true;
+	}
+	double t4 = now_seconds();
+	r.t_rotation = t4 - t3;
+	ndo_grid *g;
+	if (ndo_grid_create(level, &g) != NDO_OK)
+		ndo_die("%s", ndo_errdetail());
+	resample(loc, o.map, R, g);
+	progress_done();
+	locator_destroy(loc);
+	double t5 = now_seconds();
+	r.t_resample = t5 - t4;
+	if (o.report || o.json) {
+		measure_quality(m, g, true, true, r.q);
+		r.t_quality = now_seconds() - t5;
+	}
+	return g;
+}
+
+int main(int argc, char **argv)
+{
+	ndo_cli_init(argc, argv);
+	ndo_shape_params sp;
+	ndo_shape_defaults(&sp);
+	const char *shape = NULL, *out = NULL;
+	int level = 5;
+	MeshOptions mo;
+	const char *map_name = "equal-area";
+	enum { OPT_MAP = 256, OPT_AXES, OPT_AMP, OPT_FREQ, OPT_VERSION, OPT_PARAM, OPT_SWEEPS,
+	       OPT_SPRING_STEPS, OPT_NO_RELAX, OPT_NO_ROT, OPT_REPORT, OPT_JSON };
+	static const struct option opts[] = {
+		{"shape", required_argument, 0, 's'},
+		{"level", required_argument, 0, 'l'},
+		{"output", required_argument, 0, 'o'},
+		{"map", required_argument, 0, OPT_MAP},
+		{"axes", required_argument, 0, OPT_AXES},
+		{"amplitude", required_argument, 0, OPT_AMP},
+		{"frequency", required_argument, 0, OPT_FREQ},
+		{"param", required_argument, 0, OPT_PARAM},
+		{"sweeps", required_argument, 0, OPT_SWEEPS},
+		{"spring-steps", required_argument, 0, OPT_SPRING_STEPS},
+		{"no-relax", no_argument, 0, OPT_NO_RELAX},
+		{"no-rotation", no_argument, 0, OPT_NO_ROT},
+		{"report", no_argument, 0, OPT_REPORT},
+		{"json", optional_argument, 0, OPT_JSON},
+		{"help", no_argument, 0, 'h'},
+		{"version", no_argument, 0, OPT_VERSION},
+		{0, 0, 0, 0}};
+	int c;
+	while ((c = getopt_long(argc, argv, ":s:l:o:h", opts, NULL)) != -1) {
+		switch (c) {
+		case 's': shape = optarg; break;
+		case 'l': level = ndo_opt_level("--level", optarg); break;
+		case 'o': out = optarg; break;
+		case OPT_MAP:
+			map_name = optarg;
+			if (strcmp(optarg, "equal-area") == 0)
+				sp.map = NDO_MAP_EQUAL_AREA, mo.map = DomainMap::EqualArea;
+			else if (strcmp(optarg, "gnomonic") == 0)
+				sp.map = NDO_MAP_GNOMONIC, mo.map = DomainMap::Gnomonic;
+			else if (strcmp(optarg, "spring") == 0)
+				mo.map = DomainMap::Spring;
+			else
+				ndo_usage_error("--map: '%s' is not equal-area, gnomonic or spring", optarg);
+			break;
+		case OPT_AXES: ndo_opt_doubles("--axes", optarg, 3, sp.axes, 1e-6, 1e6); break;
+		case OPT_AMP: sp.amplitude = ndo_opt_double("--amplitude", optarg, -0.9, 0.9); break;
+		case OPT_FREQ: sp.frequency = ndo_opt_double("--frequency", optarg, 0, 1000); break;
+		case OPT_PARAM:
+			if (strcmp(optarg, "hierarchical") == 0)
+				mo.po.method = ParamMethod::Hierarchical;
+			else if (strcmp(optarg, "spring") == 0)
+				mo.po.method = ParamMethod::Spring;
+			else
+				ndo_usage_error("--param: '%s' is not hierarchical or spring", optarg);
+			break;
+		case OPT_SWEEPS: mo.po.sweeps = (int)ndo_opt_long("--sweeps", optarg, 0, 100); break;
+		case OPT_SPRING_STEPS:
+			mo.po.spring_steps = (int)ndo_opt_long("--spring-steps", optarg, 1, 100000);
+			break;
+		case OPT_NO_RELAX: mo.po.relax = 0; break;
+		case OPT_NO_ROT: mo.rotate = false; break;
+		case OPT_REPORT: mo.report = true; break;
+		case OPT_JSON: mo.json = true, mo.json_path = optarg; break;
+		case 'h': usage();
+		case OPT_VERSION: ndo_print_version();
+		default: ndo_bad_option(c);
+		}
+	}
+	const char *input = NULL;
+	if (optind < argc)
+		input = argv[optind++];
+	if (optind < argc)
+		ndo_usage_error("'%s': one input mesh at a time", argv[optind]);
+	if (shape && input)
+		ndo_usage_error("'%s': give an input mesh or --shape, not both", input);
+	if (shape && mo.map == DomainMap::Spring)
+		ndo_usage_error("--map: spring is for meshes; shapes use equal-area or gnomonic");
+	ndo_cli_check_output(out);
+	bool to_stdout = !out || strcmp(out, "-") == 0;
+	if (mo.json && mo.json_path && strcmp(mo.json_path, "-") == 0 && to_stdout)
+		ndo_usage_error("--json=-: standard output already carries the grid; use -o");
+	ndo_grid *g;
+	if (shape) {
+		if (ndo_shape_make(shape, level, &sp, &g) != NDO_OK)
+			ndo_usage_error("--shape: %s", ndo_errdetail());
+	} else {
+		if (!input && isatty(STDIN_FILENO))
+			ndo_usage_error("no input mesh and no --shape (standard input is a terminal)");
+		Report r;
+		r.param = mo.po.method == ParamMethod::Spring ? "spring" : "hierarchical";
+		r.map = map_name;
+		try {
+			g = remesh_file(input, level, mo, r);
+		} catch (const std::bad_alloc &) {
+			ndo_die("%s: out of memory", r.input.c_str());
+		} catch (const std::exception &e) {
+			ndo_die("%s: %s", r.input.c_str(), e.what());
+		}
+		if (mo.report)
+			print_report(stderr, r);
+		if (mo.json) {
+			if (!mo.json_path) {
+				print_json(stderr, r);
+			} else if (strcmp(mo.json_path, "-") == 0) {
+				print_json(stdout, r);
+			} else {
+				FILE *f = fopen(mo.json_path, "w");
+				if (!f)
+					ndo_die("--json: %s: %s", mo.json_path, strerror(errno));
+				print_json(f, r);
+				if (fclose(f) != 0)
+					ndo_die("--json: %s: %s", mo.json_path, strerror(errno));
+			}
+		}
+	}
+	ndo_cli_save(out, g);
+	ndo_grid_destroy(g);
+	ndo_close_stdout();
+	return NDO_EXIT_OK;
+}
