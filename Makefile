@@ -101,7 +101,7 @@ deps:
 
 # The test suite runs against the sanitizer build.
 test: deps
-	$(MAKE) SAN=1 check-build
+	$(MAKE) -j$(shell nproc) SAN=1 check-build
 	tests/run build/asan
 
 check-build: all $(TEST_PROGS)

@@ -77,4 +77,4 @@ expect_error "remesh: unknown shape" 2 "unknown shape 'cube'" remesh --shape cub
 expect_error "remesh: level 11" 2 "level 11 is outside" remesh --shape sphere -l 11
 expect_error "remesh: bad axes" 2 "--axes: '1,2' is not 3 comma-separated numbers" remesh --shape ellipsoid --axes 1,2
 expect_error "remesh: zero axis" 2 "--axes: 0 is outside" remesh --shape ellipsoid --axes 1,0,1
-expect_error "remesh: no shape" 2 "no --shape given" remesh -l 3
+expect_error "remesh: nothing on stdin" 1 "empty" remesh -l 3
