@@ -12,5 +12,6 @@
 #include "ndo/export.h"
 #include "ndo/subdivide.h"
 #include "ndo/cli.h"
+#include "ndo/membrane.h"
 
 #endif

@@ -1,0 +1,4 @@
+# The implicit integrators (lib/implicit.c) solve with CHOLMOD; the unit
+# tests check the membrane's spectrum with LAPACK's dense eigensolver.
+NDO_LIBS += -lcholmod -llapack -lblas
+DEBS_TOOLS += libsuitesparse-dev liblapack-dev libbullet-dev python3-matplotlib
