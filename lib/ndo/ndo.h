@@ -13,5 +13,6 @@
 #include "ndo/subdivide.h"
 #include "ndo/cli.h"
 #include "ndo/membrane.h"
+#include "ndo/sim.h"
 
 #endif
