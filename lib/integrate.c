@@ -6,6 +6,7 @@
 #include "ndo/topology.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
@@ -1204,9 +1205,11 @@ int ndo__restiffen(ndo_sim *s)
 	positions_aos(s, s->u, x);
 	int rc = ndo_stencil_build(s->level, x, s->p.material.stiffness, &s->st);
 	free(x);
-	if (rc)
-		return ndo__fail(rc, "re-assembling K at step %lld: %s", (long long)s->step,
-		                 ndo_errdetail());
+	if (rc) {
+		char d[256];
+		snprintf(d, sizeof d, "%s", ndo_errdetail());
+		return ndo__fail(rc, "re-assembling K at step %lld: %s", (long long)s->step, d);
+	}
 	if ((rc = build_held_edges(s)))
 		return rc;
 	ndo__implicit_invalidate(s, 0);

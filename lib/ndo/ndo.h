@@ -14,5 +14,6 @@
 #include "ndo/cli.h"
 #include "ndo/membrane.h"
 #include "ndo/sim.h"
+#include "ndo/scene.h"
 
 #endif
