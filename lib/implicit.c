@@ -12,8 +12,9 @@
  * The matrix depends on h, the active set and K: it is factored once
  * (symbolic analysis once per active set) and again only when one of them
  * changes — re-assembling K (restiffening) refactors.  Forces that follow
- * the surface (normal directions, pressure) are evaluated at the positions
- * the step starts from.
+ * the surface (normal directions, pressure) are evaluated at t + h at the
+ * predicted positions u + h v (their dependence on the positions is not
+ * in the matrix), which keeps the trapezoid second order.
  */
 #include "sim_private.h"
 #include "ndo/status.h"
@@ -197,12 +198,23 @@ int ndo__implicit_step(ndo_sim *s, double h)
 	/* f(t+h) − f(t), at the positions the step starts from. */
 	double *df = NULL;
 	if (s->f) {
-		/* The same positions: the penalty springs cancel out of df. */
+		/* f(t+h) at the predicted positions u + h v, so that forces that
+		 * follow the surface keep the trapezoid second order. */
 		df = s->vs;
+		double *up = s->us;
 		memcpy(df, s->f, 3 * cnt * sizeof *df);
-		ndo__forces_prepare(s, s->t + h, s->u);
+		for (size_t q = 0; q < 3 * cnt; q++)
+			up[q] = s->u[q] + h * s->v[q];
+		ndo__forces_prepare(s, s->t + h, up);
 		for (size_t q = 0; q < 3 * cnt; q++)
 			df[q] = s->f[q] - df[q];
+		/* The penalty springs are in the matrix already: take their
+		 * change, −α h v, back out. */
+		for (size_t k = 0; k < s->npen; k++)
+			for (int c = 0; c < 3; c++) {
+				size_t q = (size_t)c * cnt + (size_t)s->pen[k];
+				df[q] += s->alpha * h * s->v[q];
+			}
 	}
 	/* Trapezoid: K_AA v_A (held velocities do not enter: held positions
 	 * stay put during the step). */

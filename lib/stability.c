@@ -166,16 +166,23 @@ double ndo_stable_step(ndo_method m, double omega, double gamma, int *bound)
 			at = 0;
 		}
 	}
-	/* Methods whose region holds no useful piece of the imaginary axis
+	/* Overdamped limiting mode: the real axis.  Otherwise the limit is the
+	 * oscillation when the step spans more than a radian of the top mode
+	 * (damping only shifts it), and the damping when the step is stable
+	 * only because damping outweighs a growth on the imaginary axis
 	 * (Euler, midpoint, and rkf45 as propagated, which grows by up to
-	 * 6·10⁻⁴ per step there) live on damping alone. */
+	 * 6·10⁻⁴ per step there). */
 	int b = gamma > 2 * at ? NDO_BOUND_REAL
-	        : ndo_stability_interval(m, 1) > 0.5 ? NDO_BOUND_OSCILLATION
-	                                             : NDO_BOUND_DAMPING;
+	        : best * omega > 1 ? NDO_BOUND_OSCILLATION
+	                           : NDO_BOUND_DAMPING;
 	if (bound)
 		*bound = b;
-	if (b == NDO_BOUND_DAMPING && gamma == 0)
+	if (gamma == 0 && ndo_stability_interval(m, 1) < 0.5) {
+		/* No damping and no imaginary interval: unstable at every step. */
+		if (bound)
+			*bound = NDO_BOUND_DAMPING;
 		return 0;
+	}
 	return best;
 }
 

@@ -241,10 +241,13 @@ void ndo_sim_energy_get(ndo_sim *s, ndo_sim_energy *e);
 /* What limits a method's step (ndo_critical.bound). */
 enum {
 	NDO_BOUND_NONE = 0,    /* unconditionally stable (implicit methods) */
-	NDO_BOUND_OSCILLATION, /* the imaginary-axis interval: h ≈ c_imag/ω_max */
-	NDO_BOUND_DAMPING,     /* no imaginary interval: stable only thanks to
-	                          damping (forward Euler h ≈ γ/ω², midpoint
-	                          h ≈ (4γ/ω⁴)^⅓); 0 without damping */
+	NDO_BOUND_OSCILLATION, /* the top mode's oscillation, h ω_max > 1: the
+	                          imaginary-axis interval, h ≈ c_imag/ω_max,
+	                          shifted by damping */
+	NDO_BOUND_DAMPING,     /* stable only because damping outweighs a
+	                          growth on the imaginary axis (forward Euler
+	                          h ≈ γ/ω², midpoint h ≈ (4γ/ω⁴)^⅓, rkf45 with
+	                          light damping); 0 without damping */
 	NDO_BOUND_REAL         /* an overdamped mode: the negative real axis,
 	                          h ≈ c_real/γ */
 };
