@@ -564,6 +564,15 @@ int ndo_sim_store(const ndo_sim *s, ndo_grid *g)
 #define NDO_HOT
 #endif
 
+/* Add a kernel's partial sums to the diagnostics. */
+static void diag_add(ndo__diag *d, double pe2, double ke2, double power, double umax2)
+{
+	d->pe2 += pe2;
+	d->ke2 += ke2;
+	d->power += power;
+	d->umax2 = fmax(d->umax2, umax2);
+}
+
 /* a = M⁻¹(f − K u) − γ v over the interior runs.  hasF and hasD are
  * constants at each call site, so the compiler emits four loops, the
  * plain ones free to vectorize. */
@@ -604,12 +613,8 @@ accel_interior(const ndo_sim *s, const double *restrict u, const double *restric
 			}
 		}
 	}
-	if (hasD) {
-		d->pe2 += pe2;
-		d->ke2 += ke2;
-		d->power += pw;
-		d->umax2 = fmax(d->umax2, um);
-	}
+	if (hasD)
+		diag_add(d, pe2, ke2, pw, um);
 }
 
 /* The active border nodes, through their neighbour tables. */
@@ -994,12 +999,8 @@ rk4_interior(const ndo_sim *s, const rk4_pass *g, const int mode, const int hasF
 			}
 		}
 	}
-	if (d) {
-		d->pe2 += pe2;
-		d->ke2 += ke2;
-		d->power += pw;
-		d->umax2 = fmax(d->umax2, um);
-	}
+	if (d)
+		diag_add(d, pe2, ke2, pw, um);
 }
 
 /* The same for the active border nodes (neighbour tables). */

@@ -26,13 +26,13 @@ kern() { awk -F'|' -v l="$1" -v c="$2" '$2 == " " l " " { gsub(/ /, "", $c); pri
 summary=$(awk -v s="$rk4_6" -v l2="$l2" -v l3="$l3" -v avx2="$avx2" -v sse2="$sse2" \
 	-v g5="$(kern 5 6)" -v b5="$(kern 5 7)" -v g6="$(kern 6 6)" -v b6="$(kern 6 7)" 'BEGIN {
 	printf "- Goal: rk4 at level 6 (8,194 nodes) at 2,000 steps/s or more on one core.  Measured: **%.0f steps/s** (%.3g node-steps/s): %s.\n",
-		s, s * 8194, s >= 2000 ? "met" : "NOT met"
+		s, s * 8194, (s >= 2000 ? "met" : "NOT met")
 	printf "- The RK4 kernel at level 5 (its 0.5 MiB of state in L2) moves %.1f GB/s, %.0f%% of the STREAM-like triad from L2 (%.1f GB/s), and computes %.1f GFLOP/s, %.0f%% of the AVX2 FMA peak (%.1f GFLOP/s).\n",
 		b5, 100 * b5 / l2, l2, g5, 100 * g5 / avx2, avx2
-	printf "- At level 6 (1.9 MiB, in L3) it moves %.1f GB/s, %.0f%% of the triad from L3 (%.1f GB/s), at %.1f GFLOP/s (%.0f%% of AVX2 peak, %.0f%% of what SSE2 alone could do).\n",
+	printf "- At level 6 (1.9 MiB, in L3) it moves %.1f GB/s, %.0f%% of the triad from L3 (%.1f GB/s), at %.1f GFLOP/s (%.0f%% of the AVX2 peak; %.0f%% of the SSE2 peak, the baseline build).\n",
 		b6, 100 * b6 / l3, l3, g6, 100 * g6 / avx2, 100 * g6 / sse2
-	printf "- So the kernel is bound by memory traffic, not arithmetic: each node-step streams about 1.3 KB (41 doubles per pass, 4 passes) for 342 flops, 0.26 flop/byte, where the FMA units would need about %.1f flop/byte of L2 bandwidth to be the limit.\n",
-		avx2 / l2
+	printf "- Roofline: a node-step streams about 1.3 KB (41 doubles per pass, 4 passes) for 342 flops, 0.26 flop/byte, below this machine'"'"'s balance of %.2f flop/byte (AVX2 peak / L2 triad): the kernel is on the memory-bound side, where %.1f GFLOP/s would be attainable from L2; it reaches %.0f%% of that.  Neither limit is reached; likely causes, not measured one by one: the 29 concurrent streams of a pass and the scalar loop over the border nodes (6%% of the time in a profile at level 6).\n",
+		avx2 / l2, 0.26 * l2, 100 * g5 / (0.26 * l2)
 }')
 
 {
