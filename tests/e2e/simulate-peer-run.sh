@@ -112,3 +112,10 @@ for m in backward-euler trapezoid; do
 		s3.tgrid -o m.tgrid
 done
 check "restiffen and a mesh output" simulate-peer -q --restiffen 2 -s scene.txt s3.tgrid -o m.obj
+
+# The sample scenes run (on a coarse grid, a few steps).
+for f in "$NDO_ROOT"/samples/*.scene; do
+	shape=$(grep -o 'remesh --shape [a-z]*' "$f" | cut -d' ' -f3)
+	check "sample $(basename "$f")" sh -c "remesh --shape ${shape:-sphere} -l 3 |
+		simulate-peer -q -s '$f' -n 5 -o sample.tgrid"
+done
