@@ -830,6 +830,43 @@ static void implicit_factors_only_when_needed(void)
 	ndo_grid_destroy(g);
 }
 
+/* From a grid's channels (f32 velocity, rest, pin) and back: the state,
+ * time and step survive, and a store adds f64 velocity and rest. */
+static void grid_channels_round_trip(void)
+{
+	ndo_grid *g = shape("ellipsoid", 3), *r = shape("sphere", 3);
+	ndo_channel *c;
+	ndo_grid_add(g, NDO_CH_REST, NDO_F64, 3, &c);
+	memcpy(c->data, r->ch[0].data, 3 * g->count * sizeof(double));
+	ndo_grid_add(g, NDO_CH_VELOCITY, NDO_F32, 3, &c);
+	((float *)c->data)[3 * 40 + 1] = 0.5f;
+	ndo_grid_add(g, NDO_CH_PIN, NDO_U8, 1, &c);
+	((uint8_t *)c->data)[7] = 1;
+	g->time = 2.5;
+	g->step = 10;
+	ndo_sim_params p;
+	ndo_sim_defaults(&p);
+	ndo_sim *s;
+	CHECK(ndo_sim_from_grid(g, &p, &s) == 0, "from grid: %s", ndo_errdetail());
+	CHECK(ndo_sim_time(s) == 2.5 && ndo_sim_step_count(s) == 10, "time and step");
+	for (int k = 0; k < 5; k++)
+		ndo_sim_step(s, 0.01);
+	ndo_grid *out;
+	ndo_grid_copy(r, &out);
+	CHECK(ndo_sim_store(s, out) == 0, "store: %s", ndo_errdetail());
+	const double *x = ndo_grid_find(out, NDO_CH_POSITION)->data,
+	             *rest = ndo_grid_find(out, NDO_CH_REST)->data,
+	             *X = r->ch[0].data, *x0 = g->ch[0].data;
+	CHECK(ndo_grid_find(out, NDO_CH_VELOCITY)->type == NDO_F64, "velocity stored as f64");
+	CHECK(max_diff(rest, X, 3 * g->count) == 0, "the rest shape is the grid's rest channel");
+	CHECK(x[3 * 7] == x0[3 * 7] && x[3 * 7 + 2] == x0[3 * 7 + 2], "the pinned node stayed");
+	CHECK(max_diff(x, x0, 3 * g->count) > 1e-4, "the ellipsoid moved towards its sphere");
+	CHECK(fabs(out->time - 2.55) < 1e-12 && out->step == 15, "time %g step %lld", out->time,
+	      (long long)out->step);
+	ndo_sim_destroy(s);
+	ndo_grid_destroy(out), ndo_grid_destroy(g), ndo_grid_destroy(r);
+}
+
 int main(void)
 {
 	ck_program = "test_sim";
@@ -848,5 +885,6 @@ int main(void)
 	RUN(divergence_is_reported);
 	RUN(input_work_balances_energy);
 	RUN(implicit_factors_only_when_needed);
+	RUN(grid_channels_round_trip);
 	return ck_failed_cases != 0;
 }
