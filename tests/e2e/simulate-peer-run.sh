@@ -119,3 +119,17 @@ for f in "$NDO_ROOT"/samples/*.scene; do
 	check "sample $(basename "$f")" sh -c "remesh --shape ${shape:-sphere} -l 3 |
 		simulate-peer -q -s '$f' -n 5 -o sample.tgrid"
 done
+
+# Interrupted: exit 130 after the current step, the log kept, no output
+# and no temporary file left.
+mkdir -p intr && cd intr
+timeout --preserve-status -s INT 1 simulate-peer -q ../s3.tgrid -n 100000000 --dt 1e-3 \
+	--log int.csv -o int.tgrid 2>err.log
+rc=$?
+if [ $rc = 130 ] && [ "$(ls)" = "err.log
+int.csv" ] && grep -q 'interrupted at step' err.log; then
+	pass "SIGINT: exit 130, log kept, nothing else written"
+else
+	fail "SIGINT" "exit $rc, files: $(ls | tr '\n' ' ')"
+fi
+cd ..

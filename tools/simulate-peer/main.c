@@ -6,6 +6,7 @@
 #include "ndo/ndo.h"
 
 #include <getopt.h>
+#include <signal.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -13,7 +14,15 @@
 #include <time.h>
 #include <unistd.h>
 
-enum { EXIT_DIVERGED = 3 };
+enum { EXIT_DIVERGED = 3, EXIT_INTERRUPTED = 130 };
+
+/* SIGINT or SIGTERM: stop after the current step, keep the log, write no
+ * output and leave no temporary file behind. */
+static volatile sig_atomic_t interrupted;
+static void on_signal(int sig)
+{
+	interrupted = sig;
+}
 
 static __attribute__((noreturn)) void usage(void)
 {
@@ -76,7 +85,8 @@ static __attribute__((noreturn)) void usage(void)
 	    "\n"
 	    "Exit status: 0 success, 1 bad input or failed write, 2 usage error,\n"
 	    "3 the simulation diverged (the output grid is not written; frames and log\n"
-	    "rows written before the divergence stay, all of finite states).\n",
+	    "rows written before the divergence stay, all of finite states), 130\n"
+	    "interrupted (SIGINT or SIGTERM: the same, after the current step).\n",
 	    ndo_progname);
 	ndo_close_stdout();
 	exit(NDO_EXIT_OK);
@@ -323,7 +333,23 @@ static void simulate(run *r)
 	int show = !r->quiet && isatty(STDERR_FILENO);
 	int64_t frame = 0;
 	double t0 = now(), shown = t0;
+	struct sigaction sa = {0};
+	sa.sa_handler = on_signal;
+	sigaction(SIGINT, &sa, NULL);
+	sigaction(SIGTERM, &sa, NULL);
 	for (int64_t k = 0; k <= r->steps; k++) {
+		if (interrupted) {
+			if (show)
+				fputc('\n', stderr);
+			if (r->logging && ndo_out_commit(&r->log))
+				ndo_warn("%s: %s", r->sc.log, ndo_errdetail());
+			fprintf(stderr, "%s: interrupted at step %lld (t = %.6g s); %s\n", ndo_progname,
+			        (long long)ndo_sim_step_count(r->sim), ndo_sim_time(r->sim),
+			        r->sc.output ? "the output was not written" : "nothing written to "
+			                                                       "standard output");
+			ndo_close_stdout();
+			exit(EXIT_INTERRUPTED);
+		}
 		if (k > 0 && ndo_sim_step(r->sim, r->dt)) {
 			if (show)
 				fputc('\n', stderr);
