@@ -22,6 +22,7 @@ const char *ndo_strerror(int code)
 	case NDO_ENOTFOUND: return "not found";
 	case NDO_EEXPORT: return "mesh export failed";
 	case NDO_EEOF: return "end of input";
+	case NDO_EDIVERGED: return "simulation diverged";
 	}
 	return "unknown error";
 }

@@ -1,0 +1,243 @@
+/* forces.c — external forces on the membrane: sinusoidal forces on faces
+ * (the thesis' experiments, §5.2), point forces and uniform pressure
+ * (ndo/sim.h, struct ndo_force). */
+#include "sim_private.h"
+#include "ndo/status.h"
+#include "ndo/topology.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+double ndo_force_value(const ndo_force *f, double t)
+{
+	if (f->frequency > 0)
+		return f->amplitude * sin(2 * M_PI * f->frequency * t + f->phase);
+	return f->amplitude;
+}
+
+/* The three stored nodes of triangle t (ndo_triangles order). */
+static void triangle_nodes(const ndo_sim *s, size_t t, int32_t v[3])
+{
+	size_t cell = t / 2;
+	int i = (int)(cell % (size_t)(2 * s->n)), j = (int)(cell / (size_t)(2 * s->n));
+	int32_t a = (int32_t)ndo_node(s->w, i, j), b = a + 1, c = a + s->w, d = c + 1;
+	if (t % 2 == 0)
+		v[0] = a, v[1] = b, v[2] = c;
+	else
+		v[0] = b, v[1] = d, v[2] = c;
+	for (int k = 0; k < 3; k++)
+		v[k] = s->canon[v[k]];
+}
+
+static void position(const ndo_sim *s, const double *u, int32_t p, double x[3])
+{
+	for (int c = 0; c < 3; c++)
+		x[c] = s->X[(size_t)c * s->count + (size_t)p] + u[(size_t)c * s->count + (size_t)p];
+}
+
+/* ½ (b − a) × (c − a): the area vector, outward for the grids ndo makes. */
+static void area_vector(const double a[3], const double b[3], const double c[3], double n[3])
+{
+	double e1[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+	double e2[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+	n[0] = 0.5 * (e1[1] * e2[2] - e1[2] * e2[1]);
+	n[1] = 0.5 * (e1[2] * e2[0] - e1[0] * e2[2]);
+	n[2] = 0.5 * (e1[0] * e2[1] - e1[1] * e2[0]);
+}
+
+static void unit(double n[3])
+{
+	double l = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+	if (l > 0)
+		n[0] /= l, n[1] /= l, n[2] /= l;
+}
+
+static int add_fnode(ndo_sim *s, int32_t p, size_t *cap)
+{
+	for (size_t k = 0; k < s->nfnodes; k++)
+		if (s->fnodes[k] == p)
+			return NDO_OK;
+	if (s->nfnodes == *cap) {
+		size_t nc = *cap ? 2 * *cap : 64;
+		int32_t *q = realloc(s->fnodes, nc * sizeof *q);
+		if (!q)
+			return ndo__fail(NDO_ENOMEM, "out of memory for forces");
+		s->fnodes = q;
+		*cap = nc;
+	}
+	s->fnodes[s->nfnodes++] = p;
+	return NDO_OK;
+}
+
+int ndo__forces_resolve(ndo_sim *s, const ndo_force *forces, int nforces)
+{
+	size_t ntri = ndo_triangle_count(s->level), cap = 0;
+	s->forces = calloc((size_t)(nforces > 0 ? nforces : 1), sizeof *s->forces);
+	if (!s->forces)
+		return ndo__fail(NDO_ENOMEM, "out of memory for forces");
+	s->nforces = nforces;
+	for (int k = 0; k < nforces; k++) {
+		const ndo_force *in = &forces[k];
+		ndo__force *f = &s->forces[k];
+		f->f = *in;
+		f->f.items = NULL;
+		if (!isfinite(in->amplitude) || !(in->frequency >= 0) || !isfinite(in->frequency) ||
+		    !isfinite(in->phase))
+			return ndo__fail(NDO_ERANGE, "force %d: amplitude, frequency and phase must "
+			                 "be finite, the frequency ≥ 0", k + 1);
+		if (in->kind != NDO_FORCE_PRESSURE && !in->normal) {
+			double l = sqrt(in->dir[0] * in->dir[0] + in->dir[1] * in->dir[1] +
+			                in->dir[2] * in->dir[2]);
+			if (!(l > 0) || !isfinite(l))
+				return ndo__fail(NDO_ERANGE, "force %d: the direction must be a nonzero "
+				                 "finite vector", k + 1);
+			for (int c = 0; c < 3; c++)
+				f->f.dir[c] = in->dir[c] / l;
+		}
+		if (in->kind == NDO_FORCE_PRESSURE) {
+			s->has_pressure = 1;
+			continue;
+		}
+		if (in->count == 0)
+			return ndo__fail(NDO_EINVAL, "force %d selects no %s", k + 1,
+			                 in->kind == NDO_FORCE_FACE ? "faces" : "nodes");
+		f->f.items = malloc(in->count * sizeof *f->f.items);
+		if (!f->f.items)
+			return ndo__fail(NDO_ENOMEM, "out of memory for forces");
+		f->f.count = in->count;
+		if (in->kind == NDO_FORCE_FACE) {
+			f->share = malloc(in->count * sizeof *f->share);
+			if (!f->share)
+				return ndo__fail(NDO_ENOMEM, "out of memory for forces");
+			double total = 0;
+			for (size_t q = 0; q < in->count; q++) {
+				if (in->items[q] < 0 || (size_t)in->items[q] >= ntri)
+					return ndo__fail(NDO_EINVAL, "force %d: face %d is outside 0..%zu",
+					                 k + 1, (int)in->items[q], ntri - 1);
+				int32_t v[3];
+				double a[3], b[3], c[3], n[3];
+				triangle_nodes(s, (size_t)in->items[q], v);
+				for (int d = 0; d < 3; d++) {
+					a[d] = s->X[(size_t)d * s->count + (size_t)v[0]];
+					b[d] = s->X[(size_t)d * s->count + (size_t)v[1]];
+					c[d] = s->X[(size_t)d * s->count + (size_t)v[2]];
+				}
+				area_vector(a, b, c, n);
+				f->share[q] = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+				total += f->share[q];
+				f->f.items[q] = in->items[q];
+				for (int d = 0; d < 3; d++)
+					if (add_fnode(s, v[d], &cap))
+						return NDO_ENOMEM;
+			}
+			for (size_t q = 0; q < in->count; q++)
+				f->share[q] /= total;
+		} else {
+			for (size_t q = 0; q < in->count; q++) {
+				if (in->items[q] < 0 || (size_t)in->items[q] >= s->count)
+					return ndo__fail(NDO_EINVAL, "force %d: node %d is outside 0..%zu",
+					                 k + 1, (int)in->items[q], s->count - 1);
+				f->f.items[q] = s->canon[in->items[q]];
+				if (add_fnode(s, f->f.items[q], &cap))
+					return NDO_ENOMEM;
+			}
+		}
+	}
+	s->has_forces = nforces > 0;
+	return NDO_OK;
+}
+
+void ndo__forces_free(ndo_sim *s)
+{
+	for (int k = 0; k < s->nforces; k++) {
+		free(s->forces[k].f.items);
+		free(s->forces[k].share);
+	}
+	free(s->forces);
+	free(s->fnodes);
+}
+
+/* The area-weighted normal at node p (the six lattice triangles around
+ * it; at a corner each real triangle is counted twice, which leaves the
+ * direction unchanged). */
+static void vertex_normal(const ndo_sim *s, const double *u, int32_t p, double n[3])
+{
+	size_t nb[6];
+	ndo_neighbors(s->level, (int)(p % s->w), (int)(p / s->w), nb);
+	double x0[3], x1[3], x2[3], a[3];
+	position(s, u, p, x0);
+	n[0] = n[1] = n[2] = 0;
+	for (int k = 0; k < 6; k++) {
+		position(s, u, s->canon[nb[k]], x1);
+		position(s, u, s->canon[nb[(k + 1) % 6]], x2);
+		area_vector(x0, x1, x2, a);
+		for (int c = 0; c < 3; c++)
+			n[c] += a[c];
+	}
+	unit(n);
+}
+
+void ndo__forces_eval(ndo_sim *s, double t, const double *u)
+{
+	size_t cnt = s->count;
+	double *f = s->f;
+	if (s->has_pressure)
+		memset(f, 0, 3 * cnt * sizeof *f);
+	else
+		for (size_t k = 0; k < s->nfnodes; k++)
+			for (int c = 0; c < 3; c++)
+				f[(size_t)c * cnt + (size_t)s->fnodes[k]] = 0;
+	for (int k = 0; k < s->nforces; k++) {
+		const ndo__force *F = &s->forces[k];
+		double val = ndo_force_value(&F->f, t);
+		if (val == 0)
+			continue;
+		if (F->f.kind == NDO_FORCE_PRESSURE) {
+			size_t ntri = ndo_triangle_count(s->level);
+			for (size_t q = 0; q < ntri; q++) {
+				int32_t v[3];
+				double a[3], b[3], c[3], n[3];
+				triangle_nodes(s, q, v);
+				position(s, u, v[0], a);
+				position(s, u, v[1], b);
+				position(s, u, v[2], c);
+				area_vector(a, b, c, n);
+				for (int d = 0; d < 3; d++)
+					for (int e = 0; e < 3; e++)
+						f[(size_t)e * cnt + (size_t)v[d]] += val * n[e] / 3;
+			}
+		} else if (F->f.kind == NDO_FORCE_FACE) {
+			for (size_t q = 0; q < F->f.count; q++) {
+				int32_t v[3];
+				double dir[3];
+				triangle_nodes(s, (size_t)F->f.items[q], v);
+				if (F->f.normal) {
+					double a[3], b[3], c[3];
+					position(s, u, v[0], a);
+					position(s, u, v[1], b);
+					position(s, u, v[2], c);
+					area_vector(a, b, c, dir);
+					unit(dir);
+				} else {
+					memcpy(dir, F->f.dir, sizeof dir);
+				}
+				double each = val * F->share[q] / 3;
+				for (int d = 0; d < 3; d++)
+					for (int e = 0; e < 3; e++)
+						f[(size_t)e * cnt + (size_t)v[d]] += each * dir[e];
+			}
+		} else {
+			for (size_t q = 0; q < F->f.count; q++) {
+				int32_t p = F->f.items[q];
+				double dir[3];
+				if (F->f.normal)
+					vertex_normal(s, u, p, dir);
+				else
+					memcpy(dir, F->f.dir, sizeof dir);
+				for (int e = 0; e < 3; e++)
+					f[(size_t)e * cnt + (size_t)p] += val * dir[e];
+			}
+		}
+	}
+}

@@ -1,0 +1,274 @@
+/* implicit.c — backward Euler and the trapezoidal rule, solved with CHOLMOD
+ * (ndo/sim.h).
+ *
+ * With x' = v eliminated, each step is one symmetric positive definite
+ * solve for the new velocities of the integrated nodes A:
+ *   backward Euler  (M + hB + h²K_AA) v' = M v + h (f(t+h) − K u)
+ *   trapezoid       (M + h/2 B + h²/4 K_AA) v'
+ *                     = (M − h/2 B) v − h²/4 K_AA v + h/2 (f(t) + f(t+h)) − h K u
+ * then u' = u + h v' (backward Euler) or u' = u + h/2 (v + v') (trapezoid).
+ * K u is the full product, so the held nodes enter as boundary values; they
+ * do not move during the step.  Penalty springs add α to K's diagonal.
+ * The matrix depends on h, the active set and K: it is factored once
+ * (symbolic analysis once per active set) and again only when one of them
+ * changes — re-assembling K (restiffening) refactors.  Forces that follow
+ * the surface (normal directions, pressure) are evaluated at t + h at the
+ * predicted positions u + h v (their dependence on the positions is not
+ * in the matrix), which keeps the trapezoid second order.
+ */
+#include "sim_private.h"
+#include "ndo/status.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <suitesparse/cholmod.h>
+
+struct ndo__implicit {
+	cholmod_common cm;
+	cholmod_factor *L;
+	int32_t *idx;    /* stored node → row of A, or −1 */
+	int32_t *nodes;  /* row → canonical stored node */
+	size_t na;
+	double h;        /* the step the factor is for */
+	int valid;       /* the factor matches h, K and the active set */
+	int pattern_ok;  /* the symbolic analysis matches the active set */
+};
+
+void ndo__implicit_free(ndo_sim *s)
+{
+	ndo__implicit *im = s->imp;
+	if (!im)
+		return;
+	if (im->L)
+		cholmod_free_factor(&im->L, &im->cm);
+	cholmod_finish(&im->cm);
+	free(im->idx);
+	free(im->nodes);
+	free(im);
+	s->imp = NULL;
+}
+
+void ndo__implicit_invalidate(ndo_sim *s, int pattern)
+{
+	if (!s->imp)
+		return;
+	s->imp->valid = 0;
+	if (pattern)
+		s->imp->pattern_ok = 0;
+}
+
+static int index_rows(ndo_sim *s, ndo__implicit *im)
+{
+	free(im->idx);
+	free(im->nodes);
+	im->idx = malloc(s->count * sizeof *im->idx);
+	im->nodes = malloc((s->count + 1) * sizeof *im->nodes);
+	if (!im->idx || !im->nodes)
+		return ndo__fail(NDO_ENOMEM, "out of memory for the implicit solver");
+	im->na = 0;
+	for (size_t p = 0; p < s->count; p++)
+		im->idx[p] = -1;
+	for (size_t k = 0; k < s->nespan; k++)
+		for (int32_t p = s->espan[k].a; p < s->espan[k].b; p++) {
+			im->idx[p] = (int32_t)im->na;
+			im->nodes[im->na++] = p;
+		}
+	/* Duplicates share their vertex's row. */
+	for (size_t p = 0; p < s->count; p++)
+		im->idx[p] = im->idx[s->canon[p]];
+	return NDO_OK;
+}
+
+/* A = M + cb·B + ck·(K_AA + P), upper triangle, as a CHOLMOD matrix. */
+static cholmod_sparse *assemble(ndo_sim *s, ndo__implicit *im, double cb, double ck)
+{
+	size_t nz = 7 * im->na + 1;
+	cholmod_triplet *T = cholmod_allocate_triplet(im->na, im->na, nz, 1, CHOLMOD_REAL, &im->cm);
+	if (!T)
+		return NULL;
+	int *Ti = T->i, *Tj = T->j;
+	double *Tx = T->x;
+	size_t n = 0;
+	const size_t w = (size_t)s->w;
+	double *pen = calloc(s->count, sizeof *pen);
+	if (!pen) {
+		cholmod_free_triplet(&T, &im->cm);
+		return NULL;
+	}
+	for (size_t k = 0; k < s->npen; k++)
+		pen[s->pen[k]] = s->alpha;
+	size_t b = 0;
+	for (size_t r = 0; r < im->na; r++) {
+		size_t p = (size_t)im->nodes[r];
+		int32_t nb[6];
+		double cf[6];
+		int i = (int)(p % w), j = (int)(p / w);
+		if (i >= 1 && i <= 2 * s->n - 1 && j >= 1 && j <= s->n - 1) {
+			const size_t q[6] = {p + 1, p + w, p + w - 1, p - 1, p - w, p - w + 1};
+			const double c[6] = {s->st.e[0][p], s->st.e[1][p], s->st.e[2][p],
+			                     s->st.e[0][p - 1], s->st.e[1][p - w], s->st.e[2][p - w + 1]};
+			for (int k = 0; k < 6; k++)
+				nb[k] = (int32_t)q[k], cf[k] = c[k];
+		} else {
+			while (b < s->st.nborder && (size_t)s->st.border[b] < p)
+				b++;
+			for (int k = 0; k < 6; k++)
+				nb[k] = s->st.bnb[6 * b + k], cf[k] = s->st.bc[6 * b + k];
+		}
+		double diag = s->mass[p] * (1 + cb * s->gam[p]) + ck * pen[p];
+		for (int k = 0; k < 6; k++) {
+			diag += ck * cf[k];
+			int32_t c = im->idx[nb[k]];
+			/* Each edge once, from its lower row (stype > 0 transposes
+			 * nothing we leave out); at a corner both half-weight copies. */
+			if (c > (int32_t)r) {
+				Ti[n] = (int)r, Tj[n] = c, Tx[n] = -ck * cf[k];
+				n++;
+			}
+		}
+		Ti[n] = (int)r, Tj[n] = (int)r, Tx[n] = diag;
+		n++;
+	}
+	free(pen);
+	T->nnz = n;
+	cholmod_sparse *A = cholmod_triplet_to_sparse(T, n, &im->cm);
+	cholmod_free_triplet(&T, &im->cm);
+	return A;
+}
+
+static int factor(ndo_sim *s, ndo__implicit *im, double h)
+{
+	int rc;
+	if (!im->pattern_ok) {
+		if ((rc = index_rows(s, im)))
+			return rc;
+		if (im->L)
+			cholmod_free_factor(&im->L, &im->cm);
+	}
+	int trap = s->p.method == NDO_TRAPEZOID;
+	cholmod_sparse *A = assemble(s, im, trap ? h / 2 : h, trap ? h * h / 4 : h * h);
+	if (!A)
+		return ndo__fail(NDO_ENOMEM, "out of memory assembling the implicit system");
+	if (!im->pattern_ok) {
+		im->L = cholmod_analyze(A, &im->cm);
+		if (!im->L) {
+			cholmod_free_sparse(&A, &im->cm);
+			return ndo__fail(NDO_ENOMEM, "CHOLMOD could not analyze the system");
+		}
+		im->pattern_ok = 1;
+	}
+	int ok = cholmod_factorize(A, im->L, &im->cm);
+	cholmod_free_sparse(&A, &im->cm);
+	if (!ok || im->cm.status == CHOLMOD_NOT_POSDEF)
+		return ndo__fail(NDO_EDIVERGED, "the implicit system is not positive definite "
+		                 "(CHOLMOD status %d)", im->cm.status);
+	if (im->cm.status < CHOLMOD_OK)
+		return ndo__fail(NDO_ENOMEM, "CHOLMOD failed (status %d)", im->cm.status);
+	im->h = h;
+	im->valid = 1;
+	s->stats.factorizations++;
+	return NDO_OK;
+}
+
+int ndo__implicit_step(ndo_sim *s, double h)
+{
+	ndo__implicit *im = s->imp;
+	if (!im) {
+		im = s->imp = calloc(1, sizeof *im);
+		if (!im)
+			return ndo__fail(NDO_ENOMEM, "out of memory for the implicit solver");
+		cholmod_start(&im->cm);
+		im->cm.print = 0; /* errors come back as status codes */
+	}
+	int rc;
+	if ((!im->valid || im->h != h) && (rc = factor(s, im, h)))
+		return rc;
+	const size_t cnt = s->count;
+	const int trap = s->p.method == NDO_TRAPEZOID;
+	/* a = M⁻¹(f(t) − K u) − γ v (f holds the penalty springs), with the
+	 * divergence test. */
+	ndo__diag d;
+	double *a = s->ka[0];
+	ndo__accel(s, s->t, s->u, s->v, a, &d);
+	s->last_power = d.power;
+	if ((rc = ndo__diverged(s, &d, 1)))
+		return rc;
+	/* f(t+h) − f(t), at the positions the step starts from. */
+	double *df = NULL;
+	if (s->f) {
+		/* f(t+h) at the predicted positions u + h v, so that forces that
+		 * follow the surface keep the trapezoid second order. */
+		df = s->vs;
+		double *up = s->us;
+		memcpy(df, s->f, 3 * cnt * sizeof *df);
+		for (size_t q = 0; q < 3 * cnt; q++)
+			up[q] = s->u[q] + h * s->v[q];
+		ndo__forces_prepare(s, s->t + h, up);
+		for (size_t q = 0; q < 3 * cnt; q++)
+			df[q] = s->f[q] - df[q];
+		/* The penalty springs are in the matrix already: take their
+		 * change, −α h v, back out. */
+		for (size_t k = 0; k < s->npen; k++)
+			for (int c = 0; c < 3; c++) {
+				size_t q = (size_t)c * cnt + (size_t)s->pen[k];
+				df[q] += s->alpha * h * s->v[q];
+			}
+	}
+	/* Trapezoid: K_AA v_A (held velocities do not enter: held positions
+	 * stay put during the step). */
+	double *kv = s->tmp;
+	if (trap) {
+		double *vm = s->us;
+		for (size_t q = 0; q < 3 * cnt; q++)
+			vm[q] = s->active[q % cnt] ? s->v[q] : 0;
+		for (int c = 0; c < 3; c++)
+			ndo_stencil_apply(&s->st, vm + (size_t)c * cnt, kv + (size_t)c * cnt);
+		for (size_t k = 0; k < s->npen; k++)
+			for (int c = 0; c < 3; c++) {
+				size_t q = (size_t)c * cnt + (size_t)s->pen[k];
+				kv[q] += s->alpha * vm[q];
+			}
+	}
+	cholmod_dense *B = cholmod_allocate_dense(im->na, 3, im->na, CHOLMOD_REAL, &im->cm);
+	if (!B)
+		return ndo__fail(NDO_ENOMEM, "out of memory for the implicit solver");
+	double *bx = B->x;
+	for (size_t r = 0; r < im->na; r++) {
+		size_t p = (size_t)im->nodes[r];
+		double m = s->mass[p], g = s->gam[p];
+		for (int c = 0; c < 3; c++) {
+			size_t q = (size_t)c * cnt + p;
+			/* M(a + γv) = f(t) − K u − P(u − ū). */
+			double rhs = m * s->v[q] + h * m * (a[q] + g * s->v[q]);
+			if (trap)
+				rhs += -0.5 * h * m * g * s->v[q] - 0.25 * h * h * kv[q] +
+				       (df ? 0.5 * h * df[q] : 0);
+			else if (df)
+				rhs += h * df[q];
+			bx[(size_t)c * im->na + r] = rhs;
+		}
+	}
+	cholmod_dense *X = cholmod_solve(CHOLMOD_A, im->L, B, &im->cm);
+	cholmod_free_dense(&B, &im->cm);
+	if (!X)
+		return ndo__fail(NDO_ENOMEM, "CHOLMOD could not solve (status %d)", im->cm.status);
+	const double *xv = X->x;
+	for (size_t r = 0; r < im->na; r++) {
+		size_t p = (size_t)im->nodes[r];
+		for (int c = 0; c < 3; c++) {
+			size_t q = (size_t)c * cnt + p;
+			double vn = xv[(size_t)c * im->na + r];
+			s->u[q] += trap ? 0.5 * h * (s->v[q] + vn) : h * vn;
+			s->v[q] = vn;
+		}
+	}
+	cholmod_free_dense(&X, &im->cm);
+	ndo__sync_planes(s, s->u, 3);
+	ndo__sync_planes(s, s->v, 3);
+	s->pend_h = h;
+	s->pend_power = s->last_power;
+	s->stats.substeps++;
+	return NDO_OK;
+}

@@ -1,0 +1,1271 @@
+/* integrate.c — the simulation object, the membrane's acceleration and the
+ * explicit integrators (ndo/sim.h).  The implicit ones are in implicit.c,
+ * the critical step in stability.c, the forces in forces.c. */
+#include "sim_private.h"
+#include "ndo/status.h"
+#include "ndo/topology.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+const char *const ndo_method_names[] = {"euler", "symplectic-euler", "midpoint", "rk4",
+                                        "rkf45", "backward-euler", "trapezoid", NULL};
+
+int ndo_method_parse(const char *name, ndo_method *m)
+{
+	for (int k = 0; ndo_method_names[k]; k++)
+		if (strcmp(name, ndo_method_names[k]) == 0) {
+			*m = (ndo_method)k;
+			return NDO_OK;
+		}
+	return ndo__fail(NDO_ENOTFOUND, "unknown integrator '%s' (euler, symplectic-euler, "
+	                 "midpoint, rk4, rkf45, backward-euler, trapezoid)", name);
+}
+
+int ndo_method_is_implicit(ndo_method m)
+{
+	return m == NDO_BACKWARD_EULER || m == NDO_TRAPEZOID;
+}
+
+/* ---- Butcher tableaux ---------------------------------------------------- */
+
+typedef struct tableau {
+	int s;            /* stages */
+	double c[6];      /* stage times */
+	double a[6][6];   /* stage weights, strictly lower triangular */
+	double b[6];      /* the propagated solution */
+	double bhat[6];   /* the embedded solution (rkf45) */
+} tableau;
+
+static const tableau tb_euler = {1, {0}, {{0}}, {1}, {0}};
+static const tableau tb_midpoint = {2, {0, 0.5}, {{0}, {0.5}}, {0, 1}, {0}};
+static const tableau tb_rk4 = {4,
+                               {0, 0.5, 0.5, 1},
+                               {{0}, {0.5}, {0, 0.5}, {0, 0, 1}},
+                               {1. / 6, 1. / 3, 1. / 3, 1. / 6},
+                               {0}};
+/* Fehlberg's 4(5) pair, thesis eq. 3.7, propagating the 5th-order
+ * solution (eq. 3.7.g) as the thesis does.  The thesis prints +845/4104
+ * in eq. 3.7.e; Fehlberg's coefficient is −845/4104 (the row must sum to
+ * c₅ = 1, and only then is the method 4th/5th order). */
+static const tableau tb_rkf45 = {
+	6,
+	{0, 1. / 4, 3. / 8, 12. / 13, 1, 1. / 2},
+	{{0},
+	 {1. / 4},
+	 {3. / 32, 9. / 32},
+	 {1932. / 2197, -7200. / 2197, 7296. / 2197},
+	 {439. / 216, -8, 3680. / 513, -845. / 4104},
+	 {-8. / 27, 2, -3544. / 2565, 1859. / 4104, -11. / 40}},
+	{16. / 135, 0, 6656. / 12825, 28561. / 56430, -9. / 50, 2. / 55},
+	{25. / 216, 0, 1408. / 2565, 2197. / 4104, -1. / 5, 0}};
+
+static const tableau *method_tableau(ndo_method m)
+{
+	switch (m) {
+	case NDO_EULER: return &tb_euler;
+	case NDO_MIDPOINT: return &tb_midpoint;
+	case NDO_RK4: return &tb_rk4;
+	case NDO_RKF45: return &tb_rkf45;
+	default: return NULL;
+	}
+}
+
+int ndo__stability_poly(ndo_method m, double r[7])
+{
+	const tableau *tb = method_tableau(m);
+	if (!tb)
+		return -1;
+	/* R(z) = 1 + Σ_k (bᵀ A^(k−1) 1) z^k: the method applied to y' = λy. */
+	double x[6];
+	for (int i = 0; i < tb->s; i++)
+		x[i] = 1;
+	r[0] = 1;
+	for (int k = 1; k <= tb->s; k++) {
+		double dot = 0;
+		for (int i = 0; i < tb->s; i++)
+			dot += tb->b[i] * x[i];
+		r[k] = dot;
+		double y[6];
+		for (int i = 0; i < tb->s; i++) {
+			y[i] = 0;
+			for (int j = 0; j < i; j++)
+				y[i] += tb->a[i][j] * x[j];
+		}
+		memcpy(x, y, sizeof x);
+	}
+	return tb->s;
+}
+
+int ndo__tableau_check(ndo_method m, double *worst)
+{
+	const tableau *tb = method_tableau(m);
+	if (!tb)
+		return -1;
+	double w = 0, sb = 0, sbh = 0;
+	for (int i = 0; i < tb->s; i++) {
+		double row = 0;
+		for (int j = 0; j < i; j++)
+			row += tb->a[i][j];
+		w = fmax(w, fabs(row - tb->c[i]));
+		sb += tb->b[i];
+		sbh += tb->bhat[i];
+	}
+	w = fmax(w, fabs(sb - 1));
+	if (m == NDO_RKF45)
+		w = fmax(w, fabs(sbh - 1));
+	*worst = w;
+	return 0;
+}
+
+/* ---- creation ------------------------------------------------------------ */
+
+void ndo_sim_defaults(ndo_sim_params *p)
+{
+	memset(p, 0, sizeof *p);
+	p->material.stiffness = 1;
+	p->material.density = 1;
+	p->method = NDO_RK4;
+	p->tol = 1e-6;
+	p->pin_mode = NDO_PINS_PROJECT;
+	p->energy_bound = 10;
+}
+
+static int check_params(const ndo_sim_params *p)
+{
+	const ndo_material *m = &p->material;
+	if (!(m->stiffness > 0) || !isfinite(m->stiffness))
+		return ndo__fail(NDO_ERANGE, "stiffness %g: must be positive and finite", m->stiffness);
+	if (!(m->density > 0) || !isfinite(m->density))
+		return ndo__fail(NDO_ERANGE, "density %g: must be positive and finite", m->density);
+	if (!(m->damping >= 0) || !isfinite(m->damping))
+		return ndo__fail(NDO_ERANGE, "damping %g: must be ≥ 0 and finite", m->damping);
+	if (!(m->mass_damping >= 0) || !isfinite(m->mass_damping))
+		return ndo__fail(NDO_ERANGE, "mass damping %g: must be ≥ 0 and finite",
+		                 m->mass_damping);
+	if ((int)p->method < 0 || p->method >= NDO_METHOD_COUNT)
+		return ndo__fail(NDO_ERANGE, "unknown integrator %d", (int)p->method);
+	if (!(p->tol > 0) || !(p->tol < 1))
+		return ndo__fail(NDO_ERANGE, "tolerance %g: must lie in (0, 1)", p->tol);
+	if (p->restiffen < 0)
+		return ndo__fail(NDO_ERANGE, "restiffen %d: must be ≥ 0", p->restiffen);
+	if (!(p->penalty >= 0) || !isfinite(p->penalty))
+		return ndo__fail(NDO_ERANGE, "penalty %g: must be ≥ 0 and finite", p->penalty);
+	if (!(p->energy_bound >= 0) || !isfinite(p->energy_bound))
+		return ndo__fail(NDO_ERANGE, "energy bound %g: must be ≥ 0 and finite", p->energy_bound);
+	if (p->nforces < 0 || (p->nforces > 0 && !p->forces))
+		return ndo__fail(NDO_EINVAL, "bad force list");
+	return NDO_OK;
+}
+
+void ndo__sync_planes(const ndo_sim *s, double *planes, int nplanes)
+{
+	for (int c = 0; c < nplanes; c++)
+		ndo_sync(s->level, planes + (size_t)c * s->count, sizeof(double));
+}
+
+static double *planes(size_t count, int n)
+{
+	return calloc((size_t)n * count, sizeof(double));
+}
+
+/* Positions X + u as H × W × 3 (AoS), for the stencil and mass builders. */
+static void positions_aos(const ndo_sim *s, const double *u, double *x)
+{
+	for (size_t p = 0; p < s->count; p++)
+		for (int c = 0; c < 3; c++)
+			x[3 * p + c] = s->X[(size_t)c * s->count + p] +
+			               (u ? u[(size_t)c * s->count + p] : 0);
+}
+
+/* The edges from active to held nodes, with their stiffness coefficients
+ * (rebuilt when K is). */
+static int build_held_edges(ndo_sim *s)
+{
+	free(s->hedge);
+	s->hedge = NULL;
+	s->nhedge = 0;
+	size_t cap = 0;
+	const size_t w = (size_t)s->w;
+	for (size_t pass = 0; pass < 2; pass++) {
+		size_t n = 0;
+		for (size_t k = 0; k < s->nispan; k++)
+			for (size_t p = (size_t)s->ispan[k].a; p < (size_t)s->ispan[k].b; p++) {
+				const size_t nb[6] = {p + 1, p + w, p + w - 1, p - 1, p - w, p - w + 1};
+				const double cf[6] = {s->st.e[0][p], s->st.e[1][p], s->st.e[2][p],
+				                      s->st.e[0][p - 1], s->st.e[1][p - w],
+				                      s->st.e[2][p - w + 1]};
+				for (int q = 0; q < 6; q++)
+					if (!s->active[nb[q]]) {
+						if (pass)
+							s->hedge[n] = (ndo__edge){(int32_t)p, s->canon[nb[q]], cf[q]};
+						n++;
+					}
+			}
+		for (size_t k = 0; k < s->nbact; k++) {
+			size_t b = (size_t)s->bact[k];
+			for (int q = 0; q < 6; q++) {
+				int32_t r = s->st.bnb[6 * b + q];
+				if (!s->active[r]) {
+					if (pass)
+						s->hedge[n] = (ndo__edge){s->st.border[b], r, s->st.bc[6 * b + q]};
+					n++;
+				}
+			}
+		}
+		if (pass == 0) {
+			cap = n;
+			s->hedge = malloc((cap + 1) * sizeof *s->hedge);
+			if (!s->hedge)
+				return ndo__fail(NDO_ENOMEM, "out of memory for the active set");
+		}
+		s->nhedge = n;
+	}
+	return NDO_OK;
+}
+
+/* The runs of active nodes, the active border nodes, and the edges from
+ * active to held nodes. */
+static int build_spans(ndo_sim *s)
+{
+	free(s->espan), free(s->ispan), free(s->bact);
+	s->espan = s->ispan = NULL;
+	s->bact = NULL;
+	s->nespan = s->nispan = s->nbact = 0;
+	size_t cnt = s->count;
+	/* At most one run per node; shrunk below. */
+	s->espan = malloc((cnt / 2 + 2) * sizeof *s->espan);
+	s->ispan = malloc((cnt / 2 + 2) * sizeof *s->ispan);
+	s->bact = malloc((s->st.nborder + 1) * sizeof *s->bact);
+	if (!s->espan || !s->ispan || !s->bact)
+		return ndo__fail(NDO_ENOMEM, "out of memory for the active set");
+	int w = s->w, n = s->n;
+	for (size_t p = 0; p < cnt; p++) {
+		if (!s->active[p] || s->canon[p] != (int32_t)p)
+			continue;
+		if (s->nespan && s->espan[s->nespan - 1].b == (int32_t)p)
+			s->espan[s->nespan - 1].b++;
+		else
+			s->espan[s->nespan++] = (ndo__span){(int32_t)p, (int32_t)p + 1};
+		int i = (int)(p % (size_t)w), j = (int)(p / (size_t)w);
+		if (i >= 1 && i <= 2 * n - 1 && j >= 1 && j <= n - 1) {
+			if (s->nispan && s->ispan[s->nispan - 1].b == (int32_t)p)
+				s->ispan[s->nispan - 1].b++;
+			else
+				s->ispan[s->nispan++] = (ndo__span){(int32_t)p, (int32_t)p + 1};
+		}
+	}
+	for (size_t b = 0; b < s->st.nborder; b++)
+		if (s->active[s->st.border[b]])
+			s->bact[s->nbact++] = (int32_t)b;
+	s->any_held = 0;
+	for (size_t p = 0; p < cnt; p++)
+		s->any_held |= !s->active[p];
+	return build_held_edges(s);
+}
+
+static int set_active(ndo_sim *s, const uint8_t *mask)
+{
+	for (size_t p = 0; p < s->count; p++) {
+		int32_t c = s->canon[p];
+		s->active[p] = (mask ? mask[c] != 0 : 1) &&
+		               !(s->p.pin_mode == NDO_PINS_PROJECT && s->pin[c]);
+	}
+	return build_spans(s);
+}
+
+static int workspace(ndo_sim *s)
+{
+	int stages = 1;
+	const tableau *tb = method_tableau(s->p.method);
+	if (tb)
+		stages = tb->s;
+	size_t cnt = s->count;
+	s->us = planes(cnt, 3);
+	s->vs = planes(cnt, 3);
+	s->tmp = planes(cnt, 3);
+	if (!s->us || !s->vs || !s->tmp)
+		return ndo__fail(NDO_ENOMEM, "out of memory for the integrator");
+	for (int k = 0; k < stages; k++) {
+		if (k > 0 && !(s->kv[k] = planes(cnt, 3)))
+			return ndo__fail(NDO_ENOMEM, "out of memory for the integrator");
+		if (!(s->ka[k] = planes(cnt, 3)))
+			return ndo__fail(NDO_ENOMEM, "out of memory for the integrator");
+	}
+	if ((s->has_forces || s->npen) && !(s->f = planes(cnt, 3)))
+		return ndo__fail(NDO_ENOMEM, "out of memory for the forces");
+	return NDO_OK;
+}
+
+int ndo_sim_create(int level, const double *x, const double *v, const double *rest,
+                   const uint8_t *pin, const ndo_sim_params *p, ndo_sim **out)
+{
+	ndo__clear_error();
+	*out = NULL;
+	if (level < 0 || level > NDO_MAX_LEVEL)
+		return ndo__fail(NDO_ERANGE, "level %d is outside 0..%d", level, NDO_MAX_LEVEL);
+	int rc = check_params(p);
+	if (rc)
+		return rc;
+	ndo_sim *s = calloc(1, sizeof *s);
+	if (!s)
+		return ndo__fail(NDO_ENOMEM, "out of memory for a simulation");
+	s->level = level;
+	s->n = 1 << level;
+	s->w = 2 * s->n + 1;
+	s->h = s->n + 1;
+	s->count = (size_t)s->w * (size_t)s->h;
+	s->p = *p;
+	s->p.forces = NULL;
+	s->p.nforces = 0;
+	size_t cnt = s->count;
+	double *aos = malloc(3 * cnt * sizeof *aos);
+	s->canon = malloc(cnt * sizeof *s->canon);
+	s->X = planes(cnt, 3);
+	s->u = planes(cnt, 3);
+	s->v = planes(cnt, 3);
+	s->mass = planes(cnt, 1);
+	s->minv = planes(cnt, 1);
+	s->gam = planes(cnt, 1);
+	s->pin = calloc(cnt, 1);
+	s->active = calloc(cnt, 1);
+	if (!aos || !s->canon || !s->X || !s->u || !s->v || !s->mass || !s->minv || !s->gam ||
+	    !s->pin || !s->active) {
+		rc = ndo__fail(NDO_ENOMEM, "out of memory for a simulation");
+		goto fail;
+	}
+	for (size_t q = 0; q < cnt; q++)
+		s->canon[q] = (int32_t)ndo_canonical(level, (int)(q % (size_t)s->w),
+		                                     (int)(q / (size_t)s->w));
+	const double *R = rest ? rest : x;
+	for (size_t q = 0; q < cnt; q++) {
+		size_t c = (size_t)s->canon[q];
+		for (int d = 0; d < 3; d++) {
+			double xi = x[3 * c + d], Xi = R[3 * c + d], vi = v ? v[3 * c + d] : 0;
+			if (!isfinite(xi) || !isfinite(Xi) || !isfinite(vi)) {
+				rc = ndo__fail(NDO_ERANGE, "node (%d, %d): %s is not finite",
+				               (int)(c % (size_t)s->w), (int)(c / (size_t)s->w),
+				               !isfinite(xi) ? "position" : !isfinite(Xi) ? "rest position"
+				                                                          : "velocity");
+				goto fail;
+			}
+			s->X[(size_t)d * cnt + q] = Xi;
+			s->u[(size_t)d * cnt + q] = xi - Xi;
+			s->v[(size_t)d * cnt + q] = vi;
+		}
+		s->pin[q] = pin ? pin[c] != 0 : 0;
+	}
+	positions_aos(s, NULL, aos);
+	if ((rc = ndo_stencil_build(level, aos, p->material.stiffness, &s->st)))
+		goto fail;
+	if ((rc = ndo_lumped_mass(level, aos, p->material.density, s->mass, NULL)))
+		goto fail;
+	double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+	for (size_t q = 0; q < cnt; q++) {
+		s->minv[q] = 1 / s->mass[q];
+		/* B_ii = b·A_i + a·m_i with A_i = m_i/ρ the node's lumped area
+		 * (thesis appendix B: the viscous force −b ∂u/∂t per unit area,
+		 * lumped like the mass); the acceleration needs B_ii / m_i. */
+		s->gam[q] = p->material.damping / p->material.density + p->material.mass_damping;
+		for (int d = 0; d < 3; d++) {
+			lo[d] = fmin(lo[d], aos[3 * q + d]);
+			hi[d] = fmax(hi[d], aos[3 * q + d]);
+		}
+	}
+	s->rest_size = sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
+	                    (hi[2] - lo[2]) * (hi[2] - lo[2]));
+	/* Penalty pins: springs to the initial positions. */
+	if (p->pin_mode == NDO_PINS_PENALTY) {
+		size_t np = 0;
+		for (size_t q = 0; q < cnt; q++)
+			np += s->pin[q] && s->canon[q] == (int32_t)q;
+		s->pen = malloc((np + 1) * sizeof *s->pen);
+		s->pen_target = malloc((3 * np + 1) * sizeof *s->pen_target);
+		if (!s->pen || !s->pen_target) {
+			rc = ndo__fail(NDO_ENOMEM, "out of memory for pins");
+			goto fail;
+		}
+		double dmax = 0;
+		ndo_stencil_diagonal(&s->st, aos); /* aos is free by now: 3·count ≥ count */
+		for (size_t q = 0; q < cnt; q++)
+			dmax = fmax(dmax, aos[q]);
+		/* Payne–Irons (thesis §4.3.3): "a very large number α". 1000 × the
+		 * stiffest diagonal keeps a pinned node within 1/1000 of the motion
+		 * of its neighbours. */
+		s->alpha = p->penalty > 0 ? p->penalty : 1000 * dmax;
+		for (size_t q = 0; q < cnt; q++)
+			if (s->pin[q] && s->canon[q] == (int32_t)q) {
+				for (int d = 0; d < 3; d++)
+					s->pen_target[3 * s->npen + d] = s->u[(size_t)d * cnt + q];
+				s->pen[s->npen++] = (int32_t)q;
+			}
+	}
+	if ((rc = ndo__forces_resolve(s, p->forces, p->nforces)))
+		goto fail;
+	if ((rc = workspace(s)) || (rc = set_active(s, NULL)))
+		goto fail;
+	free(aos);
+	*out = s;
+	return NDO_OK;
+fail:
+	free(aos);
+	ndo_sim_destroy(s);
+	return rc;
+}
+
+int ndo_sim_from_grid(ndo_grid *g, const ndo_sim_params *p, ndo_sim **out)
+{
+	ndo__clear_error();
+	*out = NULL;
+	double *x = ndo_grid_f64(g, NDO_CH_POSITION, 3);
+	if (!x)
+		return ndo__fail(NDO_EFORMAT, "no usable position channel (3 floating-point values)");
+	const double *v = NULL, *rest = NULL;
+	const uint8_t *pin = NULL;
+	if (ndo_grid_find(g, NDO_CH_VELOCITY) && !(v = ndo_grid_f64(g, NDO_CH_VELOCITY, 3)))
+		return ndo__fail(NDO_EFORMAT, "channel 'velocity' is not 3 floating-point values");
+	if (ndo_grid_find(g, NDO_CH_REST) && !(rest = ndo_grid_f64(g, NDO_CH_REST, 3)))
+		return ndo__fail(NDO_EFORMAT, "channel 'rest' is not 3 floating-point values");
+	ndo_channel *pc = ndo_grid_find(g, NDO_CH_PIN);
+	if (pc) {
+		if (pc->type != NDO_U8 || pc->comps != 1)
+			return ndo__fail(NDO_EFORMAT, "channel 'pin' is not 1 × u8");
+		pin = pc->data;
+	}
+	int rc = ndo_sim_create(g->level, x, v, rest, pin, p, out);
+	if (rc == NDO_OK)
+		ndo_sim_set_time(*out, g->time, g->step);
+	return rc;
+}
+
+void ndo_sim_destroy(ndo_sim *s)
+{
+	if (!s)
+		return;
+	ndo__implicit_free(s);
+	ndo_stencil_free(&s->st);
+	free(s->X), free(s->u), free(s->v), free(s->mass), free(s->minv), free(s->gam);
+	free(s->pin), free(s->active), free(s->canon);
+	free(s->espan), free(s->ispan), free(s->bact), free(s->hedge);
+	free(s->pen), free(s->pen_target);
+	if (s->forces)
+		ndo__forces_free(s);
+	free(s->f);
+	free(s->us), free(s->vs), free(s->tmp), free(s->err);
+	for (int k = 0; k < 6; k++)
+		free(s->kv[k]), free(s->ka[k]);
+	free(s);
+}
+
+/* ---- state ---------------------------------------------------------------- */
+
+double ndo_sim_time(const ndo_sim *s) { return s->t; }
+int64_t ndo_sim_step_count(const ndo_sim *s) { return s->step; }
+int ndo_sim_level(const ndo_sim *s) { return s->level; }
+ndo_method ndo_sim_method(const ndo_sim *s) { return s->p.method; }
+
+void ndo_sim_set_time(ndo_sim *s, double t, int64_t step)
+{
+	s->t = t;
+	s->step = step;
+}
+
+void ndo_sim_stats_get(const ndo_sim *s, ndo_sim_stats *st) { *st = s->stats; }
+
+void ndo_sim_get(const ndo_sim *s, double *x, double *v)
+{
+	size_t cnt = s->count;
+	for (size_t p = 0; p < cnt; p++)
+		for (int c = 0; c < 3; c++) {
+			if (x)
+				x[3 * p + c] = s->X[(size_t)c * cnt + p] + s->u[(size_t)c * cnt + p];
+			if (v)
+				v[3 * p + c] = s->v[(size_t)c * cnt + p];
+		}
+}
+
+void ndo_sim_set(ndo_sim *s, size_t n, const int32_t *nodes, const double *x,
+                 const double *v)
+{
+	size_t cnt = s->count;
+	if (!nodes)
+		n = cnt;
+	for (size_t k = 0; k < n; k++) {
+		size_t q = nodes ? (size_t)nodes[k] : k;
+		if (q >= cnt)
+			continue;
+		size_t p = (size_t)s->canon[q];
+		for (int c = 0; c < 3; c++) {
+			if (x)
+				s->u[(size_t)c * cnt + p] = x[3 * k + c] - s->X[(size_t)c * cnt + p];
+			if (v)
+				s->v[(size_t)c * cnt + p] = v[3 * k + c];
+		}
+	}
+	ndo__sync_planes(s, s->u, 3);
+	ndo__sync_planes(s, s->v, 3);
+}
+
+int ndo_sim_set_active(ndo_sim *s, const uint8_t *mask)
+{
+	ndo__clear_error();
+	int rc = set_active(s, mask);
+	ndo__implicit_invalidate(s, 1);
+	return rc;
+}
+
+int ndo_sim_store(const ndo_sim *s, ndo_grid *g)
+{
+	ndo__clear_error();
+	if (g->level != s->level)
+		return ndo__fail(NDO_EINVAL, "grid level %d, simulation level %d", g->level, s->level);
+	ndo_channel *cx, *cv, *cr;
+	int rc;
+	if (ndo_grid_find(g, NDO_CH_POSITION) &&
+	    ndo_grid_find(g, NDO_CH_POSITION)->type != NDO_F64 &&
+	    (rc = ndo_grid_convert(g, NDO_CH_POSITION, NDO_F64)))
+		return rc;
+	const char *names[2] = {NDO_CH_VELOCITY, NDO_CH_REST};
+	for (int k = 0; k < 2; k++) {
+		ndo_channel *c = ndo_grid_find(g, names[k]);
+		if (c && (c->type != NDO_F64 || c->comps != 3))
+			ndo_grid_remove(g, names[k]);
+	}
+	if ((rc = ndo_grid_add(g, NDO_CH_POSITION, NDO_F64, 3, &cx)) ||
+	    (rc = ndo_grid_add(g, NDO_CH_VELOCITY, NDO_F64, 3, &cv)) ||
+	    (rc = ndo_grid_add(g, NDO_CH_REST, NDO_F64, 3, &cr)))
+		return rc;
+	/* Adding channels may move the table: look them up again. */
+	cx = ndo_grid_find(g, NDO_CH_POSITION);
+	cv = ndo_grid_find(g, NDO_CH_VELOCITY);
+	cr = ndo_grid_find(g, NDO_CH_REST);
+	ndo_sim_get(s, cx->data, cv->data);
+	double *r = cr->data;
+	for (size_t p = 0; p < s->count; p++)
+		for (int c = 0; c < 3; c++)
+			r[3 * p + c] = s->X[(size_t)c * s->count + p];
+	g->time = s->t;
+	g->step = s->step;
+	return NDO_OK;
+}
+
+/* ---- the acceleration ------------------------------------------------------ */
+
+/* The hot loops are compiled twice, for x86-64 (SSE2) and for x86-64-v3
+ * (AVX2 + FMA), and the loader picks what the CPU runs (GCC function
+ * multi-versioning): about twice the speed where AVX2 exists, while the
+ * library still runs on any x86-64. */
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define NDO_HOT __attribute__((target_clones("arch=x86-64-v3", "default")))
+#else
+#define NDO_HOT
+#endif
+
+/* Add a kernel's partial sums to the diagnostics. */
+static void diag_add(ndo__diag *d, double pe2, double ke2, double power, double umax2)
+{
+	d->pe2 += pe2;
+	d->ke2 += ke2;
+	d->power += power;
+	d->umax2 = fmax(d->umax2, umax2);
+}
+
+/* a = M⁻¹(f − K u) − γ v over the interior runs.  hasF and hasD are
+ * constants at each call site, so the compiler emits four loops, the
+ * plain ones free to vectorize. */
+static inline __attribute__((always_inline)) void
+accel_interior(const ndo_sim *s, const double *restrict u, const double *restrict v,
+               const double *restrict F, double *restrict a, ndo__diag *d, const int hasF,
+               const int hasD)
+{
+	const size_t cnt = s->count, w = (size_t)s->w;
+	const double *restrict e0 = s->st.e[0], *restrict e1 = s->st.e[1],
+	                       *restrict e2 = s->st.e[2];
+	const double *restrict minv = s->minv, *restrict gam = s->gam, *restrict mass = s->mass;
+	const double *restrict ux = u, *restrict uy = u + cnt, *restrict uz = u + 2 * cnt;
+	const double *restrict vx = v, *restrict vy = v + cnt, *restrict vz = v + 2 * cnt;
+	double *restrict ax = a, *restrict ay = a + cnt, *restrict az = a + 2 * cnt;
+	double pe2 = 0, ke2 = 0, pw = 0, um = 0;
+	for (size_t k = 0; k < s->nispan; k++) {
+		const size_t lo = (size_t)s->ispan[k].a, hi = (size_t)s->ispan[k].b;
+		for (size_t p = lo; p < hi; p++) {
+			const double c0 = e0[p], c1 = e1[p], c2 = e2[p], c3 = e0[p - 1], c4 = e1[p - w],
+			             c5 = e2[p - w + 1];
+#define KU(U)                                                                             \
+	(c0 * (U[p] - U[p + 1]) + c1 * (U[p] - U[p + w]) + c2 * (U[p] - U[p + w - 1]) +     \
+	 c3 * (U[p] - U[p - 1]) + c4 * (U[p] - U[p - w]) + c5 * (U[p] - U[p - w + 1]))
+			const double kx = KU(ux), ky = KU(uy), kz = KU(uz);
+#undef KU
+			const double fx = hasF ? F[p] : 0, fy = hasF ? F[cnt + p] : 0,
+			             fz = hasF ? F[2 * cnt + p] : 0;
+			ax[p] = minv[p] * (fx - kx) - gam[p] * vx[p];
+			ay[p] = minv[p] * (fy - ky) - gam[p] * vy[p];
+			az[p] = minv[p] * (fz - kz) - gam[p] * vz[p];
+			if (hasD) {
+				pe2 += ux[p] * kx + uy[p] * ky + uz[p] * kz;
+				ke2 += mass[p] * (vx[p] * vx[p] + vy[p] * vy[p] + vz[p] * vz[p]);
+				pw += fx * vx[p] + fy * vy[p] + fz * vz[p];
+				const double u2 = ux[p] * ux[p] + uy[p] * uy[p] + uz[p] * uz[p];
+				um = u2 > um ? u2 : um; /* not fmax: a libm call stops vectorization */
+			}
+		}
+	}
+	if (hasD)
+		diag_add(d, pe2, ke2, pw, um);
+}
+
+/* The active border nodes, through their neighbour tables. */
+static void accel_border(const ndo_sim *s, const double *u, const double *v, const double *F,
+                         double *a, ndo__diag *d)
+{
+	const size_t cnt = s->count;
+	for (size_t k = 0; k < s->nbact; k++) {
+		size_t b = (size_t)s->bact[k];
+		size_t p = (size_t)s->st.border[b];
+		const int32_t *nb = s->st.bnb + 6 * b;
+		const double *cf = s->st.bc + 6 * b;
+		for (int c = 0; c < 3; c++) {
+			const double *U = u + (size_t)c * cnt;
+			double ku = 0;
+			for (int q = 0; q < 6; q++)
+				ku += cf[q] * (U[p] - U[nb[q]]);
+			double f = F ? F[(size_t)c * cnt + p] : 0, vc = v[(size_t)c * cnt + p];
+			a[(size_t)c * cnt + p] = s->minv[p] * (f - ku) - s->gam[p] * vc;
+			if (d) {
+				d->pe2 += U[p] * ku;
+				d->ke2 += s->mass[p] * vc * vc;
+				d->power += f * vc;
+			}
+		}
+		if (d)
+			d->umax2 = fmax(d->umax2, u[p] * u[p] + u[cnt + p] * u[cnt + p] +
+			                              u[2 * cnt + p] * u[2 * cnt + p]);
+	}
+}
+
+/* The power the held nodes put into the active ones: Σ v_p · c u_q over
+ * the edges from an active p to a held q (the part of −K u that the held
+ * displacements contribute).  Only for the divergence bound. */
+static double held_power(const ndo_sim *s, const double *u, const double *v)
+{
+	const size_t cnt = s->count;
+	double pw = 0;
+	for (size_t k = 0; k < s->nhedge; k++) {
+		size_t p = (size_t)s->hedge[k].p, q = (size_t)s->hedge[k].q;
+		for (int c = 0; c < 3; c++)
+			pw += v[(size_t)c * cnt + p] * s->hedge[k].c * u[(size_t)c * cnt + q];
+	}
+	return pw;
+}
+
+const double *ndo__forces_prepare(ndo_sim *s, double t, const double *u)
+{
+	if (!s->f)
+		return NULL;
+	const size_t cnt = s->count;
+	for (size_t k = 0; k < s->npen; k++)
+		for (int c = 0; c < 3; c++)
+			s->f[(size_t)c * cnt + (size_t)s->pen[k]] = 0;
+	if (s->has_forces)
+		ndo__forces_eval(s, t, u);
+	/* Payne–Irons penalty springs (thesis §4.3.3) to the pins' initial
+	 * positions: a force like any other, so every kernel handles them. */
+	for (size_t k = 0; k < s->npen; k++) {
+		size_t p = (size_t)s->pen[k];
+		for (int c = 0; c < 3; c++)
+			s->f[(size_t)c * cnt + p] -=
+				s->alpha * (u[(size_t)c * cnt + p] - s->pen_target[3 * k + c]);
+	}
+	return s->f;
+}
+
+/* The kernels counted the penalty springs as forces: move their share
+ * from the input power to the potential energy. */
+static void penalty_diag(const ndo_sim *s, const double *u, const double *v, ndo__diag *d)
+{
+	const size_t cnt = s->count;
+	for (size_t k = 0; k < s->npen; k++) {
+		size_t p = (size_t)s->pen[k];
+		if (!s->active[p])
+			continue;
+		for (int c = 0; c < 3; c++) {
+			double du = u[(size_t)c * cnt + p] - s->pen_target[3 * k + c];
+			d->pe2 += s->alpha * du * du;
+			d->power += s->alpha * du * v[(size_t)c * cnt + p];
+		}
+	}
+}
+
+NDO_HOT void ndo__accel(ndo_sim *s, double t, const double *u, const double *v, double *a,
+                        ndo__diag *d)
+{
+	const double *F = ndo__forces_prepare(s, t, u);
+	if (d) {
+		memset(d, 0, sizeof *d);
+		if (F)
+			accel_interior(s, u, v, F, a, d, 1, 1);
+		else
+			accel_interior(s, u, v, NULL, a, d, 0, 1);
+		d->power += held_power(s, u, v);
+	} else if (F) {
+		accel_interior(s, u, v, F, a, NULL, 1, 0);
+	} else {
+		accel_interior(s, u, v, NULL, a, NULL, 0, 0);
+	}
+	accel_border(s, u, v, F, a, d);
+	if (d)
+		penalty_diag(s, u, v, d);
+	s->stats.evaluations++;
+}
+
+/* ---- divergence ------------------------------------------------------------ */
+
+void ndo__pending_work(const ndo_sim *s, double power, double *w, double *w_abs)
+{
+	*w = s->work + 0.5 * s->pend_h * (s->pend_power + power);
+	*w_abs = s->work_abs + 0.5 * s->pend_h * (fabs(s->pend_power) + fabs(power));
+}
+
+int ndo__diverged(ndo_sim *s, const ndo__diag *d, int commit)
+{
+	double work, work_abs;
+	ndo__pending_work(s, d->power, &work, &work_abs);
+	if (commit) {
+		s->work = work;
+		s->work_abs = work_abs;
+		s->pend_h = 0;
+	}
+	double E = 0.5 * (d->pe2 + d->ke2);
+	if (!isfinite(E) || !isfinite(d->umax2) || !isfinite(d->power))
+		return ndo__fail(NDO_EDIVERGED, "the state is not finite (NaN or Inf)");
+	double umax = sqrt(d->umax2);
+	if (umax > 100 * s->rest_size)
+		return ndo__fail(NDO_EDIVERGED,
+		                 "a node is %.3g m from its rest position, more than 100 × the "
+		                 "object's size (%.3g m)", umax, s->rest_size);
+	if (!s->e0_set) {
+		s->e0 = E;
+		s->e0_set = 1;
+	}
+	/* The floor: the energy of a displacement of 1e-9 × the object's
+	 * size everywhere, so that rounding noise around a state at rest is
+	 * not mistaken for growth. */
+	double floor = 1e-18 * s->p.material.stiffness * s->rest_size * s->rest_size;
+	if (s->p.energy_bound > 0 && E > s->p.energy_bound * (s->e0 + work_abs) + floor)
+		return ndo__fail(NDO_EDIVERGED,
+		                 "energy %.3g J exceeds %g × (initial %.3g J + input work %.3g J)", E,
+		                 s->p.energy_bound, s->e0, work_abs);
+	return NDO_OK;
+}
+
+int ndo_sim_check(ndo_sim *s)
+{
+	ndo__clear_error();
+	ndo__diag d;
+	ndo__accel(s, s->t, s->u, s->v, s->tmp, &d);
+	return ndo__diverged(s, &d, 0);
+}
+
+void ndo_sim_energy_get(ndo_sim *s, ndo_sim_energy *e)
+{
+	const size_t cnt = s->count;
+	double ke2 = 0, pe2 = 0, um = 0;
+	for (int c = 0; c < 3; c++)
+		ndo_stencil_apply(&s->st, s->u + (size_t)c * cnt, s->tmp + (size_t)c * cnt);
+	for (size_t p = 0; p < cnt; p++) {
+		if (s->canon[p] != (int32_t)p)
+			continue;
+		double u2 = 0;
+		for (int c = 0; c < 3; c++) {
+			size_t q = (size_t)c * cnt + p;
+			ke2 += s->mass[p] * s->v[q] * s->v[q];
+			pe2 += s->u[q] * s->tmp[q];
+			u2 += s->u[q] * s->u[q];
+		}
+		um = fmax(um, u2);
+	}
+	for (size_t k = 0; k < s->npen; k++)
+		for (int c = 0; c < 3; c++) {
+			double du = s->u[(size_t)c * cnt + (size_t)s->pen[k]] - s->pen_target[3 * k + c];
+			pe2 += s->alpha * du * du;
+		}
+	/* The input power now closes the last step's work estimate. */
+	double power = 0, wabs;
+	const double *F = ndo__forces_prepare(s, s->t, s->u);
+	if (F)
+		for (size_t k = 0; k < s->nespan; k++)
+			for (size_t p = (size_t)s->espan[k].a; p < (size_t)s->espan[k].b; p++)
+				for (int c = 0; c < 3; c++)
+					power += F[(size_t)c * cnt + p] * s->v[(size_t)c * cnt + p];
+	for (size_t k = 0; k < s->npen && F; k++)
+		for (int c = 0; c < 3; c++) {
+			size_t q = (size_t)c * cnt + (size_t)s->pen[k];
+			power += s->alpha * (s->u[q] - s->pen_target[3 * k + c]) * s->v[q];
+		}
+	e->kinetic = 0.5 * ke2;
+	e->potential = 0.5 * pe2;
+	ndo__pending_work(s, power, &e->work, &wabs);
+	e->max_displacement = sqrt(um);
+}
+
+/* ---- explicit integrators ---------------------------------------------------- */
+
+/* out = base + h Σ_j coef_j src_j on the active nodes (3 planes). */
+NDO_HOT static void combine(const ndo_sim *s, double *restrict out, const double *restrict base,
+                    double h, int n, const double *coef, const double *const *src)
+{
+	const size_t cnt = s->count;
+	for (int c = 0; c < 3; c++) {
+		const size_t o = (size_t)c * cnt;
+		for (size_t k = 0; k < s->nespan; k++)
+			for (size_t p = o + (size_t)s->espan[k].a; p < o + (size_t)s->espan[k].b; p++) {
+				double acc = 0;
+				for (int j = 0; j < n; j++)
+					acc += coef[j] * src[j][p];
+				out[p] = base[p] + h * acc;
+			}
+	}
+}
+
+/* y += h x on the active nodes (3 planes). */
+NDO_HOT static void axpy(const ndo_sim *s, double *restrict y, double h, const double *restrict x)
+{
+	const size_t cnt = s->count;
+	for (int c = 0; c < 3; c++) {
+		const size_t o = (size_t)c * cnt;
+		for (size_t k = 0; k < s->nespan; k++)
+			for (size_t p = o + (size_t)s->espan[k].a; p < o + (size_t)s->espan[k].b; p++)
+				y[p] += h * x[p];
+	}
+}
+
+/* A step of size h began with input power P: its work is added, by the
+ * trapezoidal rule, when the next step knows the power at its end. */
+static void account(ndo_sim *s, double h)
+{
+	s->pend_h = h;
+	s->pend_power = s->last_power;
+}
+
+/* Stage 0 at the current state, with the divergence test. */
+static int first_stage(ndo_sim *s, double *a)
+{
+	ndo__diag d;
+	ndo__accel(s, s->t, s->u, s->v, a, &d);
+	s->last_power = d.power;
+	return ndo__diverged(s, &d, 1);
+}
+
+/* The stages of an explicit Runge–Kutta method from the current state
+ * (stage 0 already in ka[0] when k0_ready). */
+static int rk_stages(ndo_sim *s, const tableau *tb, double h, int k0_ready)
+{
+	int rc;
+	if (!k0_ready && (rc = first_stage(s, s->ka[0])))
+		return rc;
+	if (tb->s > 1 && s->any_held)
+		memcpy(s->us, s->u, 3 * s->count * sizeof *s->us); /* held nodes keep u */
+	for (int i = 1; i < tb->s; i++) {
+		const double *su[6], *sv[6];
+		double coef[6];
+		int n = 0;
+		for (int j = 0; j < i; j++)
+			if (tb->a[i][j] != 0) {
+				coef[n] = tb->a[i][j];
+				su[n] = j == 0 ? s->v : s->kv[j];
+				sv[n] = s->ka[j];
+				n++;
+			}
+		combine(s, s->us, s->u, h, n, coef, su);
+		combine(s, s->kv[i], s->v, h, n, coef, sv);
+		ndo__sync_planes(s, s->us, 3);
+		ndo__sync_planes(s, s->kv[i], 3);
+		ndo__accel(s, s->t + tb->c[i] * h, s->us, s->kv[i], s->ka[i], NULL);
+	}
+	return NDO_OK;
+}
+
+/* u += h Σ b_j kv_j (kv_0 = v), then v += h Σ b_j ka_j. */
+static void rk_finish(ndo_sim *s, const tableau *tb, double h)
+{
+	for (int j = 1; j < tb->s; j++)
+		if (tb->b[j] != 0)
+			axpy(s, s->u, h * tb->b[j], s->kv[j]);
+	if (tb->b[0] != 0)
+		axpy(s, s->u, h * tb->b[0], s->v);
+	for (int j = 0; j < tb->s; j++)
+		if (tb->b[j] != 0)
+			axpy(s, s->v, h * tb->b[j], s->ka[j]);
+	ndo__sync_planes(s, s->u, 3);
+	ndo__sync_planes(s, s->v, 3);
+}
+
+static int step_rk(ndo_sim *s, const tableau *tb, double h)
+{
+	if (!tb)
+		return ndo__fail(NDO_EINVAL, "not an explicit Runge–Kutta method");
+	int rc = rk_stages(s, tb, h, 0);
+	if (rc)
+		return rc;
+	rk_finish(s, tb, h);
+	account(s, h);
+	s->stats.substeps++;
+	return NDO_OK;
+}
+
+/* Classic RK4 in low-storage form, each stage one pass over the nodes that
+ * fuses the stencil, the acceleration, the running sums of the final
+ * combination and the next stage's state:
+ *   stage 0  (U, V) = (u, v):    Σu = V, Σv = a;     next = (u, v) + h/2 (V, a)
+ *   stage 1, 2:                  Σu += 2V, Σv += 2a; next = (u, v) + c (V, a)
+ *   stage 3:                     (u, v) += h/6 (Σu + V, Σv + a)
+ * Stage displacements alternate between two buffers (the stencil reads
+ * the neighbours' old values); stage velocities are only read at their own
+ * node, so one buffer is updated in place.  Same arithmetic as the tableau
+ * path (rk_stages) up to the order of the additions. */
+enum { RK4_FIRST, RK4_MID, RK4_LAST };
+
+typedef struct rk4_pass {
+	const double *U;  /* stage displacement (3 planes) */
+	double *Un;       /* the next stage's (RK4_FIRST, RK4_MID) */
+	double *V;        /* stage velocity; RK4_FIRST reads v, writes vs */
+	double *vs;       /* the stage velocity buffer */
+	double *su, *sv;  /* the running sums */
+	double *u, *v;    /* the state */
+	const double *F;  /* forces or NULL */
+	double c, h6;
+} rk4_pass;
+
+static inline __attribute__((always_inline)) void
+rk4_interior(const ndo_sim *s, const rk4_pass *g, const int mode, const int hasF, ndo__diag *d)
+{
+	const size_t cnt = s->count, w = (size_t)s->w;
+	const double *restrict e0 = s->st.e[0], *restrict e1 = s->st.e[1],
+	                       *restrict e2 = s->st.e[2];
+	const double *restrict minv = s->minv, *restrict gam = s->gam, *restrict mass = s->mass;
+	const double c = g->c, h6 = g->h6;
+	double pe2 = 0, ke2 = 0, pw = 0, um = 0;
+	for (size_t k = 0; k < s->nispan; k++) {
+		const size_t lo = (size_t)s->ispan[k].a, hi = (size_t)s->ispan[k].b;
+		for (int comp = 0; comp < 3; comp++) {
+			const size_t o = (size_t)comp * cnt;
+			const double *restrict U = g->U + o;
+			const double *restrict F = hasF ? g->F + o : NULL;
+			double *restrict Un = mode == RK4_LAST ? NULL : g->Un + o;
+			double *restrict su = g->su + o, *restrict sv = g->sv + o;
+			double *restrict u = g->u + o, *restrict v = g->v + o;
+			/* RK4_FIRST reads v and writes vs; the others update vs in place
+			 * through the one pointer V. */
+			double *restrict V = mode == RK4_FIRST ? g->v + o : g->vs + o;
+			double *restrict vs = g->vs + o;
+#pragma omp simd reduction(+ : pe2, ke2, pw)
+			for (size_t p = lo; p < hi; p++) {
+				const double up = U[p];
+				const double ku = e0[p] * (up - U[p + 1]) + e1[p] * (up - U[p + w]) +
+				                  e2[p] * (up - U[p + w - 1]) + e0[p - 1] * (up - U[p - 1]) +
+				                  e1[p - w] * (up - U[p - w]) + e2[p - w + 1] * (up - U[p - w + 1]);
+				const double f = hasF ? F[p] : 0, vp = V[p];
+				const double a = minv[p] * (f - ku) - gam[p] * vp;
+				if (mode == RK4_FIRST) {
+					su[p] = vp;
+					sv[p] = a;
+					Un[p] = u[p] + c * vp;
+					vs[p] = v[p] + c * a;
+					if (d) {
+						pe2 += up * ku;
+						ke2 += mass[p] * vp * vp;
+						pw += f * vp;
+					}
+				} else if (mode == RK4_MID) {
+					su[p] += 2 * vp;
+					sv[p] += 2 * a;
+					Un[p] = u[p] + c * vp;
+					V[p] = v[p] + c * a;
+				} else {
+					u[p] += h6 * (su[p] + vp);
+					v[p] += h6 * (sv[p] + a);
+				}
+			}
+		}
+		if (d) {
+			const double *restrict ux = g->U, *restrict uy = g->U + cnt, *restrict uz = g->U + 2 * cnt;
+#pragma omp simd reduction(max : um)
+			for (size_t p = lo; p < hi; p++) {
+				const double u2 = ux[p] * ux[p] + uy[p] * uy[p] + uz[p] * uz[p];
+				um = u2 > um ? u2 : um; /* not fmax: a libm call stops vectorization */
+			}
+		}
+	}
+	if (d)
+		diag_add(d, pe2, ke2, pw, um);
+}
+
+/* The same for the active border nodes (neighbour tables). */
+static void rk4_border(const ndo_sim *s, const rk4_pass *g, int mode, ndo__diag *d)
+{
+	const size_t cnt = s->count;
+	for (size_t k = 0; k < s->nbact; k++) {
+		size_t b = (size_t)s->bact[k], p = (size_t)s->st.border[b];
+		const int32_t *nb = s->st.bnb + 6 * b;
+		const double *cf = s->st.bc + 6 * b;
+		double u2 = 0;
+		for (int comp = 0; comp < 3; comp++) {
+			size_t o = (size_t)comp * cnt, q = o + p;
+			double up = g->U[q], ku = 0;
+			for (int j = 0; j < 6; j++)
+				ku += cf[j] * (up - g->U[o + (size_t)nb[j]]);
+			double f = g->F ? g->F[q] : 0;
+			double vp = mode == RK4_FIRST ? g->v[q] : g->vs[q];
+			double a = s->minv[p] * (f - ku) - s->gam[p] * vp;
+			if (mode == RK4_FIRST) {
+				g->su[q] = vp;
+				g->sv[q] = a;
+				g->Un[q] = g->u[q] + g->c * vp;
+				g->vs[q] = g->v[q] + g->c * a;
+				if (d) {
+					d->pe2 += up * ku;
+					d->ke2 += s->mass[p] * vp * vp;
+					d->power += f * vp;
+					u2 += up * up;
+				}
+			} else if (mode == RK4_MID) {
+				g->su[q] += 2 * vp;
+				g->sv[q] += 2 * a;
+				g->Un[q] = g->u[q] + g->c * vp;
+				g->vs[q] = g->v[q] + g->c * a;
+			} else {
+				g->u[q] += g->h6 * (g->su[q] + vp);
+				g->v[q] += g->h6 * (g->sv[q] + a);
+			}
+		}
+		if (d)
+			d->umax2 = fmax(d->umax2, u2);
+	}
+}
+
+NDO_HOT static void rk4_pass_run(ndo_sim *s, rk4_pass *g, int mode, double t, ndo__diag *d)
+{
+	g->F = ndo__forces_prepare(s, t, g->U);
+	if (d)
+		memset(d, 0, sizeof *d);
+	/* Constant arguments: the compiler makes one loop per combination. */
+	if (mode == RK4_FIRST) {
+		if (g->F)
+			rk4_interior(s, g, RK4_FIRST, 1, d);
+		else
+			rk4_interior(s, g, RK4_FIRST, 0, d);
+	} else if (mode == RK4_MID) {
+		if (g->F)
+			rk4_interior(s, g, RK4_MID, 1, NULL);
+		else
+			rk4_interior(s, g, RK4_MID, 0, NULL);
+	} else {
+		if (g->F)
+			rk4_interior(s, g, RK4_LAST, 1, NULL);
+		else
+			rk4_interior(s, g, RK4_LAST, 0, NULL);
+	}
+	rk4_border(s, g, mode, d);
+	if (d) {
+		d->power += held_power(s, g->U, g->v);
+		penalty_diag(s, g->U, g->v, d);
+	}
+	s->stats.evaluations++;
+}
+
+static int step_rk4(ndo_sim *s, double h)
+{
+	const size_t cnt = s->count;
+	/* Buffers: A = us and B = kv[1] for the stage displacements, vs for the
+	 * stage velocity, kv[2] and kv[3] for the running sums. */
+	double *A = s->us, *B = s->kv[1];
+	if (s->any_held) {
+		/* Held nodes keep u in both stage buffers. */
+		memcpy(A, s->u, 3 * cnt * sizeof *A);
+		memcpy(B, s->u, 3 * cnt * sizeof *B);
+	}
+	rk4_pass g = {s->u, A, s->v, s->vs, s->kv[2], s->kv[3], s->u, s->v, NULL, h / 2, h / 6};
+	ndo__diag d;
+	rk4_pass_run(s, &g, RK4_FIRST, s->t, &d);
+	s->last_power = d.power;
+	int rc = ndo__diverged(s, &d, 1);
+	if (rc)
+		return rc;
+	ndo__sync_planes(s, A, 3);
+	g.U = A, g.Un = B;
+	rk4_pass_run(s, &g, RK4_MID, s->t + h / 2, NULL);
+	ndo__sync_planes(s, B, 3);
+	g.U = B, g.Un = A, g.c = h;
+	rk4_pass_run(s, &g, RK4_MID, s->t + h / 2, NULL);
+	ndo__sync_planes(s, A, 3);
+	g.U = A, g.Un = NULL;
+	rk4_pass_run(s, &g, RK4_LAST, s->t + h, NULL);
+	ndo__sync_planes(s, s->u, 3);
+	ndo__sync_planes(s, s->v, 3);
+	account(s, h);
+	s->stats.substeps++;
+	return NDO_OK;
+}
+
+/* Symplectic Euler: v' = v + h a(u, v), u' = u + h v'. */
+static int step_symplectic(ndo_sim *s, double h)
+{
+	int rc = first_stage(s, s->ka[0]);
+	if (rc)
+		return rc;
+	axpy(s, s->v, h, s->ka[0]);
+	ndo__sync_planes(s, s->v, 3);
+	axpy(s, s->u, h, s->v);
+	ndo__sync_planes(s, s->u, 3);
+	account(s, h);
+	s->stats.substeps++;
+	return NDO_OK;
+}
+
+/* The error of an rkf45 sub-step relative to the tolerance: max over the
+ * active components of |e| / (tol (1 + max(|y|, |y'|))). */
+static double rkf45_error(ndo_sim *s, const tableau *tb, double h)
+{
+	const size_t cnt = s->count;
+	double worst = 0, d[6];
+	for (int j = 0; j < tb->s; j++)
+		d[j] = tb->b[j] - tb->bhat[j];
+	for (int part = 0; part < 2; part++) {
+		const double *y = part ? s->v : s->u;
+		for (size_t o = 0; o < 3 * cnt; o += cnt)
+			for (size_t k = 0; k < s->nespan; k++)
+				for (size_t p = o + (size_t)s->espan[k].a; p < o + (size_t)s->espan[k].b; p++) {
+					double e = 0, y1 = 0;
+					for (int j = 0; j < tb->s; j++) {
+						const double *kj = part ? s->ka[j] : (j == 0 ? s->v : s->kv[j]);
+						e += d[j] * kj[p];
+						y1 += tb->b[j] * kj[p];
+					}
+					y1 = y[p] + h * y1;
+					double r = fabs(h * e) / (s->p.tol * (1 + fmax(fabs(y[p]), fabs(y1))));
+					if (!(r <= worst))
+						worst = r; /* NaN propagates as "too large" */
+				}
+	}
+	return worst;
+}
+
+static int step_rkf45(ndo_sim *s, double H)
+{
+	const tableau *tb = &tb_rkf45;
+	double t_end = s->t + H;
+	double hs = s->h_sub > 0 ? fmin(s->h_sub, H) : H;
+	int k0_ready = 0, rejected_last = 0;
+	for (;;) {
+		double rem = t_end - s->t;
+		int last = hs >= rem * (1 - 1e-12);
+		double h = last ? rem : hs;
+		int rc = rk_stages(s, tb, h, k0_ready);
+		if (rc)
+			return rc;
+		double err = rkf45_error(s, tb, h);
+		if (err <= 1) {
+			rk_finish(s, tb, h);
+			account(s, h);
+			s->stats.substeps++;
+			s->stats.last_substep = h;
+			/* The usual controller for a 4th-order error estimate: the
+			 * 0.9 safety factor, at most ×5 per step and never growing
+			 * right after a rejection. */
+			double fac = err > 0 ? 0.9 * pow(err, -0.2) : 5;
+			fac = fmin(rejected_last ? 1 : 5, fmax(0.2, fac));
+			if (!last || h >= hs)
+				hs = h * fac;
+			rejected_last = 0;
+			k0_ready = 0;
+			if (last) {
+				s->t = t_end;
+				break;
+			}
+			s->t += h;
+		} else {
+			s->stats.rejected++;
+			double fac = isfinite(err) ? fmax(0.1, 0.9 * pow(err, -0.25)) : 0.1;
+			hs = h * fac;
+			rejected_last = 1;
+			k0_ready = 1; /* the state did not change: stage 0 stands */
+			if (hs < 1e-14 * fmax(fabs(s->t), H))
+				return ndo__fail(NDO_EDIVERGED, "rkf45's step size underflowed (%.3g s) "
+				                 "at t = %.9g s: the tolerance cannot be met", hs, s->t);
+		}
+	}
+	s->h_sub = hs;
+	return NDO_OK;
+}
+
+/* ---- stepping ------------------------------------------------------------------ */
+
+static double cpu_seconds(void)
+{
+	struct timespec ts;
+	clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+	return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+int ndo__restiffen(ndo_sim *s)
+{
+	double t0 = cpu_seconds();
+	double *x = malloc(3 * s->count * sizeof *x);
+	if (!x)
+		return ndo__fail(NDO_ENOMEM, "out of memory re-assembling K");
+	positions_aos(s, s->u, x);
+	int rc = ndo_stencil_build(s->level, x, s->p.material.stiffness, &s->st);
+	free(x);
+	if (rc) {
+		char d[256];
+		snprintf(d, sizeof d, "%s", ndo_errdetail());
+		return ndo__fail(rc, "re-assembling K at step %lld: %s", (long long)s->step, d);
+	}
+	if ((rc = build_held_edges(s)))
+		return rc;
+	ndo__implicit_invalidate(s, 0);
+	s->stats.restiffened++;
+	s->stats.restiffen_seconds += cpu_seconds() - t0;
+	return NDO_OK;
+}
+
+int ndo__step_tableau(ndo_sim *s, double h)
+{
+	int rc = step_rk(s, method_tableau(s->p.method), h);
+	if (rc == NDO_OK) {
+		s->t += h;
+		s->step++;
+		s->stats.steps++;
+	}
+	return rc;
+}
+
+int ndo_sim_step(ndo_sim *s, double h)
+{
+	ndo__clear_error();
+	if (!(h > 0) || !isfinite(h))
+		return ndo__fail(NDO_EINVAL, "step size %g: must be positive and finite", h);
+	int rc;
+	if (s->p.restiffen > 0 && s->stats.steps > 0 && s->stats.steps % s->p.restiffen == 0 &&
+	    (rc = ndo__restiffen(s)))
+		return rc;
+	double t0 = s->t;
+	switch (s->p.method) {
+	case NDO_EULER:
+	case NDO_MIDPOINT: rc = step_rk(s, method_tableau(s->p.method), h); break;
+	case NDO_RK4: rc = step_rk4(s, h); break;
+	case NDO_SYMPLECTIC_EULER: rc = step_symplectic(s, h); break;
+	case NDO_RKF45: rc = step_rkf45(s, h); break;
+	default: rc = ndo__implicit_step(s, h); break;
+	}
+	if (rc)
+		return rc;
+	if (s->p.method != NDO_RKF45)
+		s->t = t0 + h;
+	s->step++;
+	s->stats.steps++;
+	return NDO_OK;
+}

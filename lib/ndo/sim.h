@@ -1,0 +1,295 @@
+/* ndo/sim.h — simulating the membrane: M v' = −B v − K (x − X) + f,
+ * x' = v (thesis eq. 4.8–4.10, appendix B; DESIGN.md, "Physics"), with
+ * every integrator behind one interface.
+ *
+ * Units: SI.  Positions in metres, time in seconds, stiffness σ in N/m
+ * (the thesis' k), areal density ρ in kg/m², forces in N, pressure in Pa.
+ *
+ * The model:
+ *   K   cotangent stiffness σ·L of the rest shape X (ndo/membrane.h),
+ *       optionally re-assembled from the deformed shape every S steps;
+ *   M   lumped mass, ρ × one third of the incident rest areas;
+ *   B   damping, diagonal ("applied directly on the nodal velocities",
+ *       thesis §4.3.1): the viscous force −b ∂u/∂t per unit area of
+ *       appendix B (eq. B.12–B.14), lumped like the mass, B_ii = b·A_i
+ *       (b in N·s/m³, A_i the node's third of its triangles' area), plus
+ *       optional mass-proportional damping B += a·M (a in 1/s).  With a
+ *       uniform density the two are the same thing: every mode decays at
+ *       the rate γ = b/ρ + a.  (A per-node constant B_ii = b, the other
+ *       reading of the thesis, would damp 4× harder at each finer level:
+ *       the same scene would be a different system at every level.)
+ *   f   external forces (struct ndo_force) and, for pins held by penalty,
+ *       the penalty springs.
+ * The state is integrated as the displacement u = x − X and the velocity
+ * v, both as three H × W planes ("structure of arrays").  Stored duplicate
+ * nodes are one degree of freedom: only canonical nodes are integrated and
+ * every duplicate is a bitwise copy of its canonical node after every
+ * stage (ndo_sync).
+ *
+ * Regions, for peers that split the surface (thesis §4.5): a simulation
+ * integrates only its *active* nodes (ndo_sim_set_active; all nodes by
+ * default).  Every other node is *held*: during a step its position stays
+ * exactly as given and acts on the active nodes as a boundary condition;
+ * its velocity is kept as given and not used.  A peer sets the held
+ * nodes from the other peers' last states (ndo_sim_set) between steps —
+ * the thesis' one-step boundary lag.  Pinned nodes (pin mode "project")
+ * are held nodes that are never released.
+ */
+#ifndef NDO_SIM_H
+#define NDO_SIM_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "ndo/grid.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* The integrators.  Explicit: forward Euler, symplectic (semi-implicit)
+ * Euler, explicit midpoint (RK2), classic RK4, Runge–Kutta–Fehlberg 4(5)
+ * with error control (thesis eq. 3.7; the 5th-order solution is
+ * propagated, as there).  Implicit, solved with CHOLMOD: backward Euler and
+ * the trapezoidal rule. */
+typedef enum ndo_method {
+	NDO_EULER = 0,
+	NDO_SYMPLECTIC_EULER,
+	NDO_MIDPOINT,
+	NDO_RK4,
+	NDO_RKF45,
+	NDO_BACKWARD_EULER,
+	NDO_TRAPEZOID,
+	NDO_METHOD_COUNT
+} ndo_method;
+
+/* "euler", "symplectic-euler", "midpoint", "rk4", "rkf45",
+ * "backward-euler", "trapezoid" (index = ndo_method), NULL-terminated. */
+extern const char *const ndo_method_names[];
+
+/* NDO_ENOTFOUND for an unknown name. */
+int ndo_method_parse(const char *name, ndo_method *m);
+int ndo_method_is_implicit(ndo_method m);
+
+typedef struct ndo_material {
+	double stiffness;    /* σ, N/m (> 0) */
+	double density;      /* ρ, kg/m² (> 0) */
+	double damping;      /* b: viscous damping per unit area, N·s/m³ (≥ 0) */
+	double mass_damping; /* a: mass-proportional damping B += a·M, 1/s (≥ 0) */
+} ndo_material;
+
+/* External forces.  The time factor is
+ *     s(t) = sin(2π·frequency·t + phase)  when frequency > 0,
+ *     s(t) = 1                            when frequency = 0 (constant),
+ * and each kind distributes amplitude·s(t) as follows:
+ *   NDO_FORCE_FACE      the thesis' forces on selected faces: a total of
+ *                       amplitude N over the listed triangles, shared in
+ *                       proportion to their rest areas, each triangle's
+ *                       share split equally between its three vertices —
+ *                       so the load does not change with the level;
+ *   NDO_FORCE_POINT     amplitude N on each listed node;
+ *   NDO_FORCE_PRESSURE  a uniform pressure of amplitude Pa on the whole
+ *                       surface, along the current outward normals.
+ * The direction is the current (deformed) outward normal of each face
+ * (follower load; for point forces the area-weighted vertex normal) when
+ * `normal` is set, else the fixed unit vector dir. */
+typedef enum ndo_force_kind {
+	NDO_FORCE_FACE = 0,
+	NDO_FORCE_POINT,
+	NDO_FORCE_PRESSURE
+} ndo_force_kind;
+
+typedef struct ndo_force {
+	ndo_force_kind kind;
+	double amplitude; /* N (face, point) or Pa (pressure) */
+	double frequency; /* Hz, ≥ 0 */
+	double phase;     /* radians */
+	int normal;       /* 1: along the outward normal; 0: along dir */
+	double dir[3];    /* unit vector (normalized by ndo_sim_create) */
+	size_t count;     /* items */
+	int32_t *items;   /* face: triangle ids (ndo_triangles order);
+	                     point: stored node indices.  Copied by
+	                     ndo_sim_create. */
+} ndo_force;
+
+/* amplitude · s(t). */
+double ndo_force_value(const ndo_force *f, double t);
+
+/* How pinned nodes are held.  PROJECT (the default) removes them from the
+ * integration: they never move.  PENALTY is the thesis' Payne–Irons method
+ * (§4.3.3): each pinned node is tied to its initial position by a spring
+ * of stiffness α — a large number on the diagonal of K — and integrated
+ * like the others; the stable step of every explicit method then shrinks
+ * as 1/√α. */
+typedef enum ndo_pin_mode { NDO_PINS_PROJECT = 0, NDO_PINS_PENALTY } ndo_pin_mode;
+
+typedef struct ndo_sim_params {
+	ndo_material material;
+	ndo_method method;
+	double tol;          /* rkf45: local error tolerance per step (see
+	                        ndo_sim_step); default 1e-6 */
+	int restiffen;       /* re-assemble K from the deformed shape every
+	                        `restiffen` steps; 0 (default): never */
+	ndo_pin_mode pin_mode;
+	double penalty;      /* α in N/m for NDO_PINS_PENALTY; 0 (default):
+	                        1000 × the largest diagonal entry of K */
+	double energy_bound; /* divergence when the energy exceeds this many
+	                        times (initial energy + input work); default 10,
+	                        0 switches the energy test off (NaN, Inf and the
+	                        blown-up bounding box are always tested) */
+	const ndo_force *forces;
+	int nforces;
+} ndo_sim_params;
+
+/* σ = 1 N/m, ρ = 1 kg/m², b = 0, a = 0, rk4, tol 1e-6, no restiffening,
+ * projected pins, energy bound 10, no forces. */
+void ndo_sim_defaults(ndo_sim_params *p);
+
+typedef struct ndo_sim ndo_sim;
+
+/* Create a simulation of a level-`level` grid.  x: positions, H × W × 3
+ * doubles; v: velocities (NULL: at rest); rest: the rest shape X (NULL:
+ * x); pin: H × W bytes, nonzero = pinned (NULL: none).  A duplicate node
+ * takes its canonical node's values.  K and M are assembled from the rest
+ * shape.  Time and step count start at 0 (ndo_sim_set_time to change).
+ * NDO_ERANGE for non-finite input, a degenerate rest triangle or a bad
+ * parameter, NDO_EINVAL for a force item out of range. */
+int ndo_sim_create(int level, const double *x, const double *v, const double *rest,
+                   const uint8_t *pin, const ndo_sim_params *p, ndo_sim **out);
+
+/* The same from a grid: positions from "position", and "velocity", "rest"
+ * and "pin" when present (f32 channels are converted in place); time and
+ * step from the grid. */
+int ndo_sim_from_grid(ndo_grid *g, const ndo_sim_params *p, ndo_sim **out);
+
+/* Accepts NULL. */
+void ndo_sim_destroy(ndo_sim *s);
+
+/* Advance by one step of size h seconds with the chosen method.  rkf45
+ * takes as many adaptive sub-steps as its tolerance needs to land exactly
+ * on t + h (the error of a sub-step, the difference between the embedded
+ * 4th- and 5th-order solutions, must satisfy |e_i| ≤ tol·(1 + |y_i|) for
+ * every displacement and velocity component, in metres and m/s); the
+ * other methods take exactly one step.
+ *
+ * Every step first checks the state it starts from: NaN or Inf, an energy
+ * beyond energy_bound × (initial energy + input work), or a node further
+ * than 100 × the rest shape's bounding-box diagonal from its rest
+ * position mean divergence.  Then the step returns NDO_EDIVERGED, leaves
+ * the state as it is (the first bad state, at ndo_sim_time) and records
+ * what was wrong in ndo_errdetail().  Call ndo_sim_check() to test the
+ * state after the last step.  Other errors: NDO_EINVAL (h not positive
+ * and finite), NDO_ERANGE (re-assembling K met a degenerate triangle),
+ * NDO_ENOMEM, NDO_EDIVERGED also when CHOLMOD finds the matrix not
+ * positive definite or rkf45's sub-step underflows. */
+int ndo_sim_step(ndo_sim *s, double h);
+
+/* The divergence test of ndo_sim_step on the current state, without
+ * stepping: NDO_OK or NDO_EDIVERGED. */
+int ndo_sim_check(ndo_sim *s);
+
+double ndo_sim_time(const ndo_sim *s);
+int64_t ndo_sim_step_count(const ndo_sim *s);
+void ndo_sim_set_time(ndo_sim *s, double t, int64_t step);
+int ndo_sim_level(const ndo_sim *s);
+ndo_method ndo_sim_method(const ndo_sim *s);
+
+/* Counters since creation. */
+typedef struct ndo_sim_stats {
+	int64_t steps;         /* ndo_sim_step calls that succeeded */
+	int64_t substeps;      /* rkf45: accepted sub-steps (others: = steps) */
+	int64_t rejected;      /* rkf45: rejected sub-steps */
+	int64_t evaluations;   /* force evaluations (stiffness products) */
+	int64_t restiffened;   /* re-assemblies of K */
+	int64_t factorizations;/* CHOLMOD numeric factorizations */
+	double restiffen_seconds; /* CPU time spent re-assembling (and
+	                             refactoring) */
+	double last_substep;   /* rkf45: the last accepted sub-step, s */
+} ndo_sim_stats;
+void ndo_sim_stats_get(const ndo_sim *s, ndo_sim_stats *st);
+
+/* The state.  x, v: H × W × 3 doubles (either may be NULL). */
+void ndo_sim_get(const ndo_sim *s, double *x, double *v);
+
+/* Overwrite the state of n nodes (stored indices in `nodes`; nodes NULL:
+ * all W·H nodes in order, n ignored).  x, v: n × 3 doubles (either may be
+ * NULL to keep that part).  A duplicate index writes its vertex. */
+void ndo_sim_set(ndo_sim *s, size_t n, const int32_t *nodes, const double *x,
+                 const double *v);
+
+/* Integrate only the nodes whose mask byte is nonzero (H × W; a
+ * duplicate follows its canonical node); hold all others (see the top of
+ * this header).  NULL: all nodes.  Pinned nodes stay held in project mode. */
+int ndo_sim_set_active(ndo_sim *s, const uint8_t *mask);
+
+/* Write the state into g (same level): "position" (x), "velocity" and
+ * "rest" as f64 channels (added if absent), and the time and step count. */
+int ndo_sim_store(const ndo_sim *s, ndo_grid *g);
+
+/* Energies and motion of the whole object now (one stiffness product). */
+typedef struct ndo_sim_energy {
+	double kinetic;          /* ½ Σ m |v|², J */
+	double potential;        /* ½ Σ u·K u (+ ½ α |x − x̄|² at penalty pins), J */
+	double work;             /* ∫ f·v dt of the external forces so far, J
+	                            (sampled once per step) */
+	double max_displacement; /* max |x − X|, m */
+} ndo_sim_energy;
+void ndo_sim_energy_get(ndo_sim *s, ndo_sim_energy *e);
+
+/* ---- the stable step -------------------------------------------------- */
+
+/* What limits a method's step (ndo_critical.bound). */
+enum {
+	NDO_BOUND_NONE = 0,    /* unconditionally stable (implicit methods) */
+	NDO_BOUND_OSCILLATION, /* the top mode's oscillation, h ω_max > 1: the
+	                          imaginary-axis interval, h ≈ c_imag/ω_max,
+	                          shifted by damping */
+	NDO_BOUND_DAMPING,     /* stable only because damping outweighs a
+	                          growth on the imaginary axis (forward Euler
+	                          h ≈ γ/ω², midpoint h ≈ (4γ/ω⁴)^⅓, rkf45 with
+	                          light damping); 0 without damping */
+	NDO_BOUND_REAL         /* an overdamped mode: the negative real axis,
+	                          h ≈ c_real/γ */
+};
+
+typedef struct ndo_critical {
+	double lambda_max;  /* λ_max(M⁻¹K) over the integrated nodes, 1/s² */
+	double omega_max;   /* √λ_max, rad/s */
+	double gamma;       /* damping rate of that mode, φᵀBφ / φᵀMφ, 1/s */
+	double h_crit;      /* the method's largest stable step, s (0: none,
+	                       INFINITY: any) */
+	double c_imag;      /* stability interval on the imaginary axis (hω) */
+	double c_real;      /* ... on the negative real axis (h|λ|) */
+	int bound;          /* NDO_BOUND_* */
+	int iterations;     /* power iterations used */
+	double converged;   /* relative change of the estimate over the last
+	                       10 iterations */
+} ndo_critical;
+
+/* Estimate the critical step of the simulation's method for its current
+ * stiffness, mass, damping, pins and active set: λ_max(M⁻¹K) by power
+ * iteration (seeded, deterministic; a few hundred stiffness products),
+ * then ndo_stable_step.  Exact for mass-proportional damping; with nodal
+ * damping the top mode's damping rate is its Rayleigh quotient. */
+int ndo_sim_critical(ndo_sim *s, ndo_critical *c);
+
+/* The largest h for which `m` is stable on every mode u'' + γu' + ω²u = 0
+ * with 0 < ω ≤ omega (damping rate γ fixed): the spectral radius of the
+ * method's one-step matrix stays ≤ 1.  0 if unstable for every h > 0,
+ * INFINITY if stable for every h.  *bound (may be NULL) receives the
+ * NDO_BOUND_* that limits it. */
+double ndo_stable_step(ndo_method m, double omega, double gamma, int *bound);
+
+/* The spectral radius of one step of `m` with size h on that mode: the
+ * factor by which the mode grows (> 1) or decays per step. */
+double ndo_amplification(ndo_method m, double omega, double gamma, double h);
+
+/* The method's stability interval on the imaginary axis (largest y with
+ * the method stable for hλ = i·t, 0 < t ≤ y) or on the negative real axis
+ * (imaginary = 0).  INFINITY for the implicit methods. */
+double ndo_stability_interval(ndo_method m, int imaginary);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,143 @@
+/* sim_private.h — the simulation's internals, shared by integrate.c,
+ * forces.c, implicit.c and stability.c (not installed). */
+#ifndef NDO_SIM_PRIVATE_H
+#define NDO_SIM_PRIVATE_H
+
+#include "ndo/membrane.h"
+#include "ndo/sim.h"
+
+#include <stdint.h>
+
+/* A run of consecutive stored indices [a, b). */
+typedef struct ndo__span {
+	int32_t a, b;
+} ndo__span;
+
+/* A force resolved against the grid: the stored nodes it touches and, for
+ * face forces, each face's share of the amplitude. */
+typedef struct ndo__force {
+	ndo_force f;       /* items owned */
+	double *share;     /* face: count area fractions */
+} ndo__force;
+
+/* An edge from an active node p to a held node q, stiffness c. */
+typedef struct ndo__edge {
+	int32_t p, q;
+	double c;
+} ndo__edge;
+
+typedef struct ndo__implicit ndo__implicit;
+
+struct ndo_sim {
+	int level, n, w, h;
+	size_t count;          /* W·H stored nodes */
+	ndo_sim_params p;      /* forces point to `forces` below */
+	ndo_stencil st;
+	double *X;             /* rest shape, 3 planes */
+	double *mass, *minv;   /* lumped mass and its inverse, 1 plane each */
+	double *gam;           /* damping rate B_ii / m_i, 1 plane */
+	double *u, *v;         /* displacement x − X and velocity, 3 planes each */
+	uint8_t *pin;          /* 1 plane of flags */
+	uint8_t *active;       /* integrated nodes (canonical and duplicates) */
+	int32_t *canon;        /* canonical stored index of every node */
+	double rest_size;      /* rest bounding-box diagonal, m */
+
+	/* The active canonical nodes as runs: all of them (for elementwise
+	 * updates), the interior ones (fast stencil), and the positions in
+	 * st.border of the active border nodes. */
+	ndo__span *espan, *ispan;
+	size_t nespan, nispan;
+	int32_t *bact;
+	size_t nbact;
+	ndo__edge *hedge;
+	size_t nhedge;
+	int any_held;          /* some node is not integrated */
+
+	/* Penalty pins: stored index, spring α, target displacement. */
+	size_t npen;
+	int32_t *pen;
+	double alpha, *pen_target; /* 3 per penalty pin */
+
+	/* External forces. */
+	ndo__force *forces;
+	int nforces;
+	int has_forces;        /* any force at all: f is used */
+	int has_pressure;
+	double *f;             /* 3 planes, zero except where forces act */
+	int32_t *fnodes;       /* nodes f may be nonzero at (canonical) */
+	size_t nfnodes;
+
+	/* Workspace: stage state, stage velocities and accelerations. */
+	double *us, *vs;       /* 3 planes each */
+	double *kv[6], *ka[6]; /* 3 planes each, as many as the method needs */
+	double *err;           /* rkf45: 6 planes */
+	double *tmp;           /* 3 planes */
+
+	double t;
+	int64_t step;
+	ndo_sim_stats stats;
+	double h_sub;          /* rkf45's next sub-step */
+
+	/* Divergence: the reference energy and the input work. */
+	int e0_set;
+	double e0, work, work_abs; /* input work up to the last step's start */
+	double last_power;     /* f·v at the start of the current step */
+	double pend_h, pend_power; /* the last step: its size and start power */
+
+	ndo__implicit *imp;
+};
+
+/* Stage diagnostics accumulated by the force evaluation. */
+typedef struct ndo__diag {
+	double pe2;   /* Σ u·Ku (twice the potential energy) */
+	double ke2;   /* Σ m |v|² */
+	double power; /* Σ f·v */
+	double umax2; /* max |u|² */
+} ndo__diag;
+
+/* f ← external forces at time t with displacements u (forces.c). */
+void ndo__forces_eval(ndo_sim *s, double t, const double *u);
+int ndo__forces_resolve(ndo_sim *s, const ndo_force *forces, int nforces);
+void ndo__forces_free(ndo_sim *s);
+
+/* The force plane f at time t for displacements u: external forces plus
+ * the penalty springs; NULL when there are neither (integrate.c). */
+const double *ndo__forces_prepare(ndo_sim *s, double t, const double *u);
+
+/* a ← M⁻¹(f − K u − penalty) − γ v on the active nodes, for the stage
+ * state (u, v) at time t (external forces evaluated here); diag may be
+ * NULL (integrate.c). */
+void ndo__accel(ndo_sim *s, double t, const double *u, const double *v, double *a,
+                ndo__diag *diag);
+
+/* The divergence test on a diagnosed state at the start of a step
+ * (integrate.c).  commit: close the last step's work with this power. */
+int ndo__diverged(ndo_sim *s, const ndo__diag *d, int commit);
+
+/* The input work so far, closing the last step with `power`. */
+void ndo__pending_work(const ndo_sim *s, double power, double *w, double *w_abs);
+
+/* Implicit methods (implicit.c). */
+int ndo__implicit_step(ndo_sim *s, double h);
+void ndo__implicit_free(ndo_sim *s);
+void ndo__implicit_invalidate(ndo_sim *s, int pattern);
+
+/* Copy the canonical values of the stage planes to their duplicates. */
+void ndo__sync_planes(const ndo_sim *s, double *planes, int nplanes);
+
+/* K re-assembled from the deformed shape X + u (integrate.c). */
+int ndo__restiffen(ndo_sim *s);
+
+/* R(z) = Σ r_k z^k of an explicit Runge–Kutta method; returns the
+ * degree, or −1 for a method that is not one (integrate.c). */
+int ndo__stability_poly(ndo_method m, double r[7]);
+
+/* One step of the simulation's explicit Runge–Kutta method through the
+ * generic tableau path (the reference the fused RK4 kernel is tested
+ * against). */
+int ndo__step_tableau(ndo_sim *s, double h);
+
+/* The largest |row sum − c_i|, |Σ b − 1| of the method's tableau. */
+int ndo__tableau_check(ndo_method m, double *worst);
+
+#endif

@@ -1,0 +1,291 @@
+/* stability.c — the critical step: λ_max(M⁻¹K) by power iteration and each
+ * method's stability on a damped mode (ndo/sim.h).
+ *
+ * A mode of M u'' + B u' + K u = 0 with M⁻¹K φ = ω² φ and damping rate γ
+ * (exactly φᵀBφ / φᵀMφ for mass-proportional damping) is the 2 × 2 system
+ * y' = A y, A = [0 1; −ω² −γ], whose eigenvalues are −γ/2 ± √(γ²/4 − ω²).
+ * One step of a method maps y to G(h) y; the method is stable on the mode
+ * while the spectral radius ρ(G) ≤ 1.  For a Runge–Kutta method
+ * G = R(hA) with R its stability polynomial (computed from the tableau
+ * the integrator uses, integrate.c); symplectic Euler has its own G; the
+ * implicit methods are A-stable.
+ *
+ * Which bound applies (DESIGN.md asks for c/ω_max with c the imaginary-
+ * axis interval):
+ *   - light damping (γ ≪ ω): the eigenvalues hug the imaginary axis, so a
+ *     method whose stability region holds a segment |y| ≤ c_imag of it is
+ *     limited by h ≤ c_imag/ω_max (RK4: 2√2 = 2.83, rkf45 as propagated:
+ *     3.4, symplectic Euler: 2);
+ *   - forward Euler and midpoint hold no such segment (|R(iy)| > 1 for all
+ *     y > 0): without damping they are unstable at every step, and with
+ *     damping their bound comes from how far damping pulls the eigenvalues
+ *     into the left half-plane — Euler h ≤ γ/ω², midpoint h ≈ (4γ/ω⁴)^⅓ —
+ *     slopes 1/k and k^(−2/3) against the stiffness (ω² ∝ k);
+ *   - heavy damping (γ > 2ω, overdamped): the eigenvalues are real, near
+ *     −γ, and the negative real-axis interval c_real applies: h ≤ c_real/γ.
+ * ndo_stable_step finds the exact limit for every case numerically and
+ * names the bound that binds.
+ */
+#include "sim_private.h"
+#include "ndo/status.h"
+#include "ndo/topology.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+typedef struct m2 {
+	double a, b, c, d; /* [a b; c d] */
+} m2;
+
+static m2 mul(m2 x, m2 y)
+{
+	return (m2){x.a * y.a + x.b * y.c, x.a * y.b + x.b * y.d, x.c * y.a + x.d * y.c,
+	            x.c * y.b + x.d * y.d};
+}
+
+/* The spectral radius of a 2 × 2 matrix.  The discriminant is taken as
+ * ((a − d)/2)² + bc, not tr²/4 − det: near a double eigenvalue 1 the
+ * latter cancels catastrophically and invents growth of order √ε. */
+static double radius(m2 g)
+{
+	double half = 0.5 * (g.a - g.d), disc = half * half + g.b * g.c, mid = 0.5 * (g.a + g.d);
+	if (disc >= 0) {
+		double r = sqrt(disc);
+		return fmax(fabs(mid + r), fabs(mid - r));
+	}
+	return sqrt(fabs(g.a * g.d - g.b * g.c));
+}
+
+/* The one-step matrix of method m with step h on the mode (ω, γ). */
+static m2 one_step(ndo_method m, double omega, double gamma, double h)
+{
+	m2 A = {0, h, -h * omega * omega, -h * gamma}; /* hA */
+	switch (m) {
+	case NDO_SYMPLECTIC_EULER:
+		/* v' = v + h(−ω²u − γv), u' = u + h v'. */
+		return (m2){1 - h * h * omega * omega, h * (1 - h * gamma), -h * omega * omega,
+		            1 - h * gamma};
+	case NDO_BACKWARD_EULER:
+	case NDO_TRAPEZOID: {
+		double s = m == NDO_TRAPEZOID ? 0.5 : 1;
+		m2 L = {1 - s * A.a, -s * A.b, -s * A.c, 1 - s * A.d};
+		double det = L.a * L.d - L.b * L.c;
+		m2 Li = {L.d / det, -L.b / det, -L.c / det, L.a / det};
+		if (m == NDO_BACKWARD_EULER)
+			return Li;
+		m2 Rm = {1 + 0.5 * A.a, 0.5 * A.b, 0.5 * A.c, 1 + 0.5 * A.d};
+		return mul(Li, Rm);
+	}
+	default: {
+		double r[7];
+		int deg = ndo__stability_poly(m, r);
+		/* Horner: G = r0 I + hA (r1 I + hA (r2 I + ...)). */
+		m2 G = {r[deg], 0, 0, r[deg]};
+		for (int k = deg - 1; k >= 0; k--) {
+			G = mul(A, G);
+			G.a += r[k];
+			G.d += r[k];
+		}
+		return G;
+	}
+	}
+}
+
+double ndo_amplification(ndo_method m, double omega, double gamma, double h)
+{
+	return radius(one_step(m, omega, gamma, h));
+}
+
+/* A growth of 1e-12 per step doubles the state only after 7·10¹¹ steps:
+ * below it a method counts as stable. */
+#define UNSTABLE 1e-12
+
+/* The smallest h > 0 at which the method turns unstable on one mode. */
+static double mode_limit(ndo_method m, double omega, double gamma)
+{
+	double ref = fmax(omega, gamma);
+	if (!(ref > 0))
+		return INFINITY;
+	double h = 1e-9 / ref, prev = 0;
+	while (h < 1e4 / ref) {
+		if (radius(one_step(m, omega, gamma, h)) > 1 + UNSTABLE)
+			break;
+		prev = h;
+		h *= 1.02;
+	}
+	if (h >= 1e4 / ref)
+		return INFINITY;
+	if (prev == 0)
+		return 0;
+	double lo = prev, hi = h;
+	for (int k = 0; k < 100 && hi - lo > 1e-15 * hi; k++) {
+		double mid = 0.5 * (lo + hi);
+		if (radius(one_step(m, omega, gamma, mid)) > 1 + UNSTABLE)
+			hi = mid;
+		else
+			lo = mid;
+	}
+	return lo;
+}
+
+double ndo_stability_interval(ndo_method m, int imaginary)
+{
+	if (ndo_method_is_implicit(m))
+		return INFINITY;
+	if (imaginary)
+		return mode_limit(m, 1, 0); /* hω on an undamped mode */
+	/* The negative real axis: a pure decay u' = −λu is the mode ω → 0 of
+	 * u'' + γu' = 0, whose nonzero eigenvalue is −γ. */
+	return mode_limit(m, 0, 1);
+}
+
+double ndo_stable_step(ndo_method m, double omega, double gamma, int *bound)
+{
+	if (ndo_method_is_implicit(m)) {
+		if (bound)
+			*bound = NDO_BOUND_NONE;
+		return INFINITY;
+	}
+	/* The modes lie anywhere in (0, ω]; lower ones can bind when damping
+	 * is heavy.  Scan ω geometrically down to 10⁻⁴ ω_max. */
+	double best = INFINITY, at = omega;
+	for (int k = 0; k <= 200; k++) {
+		double w = omega * pow(1e-4, k / 200.0);
+		double hm = mode_limit(m, w, gamma);
+		if (hm < best) {
+			best = hm;
+			at = w;
+		}
+	}
+	/* ω → 0: the pure decay −γ. */
+	if (gamma > 0) {
+		double hm = mode_limit(m, 0, gamma);
+		if (hm < best) {
+			best = hm;
+			at = 0;
+		}
+	}
+	/* Overdamped limiting mode: the real axis.  Otherwise the limit is the
+	 * oscillation when the step spans more than a radian of the top mode
+	 * (damping only shifts it), and the damping when the step is stable
+	 * only because damping outweighs a growth on the imaginary axis
+	 * (Euler, midpoint, and rkf45 as propagated, which grows by up to
+	 * 6·10⁻⁴ per step there). */
+	int b = gamma > 2 * at ? NDO_BOUND_REAL
+	        : best * omega > 1 ? NDO_BOUND_OSCILLATION
+	                           : NDO_BOUND_DAMPING;
+	if (bound)
+		*bound = b;
+	if (gamma == 0 && ndo_stability_interval(m, 1) < 0.5) {
+		/* No damping and no imaginary interval: unstable at every step. */
+		if (bound)
+			*bound = NDO_BOUND_DAMPING;
+		return 0;
+	}
+	return best;
+}
+
+/* ---- λ_max(M⁻¹K) by power iteration ---------------------------------------- */
+
+static uint64_t splitmix(uint64_t *x)
+{
+	uint64_t z = (*x += 0x9e3779b97f4a7c15ULL);
+	z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+	z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+	return z ^ (z >> 31);
+}
+
+/* y = M⁻¹(K + P) x on the active nodes, 0 on the held ones (the held
+ * nodes are fixed: Dirichlet conditions). */
+static void apply_mk(ndo_sim *s, const double *x, double *y)
+{
+	ndo_stencil_apply(&s->st, x, y);
+	for (size_t p = 0; p < s->count; p++)
+		y[p] = s->active[p] ? y[p] * s->minv[p] : 0;
+	for (size_t k = 0; k < s->npen; k++) {
+		size_t p = (size_t)s->pen[k];
+		if (s->active[p])
+			y[p] += s->alpha * s->minv[p] * x[p];
+	}
+	ndo_sync(s->level, y, sizeof *y);
+}
+
+/* ‖x‖²_M over the canonical nodes. */
+static double mnorm2(const ndo_sim *s, const double *x, const double *y)
+{
+	double sum = 0;
+	for (size_t p = 0; p < s->count; p++)
+		if (s->canon[p] == (int32_t)p)
+			sum += s->mass[p] * x[p] * y[p];
+	return sum;
+}
+
+int ndo_sim_critical(ndo_sim *s, ndo_critical *c)
+{
+	ndo__clear_error();
+	memset(c, 0, sizeof *c);
+	size_t cnt = s->count;
+	double *x = malloc(cnt * sizeof *x), *y = malloc(cnt * sizeof *y);
+	if (!x || !y) {
+		free(x), free(y);
+		return ndo__fail(NDO_ENOMEM, "out of memory for the critical step");
+	}
+	/* A seeded random start has a component along the top mode almost
+	 * surely; alternating signs favour the high frequencies from the
+	 * first iteration on. */
+	uint64_t seed = 0x6e646f;
+	for (size_t p = 0; p < cnt; p++) {
+		double r = (double)(splitmix(&seed) >> 11) / 9007199254740992.0;
+		int i = (int)(p % (size_t)s->w), j = (int)(p / (size_t)s->w);
+		x[p] = s->active[p] ? (0.5 + r) * (((i + j) & 1) ? 1 : -1) : 0;
+	}
+	ndo_sync(s->level, x, sizeof *x);
+	double nx = sqrt(mnorm2(s, x, x));
+	if (!(nx > 0)) {
+		/* Nothing is integrated: no constraint on the step. */
+		free(x), free(y);
+		c->h_crit = INFINITY;
+		c->bound = NDO_BOUND_NONE;
+		return NDO_OK;
+	}
+	for (size_t p = 0; p < cnt; p++)
+		x[p] /= nx;
+	double lambda = 0, hist[10] = {0};
+	int it;
+	const int max_it = 20000;
+	for (it = 1; it <= max_it; it++) {
+		apply_mk(s, x, y);
+		/* Rayleigh quotient in the M inner product (M⁻¹K is self-adjoint
+		 * there): xᵀK x / xᵀM x with ‖x‖_M = 1. */
+		lambda = mnorm2(s, x, y);
+		double ny = sqrt(mnorm2(s, y, y));
+		if (!(ny > 0))
+			break;
+		for (size_t p = 0; p < cnt; p++)
+			x[p] = y[p] / ny;
+		double old = hist[it % 10];
+		hist[it % 10] = lambda;
+		if (it >= 100) {
+			c->converged = fabs(lambda - old) / lambda;
+			if (c->converged < 1e-7)
+				break;
+		}
+	}
+	c->iterations = it > max_it ? max_it : it;
+	/* The damping rate of the mode found: φᵀBφ / φᵀMφ, B_ii = m_i γ_i. */
+	double num = 0, den = 0;
+	for (size_t p = 0; p < cnt; p++)
+		if (s->canon[p] == (int32_t)p && s->active[p]) {
+			num += s->mass[p] * s->gam[p] * x[p] * x[p];
+			den += s->mass[p] * x[p] * x[p];
+		}
+	free(x), free(y);
+	c->lambda_max = lambda;
+	c->omega_max = sqrt(lambda);
+	c->gamma = den > 0 ? num / den : 0;
+	c->c_imag = ndo_stability_interval(s->p.method, 1);
+	c->c_real = ndo_stability_interval(s->p.method, 0);
+	c->h_crit = ndo_stable_step(s->p.method, c->omega_max, c->gamma, &c->bound);
+	return NDO_OK;
+}

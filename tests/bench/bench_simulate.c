@@ -1,0 +1,287 @@
+/* bench_simulate — how fast the membrane integrators run, and how close
+ * the stencil kernel comes to this machine's limits.
+ *
+ *   bench_simulate speed L...   steps/s and node-steps/s of every
+ *                               integrator at levels L (the thesis scene)
+ *   bench_simulate limits       copy bandwidth at L2, L3 and DRAM sizes;
+ *                               FMA throughput with SSE2, AVX2, AVX-512
+ *   bench_simulate kernel L...  the RK4 kernel's GFLOP/s and GB/s
+ *
+ * Timings are medians of 7 runs of at least 0.1 s each, single thread.
+ * Output: markdown table rows (tests/bench/simulate.sh assembles them). */
+#include "ndo/ndo.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+static double now(void)
+{
+	struct timespec t;
+	clock_gettime(CLOCK_MONOTONIC, &t);
+	return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+static int cmp(const void *a, const void *b)
+{
+	double x = *(const double *)a, y = *(const double *)b;
+	return (x > y) - (x < y);
+}
+
+static double median(double *v, int n)
+{
+	qsort(v, (size_t)n, sizeof *v, cmp);
+	return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+#define REPS 7
+
+/* The thesis scene (figure 5.3): the wavy surface, k = 1 N/m, b = 0.1,
+ * a sinusoidal 2.4 N force on the faces around (0, 0, 1). */
+static ndo_sim *thesis_scene(ndo_grid *g, ndo_method m, ndo_force **forces)
+{
+	ndo_scene sc;
+	ndo_scene_init(&sc);
+	ndo_scene_set(&sc, "force", "face at=0,0,1 radius=0.2 amplitude=2.4 frequency=1");
+	uint8_t *pin = calloc(g->count, 1);
+	if (ndo_scene_resolve(&sc, g->level, g->ch[0].data, forces, pin)) {
+		fprintf(stderr, "bench_simulate: %s\n", ndo_errdetail());
+		exit(1);
+	}
+	ndo_sim_params p = sc.sim;
+	p.method = m;
+	p.forces = *forces;
+	p.nforces = sc.nforces;
+	ndo_sim *s;
+	if (ndo_sim_create(g->level, g->ch[0].data, NULL, NULL, NULL, &p, &s)) {
+		fprintf(stderr, "bench_simulate: %s\n", ndo_errdetail());
+		exit(1);
+	}
+	free(pin);
+	ndo_scene_free(&sc);
+	return s;
+}
+
+/* Median steps per second of `s` at step h. */
+static double steps_per_second(ndo_sim *s, double h)
+{
+	for (int k = 0; k < 5; k++)
+		ndo_sim_step(s, h);
+	double r[REPS];
+	long n = 1;
+	for (;;) { /* calibrate: n steps take at least 0.1 s */
+		double t0 = now();
+		for (long k = 0; k < n; k++)
+			ndo_sim_step(s, h);
+		double el = now() - t0;
+		if (el > 0.1)
+			break;
+		n = el > 0.01 ? (long)(n * 0.12 / el) + 1 : n * 10;
+	}
+	for (int k = 0; k < REPS; k++) {
+		double t0 = now();
+		for (long q = 0; q < n; q++)
+			if (ndo_sim_step(s, h)) {
+				fprintf(stderr, "bench_simulate: %s\n", ndo_errdetail());
+				exit(1);
+			}
+		r[k] = (double)n / (now() - t0);
+	}
+	return median(r, REPS);
+}
+
+static void speed(int argc, char **argv)
+{
+	printf("| integrator | level | nodes | step (s) | steps/s | node-steps/s |\n");
+	printf("|---|---:|---:|---:|---:|---:|\n");
+	for (int a = 0; a < argc; a++) {
+		int level = atoi(argv[a]);
+		ndo_grid *g;
+		ndo_shape_make("wavy", level, NULL, &g);
+		double h_rk4 = 0;
+		for (int m = 0; m < NDO_METHOD_COUNT; m++) {
+			ndo_force *forces;
+			ndo_sim *s = thesis_scene(g, (ndo_method)m, &forces);
+			ndo_critical c;
+			ndo_sim_critical(s, &c);
+			if (m == NDO_RK4)
+				h_rk4 = c.h_crit;
+			/* Each method at half its own critical step; the implicit ones
+			 * at half RK4's (their cost per step does not depend on it). */
+			double h = isinf(c.h_crit) ? 0.5 * h_rk4 : 0.5 * c.h_crit;
+			double sps = steps_per_second(s, h);
+			size_t nodes = ndo_vertex_count(level);
+			printf("| %s | %d | %zu | %.3g | %.4g | %.3g |\n", ndo_method_names[m], level, nodes, h,
+			       sps, sps * (double)nodes);
+			fflush(stdout);
+			ndo_sim_destroy(s);
+			ndo_scene_forces_free(forces, 1);
+		}
+		ndo_grid_destroy(g);
+	}
+}
+
+/* ---- machine limits ------------------------------------------------------- */
+
+/* STREAM-like loops over n doubles, compiled for AVX2 like the kernel's
+ * clone: copy b = a (16 bytes per element) and triad a = b + s c (24). */
+__attribute__((target("avx2,fma"), optimize("O3"), noinline)) static void copy_avx2(double *restrict b,
+                                                                    const double *restrict a,
+                                                                    size_t n)
+{
+	for (size_t i = 0; i < n; i++)
+		b[i] = a[i];
+}
+
+__attribute__((target("avx2,fma"), optimize("O3"), noinline)) static void triad_avx2(double *restrict a,
+                                                                     const double *restrict b,
+                                                                     const double *restrict c,
+                                                                     size_t n)
+{
+	for (size_t i = 0; i < n; i++)
+		a[i] = b[i] + 0.5 * c[i];
+}
+
+/* GB/s of the copy (triad = 0) or the triad on arrays of n doubles. */
+static double bandwidth(size_t n, int triad)
+{
+	double *a = malloc(n * sizeof *a), *b = malloc(n * sizeof *b), *c = malloc(n * sizeof *c);
+	for (size_t k = 0; k < n; k++)
+		a[k] = (double)k, b[k] = 0, c[k] = 1;
+	double r[REPS];
+	long reps = (long)(2e8 / (double)n) + 1;
+	for (int q = 0; q < REPS; q++) {
+		double t0 = now();
+		for (long k = 0; k < reps; k++) {
+			if (triad)
+				triad_avx2(a, b, c, n);
+			else
+				copy_avx2(b, a, n);
+			__asm__ volatile("" ::"r"(a), "r"(b) : "memory");
+		}
+		r[q] = (triad ? 24.0 : 16.0) * (double)n * (double)reps / (now() - t0) / 1e9;
+	}
+	free(a), free(b), free(c);
+	return median(r, REPS);
+}
+
+/* FMA throughput: 10 independent chains x = x * m + c (enough to cover
+ * the latency of two pipes, few enough to stay in 16 registers), in the
+ * vector width of each instruction set; GFLOP/s with 2 flops per
+ * multiply-add. */
+typedef double v2 __attribute__((vector_size(16)));
+typedef double v4 __attribute__((vector_size(32)));
+typedef double v8 __attribute__((vector_size(64)));
+#define CHAINS 10
+
+#define FMA_LOOP(T, LANES)                                                      \
+	T x[CHAINS], m, c;                                                        \
+	for (int k = 0; k < LANES; k++)                                           \
+		m[k] = 0.999999, c[k] = 1e-6;                                         \
+	for (int j = 0; j < CHAINS; j++)                                          \
+		for (int k = 0; k < LANES; k++)                                       \
+			x[j][k] = j + k;                                                  \
+	for (long i = 0; i < iters; i++)                                          \
+		for (int j = 0; j < CHAINS; j++)                                      \
+			x[j] = x[j] * m + c;                                              \
+	double sum = 0;                                                           \
+	for (int j = 0; j < CHAINS; j++)                                          \
+		for (int k = 0; k < LANES; k++)                                       \
+			sum += x[j][k];                                                   \
+	return sum;
+
+__attribute__((optimize("O3"))) static double fma_sse2(long iters) { FMA_LOOP(v2, 2) }
+__attribute__((target("avx2,fma"), optimize("O3"))) static double fma_avx2(long iters)
+{
+	FMA_LOOP(v4, 4)
+}
+__attribute__((target("avx512f"), optimize("O3"))) static double fma_avx512(long iters)
+{
+	FMA_LOOP(v8, 8)
+}
+
+static double gflops(double (*fn)(long), int lanes)
+{
+	long iters = 20000000;
+	double r[REPS];
+	volatile double sink = 0;
+	for (int q = 0; q < REPS; q++) {
+		double t0 = now();
+		sink += fn(iters);
+		r[q] = 2.0 * CHAINS * lanes * (double)iters / (now() - t0) / 1e9;
+	}
+	(void)sink;
+	return median(r, REPS);
+}
+
+static void limits(void)
+{
+	printf("| measurement | value |\n|---|---:|\n");
+	const struct {
+		const char *what;
+		size_t bytes;
+	} sizes[] = {{"copy, 256 KiB arrays (L2)", 256 << 10},
+	             {"copy, 2 MiB arrays (L3, like level 6's state)", 2 << 20},
+	             {"copy, 64 MiB arrays (DRAM)", 64 << 20}};
+	for (int k = 0; k < 3; k++) {
+		printf("| %s | %.1f GB/s |\n", sizes[k].what, bandwidth(sizes[k].bytes / 8, 0));
+		printf("| triad%s | %.1f GB/s |\n", strchr(sizes[k].what, ','),
+		       bandwidth(sizes[k].bytes / 8, 1));
+	}
+	__builtin_cpu_init();
+	printf("| mul + add, SSE2 (2 doubles) | %.1f GFLOP/s |\n", gflops(fma_sse2, 2));
+	if (__builtin_cpu_supports("avx2") && __builtin_cpu_supports("fma"))
+		printf("| FMA, AVX2 (4 doubles) | %.1f GFLOP/s |\n", gflops(fma_avx2, 4));
+	if (__builtin_cpu_supports("avx512f"))
+		printf("| FMA, AVX-512 (8 doubles) | %.1f GFLOP/s |\n", gflops(fma_avx512, 8));
+}
+
+/* The fused RK4 pass per node and stage (integrate.c, rk4_interior), with
+ * forces: stencil 3 × (6 sub + 6 mul + 5 add) = 51, acceleration 3 × 4 =
+ * 12, stage update 3 × 8 = 24 (the middle stages; the first 3 × 4 + the
+ * diagnostics ≈ 24, the last 3 × 6): 87 + 87 + 87 + 81 ≈ 342 flops per
+ * node-step.  Memory: each pass reads the stage displacement, velocity,
+ * the state, the two running sums (6 × 3 planes), three edge planes,
+ * 1/m, γ and the force (3 planes) and writes 4 × 3 planes: 29 + 12 = 41
+ * doubles, 328 bytes per node and stage, 1312 per node-step. */
+#define RK4_FLOPS 342.0
+#define RK4_BYTES 1312.0
+
+static void kernel(int argc, char **argv)
+{
+	printf("| level | nodes | state (MiB) | steps/s | GFLOP/s | GB/s |\n");
+	printf("|---:|---:|---:|---:|---:|---:|\n");
+	for (int a = 0; a < argc; a++) {
+		int level = atoi(argv[a]);
+		ndo_grid *g;
+		ndo_shape_make("wavy", level, NULL, &g);
+		ndo_force *forces;
+		ndo_sim *s = thesis_scene(g, NDO_RK4, &forces);
+		ndo_critical c;
+		ndo_sim_critical(s, &c);
+		double sps = steps_per_second(s, 0.5 * c.h_crit);
+		double n = (double)g->count;
+		printf("| %d | %zu | %.2f | %.4g | %.2f | %.1f |\n", level, ndo_vertex_count(level),
+		       n * 29 * 8 / 1048576.0, sps, sps * n * RK4_FLOPS / 1e9, sps * n * RK4_BYTES / 1e9);
+		ndo_sim_destroy(s);
+		ndo_scene_forces_free(forces, 1);
+		ndo_grid_destroy(g);
+	}
+}
+
+int main(int argc, char **argv)
+{
+	if (argc >= 2 && strcmp(argv[1], "speed") == 0)
+		speed(argc - 2, argv + 2);
+	else if (argc >= 2 && strcmp(argv[1], "limits") == 0)
+		limits();
+	else if (argc >= 2 && strcmp(argv[1], "kernel") == 0)
+		kernel(argc - 2, argv + 2);
+	else {
+		fprintf(stderr, "usage: bench_simulate speed|kernel LEVEL... | limits\n");
+		return 2;
+	}
+	return 0;
+}

@@ -1,0 +1,46 @@
+#!/usr/bin/env bash
+# simulate-peer's failures: one line on stderr, the documented exit code,
+# nothing written.
+. "$(dirname "$0")/lib.sh"
+
+remesh --shape sphere -l 3 -o s3.tgrid
+remesh --shape sphere -l 4 -o s4.tgrid
+head -c 100 s3.tgrid >trunc.tgrid
+printf 'stiffness 1\nintegrator leapfrog\n' >bad.scene
+
+expect_error "stiffness out of range" 2 '^simulate-peer: --stiffness: 0 is outside \(0, 1e\+12\]$' \
+	simulate-peer -k 0 s3.tgrid -o o.tgrid
+expect_error "unknown integrator" 2 "--integrator: 'verlet' is not euler" \
+	simulate-peer -i verlet s3.tgrid -o o.tgrid
+expect_error "steps not an integer" 2 "--steps: '1.5' is not an integer" \
+	simulate-peer -n 1.5 s3.tgrid -o o.tgrid
+expect_error "dt negative" 2 '--dt: -1 is outside' simulate-peer --dt -1 s3.tgrid -o o.tgrid
+expect_error "bad force" 2 "--force: 'spring' is not face, point or pressure" \
+	simulate-peer --force 'spring faces=1' s3.tgrid -o o.tgrid
+expect_error "face outside the grid" 2 'force 1: face 9999 is outside 0..255' \
+	simulate-peer --force 'face faces=9999' s3.tgrid -o o.tgrid
+expect_error "frames without a number" 2 'frames: .x.tgrid. needs exactly one %d' \
+	simulate-peer --frames x.tgrid s3.tgrid -o o.tgrid
+expect_error "frames with an unknown extension" 2 'frames: f0.png: unknown extension' \
+	simulate-peer --frames 'f%d.png' s3.tgrid -o o.tgrid
+expect_error "unknown output extension" 2 'o.txt: unknown output extension' \
+	simulate-peer s3.tgrid -o o.txt
+expect_error "two inputs" 2 "more than one input: 's4.tgrid'" simulate-peer s3.tgrid s4.tgrid
+expect_error "--dt auto with an implicit method" 2 'dt auto: trapezoid is stable at any step' \
+	simulate-peer -q -i trapezoid s3.tgrid -o o.tgrid
+expect_error "--dt auto for euler without damping" 2 'euler has no stable step without damping' \
+	simulate-peer -q -i euler -b 0 s3.tgrid -o o.tgrid
+expect_error "missing input" 1 'nonexistent.tgrid: cannot open' \
+	simulate-peer nonexistent.tgrid -o o.tgrid
+expect_error "truncated input" 1 'trunc.tgrid: truncated' simulate-peer trunc.tgrid -o o.tgrid
+expect_error "rest grid of another level" 1 's4.tgrid: the rest grid must be level 3' \
+	simulate-peer --rest s4.tgrid s3.tgrid -o o.tgrid
+expect_error "missing scene" 1 'nothere.scene: No such file' \
+	simulate-peer -s nothere.scene s3.tgrid -o o.tgrid
+expect_error "bad scene line" 1 "bad.scene:2: integrator: 'leapfrog' is not euler" \
+	simulate-peer -s bad.scene s3.tgrid -o o.tgrid
+expect_error "unwritable frames" 1 'nodir/f0.tgrid: cannot write' \
+	simulate-peer -q --frames 'nodir/f%d.tgrid' s3.tgrid -o o.tgrid
+expect_error "diverged" 3 '^simulate-peer: diverged at step [0-9]+ ' \
+	simulate-peer -q --dt 0.5 --perturb 1e-3 -n 100 s3.tgrid -o o.tgrid
+if [ -e o.tgrid ]; then fail "nothing written" "o.tgrid exists"; else pass "nothing written"; fi

@@ -1,0 +1,135 @@
+#!/usr/bin/env bash
+# simulate-peer end to end: pipelines, the physics seen from outside, the
+# scene file, frames, the log, pins, divergence.
+. "$(dirname "$0")/lib.sh"
+TG="/usr/bin/python3 $NDO_ROOT/tests/e2e/tgrid.py"
+
+remesh --shape sphere -l 3 -o s3.tgrid
+remesh --shape sphere -l 4 -o s4.tgrid
+remesh --shape ellipsoid --axes 1.05,1,1 -l 4 -o e4.tgrid
+
+# A pipeline: grid in on stdin, grid out on stdout, with velocities,
+# the rest shape, and the step count and time.
+if remesh --shape wavy -l 3 | simulate-peer -q -n 10 --dt 0.01 \
+	--force 'face at=0,0,1 radius=0.3 amplitude=2.4 frequency=1' >pipe.tgrid 2>err.log &&
+	[ "$($TG pipe.tgrid)" = "level 3 step 10 time 0.1 channels position velocity rest" ] &&
+	[ "$($TG pipe.tgrid 'int(abs(velocity).max() > 0)')" = 1 ]; then
+	pass "pipeline stdin to stdout keeps velocity, rest, step and time"
+else
+	fail "pipeline" "$($TG pipe.tgrid 2>&1) $(cat err.log)"
+fi
+
+# An ellipsoid released towards its rest sphere is the l = 1 mode:
+# omega = sqrt(2 sigma / rho) / R, so the displacement first vanishes at
+# t = pi / (2 sqrt 2) = 1.1107 s.
+simulate-peer -q e4.tgrid --rest s4.tgrid -b 0 --dt 0.01 --time 2 --log rel.csv -o rel.tgrid
+t=$(awk -F, 'NR > 1 { if (min == "" || $7 < min) { min = $7; t = $2 } } END { print t }' rel.csv)
+if awk -v t="$t" 'BEGIN { exit !(t > 1.10 && t < 1.12) }'; then
+	pass "ellipsoid released to its sphere: quarter period $t s (1.1107 s)"
+else
+	fail "ellipsoid release" "quarter period $t s, want 1.1107 s"
+fi
+
+# The critical step is printed before the run; --info stops there.
+simulate-peer --info s3.tgrid -o never.tgrid 2>info.log
+if grep -q 'rk4: critical step 0.17[0-9]* s (oscillation bound' info.log && [ ! -e never.tgrid ]; then
+	pass "--info prints the critical step and writes nothing"
+else
+	fail "--info" "$(cat info.log)"
+fi
+
+# The same settings from a scene file and from the command line.
+cat >scene.txt <<'SCENE'
+# thesis figure 5.4: k = 6.25 N/m, b = 0.1, f = 1.2 N
+stiffness 6.25
+damping 0.1
+integrator rkf45
+dt 0.02
+steps 25
+force face at=0,0,1 radius=0.3 amplitude=1.2 frequency=1
+pin at=0,0,-1 radius=0.3
+SCENE
+simulate-peer -q -s scene.txt s3.tgrid --log a.csv -o a.tgrid
+simulate-peer -q s3.tgrid -k 6.25 -b 0.1 -i rkf45 --dt 0.02 -n 25 \
+	--force 'face at=0,0,1 radius=0.3 amplitude=1.2 frequency=1' --pin 'at=0,0,-1 radius=0.3' \
+	--log b.csv -o b.tgrid
+state='repr((position.sum(), velocity.sum(), int(pin.sum())))'
+if cmp -s a.csv b.csv && [ "$(wc -l <a.csv)" = 27 ] &&
+	[ "$($TG a.tgrid "$state")" = "$($TG b.tgrid "$state")" ] &&
+	[ "$($TG a.tgrid 'int(pin.sum())')" -gt 0 ]; then
+	pass "scene file = command line; log has a header and 26 rows; pins saved"
+else
+	fail "scene file vs command line" "$(diff a.csv b.csv | head -3)"
+fi
+# The command line overrides the file.
+simulate-peer -q -s scene.txt -n 5 s3.tgrid -o c.tgrid
+check "command line overrides the scene" test "$($TG c.tgrid step)" = 5
+
+# Pinned nodes do not move; the rest do.
+if [ "$($TG a.tgrid 'int(abs((position - rest)[pin[..., 0] > 0]).max() == 0 and abs(position - rest).max() > 1e-3)')" = 1 ]; then
+	pass "pinned nodes stay put while the force moves the others"
+else
+	fail "pins" "$($TG a.tgrid 'abs((position - rest)[pin[..., 0] > 0]).max()')"
+fi
+
+# Frames: frame 0 is the initial state, then every N steps.
+mkdir -p fr
+simulate-peer -q s3.tgrid -n 20 --dt 0.01 --frames 'fr/f%03d.tgrid' --frame-every 5 \
+	--force 'point at=1,0,0 amplitude=1' -o /dev/null
+if [ "$(ls fr | tr '\n' ' ')" = "f000.tgrid f001.tgrid f002.tgrid f003.tgrid f004.tgrid " ] &&
+	[ "$($TG fr/f002.tgrid step)" = 10 ] && grep -q 'simulate-peer' fr/f004.tgrid; then
+	pass "frames every 5 steps, numbered, each with its step and history"
+else
+	fail "frames" "$(ls fr)"
+fi
+
+# Divergence: exit 3, one message with the step and the ratio to the
+# critical step, no output grid, a log of finite rows.
+simulate-peer s3.tgrid --dt 0.5 -n 200 --perturb 1e-3 --log div.csv -o div.tgrid >out.log 2>err.log
+rc=$?
+if [ $rc = 3 ] && grep -q 'diverged at step [0-9]* (t = .* x the critical step): energy' err.log &&
+	[ ! -e div.tgrid ] && [ -s div.csv ] && ! grep -qi 'nan\|inf' div.csv; then
+	pass "divergence: exit 3, reported, no output, finite log"
+else
+	fail "divergence" "exit $rc: $(tail -1 err.log)"
+fi
+
+# Progress goes to a terminal only: none in a redirected stderr.
+simulate-peer s4.tgrid -n 50 -o p.tgrid 2>prog.log
+if ! grep -q $'\r' prog.log && grep -q 'steps/s' prog.log; then
+	pass "no progress line on a non-terminal; a summary line"
+else
+	fail "progress line" "$(od -c prog.log | head -3)"
+fi
+
+# Every integrator runs the thesis scene; the implicit ones at a step
+# far beyond the explicit limit.
+for m in euler symplectic-euler midpoint rk4 rkf45; do
+	check "integrator $m" simulate-peer -q -i $m --dt 1e-3 -n 20 -s scene.txt s3.tgrid -o m.tgrid
+done
+for m in backward-euler trapezoid; do
+	check "integrator $m at 10 x the rk4 limit" simulate-peer -q -i $m --dt 1 -n 20 -s scene.txt \
+		s3.tgrid -o m.tgrid
+done
+check "restiffen and a mesh output" simulate-peer -q --restiffen 2 -s scene.txt s3.tgrid -o m.obj
+
+# The sample scenes run (on a coarse grid, a few steps).
+for f in "$NDO_ROOT"/samples/*.scene; do
+	shape=$(grep -o 'remesh --shape [a-z]*' "$f" | cut -d' ' -f3)
+	check "sample $(basename "$f")" sh -c "remesh --shape ${shape:-sphere} -l 3 |
+		simulate-peer -q -s '$f' -n 5 -o sample.tgrid"
+done
+
+# Interrupted: exit 130 after the current step, the log kept, no output
+# and no temporary file left.
+mkdir -p intr && cd intr
+timeout --preserve-status -s INT 1 simulate-peer -q ../s3.tgrid -n 100000000 --dt 1e-3 \
+	--log int.csv -o int.tgrid 2>err.log
+rc=$?
+if [ $rc = 130 ] && [ "$(ls)" = "err.log
+int.csv" ] && grep -q 'interrupted at step' err.log; then
+	pass "SIGINT: exit 130, log kept, nothing else written"
+else
+	fail "SIGINT" "exit $rc, files: $(ls | tr '\n' ' ')"
+fi
+cd ..

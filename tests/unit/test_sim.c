@@ -1,0 +1,890 @@
+/* test_sim — the integrators (lib/integrate.c, implicit.c), the critical
+ * step (stability.c) and the stepping API for regions: against the exact
+ * modal solution of the linear system, the predicted divergence step,
+ * the sphere's l = 2 period, and the invariants (duplicates equal, pins
+ * fixed, energy not growing without input). */
+#include "check.h"
+#include "ndo/ndo.h"
+#include "sim_private.h"
+
+#include <stdint.h>
+#include <stdlib.h>
+
+void dsygvd_(int *itype, char *jobz, char *uplo, int *n, double *a, int *lda, double *b,
+             int *ldb, double *w, double *work, int *lwork, int *iwork, int *liwork,
+             int *info);
+
+static uint64_t rng = 99;
+static double uniform(void)
+{
+	rng = rng * 6364136223846793005ULL + 1442695040888963407ULL;
+	return (double)(rng >> 11) / 9007199254740992.0 * 2 - 1;
+}
+
+static ndo_grid *shape(const char *name, int level)
+{
+	ndo_grid *g = NULL;
+	ndo_shape_make(name, level, NULL, &g);
+	return g;
+}
+
+/* A small random displacement and velocity of every vertex (duplicates
+ * equal), seeded. */
+static void random_state(const ndo_grid *g, double amp, double *x, double *v)
+{
+	memcpy(x, g->ch[0].data, 3 * g->count * sizeof *x);
+	for (size_t p = 0; p < 3 * g->count; p++) {
+		x[p] += amp * uniform();
+		v[p] = amp * uniform();
+	}
+	ndo_sync(g->level, x, 3 * sizeof *x);
+	ndo_sync(g->level, v, 3 * sizeof *v);
+}
+
+static ndo_sim *make(const ndo_grid *g, const double *x, const double *v, const uint8_t *pin,
+                     const ndo_sim_params *p)
+{
+	ndo_sim *s = NULL;
+	int rc = ndo_sim_create(g->level, x ? x : g->ch[0].data, v, g->ch[0].data, pin, p, &s);
+	if (rc) {
+		printf("    ndo_sim_create: %s\nFAIL test_sim: a simulation could not be created\n",
+		       ndo_errdetail());
+		exit(1);
+	}
+	return s;
+}
+
+static void tableaux_are_consistent(void)
+{
+	const ndo_method m[] = {NDO_EULER, NDO_MIDPOINT, NDO_RK4, NDO_RKF45};
+	for (int k = 0; k < 4; k++) {
+		double worst;
+		CHECK(ndo__tableau_check(m[k], &worst) == 0 && worst < 1e-15,
+		      "%s: a row sum differs from its c, or Σb from 1, by %g", ndo_method_names[m[k]],
+		      worst);
+	}
+	/* RKF45's propagated solution is 5th order: R(z) agrees with e^z
+	 * through z⁵. */
+	double r[7], f = 1;
+	CHECK(ndo__stability_poly(NDO_RKF45, r) == 6, "rkf45 has 6 stages");
+	for (int k = 0; k <= 5; k++) {
+		CHECK_NEAR(r[k], 1 / f, 1e-15, "rkf45 stability polynomial coefficient");
+		f *= k + 1;
+	}
+}
+
+static void stability_intervals_are_the_textbook_ones(void)
+{
+	CHECK_NEAR(ndo_stability_interval(NDO_RK4, 1), 2 * sqrt(2), 1e-9, "rk4 imaginary interval");
+	CHECK_NEAR(ndo_stability_interval(NDO_RK4, 0), 2.785293563, 1e-6, "rk4 real interval");
+	CHECK_NEAR(ndo_stability_interval(NDO_EULER, 0), 2, 1e-9, "euler real interval");
+	CHECK_NEAR(ndo_stability_interval(NDO_MIDPOINT, 0), 2, 1e-9, "midpoint real interval");
+	CHECK_NEAR(ndo_stability_interval(NDO_SYMPLECTIC_EULER, 1), 2, 1e-9,
+	           "symplectic Euler: hω ≤ 2");
+	CHECK(isinf(ndo_stability_interval(NDO_TRAPEZOID, 1)), "trapezoid is A-stable");
+	/* No damping: Euler and midpoint are unstable at every step. */
+	CHECK(ndo_stable_step(NDO_EULER, 30, 0, NULL) == 0, "undamped euler");
+	CHECK(ndo_stable_step(NDO_MIDPOINT, 30, 0, NULL) == 0, "undamped midpoint");
+	/* Light damping: Euler h ≈ γ/ω², midpoint ≈ (4γ/ω⁴)^⅓, RK4 ≈ 2√2/ω. */
+	int bound;
+	double w = 30, gam = 0.1;
+	CHECK_NEAR(ndo_stable_step(NDO_EULER, w, gam, &bound), gam / (w * w), 1e-3 * gam / (w * w),
+	           "damped euler");
+	CHECK(bound == NDO_BOUND_DAMPING, "euler is damping-bound");
+	double mid = cbrt(4 * gam / (w * w * w * w));
+	CHECK_NEAR(ndo_stable_step(NDO_MIDPOINT, w, gam, NULL), mid, 0.02 * mid, "damped midpoint");
+	CHECK_NEAR(ndo_stable_step(NDO_RK4, w, gam, &bound), 2 * sqrt(2) / w, 0.01 / w, "rk4");
+	CHECK(bound == NDO_BOUND_OSCILLATION, "rk4 is oscillation-bound");
+	/* Heavy damping: the real axis, h ≈ c_real/γ. */
+	CHECK_NEAR(ndo_stable_step(NDO_EULER, 1, 100, &bound), 2.0 / 100, 2e-4, "overdamped euler");
+	CHECK(bound == NDO_BOUND_REAL, "overdamped euler is real-axis bound");
+}
+
+/* Dense modes of (K, M) over the vertices: eigenvalues w, M-orthonormal
+ * eigenvectors in columns of V (n × n, column-major). */
+static int modes(const ndo_grid *g, double sigma, double rho, double **w, double **V, double **mv)
+{
+	ndo_csr K;
+	ndo_membrane_csr(g->level, g->ch[0].data, sigma, &K);
+	int n = K.n, itype = 1, lwork = -1, liwork = -1, info, iwq;
+	double *m = malloc(g->count * sizeof *m), wq;
+	int32_t *rep = malloc((size_t)n * sizeof *rep), *vid = malloc(g->count * sizeof *vid);
+	ndo_lumped_mass(g->level, g->ch[0].data, rho, m, NULL);
+	ndo_vertex_ids(g->level, vid, rep);
+	double *A = calloc((size_t)n * n, sizeof *A), *B = calloc((size_t)n * n, sizeof *B);
+	*w = malloc((size_t)n * sizeof **w);
+	*mv = malloc((size_t)n * sizeof **mv);
+	for (int i = 0; i < n; i++) {
+		for (int64_t k = K.ptr[i]; k < K.ptr[i + 1]; k++)
+			A[(size_t)i * n + K.col[k]] = K.val[k];
+		B[(size_t)i * n + i] = (*mv)[i] = m[rep[i]];
+	}
+	char jobz = 'V', uplo = 'U';
+	dsygvd_(&itype, &jobz, &uplo, &n, A, &n, B, &n, *w, &wq, &lwork, &iwq, &liwork, &info);
+	lwork = (int)wq;
+	liwork = iwq;
+	double *work = malloc((size_t)lwork * sizeof *work);
+	int *iwork = malloc((size_t)liwork * sizeof *iwork);
+	dsygvd_(&itype, &jobz, &uplo, &n, A, &n, B, &n, *w, work, &lwork, iwork, &liwork, &info);
+	CHECK(info == 0, "dsygvd: info %d", info);
+	*V = A;
+	free(B), free(work), free(iwork), free(m), free(rep), free(vid);
+	ndo_csr_free(&K);
+	return n;
+}
+
+/* The exact solution at time T of M u'' + γ M u' + K u = 0 from (x0, v0)
+ * (stored-node AoS arrays), written into x, v. */
+static void exact(const ndo_grid *g, const double *w, const double *V, const double *mv, int n,
+                  double gam, const double *x0, const double *v0, double T, double *x, double *v)
+{
+	int32_t *vid = malloc(g->count * sizeof *vid), *rep = malloc((size_t)n * sizeof *rep);
+	ndo_vertex_ids(g->level, vid, rep);
+	const double *X = g->ch[0].data;
+	double *uq = calloc((size_t)n, sizeof *uq), *vq = calloc((size_t)n, sizeof *vq);
+	for (int c = 0; c < 3; c++) {
+		memset(uq, 0, (size_t)n * sizeof *uq);
+		memset(vq, 0, (size_t)n * sizeof *vq);
+		for (int i = 0; i < n; i++) {
+			const double *phi = V + (size_t)i * n;
+			double q0 = 0, p0 = 0;
+			for (int j = 0; j < n; j++) {
+				size_t r = (size_t)rep[j];
+				q0 += phi[j] * mv[j] * (x0[3 * r + c] - X[3 * r + c]);
+				p0 += phi[j] * mv[j] * v0[3 * r + c];
+			}
+			double q, p, lam = w[i];
+			if (fabs(lam) < 1e-9) {
+				/* The constant mode: q'' + γ q' = 0. */
+				double e = exp(-gam * T);
+				q = q0 + (gam > 0 ? p0 * (1 - e) / gam : p0 * T);
+				p = p0 * e;
+			} else {
+				double wd = sqrt(lam - gam * gam / 4), e = exp(-gam * T / 2);
+				double B = (p0 + gam * q0 / 2) / wd;
+				q = e * (q0 * cos(wd * T) + B * sin(wd * T));
+				p = e * (-q0 * wd * sin(wd * T) + B * wd * cos(wd * T)) - gam / 2 * q;
+			}
+			for (int j = 0; j < n; j++) {
+				uq[j] += q * phi[j];
+				vq[j] += p * phi[j];
+			}
+		}
+		for (size_t r = 0; r < g->count; r++) {
+			x[3 * r + c] = X[3 * r + c] + uq[vid[r]];
+			v[3 * r + c] = vq[vid[r]];
+		}
+	}
+	free(uq), free(vq), free(vid), free(rep);
+}
+
+static double max_diff(const double *a, const double *b, size_t n)
+{
+	double d = 0;
+	for (size_t k = 0; k < n; k++)
+		d = fmax(d, fabs(a[k] - b[k]));
+	return d;
+}
+
+/* Error in position and velocity at T = 1 s of method m with step h. */
+static double run_error(const ndo_grid *g, ndo_method m, double h, double tol, const double *x0,
+                        const double *v0, const double *xe, const double *ve, double gam)
+{
+	ndo_sim_params p;
+	ndo_sim_defaults(&p);
+	p.method = m;
+	p.tol = tol;
+	p.material.mass_damping = gam;
+	ndo_sim *s = make(g, x0, v0, NULL, &p);
+	int n = (int)lround(1.0 / h);
+	for (int k = 0; k < n; k++)
+		if (ndo_sim_step(s, h)) {
+			CHECK(0, "%s diverged at step %d: %s", ndo_method_names[m], k, ndo_errdetail());
+			break;
+		}
+	double *x = malloc(3 * g->count * sizeof *x), *v = malloc(3 * g->count * sizeof *v);
+	ndo_sim_get(s, x, v);
+	double e = fmax(max_diff(x, xe, 3 * g->count), max_diff(v, ve, 3 * g->count));
+	free(x), free(v);
+	ndo_sim_destroy(s);
+	return e;
+}
+
+/* Every method converges to the exact modal solution at its order. */
+static void integrators_converge_to_the_exact_solution(void)
+{
+	ndo_grid *g = shape("ellipsoid", 2);
+	double *w, *V, *mv, gam = 0.5;
+	int n = modes(g, 1, 1, &w, &V, &mv);
+	size_t nn = 3 * g->count;
+	double *x0 = malloc(nn * sizeof *x0), *v0 = malloc(nn * sizeof *v0);
+	double *xe = malloc(nn * sizeof *xe), *ve = malloc(nn * sizeof *ve);
+	random_state(g, 0.05, x0, v0);
+	exact(g, w, V, mv, n, gam, x0, v0, 1.0, xe, ve);
+	struct {
+		ndo_method m;
+		int order;
+		double h;
+	} cases[] = {{NDO_EULER, 1, 1.0 / 1000}, {NDO_SYMPLECTIC_EULER, 1, 1.0 / 500},
+	             {NDO_MIDPOINT, 2, 1.0 / 500}, {NDO_RK4, 4, 1.0 / 50},
+	             {NDO_BACKWARD_EULER, 1, 1.0 / 500}, {NDO_TRAPEZOID, 2, 1.0 / 250}};
+	for (size_t k = 0; k < sizeof cases / sizeof cases[0]; k++) {
+		double e1 = run_error(g, cases[k].m, cases[k].h, 1e-6, x0, v0, xe, ve, gam);
+		double e2 = run_error(g, cases[k].m, cases[k].h / 2, 1e-6, x0, v0, xe, ve, gam);
+		double ratio = e1 / e2, want = pow(2, cases[k].order);
+		CHECK(ratio > 0.75 * want && ratio < 1.4 * want,
+		      "%s: error %g at h = %g, %g at h/2: ratio %.3g, want %g (order %d)",
+		      ndo_method_names[cases[k].m], e1, cases[k].h, e2, ratio, want, cases[k].order);
+		CHECK(e2 < 0.01, "%s: error %g", ndo_method_names[cases[k].m], e2);
+	}
+	/* rkf45 at a tight tolerance: the exact solution to ~1e-8. */
+	double e = run_error(g, NDO_RKF45, 0.05, 1e-11, x0, v0, xe, ve, gam);
+	CHECK(e < 1e-8, "rkf45 at tol 1e-11: error %g against the exact modal solution", e);
+	free(w), free(V), free(mv), free(x0), free(v0), free(xe), free(ve);
+	ndo_grid_destroy(g);
+}
+
+/* With a force along the moving normals, the trapezoid stays second
+ * order (the force at t + h is taken at predicted positions) and RK4
+ * fourth: against rkf45 at a tolerance of 1e-11. */
+static double forced_run(const ndo_grid *g, ndo_method m, double h, double tol, double *x)
+{
+	int32_t faces[] = {20, 21, 22};
+	ndo_force f = {NDO_FORCE_FACE, 2.4, 1, 0, 1, {0}, 3, faces};
+	ndo_sim_params p;
+	ndo_sim_defaults(&p);
+	p.method = m;
+	p.tol = tol;
+	p.material.damping = 0.5;
+	p.forces = &f;
+	p.nforces = 1;
+	ndo_sim *s = make(g, NULL, NULL, NULL, &p);
+	for (int k = 0; k < (int)lround(1 / h); k++)
+		ndo_sim_step(s, h);
+	ndo_sim_get(s, x, NULL);
+	ndo_sim_destroy(s);
+	return 0;
+}
+
+static void follower_forces_keep_the_order(void)
+{
+	ndo_grid *g = shape("wavy", 2);
+	size_t nn = 3 * g->count;
+	double *ref = malloc(nn * sizeof *ref), *a = malloc(nn * sizeof *a), *b = malloc(nn * sizeof *b);
+	forced_run(g, NDO_RKF45, 0.05, 1e-11, ref);
+	const struct {
+		ndo_method m;
+		double h, want;
+	} cases[] = {{NDO_TRAPEZOID, 0.02, 4}, {NDO_BACKWARD_EULER, 0.01, 2}, {NDO_RK4, 0.025, 16}};
+	for (int k = 0; k < 3; k++) {
+		forced_run(g, cases[k].m, cases[k].h, 1e-6, a);
+		forced_run(g, cases[k].m, cases[k].h / 2, 1e-6, b);
+		double r = max_diff(a, ref, nn) / max_diff(b, ref, nn);
+		CHECK(r > 0.75 * cases[k].want && r < 1.4 * cases[k].want,
+		      "%s with a follower force: error ratio %.3g when h halves, want %g",
+		      ndo_method_names[cases[k].m], r, cases[k].want);
+	}
+	free(ref), free(a), free(b);
+	ndo_grid_destroy(g);
+}
+
+/* The fused RK4 passes give the tableau path's result, with forces,
+ * penalty pins and held nodes. */
+static void fused_rk4_equals_the_tableau(void)
+{
+	ndo_grid *g = shape("wavy", 3);
+	size_t nn = 3 * g->count;
+	double *x0 = malloc(nn * sizeof *x0), *v0 = malloc(nn * sizeof *v0);
+	random_state(g, 0.01, x0, v0);
+	uint8_t *pin = calloc(g->count, 1), *mask = malloc(g->count);
+	pin[ndo_node(g->w, 3, 2)] = pin[0] = 1;
+	for (size_t p = 0; p < g->count; p++)
+		mask[p] = p % (size_t)g->w < 11;
+	int32_t faces[] = {40, 41, 90};
+	ndo_force f[2] = {{NDO_FORCE_FACE, 2.4, 1, 0, 1, {0}, 3, faces},
+	                  {NDO_FORCE_PRESSURE, 0.3, 0.5, 1, 1, {0}, 0, NULL}};
+	for (int variant = 0; variant < 3; variant++) {
+		ndo_sim_params p;
+		ndo_sim_defaults(&p);
+		p.material.damping = 0.1;
+		p.forces = f;
+		p.nforces = 2;
+		p.pin_mode = variant == 1 ? NDO_PINS_PENALTY : NDO_PINS_PROJECT;
+		p.penalty = 50;
+		ndo_sim *a = make(g, x0, v0, pin, &p), *b = make(g, x0, v0, pin, &p);
+		if (variant == 2) {
+			ndo_sim_set_active(a, mask);
+			ndo_sim_set_active(b, mask);
+		}
+		for (int k = 0; k < 50; k++) {
+			CHECK(ndo_sim_step(a, 0.01) == 0, "fused: %s", ndo_errdetail());
+			CHECK(ndo__step_tableau(b, 0.01) == 0, "tableau: %s", ndo_errdetail());
+		}
+		double *xa = malloc(nn * sizeof *xa), *xb = malloc(nn * sizeof *xb);
+		double *va = malloc(nn * sizeof *va), *vb = malloc(nn * sizeof *vb);
+		ndo_sim_get(a, xa, va);
+		ndo_sim_get(b, xb, vb);
+		/* Same operations, additions in another order: a few ulps. */
+		CHECK(max_diff(xa, xb, nn) < 1e-13 && max_diff(va, vb, nn) < 1e-12,
+		      "variant %d: fused and tableau RK4 differ by %g (x), %g (v)", variant,
+		      max_diff(xa, xb, nn), max_diff(va, vb, nn));
+		free(xa), free(xb), free(va), free(vb);
+		ndo_sim_destroy(a);
+		ndo_sim_destroy(b);
+	}
+	free(x0), free(v0), free(pin), free(mask);
+	ndo_grid_destroy(g);
+}
+
+/* The power iteration's λ_max against the dense eigenvalues, with and
+ * without pins (pinned nodes are Dirichlet conditions). */
+static void power_iteration_finds_lambda_max(void)
+{
+	ndo_grid *g = shape("wavy", 3);
+	double *w, *V, *mv;
+	int n = modes(g, 2.0, 0.5, &w, &V, &mv);
+	ndo_sim_params p;
+	ndo_sim_defaults(&p);
+	p.material.stiffness = 2.0;
+	p.material.density = 0.5;
+	ndo_sim *s = make(g, NULL, NULL, NULL, &p);
+	ndo_critical c;
+	CHECK(ndo_sim_critical(s, &c) == 0, "critical: %s", ndo_errdetail());
+	CHECK_NEAR(c.lambda_max, w[n - 1], 1e-6 * w[n - 1], "λ_max by power iteration");
+	CHECK_NEAR(c.h_crit, 2 * sqrt(2) / sqrt(w[n - 1]), 1e-6 * c.h_crit, "rk4 critical step");
+	ndo_sim_destroy(s);
+	/* Pins only remove modes: λ_max cannot grow. */
+	uint8_t *pin = calloc(g->count, 1);
+	for (size_t q = 0; q < g->count; q += 7)
+		pin[q] = 1;
+	s = make(g, NULL, NULL, pin, &p);
+	ndo_critical cp;
+	ndo_sim_critical(s, &cp);
+	CHECK(cp.lambda_max <= c.lambda_max * (1 + 1e-9) && cp.lambda_max > 0.3 * c.lambda_max,
+	      "pinned λ_max %g vs free %g", cp.lambda_max, c.lambda_max);
+	ndo_sim_destroy(s);
+	free(pin), free(w), free(V), free(mv);
+	ndo_grid_destroy(g);
+}
+
+/* A stored duplicate is a bitwise copy of its vertex after every step,
+ * for every method, with forces, pins and a held region. */
+static void duplicates_agree_after_every_step(void)
+{
+	ndo_grid *g = shape("wavy", 3);
+	size_t nn = 3 * g->count, ndup = ndo_duplicate_count(3);
+	size_t *pairs = malloc(2 * ndup * sizeof *pairs);
+	ndo_duplicates(3, pairs);
+	double *x0 = malloc(nn * sizeof *x0), *v0 = malloc(nn * sizeof *v0);
+	double *x = malloc(nn * sizeof *x), *v = malloc(nn * sizeof *v);
+	random_state(g, 0.01, x0, v0);
+	uint8_t *pin = calloc(g->count, 1), *mask = malloc(g->count);
+	pin[ndo_node(g->w, 16, 8)] = 1; /* the corner D */
+	pin[ndo_node(g->w, 5, 3)] = 1;
+	for (size_t q = 0; q < g->count; q++)
+		mask[q] = q / (size_t)g->w < 5;
+	int32_t faces[] = {0, 1, 2, 31};
+	ndo_force f = {NDO_FORCE_FACE, 1.0, 2, 0, 1, {0}, 4, faces};
+	for (int m = 0; m < NDO_METHOD_COUNT; m++)
+		for (int variant = 0; variant < 2; variant++) {
+			ndo_sim_params p;
+			ndo_sim_defaults(&p);
+			p.method = m;
+			p.material.damping = 1;
+			p.forces = &f;
+			p.nforces = 1;
+			p.pin_mode = variant ? NDO_PINS_PENALTY : NDO_PINS_PROJECT;
+			p.penalty = 20;
+			ndo_sim *s = make(g, x0, v0, pin, &p);
+			if (variant)
+				ndo_sim_set_active(s, mask);
+			int bad = 0;
+			for (int k = 0; k < 30 && !bad; k++) {
+				CHECK(ndo_sim_step(s, 2e-3) == 0, "%s: %s", ndo_method_names[m], ndo_errdetail());
+				ndo_sim_get(s, x, v);
+				for (size_t d = 0; d < ndup; d++)
+					for (int c = 0; c < 3; c++)
+						if (x[3 * pairs[2 * d] + c] != x[3 * pairs[2 * d + 1] + c] ||
+						    v[3 * pairs[2 * d] + c] != v[3 * pairs[2 * d + 1] + c])
+							bad = 1;
+				CHECK(!bad, "%s variant %d: a duplicate differs from its vertex after step %d",
+				      ndo_method_names[m], variant, k + 1);
+			}
+			ndo_sim_destroy(s);
+		}
+	free(pairs), free(x0), free(v0), free(x), free(v), free(pin), free(mask);
+	ndo_grid_destroy(g);
+}
+
+/* Projected pins never move; penalty pins move little, and the penalty
+ * shrinks the stable step as 1/√α. */
+static void pins_stay_put(void)
+{
+	ndo_grid *g = shape("sphere", 3);
+	size_t nn = 3 * g->count;
+	uint8_t *pin = calloc(g->count, 1);
+	size_t pins[] = {ndo_node(g->w, 4, 4), ndo_node(g->w, 8, 0), ndo_node(g->w, 12, 5)};
+	for (int k = 0; k < 3; k++)
+		pin[pins[k]] = 1;
+	int32_t faces[] = {60, 61, 62, 63};
+	ndo_force f = {NDO_FORCE_FACE, 5.0, 0, 0, 1, {0}, 4, faces};
+	double *x = malloc(nn * sizeof *x), *X = g->ch[0].data;
+	for (int m = 0; m < NDO_METHOD_COUNT; m++) {
+		ndo_sim_params p;
+		ndo_sim_defaults(&p);
+		p.method = m;
+		p.material.damping = 2;
+		p.forces = &f;
+		p.nforces = 1;
+		ndo_sim *s = make(g, NULL, NULL, pin, &p);
+		for (int k = 0; k < 100; k++)
+			ndo_sim_step(s, 2e-3);
+		ndo_sim_get(s, x, NULL);
+		for (int k = 0; k < 3; k++)
+			for (int c = 0; c < 3; c++)
+				CHECK(x[3 * pins[k] + c] == X[3 * pins[k] + c], "%s: pinned node moved by %g",
+				      ndo_method_names[m], x[3 * pins[k] + c] - X[3 * pins[k] + c]);
+		ndo_sim_energy e;
+		ndo_sim_energy_get(s, &e);
+		CHECK(e.max_displacement > 1e-3, "%s: the force moved nothing", ndo_method_names[m]);
+		ndo_sim_destroy(s);
+	}
+	/* Penalty: pins held by springs 1000 × stiffer than the membrane. */
+	double hc[2];
+	for (int k = 0; k < 2; k++) {
+		ndo_sim_params p;
+		ndo_sim_defaults(&p);
+		p.material.damping = 2;
+		p.pin_mode = NDO_PINS_PENALTY;
+		p.penalty = k ? 4e4 : 1e4;
+		p.forces = &f;
+		p.nforces = 1;
+		ndo_sim *s = make(g, NULL, NULL, pin, &p);
+		ndo_critical c;
+		ndo_sim_critical(s, &c);
+		hc[k] = c.h_crit;
+		for (int q = 0; q < 300; q++)
+			ndo_sim_step(s, 0.5 * c.h_crit);
+		ndo_sim_get(s, x, NULL);
+		ndo_sim_energy e;
+		ndo_sim_energy_get(s, &e);
+		for (int q = 0; q < 3; q++) {
+			double d = sqrt(pow(x[3 * pins[q]] - X[3 * pins[q]], 2) +
+			                pow(x[3 * pins[q] + 1] - X[3 * pins[q] + 1], 2) +
+			                pow(x[3 * pins[q] + 2] - X[3 * pins[q] + 2], 2));
+			CHECK(d < 0.01 * e.max_displacement, "penalty pin moved %g of %g", d,
+			      e.max_displacement);
+		}
+		ndo_sim_destroy(s);
+	}
+	CHECK_NEAR(hc[1] / hc[0], 0.5, 0.03, "4 × the penalty halves the stable step");
+	free(pin), free(x);
+	ndo_grid_destroy(g);
+}
+
+/* Without forces: the energy never grows in a step where theory says it
+ * cannot (RK4 undamped below its limit: its one-step matrix is normal
+ * in the energy norm; the implicit methods always), the trapezoid
+ * conserves it, and only the two Euler methods ever exceed the start. */
+static void energy_never_grows_without_input(void)
+{
+	ndo_grid *g = shape("wavy", 3);
+	size_t nn = 3 * g->count;
+	double *x0 = malloc(nn * sizeof *x0), *v0 = malloc(nn * sizeof *v0);
+	random_state(g, 0.01, x0, v0);
+	for (int m = 0; m < NDO_METHOD_COUNT; m++)
+		for (int damped = 0; damped < 2; damped++) {
+			/* Euler, midpoint and rkf45 (as propagated) have no stable step
+			 * without damping. */
+			if (!damped && (m == NDO_EULER || m == NDO_MIDPOINT || m == NDO_RKF45))
+				continue;
+			ndo_sim_params p;
+			ndo_sim_defaults(&p);
+			p.method = m;
+			p.material.mass_damping = damped ? 2.0 : 0;
+			ndo_sim *s = make(g, x0, v0, NULL, &p);
+			ndo_critical c;
+			ndo_sim_critical(s, &c);
+			double h = isinf(c.h_crit) ? 0.05 : 0.5 * c.h_crit;
+			ndo_sim_energy e;
+			ndo_sim_energy_get(s, &e);
+			double e0 = e.kinetic + e.potential, prev = e0, worst = 0, drift = 0;
+			int monotone = 1;
+			for (int k = 0; k < 400; k++) {
+				ndo_sim_step(s, h);
+				ndo_sim_energy_get(s, &e);
+				double E = e.kinetic + e.potential;
+				monotone &= E <= prev * (1 + 1e-12);
+				worst = fmax(worst, E / e0);
+				drift = fmax(drift, fabs(E / e0 - 1));
+				prev = E;
+			}
+			const char *name = ndo_method_names[m];
+			/* Forward Euler is not dissipative step by step: from a state at
+			 * rest a step adds (hω)² of the energy, which damping removes
+			 * only over the following steps.  Symplectic Euler conserves a
+			 * modified energy; the true one oscillates about it. */
+			double allowed = m == NDO_EULER ? 1.01 : m == NDO_SYMPLECTIC_EULER && !damped ? 1.5
+			                                                                         : 1 + 1e-9;
+			CHECK(worst <= allowed, "%s%s: energy reached %.6g × its start", name,
+			      damped ? " damped" : "", worst);
+			if (ndo_method_is_implicit(m) || (m == NDO_RK4 && !damped))
+				CHECK(monotone, "%s%s: the energy grew in a step", name, damped ? " damped" : "");
+			if (m == NDO_TRAPEZOID && !damped)
+				CHECK(drift < 1e-9, "trapezoid: energy drifted by %g", drift);
+			if (damped)
+				CHECK(prev < 0.9 * e0, "%s damped: energy %g of %g after 400 steps", name, prev, e0);
+			ndo_sim_destroy(s);
+		}
+	free(x0), free(v0);
+	ndo_grid_destroy(g);
+}
+
+/* The protocol of docs/simulate-peer.md, "Stability": a seeded random
+ * perturbation of 1e-6 of the size; energy bound 1e6 (the amplitude
+ * ×1000); run length N = 20 / ln ρ(1.05 h_crit), at least 1000 steps, so
+ * that 5% above the prediction the top mode grows by e^20; the measured
+ * divergence step is the smallest h (bisection to 0.5%) at which the run
+ * stops with NDO_EDIVERGED. */
+static int diverges(const ndo_grid *g, const double *x0, ndo_sim_params *p, double h, long n)
+{
+	ndo_sim *s = make(g, x0, NULL, NULL, p);
+	int bad = 0;
+	for (long k = 0; k < n && !bad; k++)
+		bad = ndo_sim_step(s, h) == NDO_EDIVERGED;
+	bad |= ndo_sim_check(s) == NDO_EDIVERGED;
+	ndo_sim_destroy(s);
+	return bad;
+}
+
+static void divergence_step_matches_prediction(void)
+{
+	ndo_grid *g = shape("sphere", 2);
+	size_t nn = 3 * g->count;
+	double *x0 = malloc(nn * sizeof *x0), *v0 = malloc(nn * sizeof *v0);
+	random_state(g, 1e-6, x0, v0);
+	const ndo_method ms[] = {NDO_EULER, NDO_SYMPLECTIC_EULER, NDO_MIDPOINT, NDO_RK4, NDO_RKF45};
+	for (int k = 0; k < 5; k++) {
+		ndo_sim_params p;
+		ndo_sim_defaults(&p);
+		p.method = ms[k];
+		p.material.stiffness = 1;
+		p.material.mass_damping = 3;
+		p.energy_bound = 1e6;
+		p.tol = 1; /* rkf45: no error control, its propagated formula alone */
+		p.tol = 0.99;
+		ndo_sim *s = make(g, x0, NULL, NULL, &p);
+		ndo_critical c;
+		ndo_sim_critical(s, &c);
+		ndo_sim_destroy(s);
+		double rho = ndo_amplification(ms[k], c.omega_max, c.gamma, 1.05 * c.h_crit);
+		long n = (long)fmax(1000, ceil(20 / log(rho)));
+		double lo = 0.5 * c.h_crit, hi = 2 * c.h_crit;
+		CHECK(!diverges(g, x0, &p, lo, n), "%s: diverged at half the critical step",
+		      ndo_method_names[ms[k]]);
+		CHECK(diverges(g, x0, &p, hi, n), "%s: stable at twice the critical step",
+		      ndo_method_names[ms[k]]);
+		while (hi - lo > 0.005 * c.h_crit) {
+			double mid = 0.5 * (lo + hi);
+			if (diverges(g, x0, &p, mid, n))
+				hi = mid;
+			else
+				lo = mid;
+		}
+		double ratio = hi / c.h_crit;
+		CHECK(fabs(ratio - 1) < 0.1, "%s: diverges at %g s, predicted %g s (ratio %.3f, %ld "
+		      "steps)", ndo_method_names[ms[k]], hi, c.h_crit, ratio, n);
+	}
+	free(x0), free(v0);
+	ndo_grid_destroy(g);
+}
+
+/* The sphere's l = 2 mode, u_z ∝ 3z² − 1, vibrates with ω² = 6 σ/(ρR²):
+ * the period measured in a simulation, no eigensolver. */
+static void l2_mode_period(void)
+{
+	ndo_grid *g = shape("sphere", 5);
+	size_t nn = 3 * g->count;
+	double *x = malloc(nn * sizeof *x), *X = g->ch[0].data;
+	memcpy(x, X, nn * sizeof *x);
+	for (size_t q = 0; q < g->count; q++)
+		x[3 * q + 2] += 1e-3 * (3 * X[3 * q + 2] * X[3 * q + 2] - 1);
+	ndo_sim_params p;
+	ndo_sim_defaults(&p);
+	ndo_sim *s = make(g, x, NULL, NULL, &p);
+	ndo_critical c;
+	ndo_sim_critical(s, &c);
+	double h = 0.5 * c.h_crit, prev = 1e-3, first = 0, last = 0;
+	int crossings = 0;
+	/* The node nearest the north pole: u_z(t) = 2e-3 cos ωt. */
+	size_t pole = 0;
+	for (size_t q = 0; q < g->count; q++)
+		if (X[3 * q + 2] > X[3 * pole + 2])
+			pole = q;
+	for (int k = 1; k * h < 14; k++) {
+		ndo_sim_step(s, h);
+		ndo_sim_get(s, x, NULL);
+		double u = x[3 * pole + 2] - X[3 * pole + 2];
+		if ((u > 0) != (prev > 0)) {
+			double t = (k - 1) * h + h * prev / (prev - u);
+			if (!crossings)
+				first = t;
+			last = t;
+			crossings++;
+		}
+		prev = u;
+	}
+	double period = 2 * (last - first) / (crossings - 1);
+	CHECK_NEAR(period, 2 * M_PI / sqrt(6), 0.01 * 2 * M_PI / sqrt(6), "l = 2 period");
+	free(x);
+	ndo_sim_destroy(s);
+	ndo_grid_destroy(g);
+}
+
+/* Two halves, each integrating its own nodes with the other's from the
+ * previous step (ndo_sim_set_active + ndo_sim_set), approach the whole
+ * simulation as O(h): the thesis' one-step boundary lag. */
+static double lockstep_difference(const ndo_grid *g, ndo_method m, double h, double T)
+{
+	size_t cnt = g->count, nn = 3 * cnt;
+	int32_t faces[] = {100, 101, 102, 103};
+	ndo_force f = {NDO_FORCE_FACE, 1.0, 1, 0, 1, {0}, 4, faces};
+	ndo_sim_params p;
+	ndo_sim_defaults(&p);
+	p.method = m;
+	p.material.damping = 0.5;
+	p.forces = &f;
+	p.nforces = 1;
+	ndo_sim *whole = make(g, NULL, NULL, NULL, &p), *half[2];
+	uint8_t *mask[2];
+	int32_t *nodes[2];
+	size_t count[2] = {0, 0};
+	for (int k = 0; k < 2; k++) {
+		half[k] = make(g, NULL, NULL, NULL, &p);
+		mask[k] = malloc(cnt);
+		nodes[k] = malloc(cnt * sizeof **nodes);
+	}
+	for (size_t q = 0; q < cnt; q++) {
+		size_t c = ndo_canonical(g->level, (int)(q % (size_t)g->w), (int)(q / (size_t)g->w));
+		int left = c % (size_t)g->w < (size_t)g->n;
+		mask[0][q] = left;
+		mask[1][q] = !left;
+		nodes[!left][count[!left]++] = (int32_t)q;
+	}
+	for (int k = 0; k < 2; k++)
+		CHECK(ndo_sim_set_active(half[k], mask[k]) == 0, "set_active");
+	double *x = malloc(nn * sizeof *x), *v = malloc(nn * sizeof *v);
+	double *xs = malloc(nn * sizeof *xs), *vs = malloc(nn * sizeof *vs);
+	int steps = (int)lround(T / h);
+	for (int n = 0; n < steps; n++) {
+		ndo_sim_step(whole, h);
+		ndo_sim_step(half[0], h);
+		ndo_sim_step(half[1], h);
+		/* Exchange: each half's own nodes go to the other. */
+		for (int k = 0; k < 2; k++) {
+			ndo_sim_get(half[k], x, v);
+			for (size_t q = 0; q < count[k]; q++) {
+				size_t r = (size_t)nodes[k][q];
+				memcpy(xs + 3 * q, x + 3 * r, 3 * sizeof *x);
+				memcpy(vs + 3 * q, v + 3 * r, 3 * sizeof *v);
+			}
+			ndo_sim_set(half[!k], count[k], nodes[k], xs, vs);
+		}
+	}
+	double *xw = malloc(nn * sizeof *xw), d = 0;
+	ndo_sim_get(whole, xw, NULL);
+	ndo_sim_get(half[0], x, NULL);
+	d = max_diff(x, xw, nn);
+	ndo_sim_get(half[1], xs, NULL);
+	CHECK(max_diff(x, xs, nn) == 0, "the halves disagree after the exchange");
+	ndo_sim_energy e;
+	ndo_sim_energy_get(whole, &e);
+	CHECK(e.max_displacement > 0.01, "nothing moved (%g)", e.max_displacement);
+	for (int k = 0; k < 2; k++) {
+		ndo_sim_destroy(half[k]);
+		free(mask[k]), free(nodes[k]);
+	}
+	ndo_sim_destroy(whole);
+	free(x), free(v), free(xs), free(vs), free(xw);
+	return d / e.max_displacement;
+}
+
+static void halves_in_lockstep_approach_the_whole(void)
+{
+	ndo_grid *g = shape("sphere", 3);
+	/* A one-stage explicit method only ever reads the neighbours' state at
+	 * the start of the step, which is exactly what the other half sent:
+	 * no lag error at all. */
+	const ndo_method single[] = {NDO_EULER, NDO_SYMPLECTIC_EULER};
+	for (int k = 0; k < 2; k++) {
+		double d = lockstep_difference(g, single[k], 1e-3, 0.2);
+		CHECK(d < 1e-12, "%s: halves differ from the whole by %g", ndo_method_names[single[k]],
+		      d);
+	}
+	const ndo_method ms[] = {NDO_RK4, NDO_MIDPOINT, NDO_TRAPEZOID};
+	for (int k = 0; k < 3; k++) {
+		double d1 = lockstep_difference(g, ms[k], 0.01, 1.0);
+		double d2 = lockstep_difference(g, ms[k], 0.005, 1.0);
+		CHECK(d1 < 0.1, "%s: halves differ from the whole by %g of the motion",
+		      ndo_method_names[ms[k]], d1);
+		CHECK(d1 / d2 > 1.6 && d1 / d2 < 2.5, "%s: lag error %g at h, %g at h/2: not O(h)",
+		      ndo_method_names[ms[k]], d1, d2);
+	}
+	ndo_grid_destroy(g);
+}
+
+/* Divergence is reported with NDO_EDIVERGED, the state is kept, and a
+ * held node does not move. */
+static void divergence_is_reported(void)
+{
+	ndo_grid *g = shape("sphere", 3);
+	size_t nn = 3 * g->count;
+	double *x0 = malloc(nn * sizeof *x0), *v0 = malloc(nn * sizeof *v0);
+	random_state(g, 1e-3, x0, v0);
+	ndo_sim_params p;
+	ndo_sim_defaults(&p);
+	ndo_sim *s = make(g, x0, v0, NULL, &p);
+	ndo_critical c;
+	ndo_sim_critical(s, &c);
+	int rc = 0, k;
+	for (k = 0; k < 1000 && rc == 0; k++)
+		rc = ndo_sim_step(s, 1.5 * c.h_crit);
+	CHECK(rc == NDO_EDIVERGED, "rk4 at 1.5 × its critical step: status %d after %d steps", rc, k);
+	CHECK(strstr(ndo_errdetail(), "energy") != NULL, "detail: %s", ndo_errdetail());
+	double t = ndo_sim_time(s);
+	CHECK(ndo_sim_step(s, 1e-3) == NDO_EDIVERGED && ndo_sim_time(s) == t,
+	      "a diverged state stays diverged and unchanged");
+	ndo_sim_destroy(s);
+	/* NaN in the state. */
+	s = make(g, x0, v0, NULL, &p);
+	double nanv[3] = {NAN, 0, 0};
+	int32_t node = 40;
+	ndo_sim_set(s, 1, &node, NULL, nanv);
+	CHECK(ndo_sim_check(s) == NDO_EDIVERGED && strstr(ndo_errdetail(), "not finite"),
+	      "NaN: %s", ndo_errdetail());
+	CHECK(ndo_sim_step(s, 1e-3) == NDO_EDIVERGED, "NaN stops the step");
+	ndo_sim_destroy(s);
+	/* Bad arguments. */
+	s = make(g, x0, v0, NULL, &p);
+	CHECK(ndo_sim_step(s, 0) == NDO_EINVAL && ndo_sim_step(s, NAN) == NDO_EINVAL, "h ≤ 0, NaN");
+	ndo_sim_destroy(s);
+	p.material.stiffness = -1;
+	ndo_sim *bad = NULL;
+	CHECK(ndo_sim_create(3, x0, v0, NULL, NULL, &p, &bad) == NDO_ERANGE && !bad,
+	      "negative stiffness refused");
+	free(x0), free(v0);
+	ndo_grid_destroy(g);
+}
+
+/* Forced from rest, undamped, the trapezoid's energy is the input work. */
+static void input_work_balances_energy(void)
+{
+	ndo_grid *g = shape("wavy", 3);
+	int32_t faces[] = {100, 101};
+	ndo_force f = {NDO_FORCE_FACE, 2.4, 1, 0, 1, {0}, 2, faces};
+	ndo_sim_params p;
+	ndo_sim_defaults(&p);
+	p.method = NDO_TRAPEZOID;
+	p.forces = &f;
+	p.nforces = 1;
+	ndo_sim *s = make(g, NULL, NULL, NULL, &p);
+	for (int k = 0; k < 500; k++)
+		ndo_sim_step(s, 2e-3);
+	ndo_sim_energy e;
+	ndo_sim_energy_get(s, &e);
+	double E = e.kinetic + e.potential;
+	CHECK(E > 1e-3, "energy %g", E);
+	CHECK_NEAR(e.work, E, 0.01 * E, "input work vs energy");
+	ndo_sim_destroy(s);
+	ndo_grid_destroy(g);
+}
+
+/* The implicit methods factor once for a constant step and K, again
+ * when either changes; restiffening re-assembles K every S steps. */
+static void implicit_factors_only_when_needed(void)
+{
+	ndo_grid *g = shape("ellipsoid", 3);
+	ndo_sim_params p;
+	ndo_sim_defaults(&p);
+	p.method = NDO_BACKWARD_EULER;
+	ndo_sim *s = make(g, NULL, NULL, NULL, &p);
+	ndo_sim_stats st;
+	for (int k = 0; k < 20; k++)
+		ndo_sim_step(s, 0.01);
+	ndo_sim_stats_get(s, &st);
+	CHECK(st.factorizations == 1, "%lld factorizations for a constant step",
+	      (long long)st.factorizations);
+	ndo_sim_step(s, 0.02);
+	ndo_sim_stats_get(s, &st);
+	CHECK(st.factorizations == 2, "a new step size refactors (%lld)", (long long)st.factorizations);
+	ndo_sim_destroy(s);
+	p.restiffen = 5;
+	s = make(g, NULL, NULL, NULL, &p);
+	for (int k = 0; k < 20; k++)
+		ndo_sim_step(s, 0.01);
+	ndo_sim_stats_get(s, &st);
+	CHECK(st.restiffened == 3 && st.factorizations == 4,
+	      "restiffen every 5 steps over 20: %lld re-assemblies, %lld factorizations",
+	      (long long)st.restiffened, (long long)st.factorizations);
+	ndo_sim_destroy(s);
+	ndo_grid_destroy(g);
+}
+
+/* From a grid's channels (f32 velocity, rest, pin) and back: the state,
+ * time and step survive, and a store adds f64 velocity and rest. */
+static void grid_channels_round_trip(void)
+{
+	ndo_grid *g = shape("ellipsoid", 3), *r = shape("sphere", 3);
+	ndo_channel *c;
+	ndo_grid_add(g, NDO_CH_REST, NDO_F64, 3, &c);
+	memcpy(c->data, r->ch[0].data, 3 * g->count * sizeof(double));
+	ndo_grid_add(g, NDO_CH_VELOCITY, NDO_F32, 3, &c);
+	((float *)c->data)[3 * 40 + 1] = 0.5f;
+	ndo_grid_add(g, NDO_CH_PIN, NDO_U8, 1, &c);
+	((uint8_t *)c->data)[7] = 1;
+	g->time = 2.5;
+	g->step = 10;
+	ndo_sim_params p;
+	ndo_sim_defaults(&p);
+	ndo_sim *s;
+	CHECK(ndo_sim_from_grid(g, &p, &s) == 0, "from grid: %s", ndo_errdetail());
+	CHECK(ndo_sim_time(s) == 2.5 && ndo_sim_step_count(s) == 10, "time and step");
+	for (int k = 0; k < 5; k++)
+		ndo_sim_step(s, 0.01);
+	ndo_grid *out;
+	ndo_grid_copy(r, &out);
+	CHECK(ndo_sim_store(s, out) == 0, "store: %s", ndo_errdetail());
+	const double *x = ndo_grid_find(out, NDO_CH_POSITION)->data,
+	             *rest = ndo_grid_find(out, NDO_CH_REST)->data,
+	             *X = r->ch[0].data, *x0 = g->ch[0].data;
+	CHECK(ndo_grid_find(out, NDO_CH_VELOCITY)->type == NDO_F64, "velocity stored as f64");
+	CHECK(max_diff(rest, X, 3 * g->count) == 0, "the rest shape is the grid's rest channel");
+	CHECK(x[3 * 7] == x0[3 * 7] && x[3 * 7 + 2] == x0[3 * 7 + 2], "the pinned node stayed");
+	CHECK(max_diff(x, x0, 3 * g->count) > 1e-4, "the ellipsoid moved towards its sphere");
+	CHECK(fabs(out->time - 2.55) < 1e-12 && out->step == 15, "time %g step %lld", out->time,
+	      (long long)out->step);
+	ndo_sim_destroy(s);
+	ndo_grid_destroy(out), ndo_grid_destroy(g), ndo_grid_destroy(r);
+}
+
+int main(void)
+{
+	ck_program = "test_sim";
+	RUN(tableaux_are_consistent);
+	RUN(stability_intervals_are_the_textbook_ones);
+	RUN(integrators_converge_to_the_exact_solution);
+	RUN(follower_forces_keep_the_order);
+	RUN(fused_rk4_equals_the_tableau);
+	RUN(power_iteration_finds_lambda_max);
+	RUN(duplicates_agree_after_every_step);
+	RUN(pins_stay_put);
+	RUN(energy_never_grows_without_input);
+	RUN(divergence_step_matches_prediction);
+	RUN(l2_mode_period);
+	RUN(halves_in_lockstep_approach_the_whole);
+	RUN(divergence_is_reported);
+	RUN(input_work_balances_energy);
+	RUN(implicit_factors_only_when_needed);
+	RUN(grid_channels_round_trip);
+	return ck_failed_cases != 0;
+}

@@ -1,0 +1,512 @@
+/* simulate-peer — simulate the uniform-tension membrane on a grid (thesis
+ * §4.3, appendix B).  The physics is the library's: ndo/sim.h (integrators,
+ * critical step), ndo/membrane.h (K, M), ndo/scene.h (settings).  This file
+ * reads the settings, reports the critical step, runs the steps and writes
+ * frames, the CSV log and the result. */
+#include "ndo/ndo.h"
+
+#include <getopt.h>
+#include <signal.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+#include <unistd.h>
+
+enum { EXIT_DIVERGED = 3, EXIT_INTERRUPTED = 130 };
+
+/* SIGINT or SIGTERM: stop after the current step, keep the log, write no
+ * output and leave no temporary file behind. */
+static volatile sig_atomic_t interrupted;
+static void on_signal(int sig)
+{
+	interrupted = sig;
+}
+
+static __attribute__((noreturn)) void usage(void)
+{
+	printf(
+	    "Usage: %s [options] [IN.tgrid]\n"
+	    "Simulate a uniform-tension membrane on a grid: M v' = -B v - K (x - X) + f.\n"
+	    "Reads IN (default: standard input), writes the final grid with velocities\n"
+	    "to OUT (default: standard output).  Prints the critical step before running.\n"
+	    "\n"
+	    "  -s, --scene FILE        settings from a scene file (lines 'option value');\n"
+	    "                          options on the command line override it\n"
+	    "  -i, --integrator NAME   euler, symplectic-euler, midpoint, rk4 (default),\n"
+	    "                          rkf45, backward-euler, trapezoid\n"
+	    "      --dt H|auto         step in seconds, (0, 1e6]; auto (default): the\n"
+	    "                          dt-safety fraction of the critical step\n"
+	    "      --dt-safety F       fraction of the critical step for --dt auto, (0, 1]\n"
+	    "                          (default 0.9)\n"
+	    "  -n, --steps N           steps to take, 0..1e12 (default 100)\n"
+	    "  -t, --time T            or simulated seconds, (0, 1e9]: N = ceil(T/H) steps\n"
+	    "                          of T/N\n"
+	    "      --tol TOL           rkf45 error tolerance per sub-step, [1e-14, 0.1]\n"
+	    "                          (default 1e-6; metres and m/s)\n"
+	    "  -k, --stiffness K       membrane tension sigma in N/m, (0, 1e12] (default 1)\n"
+	    "      --density RHO       areal density in kg/m^2, (0, 1e12] (default 1)\n"
+	    "  -b, --damping B         nodal damping in N s/m per node, [0, 1e12]\n"
+	    "                          (default 0.1, the thesis' b)\n"
+	    "      --mass-damping A    mass-proportional damping B += A M, 1/s, [0, 1e12]\n"
+	    "                          (default 0)\n"
+	    "      --rest FILE         rest shape from another grid of the same level\n"
+	    "                          (default: the input's rest channel, else its positions)\n"
+	    "      --restiffen S       re-assemble K from the deformed shape every S steps,\n"
+	    "                          0..1e9 (default 0: never)\n"
+	    "      --pin SEL           pin nodes: nodes=I:J,..  faces=T,..  at=X,Y,Z\n"
+	    "                          [radius=R] (repeatable; adds to the pin channel)\n"
+	    "      --pins MODE         project (default: pinned nodes never move) or\n"
+	    "                          penalty (Payne-Irons springs, thesis 4.3.3)\n"
+	    "      --penalty ALPHA     penalty spring in N/m, (0, 1e15] (default 1000 x the\n"
+	    "                          largest diagonal entry of K)\n"
+	    "      --force SPEC        KIND key=value..: KIND face, point or pressure;\n"
+	    "                          faces=T,.. nodes=I:J,.. at=X,Y,Z radius=R\n"
+	    "                          amplitude=A (N; Pa) frequency=F (Hz) phase=DEG\n"
+	    "                          direction=normal|X,Y,Z (repeatable)\n"
+	    "  -o, --output OUT        the final grid (.tgrid, '-') or a mesh (.obj .ply\n"
+	    "                          .stl .glb .gltf)\n"
+	    "      --frames PATTERN    write frames, e.g. 'out/f%%05d.tgrid' (frame 0 is\n"
+	    "                          the initial state)\n"
+	    "      --frame-every N     a frame every N steps, 1..1e12 (default 1)\n"
+	    "      --log FILE          CSV log: step, time, step size, energies, input\n"
+	    "                          work, max displacement, rkf45 sub-steps\n"
+	    "      --log-every N       a log row every N steps, 1..1e12 (default 1)\n"
+	    "      --perturb A         add a seeded random displacement of up to A metres\n"
+	    "                          per coordinate, [0, 1e6] (default 0)\n"
+	    "      --seed S            seed for --perturb (default 0)\n"
+	    "      --energy-bound F    diverged when the energy exceeds F x (initial energy\n"
+	    "                          + input work), [0, 1e12] (default 10; 0: off)\n"
+	    "      --info              print the setup and the critical step, then exit\n"
+	    "  -q, --quiet             print nothing but errors\n"
+	    "  -h, --help              show this help and exit\n"
+	    "      --version           show the version and exit\n"
+	    "\n"
+	    "Exit status: 0 success, 1 bad input or failed write, 2 usage error,\n"
+	    "3 the simulation diverged (the output grid is not written; frames and log\n"
+	    "rows written before the divergence stay, all of finite states), 130\n"
+	    "interrupted (SIGINT or SIGTERM: the same, after the current step).\n",
+	    ndo_progname);
+	ndo_close_stdout();
+	exit(NDO_EXIT_OK);
+}
+
+static double now(void)
+{
+	struct timespec t;
+	clock_gettime(CLOCK_MONOTONIC, &t);
+	return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+/* ---- the run ------------------------------------------------------------- */
+
+typedef struct run {
+	ndo_scene sc;
+	const char *in;
+	int quiet, info;
+	ndo_grid *g;       /* the input, then the output */
+	ndo_grid *frame;   /* frames: a copy carrying this command in its history */
+	ndo_sim *sim;
+	ndo_critical crit;
+	double dt;
+	int64_t steps;
+	ndo_outfile log;
+	int logging;
+	uint8_t *pins;     /* from --pin, or NULL */
+	/* Work arrays, kept here so that they stay reachable when an error
+	 * exits (the leak checker of the sanitizer build). */
+	const char **keys, **vals;
+	double *rest, *x0;
+	uint8_t *pin;
+	ndo_force *forces;
+} run;
+
+static void perturb(run *r, double *x)
+{
+	uint64_t z = r->sc.seed;
+	for (size_t p = 0; p < r->g->count; p++)
+		for (int c = 0; c < 3; c++) {
+			/* splitmix64: a fixed, documented sequence for a seed */
+			uint64_t q = (z += 0x9e3779b97f4a7c15ULL);
+			q = (q ^ (q >> 30)) * 0xbf58476d1ce4e5b9ULL;
+			q = (q ^ (q >> 27)) * 0x94d049bb133111ebULL;
+			q ^= q >> 31;
+			x[3 * p + c] += r->sc.perturb * (2 * ((double)(q >> 11) / 9007199254740992.0) - 1);
+		}
+	ndo_sync(r->g->level, x, 3 * sizeof *x);
+}
+
+/* Load the input (and rest grid), resolve forces and pins, create the
+ * simulation. */
+static void setup(run *r)
+{
+	ndo_grid *g = r->g = ndo_cli_load(r->in);
+	double *x = ndo_grid_f64(g, NDO_CH_POSITION, 3);
+	if (!x)
+		ndo_die("%s: the position channel is not 3 floating-point values",
+		        ndo_is_stdio(r->in) ? "standard input" : r->in);
+	size_t bytes = 3 * g->count * sizeof(double);
+	double *rest = r->rest = malloc(bytes), *x0 = r->x0 = malloc(bytes);
+	if (!rest || !x0)
+		ndo_die("out of memory");
+	memcpy(x0, x, bytes);
+	if (r->sc.rest) {
+		ndo_grid *rg = ndo_cli_load(r->sc.rest);
+		double *rx = ndo_grid_f64(rg, NDO_CH_POSITION, 3);
+		if (rg->level != g->level || !rx)
+			ndo_die("%s: the rest grid must be level %d with 3-value positions (it is level %d)",
+			        r->sc.rest, g->level, rg->level);
+		memcpy(rest, rx, bytes);
+		ndo_grid_destroy(rg);
+	} else if (ndo_grid_find(g, NDO_CH_REST)) {
+		double *rx = ndo_grid_f64(g, NDO_CH_REST, 3);
+		if (!rx)
+			ndo_die("%s: the rest channel is not 3 floating-point values",
+			        ndo_is_stdio(r->in) ? "standard input" : r->in);
+		memcpy(rest, rx, bytes);
+	} else {
+		memcpy(rest, x, bytes);
+	}
+	if (r->sc.perturb > 0)
+		perturb(r, x0);
+	/* Pins: the grid's pin channel plus --pin. */
+	uint8_t *pin = r->pin = calloc(g->count, 1);
+	if (!pin)
+		ndo_die("out of memory");
+	ndo_channel *pc = ndo_grid_find(g, NDO_CH_PIN);
+	if (pc && pc->type == NDO_U8 && pc->comps == 1)
+		for (size_t p = 0; p < g->count; p++)
+			pin[p] = ((uint8_t *)pc->data)[p] != 0;
+	else if (pc)
+		ndo_die("the pin channel is not 1 x u8");
+	if (ndo_scene_resolve(&r->sc, g->level, rest, &r->forces, pin))
+		ndo_usage_error("%s", ndo_errdetail());
+	if (r->sc.npins)
+		r->pins = pin;
+	ndo_sim_params p = r->sc.sim;
+	p.forces = r->forces;
+	p.nforces = r->sc.nforces;
+	ndo_channel *vc = ndo_grid_find(g, NDO_CH_VELOCITY);
+	const double *v = vc ? ndo_grid_f64(g, NDO_CH_VELOCITY, 3) : NULL;
+	if (vc && !v)
+		ndo_die("the velocity channel is not 3 floating-point values");
+	if (ndo_sim_create(g->level, x0, v, rest, pin, &p, &r->sim))
+		ndo_die("%s: %s", ndo_is_stdio(r->in) ? "standard input" : r->in, ndo_errdetail());
+	ndo_sim_set_time(r->sim, g->time, g->step);
+	ndo_scene_forces_free(r->forces, r->sc.nforces);
+	free(rest);
+	free(x0);
+	if (!r->pins)
+		free(pin);
+	r->forces = NULL, r->rest = r->x0 = NULL, r->pin = NULL;
+}
+
+static const char *bound_name(int b)
+{
+	switch (b) {
+	case NDO_BOUND_OSCILLATION: return "oscillation bound: the imaginary-axis interval";
+	case NDO_BOUND_DAMPING: return "damping bound: no imaginary-axis interval";
+	case NDO_BOUND_REAL: return "overdamped: the negative real-axis interval";
+	default: return "unconditionally stable";
+	}
+}
+
+/* The critical step, the step size and the step count. */
+static void plan(run *r)
+{
+	ndo_method m = ndo_sim_method(r->sim);
+	const char *name = ndo_method_names[m];
+	if (ndo_sim_critical(r->sim, &r->crit))
+		ndo_die("critical step: %s", ndo_errdetail());
+	ndo_critical *c = &r->crit;
+	if (!r->quiet) {
+		fprintf(stderr, "%s: level %d, %zu vertices: lambda_max(M^-1 K) = %.4g 1/s^2 "
+		        "(omega_max = %.4g rad/s, %d power iterations), damping rate %.4g 1/s\n",
+		        ndo_progname, r->g->level, ndo_vertex_count(r->g->level), c->lambda_max,
+		        c->omega_max, c->iterations, c->gamma);
+		if (isinf(c->h_crit))
+			fprintf(stderr, "%s: %s: stable at any step\n", ndo_progname, name);
+		else if (c->h_crit == 0)
+			fprintf(stderr, "%s: %s: unstable at every step without damping\n", ndo_progname,
+			        name);
+		else
+			fprintf(stderr, "%s: %s: critical step %.4g s (%s; h omega_max = %.3f)\n",
+			        ndo_progname, name, c->h_crit, bound_name(c->bound),
+			        c->h_crit * c->omega_max);
+	}
+	if (r->sc.dt_auto) {
+		if (isinf(c->h_crit))
+			ndo_usage_error("--dt auto: %s is stable at any step; give --dt H", name);
+		if (c->h_crit == 0)
+			ndo_usage_error("--dt auto: %s has no stable step without damping; give "
+			                "--damping or --mass-damping, or --dt H", name);
+		r->dt = r->sc.dt_safety * c->h_crit;
+	} else {
+		r->dt = r->sc.dt;
+	}
+	r->steps = r->sc.steps;
+	if (r->sc.duration > 0) {
+		double n = ceil(r->sc.duration / r->dt - 1e-9);
+		if (n > 1e12)
+			ndo_usage_error("--time %g at a step of %g s needs more than 1e12 steps",
+			                r->sc.duration, r->dt);
+		r->steps = (int64_t)fmax(1, n);
+		r->dt = r->sc.duration / (double)r->steps;
+	}
+	if (!r->quiet)
+		fprintf(stderr, "%s: step %.4g s%s, %lld steps to t = %.6g s\n", ndo_progname, r->dt,
+		        r->sc.dt_auto ? " (auto)" : "", (long long)r->steps,
+		        ndo_sim_time(r->sim) + r->dt * (double)r->steps);
+	if (r->dt > c->h_crit && !r->quiet) {
+		if (c->h_crit > 0)
+			ndo_warn("warning: the step %.4g s is %.3g x the critical step %.4g s: %s will "
+			         "diverge", r->dt, r->dt / c->h_crit, c->h_crit, name);
+		else
+			ndo_warn("warning: %s has no stable step without damping: it will diverge", name);
+	}
+}
+
+static void diverged(run *r)
+{
+	ndo_sim_stats st;
+	ndo_sim_stats_get(r->sim, &st);
+	char ratio[64] = "";
+	if (isfinite(r->crit.h_crit) && r->crit.h_crit > 0)
+		snprintf(ratio, sizeof ratio, " = %.3g x the critical step", r->dt / r->crit.h_crit);
+	const char *detail = ndo_errdetail();
+	fprintf(stderr, "%s: diverged at step %lld (t = %.6g s, step %.4g s%s): %s; %s\n",
+	        ndo_progname, (long long)ndo_sim_step_count(r->sim), ndo_sim_time(r->sim), r->dt,
+	        ratio, detail,
+	        r->sc.output ? "the output was not written" : "nothing written to standard output");
+	if (r->logging && ndo_out_commit(&r->log))
+		ndo_warn("%s: %s", r->sc.log, ndo_errdetail());
+	ndo_close_stdout();
+	exit(EXIT_DIVERGED);
+}
+
+static void log_row(run *r)
+{
+	ndo_sim_energy e;
+	ndo_sim_stats st;
+	ndo_sim_energy_get(r->sim, &e);
+	ndo_sim_stats_get(r->sim, &st);
+	fprintf(r->log.f, "%lld,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%lld,%lld\n",
+	        (long long)ndo_sim_step_count(r->sim), ndo_sim_time(r->sim), r->dt, e.kinetic,
+	        e.potential, e.work, e.max_displacement, (long long)st.substeps,
+	        (long long)st.rejected);
+}
+
+static void write_frame(run *r, int64_t k)
+{
+	if (ndo_sim_check(r->sim))
+		diverged(r);
+	char path[4096];
+	int len = snprintf(path, sizeof path, r->sc.frames, (int)k);
+	if (len < 0 || (size_t)len >= sizeof path)
+		ndo_die("--frames: the path for frame %lld is too long", (long long)k);
+	if (ndo_sim_store(r->sim, r->frame) || ndo_grid_export(path, r->frame))
+		ndo_die("%s: %s", path, ndo_errdetail());
+}
+
+static void progress(run *r, int64_t k, double t0)
+{
+	double el = now() - t0;
+	fprintf(stderr, "\r%s: step %lld/%lld  t = %.4g s  %.0f steps/s\033[K", ndo_progname,
+	        (long long)k, (long long)r->steps, ndo_sim_time(r->sim), el > 0 ? k / el : 0);
+}
+
+static void simulate(run *r)
+{
+	if (r->sc.log) {
+		if (ndo_out_open(r->sc.log, &r->log))
+			ndo_die("%s: %s", r->sc.log, ndo_errdetail());
+		r->logging = 1;
+		fprintf(r->log.f, "step,time_s,dt_s,kinetic_J,potential_J,work_J,"
+		                  "max_displacement_m,substeps,rejected\n");
+	}
+	if (r->sc.frames) {
+		if (ndo_grid_copy(r->g, &r->frame) ||
+		    ndo_grid_add_history(r->frame, ndo_cli_argc(), ndo_cli_argv()))
+			ndo_die("%s", ndo_errdetail());
+	}
+	int show = !r->quiet && isatty(STDERR_FILENO);
+	int64_t frame = 0;
+	double t0 = now(), shown = t0;
+	struct sigaction sa = {0};
+	sa.sa_handler = on_signal;
+	sigaction(SIGINT, &sa, NULL);
+	sigaction(SIGTERM, &sa, NULL);
+	for (int64_t k = 0; k <= r->steps; k++) {
+		if (interrupted) {
+			if (show)
+				fputc('\n', stderr);
+			if (r->logging && ndo_out_commit(&r->log))
+				ndo_warn("%s: %s", r->sc.log, ndo_errdetail());
+			fprintf(stderr, "%s: interrupted at step %lld (t = %.6g s); %s\n", ndo_progname,
+			        (long long)ndo_sim_step_count(r->sim), ndo_sim_time(r->sim),
+			        r->sc.output ? "the output was not written" : "nothing written to "
+			                                                       "standard output");
+			ndo_close_stdout();
+			exit(EXIT_INTERRUPTED);
+		}
+		if (k > 0 && ndo_sim_step(r->sim, r->dt)) {
+			if (show)
+				fputc('\n', stderr);
+			diverged(r);
+		}
+		if (r->logging && (k % r->sc.log_every == 0 || k == r->steps))
+			log_row(r);
+		if (r->frame && k % r->sc.frame_every == 0)
+			write_frame(r, frame++);
+		if (show && now() - shown > 0.25) {
+			shown = now();
+			progress(r, k, t0);
+		}
+	}
+	double el = now() - t0;
+	if (show)
+		fprintf(stderr, "\r\033[K");
+	if (ndo_sim_check(r->sim))
+		diverged(r);
+	if (r->logging && ndo_out_commit(&r->log))
+		ndo_die("%s: %s", r->sc.log, ndo_errdetail());
+	r->logging = 0;
+	if (!r->quiet) {
+		ndo_sim_stats st;
+		ndo_sim_stats_get(r->sim, &st);
+		double sps = el > 0 ? (double)r->steps / el : 0;
+		fprintf(stderr, "%s: %lld steps to t = %.6g s in %.3g s: %.4g steps/s, %.4g "
+		        "node-steps/s", ndo_progname, (long long)r->steps, ndo_sim_time(r->sim), el,
+		        sps, sps * (double)ndo_vertex_count(r->g->level));
+		if (ndo_sim_method(r->sim) == NDO_RKF45)
+			fprintf(stderr, "; %lld sub-steps, %lld rejected", (long long)st.substeps,
+			        (long long)st.rejected);
+		if (st.restiffened)
+			fprintf(stderr, "; K re-assembled %lld times (%.3g s)", (long long)st.restiffened,
+			        st.restiffen_seconds);
+		fputc('\n', stderr);
+	}
+}
+
+static void finish(run *r)
+{
+	if (ndo_sim_store(r->sim, r->g))
+		ndo_die("%s", ndo_errdetail());
+	if (r->pins) {
+		ndo_channel *c;
+		ndo_grid_remove(r->g, NDO_CH_PIN);
+		if (ndo_grid_add(r->g, NDO_CH_PIN, NDO_U8, 1, &c))
+			ndo_die("%s", ndo_errdetail());
+		memcpy(c->data, r->pins, r->g->count);
+	}
+	ndo_cli_save(r->sc.output, r->g);
+}
+
+/* ---- options ------------------------------------------------------------------ */
+
+static void options(run *r, int argc, char **argv)
+{
+	enum { OPT_INFO = 256, OPT_VERSION, OPT_SETTING };
+	static const struct option opts[] = {
+		{"scene", required_argument, 0, 's'},
+		{"integrator", required_argument, 0, 'i'},
+		{"steps", required_argument, 0, 'n'},
+		{"time", required_argument, 0, 't'},
+		{"stiffness", required_argument, 0, 'k'},
+		{"damping", required_argument, 0, 'b'},
+		{"output", required_argument, 0, 'o'},
+		{"dt", required_argument, 0, OPT_SETTING},
+		{"dt-safety", required_argument, 0, OPT_SETTING},
+		{"tol", required_argument, 0, OPT_SETTING},
+		{"density", required_argument, 0, OPT_SETTING},
+		{"mass-damping", required_argument, 0, OPT_SETTING},
+		{"rest", required_argument, 0, OPT_SETTING},
+		{"restiffen", required_argument, 0, OPT_SETTING},
+		{"pin", required_argument, 0, OPT_SETTING},
+		{"pins", required_argument, 0, OPT_SETTING},
+		{"penalty", required_argument, 0, OPT_SETTING},
+		{"force", required_argument, 0, OPT_SETTING},
+		{"frames", required_argument, 0, OPT_SETTING},
+		{"frame-every", required_argument, 0, OPT_SETTING},
+		{"log", required_argument, 0, OPT_SETTING},
+		{"log-every", required_argument, 0, OPT_SETTING},
+		{"perturb", required_argument, 0, OPT_SETTING},
+		{"seed", required_argument, 0, OPT_SETTING},
+		{"energy-bound", required_argument, 0, OPT_SETTING},
+		{"info", no_argument, 0, OPT_INFO},
+		{"quiet", no_argument, 0, 'q'},
+		{"help", no_argument, 0, 'h'},
+		{"version", no_argument, 0, OPT_VERSION},
+		{0, 0, 0, 0}};
+	/* Settings are applied after the scene file, in order, so the
+	 * command line wins wherever the two disagree. */
+	const char **keys = r->keys = calloc((size_t)argc + 1, sizeof *keys),
+	           **vals = r->vals = calloc((size_t)argc + 1, sizeof *vals);
+	const char *scene = NULL;
+	if (!keys || !vals)
+		ndo_die("out of memory");
+	int n = 0, c, idx;
+	while ((c = getopt_long(argc, argv, "s:i:n:t:k:b:o:qh", opts, &idx)) != -1) {
+		switch (c) {
+		case 's': scene = optarg; break;
+		case 'i': keys[n] = "integrator", vals[n++] = optarg; break;
+		case 'n': keys[n] = "steps", vals[n++] = optarg; break;
+		case 't': keys[n] = "time", vals[n++] = optarg; break;
+		case 'k': keys[n] = "stiffness", vals[n++] = optarg; break;
+		case 'b': keys[n] = "damping", vals[n++] = optarg; break;
+		case 'o': keys[n] = "output", vals[n++] = optarg; break;
+		case OPT_SETTING: keys[n] = opts[idx].name, vals[n++] = optarg; break;
+		case OPT_INFO: r->info = 1; break;
+		case 'q': r->quiet = 1; break;
+		case 'h': usage();
+		case OPT_VERSION: ndo_print_version();
+		default: ndo_usage_error("unknown option");
+		}
+	}
+	if (optind + 1 < argc)
+		ndo_usage_error("more than one input: '%s'", argv[optind + 1]);
+	r->in = optind < argc ? argv[optind] : NULL;
+	if (scene && ndo_scene_load(&r->sc, scene))
+		ndo_die("%s", ndo_errdetail());
+	for (int k = 0; k < n; k++)
+		if (ndo_scene_set(&r->sc, keys[k], vals[k]))
+			ndo_usage_error("--%s", ndo_errdetail());
+	free(keys);
+	free(vals);
+	r->keys = r->vals = NULL;
+	if (ndo_is_stdio(r->in) && isatty(STDIN_FILENO))
+		ndo_usage_error("no input: give a grid file or pipe one in");
+	if (!r->info)
+		ndo_cli_check_output(r->sc.output);
+	if (r->sc.frames) {
+		char probe[4096];
+		snprintf(probe, sizeof probe, r->sc.frames, 0);
+		if (ndo_unknown_extension(probe))
+			ndo_usage_error("--frames: %s: unknown extension (use .tgrid, .obj, .ply, .stl, "
+			                ".glb or .gltf)", probe);
+	}
+}
+
+int main(int argc, char **argv)
+{
+	ndo_cli_init(argc, argv);
+	static run r;
+	ndo_scene_init(&r.sc);
+	options(&r, argc, argv);
+	setup(&r);
+	plan(&r);
+	if (r.info) {
+		ndo_close_stdout();
+		return NDO_EXIT_OK;
+	}
+	simulate(&r);
+	finish(&r);
+	ndo_sim_destroy(r.sim);
+	ndo_grid_destroy(r.frame);
+	ndo_grid_destroy(r.g);
+	free(r.pins);
+	ndo_scene_free(&r.sc);
+	ndo_close_stdout();
+	return NDO_EXIT_OK;
+}
