@@ -22,7 +22,8 @@ CXX := g++
 # Debian packages (make deps).  Grouped by who needs them.
 DEBS_BUILD := build-essential pkg-config zlib1g-dev libassimp-dev
 DEBS_TEST := python3 python3-numpy clang libclang-rt-14-dev libopenmesh-dev
-DEBS := $(DEBS_BUILD) $(DEBS_TEST) $(DEBS_TOOLS)
+# Recursive: the tools' build.mk fragments, included below, add DEBS_TOOLS.
+DEBS = $(DEBS_BUILD) $(DEBS_TEST) $(DEBS_TOOLS)
 
 # Two variants.  The default puts lib/libndo.a and bin/ in the tree; SAN=1
 # (what `make test` uses) builds everything again with AddressSanitizer and
