@@ -22,7 +22,9 @@ CXX := g++
 # Debian packages (make deps).  Grouped by who needs them.
 DEBS_BUILD := build-essential pkg-config zlib1g-dev libassimp-dev
 DEBS_TEST := python3 python3-numpy clang libclang-rt-14-dev libopenmesh-dev
-DEBS := $(DEBS_BUILD) $(DEBS_TEST) $(DEBS_TOOLS)
+# Recursive (=), so the DEBS_TOOLS += lines of the tools' build.mk, included
+# below, are part of it.
+DEBS = $(DEBS_BUILD) $(DEBS_TEST) $(DEBS_TOOLS)
 
 # Two variants.  The default puts lib/libndo.a and bin/ in the tree; SAN=1
 # (what `make test` uses) builds everything again with AddressSanitizer and
