@@ -13,7 +13,7 @@ uniform vec4 u_material;  // ambient, diffuse, specular, shininess
 uniform vec3 u_color;     // solid colour
 
 #if COLOR_MODE == 1
-flat in vec3 v_color;
+in vec3 v_color;
 #elif COLOR_MODE == 2
 in float v_value;
 uniform sampler2D u_colormap; // 256 × 1 RGB: the colour map

@@ -29,7 +29,7 @@ out vec2 v_grid;   // lattice coordinates (i, j): cloth and wireframe
 uniform isampler2D u_owner;   // W × H R32I: owner channel
 uniform vec3 u_palette[10];
 uniform vec3 u_unowned;
-flat out vec3 v_color;        // one peer's colour per triangle (no blending)
+out vec3 v_color;             // blended across the triangles between two peers
 #elif COLOR_MODE == 2
 uniform sampler2D u_scalar;   // W × H R32F
 uniform vec2 u_range;         // values mapped to 0 and 1

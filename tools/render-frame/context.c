@@ -40,20 +40,24 @@ int rf_context_open(const char *name, rf_context *out)
 	if (strcmp(name, "osmesa") == 0 || strcmp(name, "egl") == 0) {
 		const rf_backend *b = name[0] == 'o' ? &rf_backend_osmesa : &rf_backend_egl;
 		int rc = open_one(b, out);
-		if (rc != NDO_OK)
-			return ndo__fail(rc, "back end %s: %s", b->name, ndo_errdetail());
+		if (rc != NDO_OK) {
+			char why[256]; /* ndo__fail() overwrites the detail */
+			snprintf(why, sizeof why, "%s", ndo_errdetail());
+			return ndo__fail(rc, "back end %s: %s", b->name, why);
+		}
 		return NDO_OK;
 	}
 	if (strcmp(name, "auto") != 0)
 		return ndo__fail(NDO_EINVAL, "unknown back end '%s'", name);
-	char first[256];
+	char first[256], second[256];
 	if (open_one(&rf_backend_osmesa, out) == NDO_OK)
 		return NDO_OK;
 	snprintf(first, sizeof first, "%s", ndo_errdetail());
 	if (open_one(&rf_backend_egl, out) == NDO_OK)
 		return NDO_OK;
+	snprintf(second, sizeof second, "%s", ndo_errdetail());
 	return ndo__fail(NDO_ENOTFOUND, "no OpenGL 3.3 context: osmesa: %s; egl: %s", first,
-	                 ndo_errdetail());
+	                 second);
 }
 
 void rf_context_close(rf_context *c)

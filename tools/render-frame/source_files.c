@@ -50,7 +50,10 @@ static int next(rf_source *base, ndo_grid **out)
 			return NDO_OK;
 		}
 		if (rc != NDO_EEOF || s->grids == 0) {
-			const char *what = rc == NDO_EEOF ? "holds no grid" : ndo_errdetail();
+			/* ndo__fail() formats into the buffer ndo_errdetail() points
+			 * to: copy the detail first. */
+			char what[256];
+			snprintf(what, sizeof what, "%s", rc == NDO_EEOF ? "holds no grid" : ndo_errdetail());
 			if (s->grids > 0)
 				return ndo__fail(rc, "%s, grid %d: %s", display_name(path), s->grids + 1, what);
 			return ndo__fail(rc == NDO_EEOF ? NDO_ETRUNC : rc, "%s: %s", display_name(path),
