@@ -16,6 +16,7 @@ typedef struct osmesa {
 	OSMesaContext ctx;
 	unsigned char buffer[4];
 	__typeof__(&OSMesaDestroyContext) destroy;
+	__typeof__(&OSMesaMakeCurrent) make_current;
 } osmesa;
 
 static __typeof__(&OSMesaGetProcAddress) get_proc_address;
@@ -30,8 +31,10 @@ static void destroy(void *handle)
 	osmesa *o = handle;
 	if (!o)
 		return;
-	if (o->ctx)
+	if (o->ctx) {
+		o->make_current(NULL, NULL, 0, 0, 0); /* releases the buffer */
 		o->destroy(o->ctx);
+	}
 	/* The library stays loaded: Mesa registers exit-time handlers and
 	 * keeps thread-local state, which dlclose() would pull from under
 	 * them. */
@@ -52,6 +55,7 @@ static int create(void **handle, rf_getproc_fn *gp)
 	if (!o)
 		return ndo__fail(NDO_ENOMEM, "out of memory");
 	o->lib = lib;
+	o->make_current = make_current;
 	o->destroy = (__typeof__(&OSMesaDestroyContext))dlsym(lib, "OSMesaDestroyContext");
 	get_proc_address = (__typeof__(&OSMesaGetProcAddress))dlsym(lib, "OSMesaGetProcAddress");
 	if (!create_attribs || !make_current || !o->destroy || !get_proc_address) {
