@@ -21,7 +21,7 @@ $py "$helper" grid-owner "$tmp/wavy-5.tgrid" "$tmp/peers.tgrid" quadrants >/dev/
 $py "$helper" grid-rest "$tmp/wavy-5.tgrid" "$tmp/sphere-5.tgrid" "$tmp/moved.tgrid" >/dev/null
 
 size=512x384
-z="--compression 9"
+z="--compression 9 --msaa 4"
 # Thesis figure 5.1a: Phong shading, rendered finer (level 7) than stored (5).
 render-frame -s $size $z -k 2 "$tmp/sphere-5.tgrid" -o "$out/sphere.png"
 # Thesis figure 5.1b: with the procedural cloth.
@@ -31,8 +31,8 @@ render-frame -s $size $z -k 2 --azimuth -60 --elevation 35 "$tmp/peers.tgrid" -o
 # Colour by a scalar: the displacement from the rest shape (the sphere).
 render-frame -s $size $z -k 2 --color-by displacement "$tmp/moved.tgrid" -o "$out/displacement.png"
 # The level-4 grid's edges on its level-6 butterfly surface, seen at corner
-# B of the tetrahedron (the fold of the bottom row), with 4x multisampling.
+# B of the tetrahedron (the fold of the bottom row).
 eye=$($py "$helper" grid-node "$tmp/sphere-4.tgrid" 16 0 4)
-render-frame -s $size $z -k 2 --wireframe --msaa 4 --eye "$eye" --center 0,0,0 \
+render-frame -s $size $z -k 2 --wireframe --eye "$eye" --center 0,0,0 \
     "$tmp/sphere-4.tgrid" -o "$out/wireframe.png"
 echo "figures.sh: wrote $(cd "$out" && ls sphere.png cloth.png peers.png displacement.png wireframe.png | tr '\n' ' ')in $out"

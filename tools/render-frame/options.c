@@ -27,7 +27,8 @@ static __attribute__((noreturn)) void usage(void)
 	       "                        back to back\n"
 	       "      --start-number N  number of the first frame, 0..999999999 (default 0)\n"
 	       "  -s, --size WxH        image size in pixels, each 1..%d (default 1024x768)\n"
-	       "      --msaa N          samples per pixel: 1 (off), 2, 4, 8 (default 4)\n"
+	       "      --msaa N          samples per pixel: 1 (off, the default), 2, 4, 8, 16;\n"
+	       "                        4 for figures (llvmpipe has at most 4)\n"
 	       "      --compression N   PNG (zlib) level, 0..9 (default 1: fast)\n"
 	       "Camera (the object is fitted to the view by default):\n"
 	       "      --azimuth DEG     around the up axis, from +x towards +y (default 30)\n"
@@ -167,7 +168,7 @@ static void defaults(rf_options *o)
 	rf_style *s = &o->style;
 	s->width = 1024;
 	s->height = 768;
-	s->msaa = 4;
+	s->msaa = 1;
 	for (int k = 0; k < 3; k++)
 		s->background[k] = 1;
 	s->color[0] = 0xd2 / 255.0f, s->color[1] = 0xaa / 255.0f, s->color[2] = 0x82 / 255.0f;
