@@ -39,9 +39,13 @@ check "two PNGs on stdout" bash -c "render-frame ${opts[*]} a.tgrid b.tgrid > tw
 n=$(grep -c $'IEND' two.png)
 if [ "$n" -eq 2 ]; then pass "two PNG streams back to back"; else fail "two PNG streams back to back" "$n IEND chunks"; fi
 
-# Subdivision, wireframe, cloth, f32 input; where the picture came from.
+# Subdivision, wireframe, cloth, f32 input, options; where the picture
+# came from.
 check "--subdivide 3 --wireframe --cloth" render-frame "${opts[@]}" -k 3 --wireframe --cloth a.tgrid -o k.png
 check "PNG records its making" bash -c "grep -a -q 'remesh --shape sphere' k.png && grep -a -q 'render-frame -s 96x72 -k 3' k.png"
+$py "$rc" grid-f32 a.tgrid a32.tgrid >/dev/null
+check "f32 positions" render-frame "${opts[@]}" a32.tgrid -o a32.png
+check "f32 and f64 grids look the same" $py "$rc" compare a32.png frame-0000.png --mean 0.05 --p99 1
 check "--msaa 4" render-frame "${opts[@]}" --msaa 4 a.tgrid -o ms.png
 check "--no-cull draws the same sphere" bash -c "render-frame ${opts[*]} --no-cull a.tgrid -o nc.png && $py $rc compare nc.png frame-0000.png --mean 0.2 --p99 2"
 check "--background, --color, --material" render-frame "${opts[@]}" --background 0,0,0 --color '#ff0000' --material 0.1,0.9,0,1 a.tgrid -o red.png

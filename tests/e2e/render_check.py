@@ -10,6 +10,7 @@ with "what was expected, what was found" when the check fails.
                                 (x < 0 → 0, else 1), columns (i < N → 0)
                                 or quadrants (four quarters of the rectangle)
   grid-rest IN REST OUT         add a rest channel: REST's positions
+  grid-f32 IN OUT               the same grid with f32 instead of f64 channels
   grid-info IN                  level and channels
   grid-node IN I J [SCALE]      node (i, j)'s position × SCALE, as X,Y,Z
   png-size IMG W H              the PNG is W × H, 8-bit RGB
@@ -364,6 +365,12 @@ def main():
         cmd_grid_owner(*args)
     elif cmd == 'grid-rest':
         cmd_grid_rest(*args)
+    elif cmd == 'grid-f32':
+        g = read_grid(args[0])
+        g['ch'] = {k: (v.astype(np.float32) if v.dtype == np.float64 else v)
+                   for k, v in g['ch'].items()}
+        write_grid(args[1], g)
+        print(f"ok: {args[1]}: float channels as f32")
     elif cmd == 'grid-info':
         g = read_grid(args[0])
         print(g['level'], {k: v.shape for k, v in g['ch'].items()})
