@@ -15,7 +15,7 @@
  * back to the kernel and fault them in again.
  *
  * prints one line: level, triangles, size, median and quartiles of the
- * per-frame time in ms.  Self-contained (dlopen()s libOSMesa itself), so
+ * per-frame time in ms, and the CPU time per frame of all threads.  Self-contained (dlopen()s libOSMesa itself), so
  * it shares no code with render-frame. */
 #include "ndo/ndo.h"
 
@@ -26,6 +26,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/resource.h>
 #include <time.h>
 
 /* The OSMesa API (GL/osmesa.h, which drags in the compatibility gl.h). */
@@ -94,6 +95,14 @@ static double now(void)
 	struct timespec t;
 	clock_gettime(CLOCK_MONOTONIC, &t);
 	return t.tv_sec + 1e-9 * t.tv_nsec;
+}
+
+static double cpu_seconds(void)
+{
+	struct rusage u;
+	getrusage(RUSAGE_SELF, &u);
+	return u.ru_utime.tv_sec + u.ru_stime.tv_sec +
+	       1e-6 * (double)(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
 }
 
 static int cmp(const void *a, const void *b)
@@ -212,7 +221,10 @@ int main(int argc, char **argv)
 	pglClearColor(1, 1, 1, 1);
 	unsigned char *pixels = malloc((size_t)w * h * 4);
 	double *t = malloc((size_t)frames * sizeof *t);
+	double cpu0 = 0;
 	for (int f = -3; f < frames; f++) { /* 3 frames to warm up (shader JIT) */
+		if (f == 0)
+			cpu0 = cpu_seconds();
 		double t0 = now();
 		pglClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
 		pglDrawElements(GL_TRIANGLES, (GLsizei)(nt * 3), GL_UNSIGNED_INT, NULL);
@@ -220,10 +232,12 @@ int main(int argc, char **argv)
 		if (f >= 0)
 			t[f] = now() - t0;
 	}
+	double cpu = (cpu_seconds() - cpu0) / frames;
 	if (pglGetError() != GL_NO_ERROR)
 		return 1;
 	qsort(t, (size_t)frames, sizeof *t, cmp);
-	printf("level %d, %zu triangles, %dx%d: median %.2f ms (quartiles %.2f, %.2f) over %d frames\n",
-	       level, nt, w, h, 1e3 * t[frames / 2], 1e3 * t[frames / 4], 1e3 * t[3 * frames / 4], frames);
+	printf("level %d, %zu triangles, %dx%d: median %.2f ms (quartiles %.2f, %.2f) over %d frames, "
+	       "CPU %.2f ms per frame\n", level, nt, w, h, 1e3 * t[frames / 2], 1e3 * t[frames / 4],
+	       1e3 * t[3 * frames / 4], frames, 1e3 * cpu);
 	return 0;
 }

@@ -17,6 +17,7 @@
 #include <malloc.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <sys/resource.h>
 #include <time.h>
 
 static double now(void)
@@ -52,6 +53,15 @@ const char *__lsan_default_options(void);
 const char *__lsan_default_options(void)
 {
 	return "print_suppressions=0";
+}
+
+/* CPU seconds used by the whole process (all threads) so far. */
+static double cpu_seconds(void)
+{
+	struct rusage u;
+	getrusage(RUSAGE_SELF, &u);
+	return u.ru_utime.tv_sec + u.ru_stime.tv_sec +
+	       1e-6 * (double)(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
 }
 
 static int by_value(const void *a, const void *b)
@@ -121,6 +131,7 @@ int main(int argc, char **argv)
 	ndo_grid *g;
 	int rc;
 	double t_last = now(); /* a frame's time: from the end of the last one */
+	double cpu_first = 0;  /* CPU time at the end of the first frame */
 	while ((rc = rf_source_next(src, &g)) == NDO_OK) {
 		double t0 = now();
 		if (!st.renderer)
@@ -159,6 +170,8 @@ int main(int argc, char **argv)
 		}
 		times[frames] = t3 - t_last;
 		t_last = t3;
+		if (frames == 0)
+			cpu_first = cpu_seconds();
 		if (o.verbose)
 			fprintf(stderr, "%s: frame %ld (%s): level %d, %zu triangles: prepare %.1f ms, "
 			        "wait for a buffer %.1f ms, draw %.1f ms -> %s\n", ndo_progname,
@@ -172,10 +185,16 @@ int main(int argc, char **argv)
 		ndo_die("%s", ndo_errdetail());
 	if (st.writer && rf_writer_finish(st.writer) != NDO_OK)
 		ndo_die("%s", ndo_errdetail());
-	if (o.verbose)
-		fprintf(stderr, "%s: %ld frame%s, median %.2f ms per frame, %.3f s in all\n",
-		        ndo_progname, frames, frames == 1 ? "" : "s", 1e3 * median(times, frames),
-		        now() - st.t_start);
+	if (o.verbose) {
+		fprintf(stderr, "%s: %ld frame%s, median %.2f ms per frame, %.3f s in all", ndo_progname,
+		        frames, frames == 1 ? "" : "s", 1e3 * median(times, frames), now() - st.t_start);
+		/* CPU per frame after the first (no start-up, no JIT), all
+		 * threads: what the frames cost on an otherwise idle machine. */
+		if (frames > 1)
+			fprintf(stderr, ", CPU %.2f ms per frame after the first",
+			        1e3 * (cpu_seconds() - cpu_first) / (double)(frames - 1));
+		fputc('\n', stderr);
+	}
 	free(times);
 	rf_scene_free(&scene);
 	rf_font_close(st.font);
