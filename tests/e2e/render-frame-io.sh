@@ -89,7 +89,7 @@ expect_error "level + K > 10" 1 "level 3 refined by 8 exceeds the largest level,
 expect_error "more samples than llvmpipe has" 1 "16 samples per pixel: this OpenGL .* has at most" render-frame --msaa 16 a.tgrid -o x.png
 expect_error "missing shader directory" 1 "shader /nonexistent/surface\.vert: not found \(NDO_SHADER_DIR\)" env NDO_SHADER_DIR=/nonexistent render-frame a.tgrid -o x.png
 mkdir -p bad-shaders
-cp "$NDO_ROOT/shaders/surface.vert" bad-shaders/
+cp "$NDO_ROOT"/shaders/normals.* "$NDO_ROOT/shaders/surface.vert" bad-shaders/
 expect_error "missing fragment shader" 1 "shader bad-shaders/surface\.frag: No such file" env NDO_SHADER_DIR=bad-shaders render-frame a.tgrid -o x.png
 sed 's/vec3 n = normalize(v_normal);/vec3 n = normalise(v_normal);/' "$NDO_ROOT/shaders/surface.frag" > bad-shaders/surface.frag
 expect_error "broken shader" 1 "shader bad-shaders/surface\.frag: .*normalise" env NDO_SHADER_DIR=bad-shaders render-frame a.tgrid -o x.png

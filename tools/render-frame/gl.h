@@ -40,6 +40,7 @@
 	X(PFNGLDELETEVERTEXARRAYSPROC, DeleteVertexArrays)                       \
 	X(PFNGLBINDVERTEXARRAYPROC, BindVertexArray)                             \
 	X(PFNGLDRAWELEMENTSPROC, DrawElements)                                   \
+	X(PFNGLDRAWARRAYSPROC, DrawArrays)                                       \
 	X(PFNGLCREATESHADERPROC, CreateShader)                                   \
 	X(PFNGLDELETESHADERPROC, DeleteShader)                                   \
 	X(PFNGLSHADERSOURCEPROC, ShaderSource)                                   \
@@ -65,6 +66,7 @@
 	X(PFNGLDELETEFRAMEBUFFERSPROC, DeleteFramebuffers)                       \
 	X(PFNGLBINDFRAMEBUFFERPROC, BindFramebuffer)                             \
 	X(PFNGLFRAMEBUFFERRENDERBUFFERPROC, FramebufferRenderbuffer)             \
+	X(PFNGLFRAMEBUFFERTEXTURE2DPROC, FramebufferTexture2D)                   \
 	X(PFNGLCHECKFRAMEBUFFERSTATUSPROC, CheckFramebufferStatus)               \
 	X(PFNGLBLITFRAMEBUFFERPROC, BlitFramebuffer)                             \
 	X(PFNGLGENRENDERBUFFERSPROC, GenRenderbuffers)                           \

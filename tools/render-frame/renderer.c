@@ -14,12 +14,13 @@
 struct rf_renderer {
 	rf_style style;
 	GLuint program, vao, index_buffer;
-	GLuint tex_position, tex_owner, tex_scalar, tex_colormap;
+	GLuint normal_program, normal_fbo;    /* the normal pass (normals.frag) */
+	GLuint tex_position, tex_normal, tex_owner, tex_scalar, tex_colormap;
 	GLuint fbo, color_rb, depth_rb;       /* drawn into (multisampled if msaa > 1) */
 	GLuint resolve_fbo, resolve_rb;       /* msaa > 1: resolved into */
 	int level;                            /* of the uploaded index buffer, −1 none */
 	GLsizei index_count;
-	struct { GLint position, width, modelview, projection, owner, palette, unowned,
+	struct { GLint position, normal, width, modelview, projection, owner, palette, unowned,
 	         scalar, range, colormap, light, material, color, cloth_period,
 	         wire_step, wire_width, wire_color; } u;
 };
@@ -101,36 +102,53 @@ static int compile(GLenum type, const char *dir, const char *name, const char *d
 	return NDO_OK;
 }
 
+/* Compile and link dir/vert + dir/frag into *out. */
+static int link_program(const char *dir, const char *vert, const char *frag,
+                        const char *defines, GLuint *out)
+{
+	GLuint vs, fs;
+	int rc = compile(GL_VERTEX_SHADER, dir, vert, defines, &vs);
+	if (rc != NDO_OK)
+		return rc;
+	if ((rc = compile(GL_FRAGMENT_SHADER, dir, frag, defines, &fs)) != NDO_OK) {
+		gl.DeleteShader(vs);
+		return rc;
+	}
+	GLuint prog = gl.CreateProgram();
+	gl.AttachShader(prog, vs);
+	gl.AttachShader(prog, fs);
+	gl.LinkProgram(prog);
+	gl.DeleteShader(vs);
+	gl.DeleteShader(fs);
+	GLint ok;
+	gl.GetProgramiv(prog, GL_LINK_STATUS, &ok);
+	if (!ok) {
+		char log[1024] = "";
+		gl.GetProgramInfoLog(prog, sizeof log, NULL, log);
+		log[strcspn(log, "\n")] = '\0';
+		gl.DeleteProgram(prog);
+		return ndo__fail(NDO_EFORMAT, "shaders %s/%s and %s do not link: %s", dir, vert, frag,
+		                 log);
+	}
+	*out = prog;
+	return NDO_OK;
+}
+
 static int build_program(rf_renderer *r, const char *dir)
 {
 	const rf_style *s = &r->style;
 	char defines[256];
 	snprintf(defines, sizeof defines, "#define COLOR_MODE %d\n#define CLOTH %d\n#define WIREFRAME %d\n",
 	         s->color_mode, s->cloth ? 1 : 0, s->wireframe ? 1 : 0);
-	GLuint vs, fs;
-	int rc = compile(GL_VERTEX_SHADER, dir, "surface.vert", defines, &vs);
+	int rc = link_program(dir, "normals.vert", "normals.frag", "", &r->normal_program);
+	if (rc == NDO_OK)
+		rc = link_program(dir, "surface.vert", "surface.frag", defines, &r->program);
 	if (rc != NDO_OK)
 		return rc;
-	if ((rc = compile(GL_FRAGMENT_SHADER, dir, "surface.frag", defines, &fs)) != NDO_OK) {
-		gl.DeleteShader(vs);
-		return rc;
-	}
-	r->program = gl.CreateProgram();
-	gl.AttachShader(r->program, vs);
-	gl.AttachShader(r->program, fs);
-	gl.LinkProgram(r->program);
-	gl.DeleteShader(vs);
-	gl.DeleteShader(fs);
-	GLint ok;
-	gl.GetProgramiv(r->program, GL_LINK_STATUS, &ok);
-	if (!ok) {
-		char log[1024] = "";
-		gl.GetProgramInfoLog(r->program, sizeof log, NULL, log);
-		log[strcspn(log, "\n")] = '\0';
-		return ndo__fail(NDO_EFORMAT, "shaders in %s do not link: %s", dir, log);
-	}
+	gl.UseProgram(r->normal_program);
+	gl.Uniform1i(gl.GetUniformLocation(r->normal_program, "u_position"), 0);
 #define U(name) r->u.name = gl.GetUniformLocation(r->program, "u_" #name)
-	U(position); U(width); U(modelview); U(projection); U(owner); U(palette);
+	U(position); U(normal); U(width); U(modelview); U(projection); U(owner); U(palette);
 	U(unowned); U(scalar); U(range); U(colormap); U(light); U(material); U(color);
 	U(cloth_period); U(wire_step); U(wire_width); U(wire_color);
 #undef U
@@ -211,7 +229,9 @@ int rf_renderer_create(const rf_style *style, const char *shader_dir, rf_rendere
 	}
 	gl.GenVertexArrays(1, &r->vao);
 	gl.GenBuffers(1, &r->index_buffer);
+	gl.GenFramebuffers(1, &r->normal_fbo);
 	r->tex_position = new_texture(GL_NEAREST);
+	r->tex_normal = new_texture(GL_NEAREST);
 	r->tex_owner = new_texture(GL_NEAREST);
 	r->tex_scalar = new_texture(GL_NEAREST);
 	r->tex_colormap = new_texture(GL_LINEAR);
@@ -228,6 +248,7 @@ int rf_renderer_create(const rf_style *style, const char *shader_dir, rf_rendere
 	gl.Uniform1i(r->u.owner, 1);
 	gl.Uniform1i(r->u.scalar, 2);
 	gl.Uniform1i(r->u.colormap, 3);
+	gl.Uniform1i(r->u.normal, 4);
 	gl.Uniform4f(r->u.material, style->material[0], style->material[1], style->material[2],
 	             style->material[3]);
 	gl.Uniform3f(r->u.color, style->color[0], style->color[1], style->color[2]);
@@ -256,21 +277,24 @@ void rf_renderer_destroy(rf_renderer *r)
 {
 	if (!r)
 		return;
-	GLuint tex[] = {r->tex_position, r->tex_owner, r->tex_scalar, r->tex_colormap};
-	gl.DeleteTextures(4, tex);
+	GLuint tex[] = {r->tex_position, r->tex_normal, r->tex_owner, r->tex_scalar, r->tex_colormap};
+	gl.DeleteTextures(5, tex);
 	GLuint rbs[] = {r->color_rb, r->depth_rb, r->resolve_rb};
 	gl.DeleteRenderbuffers(3, rbs);
-	GLuint fbos[] = {r->fbo, r->resolve_fbo};
-	gl.DeleteFramebuffers(2, fbos);
+	GLuint fbos[] = {r->fbo, r->resolve_fbo, r->normal_fbo};
+	gl.DeleteFramebuffers(3, fbos);
 	gl.DeleteBuffers(1, &r->index_buffer);
 	gl.DeleteVertexArrays(1, &r->vao);
 	if (r->program)
 		gl.DeleteProgram(r->program);
+	if (r->normal_program)
+		gl.DeleteProgram(r->normal_program);
 	free(r);
 }
 
 /* A new level: the triangles of the grid (the same for every frame of a
- * level) as the element buffer. */
+ * level) as the element buffer, and a W × H float texture for the
+ * normal pass to draw into. */
 static int set_level(rf_renderer *r, int level)
 {
 	size_t ntri = ndo_triangle_count(level);
@@ -283,6 +307,14 @@ static int set_level(rf_renderer *r, int level)
 	gl.BufferData(GL_ELEMENT_ARRAY_BUFFER, (GLsizeiptr)(ntri * 3 * sizeof *tri), tri,
 	              GL_STATIC_DRAW);
 	free(tri);
+	int w = (2 << level) + 1, h = (1 << level) + 1;
+	gl.ActiveTexture(GL_TEXTURE4);
+	gl.BindTexture(GL_TEXTURE_2D, r->tex_normal);
+	gl.TexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32F, w, h, 0, GL_RGBA, GL_FLOAT, NULL);
+	gl.BindFramebuffer(GL_FRAMEBUFFER, r->normal_fbo);
+	gl.FramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, r->tex_normal, 0);
+	if (gl.CheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE)
+		return ndo__fail(NDO_EINVAL, "cannot draw into a %dx%d float texture", w, h);
 	r->level = level;
 	r->index_count = (GLsizei)(ntri * 3);
 	return NDO_OK;
@@ -309,11 +341,24 @@ int rf_renderer_draw(rf_renderer *r, const rf_frame *f, const rf_view *v, uint8_
 		gl.TexImage2D(GL_TEXTURE_2D, 0, GL_R32F, w, h, 0, GL_RED, GL_FLOAT, f->scalar);
 		gl.ActiveTexture(GL_TEXTURE3);
 		gl.BindTexture(GL_TEXTURE_2D, r->tex_colormap);
-		float lo = f->range[0], hi = f->range[1];
-		if (!(hi > lo)) /* a constant scalar: the middle of the map */
-			lo -= 1, hi += 1;
-		gl.Uniform2f(r->u.range, lo, hi);
 	}
+	/* The normal pass: one fragment per node. */
+	gl.BindFramebuffer(GL_FRAMEBUFFER, r->normal_fbo);
+	gl.Viewport(0, 0, w, h);
+	gl.Disable(GL_DEPTH_TEST);
+	gl.Disable(GL_CULL_FACE);
+	gl.UseProgram(r->normal_program);
+	gl.BindVertexArray(r->vao);
+	gl.DrawArrays(GL_TRIANGLES, 0, 3);
+	gl.ActiveTexture(GL_TEXTURE4);
+	gl.BindTexture(GL_TEXTURE_2D, r->tex_normal);
+
+	gl.UseProgram(r->program);
+	gl.Enable(GL_DEPTH_TEST);
+	float lo = f->range[0], hi = f->range[1];
+	if (!(hi > lo)) /* a constant scalar: the middle of the map */
+		lo -= 1, hi += 1;
+	gl.Uniform2f(r->u.range, lo, hi);
 	gl.Uniform1i(r->u.width, w);
 	gl.UniformMatrix4fv(r->u.modelview, 1, GL_FALSE, v->modelview);
 	gl.UniformMatrix4fv(r->u.projection, 1, GL_FALSE, v->projection);
