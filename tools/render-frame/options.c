@@ -72,8 +72,9 @@ static __attribute__((noreturn)) void usage(void)
 	       "  -h, --help            show this help and exit\n"
 	       "      --version         show the version and exit\n"
 	       "\n"
-	       "Environment: NDO_SHADER_DIR, the directory of surface.vert and surface.frag\n"
-	       "(default: PREFIX/share/ndo/shaders beside PREFIX/bin, or the source tree's).\n"
+	       "Environment: NDO_SHADER_DIR, the directory of the shaders (surface.* and\n"
+	       "normals.*; default: PREFIX/share/ndo/shaders beside PREFIX/bin, or the\n"
+	       "source tree's shaders/).\n"
 	       "Exit status: 0 success, 1 bad input, failed write or no OpenGL, 2 usage error.\n",
 	       ndo_progname, MAX_SIZE);
 	ndo_close_stdout();
