@@ -61,16 +61,6 @@ minimal() {
 # field N "a b c": the N-th column of "wall cpu" pairs, one per line
 field() { awk -v n=$1 '{for (i = n; i <= NF; i += 2) print $i}' <<<"$2"; }
 
-declare -A S O M0 M1
-for ((r = 0; r < rounds; r++)); do
-	for l in 4 5 6 7 8; do
-		S[$l]+="$(stream $l env render-frame) "
-		O[$l]+="$(oneshot $l) "
-		M0[$l]+="$(minimal $l 0) "
-		M1[$l]+="$(minimal $l 1) "
-	done
-done
-
 variants=("default|env render-frame"
           "LP_NUM_THREADS=0 (llvmpipe draws on the main thread)|env LP_NUM_THREADS=0 render-frame"
           "LP_NUM_THREADS=1|env LP_NUM_THREADS=1 render-frame"
@@ -83,8 +73,16 @@ variants=("default|env render-frame"
           "--no-cull (back faces drawn too)|env render-frame --no-cull"
           "--backend egl|env render-frame --backend egl"
           "--cloth --wireframe|env render-frame --cloth --wireframe")
-declare -A X
+# One round measures everything once, so that a busy spell of the machine
+# falls on one round of every figure rather than on all rounds of a few.
+declare -A S O M0 M1 X
 for ((r = 0; r < rounds; r++)); do
+	for l in 4 5 6 7 8; do
+		S[$l]+="$(stream $l env render-frame) "
+		O[$l]+="$(oneshot $l) "
+		M0[$l]+="$(minimal $l 0) "
+		M1[$l]+="$(minimal $l 1) "
+	done
 	for v in "${variants[@]}"; do
 		read -r -a cmd <<<"${v#*|}"
 		X[$v]+="$(stream 7 "${cmd[@]}") "

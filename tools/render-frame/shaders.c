@@ -11,9 +11,9 @@
 
 static int holds(const char *dir, const char *probe)
 {
-	char path[PATH_MAX + 64];
-	snprintf(path, sizeof path, "%s/%s", dir, probe);
-	return access(path, R_OK) == 0;
+	char path[PATH_MAX];
+	int n = snprintf(path, sizeof path, "%s/%s", dir, probe);
+	return n > 0 && (size_t)n < sizeof path && access(path, R_OK) == 0;
 }
 
 int rf_shader_dir(const char *probe, char *out, size_t size)
