@@ -2,6 +2,7 @@
 // surface.frag — Blinn–Phong shading of the grid surface (render-frame;
 // thesis appendix C), with the optional procedural cloth of thesis
 // figure 5.1b and a wireframe drawn from the lattice coordinates.
+// render-frame prepends "#define COLOR_MODE n", CLOTH, WIREFRAME and FLAT.
 
 
 in vec3 v_normal;
@@ -76,9 +77,15 @@ float cloth(inout vec3 n, vec3 eye)
 
 void main()
 {
+#if FLAT
+	// The triangle's own normal, from the screen-space derivatives of
+	// the eye-space position: the facets of a coarse grid as they are.
+	vec3 n = normalize(cross(dFdx(v_eye), dFdy(v_eye)));
+#else
 	vec3 n = normalize(v_normal);
 	if (!gl_FrontFacing)
 		n = -n; // seen from inside (an open or self-crossing surface)
+#endif
 	vec3 base;
 #if COLOR_MODE == 1
 	base = v_color;

@@ -7,7 +7,7 @@
 // texture the normal pass (normals.frag) made from the six neighbours.
 //
 // render-frame prepends "#define COLOR_MODE n" (0 solid, 1 owner,
-// 2 scalar), CLOTH and WIREFRAME after the #version line.
+// 2 scalar), CLOTH, WIREFRAME and FLAT after the #version line.
 
 uniform sampler2D u_position; // (W+2) × (H+2) RGB32F, node (i, j) at texel (i+1, j+1)
 uniform sampler2D u_normal;   // W × H RGBA32F, from normals.frag

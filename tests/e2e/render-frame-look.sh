@@ -62,3 +62,11 @@ check "column seam on egl: as a perfect sphere's" $py "$rc" analytic seam-egl.pn
 check "colour by position:z" render-frame -s 400x300 --color-by position:z s4.tgrid -o z.png
 check "colour bar runs dark to bright" $py "$rc" colorbar z.png
 check "top of the sphere is bright" $py "$rc" lit z.png top
+
+# Flat shading: the tetrahedron's faces are flat, each one colour; smooth
+# shading gives each pixel its own.
+remesh --shape tetra -l 0 -o t0.tgrid
+check "--flat tetrahedron" render-frame -s 160x120 --flat t0.tgrid -o flat.png
+check "flat: four colours cover the faces" $py "$rc" facets flat.png 4 yes
+check "smooth tetrahedron" render-frame -s 160x120 t0.tgrid -o smooth.png
+check "smooth: four colours do not" $py "$rc" facets smooth.png 4 no

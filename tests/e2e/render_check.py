@@ -28,6 +28,9 @@ with "what was expected, what was found" when the check fails.
   compare IMG REF [--mean M --p99 P]
                                 differs from the reference by at most M on
                                 average and P at the 99th percentile (0..255)
+  facets IMG N yes|no           the N commonest colours cover ≥ 90 % of the
+                                object (flat facets), or < 50 % (smooth)
+  grid-poke IN OUT I J V        set x of node (i, j) to V (e.g. nan)
   colorbar IMG                  the bar runs from viridis' dark end at the
                                 bottom to its bright end at the top
 """
@@ -253,6 +256,21 @@ def cmd_compare(path, ref, mean_tol=2.0, p99_tol=40.0):
     print(f"ok: {path} ~ {ref}: mean difference {mean:.3f}, 99th percentile {p99:.1f}")
 
 
+def cmd_facets(path, n, expect):
+    """expect = yes: the n most common colours cover ≥ 90 % of the object
+    (flat facets); no: they cover less than half (smooth shading)."""
+    img = load_png(path)
+    m = object_mask(img)
+    px = img[m].astype(int)
+    keys = (px[:, 0] << 16) | (px[:, 1] << 8) | px[:, 2]
+    _, counts = np.unique(keys, return_counts=True)
+    share = np.sort(counts)[::-1][:int(n)].sum() / len(keys)
+    if (expect == 'yes') != (share >= 0.9) or (expect == 'no' and share >= 0.5):
+        fail(f"{path}: the {n} commonest colours cover {share:.1%} of the object "
+             f"({'expected ≥ 90 %' if expect == 'yes' else 'expected < 50 %'})")
+    print(f"ok: {path}: the {n} commonest colours cover {share:.1%} of the object")
+
+
 def cmd_colorbar(path):
     img = load_png(path)
     H, W = img.shape[:2]
@@ -394,6 +412,13 @@ def main():
     elif cmd == 'compare':
         opt = dict(zip(args[2::2], args[3::2]))
         cmd_compare(args[0], args[1], float(opt.get('--mean', 2.0)), float(opt.get('--p99', 40)))
+    elif cmd == 'facets':
+        cmd_facets(*args)
+    elif cmd == 'grid-poke':
+        g = read_grid(args[0])
+        g['ch']['position'][int(args[3]), int(args[2]), 0] = float(args[4])
+        write_grid(args[1], g)
+        print(f"ok: {args[1]}: x of node ({args[2]}, {args[3]}) = {args[4]}")
     elif cmd == 'colorbar':
         cmd_colorbar(*args)
     else:

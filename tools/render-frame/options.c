@@ -59,6 +59,7 @@ static __attribute__((noreturn)) void usage(void)
 	       "      --no-colorbar     no colour bar when colouring by a scalar\n"
 	       "      --font FILE       font for the colour bar's labels (default: fontconfig's\n"
 	       "                        sans-serif)\n"
+	       "      --flat            flat shading: each triangle's own normal (the facets)\n"
 	       "      --cloth           a woven cloth texture (thesis figure 5.1b)\n"
 	       "      --cloth-threads N threads across the grid's height, 1..4096 (default 48)\n"
 	       "      --wireframe       draw the grid's edges (the input grid's when refined)\n"
@@ -196,7 +197,7 @@ void rf_options_parse(int argc, char **argv, rf_options *o)
 	enum { OPT_START = 256, OPT_MSAA, OPT_COMPRESSION, OPT_AZIMUTH, OPT_ELEVATION,
 	       OPT_DISTANCE, OPT_FOV, OPT_EYE, OPT_CENTER, OPT_UP, OPT_NO_CULL, OPT_REFIT, OPT_LIGHT,
 	       OPT_BACKGROUND, OPT_COLOR, OPT_MATERIAL, OPT_COLOR_BY, OPT_RANGE, OPT_NO_COLORBAR,
-	       OPT_FONT, OPT_CLOTH, OPT_CLOTH_THREADS, OPT_WIREFRAME, OPT_WIRE_WIDTH, OPT_BACKEND,
+	       OPT_FONT, OPT_FLAT, OPT_CLOTH, OPT_CLOTH_THREADS, OPT_WIREFRAME, OPT_WIRE_WIDTH, OPT_BACKEND,
 	       OPT_VERSION };
 	static const struct option opts[] = {
 		{"output", required_argument, 0, 'o'},
@@ -221,6 +222,7 @@ void rf_options_parse(int argc, char **argv, rf_options *o)
 		{"range", required_argument, 0, OPT_RANGE},
 		{"no-colorbar", no_argument, 0, OPT_NO_COLORBAR},
 		{"font", required_argument, 0, OPT_FONT},
+		{"flat", no_argument, 0, OPT_FLAT},
 		{"cloth", no_argument, 0, OPT_CLOTH},
 		{"cloth-threads", required_argument, 0, OPT_CLOTH_THREADS},
 		{"wireframe", no_argument, 0, OPT_WIREFRAME},
@@ -289,6 +291,7 @@ void rf_options_parse(int argc, char **argv, rf_options *o)
 			break;
 		case OPT_NO_COLORBAR: o->colorbar = 0; break;
 		case OPT_FONT: o->font = optarg; break;
+		case OPT_FLAT: s->flat = 1; break;
 		case OPT_CLOTH: s->cloth = 1; break;
 		case OPT_CLOTH_THREADS: s->cloth_threads = (float)ndo_opt_double("--cloth-threads", optarg, 1, 4096); break;
 		case OPT_WIREFRAME: s->wireframe = 1; break;

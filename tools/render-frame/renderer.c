@@ -138,8 +138,9 @@ static int build_program(rf_renderer *r, const char *dir)
 {
 	const rf_style *s = &r->style;
 	char defines[256];
-	snprintf(defines, sizeof defines, "#define COLOR_MODE %d\n#define CLOTH %d\n#define WIREFRAME %d\n",
-	         s->color_mode, s->cloth ? 1 : 0, s->wireframe ? 1 : 0);
+	snprintf(defines, sizeof defines,
+	         "#define COLOR_MODE %d\n#define CLOTH %d\n#define WIREFRAME %d\n#define FLAT %d\n",
+	         s->color_mode, s->cloth ? 1 : 0, s->wireframe ? 1 : 0, s->flat ? 1 : 0);
 	int rc = link_program(dir, "normals.vert", "normals.frag", "", &r->normal_program);
 	if (rc == NDO_OK)
 		rc = link_program(dir, "surface.vert", "surface.frag", defines, &r->program);

@@ -24,6 +24,7 @@ typedef struct rf_style {
 	float palette[10][3];   /* owner id mod 10 → colour */
 	float unowned[3];       /* owner < 0 */
 	float colormap[256][3]; /* scalar 0..1 → colour */
+	int flat;               /* facets: each triangle's own normal */
 	int cloth;              /* procedural cloth on/off */
 	float cloth_threads;    /* threads across the grid's height (N lattice units) */
 	int wireframe;          /* grid lines on/off */
