@@ -82,9 +82,13 @@ typedef struct state {
 	rf_renderer *renderer;
 	rf_writer *writer;
 	rf_font *font;
+	rf_scene scene;
 	char shader_dir[PATH_MAX];
 	rf_view view;
-	double t_start;
+	double t_start, t_last;  /* the program's start, the last frame's end */
+	double cpu_first;        /* CPU time at the end of the first frame */
+	double *times;           /* each frame's time, end to end */
+	long frames, cap;
 } state;
 
 /* The first grid decides the colouring (auto), so the context and the
@@ -112,6 +116,73 @@ static void start(state *st, rf_options *o, const ndo_grid *g)
 		        1e3 * (t1 - t0), st->shader_dir, 1e3 * (t2 - t1));
 }
 
+/* Draw grid `g` (from `where`) and hand its picture to the PNG writer. */
+static void draw_one(state *st, rf_options *o, ndo_grid *g, const char *where)
+{
+	double t0 = now();
+	if (!st->renderer)
+		start(st, o, g);
+	rf_scene *scene = &st->scene;
+	if (rf_scene_prepare(scene, g, o->subdivide, &o->coloring) != NDO_OK)
+		ndo_die("%s: %s", where, ndo_errdetail());
+	if (st->frames == 0 || o->refit)
+		rf_camera_view(&o->camera, scene->center, scene->radius,
+		               (double)o->style.width / o->style.height, &st->view);
+	if (o->have_range)
+		scene->frame.range[0] = (float)o->range[0], scene->frame.range[1] = (float)o->range[1];
+	double t1 = now();
+	uint8_t *pixels = rf_writer_buffer(st->writer);
+	double t2 = now();
+	if (rf_renderer_draw(st->renderer, &scene->frame, &st->view, pixels) != NDO_OK)
+		ndo_die("%s: %s", where, ndo_errdetail());
+	if (st->font) {
+		char name[64];
+		rf_coloring_name(&o->coloring, name, sizeof name);
+		rf_colorbar_draw(pixels, o->style.width, o->style.height, o->style.colormap,
+		                 scene->frame.range[0], scene->frame.range[1], name,
+		                 o->style.background, st->font);
+	}
+	char out[PATH_MAX];
+	rf_output_name(o, o->start_number + st->frames, out, sizeof out);
+	if (ndo_grid_add_history(g, ndo_cli_argc(), ndo_cli_argv()) != NDO_OK ||
+	    rf_writer_submit(st->writer, out, g->history) != NDO_OK)
+		ndo_die("%s", ndo_errdetail());
+	double t3 = now();
+
+	if (st->frames == st->cap) {
+		st->cap = st->cap ? 2 * st->cap : 64;
+		double *t = realloc(st->times, (size_t)st->cap * sizeof *t);
+		if (!t)
+			ndo_die("out of memory");
+		st->times = t;
+	}
+	st->times[st->frames] = t3 - st->t_last;
+	st->t_last = t3;
+	if (st->frames == 0)
+		st->cpu_first = cpu_seconds();
+	if (o->verbose)
+		fprintf(stderr, "%s: frame %ld (%s): level %d, %zu triangles: prepare %.1f ms, "
+		        "wait for a buffer %.1f ms, draw %.1f ms -> %s\n", ndo_progname,
+		        o->start_number + st->frames, where, scene->frame.level,
+		        ndo_triangle_count(scene->frame.level), 1e3 * (t1 - t0), 1e3 * (t2 - t1),
+		        1e3 * (t3 - t2), ndo_is_stdio(out) ? "standard output" : out);
+	st->frames++;
+}
+
+/* -v: the median time per frame, and the CPU per frame after the first
+ * (no start-up, no JIT; all threads): what a frame costs on an otherwise
+ * idle machine. */
+static void report(state *st)
+{
+	long n = st->frames;
+	fprintf(stderr, "%s: %ld frame%s, median %.2f ms per frame, %.3f s in all", ndo_progname,
+	        n, n == 1 ? "" : "s", 1e3 * median(st->times, n), now() - st->t_start);
+	if (n > 1)
+		fprintf(stderr, ", CPU %.2f ms per frame after the first",
+		        1e3 * (cpu_seconds() - st->cpu_first) / (double)(n - 1));
+	fputc('\n', stderr);
+}
+
 int main(int argc, char **argv)
 {
 	ndo_cli_init(argc, argv);
@@ -119,84 +190,26 @@ int main(int argc, char **argv)
 	rf_options o;
 	rf_options_parse(argc, argv, &o);
 	state st = {.t_start = now()};
+	st.t_last = st.t_start;
 	if (rf_shader_dir("surface.vert", st.shader_dir, sizeof st.shader_dir) != NDO_OK)
 		ndo_die("%s", ndo_errdetail());
 	rf_source *src;
 	if (rf_source_files(o.ninputs, o.inputs, &src) != NDO_OK)
 		ndo_die("%s", ndo_errdetail());
-
-	rf_scene scene = {0};
-	double *times = NULL;
-	long frames = 0, cap = 0;
 	ndo_grid *g;
 	int rc;
-	double t_last = now(); /* a frame's time: from the end of the last one */
-	double cpu_first = 0;  /* CPU time at the end of the first frame */
 	while ((rc = rf_source_next(src, &g)) == NDO_OK) {
-		double t0 = now();
-		if (!st.renderer)
-			start(&st, &o, g);
-		if (rf_scene_prepare(&scene, g, o.subdivide, &o.coloring) != NDO_OK)
-			ndo_die("%s: %s", src->where, ndo_errdetail());
-		if (frames == 0 || o.refit)
-			rf_camera_view(&o.camera, scene.center, scene.radius,
-			               (double)o.style.width / o.style.height, &st.view);
-		if (o.have_range)
-			scene.frame.range[0] = (float)o.range[0], scene.frame.range[1] = (float)o.range[1];
-		double t1 = now();
-		uint8_t *pixels = rf_writer_buffer(st.writer);
-		double t2 = now();
-		if (rf_renderer_draw(st.renderer, &scene.frame, &st.view, pixels) != NDO_OK)
-			ndo_die("%s: %s", src->where, ndo_errdetail());
-		if (st.font) {
-			char name[64];
-			rf_coloring_name(&o.coloring, name, sizeof name);
-			rf_colorbar_draw(pixels, o.style.width, o.style.height, o.style.colormap,
-			                 scene.frame.range[0], scene.frame.range[1], name,
-			                 o.style.background, st.font);
-		}
-		char out[PATH_MAX];
-		rf_output_name(&o, o.start_number + frames, out, sizeof out);
-		if (ndo_grid_add_history(g, ndo_cli_argc(), ndo_cli_argv()) != NDO_OK ||
-		    rf_writer_submit(st.writer, out, g->history) != NDO_OK)
-			ndo_die("%s", ndo_errdetail());
-		double t3 = now();
-		if (frames == cap) {
-			cap = cap ? 2 * cap : 64;
-			double *t = realloc(times, (size_t)cap * sizeof *t);
-			if (!t)
-				ndo_die("out of memory");
-			times = t;
-		}
-		times[frames] = t3 - t_last;
-		t_last = t3;
-		if (frames == 0)
-			cpu_first = cpu_seconds();
-		if (o.verbose)
-			fprintf(stderr, "%s: frame %ld (%s): level %d, %zu triangles: prepare %.1f ms, "
-			        "wait for a buffer %.1f ms, draw %.1f ms -> %s\n", ndo_progname,
-			        o.start_number + frames, src->where, scene.frame.level,
-			        ndo_triangle_count(scene.frame.level), 1e3 * (t1 - t0), 1e3 * (t2 - t1),
-			        1e3 * (t3 - t2), ndo_is_stdio(out) ? "standard output" : out);
-		frames++;
+		draw_one(&st, &o, g, src->where);
 		ndo_grid_destroy(g);
 	}
 	if (rc != NDO_EEOF)
 		ndo_die("%s", ndo_errdetail());
 	if (st.writer && rf_writer_finish(st.writer) != NDO_OK)
 		ndo_die("%s", ndo_errdetail());
-	if (o.verbose) {
-		fprintf(stderr, "%s: %ld frame%s, median %.2f ms per frame, %.3f s in all", ndo_progname,
-		        frames, frames == 1 ? "" : "s", 1e3 * median(times, frames), now() - st.t_start);
-		/* CPU per frame after the first (no start-up, no JIT), all
-		 * threads: what the frames cost on an otherwise idle machine. */
-		if (frames > 1)
-			fprintf(stderr, ", CPU %.2f ms per frame after the first",
-			        1e3 * (cpu_seconds() - cpu_first) / (double)(frames - 1));
-		fputc('\n', stderr);
-	}
-	free(times);
-	rf_scene_free(&scene);
+	if (o.verbose)
+		report(&st);
+	free(st.times);
+	rf_scene_free(&st.scene);
 	rf_font_close(st.font);
 	rf_writer_destroy(st.writer);
 	rf_renderer_destroy(st.renderer);
