@@ -90,6 +90,12 @@ expect_error "NaN position" 1 "^render-frame: nan\.tgrid: position of node \(3, 
 expect_error "level + K > 10" 1 "level 3 refined by 8 exceeds the largest level, 10" render-frame -k 8 a.tgrid -o x.png
 expect_error "more samples than llvmpipe has" 1 "16 samples per pixel: this OpenGL .* has at most" render-frame --msaa 16 a.tgrid -o x.png
 expect_error "missing shader directory" 1 "shader /nonexistent/surface\.vert: not found \(NDO_SHADER_DIR\)" env NDO_SHADER_DIR=/nonexistent render-frame a.tgrid -o x.png
+# Back ends: without OSMesa (Mesa >= 25.1), auto falls back to EGL.
+if env NDO_OSMESA_LIB=/nonexistent/libOSMesa.so.8 render-frame -v "${opts[@]}" a.tgrid -o fb.png 2>fb.log &&
+   grep -q "egl back end" fb.log; then pass "no OSMesa: auto falls back to EGL"; else
+	fail "no OSMesa: auto falls back to EGL" "$(head -2 fb.log)"; fi
+expect_error "no OSMesa, --backend osmesa" 1 "^render-frame: back end osmesa: cannot load /nonexistent/libOSMesa\.so\.8" env NDO_OSMESA_LIB=/nonexistent/libOSMesa.so.8 render-frame --backend osmesa a.tgrid -o x.png
+expect_error "no OpenGL at all" 1 "^render-frame: no OpenGL 3\.3 context: osmesa: cannot load .*; egl: cannot load /nonexistent/libEGL\.so\.1" env NDO_OSMESA_LIB=/nonexistent/libOSMesa.so.8 NDO_EGL_LIB=/nonexistent/libEGL.so.1 render-frame a.tgrid -o x.png
 mkdir -p bad-shaders
 cp "$NDO_ROOT"/shaders/normals.* "$NDO_ROOT/shaders/surface.vert" bad-shaders/
 expect_error "missing fragment shader" 1 "shader bad-shaders/surface\.frag: No such file" env NDO_SHADER_DIR=bad-shaders render-frame a.tgrid -o x.png

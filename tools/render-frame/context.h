@@ -6,8 +6,9 @@
  * are Mesa's llvmpipe on this machine: OSMesa (libOSMesa.so.8; removed
  * from upstream Mesa in 25.1) and EGL on the surfaceless platform
  * (EGL_MESA_platform_surfaceless; works without a GPU or a display).  The
- * libraries are dlopen()ed, so a missing one is an error at run time that
- * names it, and `auto` falls back to the other.  Rendering goes to a
+ * libraries are dlopen()ed (libOSMesa.so.8 and libEGL.so.1, or the files
+ * NDO_OSMESA_LIB and NDO_EGL_LIB name), so a missing one is an error at run
+ * time that names it, and `auto` falls back to the other.  Rendering goes to a
  * framebuffer object (renderer.c), so neither back end needs a window or a
  * window-system buffer. */
 #ifndef RF_CONTEXT_H

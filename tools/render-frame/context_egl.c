@@ -9,7 +9,7 @@
 #include <dlfcn.h>
 #include <stdlib.h>
 
-#define EGL_LIB "libEGL.so.1"
+#define EGL_LIB "libEGL.so.1" /* NDO_EGL_LIB overrides */
 
 typedef struct egl {
 	EGLDisplay dpy;
@@ -44,9 +44,12 @@ static void destroy(void *handle)
 
 static int create(void **handle, rf_getproc_fn *gp)
 {
-	void *lib = dlopen(EGL_LIB, RTLD_NOW | RTLD_LOCAL);
+	const char *name = getenv("NDO_EGL_LIB");
+	if (!name || !*name)
+		name = EGL_LIB;
+	void *lib = dlopen(name, RTLD_NOW | RTLD_LOCAL);
 	if (!lib)
-		return ndo__fail(NDO_ENOTFOUND, "cannot load %s (Debian package libegl1)", EGL_LIB);
+		return ndo__fail(NDO_ENOTFOUND, "cannot load %s (Debian package libegl1)", name);
 	get_proc_address = (PFNEGLGETPROCADDRESSPROC)dlsym(lib, "eglGetProcAddress");
 	PFNEGLINITIALIZEPROC initialize = (PFNEGLINITIALIZEPROC)dlsym(lib, "eglInitialize");
 	PFNEGLBINDAPIPROC bind_api = (PFNEGLBINDAPIPROC)dlsym(lib, "eglBindAPI");
@@ -59,7 +62,7 @@ static int create(void **handle, rf_getproc_fn *gp)
 	release_thread = (PFNEGLRELEASETHREADPROC)dlsym(lib, "eglReleaseThread");
 	if (!get_proc_address || !initialize || !bind_api || !create_context || !get_error ||
 	    !make_current || !destroy_context || !terminate || !release_thread)
-		return ndo__fail(NDO_ENOTFOUND, "%s lacks EGL 1.4 functions", EGL_LIB);
+		return ndo__fail(NDO_ENOTFOUND, "%s lacks EGL 1.4 functions", name);
 	PFNEGLGETPLATFORMDISPLAYEXTPROC get_platform_display =
 		(PFNEGLGETPLATFORMDISPLAYEXTPROC)get_proc_address("eglGetPlatformDisplayEXT");
 	if (!get_platform_display)

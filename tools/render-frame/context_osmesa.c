@@ -9,7 +9,7 @@
 #include <dlfcn.h>
 #include <stdlib.h>
 
-#define OSMESA_LIB "libOSMesa.so.8"
+#define OSMESA_LIB "libOSMesa.so.8" /* NDO_OSMESA_LIB overrides */
 
 typedef struct osmesa {
 	void *lib;
@@ -43,10 +43,12 @@ static void destroy(void *handle)
 
 static int create(void **handle, rf_getproc_fn *gp)
 {
-	void *lib = dlopen(OSMESA_LIB, RTLD_NOW | RTLD_LOCAL);
+	const char *name = getenv("NDO_OSMESA_LIB");
+	if (!name || !*name)
+		name = OSMESA_LIB;
+	void *lib = dlopen(name, RTLD_NOW | RTLD_LOCAL);
 	if (!lib)
-		return ndo__fail(NDO_ENOTFOUND, "cannot load %s (Debian package libosmesa6)",
-		                 OSMESA_LIB);
+		return ndo__fail(NDO_ENOTFOUND, "cannot load %s (Debian package libosmesa6)", name);
 	__typeof__(&OSMesaCreateContextAttribs) create_attribs =
 		(__typeof__(&OSMesaCreateContextAttribs))dlsym(lib, "OSMesaCreateContextAttribs");
 	__typeof__(&OSMesaMakeCurrent) make_current =
@@ -60,7 +62,7 @@ static int create(void **handle, rf_getproc_fn *gp)
 	get_proc_address = (__typeof__(&OSMesaGetProcAddress))dlsym(lib, "OSMesaGetProcAddress");
 	if (!create_attribs || !make_current || !o->destroy || !get_proc_address) {
 		free(o);
-		return ndo__fail(NDO_ENOTFOUND, "%s lacks OSMesaCreateContextAttribs", OSMESA_LIB);
+		return ndo__fail(NDO_ENOTFOUND, "%s lacks OSMesaCreateContextAttribs", name);
 	}
 	static const int attribs[] = {
 		OSMESA_FORMAT, OSMESA_RGBA,

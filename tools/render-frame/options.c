@@ -75,7 +75,8 @@ static __attribute__((noreturn)) void usage(void)
 	       "\n"
 	       "Environment: NDO_SHADER_DIR, the directory of the shaders (surface.* and\n"
 	       "normals.*; default: PREFIX/share/ndo/shaders beside PREFIX/bin, or the\n"
-	       "source tree's shaders/).\n"
+	       "source tree's shaders/).  NDO_OSMESA_LIB, NDO_EGL_LIB: the libraries to load\n"
+	       "(default libOSMesa.so.8, libEGL.so.1).\n"
 	       "Exit status: 0 success, 1 bad input, failed write or no OpenGL, 2 usage error.\n",
 	       ndo_progname, MAX_SIZE);
 	ndo_close_stdout();
