@@ -3,6 +3,7 @@
 
 #include <stdarg.h>
 #include <stdio.h>
+#include <string.h>
 
 static _Thread_local char detail[512];
 static _Thread_local int detail_code;
@@ -29,10 +30,14 @@ const char *ndo_strerror(int code)
 
 int ndo__fail(int code, const char *fmt, ...)
 {
+	/* Format into a copy first: a caller may pass ndo_errdetail() itself
+	 * as an argument ("%s: %s", path, ndo_errdetail()) to add context. */
+	char buf[sizeof detail];
 	va_list ap;
 	va_start(ap, fmt);
-	vsnprintf(detail, sizeof detail, fmt, ap);
+	vsnprintf(buf, sizeof buf, fmt, ap);
 	va_end(ap);
+	memcpy(detail, buf, sizeof detail);
 	detail_code = code;
 	return code;
 }

@@ -38,7 +38,9 @@ const char *ndo_strerror(int code);
 const char *ndo_errdetail(void);
 
 /* Record a detail for the current failure and return code, so that a
- * failing function can end with `return ndo__fail(NDO_ETRUNC, "...")`. */
+ * failing function can end with `return ndo__fail(NDO_ETRUNC, "...")`.
+ * The arguments may include ndo_errdetail() itself, to add context to a
+ * callee's detail. */
 int ndo__fail(int code, const char *fmt, ...)
 	__attribute__((format(printf, 2, 3)));
 
