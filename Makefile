@@ -3,7 +3,8 @@
 #   make            build lib/libndo.a and every tool into bin/
 #   make deps       install the Debian packages ndo needs (only those missing)
 #   make test       build with ASan + UBSan under build/asan/ and run every test
-#   make bench      build optimized and run the benchmarks (figures in docs/bench/)
+#   make bench      build optimized and run the speed benchmarks (docs/bench/)
+#   make report     regenerate every figure and table in docs/ (minutes)
 #   make demo       the main job, end to end (output in build/demo/)
 #   make install    PREFIX=/usr/local: binaries, shaders, headers, library,
 #                   pkg-config file, manual pages
@@ -68,7 +69,7 @@ $(BIN)/$(1): $$($(1)_OBJS) $(LIBNDO)
 endef
 $(foreach t,$(TOOLS),$(eval $(call tool_rules,$(t))))
 
-.PHONY: all deps test check-build bench demo install clean help
+.PHONY: all deps test check-build bench report demo install clean help
 all: $(LIBNDO) $(TOOLS:%=$(BIN)/%)
 
 $(LIBNDO): $(LIB_OBJS)
@@ -107,9 +108,19 @@ test: deps
 
 check-build: all $(TEST_PROGS)
 
+# The speed benchmarks; `make report` runs them and every study too.
+BENCH_SPEED := subdivide render simulate
 bench: deps
 	$(MAKE) all $(BENCH_PROGS)
+	tests/bench/run $(BENCH_SPEED)
+
+# Every figure and table in docs/: benchmarks, studies (stability maps,
+# work-precision, remesh quality, partitions, sphere maps) and the
+# rendered figures.
+report: deps
+	$(MAKE) all $(BENCH_PROGS)
 	tests/bench/run
+	docs/render-frame/figures.sh
 
 demo: deps
 	$(MAKE) all
@@ -134,6 +145,6 @@ clean:
 	rm -rf build bin lib/libndo.a
 
 help:
-	@sed -n '3,12s/^# //p' Makefile
+	@sed -n '3,13s/^# //p' Makefile
 
 -include $(ALL_OBJS:.o=.d) $(TEST_OBJS:.o=.d)
