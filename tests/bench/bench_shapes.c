@@ -1,6 +1,7 @@
 /* bench_shapes.c — how the two tetrahedron→sphere maps grid the sphere:
  * triangle areas (max/min and the 1st..99th percentile spread), angles,
- * and λ_max of M⁻¹L (cotangent Laplacian, lumped mass), which bounds the
+ * and λ_max of M⁻¹L (cotangent Laplacian, lumped mass; the library's power
+ * iteration, ndo_sim_critical), which bounds the
  * stable step of every explicit integrator as 1/√λ_max.  A Markdown table
  * on stdout (docs/shapes.md explains it). */
 #include "ndo/ndo.h"
@@ -26,13 +27,11 @@ int main(void)
 			sp.map = (ndo_sphere_map)map;
 			ndo_grid *g;
 			ndo_shape_make("sphere", level, &sp, &g);
-			size_t nt = ndo_triangle_count(level), nv = ndo_vertex_count(level);
-			int32_t *tri = malloc(3 * nt * sizeof *tri), *vid = malloc(g->count * sizeof *vid);
+			size_t nt = ndo_triangle_count(level);
+			int32_t *tri = malloc(3 * nt * sizeof *tri);
 			ndo_triangles(level, tri);
-			ndo_vertex_ids(level, vid, NULL);
 			const double *x = g->ch[0].data;
-			double *area = malloc(nt * sizeof *area), *m = calloc(nv, sizeof *m),
-			       *w = malloc(3 * nt * sizeof *w), amin = 180, amax = 0;
+			double *area = malloc(nt * sizeof *area), amin = 180, amax = 0;
 			for (size_t t = 0; t < nt; t++) {
 				const double *p[3] = {x + 3 * tri[3 * t], x + 3 * tri[3 * t + 1], x + 3 * tri[3 * t + 2]};
 				double u[3], v[3];
@@ -43,7 +42,6 @@ int main(void)
 				double A = 0.5 * sqrt(c0 * c0 + c1 * c1 + c2 * c2);
 				area[t] = A;
 				for (int q = 0; q < 3; q++) {
-					m[vid[tri[3 * t + q]]] += A / 3;
 					double a[3], b[3];
 					for (int d = 0; d < 3; d++)
 						a[d] = p[(q + 1) % 3][d] - p[q][d], b[d] = p[(q + 2) % 3][d] - p[q][d];
@@ -51,37 +49,23 @@ int main(void)
 					double ang = acos(dot / sqrt((a[0] * a[0] + a[1] * a[1] + a[2] * a[2]) *
 					                             (b[0] * b[0] + b[1] * b[1] + b[2] * b[2]))) * 180 / M_PI;
 					amin = fmin(amin, ang), amax = fmax(amax, ang);
-					w[3 * t + q] = 0.5 * dot / (2 * A); /* ½ cot of the angle at q */
 				}
 			}
-			/* power iteration on the m-weighted norm */
-			double *u = malloc(nv * sizeof *u), *lu = malloc(nv * sizeof *lu), lam = 0;
-			for (size_t i = 0; i < nv; i++)
-				u[i] = sin(1.0 + 12.9898 * (double)i);
-			for (int it = 0; it < 3000; it++) {
-				for (size_t i = 0; i < nv; i++)
-					lu[i] = 0;
-				for (size_t t = 0; t < nt; t++)
-					for (int q = 0; q < 3; q++) {
-						int32_t a = vid[tri[3 * t + (q + 1) % 3]], b = vid[tri[3 * t + (q + 2) % 3]];
-						double d = w[3 * t + q] * (u[a] - u[b]);
-						lu[a] += d, lu[b] -= d;
-					}
-				double num = 0, den = 0;
-				for (size_t i = 0; i < nv; i++) {
-					lu[i] /= m[i];
-					num += lu[i] * lu[i] * m[i];
-					den += u[i] * u[i] * m[i];
-				}
-				lam = sqrt(num / den);
-				for (size_t i = 0; i < nv; i++)
-					u[i] = lu[i] / lam;
-			}
+			/* λ_max(M⁻¹K) with σ = ρ = 1, the library's power iteration */
+			ndo_sim_params sp2;
+			ndo_sim_defaults(&sp2);
+			sp2.material.stiffness = sp2.material.density = 1;
+			ndo_sim *sim;
+			ndo_critical crit = {0};
+			if (ndo_sim_from_grid(g, &sp2, &sim) == NDO_OK)
+				ndo_sim_critical(sim, &crit);
+			ndo_sim_destroy(sim);
+			double lam = crit.lambda_max;
 			qsort(area, nt, sizeof *area, cmpd);
 			printf("| %d | %s | %.2f | %.2f | %.1f° | %.1f° | %.0f |\n", level,
 			       map ? "equal-area" : "gnomonic", area[nt - 1] / area[0],
 			       area[nt * 99 / 100] / area[nt / 100], amin, amax, lam);
-			free(tri), free(vid), free(area), free(m), free(w), free(u), free(lu);
+			free(tri), free(area);
 			ndo_grid_destroy(g);
 		}
 	return 0;

@@ -6,6 +6,7 @@
 #ifndef NDO_TEST_CHECK_H
 #define NDO_TEST_CHECK_H
 
+#include <dirent.h>
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -50,5 +51,17 @@ static void ck_run(const char *name, void (*fn)(void))
 }
 
 #define RUN(fn) ck_run(#fn, fn)
+
+/* Entries of a directory other than . and .. (files left behind). */
+static inline int count_entries(const char *dir)
+{
+	DIR *d = opendir(dir);
+	int n = 0;
+	for (struct dirent *e; d && (e = readdir(d));)
+		n += e->d_name[0] != '.';
+	if (d)
+		closedir(d);
+	return n;
+}
 
 #endif

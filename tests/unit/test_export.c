@@ -8,7 +8,6 @@
 #include <assimp/cimport.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
-#include <dirent.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <unistd.h>
@@ -77,16 +76,6 @@ static void check_import(const char *path, const ndo_grid *g, const char *what)
 	free(rep);
 	free(vid);
 	aiReleaseImport(s);
-}
-
-static int count_entries(const char *dir)
-{
-	DIR *d = opendir(dir);
-	int n = 0;
-	for (struct dirent *e; (e = readdir(d));)
-		n += e->d_name[0] != '.';
-	closedir(d);
-	return n;
 }
 
 static void every_format_reads_back_closed(void)

@@ -4,7 +4,6 @@
 #include "check.h"
 #include "ndo/ndo.h"
 
-#include <dirent.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <sys/stat.h>
@@ -252,16 +251,6 @@ static void forged_headers_rejected(void)
 	ndo_grid_destroy(g);
 	free(orig);
 	free(buf);
-}
-
-static int count_entries(const char *dir)
-{
-	DIR *d = opendir(dir);
-	int n = 0;
-	for (struct dirent *e; (e = readdir(d));)
-		n += e->d_name[0] != '.';
-	closedir(d);
-	return n;
 }
 
 static void save_is_atomic(void)

@@ -151,61 +151,35 @@ static void outward_and_nested(void)
 		}
 }
 
-/* λ_max of M⁻¹L (cotangent Laplacian, lumped mass) by power iteration:
- * what bounds an explicit integrator's step on this grid. */
-static double lambda_max(const ndo_grid *g, double *area_ratio)
+/* λ_max of M⁻¹L (σ = ρ = 1: the cotangent Laplacian over the lumped
+ * mass), from the library's power iteration, and the largest over the
+ * smallest triangle area. */
+static double lambda_max(ndo_grid *g, double *area_ratio)
 {
-	int level = g->level;
-	size_t nt = ndo_triangle_count(level), nv = ndo_vertex_count(level);
-	int32_t *tri = malloc(3 * nt * sizeof *tri), *vid = malloc(g->count * sizeof *vid);
-	int32_t *rep = malloc(nv * sizeof *rep);
-	ndo_triangles(level, tri);
-	ndo_vertex_ids(level, vid, rep);
+	size_t nt = ndo_triangle_count(g->level);
+	int32_t *tri = malloc(3 * nt * sizeof *tri);
+	ndo_triangles(g->level, tri);
 	const double *x = g->ch[0].data;
-	double *m = calloc(nv, sizeof *m), *wgt = malloc(3 * nt * sizeof *wgt);
 	double amin = 1e300, amax = 0;
 	for (size_t t = 0; t < nt; t++) {
-		const double *p[3];
-		for (int q = 0; q < 3; q++)
-			p[q] = x + 3 * rep[vid[tri[3 * t + q]]];
-		double u[3], v[3], c[3];
+		const double *a = x + 3 * tri[3 * t], *b = x + 3 * tri[3 * t + 1], *c = x + 3 * tri[3 * t + 2];
+		double u[3], v[3], n[3];
 		for (int d = 0; d < 3; d++)
-			u[d] = p[1][d] - p[0][d], v[d] = p[2][d] - p[0][d];
-		c[0] = u[1] * v[2] - u[2] * v[1], c[1] = u[2] * v[0] - u[0] * v[2], c[2] = u[0] * v[1] - u[1] * v[0];
-		double A = 0.5 * norm3(c);
-		amin = fmin(amin, A), amax = fmax(amax, A);
-		for (int q = 0; q < 3; q++) {
-			m[vid[tri[3 * t + q]]] += A / 3;
-			double a[3], b[3];
-			for (int d = 0; d < 3; d++)
-				a[d] = p[(q + 1) % 3][d] - p[q][d], b[d] = p[(q + 2) % 3][d] - p[q][d];
-			wgt[3 * t + q] = 0.5 * (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]) / (2 * A);
-		}
+			u[d] = b[d] - a[d], v[d] = c[d] - a[d];
+		n[0] = u[1] * v[2] - u[2] * v[1], n[1] = u[2] * v[0] - u[0] * v[2], n[2] = u[0] * v[1] - u[1] * v[0];
+		amin = fmin(amin, norm3(n)), amax = fmax(amax, norm3(n));
 	}
-	double *u = malloc(nv * sizeof *u), *lu = malloc(nv * sizeof *lu), lam = 0;
-	for (size_t i = 0; i < nv; i++)
-		u[i] = sin(1.0 + 12.9898 * i) * 0.5;
-	for (int it = 0; it < 2000; it++) {
-		memset(lu, 0, nv * sizeof *lu);
-		for (size_t t = 0; t < nt; t++)
-			for (int q = 0; q < 3; q++) {
-				int32_t a = vid[tri[3 * t + (q + 1) % 3]], b = vid[tri[3 * t + (q + 2) % 3]];
-				double d = wgt[3 * t + q] * (u[a] - u[b]);
-				lu[a] += d, lu[b] -= d;
-			}
-		double num = 0, den = 0;
-		for (size_t i = 0; i < nv; i++) {
-			lu[i] /= m[i];
-			num += lu[i] * lu[i] * m[i];
-			den += u[i] * u[i] * m[i];
-		}
-		lam = sqrt(num / den);
-		for (size_t i = 0; i < nv; i++)
-			u[i] = lu[i] / lam;
-	}
+	free(tri);
 	*area_ratio = amax / amin;
-	free(tri), free(vid), free(rep), free(m), free(wgt), free(u), free(lu);
-	return lam;
+	ndo_sim_params p;
+	ndo_sim_defaults(&p);
+	p.material.stiffness = p.material.density = 1;
+	ndo_sim *s;
+	ndo_critical c = {0};
+	if (ndo_sim_from_grid(g, &p, &s) == NDO_OK)
+		ndo_sim_critical(s, &c);
+	ndo_sim_destroy(s);
+	return c.lambda_max;
 }
 
 /* The measurement behind NDO_MAP_DEFAULT (docs/shapes.md): on the sphere
