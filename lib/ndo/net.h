@@ -70,6 +70,14 @@ int ndo_net_next(ndo_net *n, ndo_msg *m);
  * ndo_msg_free() and the array with free(). 0 or NDO_ENOMEM. */
 int ndo_net_take_tiles(ndo_net *n, ndo_msg **tiles, size_t *count);
 
+/* Keep every tile (on ≠ 0): accepted tiles then wait in arrival order
+ * with the other messages for ndo_net_next(), none superseded and none
+ * judged stale by sequence number, so a caller that orders tiles by their
+ * step (a lock-step peer, which also receives steps sent again; a
+ * renderer of every step) sees each one and decides.  Gaps are still
+ * counted.  ndo_net_take_tiles() then returns nothing. */
+void ndo_net_keep_all_tiles(ndo_net *n, int on);
+
 /* Forget a sender's sequence numbers and pending tiles (it left; if it
  * comes back with the same id its numbers start again). */
 void ndo_net_forget(ndo_net *n, int32_t sender);
