@@ -1,0 +1,418 @@
+/* test_peer — simulating peers in one process: an owner and joiners on
+ * an in-memory bus with a fake clock (ndo/peer.h), the thesis' wavy
+ * surface with its sinusoidal face force, against the single-process
+ * run of the same scene. */
+#include "check.h"
+#include "ndo/ndo.h"
+#include "ndo/peer.h"
+#include "ndo/tile.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define LEVEL 4
+#define TICK 0.001 /* s of fake time per round */
+
+typedef struct world {
+	ndo_bus *bus;
+	ndo_peer *p[8];
+	int state[8];
+	int n;
+	double t;
+	/* notes, for the timing tests */
+	char last_note[8][512];
+	double note_at[8];
+} world;
+
+typedef struct setup {
+	const char *integrator;
+	double dt;
+	int64_t steps;
+	ndo_clock clock;
+	int peers;
+	ndo_faults faults; /* on every peer's receiving side when drop > 0 */
+	double step_timeout;
+} setup;
+
+static world *W; /* for the note callback */
+
+static void on_note(void *user, const char *msg)
+{
+	int i = (int)(intptr_t)user;
+	snprintf(W->last_note[i], sizeof W->last_note[i], "%s", msg);
+	W->note_at[i] = W->t;
+	if (getenv("TEST_PEER_VERBOSE"))
+		printf("    [%.3f] peer %d: %s\n", W->t, i, msg);
+}
+
+static void scene(ndo_scene *sc, const setup *su)
+{
+	ndo_scene_init(sc);
+	char dt[32], steps[32];
+	snprintf(dt, sizeof dt, "%.17g", su->dt);
+	snprintf(steps, sizeof steps, "%lld", (long long)su->steps);
+	/* thesis figure 5.3: k = 1 N/m, b = 0.1, 2.4 N at 1 Hz near the pole */
+	const char *kv[][2] = {{"stiffness", "1"}, {"damping", "0.1"},
+	                       {"integrator", su->integrator}, {"dt", dt}, {"steps", steps},
+	                       {"force", "face at=0,0,1 radius=0.3 amplitude=2.4 frequency=1"}};
+	for (size_t k = 0; k < sizeof kv / sizeof *kv; k++)
+		if (ndo_scene_set(sc, kv[k][0], kv[k][1]))
+			printf("scene: %s\n", ndo_errdetail());
+}
+
+/* The object and its simulation, as simulate-peer's owner makes them. */
+static ndo_sim *object(const setup *su, ndo_scene *sc, ndo_grid **out)
+{
+	ndo_grid *g;
+	ndo_shape_make("wavy", LEVEL, NULL, &g);
+	scene(sc, su);
+	double *x = ndo_grid_f64(g, NDO_CH_POSITION, 3);
+	uint8_t *pin = calloc(g->count, 1);
+	ndo_force *forces;
+	ndo_scene_resolve(sc, LEVEL, x, &forces, pin);
+	ndo_sim_params prm = sc->sim;
+	prm.forces = forces;
+	prm.nforces = sc->nforces;
+	ndo_sim *sim = NULL;
+	ndo_sim_create(LEVEL, x, NULL, x, pin, &prm, &sim);
+	ndo_scene_forces_free(forces, sc->nforces);
+	ndo_sim_store(sim, g);
+	ndo_channel *pc;
+	ndo_grid_add(g, NDO_CH_PIN, NDO_U8, 1, &pc);
+	memcpy(pc->data, pin, g->count);
+	free(pin);
+	*out = g;
+	return sim;
+}
+
+/* The single-process run: positions after su->steps steps. */
+static double *solo(const setup *su)
+{
+	ndo_scene sc;
+	ndo_grid *g;
+	ndo_sim *sim = object(su, &sc, &g);
+	for (int64_t k = 0; k < su->steps; k++)
+		ndo_sim_step(sim, su->dt);
+	double *x = malloc(3 * g->count * sizeof *x);
+	ndo_sim_get(sim, x, NULL);
+	ndo_sim_destroy(sim);
+	ndo_grid_destroy(g);
+	ndo_scene_free(&sc);
+	return x;
+}
+
+static ndo_net *net(world *w, int32_t id, const setup *su, int index)
+{
+	ndo_link *l;
+	ndo_net *n;
+	if (ndo_link_open_mem(w->bus, &l))
+		return NULL;
+	if (su->faults.drop > 0 || su->faults.delay_ms > 0) {
+		ndo_faults f = su->faults;
+		f.seed += (uint64_t)index * 7919;
+		if (ndo_link_faults(l, &f, &l))
+			return NULL;
+	}
+	return ndo_net_create(l, "T", id, &n) ? NULL : n;
+}
+
+static ndo_peer_opts opts(ndo_role role, int32_t id, int32_t poi, const setup *su, int index)
+{
+	ndo_peer_opts o = {.session = {.role = role, .poi = poi, .self_id = id,
+	                               .object_id = role == NDO_ROLE_OWNER ? 77 : 0,
+	                               .heartbeat = 0.1, .timeout = 1.0, .retry = 0.3},
+	                   .clock = su->clock, .peers = su->peers,
+	                   .step_timeout = su->step_timeout, .note = on_note,
+	                   .note_user = (void *)(intptr_t)index};
+	return o;
+}
+
+static int add_owner(world *w, const setup *su)
+{
+	ndo_scene sc;
+	ndo_grid *g;
+	ndo_sim *sim = object(su, &sc, &g);
+	ndo_peer_run run = {ndo_scene_physics(&sc), su->dt, su->steps};
+	ndo_peer_opts o = opts(NDO_ROLE_OWNER, 1, -1, su, w->n);
+	int rc = ndo_peer_create(&o, net(w, 1, su, w->n), g, sim, &run, &w->p[w->n]);
+	ndo_scene_free(&sc);
+	if (rc)
+		return rc;
+	w->n++;
+	return 0;
+}
+
+static int add_joiner(world *w, const setup *su, int32_t poi)
+{
+	int32_t id = 10 + w->n;
+	ndo_peer_opts o = opts(NDO_ROLE_JOINER, id, poi, su, w->n);
+	int rc = ndo_peer_create(&o, net(w, id, su, w->n), NULL, NULL, NULL, &w->p[w->n]);
+	if (rc)
+		return rc;
+	w->n++;
+	return 0;
+}
+
+/* Run rounds until every live peer is DONE or ENDED, or `until` (fake
+ * seconds).  A peer whose slot is NULL is dead (silent). */
+static int run(world *w, double until)
+{
+	for (; w->t < until; w->t += TICK) {
+		int busy = 0;
+		for (int i = 0; i < w->n; i++) {
+			if (!w->p[i] || w->state[i] == NDO_PEER_DONE || w->state[i] == NDO_PEER_ENDED)
+				continue;
+			/* at most one step per peer per round: a step takes a tick */
+			int r = ndo_peer_update(w->p[i], w->t);
+			if (r < 0) {
+				printf("    peer %d: status %d: %s\n", i, r, ndo_errdetail());
+				return r;
+			}
+			w->state[i] = r;
+			busy |= r != NDO_PEER_DONE && r != NDO_PEER_ENDED;
+		}
+		if (!busy)
+			return 0;
+	}
+	return 1;
+}
+
+/* Largest position difference to x, relative to the largest displacement
+ * of x from the rest shape. */
+static double difference(ndo_grid *g, const double *x)
+{
+	const double *y = ndo_grid_f64(g, NDO_CH_POSITION, 3), *r = ndo_grid_f64(g, NDO_CH_REST, 3);
+	double d = 0, m = 0;
+	for (size_t k = 0; k < 3 * g->count; k++) {
+		d = fmax(d, fabs(y[k] - x[k]));
+		m = fmax(m, fabs(x[k] - r[k]));
+	}
+	return d / m;
+}
+
+static void world_free(world *w)
+{
+	for (int i = 0; i < w->n; i++)
+		ndo_peer_destroy(w->p[i], NULL);
+	ndo_bus_destroy(w->bus);
+	free(w);
+}
+
+static world *world_new(void)
+{
+	world *w = calloc(1, sizeof *w);
+	ndo_bus_create(&w->bus);
+	W = w;
+	return w;
+}
+
+static const int32_t POIS[] = {100, 400, 700, 1000, 250, 550, 850};
+
+/* n peers from the start, to the end; the owner's grid against solo. */
+static double split_run(const setup *su, int n, ndo_peer_stats *owner_stats, int *ok)
+{
+	world *w = world_new();
+	int rc = add_owner(w, su);
+	for (int i = 1; i < n && !rc; i++)
+		rc = add_joiner(w, su, POIS[i - 1]);
+	*ok = !rc && run(w, 60) == 0;
+	for (int i = 0; i < w->n && *ok; i++)
+		if (w->state[i] != NDO_PEER_DONE) {
+			printf("    peer %d ended in state %d: %s\n", i, w->state[i],
+			       ndo_peer_message(w->p[i]));
+			*ok = 0;
+		}
+	double *x = solo(su);
+	double d = difference(ndo_peer_grid(w->p[0]), x);
+	ndo_peer_stats_get(w->p[0], owner_stats);
+	int np = 0;
+	ndo_session_cells(ndo_peer_session(w->p[0]), &np, NULL);
+	if (np != n) {
+		printf("    %d peers simulated, not %d\n", np, n);
+		*ok = 0;
+	}
+	free(x);
+	world_free(w);
+	return d;
+}
+
+static void lockstep_matches_the_single_process(void)
+{
+	for (int n = 2; n <= 4; n++) {
+		/* one-stage: exact to rounding; rk4: the O(h) boundary lag */
+		setup se = {"symplectic-euler", 0.02, 50, NDO_CLOCK_LOCKSTEP, n, {.drop = 0}, 0};
+		setup rk = {"rk4", 0.02, 50, NDO_CLOCK_LOCKSTEP, n, {.drop = 0}, 0};
+		ndo_peer_stats st;
+		int ok;
+		double d = split_run(&se, n, &st, &ok);
+		CHECK(ok && d < 1e-12, "%d peers, symplectic Euler: done %d, differs by %.3g", n, ok, d);
+		CHECK(st.timeouts == 0 && st.missed == 0 && st.ungathered == 0,
+		      "%d peers: %lld timeouts, %lld missed, %lld ungathered", n,
+		      (long long)st.timeouts, (long long)st.missed, (long long)st.ungathered);
+		double dr = split_run(&rk, n, &st, &ok);
+		CHECK(ok && dr < 0.02 && dr > 1e-9, "%d peers, rk4: done %d, differs by %.3g", n, ok, dr);
+		printf("    %d peers: symplectic Euler %.2g, rk4 %.3g of the largest displacement\n", n,
+		       d, dr);
+	}
+}
+
+static void lockstep_survives_loss(void)
+{
+	setup su = {"symplectic-euler", 0.02, 50, NDO_CLOCK_LOCKSTEP, 3, {.drop = 0}, 0};
+	su.faults = (ndo_faults){.drop = 0.2, .delay_ms = 2, .jitter_ms = 3, .reorder = 0.1,
+	                         .seed = 5};
+	ndo_peer_stats st;
+	int ok;
+	double d = split_run(&su, 3, &st, &ok);
+	CHECK(ok && d < 1e-12, "20%% loss: done %d, differs by %.3g", ok, d);
+	CHECK(st.resends > 0 && st.timeouts == 0, "20%% loss: %lld re-sends, %lld timeouts",
+	      (long long)st.resends, (long long)st.timeouts);
+	printf("    20%% loss, 3 peers: difference %.2g, owner waited %lld steps (%.3f s), %lld "
+	       "re-sends\n", d, (long long)st.waited, st.wait_seconds, (long long)st.resends);
+}
+
+static void realtime_lags_but_completes(void)
+{
+	setup su = {"rk4", 0.02, 50, NDO_CLOCK_REALTIME, 2, {.drop = 0}, 0};
+	su.faults = (ndo_faults){.delay_ms = 15, .seed = 3}; /* most of a step late */
+	ndo_peer_stats st;
+	int ok;
+	double d = split_run(&su, 2, &st, &ok);
+	CHECK(ok && d < 0.2 && st.waited == 0, "realtime: done %d, differs by %.3g, waited %lld",
+	      ok, d, (long long)st.waited);
+	CHECK(st.lag_sum / (double)st.steps > 0.5, "realtime with 15 ms delay: mean lag %.3g steps",
+	      st.lag_sum / (double)st.steps);
+	printf("    realtime, 15 ms delay: difference %.3g, mean boundary lag %.2f steps\n", d,
+	       st.lag_sum / (double)st.steps);
+}
+
+/* Joins during the run, an announced leave, a silent peer; the run still
+ * ends on every live peer, and the silent one's region is taken over
+ * within the heartbeat timeout. */
+static void joins_leaves_and_a_dead_peer(void)
+{
+	setup su = {"rk4", 0.002, 3000, NDO_CLOCK_LOCKSTEP, 1, {.drop = 0}, 0.2};
+	world *w = world_new();
+	CHECK(add_owner(w, &su) == 0, "owner");
+	run(w, 0.3);
+	CHECK(ndo_peer_step(w->p[0]) > 0, "the owner alone runs at once: step %lld",
+	      (long long)ndo_peer_step(w->p[0]));
+	add_joiner(w, &su, POIS[0]);
+	add_joiner(w, &su, POIS[1]);
+	add_joiner(w, &su, -1); /* an observer */
+	run(w, 1.0);
+	int np = 0;
+	ndo_session_cells(ndo_peer_session(w->p[0]), &np, NULL);
+	CHECK(np == 3 && ndo_peer_simulating(w->p[1]) && ndo_peer_simulating(w->p[2]) &&
+	      !ndo_peer_simulating(w->p[3]), "3 simulate, the observer not: %d", np);
+	/* peer 1 leaves (announced): the owner re-partitions at once */
+	int64_t at = ndo_peer_step(w->p[0]);
+	ndo_peer_destroy(w->p[1], "bye");
+	w->p[1] = NULL;
+	run(w, w->t + 0.2);
+	ndo_session_cells(ndo_peer_session(w->p[0]), &np, NULL);
+	CHECK(np == 2, "after a leave: %d simulate", np);
+	CHECK(ndo_peer_step(w->p[0]) > at, "the run goes on: step %lld -> %lld", (long long)at,
+	      (long long)ndo_peer_step(w->p[0]));
+	/* peer 2 falls silent (no update: as if killed) */
+	double died = w->t;
+	ndo_peer *dead = w->p[2];
+	w->p[2] = NULL;
+	double until = died + 3;
+	while (w->t < until) {
+		run(w, w->t + 0.05);
+		ndo_session_cells(ndo_peer_session(w->p[0]), &np, NULL);
+		if (np == 1)
+			break;
+	}
+	double detected = w->t - died;
+	CHECK(np == 1 && detected <= 1.0 + 0.3, "the silent peer's region taken over after %.2f s "
+	      "(timeout 1 s, heartbeat 0.1 s)", detected);
+	printf("    silent peer detected and re-partitioned after %.2f s (timeout 1.0 s)\n",
+	       detected);
+	CHECK(run(w, 60) == 0 && w->state[0] == NDO_PEER_DONE && w->state[3] == NDO_PEER_DONE,
+	      "the run ends: owner %d, observer %d", w->state[0], w->state[3]);
+	double *x = solo(&su);
+	double d = difference(ndo_peer_grid(w->p[0]), x);
+	ndo_peer_stats st;
+	ndo_peer_stats_get(w->p[0], &st);
+	printf("    joins, a leave and a dead peer: differs by %.3g; owner: %lld timeouts, %lld "
+	       "repartitions\n", d, (long long)st.timeouts, (long long)st.repartitions);
+	CHECK(isfinite(d) && d < 1, "the result stays near the single process: %.3g", d);
+	free(x);
+	ndo_peer_destroy(dead, NULL); /* quietly: its leave finds no one to read it */
+	world_free(w);
+}
+
+static void owner_quit_ends_the_others(void)
+{
+	setup su = {"rk4", 0.01, 1000, NDO_CLOCK_LOCKSTEP, 3, {.drop = 0}, 0};
+	world *w = world_new();
+	add_owner(w, &su);
+	add_joiner(w, &su, POIS[0]);
+	add_joiner(w, &su, POIS[2]);
+	run(w, 0.5);
+	CHECK(ndo_peer_step(w->p[1]) > 0, "running: step %lld", (long long)ndo_peer_step(w->p[1]));
+	ndo_peer_destroy(w->p[0], "interrupted");
+	w->p[0] = NULL;
+	run(w, w->t + 0.5);
+	for (int i = 1; i < 3; i++)
+		CHECK(w->state[i] == NDO_PEER_ENDED && strstr(ndo_peer_message(w->p[i]), "owner quit") &&
+		      strstr(ndo_peer_message(w->p[i]), "interrupted"),
+		      "joiner %d: state %d, '%s'", i, w->state[i], ndo_peer_message(w->p[i]));
+	world_free(w);
+}
+
+/* A stranger publishes tiles for the object: they are never used. */
+static void strangers_tiles_are_not_used(void)
+{
+	setup su = {"symplectic-euler", 0.02, 40, NDO_CLOCK_LOCKSTEP, 2, {.drop = 0}, 0};
+	world *w = world_new();
+	add_owner(w, &su);
+	add_joiner(w, &su, POIS[1]);
+	ndo_link *l;
+	ndo_net *rogue;
+	ndo_link_open_mem(w->bus, &l);
+	ndo_net_create(l, "T", 666, &rogue);
+	ndo_net_attach(rogue, 77, LEVEL);
+	ndo_grid *g;
+	ndo_grid_create(LEVEL, &g);
+	ndo_grid_add(g, NDO_CH_VELOCITY, NDO_F64, 3, NULL);
+	double *x = ndo_grid_f64(g, NDO_CH_POSITION, 3);
+	for (size_t k = 0; k < 3 * g->count; k++)
+		x[k] = 5;
+	int bad = 0;
+	for (int k = 0; k < 4000 && w->state[0] != NDO_PEER_DONE; k++) {
+		run(w, w->t + TICK);
+		for (int d = 1; d <= 2; d++) { /* every step and epoch it could claim */
+			ndo_msg_tile_t t = {0};
+			ndo_tile_pack(g, (ndo_quad){d, k % 2, 0}, NDO_TILE_POSITION | NDO_TILE_VELOCITY, &t);
+			t.step = ndo_peer_step(w->p[0]) + k % 2;
+			t.epoch = ndo_session_epoch(ndo_peer_session(w->p[0]));
+			bad |= ndo_net_publish(rogue, NDO_MSG_TILE, &t) != 0;
+			free(t.values);
+		}
+	}
+	run(w, 60);
+	double *ref = solo(&su);
+	double d = difference(ndo_peer_grid(w->p[0]), ref);
+	CHECK(!bad && w->state[0] == NDO_PEER_DONE && d < 1e-12,
+	      "with a stranger's tiles: done %d, differs by %.3g", w->state[0], d);
+	free(ref);
+	ndo_grid_destroy(g);
+	ndo_net_destroy(rogue);
+	world_free(w);
+}
+
+int main(void)
+{
+	ck_program = "test_peer";
+	RUN(lockstep_matches_the_single_process);
+	RUN(lockstep_survives_loss);
+	RUN(realtime_lags_but_completes);
+	RUN(joins_leaves_and_a_dead_peer);
+	RUN(owner_quit_ends_the_others);
+	RUN(strangers_tiles_are_not_used);
+	return ck_failed_cases != 0;
+}
