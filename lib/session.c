@@ -15,6 +15,7 @@
 
 #define NEV 64
 #define FULL_SEND_GAP 0.25 /* s: at most one full description burst per this */
+#define TILE_FILL 0.5      /* a transmit tile is at least this much the sender's */
 
 typedef struct member {
 	int32_t id, poi;
@@ -132,22 +133,18 @@ static int install(ndo_session *s, int32_t *cells, int npeers, const int32_t *pe
 		if (peers[p] == s->self)
 			slot = p;
 	s->poi_acked = slot >= 0 ? pois[slot] : -2;
-	/* my transmit tiles: my region's leaves, none shallower than the depth
-	 * at which a position+velocity tile fits a datagram */
+	/* my transmit tiles: quad-tree nodes no shallower than the depth at
+	 * which a position+velocity tile fits a datagram, each at least half
+	 * mine (receivers take only the sender's nodes from a tile).  The
+	 * region's exact leaves would be 60-460 tiles a step for a quad-tree
+	 * region at levels 5-7; half-filled nodes are 10-30 times fewer for
+	 * about the same bytes (docs/peers.md, "Tiles"). */
 	free(s->tiles);
 	s->tiles = NULL;
 	s->ntiles = 0;
-	int32_t *codes, *labels;
-	size_t n;
-	if (ndo_quad_leaves(s->level, cells, s->tdepth_state, &codes, &labels, &n) != 0)
+	if (slot >= 0 && ndo_quad_cover(s->level, cells, slot, s->tdepth_state, TILE_FILL, &s->tiles,
+	                                &s->ntiles) != 0)
 		return NDO_ENOMEM;
-	size_t k = 0;
-	for (size_t i = 0; i < n; i++)
-		if (labels[i] == slot)
-			codes[k++] = codes[i];
-	s->tiles = codes;
-	s->ntiles = k;
-	free(labels);
 	/* the leaves as the owner sends them: as coarse as they come */
 	free(s->leaf_codes);
 	free(s->leaf_slots);
@@ -571,7 +568,7 @@ static void apply_tile(ndo_session *s, const ndo_msg_tile_t *t)
 				}
 			}
 	}
-	if (t->step > s->grid->step) {
+	if (!s->o.tile_fn && t->step > s->grid->step) { /* with tile_fn: the caller's */
 		s->grid->step = t->step;
 		s->grid->time = t->time;
 	}
