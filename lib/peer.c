@@ -139,7 +139,7 @@ static void write_tile(ndo_peer *p, const ndo_msg_tile_t *t, int fill)
 	const int32_t from = t->hdr.sender_id;
 	const int hasx = t->channels & NDO_TILE_POSITION, hasv = t->channels & NDO_TILE_VELOCITY;
 	const int partitioned = ndo_session_cells(p->s, NULL, NULL) != NULL;
-	size_t k = 0;
+	size_t k = 0, taken = 0;
 	for (int j = t->j0; j <= t->j1; j++)
 		for (int i = t->i0; i <= t->i1; i++) {
 			size_t node = ndo_node(g->w, i, j), c = (size_t)p->canon[node];
@@ -153,11 +153,15 @@ static void write_tile(ndo_peer *p, const ndo_msg_tile_t *t, int fill)
 					memcpy(x + 3 * node, &t->values[k], 3 * sizeof *x);
 				if (hasv)
 					memcpy(v + 3 * node, &t->values[k + (hasx ? 3 : 0)], 3 * sizeof *v);
-				if (mine && node == c)
+				if (mine && node == c) {
 					p->nstep[c] = t->step;
+					taken++;
+				}
 			}
 			k += (size_t)(hasx ? 3 : 0) + (hasv ? 3 : 0);
 		}
+	if (!taken) /* nothing of its sender's: says nothing about the run */
+		return;
 	if (t->step > p->max_seen)
 		p->max_seen = t->step;
 	p->times[t->step & 63].step = t->step;
@@ -198,7 +202,20 @@ static int later(const ndo_peer *p, const ndo_msg_tile_t *t)
 {
 	if (t->epoch > ndo_session_epoch(p->s))
 		return 1;
-	return p->clock == NDO_CLOCK_LOCKSTEP && p->started && p->simulating && t->step > p->cur;
+	return p->clock == NDO_CLOCK_LOCKSTEP && p->announced && p->simulating && t->step > p->cur;
+}
+
+/* Is `id` one of the peers of the partition in force? */
+static int member(const ndo_peer *p, int32_t id)
+{
+	int n = 0;
+	const int32_t *ids;
+	if (!ndo_session_cells(p->s, &n, &ids))
+		return 0;
+	for (int k = 0; k < n; k++)
+		if (ids[k] == id)
+			return 1;
+	return 0;
 }
 
 /* The session's tile_fn: every position/velocity tile of another peer. */
@@ -218,8 +235,9 @@ static void on_tile(void *user, const ndo_msg_tile_t *t, int fill)
 		}
 		return;
 	}
-	if (t->epoch < ndo_session_epoch(p->s)) {
-		p->st.stale++;
+	if (t->epoch < ndo_session_epoch(p->s) ||
+	    (t->epoch == ndo_session_epoch(p->s) && !member(p, t->hdr.sender_id))) {
+		p->st.stale++; /* an old partition's, or from a peer outside this one */
 		return;
 	}
 	if (later(p, t)) {
@@ -657,20 +675,27 @@ static int lockstep(ndo_peer *p)
 	}
 	if (now - p->block_t0 >= p->step_timeout) {
 		p->st.timeouts++;
-		if (getenv("NDO_PEER_DEBUG")) {
+		if (p->notes_missed++ < 5) {
 			const int32_t *own = owner_channel(p);
-			for (size_t k = 0; k < p->nhalo; k++)
-				if (p->nstep[p->halo[k]] < p->cur)
-					note(p, "DEBUG missing node %d (%d,%d) of %d at step %lld",
-					     p->halo[k], p->halo[k] % ndo_session_grid(p->s)->w,
-					     p->halo[k] / ndo_session_grid(p->s)->w, own[p->halo[k]],
-					     (long long)p->nstep[p->halo[k]]);
-		}
-		if (p->notes_missed++ < 5)
-			note(p, "step %lld: %zu boundary node%s without step %lld after %.2g s: going on "
-			     "with older values%s", (long long)p->cur, miss, miss == 1 ? "" : "s",
-			     (long long)p->cur, now - p->block_t0,
+			char who[64] = "";
+			int n = 0;
+			for (size_t k = 0; k < p->nhalo && n < 3; k++) {
+				int32_t id = own[p->halo[k]];
+				if (p->nstep[p->halo[k]] < p->cur && !strstr(who, "?")) {
+					char one[16];
+					snprintf(one, sizeof one, "%d", id);
+					if (!strstr(who, one)) {
+						snprintf(who + strlen(who), sizeof who - strlen(who), "%s%s",
+						         n ? ", " : "", one);
+						n++;
+					}
+				}
+			}
+			note(p, "step %lld: no step %lld from peer %s for %.2g s (%zu boundary node%s): "
+			     "going on with older values%s", (long long)p->cur, (long long)p->cur, who,
+			     now - p->block_t0, miss, miss == 1 ? "" : "s",
 			     p->notes_missed == 5 ? " (no more such messages)" : "");
+		}
 		return step(p);
 	}
 	if (now >= p->next_resend) {
@@ -961,4 +986,5 @@ double ndo_peer_dt(const ndo_peer *p) { return p->dt; }
 ndo_clock ndo_peer_clock(const ndo_peer *p) { return p->clock; }
 const char *ndo_peer_message(const ndo_peer *p) { return p->message; }
 int ndo_peer_simulating(const ndo_peer *p) { return p->simulating; }
+int ndo_peer_started(const ndo_peer *p) { return p->started; }
 void ndo_peer_stats_get(const ndo_peer *p, ndo_peer_stats *st) { *st = p->st; }

@@ -152,6 +152,8 @@ double ndo_peer_dt(const ndo_peer *p);
 ndo_clock ndo_peer_clock(const ndo_peer *p);
 /* Why the session ended (NDO_PEER_ENDED, or a joiner's NDO_PEER_DONE). */
 const char *ndo_peer_message(const ndo_peer *p);
+/* 1 once the run has started here (this peer's clock runs). */
+int ndo_peer_started(const ndo_peer *p);
 /* 1 if this peer simulates (is in the partition). */
 int ndo_peer_simulating(const ndo_peer *p);
 

@@ -3,7 +3,7 @@
  * critical step), ndo/membrane.h (K, M), ndo/scene.h (settings).  This file
  * reads the settings, reports the critical step, runs the steps and writes
  * frames, the CSV log and the result. */
-#include "ndo/ndo.h"
+#include "simulate.h"
 
 #include <getopt.h>
 #include <signal.h>
@@ -13,8 +13,6 @@
 #include <string.h>
 #include <time.h>
 #include <unistd.h>
-
-enum { EXIT_DIVERGED = 3, EXIT_INTERRUPTED = 130 };
 
 /* SIGINT or SIGTERM: stop after the current step, keep the log, write no
  * output and leave no temporary file behind. */
@@ -101,26 +99,6 @@ static double now(void)
 
 /* ---- the run ------------------------------------------------------------- */
 
-typedef struct run {
-	ndo_scene sc;
-	const char *in;
-	int quiet, info;
-	ndo_grid *g;       /* the input, then the output */
-	ndo_grid *frame;   /* frames: a copy carrying this command in its history */
-	ndo_sim *sim;
-	ndo_critical crit;
-	double dt;
-	int64_t steps;
-	ndo_outfile log;
-	int logging;
-	uint8_t *pins;     /* from --pin, or NULL */
-	/* Work arrays, kept here so that they stay reachable when an error
-	 * exits (the leak checker of the sanitizer build). */
-	const char **keys, **vals;
-	double *rest, *x0;
-	uint8_t *pin;
-	ndo_force *forces;
-} run;
 
 static void perturb(run *r, double *x)
 {
@@ -139,7 +117,7 @@ static void perturb(run *r, double *x)
 
 /* Load the input (and rest grid), resolve forces and pins, create the
  * simulation. */
-static void setup(run *r)
+void setup(run *r)
 {
 	ndo_grid *g = r->g = ndo_cli_load(r->in);
 	double *x = ndo_grid_f64(g, NDO_CH_POSITION, 3);
@@ -184,6 +162,12 @@ static void setup(run *r)
 		ndo_usage_error("%s", ndo_errdetail());
 	if (r->sc.npins)
 		r->pins = pin;
+	if (r->net.role == NDO_ROLE_OWNER) {
+		r->allpins = malloc(g->count);
+		if (!r->allpins)
+			ndo_die("out of memory");
+		memcpy(r->allpins, pin, g->count);
+	}
 	ndo_sim_params p = r->sc.sim;
 	p.forces = r->forces;
 	p.nforces = r->sc.nforces;
@@ -213,7 +197,7 @@ static const char *bound_name(int b)
 }
 
 /* The critical step, the step size and the step count. */
-static void plan(run *r)
+void plan(run *r)
 {
 	ndo_method m = ndo_sim_method(r->sim);
 	const char *name = ndo_method_names[m];
@@ -407,7 +391,7 @@ static void finish(run *r)
 
 static void options(run *r, int argc, char **argv)
 {
-	enum { OPT_INFO = 256, OPT_VERSION, OPT_SETTING };
+	enum { OPT_INFO = 256, OPT_VERSION, OPT_SETTING, OPT_PEER, OPT_PEER_FLAG };
 	static const struct option opts[] = {
 		{"scene", required_argument, 0, 's'},
 		{"integrator", required_argument, 0, 'i'},
@@ -434,6 +418,26 @@ static void options(run *r, int argc, char **argv)
 		{"perturb", required_argument, 0, OPT_SETTING},
 		{"seed", required_argument, 0, OPT_SETTING},
 		{"energy-bound", required_argument, 0, OPT_SETTING},
+		{"owner", no_argument, 0, OPT_PEER_FLAG},
+		{"join", no_argument, 0, OPT_PEER_FLAG},
+		{"poi", required_argument, 0, OPT_PEER},
+		{"lcm", required_argument, 0, OPT_PEER},
+		{"channel", required_argument, 0, OPT_PEER},
+		{"name", required_argument, 0, OPT_PEER},
+		{"partition", required_argument, 0, OPT_PEER},
+		{"clock", required_argument, 0, OPT_PEER},
+		{"speed", required_argument, 0, OPT_PEER},
+		{"peers", required_argument, 0, OPT_PEER},
+		{"boundary", required_argument, 0, OPT_PEER},
+		{"step-timeout", required_argument, 0, OPT_PEER},
+		{"peer-timeout", required_argument, 0, OPT_PEER},
+		{"start-timeout", required_argument, 0, OPT_PEER},
+		{"gather-timeout", required_argument, 0, OPT_PEER},
+		{"drop", required_argument, 0, OPT_PEER},
+		{"delay", required_argument, 0, OPT_PEER},
+		{"jitter", required_argument, 0, OPT_PEER},
+		{"reorder", required_argument, 0, OPT_PEER},
+		{"fault-seed", required_argument, 0, OPT_PEER},
 		{"info", no_argument, 0, OPT_INFO},
 		{"quiet", no_argument, 0, 'q'},
 		{"help", no_argument, 0, 'h'},
@@ -457,6 +461,8 @@ static void options(run *r, int argc, char **argv)
 		case 'b': keys[n] = "damping", vals[n++] = optarg; break;
 		case 'o': keys[n] = "output", vals[n++] = optarg; break;
 		case OPT_SETTING: keys[n] = opts[idx].name, vals[n++] = optarg; break;
+		case OPT_PEER:
+		case OPT_PEER_FLAG: peer_option(&r->net, opts[idx].name, optarg); break;
 		case OPT_INFO: r->info = 1; break;
 		case 'q': r->quiet = 1; break;
 		case 'h': usage();
@@ -467,6 +473,7 @@ static void options(run *r, int argc, char **argv)
 	if (optind + 1 < argc)
 		ndo_usage_error("more than one input: '%s'", argv[optind + 1]);
 	r->in = optind < argc ? argv[optind] : NULL;
+	peer_check(&r->net, scene, r->in, n, keys);
 	if (scene && ndo_scene_load(&r->sc, scene))
 		ndo_die("%s", ndo_errdetail());
 	for (int k = 0; k < n; k++)
@@ -475,9 +482,9 @@ static void options(run *r, int argc, char **argv)
 	free(keys);
 	free(vals);
 	r->keys = r->vals = NULL;
-	if (ndo_is_stdio(r->in) && isatty(STDIN_FILENO))
+	if (r->net.role != NDO_ROLE_JOINER && ndo_is_stdio(r->in) && isatty(STDIN_FILENO))
 		ndo_usage_error("no input: give a grid file or pipe one in");
-	if (!r->info)
+	if (!r->info && (r->net.role != NDO_ROLE_JOINER || r->sc.output))
 		ndo_cli_check_output(r->sc.output);
 	if (r->sc.frames) {
 		char probe[4096];
@@ -493,7 +500,10 @@ int main(int argc, char **argv)
 	ndo_cli_init(argc, argv);
 	static run r;
 	ndo_scene_init(&r.sc);
+	peer_defaults(&r.net);
 	options(&r, argc, argv);
+	if (r.net.role)
+		return peers_main(&r);
 	setup(&r);
 	plan(&r);
 	if (r.info) {
