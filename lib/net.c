@@ -104,6 +104,7 @@ void ndo_net_destroy(ndo_net *n)
 
 ndo_msg_ctx *ndo_net_ctx(ndo_net *n) { return &n->ctx; }
 void ndo_net_keep_all_tiles(ndo_net *n, int on) { n->keep_all = on != 0; }
+ndo_link *ndo_net_link(const ndo_net *n) { return n->link; }
 const ndo_net_stats *ndo_net_stats_get(const ndo_net *n) { return &n->st; }
 const char *ndo_net_channel(const ndo_net *n, ndo_msg_type t) { return n->channel[t]; }
 

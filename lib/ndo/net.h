@@ -86,6 +86,9 @@ const ndo_net_stats *ndo_net_stats_get(const ndo_net *n);
 /* "received 120, accepted 118, dropped 2 (stale 1, range 1), gaps 0" */
 void ndo_net_stats_format(const ndo_net *n, char *buf, size_t size);
 
+/* The link underneath (owned by the net). */
+ndo_link *ndo_net_link(const ndo_net *n);
+
 /* The channel name of a type under this net's prefix. */
 const char *ndo_net_channel(const ndo_net *n, ndo_msg_type t);
 

@@ -6,6 +6,9 @@
 #include "ndo/ndo.h"
 #include "ndo/peer.h"
 #include "ndo/tile.h"
+#include "ndo/watch.h"
+
+#include <lcm/eventlog.h>
 
 #include <math.h>
 #include <stdlib.h>
@@ -36,6 +39,7 @@ typedef struct setup {
 } setup;
 
 static world *W; /* for the note callback */
+static void (*on_tick)(world *w); /* called every round, when set */
 
 static void on_note(void *user, const char *msg)
 {
@@ -172,6 +176,8 @@ static int run(world *w, double until)
 			w->state[i] = r;
 			busy |= r != NDO_PEER_DONE && r != NDO_PEER_ENDED;
 		}
+		if (on_tick)
+			on_tick(w);
 		if (!busy)
 			return 0;
 	}
@@ -405,6 +411,133 @@ static void strangers_tiles_are_not_used(void)
 	world_free(w);
 }
 
+/* ---- record and replay ---------------------------------------------------- */
+typedef struct frames {
+	ndo_watch *w;
+	int n;
+	int64_t step[64];
+	double *x[64];
+	size_t count;
+} frames;
+
+static void collect(frames *f, double now)
+{
+	ndo_grid *g;
+	if (ndo_watch_update(f->w, now))
+		printf("    watch: %s\n", ndo_errdetail());
+	while (ndo_watch_next(f->w, &g)) {
+		if (f->n < 64) {
+			f->step[f->n] = g->step;
+			f->count = 3 * g->count;
+			f->x[f->n] = malloc(f->count * sizeof(double));
+			memcpy(f->x[f->n++], ndo_grid_f64(g, NDO_CH_POSITION, 3), f->count * sizeof(double));
+		}
+		ndo_grid_destroy(g);
+	}
+}
+
+static frames live, shuffled;
+static ndo_link *recorder;
+static lcm_eventlog_t *logfile;
+static int64_t log_time;
+
+static void record(void *user, const char *channel, const void *data, size_t len)
+{
+	(void)user;
+	lcm_eventlog_event_t e = {0, log_time++, (int32_t)strlen(channel), (int32_t)len,
+	                          (char *)channel, (void *)data};
+	lcm_eventlog_write_event(logfile, &e);
+}
+
+static void watch_tick(world *w)
+{
+	collect(&live, w->t);
+	collect(&shuffled, w->t);
+	ndo_link_poll(recorder, w->t, record, NULL);
+}
+
+static ndo_watch *watch_on(ndo_link *l, int64_t every)
+{
+	ndo_net *n;
+	ndo_watch *wa = NULL;
+	ndo_net_create(l, "T", 999, &n);
+	ndo_watch_opts o = {.every = every};
+	ndo_watch_create(n, &o, &wa);
+	return wa;
+}
+
+static int same_frames(const frames *a, const frames *b)
+{
+	if (a->n != b->n)
+		return 0;
+	for (int k = 0; k < a->n; k++)
+		if (a->step[k] != b->step[k] || memcmp(a->x[k], b->x[k], a->count * sizeof(double)))
+			return 0;
+	return 1;
+}
+
+/* A watch assembles the same frames live, with the traffic delayed and
+ * reordered, and from a log of it; the last is the owner's result. */
+static void a_replayed_log_gives_the_live_frames(void)
+{
+	setup su = {"rk4", 0.02, 30, NDO_CLOCK_LOCKSTEP, 3, {.drop = 0}, 0};
+	world *w = world_new();
+	add_owner(w, &su);
+	add_joiner(w, &su, POIS[0]);
+	add_joiner(w, &su, POIS[3]);
+	ndo_link *l;
+	ndo_link_open_mem(w->bus, &l);
+	live.w = watch_on(l, 3);
+	ndo_link_open_mem(w->bus, &l);
+	ndo_faults f = {.delay_ms = 3, .jitter_ms = 10, .reorder = 0.3, .seed = 9};
+	ndo_link_faults(l, &f, &l);
+	shuffled.w = watch_on(l, 3);
+	const char *tmp = getenv("NDO_TMP");
+	char path[512];
+	snprintf(path, sizeof path, "%s/test_peer.lcmlog", tmp ? tmp : "/tmp");
+	logfile = lcm_eventlog_create(path, "w");
+	ndo_link_open_mem(w->bus, &recorder);
+	on_tick = watch_tick;
+	CHECK(run(w, 60) == 0 && w->state[0] == NDO_PEER_DONE, "the run ends");
+	for (int k = 0; k < 100; k++) { /* the delayed traffic, then the end */
+		w->t += TICK;
+		watch_tick(w);
+	}
+	on_tick = NULL;
+	lcm_eventlog_destroy(logfile);
+	ndo_link_destroy(recorder);
+	frames replay = {0};
+	ndo_link_open_log(path, "T", 0, &l);
+	replay.w = watch_on(l, 3);
+	for (int k = 0; k < 100000 && !ndo_watch_ended(replay.w); k++)
+		collect(&replay, 0);
+	ndo_watch_stats st;
+	ndo_watch_stats_get(live.w, &st);
+	CHECK(live.n == 11 && st.incomplete == 0, "live: %d frames (steps 0, 3, .., 30), %lld "
+	      "incomplete", live.n, (long long)st.incomplete);
+	ndo_watch_stats s2;
+	ndo_watch_stats_get(shuffled.w, &s2);
+	CHECK(same_frames(&live, &shuffled), "delayed and reordered: %d frames (from step %lld), "
+	      "not the same; %lld incomplete, %lld unknown, %lld unused", shuffled.n,
+	      (long long)shuffled.step[0], (long long)s2.incomplete, (long long)s2.unknown,
+	      (long long)s2.unused);
+	CHECK(same_frames(&live, &replay) && ndo_watch_ended(replay.w),
+	      "replayed: %d frames, not the same (%s)", replay.n, ndo_watch_why(replay.w));
+	const double *own = ndo_grid_f64(ndo_peer_grid(w->p[0]), NDO_CH_POSITION, 3);
+	CHECK(live.n > 0 && live.step[live.n - 1] == 30 &&
+	      memcmp(live.x[live.n - 1], own, live.count * sizeof(double)) == 0,
+	      "the last frame is the owner's result");
+	frames *all[3] = {&live, &shuffled, &replay};
+	for (int q = 0; q < 3; q++) {
+		for (int k = 0; k < all[q]->n; k++)
+			free(all[q]->x[k]);
+		ndo_watch_destroy(all[q]->w);
+		memset(all[q], 0, sizeof *all[q]);
+	}
+	remove(path);
+	world_free(w);
+}
+
 int main(void)
 {
 	ck_program = "test_peer";
@@ -414,5 +547,6 @@ int main(void)
 	RUN(joins_leaves_and_a_dead_peer);
 	RUN(owner_quit_ends_the_others);
 	RUN(strangers_tiles_are_not_used);
+	RUN(a_replayed_log_gives_the_live_frames);
 	return ck_failed_cases != 0;
 }
