@@ -575,11 +575,18 @@ static int starting(ndo_peer *p)
 			p->next_resend = now + p->resend_gap;
 		}
 	}
-	if (p->owner && now - p->created > p->o.start_timeout) {
-		snprintf(p->message, sizeof p->message, "only %d of %d peers came within %.3g s", np,
-		         p->peers_needed, p->o.start_timeout);
-		p->ended = 1;
-		return NDO_PEER_ENDED;
+	if (now - p->created > p->o.start_timeout) {
+		if (p->owner)
+			snprintf(p->message, sizeof p->message, "only %d of %d peers came within %.3g s",
+			         np, p->peers_needed, p->o.start_timeout);
+		else if (!p->sim)
+			snprintf(p->message, sizeof p->message, "no object %s within %.3g s",
+			         ndo_session_grid(p->s) ? "arrived whole" : "was described",
+			         p->o.start_timeout);
+		if (p->owner || !p->sim) {
+			p->ended = 1;
+			return NDO_PEER_ENDED;
+		}
 	}
 	return NDO_PEER_WAITING;
 }

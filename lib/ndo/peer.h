@@ -79,7 +79,8 @@ typedef struct ndo_peer_opts {
 	                           this one along its velocity */
 	/* Each peer's own: */
 	double start_timeout;   /* owner: end the session (NDO_PEER_ENDED) when
-	                           `peers` have not joined within this (0: 60 s) */
+	                           `peers` have not joined within this; joiner:
+	                           end when no object arrived within it (0: 60 s) */
 	double resend;          /* first re-send of own tiles while waiting
 	                           (0: 0.01 s) */
 	double gather_timeout;  /* owner: after the last step, wait at most this

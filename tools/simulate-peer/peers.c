@@ -38,8 +38,7 @@ void peer_defaults(peer_cli *c)
 
 /* Options only the owner decides; a joiner takes them from it. */
 static const char *const owner_only[] = {"partition", "clock", "speed", "peers", "boundary",
-                                         "step-timeout", "start-timeout", "gather-timeout",
-                                         NULL};
+                                         "step-timeout", "gather-timeout", NULL};
 static uint32_t given; /* bit k: owner_only[k] was given */
 
 void peer_option(peer_cli *c, const char *name, const char *arg)
