@@ -790,7 +790,9 @@ int ndo__diverged(ndo_sim *s, const ndo__diag *d, int commit)
 		                 "a node is %.3g m from its rest position, more than 100 × the "
 		                 "object's size (%.3g m)", umax, s->rest_size);
 	if (!s->e0_set) {
-		s->e0 = E;
+		/* A region's energy (its rows of uᵀKu) can be negative: the
+		 * cross terms with held neighbours.  The bound takes its size. */
+		s->e0 = fabs(E);
 		s->e0_set = 1;
 	}
 	/* The floor: the energy of a displacement of 1e-9 × the object's
