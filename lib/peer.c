@@ -913,6 +913,8 @@ int ndo_peer_create(const ndo_peer_opts *o, ndo_net *net, ndo_grid *grid, ndo_si
 	p->max_seen = -1;
 	p->created = -1;
 	ndo_session_opts so = o->session;
+	if (!(so.retry > 0))
+		so.retry = 0.25; /* a joiner asks again soon: the snapshot is many tiles */
 	so.tile_fn = on_tile;
 	so.tile_user = p;
 	if (owner) {
