@@ -4,7 +4,7 @@
 # within the heartbeat timeout (1 s here) + 0.5 s; an owner that quits ends
 # the others with its message and exit status 4; eight peers join and leave
 # during one run; a peer left waiting ends after --start-timeout.
-. "$(dirname "$0")/netns.sh"
+. "$(dirname "$0")/netns.bash"
 . "$(dirname "$0")/lib.sh"
 
 SCENE=$NDO_ROOT/samples/thesis-fig5.3.scene

@@ -4,7 +4,7 @@
 # render-frame draws the recorded log; the frames must be the same,
 # pixel for pixel, and coloured by owner.  A corrupt or foreign log is an
 # error of one line.
-. "$(dirname "$0")/netns.sh"
+. "$(dirname "$0")/netns.bash"
 . "$(dirname "$0")/lib.sh"
 
 SCENE=$NDO_ROOT/samples/thesis-fig5.3.scene

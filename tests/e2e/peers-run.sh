@@ -7,7 +7,7 @@
 # with the boundary extrapolated over the step 1% (measured 0.4%); with 5%
 # and 20% loss the run completes and its error is reported (lock-step
 # re-sends recover every lost tile, so it stays as small).
-. "$(dirname "$0")/netns.sh"
+. "$(dirname "$0")/netns.bash"
 . "$(dirname "$0")/lib.sh"
 
 SCENE=$NDO_ROOT/samples/thesis-fig5.3.scene

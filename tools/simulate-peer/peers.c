@@ -297,7 +297,10 @@ static void summary(peer_run *pr, const char *how)
 	if (st.behind)
 		fprintf(stderr, "%s: %lld steps were taken late: the simulation cannot keep up with "
 		        "--speed\n", ndo_progname, (long long)st.behind);
-	fprintf(stderr, "%s: network: %s\n", ndo_progname, net);
+	const ndo_net_stats *ns = ndo_net_stats_get(ndo_session_net(ndo_peer_session(p)));
+	fprintf(stderr, "%s: network: %s; sent %.3g MB (%.3g kB a step)\n", ndo_progname, net,
+	        (double)ns->bytes_out / 1e6,
+	        st.steps ? (double)ns->bytes_out / 1e3 / (double)st.steps : 0.0);
 }
 
 static __attribute__((noreturn)) void leave(peer_run *pr, int code, const char *fmt, ...)

@@ -1,4 +1,4 @@
-# tests/e2e/netns.sh — sourced first by the scripts that run peers over LCM:
+# tests/e2e/netns.bash — sourced first by the scripts that run peers over LCM:
 # the script runs again inside a private network namespace (unshare -n, as
 # root), with the loopback up and multicast routed to it, so its traffic
 # stays inside and parallel runs never hear each other (issue 6;
