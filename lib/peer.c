@@ -609,13 +609,16 @@ static int step(ndo_peer *p)
 	double *x = ndo_grid_f64(g, NDO_CH_POSITION, 3), *v = ndo_grid_f64(g, NDO_CH_VELOCITY, 3);
 	/* the held boundary: the others' values, as new as this peer has them;
 	 * a value of another step (a miss, or a free-running neighbour) is
-	 * carried to this one along its velocity unless the boundary is held */
+	 * carried along its velocity by at most one step unless the boundary is
+	 * held.  Further, linear extrapolation overshoots the stiff modes (by
+	 * |1 + i·a·hω| for a value a steps old) and a lossy realtime run blew
+	 * up (docs/peers.md). */
 	double age = 0;
 	int64_t late = 0;
 	for (size_t k = 0; k < p->nhalo; k++) {
 		size_t c = (size_t)p->halo[k];
 		int64_t a = p->nstep[c] < 0 ? p->cur - p->first + 1 : p->cur - p->nstep[c];
-		double tau = p->hold || p->nstep[c] < 0 ? 0 : (double)a * p->dt;
+		double tau = p->hold || p->nstep[c] < 0 ? 0 : fmax(-1.0, fmin(1.0, (double)a)) * p->dt;
 		for (int d = 0; d < 3; d++) {
 			p->hx[3 * k + d] = x[3 * c + d] + tau * v[3 * c + d];
 			p->hv[3 * k + d] = v[3 * c + d];

@@ -75,8 +75,8 @@ typedef struct ndo_peer_opts {
 	                           0 (default): they move with their
 	                           velocities (ndo_sim_set_held_motion: the
 	                           lag's error O(h²) instead of O(h)), and a
-	                           value of another step is first carried to
-	                           this one along its velocity */
+	                           value of another step is first carried
+	                           along its velocity, by one step at most */
 	/* Each peer's own: */
 	double start_timeout;   /* owner: end the session (NDO_PEER_ENDED) when
 	                           `peers` have not joined within this; joiner:

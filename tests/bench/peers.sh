@@ -72,7 +72,6 @@ loss="| clock | loss | divergence | wall time (s) | steps waited | timed out | r
 |---|---|---|---|---|---|---|---|"
 for clock in lockstep realtime; do
 	for drop in 0 0.01 0.05 0.1 0.2 0.3; do
-		seeds=()
 		if peers 3 "$work/wavy6.tgrid" "$work/loss.tgrid" -t 2 --clock "$clock" -- --drop "$drop"; then
 			d=$(diff_rel "$work/loss.tgrid" "$work/solo6.tgrid")
 			loss="$loss
@@ -102,7 +101,7 @@ for level in 6 7; do
 			wallt=$(field 'in [0-9.e+-]* s (')
 			comp=$(field 'computing [0-9.e+-]* s')
 			waitt=$(field 'waiting [0-9.e+-]* s')
-			pub=$(field 'published [0-9]*')
+			pub=$(grep -o 'published [0-9]*' "$work/owner.err" | head -1 | grep -o '[0-9]*$')
 			kb=$(field '([0-9.e+-]* kB a step)')
 			speed="$speed
 | $level | $n | $(awk "BEGIN{printf \"%.0f\", $steps / $wallt}") | $(awk "BEGIN{printf \"%.2f\", ($steps / $wallt) / $solo_sps}") | $(awk "BEGIN{printf \"%.2f\", 1e3 * $comp / $steps}") | $(awk "BEGIN{printf \"%.2f\", 1e3 * $waitt / $steps}") | $(awk "BEGIN{printf \"%.1f\", $pub / $steps}") | $kb |"

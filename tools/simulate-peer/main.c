@@ -26,6 +26,8 @@ static __attribute__((noreturn)) void usage(void)
 {
 	printf(
 	    "Usage: %s [options] [IN.tgrid]\n"
+	    "       %s --owner [options] [peer options] [IN.tgrid]\n"
+	    "       %s --join [--poi FACE] [peer options] [-o OUT] [--frames P] [--log F]\n"
 	    "Simulate a uniform-tension membrane on a grid: M v' = -B v - K (x - X) + f.\n"
 	    "Reads IN (default: standard input), writes the final grid with velocities\n"
 	    "to OUT (default: standard output).  Prints the critical step before running.\n"
@@ -78,14 +80,39 @@ static __attribute__((noreturn)) void usage(void)
 	    "                          + input work), [0, 1e12] (default 10; 0: off)\n"
 	    "      --info              print the setup and the critical step, then exit\n"
 	    "  -q, --quiet             print nothing but errors\n"
+	    "Peers (several processes simulate one surface over LCM; docs/peers.md):\n"
+	    "      --owner             create the object from IN and own it; -o writes the\n"
+	    "                          whole object with an owner channel\n"
+	    "      --join              join the object on the channel (physics, step and\n"
+	    "                          clock come from the owner; no input, -o optional)\n"
+	    "      --poi FACE          ask for a share of the work around this triangle\n"
+	    "                          (joiner without: observe)\n"
+	    "      --peers N           owner: start when N peers simulate, 1..8 (default 1)\n"
+	    "      --clock MODE        owner: lockstep (default) or realtime\n"
+	    "      --speed X           owner, realtime: simulated s per wall s (default 1)\n"
+	    "      --boundary MODE     owner: extrapolate (default) or hold (the thesis)\n"
+	    "      --partition M       owner: quadtree (default), table41 or metis\n"
+	    "      --step-timeout S    owner, lockstep: wait for a neighbour (default 0.5)\n"
+	    "      --peer-timeout S    silence after which a peer is gone (default 2)\n"
+	    "      --start-timeout S   owner: for the --peers; joiner: for an object\n"
+	    "                          (default 60)\n"
+	    "      --gather-timeout S  owner: for the others' last step (default 10)\n"
+	    "      --lcm URL           LCM provider (default: LCM_DEFAULT_URL, LCM's own)\n"
+	    "      --channel PREFIX    channels PREFIX_* (default NDO)\n"
+	    "      --name NAME         shown to the other peers\n"
+	    "      --drop P  --delay MS  --jitter MS  --reorder P  --fault-seed S\n"
+	    "                          inject loss, delay and reordering into what this\n"
+	    "                          peer receives\n"
 	    "  -h, --help              show this help and exit\n"
 	    "      --version           show the version and exit\n"
 	    "\n"
 	    "Exit status: 0 success, 1 bad input or failed write, 2 usage error,\n"
 	    "3 the simulation diverged (the output grid is not written; frames and log\n"
 	    "rows written before the divergence stay, all of finite states), 130\n"
-	    "interrupted (SIGINT or SIGTERM: the same, after the current step).\n",
-	    ndo_progname);
+	    "interrupted (SIGINT or SIGTERM: the same, after the current step); peers:\n"
+	    "4 the session ended before the run completed (the owner quit or fell\n"
+	    "silent, or the peers or the object did not come).\n",
+	    ndo_progname, ndo_progname, ndo_progname);
 	ndo_close_stdout();
 	exit(NDO_EXIT_OK);
 }
