@@ -718,14 +718,28 @@ static int lockstep(ndo_peer *p)
 	return NDO_PEER_WAITING;
 }
 
+/* Realtime: step k at wall0 + (k − sched0)·dt/speed with whatever values
+ * are there.  A peer that started later (its first state announced later,
+ * over a lossy link) or fell behind catches up: while another peer's
+ * newest step is ahead of its own it steps at once, and its schedule
+ * restarts from there — so the peers keep the earliest starter's pace
+ * instead of a permanent offset. */
 static int realtime(ndo_peer *p)
 {
 	double due = p->wall0 + (double)(p->cur + 1 - p->sched0) * p->dt / p->speed;
-	if (p->now < due)
-		return NDO_PEER_WAITING;
-	if (p->now > due + p->dt / p->speed)
+	if (p->now >= due) {
+		if (p->now > due + p->dt / p->speed)
+			p->st.behind++;
+		return step(p);
+	}
+	if (p->max_seen > p->cur) {
+		int rc = step(p);
+		p->wall0 = p->now;
+		p->sched0 = p->cur;
 		p->st.behind++;
-	return step(p);
+		return rc;
+	}
+	return NDO_PEER_WAITING;
 }
 
 /* After the last step: the owner gathers, a joiner keeps its last steps
@@ -877,7 +891,9 @@ double ndo_peer_deadline(const ndo_peer *p)
 	if (!p->simulating)
 		return d;
 	if (p->clock == NDO_CLOCK_REALTIME)
-		return fmin(d, p->wall0 + (double)(p->cur + 1 - p->sched0) * p->dt / p->speed);
+		return p->max_seen > p->cur ? now
+		                            : fmin(d, p->wall0 + (double)(p->cur + 1 - p->sched0) *
+		                                                     p->dt / p->speed);
 	if (!p->blocked)
 		return now; /* it may step: ask again at once */
 	return fmin(d, fmin(p->next_resend, p->block_t0 + p->step_timeout));

@@ -22,7 +22,9 @@
  *                      miss (a dead or unreachable neighbour).
  *   NDO_CLOCK_REALTIME  a peer steps on the wall clock, step k at
  *                      start + k·dt/speed, with whatever values it holds;
- *                      nobody waits, the lag is what the network costs.
+ *                      nobody waits, the lag is what the network costs.  A
+ *                      peer that sees another one further on catches up at
+ *                      once (the earliest starter sets the pace).
  *
  * The run: the owner starts when `peers` peers (itself included) are in
  * the partition, from its grid's step s0, and every peer takes `steps`
@@ -172,7 +174,7 @@ typedef struct ndo_peer_stats {
 	double lag_max;         /* the largest |age| of a halo value used */
 	int64_t resends;        /* times this peer sent its tiles again */
 	int64_t behind;         /* realtime: steps taken late (the schedule had
-	                           passed) */
+	                           passed) or to catch up with a peer further on */
 	int64_t stale;          /* tiles not used: of an older step or partition */
 	int64_t stashed;        /* tiles kept for a later step or partition */
 	int64_t repartitions;   /* partitions this peer simulated under, after

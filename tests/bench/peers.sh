@@ -23,7 +23,7 @@ rm -rf "$work" && mkdir -p "$work"
 SCENE=samples/thesis-fig5.3.scene
 POIS=(0 3000 9000 14000 5000 11000 7000 1500)
 
-lag_cmd="build/tests/bench_peers lag -l 5"
+lag_cmd="build/tests/bench_peers lag -l 6"
 lag=$($lag_cmd)
 rt_cmd="build/tests/bench_peers realtime -l 5"
 rt=$($rt_cmd)
@@ -119,7 +119,7 @@ done
 	echo
 	echo "## 1. The one-step boundary lag (lock-step, no loss)"
 	echo
-	echo "Level 5, 1 s, in one process (an in-memory bus, fake clock: independent of"
+	echo "Level 6, 1 s, in one process (an in-memory bus, fake clock: independent of"
 	echo "the machine): \`$lag_cmd\`"
 	echo
 	echo "$lag"
