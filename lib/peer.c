@@ -3,6 +3,7 @@
 #include "ndo/peer.h"
 #include "ndo/scene.h"
 #include "ndo/status.h"
+#include "ndo/tile.h"
 #include "ndo/topology.h"
 
 #include <math.h>
@@ -184,14 +185,9 @@ static int stash_tile(ndo_peer *p, const ndo_msg_tile_t *t)
 		p->stash = q;
 		p->capstash = cap;
 	}
-	ndo_msg_tile_t c = *t;
-	c.values = malloc((size_t)(t->nvalues ? t->nvalues : 1) * sizeof *c.values);
-	if (!c.values)
+	if (ndo_tile_copy(t, &p->stash[p->nstash]))
 		return NDO_ENOMEM;
-	memcpy(c.values, t->values, (size_t)t->nvalues * sizeof *c.values);
-	c.data = NULL;
-	c.nbytes = 0;
-	p->stash[p->nstash++] = c;
+	p->nstash++;
 	p->st.stashed++;
 	return 0;
 }
@@ -361,6 +357,20 @@ static int resend(ndo_peer *p)
 		return rc;
 	p->st.resends++;
 	return publish(p);
+}
+
+/* Send again when the next re-send is due (the gap doubling up to
+ * RESEND_MAX): NDO_PEER_WAITING or a negative status. */
+static int resend_due(ndo_peer *p)
+{
+	if (p->now < p->next_resend)
+		return NDO_PEER_WAITING;
+	int rc = resend(p);
+	if (rc)
+		return rc;
+	p->resend_gap = fmin(2 * p->resend_gap, RESEND_MAX);
+	p->next_resend = p->now + p->resend_gap;
+	return NDO_PEER_WAITING;
 }
 
 /* ---- starting -------------------------------------------------------------- */
@@ -566,14 +576,9 @@ static int starting(ndo_peer *p)
 			go(p);
 			return NDO_PEER_WAITING;
 		}
-		if (now >= p->next_resend) { /* an announcement may be lost */
-			int rc = publish(p);
-			if (rc)
-				return rc;
-			p->st.resends++;
-			p->resend_gap = fmin(2 * p->resend_gap, RESEND_MAX);
-			p->next_resend = now + p->resend_gap;
-		}
+		int rc = resend_due(p); /* an announcement may be lost */
+		if (rc < 0)
+			return rc;
 	}
 	if (now - p->created > p->o.start_timeout) {
 		if (p->owner)
@@ -708,14 +713,7 @@ static int lockstep(ndo_peer *p)
 		}
 		return step(p);
 	}
-	if (now >= p->next_resend) {
-		int rc = resend(p);
-		if (rc)
-			return rc;
-		p->resend_gap = fmin(2 * p->resend_gap, RESEND_MAX);
-		p->next_resend = now + p->resend_gap;
-	}
-	return NDO_PEER_WAITING;
+	return resend_due(p);
 }
 
 /* Realtime: step k at wall0 + (k − sched0)·dt/speed with whatever values
@@ -766,14 +764,7 @@ static int finishing(ndo_peer *p)
 			return NDO_PEER_DONE;
 		}
 	}
-	if (p->simulating && now >= p->next_resend) {
-		int rc = resend(p);
-		if (rc)
-			return rc;
-		p->resend_gap = fmin(2 * p->resend_gap, RESEND_MAX);
-		p->next_resend = now + p->resend_gap;
-	}
-	return NDO_PEER_WAITING;
+	return p->simulating ? resend_due(p) : NDO_PEER_WAITING;
 }
 
 /* ---- events ------------------------------------------------------------------ */

@@ -389,16 +389,7 @@ static int on_partition(ndo_session *s, const ndo_msg_partition_t *p)
 	int32_t *cells = malloc(ndo_cell_count(s->level) * sizeof *cells);
 	if (!cells)
 		return NDO_ENOMEM;
-	int w = 2 << s->level;
-	for (int k = 0; k < p->nleaves; k++) { /* validated: an exact cover */
-		ndo_quad q;
-		ndo_quad_decode(s->level, p->leaves[k], &q);
-		int i0, j0, i1, j1;
-		ndo_quad_range(s->level, q, &i0, &j0, &i1, &j1);
-		for (int j = j0; j < j1; j++)
-			for (int i = i0; i < i1; i++)
-				cells[j * w + i] = p->slots[k];
-	}
+	ndo_partition_cells(s->level, p, cells);
 	int rc = install(s, cells, p->npeers, p->peers, p->pois, p->epoch,
 	                 (ndo_part_method)p->method);
 	event(s, NDO_EV_PARTITION, 0, 0, NULL);

@@ -173,16 +173,7 @@ static int on_partition(ndo_watch *w, const ndo_msg_partition_t *p)
 			free(owner);
 		return ndo__fail(NDO_ENOMEM, "out of memory");
 	}
-	int cw = 2 << w->level;
-	for (int k = 0; k < p->nleaves; k++) { /* validated: an exact cover */
-		ndo_quad q;
-		ndo_quad_decode(w->level, p->leaves[k], &q);
-		int i0, j0, i1, j1;
-		ndo_quad_range(w->level, q, &i0, &j0, &i1, &j1);
-		for (int j = j0; j < j1; j++)
-			for (int i = i0; i < i1; i++)
-				cells[j * cw + i] = p->slots[k];
-	}
+	ndo_partition_cells(w->level, p, cells);
 	ndo_partition_node_owner(w->level, cells, p->peers, owner);
 	free(cells);
 	m->owner = owner;
@@ -334,14 +325,10 @@ static int hold(ndo_watch *w, const ndo_msg_tile_t *t)
 		w->held = q;
 		w->capheld = cap;
 	}
-	ndo_msg_tile_t c = *t;
-	c.values = malloc((size_t)(t->nvalues ? t->nvalues : 1) * sizeof *c.values);
-	if (!c.values)
-		return ndo__fail(NDO_ENOMEM, "out of memory");
-	memcpy(c.values, t->values, (size_t)t->nvalues * sizeof *c.values);
-	c.data = NULL;
-	c.nbytes = 0;
-	w->held[w->nheld++] = c;
+	int rc = ndo_tile_copy(t, &w->held[w->nheld]);
+	if (rc)
+		return rc;
+	w->nheld++;
 	return 0;
 }
 

@@ -296,16 +296,26 @@ static void diverged(run *r)
 	exit(EXIT_DIVERGED);
 }
 
-static void log_row(run *r)
+void log_open(run *r)
+{
+	if (!r->sc.log)
+		return;
+	if (ndo_out_open(r->sc.log, &r->log))
+		ndo_die("%s: %s", r->sc.log, ndo_errdetail());
+	r->logging = 1;
+	fprintf(r->log.f, "step,time_s,dt_s,kinetic_J,potential_J,work_J,"
+	                  "max_displacement_m,substeps,rejected\n");
+}
+
+void log_row(run *r, ndo_sim *sim, int64_t step)
 {
 	ndo_sim_energy e;
 	ndo_sim_stats st;
-	ndo_sim_energy_get(r->sim, &e);
-	ndo_sim_stats_get(r->sim, &st);
+	ndo_sim_energy_get(sim, &e);
+	ndo_sim_stats_get(sim, &st);
 	fprintf(r->log.f, "%lld,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%lld,%lld\n",
-	        (long long)ndo_sim_step_count(r->sim), ndo_sim_time(r->sim), r->dt, e.kinetic,
-	        e.potential, e.work, e.max_displacement, (long long)st.substeps,
-	        (long long)st.rejected);
+	        (long long)step, ndo_sim_time(sim), r->dt, e.kinetic, e.potential, e.work,
+	        e.max_displacement, (long long)st.substeps, (long long)st.rejected);
 }
 
 static void write_frame(run *r, int64_t k)
@@ -329,13 +339,7 @@ static void progress(run *r, int64_t k, double t0)
 
 static void simulate(run *r)
 {
-	if (r->sc.log) {
-		if (ndo_out_open(r->sc.log, &r->log))
-			ndo_die("%s: %s", r->sc.log, ndo_errdetail());
-		r->logging = 1;
-		fprintf(r->log.f, "step,time_s,dt_s,kinetic_J,potential_J,work_J,"
-		                  "max_displacement_m,substeps,rejected\n");
-	}
+	log_open(r);
 	if (r->sc.frames) {
 		if (ndo_grid_copy(r->g, &r->frame) ||
 		    ndo_grid_add_history(r->frame, ndo_cli_argc(), ndo_cli_argv()))
@@ -367,7 +371,7 @@ static void simulate(run *r)
 			diverged(r);
 		}
 		if (r->logging && (k % r->sc.log_every == 0 || k == r->steps))
-			log_row(r);
+			log_row(r, r->sim, ndo_sim_step_count(r->sim));
 		if (r->frame && k % r->sc.frame_every == 0)
 			write_frame(r, frame++);
 		if (show && now() - shown > 0.25) {

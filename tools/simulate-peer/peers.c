@@ -206,21 +206,6 @@ static ndo_grid *owner_object(run *r, ndo_sim **sim)
 	return g;
 }
 
-static void log_row(peer_run *pr)
-{
-	run *r = pr->r;
-	ndo_sim *sim = ndo_peer_sim(pr->p);
-	if (!sim)
-		return;
-	ndo_sim_energy e;
-	ndo_sim_stats st;
-	ndo_sim_energy_get(sim, &e);
-	ndo_sim_stats_get(sim, &st);
-	fprintf(r->log.f, "%lld,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%lld,%lld\n",
-	        (long long)ndo_peer_step(pr->p), ndo_sim_time(sim), r->dt, e.kinetic, e.potential,
-	        e.work, e.max_displacement, (long long)st.substeps, (long long)st.rejected);
-}
-
 /* Frame k is step first + k·frame-every, on every peer (and as in a single
  * process). */
 static void write_frame(peer_run *pr, int64_t k)
@@ -240,7 +225,7 @@ static void stepped(peer_run *pr)
 	run *r = pr->r;
 	int64_t k = ndo_peer_step(pr->p) - ndo_peer_first_step(pr->p);
 	if (r->logging && (k % r->sc.log_every == 0 || ndo_peer_step(pr->p) == ndo_peer_final_step(pr->p)))
-		log_row(pr);
+		log_row(r, ndo_peer_sim(pr->p), ndo_peer_step(pr->p));
 	if (r->sc.frames && k % r->sc.frame_every == 0)
 		write_frame(pr, k / r->sc.frame_every);
 	if (pr->show && ndo_now() - pr->shown > 0.25) {
@@ -360,13 +345,7 @@ int peers_main(run *r)
 		fprintf(stderr, "%s: peer %d looking for an object on %s (channels %s_*)\n",
 		        ndo_progname, ndo_session_self(ndo_peer_session(pr.p)),
 		        c->lcm ? c->lcm : "LCM's default URL", c->prefix);
-	if (r->sc.log) {
-		if (ndo_out_open(r->sc.log, &r->log))
-			ndo_die("%s: %s", r->sc.log, ndo_errdetail());
-		r->logging = 1;
-		fprintf(r->log.f, "step,time_s,dt_s,kinetic_J,potential_J,work_J,"
-		                  "max_displacement_m,substeps,rejected\n");
-	}
+	log_open(r);
 	pr.show = !r->quiet && isatty(STDERR_FILENO);
 	struct sigaction sa = {0};
 	sa.sa_handler = on_signal;

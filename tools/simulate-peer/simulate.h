@@ -53,6 +53,10 @@ typedef struct run {
 void setup(run *r);
 /* The critical step, the step size and the step count (prints them). */
 void plan(run *r);
+/* --log: open the CSV log with its header (nothing without --log); one row
+ * of `sim`'s energies at `step`. */
+void log_open(run *r);
+void log_row(run *r, ndo_sim *sim, int64_t step);
 /* The peers' options: defaults, one option (a usage error when bad), and
  * the checks once all are read (scene: the -s file or NULL; in: the input
  * or NULL; the n settings keys given on the command line). */
