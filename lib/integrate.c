@@ -211,7 +211,8 @@ static int build_held_edges(ndo_sim *s)
 				int32_t r = s->st.bnb[6 * b + q];
 				if (!s->active[r]) {
 					if (pass)
-						s->hedge[n] = (ndo__edge){s->st.border[b], r, s->st.bc[6 * b + q]};
+						s->hedge[n] = (ndo__edge){s->st.border[b], s->canon[r],
+						                          s->st.bc[6 * b + q]};
 					n++;
 				}
 			}
@@ -224,7 +225,39 @@ static int build_held_edges(ndo_sim *s)
 		}
 		s->nhedge = n;
 	}
+	/* the held nodes that move with their velocities (not pins) */
+	free(s->hmove);
+	s->hmove = malloc((s->nhedge + 1) * sizeof *s->hmove);
+	uint8_t *seen = calloc(s->count, 1);
+	if (!s->hmove || !seen) {
+		free(seen);
+		return ndo__fail(NDO_ENOMEM, "out of memory for the active set");
+	}
+	s->nhmove = 0;
+	for (size_t k = 0; k < s->nhedge; k++) {
+		int32_t q = s->hedge[k].q;
+		if (!seen[q] && !s->pin[q]) {
+			seen[q] = 1;
+			s->hmove[s->nhmove++] = q;
+		}
+	}
+	free(seen);
 	return NDO_OK;
+}
+
+/* Held nodes at the time τ after the state's: buf = u + τ v on them (the
+ * boundary moving with its velocity, ndo_sim_set_held_motion). */
+static void held_at(ndo_sim *s, double *buf, double tau)
+{
+	if (!s->held_motion || !s->nhmove)
+		return;
+	const size_t cnt = s->count;
+	for (size_t k = 0; k < s->nhmove; k++)
+		for (int c = 0; c < 3; c++) {
+			size_t q = (size_t)c * cnt + (size_t)s->hmove[k];
+			buf[q] = s->u[q] + tau * s->v[q];
+		}
+	ndo__sync_planes(s, buf, 3);
 }
 
 /* The runs of active nodes, the active border nodes, and the edges from
@@ -449,7 +482,7 @@ void ndo_sim_destroy(ndo_sim *s)
 	ndo_stencil_free(&s->st);
 	free(s->X), free(s->u), free(s->v), free(s->mass), free(s->minv), free(s->gam);
 	free(s->pin), free(s->active), free(s->canon);
-	free(s->espan), free(s->ispan), free(s->bact), free(s->hedge);
+	free(s->espan), free(s->ispan), free(s->bact), free(s->hedge), free(s->hmove);
 	free(s->pen), free(s->pen_target);
 	if (s->forces)
 		ndo__forces_free(s);
@@ -514,7 +547,17 @@ int ndo_sim_set_active(ndo_sim *s, const uint8_t *mask)
 	ndo__clear_error();
 	int rc = set_active(s, mask);
 	ndo__implicit_invalidate(s, 1);
+	/* The energy bound is over the integrated nodes: a new region starts
+	 * it again from its own energy (a peer that takes over a moving region
+	 * has not seen the work that moved it). */
+	s->e0_set = 0;
+	s->work_abs_base = s->work_abs;
 	return rc;
+}
+
+void ndo_sim_set_held_motion(ndo_sim *s, int on)
+{
+	s->held_motion = on != 0;
 }
 
 int ndo_sim_store(const ndo_sim *s, ndo_grid *g)
@@ -747,13 +790,16 @@ int ndo__diverged(ndo_sim *s, const ndo__diag *d, int commit)
 		                 "a node is %.3g m from its rest position, more than 100 × the "
 		                 "object's size (%.3g m)", umax, s->rest_size);
 	if (!s->e0_set) {
-		s->e0 = E;
+		/* A region's energy (its rows of uᵀKu) can be negative: the
+		 * cross terms with held neighbours.  The bound takes its size. */
+		s->e0 = fabs(E);
 		s->e0_set = 1;
 	}
 	/* The floor: the energy of a displacement of 1e-9 × the object's
 	 * size everywhere, so that rounding noise around a state at rest is
 	 * not mistaken for growth. */
 	double floor = 1e-18 * s->p.material.stiffness * s->rest_size * s->rest_size;
+	work_abs -= s->work_abs_base;
 	if (s->p.energy_bound > 0 && E > s->p.energy_bound * (s->e0 + work_abs) + floor)
 		return ndo__fail(NDO_EDIVERGED,
 		                 "energy %.3g J exceeds %g × (initial %.3g J + input work %.3g J)", E,
@@ -879,6 +925,7 @@ static int rk_stages(ndo_sim *s, const tableau *tb, double h, int k0_ready)
 				sv[n] = s->ka[j];
 				n++;
 			}
+		held_at(s, s->us, tb->c[i] * h);
 		combine(s, s->us, s->u, h, n, coef, su);
 		combine(s, s->kv[i], s->v, h, n, coef, sv);
 		ndo__sync_planes(s, s->us, 3);
@@ -899,6 +946,7 @@ static void rk_finish(ndo_sim *s, const tableau *tb, double h)
 	for (int j = 0; j < tb->s; j++)
 		if (tb->b[j] != 0)
 			axpy(s, s->v, h * tb->b[j], s->ka[j]);
+	held_at(s, s->u, h); /* the boundary moves on with the sub-step */
 	ndo__sync_planes(s, s->u, 3);
 	ndo__sync_planes(s, s->v, 3);
 }
@@ -1086,6 +1134,8 @@ static int step_rk4(ndo_sim *s, double h)
 		/* Held nodes keep u in both stage buffers. */
 		memcpy(A, s->u, 3 * cnt * sizeof *A);
 		memcpy(B, s->u, 3 * cnt * sizeof *B);
+		held_at(s, A, h / 2);
+		held_at(s, B, h / 2);
 	}
 	rk4_pass g = {s->u, A, s->v, s->vs, s->kv[2], s->kv[3], s->u, s->v, NULL, h / 2, h / 6};
 	ndo__diag d;
@@ -1101,8 +1151,10 @@ static int step_rk4(ndo_sim *s, double h)
 	g.U = B, g.Un = A, g.c = h;
 	rk4_pass_run(s, &g, RK4_MID, s->t + h / 2, NULL);
 	ndo__sync_planes(s, A, 3);
+	held_at(s, A, h);
 	g.U = A, g.Un = NULL;
 	rk4_pass_run(s, &g, RK4_LAST, s->t + h, NULL);
+	held_at(s, s->u, h);
 	ndo__sync_planes(s, s->u, 3);
 	ndo__sync_planes(s, s->v, 3);
 	account(s, h);

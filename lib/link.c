@@ -3,6 +3,7 @@
 #include "link_private.h"
 #include "ndo/status.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -27,6 +28,16 @@ void ndo_link_destroy(ndo_link *l)
 {
 	if (l)
 		l->destroy(l);
+}
+
+double ndo_link_next_due(const ndo_link *l)
+{
+	return l && l->next_due ? l->next_due(l) : INFINITY;
+}
+
+int ndo_link_ended(const ndo_link *l)
+{
+	return l && l->ended ? l->ended(l) : 0;
 }
 
 uint64_t ndo_link_injected_drops(const ndo_link *l)

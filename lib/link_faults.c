@@ -5,6 +5,7 @@
 #include "link_private.h"
 #include "ndo/status.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -108,6 +109,23 @@ static int fault_fileno(ndo_link *base)
 	return ndo_link_fileno(((fault_link *)base)->inner);
 }
 
+static double fault_next_due(const ndo_link *base)
+{
+	const fault_link *l = (const fault_link *)base;
+	double due = INFINITY;
+	for (size_t k = 0; k < l->count; k++)
+		if (l->q[k].release < due)
+			due = l->q[k].release;
+	double inner = ndo_link_next_due(l->inner);
+	return inner < due ? inner : due;
+}
+
+static int fault_ended(const ndo_link *base)
+{
+	const fault_link *l = (const fault_link *)base;
+	return l->count == 0 && ndo_link_ended(l->inner);
+}
+
 static void fault_destroy(ndo_link *base)
 {
 	fault_link *l = (fault_link *)base;
@@ -132,7 +150,8 @@ int ndo_link_faults(ndo_link *inner, const ndo_faults *f, ndo_link **out)
 		ndo_link_destroy(inner);
 		return ndo__fail(NDO_ENOMEM, "out of memory");
 	}
-	l->base = (ndo_link){fault_publish, fault_poll, fault_fileno, fault_destroy, 0};
+	l->base = (ndo_link){fault_publish, fault_poll, fault_fileno, fault_destroy, 0,
+	                     fault_next_due, fault_ended};
 	l->inner = inner;
 	l->f = *f;
 	l->rng = f->seed;

@@ -10,6 +10,9 @@ struct ndo_link {
 	int (*fileno)(ndo_link *);
 	void (*destroy)(ndo_link *);
 	uint64_t injected;
+	/* optional (NULL: nothing held, never ends) */
+	double (*next_due)(const ndo_link *);
+	int (*ended)(const ndo_link *);
 };
 
 #endif

@@ -36,6 +36,7 @@ struct ndo_net {
 	size_t nslots, used;
 	ndo_msg *queue;
 	size_t qhead, qcount, qcap;
+	int keep_all; /* tiles queue in arrival order too (ndo_net_keep_all_tiles) */
 	ndo_net_stats st;
 	double now;
 	/* messages that arrived before the object was known (a description
@@ -102,6 +103,8 @@ void ndo_net_destroy(ndo_net *n)
 }
 
 ndo_msg_ctx *ndo_net_ctx(ndo_net *n) { return &n->ctx; }
+void ndo_net_keep_all_tiles(ndo_net *n, int on) { n->keep_all = on != 0; }
+ndo_link *ndo_net_link(const ndo_net *n) { return n->link; }
 const ndo_net_stats *ndo_net_stats_get(const ndo_net *n) { return &n->st; }
 const char *ndo_net_channel(const ndo_net *n, ndo_msg_type t) { return n->channel[t]; }
 
@@ -280,6 +283,18 @@ static void on_bytes(void *user, const char *channel, const void *data, size_t l
 	else if (seq < s->last[t] && n->st.gaps > 0) {
 		n->st.gaps--; /* a gap filled late: it was reordered, not lost */
 		n->st.late++;
+	}
+	if (t == NDO_MSG_TILE && n->keep_all) {
+		/* the caller orders tiles by their step: a tile sent again (an
+		 * older step after a newer one) is not stale here */
+		if (seq > s->last[t])
+			s->last[t] = seq;
+		if (enqueue(n, &m) != 0) {
+			ndo_msg_free(&m);
+			return;
+		}
+		n->st.accepted++;
+		return;
 	}
 	if (t == NDO_MSG_TILE) {
 		ndo_quad q;

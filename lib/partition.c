@@ -510,3 +510,17 @@ int ndo_partition(int level, ndo_part_method method, int k, const int32_t *poi,
 	}
 	return ndo__fail(NDO_EINVAL, "partition: unknown method %d", (int)method);
 }
+
+void ndo_partition_cells(int level, const ndo_msg_partition_t *p, int32_t *cell)
+{
+	int w = 2 << level;
+	for (int k = 0; k < p->nleaves; k++) {
+		ndo_quad q;
+		ndo_quad_decode(level, p->leaves[k], &q);
+		int i0, j0, i1, j1;
+		ndo_quad_range(level, q, &i0, &j0, &i1, &j1);
+		for (int j = j0; j < j1; j++)
+			for (int i = i0; i < i1; i++)
+				cell[j * w + i] = p->slots[k];
+	}
+}

@@ -208,3 +208,54 @@ int ndo_quad_leaves(int level, const int32_t *lab, int min_depth, int32_t **code
 	*count = b.count;
 	return 0;
 }
+
+/* Cells of q labelled `label`, and all of q's cells. */
+static size_t share(int level, ndo_quad q, const int32_t *lab, int32_t label, size_t *all)
+{
+	int i0, j0, i1, j1, w = 2 << level;
+	ndo_quad_range(level, q, &i0, &j0, &i1, &j1);
+	size_t n = 0;
+	for (int j = j0; j < j1; j++)
+		for (int i = i0; i < i1; i++)
+			n += lab[j * w + i] == label;
+	*all = (size_t)(i1 - i0) * (size_t)(j1 - j0);
+	return n;
+}
+
+static void cover(int level, ndo_quad q, const int32_t *lab, int32_t label, int min_depth,
+                  double fill, leafbuf *b)
+{
+	if (q.depth >= min_depth) {
+		size_t all, n = share(level, q, lab, label, &all);
+		if (n == 0)
+			return;
+		if ((double)n >= fill * (double)all || q.depth == level + 1) {
+			push(b, ndo_quad_code(q), label);
+			return;
+		}
+	}
+	if (q.depth == 0) {
+		cover(level, (ndo_quad){1, 0, 0}, lab, label, min_depth, fill, b);
+		cover(level, (ndo_quad){1, 1, 0}, lab, label, min_depth, fill, b);
+		return;
+	}
+	for (int dj = 0; dj < 2; dj++)
+		for (int di = 0; di < 2; di++)
+			cover(level, (ndo_quad){q.depth + 1, 2 * q.qi + di, 2 * q.qj + dj}, lab, label,
+			      min_depth, fill, b);
+}
+
+int ndo_quad_cover(int level, const int32_t *lab, int32_t label, int min_depth, double fill,
+                   int32_t **codes, size_t *count)
+{
+	leafbuf b = {0};
+	cover(level, (ndo_quad){0, 0, 0}, lab, label, min_depth, fill, &b);
+	free(b.labels);
+	if (b.failed) {
+		free(b.codes);
+		return ndo__fail(NDO_ENOMEM, "quad-tree cover: out of memory");
+	}
+	*codes = b.codes;
+	*count = b.count;
+	return 0;
+}

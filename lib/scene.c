@@ -30,6 +30,7 @@ static void selection_free(ndo_selection *s)
 
 void ndo_scene_free(ndo_scene *sc)
 {
+	free(sc->physics);
 	free(sc->rest);
 	free(sc->output);
 	free(sc->frames);
@@ -298,9 +299,8 @@ const char *const ndo_scene_keys[] = {
 	"output", "frames", "frame-every", "log", "log-every", "perturb", "seed",
 	"energy-bound", NULL};
 
-int ndo_scene_set(ndo_scene *sc, const char *key, const char *v)
+static int scene_set(ndo_scene *sc, const char *key, const char *v)
 {
-	ndo__clear_error();
 	ndo_material *m = &sc->sim.material;
 	int rc;
 	int64_t n;
@@ -437,6 +437,96 @@ int ndo_scene_set(ndo_scene *sc, const char *key, const char *v)
 	return ndo__fail(NDO_ENOTFOUND, "unknown setting '%s'", key);
 }
 
+/* The settings that make the physical system (what a joining peer must
+ * simulate the same way); the others are files, output, or applied by
+ * the owner to the object itself (pin, rest, perturb, seed). */
+static int is_physics(const char *key)
+{
+	static const char *const keys[] = {"stiffness", "density", "damping", "mass-damping",
+	                                   "integrator", "dt", "dt-safety", "steps", "time",
+	                                   "tol", "restiffen", "pins", "penalty", "force",
+	                                   "energy-bound", NULL};
+	for (int k = 0; keys[k]; k++)
+		if (strcmp(key, keys[k]) == 0)
+			return 1;
+	return 0;
+}
+
+int ndo_scene_set(ndo_scene *sc, const char *key, const char *v)
+{
+	ndo__clear_error();
+	if (v && strchr(v, '\n'))
+		return ndo__fail(NDO_EINVAL, "%s: a value must not hold a line break", key);
+	int rc = scene_set(sc, key, v);
+	if (rc || !is_physics(key))
+		return rc;
+	/* Record it: replayed in order, the lines give the same settings
+	 * (later values win, forces add up). */
+	size_t old = sc->physics ? strlen(sc->physics) : 0, add = strlen(key) + strlen(v) + 2;
+	char *p = realloc(sc->physics, old + add + 1);
+	if (!p)
+		return ndo__fail(NDO_ENOMEM, "out of memory");
+	snprintf(p + old, add + 1, "%s %s\n", key, v);
+	sc->physics = p;
+	return NDO_OK;
+}
+
+const char *ndo_scene_physics(const ndo_scene *sc)
+{
+	return sc->physics ? sc->physics : "";
+}
+
+/* One line of a scene: strip the comment and blanks, split "key value",
+ * apply.  `where` prefixes an error ("file:3"). */
+static int scene_line(ndo_scene *sc, char *line, const char *where)
+{
+	char *hash = strchr(line, '#');
+	if (hash)
+		*hash = '\0';
+	char *p = line;
+	while (*p == ' ' || *p == '\t')
+		p++;
+	char *end = p + strlen(p);
+	while (end > p && strchr(" \t\r\n", end[-1]))
+		*--end = '\0';
+	if (!*p)
+		return NDO_OK;
+	char *key = p;
+	while (*p && *p != ' ' && *p != '\t')
+		p++;
+	if (*p)
+		*p++ = '\0';
+	while (*p == ' ' || *p == '\t')
+		p++;
+	int rc = ndo_scene_set(sc, key, *p ? p : NULL);
+	if (rc) {
+		char d[384];
+		snprintf(d, sizeof d, "%s", ndo_errdetail());
+		rc = ndo__fail(rc, "%s: %s", where, d);
+	}
+	return rc;
+}
+
+int ndo_scene_apply_text(ndo_scene *sc, const char *text, const char *what)
+{
+	ndo__clear_error();
+	char *copy = strdup(text);
+	if (!copy)
+		return ndo__fail(NDO_ENOMEM, "out of memory");
+	int rc = NDO_OK, lineno = 0;
+	char *save = NULL;
+	for (char *line = copy; line && rc == NDO_OK; line = save) {
+		save = strchr(line, '\n');
+		if (save)
+			*save++ = '\0';
+		char where[256];
+		snprintf(where, sizeof where, "%s:%d", what, ++lineno);
+		rc = scene_line(sc, line, where);
+	}
+	free(copy);
+	return rc;
+}
+
 int ndo_scene_load(ndo_scene *sc, const char *path)
 {
 	ndo__clear_error();
@@ -448,30 +538,9 @@ int ndo_scene_load(ndo_scene *sc, const char *path)
 	ssize_t len;
 	int lineno = 0, rc = NDO_OK;
 	while (rc == NDO_OK && (len = getline(&line, &cap, f)) >= 0) {
-		lineno++;
-		char *hash = strchr(line, '#');
-		if (hash)
-			*hash = '\0';
-		char *p = line;
-		while (*p == ' ' || *p == '\t')
-			p++;
-		char *end = p + strlen(p);
-		while (end > p && strchr(" \t\r\n", end[-1]))
-			*--end = '\0';
-		if (!*p)
-			continue;
-		char *key = p;
-		while (*p && *p != ' ' && *p != '\t')
-			p++;
-		if (*p)
-			*p++ = '\0';
-		while (*p == ' ' || *p == '\t')
-			p++;
-		if ((rc = ndo_scene_set(sc, key, *p ? p : NULL))) {
-			char d[384];
-			snprintf(d, sizeof d, "%s", ndo_errdetail());
-			rc = ndo__fail(rc, "%s:%d: %s", path, lineno, d);
-		}
+		char where[4200];
+		snprintf(where, sizeof where, "%s:%d", path, ++lineno);
+		rc = scene_line(sc, line, where);
 	}
 	if (rc == NDO_OK && ferror(f))
 		rc = ndo__fail(NDO_EIO, "%s: read error", path);

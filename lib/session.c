@@ -15,6 +15,7 @@
 
 #define NEV 64
 #define FULL_SEND_GAP 0.25 /* s: at most one full description burst per this */
+#define TILE_FILL 0.5      /* a transmit tile is at least this much the sender's */
 
 typedef struct member {
 	int32_t id, poi;
@@ -54,6 +55,7 @@ struct ndo_session {
 	int evhead, evcount;
 	ndo_msg force;
 	int holding_force;
+	int applied; /* a tile was written since the last ndo_grid_sync */
 	uint64_t rng;
 };
 
@@ -131,22 +133,18 @@ static int install(ndo_session *s, int32_t *cells, int npeers, const int32_t *pe
 		if (peers[p] == s->self)
 			slot = p;
 	s->poi_acked = slot >= 0 ? pois[slot] : -2;
-	/* my transmit tiles: my region's leaves, none shallower than the depth
-	 * at which a position+velocity tile fits a datagram */
+	/* my transmit tiles: quad-tree nodes no shallower than the depth at
+	 * which a position+velocity tile fits a datagram, each at least half
+	 * mine (receivers take only the sender's nodes from a tile).  The
+	 * region's exact leaves would be 60-460 tiles a step for a quad-tree
+	 * region at levels 5-7; half-filled nodes are 10-30 times fewer for
+	 * about the same bytes (docs/peers.md, "Tiles"). */
 	free(s->tiles);
 	s->tiles = NULL;
 	s->ntiles = 0;
-	int32_t *codes, *labels;
-	size_t n;
-	if (ndo_quad_leaves(s->level, cells, s->tdepth_state, &codes, &labels, &n) != 0)
+	if (slot >= 0 && ndo_quad_cover(s->level, cells, slot, s->tdepth_state, TILE_FILL, &s->tiles,
+	                                &s->ntiles) != 0)
 		return NDO_ENOMEM;
-	size_t k = 0;
-	for (size_t i = 0; i < n; i++)
-		if (labels[i] == slot)
-			codes[k++] = codes[i];
-	s->tiles = codes;
-	s->ntiles = k;
-	free(labels);
 	/* the leaves as the owner sends them: as coarse as they come */
 	free(s->leaf_codes);
 	free(s->leaf_slots);
@@ -230,8 +228,8 @@ static int publish_description(ndo_session *s)
 	return ndo_net_publish(s->net, NDO_MSG_DESCRIPTION, &d);
 }
 
-static int publish_tiles(ndo_session *s, const int32_t *codes, size_t n, int channels,
-                         int64_t step, double time)
+static int publish_tiles_from(ndo_session *s, const ndo_grid *src, const int32_t *codes,
+                              size_t n, int channels, int64_t step, double time)
 {
 	int sent = 0;
 	for (size_t k = 0; k < n; k++) {
@@ -239,7 +237,7 @@ static int publish_tiles(ndo_session *s, const int32_t *codes, size_t n, int cha
 		ndo_quad_decode(s->level, codes[k], &q);
 		ndo_msg_tile_t t;
 		memset(&t, 0, sizeof t);
-		int rc = ndo_tile_pack(s->grid, q, channels, &t);
+		int rc = ndo_tile_pack(src, q, channels, &t);
 		if (rc)
 			return rc;
 		t.step = step;
@@ -252,6 +250,12 @@ static int publish_tiles(ndo_session *s, const int32_t *codes, size_t n, int cha
 		sent++;
 	}
 	return sent;
+}
+
+static int publish_tiles(ndo_session *s, const int32_t *codes, size_t n, int channels,
+                         int64_t step, double time)
+{
+	return publish_tiles_from(s, s->grid, codes, n, channels, step, time);
 }
 
 /* Every tile of the whole grid at `depth`. */
@@ -385,16 +389,7 @@ static int on_partition(ndo_session *s, const ndo_msg_partition_t *p)
 	int32_t *cells = malloc(ndo_cell_count(s->level) * sizeof *cells);
 	if (!cells)
 		return NDO_ENOMEM;
-	int w = 2 << s->level;
-	for (int k = 0; k < p->nleaves; k++) { /* validated: an exact cover */
-		ndo_quad q;
-		ndo_quad_decode(s->level, p->leaves[k], &q);
-		int i0, j0, i1, j1;
-		ndo_quad_range(s->level, q, &i0, &j0, &i1, &j1);
-		for (int j = j0; j < j1; j++)
-			for (int i = i0; i < i1; i++)
-				cells[j * w + i] = p->slots[k];
-	}
+	ndo_partition_cells(s->level, p, cells);
 	int rc = install(s, cells, p->npeers, p->peers, p->pois, p->epoch,
 	                 (ndo_part_method)p->method);
 	event(s, NDO_EV_PARTITION, 0, 0, NULL);
@@ -461,6 +456,8 @@ static int on_leave(ndo_session *s, const ndo_msg_leave_t *l)
 	return 0;
 }
 
+static void apply_tile(ndo_session *s, const ndo_msg_tile_t *t);
+
 static int handle(ndo_session *s, ndo_msg *m)
 {
 	int32_t from = m->hdr->sender_id;
@@ -501,6 +498,10 @@ static int handle(ndo_session *s, ndo_msg *m)
 	case NDO_MSG_DESCRIPTION: return on_description(s, &m->u.description);
 	case NDO_MSG_PARTITION: return on_partition(s, &m->u.partition);
 	case NDO_MSG_PEERS: on_peers(s, &m->u.peers); return 0;
+	case NDO_MSG_TILE: /* with tile_fn: every tile, in arrival order */
+		if (s->grid && s->described)
+			apply_tile(s, &m->u.tile);
+		return 0;
 	case NDO_MSG_LEAVE: return on_leave(s, &m->u.leave);
 	case NDO_MSG_FORCE: {
 		ndo_event e;
@@ -523,49 +524,57 @@ static int handle(ndo_session *s, ndo_msg *m)
 	}
 }
 
+/* One tile from another peer.  Rest and pin come only from the owner and
+ * are written here; position and velocity go into the nodes the sender
+ * owns (before READY the owner's snapshot fills every node), or to the
+ * caller's tile_fn.  Marks what a joiner has received. */
+static void apply_tile(ndo_session *s, const ndo_msg_tile_t *t)
+{
+	int32_t *own = owner_channel(s);
+	int32_t from = t->hdr.sender_id;
+	if (t->channels & (NDO_TILE_REST | NDO_TILE_PIN)) {
+		if (from != s->owner_id || s->o.role == NDO_ROLE_OWNER) {
+			count_authority(s);
+			return;
+		}
+		ndo_tile_apply(s->grid, t, NULL, 0);
+	} else {
+		int fill = !s->ready && from == s->owner_id;
+		if (s->o.tile_fn)
+			s->o.tile_fn(s->o.tile_user, t, fill);
+		else
+			ndo_tile_apply(s->grid, t, fill ? NULL : own, from);
+	}
+	s->applied = 1;
+	if (s->have) {
+		uint8_t bit = (t->channels & NDO_TILE_REST) ? 1 : 2;
+		for (int j = t->j0; j <= t->j1; j++)
+			for (int i = t->i0; i <= t->i1; i++) {
+				size_t node = ndo_node(s->grid->w, i, j);
+				if (bit == 2 && !(own[node] == from || from == s->owner_id))
+					continue;
+				if (!(s->have[node] & bit)) {
+					s->have[node] |= bit;
+					*(bit == 1 ? &s->have_rest : &s->have_state) += 1;
+				}
+			}
+	}
+	if (!s->o.tile_fn && t->step > s->grid->step) { /* with tile_fn: the caller's */
+		s->grid->step = t->step;
+		s->grid->time = t->time;
+	}
+}
+
+/* The newest tile of each range since the last update (without tile_fn). */
 static void apply_tiles(ndo_session *s)
 {
 	ndo_msg *tiles;
 	size_t n;
 	if (ndo_net_take_tiles(s->net, &tiles, &n) != 0)
 		return;
-	if (!s->grid || !s->described)
-		goto out;
-	int32_t *own = owner_channel(s);
-	for (size_t k = 0; k < n; k++) {
-		const ndo_msg_tile_t *t = &tiles[k].u.tile;
-		int32_t from = t->hdr.sender_id;
-		if (t->channels & (NDO_TILE_REST | NDO_TILE_PIN)) {
-			if (from != s->owner_id || s->o.role == NDO_ROLE_OWNER) {
-				count_authority(s);
-				continue;
-			}
-			ndo_tile_apply(s->grid, t, NULL, 0);
-		} else {
-			/* before READY the owner's snapshot fills every node */
-			int fill = !s->ready && from == s->owner_id;
-			ndo_tile_apply(s->grid, t, fill ? NULL : own, from);
-		}
-		if (s->have) {
-			uint8_t bit = (t->channels & NDO_TILE_REST) ? 1 : 2;
-			for (int j = t->j0; j <= t->j1; j++)
-				for (int i = t->i0; i <= t->i1; i++) {
-					size_t node = ndo_node(s->grid->w, i, j);
-					if (bit == 2 && !(own[node] == from || from == s->owner_id))
-						continue;
-					if (!(s->have[node] & bit)) {
-						s->have[node] |= bit;
-						*(bit == 1 ? &s->have_rest : &s->have_state) += 1;
-					}
-				}
-		}
-		if (t->step > s->grid->step) {
-			s->grid->step = t->step;
-			s->grid->time = t->time;
-		}
-	}
-	ndo_grid_sync(s->grid);
-out:
+	if (s->grid && s->described)
+		for (size_t k = 0; k < n; k++)
+			apply_tile(s, &tiles[k].u.tile);
 	for (size_t k = 0; k < n; k++)
 		ndo_msg_free(&tiles[k]);
 	free(tiles);
@@ -596,6 +605,9 @@ int ndo_session_update(ndo_session *s, double now)
 			return 0;
 	}
 	apply_tiles(s);
+	if (s->applied && s->grid)
+		ndo_grid_sync(s->grid);
+	s->applied = 0;
 	int owner = s->o.role == NDO_ROLE_OWNER;
 	if (owner) {
 		for (int i = 0; i < s->nm; i++)
@@ -688,6 +700,17 @@ int ndo_session_publish(ndo_session *s, int64_t step, double time)
 	                     time);
 }
 
+int ndo_session_publish_from(ndo_session *s, const ndo_grid *src, int64_t step, double time)
+{
+	if (!s->grid || s->ended || (!s->ready && s->o.role != NDO_ROLE_OWNER))
+		return 0;
+	if (src->level != s->level)
+		return ndo__fail(NDO_EINVAL, "publish: a level-%d grid for a level-%d object",
+		                 src->level, s->level);
+	return publish_tiles_from(s, src, s->tiles, s->ntiles,
+	                          NDO_TILE_POSITION | NDO_TILE_VELOCITY, step, time);
+}
+
 int ndo_session_set_poi(ndo_session *s, int32_t face)
 {
 	if (s->level >= 0 && s->grid && (face < -1 || face >= (int64_t)4 << (2 * s->level)))
@@ -746,6 +769,8 @@ int ndo_session_create(const ndo_session_opts *o, ndo_net *net, ndo_grid *grid,
 	s->scene = strdup(o->scene ? o->scene : "");
 	s->net = net;
 	s->grid = grid;
+	if (o->tile_fn)
+		ndo_net_keep_all_tiles(net, 1);
 	s->level = -1;
 	s->epoch = 0;
 	s->method = s->o.partition;

@@ -52,6 +52,12 @@ struct ndo_sim {
 	ndo__edge *hedge;
 	size_t nhedge;
 	int any_held;          /* some node is not integrated */
+	/* The held nodes next to the active ones that are not pins (canonical
+	 * indices), and whether they move with their velocities during a step
+	 * (ndo_sim_set_held_motion). */
+	int32_t *hmove;
+	size_t nhmove;
+	int held_motion;
 
 	/* Penalty pins: stored index, spring α, target displacement. */
 	size_t npen;
@@ -81,6 +87,8 @@ struct ndo_sim {
 	/* Divergence: the reference energy and the input work. */
 	int e0_set;
 	double e0, work, work_abs; /* input work up to the last step's start */
+	double work_abs_base;      /* work_abs when the energy bound last restarted
+	                              (ndo_sim_set_active) */
 	double last_power;     /* f·v at the start of the current step */
 	double pend_h, pend_power; /* the last step: its size and start power */
 

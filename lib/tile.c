@@ -76,3 +76,16 @@ size_t ndo_tile_apply(ndo_grid *g, const ndo_msg_tile_t *t, const int32_t *owner
 		}
 	return written;
 }
+
+int ndo_tile_copy(const ndo_msg_tile_t *t, ndo_msg_tile_t *out)
+{
+	*out = *t;
+	out->values = malloc((size_t)(t->nvalues > 0 ? t->nvalues : 1) * sizeof *out->values);
+	out->data = NULL;
+	out->nbytes = 0;
+	if (!out->values)
+		return ndo__fail(NDO_ENOMEM, "tile: out of memory");
+	if (t->nvalues > 0)
+		memcpy(out->values, t->values, (size_t)t->nvalues * sizeof *out->values);
+	return 0;
+}

@@ -63,6 +63,26 @@ typedef struct ndo_faults {
 	uint64_t seed;
 } ndo_faults;
 int ndo_link_faults(ndo_link *inner, const ndo_faults *f, ndo_link **out);
+/* The earliest time (the clock of ndo_link_poll) at which a message held
+ * back by fault injection is due, or INFINITY: how long a caller waiting
+ * on ndo_link_fileno() may sleep at most. */
+double ndo_link_next_due(const ndo_link *l);
+
+/* 1 when the link will never hand over another message (a log file read
+ * to its end, ndo_link_open_log), else 0. */
+int ndo_link_ended(const ndo_link *l);
+
+/* A recorded run: the events of an LCM log file (lcm-logger's format,
+ * read with LCM's lcm_eventlog API) on channels "PREFIX_*", in their
+ * order, at most `batch` (≤ 0: 64) per poll, as fast as the caller polls;
+ * ndo_link_ended() says when all are read.  Publishing is refused
+ * (NDO_EINVAL): a log is read-only.  Before LCM reads an event its header
+ * is checked against the file (sync word, channel length 1..999, data
+ * length within what is left of the file), since LCM's reader would
+ * allocate whatever a corrupt length says: a bad header ends the log with
+ * an error from ndo_link_poll (NDO_EFORMAT, naming the byte offset). */
+int ndo_link_open_log(const char *path, const char *prefix, int batch, ndo_link **out);
+
 /* Messages the fault layer dropped, and delayed, so far (0 for other links). */
 uint64_t ndo_link_injected_drops(const ndo_link *l);
 

@@ -70,6 +70,14 @@ int ndo_net_next(ndo_net *n, ndo_msg *m);
  * ndo_msg_free() and the array with free(). 0 or NDO_ENOMEM. */
 int ndo_net_take_tiles(ndo_net *n, ndo_msg **tiles, size_t *count);
 
+/* Keep every tile (on ≠ 0): accepted tiles then wait in arrival order
+ * with the other messages for ndo_net_next(), none superseded and none
+ * judged stale by sequence number, so a caller that orders tiles by their
+ * step (a lock-step peer, which also receives steps sent again; a
+ * renderer of every step) sees each one and decides.  Gaps are still
+ * counted.  ndo_net_take_tiles() then returns nothing. */
+void ndo_net_keep_all_tiles(ndo_net *n, int on);
+
 /* Forget a sender's sequence numbers and pending tiles (it left; if it
  * comes back with the same id its numbers start again). */
 void ndo_net_forget(ndo_net *n, int32_t sender);
@@ -77,6 +85,9 @@ void ndo_net_forget(ndo_net *n, int32_t sender);
 const ndo_net_stats *ndo_net_stats_get(const ndo_net *n);
 /* "received 120, accepted 118, dropped 2 (stale 1, range 1), gaps 0" */
 void ndo_net_stats_format(const ndo_net *n, char *buf, size_t size);
+
+/* The link underneath (owned by the net). */
+ndo_link *ndo_net_link(const ndo_net *n);
 
 /* The channel name of a type under this net's prefix. */
 const char *ndo_net_channel(const ndo_net *n, ndo_msg_type t);

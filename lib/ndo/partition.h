@@ -54,6 +54,11 @@ double ndo_partition_imbalance(int level, const int32_t *cell, int k);
 void ndo_partition_node_owner(int level, const int32_t *cell, const int32_t *ids,
                               int32_t *node_owner);
 
+/* The cell slots (2N × N ints) of a partition message: each leaf's slot
+ * over its cells.  The message must be validated (ndo_msg_validate: its
+ * leaves cover every cell exactly once). */
+void ndo_partition_cells(int level, const ndo_msg_partition_t *p, int32_t *cell);
+
 /* Name and parse ("quadtree", "table41", "metis"); parse: −1 if unknown. */
 const char *ndo_part_method_name(ndo_part_method m);
 int ndo_part_method_parse(const char *s);

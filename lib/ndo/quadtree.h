@@ -82,6 +82,16 @@ long ndo_cells_cut(int level, const int32_t *cell_label);
 int ndo_quad_leaves(int level, const int32_t *cell_label, int min_depth,
                     int32_t **codes, int32_t **labels, size_t *count);
 
+/* Tree nodes, none shallower than `min_depth`, that cover every cell
+ * labelled `label`: a node is taken whole when at least `fill` (0..1) of
+ * its cells carry the label, else split (single cells are always taken).
+ * fill 1 gives the label's leaves (ndo_quad_leaves()); less gives fewer,
+ * larger nodes that also cover some cells of other labels — fewer
+ * messages for a region with a ragged edge, at the price of some bytes.
+ * Depth-first order; *codes is malloc'd.  0 or NDO_ENOMEM. */
+int ndo_quad_cover(int level, const int32_t *cell_label, int32_t label, int min_depth,
+                   double fill, int32_t **codes, size_t *count);
+
 #ifdef __cplusplus
 }
 #endif

@@ -78,6 +78,8 @@ typedef struct ndo_scene {
 	int nforces;
 	ndo_selection *pins;
 	int npins;
+	char *physics;        /* the physics settings applied so far, as lines
+	                         (ndo_scene_physics) */
 } ndo_scene;
 
 /* Defaults: ndo_sim_defaults() with damping 0.1 (the thesis' b), rk4,
@@ -97,6 +99,19 @@ extern const char *const ndo_scene_keys[];
 
 /* Read a scene file and apply each line.  Errors carry "path:line: ". */
 int ndo_scene_load(ndo_scene *sc, const char *path);
+
+/* Apply scene text (lines "key value", '#' comments), e.g. a peer's
+ * object description.  Errors carry "what:line: ". */
+int ndo_scene_apply_text(ndo_scene *sc, const char *text, const char *what);
+
+/* The settings that define the physical system — stiffness, density,
+ * damping, mass-damping, integrator, dt, dt-safety, steps, time, tol,
+ * restiffen, pins, penalty, force, energy-bound — as applied so far,
+ * one "key value" line each in order: another process that applies this
+ * text (ndo_scene_apply_text) simulates the same system.  Pins, the rest
+ * shape and --perturb are not in it: they change the object itself, which
+ * travels with it.  Never NULL. */
+const char *ndo_scene_physics(const ndo_scene *sc);
 
 /* Parse a force or pin specification (the value of --force / --pin). */
 int ndo_scene_parse_force(const char *spec, ndo_scene_force *out);

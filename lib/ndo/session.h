@@ -52,6 +52,15 @@ typedef struct ndo_session_opts {
 	int32_t self_id;           /* 0 = random */
 	const char *scene;         /* owner: text for the description (≤ 8192 B) */
 	uint64_t seed;             /* for random ids (0: from time and pid) */
+	/* Optional: position/velocity tiles of other peers go to tile_fn, every
+	 * one in arrival order (ndo_net_keep_all_tiles), instead of being
+	 * written into the grid by the session — for a caller that keeps time
+	 * by the tiles' steps (ndo/peer.h).  `fill`: a tile of the owner's
+	 * snapshot before READY, whose values stand for every node in its range
+	 * (not only the owner's).  The grid exists when it is called; the
+	 * session makes stored duplicates agree after each update. */
+	void (*tile_fn)(void *user, const ndo_msg_tile_t *t, int fill);
+	void *tile_user;
 } ndo_session_opts;
 
 typedef enum ndo_event_type {
@@ -101,6 +110,10 @@ int ndo_session_event(ndo_session *s, ndo_event *ev);
  * that fits a datagram) with position and velocity at `step`, `time`.
  * Returns the number of tiles sent, or a negative status. */
 int ndo_session_publish(ndo_session *s, int64_t step, double time);
+
+/* The same from another grid of the object's level (f64 position and
+ * velocity): to send the state of an earlier step again. */
+int ndo_session_publish_from(ndo_session *s, const ndo_grid *src, int64_t step, double time);
 
 /* Ask for a share of the work at face `face` (−1: withdraw, observe). */
 int ndo_session_set_poi(ndo_session *s, int32_t face);

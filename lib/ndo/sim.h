@@ -219,8 +219,23 @@ void ndo_sim_set(ndo_sim *s, size_t n, const int32_t *nodes, const double *x,
 
 /* Integrate only the nodes whose mask byte is nonzero (H × W; a
  * duplicate follows its canonical node); hold all others (see the top of
- * this header).  NULL: all nodes.  Pinned nodes stay held in project mode. */
+ * this header).  NULL: all nodes.  Pinned nodes stay held in project mode.
+ * The energy bound of the divergence test (over the integrated nodes)
+ * restarts: its initial energy is taken at the next step, and only the
+ * input work from then on counts. */
 int ndo_sim_set_active(ndo_sim *s, const uint8_t *mask);
+
+/* How held nodes next to the active ones behave during a step of an
+ * explicit method.  0 (the default): they stand still at the values given
+ * (the region's boundary condition of the thesis' one-step lag).  1: they
+ * move with their given velocities, u + τ v at the stage time t + τ, and
+ * end the step there — the boundary extrapolated over the step.  A
+ * one-stage method (forward and symplectic Euler) reads its neighbours
+ * only at τ = 0 and is not changed; for the multi-stage ones (midpoint,
+ * rk4, rkf45) it turns the lag's O(h) error into a smaller one
+ * (docs/peers.md measures it).  Pins never move; the implicit methods
+ * hold the boundary still either way. */
+void ndo_sim_set_held_motion(ndo_sim *s, int on);
 
 /* Write the state into g (same level): "position" (x), "velocity" and
  * "rest" as f64 channels (added if absent), and the time and step count. */

@@ -25,6 +25,10 @@ int ndo_tile_pack(const ndo_grid *g, ndo_quad q, int channels, ndo_msg_tile_t *t
 size_t ndo_tile_apply(ndo_grid *g, const ndo_msg_tile_t *t, const int32_t *owner,
                       int32_t only);
 
+/* A deep copy of a raw tile (values malloc'd: free out->values; the
+ * header is copied as is).  0 or NDO_ENOMEM. */
+int ndo_tile_copy(const ndo_msg_tile_t *t, ndo_msg_tile_t *out);
+
 #ifdef __cplusplus
 }
 #endif

@@ -117,7 +117,7 @@ static void start(state *st, rf_options *o, const ndo_grid *g)
 }
 
 /* Draw grid `g` (from `where`) and hand its picture to the PNG writer. */
-static void draw_one(state *st, rf_options *o, ndo_grid *g, const char *where)
+static void draw_one(state *st, rf_options *o, ndo_grid *g, const char *where, long number)
 {
 	double t0 = now();
 	if (!st->renderer)
@@ -143,7 +143,7 @@ static void draw_one(state *st, rf_options *o, ndo_grid *g, const char *where)
 		                 o->style.background, st->font);
 	}
 	char out[PATH_MAX];
-	rf_output_name(o, o->start_number + st->frames, out, sizeof out);
+	rf_output_name(o, number >= 0 ? number : o->start_number + st->frames, out, sizeof out);
 	if (ndo_grid_add_history(g, ndo_cli_argc(), ndo_cli_argv()) != NDO_OK ||
 	    rf_writer_submit(st->writer, out, g->history) != NDO_OK)
 		ndo_die("%s", ndo_errdetail());
@@ -194,16 +194,25 @@ int main(int argc, char **argv)
 	if (rf_shader_dir("surface.vert", st.shader_dir, sizeof st.shader_dir) != NDO_OK)
 		ndo_die("%s", ndo_errdetail());
 	rf_source *src;
-	if (rf_source_files(o.ninputs, o.inputs, &src) != NDO_OK)
+	if ((o.use_lcm ? rf_source_lcm(&o.lcm, &src) : rf_source_files(o.ninputs, o.inputs, &src)) !=
+	    NDO_OK)
 		ndo_die("%s", ndo_errdetail());
 	ndo_grid *g;
 	int rc;
 	while ((rc = rf_source_next(src, &g)) == NDO_OK) {
-		draw_one(&st, &o, g, src->where);
+		draw_one(&st, &o, g, src->where, src->number);
 		ndo_grid_destroy(g);
 	}
 	if (rc != NDO_EEOF)
 		ndo_die("%s", ndo_errdetail());
+	if (o.use_lcm) {
+		char what[512];
+		rf_source_lcm_report(src, what, sizeof what);
+		if (st.frames == 0)
+			ndo_die("%s: no complete frame: %s", o.lcm.url ? o.lcm.url : "LCM", what);
+		if (o.verbose)
+			fprintf(stderr, "%s: %s\n", ndo_progname, what);
+	}
 	if (st.writer && rf_writer_finish(st.writer) != NDO_OK)
 		ndo_die("%s", ndo_errdetail());
 	if (o.verbose)

@@ -64,6 +64,18 @@ static __attribute__((noreturn)) void usage(void)
 	       "      --cloth-threads N threads across the grid's height, 1..4096 (default 48)\n"
 	       "      --wireframe       draw the grid's edges (the input grid's when refined)\n"
 	       "      --wire-width PX   line width in pixels, 0.5..20 (default 1)\n"
+	       "Peers (LCM; docs/peers.md):\n"
+	       "      --lcm URL         draw the object the peers simulate, one frame per step\n"
+	       "                        as its last tile arrives (coloured by owner): live\n"
+	       "                        from udpm://... ('default': LCM_DEFAULT_URL, else LCM's\n"
+	       "                        default), or from a log of lcm-logger, file://PATH;\n"
+	       "                        with a %%d in OUT the frame number is the step\n"
+	       "      --lcm-channel P   the peers' channel prefix (default NDO)\n"
+	       "      --every N         only the steps that are multiples of N, 1..1e9\n"
+	       "                        (default 1)\n"
+	       "      --lcm-timeout S   live: stop after S seconds without traffic, 0..1e6\n"
+	       "                        (default 30; 0: wait for ever); it also stops when the\n"
+	       "                        owner ends the session\n"
 	       "Grid:\n"
 	       "  -k, --subdivide K     refine by K levels of butterfly subdivision before\n"
 	       "                        drawing, 0..10 (level + K at most 10; default 0)\n"
@@ -187,6 +199,7 @@ static void defaults(rf_options *o)
 	s->cloth_threads = 48;
 	s->wire_width = 1;
 	s->wire_color[3] = 0.7f; /* black at 70 % */
+	o->lcm.timeout = -1; /* not given */
 }
 
 void rf_options_parse(int argc, char **argv, rf_options *o)
@@ -199,7 +212,7 @@ void rf_options_parse(int argc, char **argv, rf_options *o)
 	       OPT_DISTANCE, OPT_FOV, OPT_EYE, OPT_CENTER, OPT_UP, OPT_NO_CULL, OPT_REFIT, OPT_LIGHT,
 	       OPT_BACKGROUND, OPT_COLOR, OPT_MATERIAL, OPT_COLOR_BY, OPT_RANGE, OPT_NO_COLORBAR,
 	       OPT_FONT, OPT_FLAT, OPT_CLOTH, OPT_CLOTH_THREADS, OPT_WIREFRAME, OPT_WIRE_WIDTH, OPT_BACKEND,
-	       OPT_VERSION };
+	       OPT_VERSION, OPT_LCM, OPT_LCM_CHANNEL, OPT_EVERY, OPT_LCM_TIMEOUT };
 	static const struct option opts[] = {
 		{"output", required_argument, 0, 'o'},
 		{"start-number", required_argument, 0, OPT_START},
@@ -230,6 +243,10 @@ void rf_options_parse(int argc, char **argv, rf_options *o)
 		{"wire-width", required_argument, 0, OPT_WIRE_WIDTH},
 		{"subdivide", required_argument, 0, 'k'},
 		{"backend", required_argument, 0, OPT_BACKEND},
+		{"lcm", required_argument, 0, OPT_LCM},
+		{"lcm-channel", required_argument, 0, OPT_LCM_CHANNEL},
+		{"every", required_argument, 0, OPT_EVERY},
+		{"lcm-timeout", required_argument, 0, OPT_LCM_TIMEOUT},
 		{"verbose", no_argument, 0, 'v'},
 		{"help", no_argument, 0, 'h'},
 		{"version", no_argument, 0, OPT_VERSION},
@@ -303,6 +320,23 @@ void rf_options_parse(int argc, char **argv, rf_options *o)
 				ndo_usage_error("--backend: '%s' is not auto, osmesa or egl", optarg);
 			o->backend = optarg;
 			break;
+		case OPT_LCM:
+			if (strncmp(optarg, "udpm://", 7) && strncmp(optarg, "file://", 7) &&
+			    strcmp(optarg, "default"))
+				ndo_usage_error("--lcm: '%s' is not udpm://..., file://PATH or default", optarg);
+			if (strcmp(optarg, "file://") == 0)
+				ndo_usage_error("--lcm: file:// needs a path (file://run.lcmlog)");
+			o->lcm.url = strcmp(optarg, "default") ? optarg : NULL;
+			o->use_lcm = 1;
+			break;
+		case OPT_LCM_CHANNEL:
+			if (!*optarg || strlen(optarg) > 64 || strpbrk(optarg, ".*?[]()|\\^$+{} "))
+				ndo_usage_error("--lcm-channel: '%s': 1..64 characters, no spaces or regex "
+				                "operators", optarg);
+			o->lcm.prefix = optarg;
+			break;
+		case OPT_EVERY: o->lcm.every = ndo_opt_long("--every", optarg, 1, 1000000000); break;
+		case OPT_LCM_TIMEOUT: o->lcm.timeout = ndo_opt_double("--lcm-timeout", optarg, 0, 1e6); break;
 		case 'v': o->verbose = 1; break;
 		case 'h': usage();
 		case OPT_VERSION: ndo_print_version();
@@ -314,6 +348,22 @@ void rf_options_parse(int argc, char **argv, rf_options *o)
 	o->inputs = argv + optind;
 	o->ninputs = argc - optind;
 	static char *stdin_only[] = {"-"};
+	if (o->use_lcm && o->ninputs)
+		ndo_usage_error("'%s': --lcm draws the peers' state; no input files with it",
+		                o->inputs[0]);
+	if (!o->use_lcm && (o->lcm.prefix || o->lcm.every || o->lcm.timeout >= 0))
+		ndo_usage_error("--lcm-channel, --every and --lcm-timeout go with --lcm");
+	if (!o->lcm.prefix)
+		o->lcm.prefix = "NDO";
+	if (o->lcm.timeout < 0)
+		o->lcm.timeout = 30;
+	if (o->use_lcm) {
+		if (o->output && !ndo_is_stdio(o->output))
+			o->numbered = check_pattern(o->output);
+		else if (isatty(STDOUT_FILENO))
+			ndo_usage_error("standard output is a terminal: give -o OUT.png");
+		return;
+	}
 	if (o->ninputs == 0) {
 		o->inputs = stdin_only;
 		o->ninputs = 1;

@@ -5,6 +5,7 @@
 #include "camera.h"
 #include "renderer.h"
 #include "scene.h"
+#include "source.h"
 
 typedef struct rf_options {
 	const char *output;      /* NULL: standard output */
@@ -24,6 +25,8 @@ typedef struct rf_options {
 	rf_style style;          /* size, msaa, colours, cloth, wireframe */
 	int ninputs;
 	char **inputs;           /* "-" for standard input */
+	rf_lcm_options lcm;      /* url set: draw the peers' LCM state */
+	int use_lcm;
 } rf_options;
 
 /* Parse argv into *o, or exit with a usage error (2) naming the option

@@ -81,6 +81,7 @@ int rf_source_files(int n, char *const paths[], rf_source **out)
 		return ndo__fail(NDO_ENOMEM, "out of memory");
 	s->base.next = next;
 	s->base.destroy = destroy;
+	s->base.number = -1;
 	s->n = n;
 	s->paths = paths;
 	*out = &s->base;

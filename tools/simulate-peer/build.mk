@@ -1,5 +1,5 @@
 TOOLS += simulate-peer
-simulate-peer_SRCS := tools/simulate-peer/main.c
+simulate-peer_SRCS := tools/simulate-peer/main.c tools/simulate-peer/peers.c
 # The implicit integrators (lib/implicit.c) solve with CHOLMOD; the unit
 # tests check the membrane's spectrum with LAPACK's dense eigensolver.
 NDO_LIBS += -lcholmod -llapack -lblas

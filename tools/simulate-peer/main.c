@@ -3,7 +3,7 @@
  * critical step), ndo/membrane.h (K, M), ndo/scene.h (settings).  This file
  * reads the settings, reports the critical step, runs the steps and writes
  * frames, the CSV log and the result. */
-#include "ndo/ndo.h"
+#include "simulate.h"
 
 #include <getopt.h>
 #include <signal.h>
@@ -13,8 +13,6 @@
 #include <string.h>
 #include <time.h>
 #include <unistd.h>
-
-enum { EXIT_DIVERGED = 3, EXIT_INTERRUPTED = 130 };
 
 /* SIGINT or SIGTERM: stop after the current step, keep the log, write no
  * output and leave no temporary file behind. */
@@ -28,6 +26,8 @@ static __attribute__((noreturn)) void usage(void)
 {
 	printf(
 	    "Usage: %s [options] [IN.tgrid]\n"
+	    "       %s --owner [options] [peer options] [IN.tgrid]\n"
+	    "       %s --join [--poi FACE] [peer options] [-o OUT] [--frames P] [--log F]\n"
 	    "Simulate a uniform-tension membrane on a grid: M v' = -B v - K (x - X) + f.\n"
 	    "Reads IN (default: standard input), writes the final grid with velocities\n"
 	    "to OUT (default: standard output).  Prints the critical step before running.\n"
@@ -81,14 +81,39 @@ static __attribute__((noreturn)) void usage(void)
 	    "                          + input work), [0, 1e12] (default 10; 0: off)\n"
 	    "      --info              print the setup and the critical step, then exit\n"
 	    "  -q, --quiet             print nothing but errors\n"
+	    "Peers (several processes simulate one surface over LCM; docs/peers.md):\n"
+	    "      --owner             create the object from IN and own it; -o writes the\n"
+	    "                          whole object with an owner channel\n"
+	    "      --join              join the object on the channel (physics, step and\n"
+	    "                          clock come from the owner; no input, -o optional)\n"
+	    "      --poi FACE          ask for a share of the work around this triangle\n"
+	    "                          (joiner without: observe)\n"
+	    "      --peers N           owner: start when N peers simulate, 1..8 (default 1)\n"
+	    "      --clock MODE        owner: lockstep (default) or realtime\n"
+	    "      --speed X           owner, realtime: simulated s per wall s (default 1)\n"
+	    "      --boundary MODE     owner: extrapolate (default) or hold (the thesis)\n"
+	    "      --partition M       owner: quadtree (default), table41 or metis\n"
+	    "      --step-timeout S    owner, lockstep: wait for a neighbour (default 0.5)\n"
+	    "      --peer-timeout S    silence after which a peer is gone (default 2)\n"
+	    "      --start-timeout S   owner: for the --peers; joiner: for an object\n"
+	    "                          (default 60)\n"
+	    "      --gather-timeout S  owner: for the others' last step (default 10)\n"
+	    "      --lcm URL           LCM provider (default: LCM_DEFAULT_URL, LCM's own)\n"
+	    "      --channel PREFIX    channels PREFIX_* (default NDO)\n"
+	    "      --name NAME         shown to the other peers\n"
+	    "      --drop P  --delay MS  --jitter MS  --reorder P  --fault-seed S\n"
+	    "                          inject loss, delay and reordering into what this\n"
+	    "                          peer receives\n"
 	    "  -h, --help              show this help and exit\n"
 	    "      --version           show the version and exit\n"
 	    "\n"
 	    "Exit status: 0 success, 1 bad input or failed write, 2 usage error,\n"
 	    "3 the simulation diverged (the output grid is not written; frames and log\n"
 	    "rows written before the divergence stay, all of finite states), 130\n"
-	    "interrupted (SIGINT or SIGTERM: the same, after the current step).\n",
-	    ndo_progname);
+	    "interrupted (SIGINT or SIGTERM: the same, after the current step); peers:\n"
+	    "4 the session ended before the run completed (the owner quit or fell\n"
+	    "silent, or the peers or the object did not come).\n",
+	    ndo_progname, ndo_progname, ndo_progname);
 	ndo_close_stdout();
 	exit(NDO_EXIT_OK);
 }
@@ -102,26 +127,6 @@ static double now(void)
 
 /* ---- the run ------------------------------------------------------------- */
 
-typedef struct run {
-	ndo_scene sc;
-	const char *in;
-	int quiet, info;
-	ndo_grid *g;       /* the input, then the output */
-	ndo_grid *frame;   /* frames: a copy carrying this command in its history */
-	ndo_sim *sim;
-	ndo_critical crit;
-	double dt;
-	int64_t steps;
-	ndo_outfile log;
-	int logging;
-	uint8_t *pins;     /* from --pin, or NULL */
-	/* Work arrays, kept here so that they stay reachable when an error
-	 * exits (the leak checker of the sanitizer build). */
-	const char **keys, **vals;
-	double *rest, *x0;
-	uint8_t *pin;
-	ndo_force *forces;
-} run;
 
 static void perturb(run *r, double *x)
 {
@@ -140,7 +145,7 @@ static void perturb(run *r, double *x)
 
 /* Load the input (and rest grid), resolve forces and pins, create the
  * simulation. */
-static void setup(run *r)
+void setup(run *r)
 {
 	ndo_grid *g = r->g = ndo_cli_load(r->in);
 	double *x = ndo_grid_f64(g, NDO_CH_POSITION, 3);
@@ -185,6 +190,12 @@ static void setup(run *r)
 		ndo_usage_error("%s", ndo_errdetail());
 	if (r->sc.npins)
 		r->pins = pin;
+	if (r->net.role == NDO_ROLE_OWNER) {
+		r->allpins = malloc(g->count);
+		if (!r->allpins)
+			ndo_die("out of memory");
+		memcpy(r->allpins, pin, g->count);
+	}
 	ndo_sim_params p = r->sc.sim;
 	p.forces = r->forces;
 	p.nforces = r->sc.nforces;
@@ -214,7 +225,7 @@ static const char *bound_name(int b)
 }
 
 /* The critical step, the step size and the step count. */
-static void plan(run *r)
+void plan(run *r)
 {
 	ndo_method m = ndo_sim_method(r->sim);
 	const char *name = ndo_method_names[m];
@@ -286,16 +297,26 @@ static void diverged(run *r)
 	exit(EXIT_DIVERGED);
 }
 
-static void log_row(run *r)
+void log_open(run *r)
+{
+	if (!r->sc.log)
+		return;
+	if (ndo_out_open(r->sc.log, &r->log))
+		ndo_die("%s: %s", r->sc.log, ndo_errdetail());
+	r->logging = 1;
+	fprintf(r->log.f, "step,time_s,dt_s,kinetic_J,potential_J,work_J,"
+	                  "max_displacement_m,substeps,rejected\n");
+}
+
+void log_row(run *r, ndo_sim *sim, int64_t step)
 {
 	ndo_sim_energy e;
 	ndo_sim_stats st;
-	ndo_sim_energy_get(r->sim, &e);
-	ndo_sim_stats_get(r->sim, &st);
+	ndo_sim_energy_get(sim, &e);
+	ndo_sim_stats_get(sim, &st);
 	fprintf(r->log.f, "%lld,%.17g,%.17g,%.17g,%.17g,%.17g,%.17g,%lld,%lld\n",
-	        (long long)ndo_sim_step_count(r->sim), ndo_sim_time(r->sim), r->dt, e.kinetic,
-	        e.potential, e.work, e.max_displacement, (long long)st.substeps,
-	        (long long)st.rejected);
+	        (long long)step, ndo_sim_time(sim), r->dt, e.kinetic, e.potential, e.work,
+	        e.max_displacement, (long long)st.substeps, (long long)st.rejected);
 }
 
 static void write_frame(run *r, int64_t k)
@@ -319,13 +340,7 @@ static void progress(run *r, int64_t k, double t0)
 
 static void simulate(run *r)
 {
-	if (r->sc.log) {
-		if (ndo_out_open(r->sc.log, &r->log))
-			ndo_die("%s: %s", r->sc.log, ndo_errdetail());
-		r->logging = 1;
-		fprintf(r->log.f, "step,time_s,dt_s,kinetic_J,potential_J,work_J,"
-		                  "max_displacement_m,substeps,rejected\n");
-	}
+	log_open(r);
 	if (r->sc.frames) {
 		if (ndo_grid_copy(r->g, &r->frame) ||
 		    ndo_grid_add_history(r->frame, ndo_cli_argc(), ndo_cli_argv()))
@@ -357,7 +372,7 @@ static void simulate(run *r)
 			diverged(r);
 		}
 		if (r->logging && (k % r->sc.log_every == 0 || k == r->steps))
-			log_row(r);
+			log_row(r, r->sim, ndo_sim_step_count(r->sim));
 		if (r->frame && k % r->sc.frame_every == 0)
 			write_frame(r, frame++);
 		if (show && now() - shown > 0.25) {
@@ -408,7 +423,7 @@ static void finish(run *r)
 
 static void options(run *r, int argc, char **argv)
 {
-	enum { OPT_INFO = 256, OPT_VERSION, OPT_SETTING };
+	enum { OPT_INFO = 256, OPT_VERSION, OPT_SETTING, OPT_PEER, OPT_PEER_FLAG };
 	static const struct option opts[] = {
 		{"scene", required_argument, 0, 's'},
 		{"integrator", required_argument, 0, 'i'},
@@ -435,6 +450,26 @@ static void options(run *r, int argc, char **argv)
 		{"perturb", required_argument, 0, OPT_SETTING},
 		{"seed", required_argument, 0, OPT_SETTING},
 		{"energy-bound", required_argument, 0, OPT_SETTING},
+		{"owner", no_argument, 0, OPT_PEER_FLAG},
+		{"join", no_argument, 0, OPT_PEER_FLAG},
+		{"poi", required_argument, 0, OPT_PEER},
+		{"lcm", required_argument, 0, OPT_PEER},
+		{"channel", required_argument, 0, OPT_PEER},
+		{"name", required_argument, 0, OPT_PEER},
+		{"partition", required_argument, 0, OPT_PEER},
+		{"clock", required_argument, 0, OPT_PEER},
+		{"speed", required_argument, 0, OPT_PEER},
+		{"peers", required_argument, 0, OPT_PEER},
+		{"boundary", required_argument, 0, OPT_PEER},
+		{"step-timeout", required_argument, 0, OPT_PEER},
+		{"peer-timeout", required_argument, 0, OPT_PEER},
+		{"start-timeout", required_argument, 0, OPT_PEER},
+		{"gather-timeout", required_argument, 0, OPT_PEER},
+		{"drop", required_argument, 0, OPT_PEER},
+		{"delay", required_argument, 0, OPT_PEER},
+		{"jitter", required_argument, 0, OPT_PEER},
+		{"reorder", required_argument, 0, OPT_PEER},
+		{"fault-seed", required_argument, 0, OPT_PEER},
 		{"info", no_argument, 0, OPT_INFO},
 		{"quiet", no_argument, 0, 'q'},
 		{"help", no_argument, 0, 'h'},
@@ -458,6 +493,8 @@ static void options(run *r, int argc, char **argv)
 		case 'b': keys[n] = "damping", vals[n++] = optarg; break;
 		case 'o': keys[n] = "output", vals[n++] = optarg; break;
 		case OPT_SETTING: keys[n] = opts[idx].name, vals[n++] = optarg; break;
+		case OPT_PEER:
+		case OPT_PEER_FLAG: peer_option(&r->net, opts[idx].name, optarg); break;
 		case OPT_INFO: r->info = 1; break;
 		case 'q': r->quiet = 1; break;
 		case 'h': usage();
@@ -468,6 +505,7 @@ static void options(run *r, int argc, char **argv)
 	if (optind + 1 < argc)
 		ndo_usage_error("more than one input: '%s'", argv[optind + 1]);
 	r->in = optind < argc ? argv[optind] : NULL;
+	peer_check(&r->net, scene, r->in, n, keys);
 	if (scene && ndo_scene_load(&r->sc, scene))
 		ndo_die("%s", ndo_errdetail());
 	for (int k = 0; k < n; k++)
@@ -476,9 +514,9 @@ static void options(run *r, int argc, char **argv)
 	free(keys);
 	free(vals);
 	r->keys = r->vals = NULL;
-	if (ndo_is_stdio(r->in) && isatty(STDIN_FILENO))
+	if (r->net.role != NDO_ROLE_JOINER && ndo_is_stdio(r->in) && isatty(STDIN_FILENO))
 		ndo_usage_error("no input: give a grid file or pipe one in");
-	if (!r->info)
+	if (!r->info && (r->net.role != NDO_ROLE_JOINER || r->sc.output))
 		ndo_cli_check_output(r->sc.output);
 	if (r->sc.frames) {
 		char probe[4096];
@@ -494,7 +532,10 @@ int main(int argc, char **argv)
 	ndo_cli_init(argc, argv);
 	static run r;
 	ndo_scene_init(&r.sc);
+	peer_defaults(&r.net);
 	options(&r, argc, argv);
+	if (r.net.role)
+		return peers_main(&r);
 	setup(&r);
 	plan(&r);
 	if (r.info) {

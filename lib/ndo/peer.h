@@ -1,0 +1,192 @@
+/* ndo/peer.h — one simulating peer: a session (ndo/session.h) and a
+ * simulation (ndo/sim.h) kept in time with the other peers (thesis §4.4–
+ * 4.5; docs/peers.md).
+ *
+ * Every peer integrates the nodes the partition gives it (the owner
+ * channel names it), holding the others at the values their peers last
+ * published: the thesis' one-step boundary lag.  Time is kept in one of
+ * two ways, chosen by the owner for the whole session:
+ *
+ *   NDO_CLOCK_LOCKSTEP  a peer steps t → t+1 once it holds, for every node
+ *                      next to its region (its halo), the value of step t
+ *                      from that node's peer.  Tiles of later steps wait
+ *                      in a stash until the peer gets there, so the result
+ *                      does not depend on timing: with no loss it is the
+ *                      single-process run to rounding for the one-stage
+ *                      methods (forward and symplectic Euler), and with an
+ *                      O(h) boundary-lag error for the multi-stage ones.
+ *                      A peer that waits sends its own last two steps
+ *                      again (after `resend`, doubling up to 0.2 s), which
+ *                      recovers lost tiles; after `step_timeout` it goes
+ *                      on with the newest values it has and counts the
+ *                      miss (a dead or unreachable neighbour).
+ *   NDO_CLOCK_REALTIME  a peer steps on the wall clock, step k at
+ *                      start + k·dt/speed, with whatever values it holds;
+ *                      nobody waits, the lag is what the network costs.  A
+ *                      peer that sees another one further on catches up at
+ *                      once (the earliest starter sets the pace).
+ *
+ * The run: the owner starts when `peers` peers (itself included) are in
+ * the partition, from its grid's step s0, and every peer takes `steps`
+ * steps, to s0 + steps.  A joiner learns the physics, dt, the step count,
+ * the time keeping and the start condition from the owner's description
+ * (scene text, ndo_scene_physics plus "peer-*" lines).  At the end the
+ * owner gathers every node's last step (the whole object: -o), then ends
+ * the session; a joiner keeps sending its last steps until the owner
+ * ends it.
+ *
+ * Nothing here sleeps, and no decision reads a clock: the caller passes
+ * `now` (seconds, monotonic; tests use a fake clock) and waits until
+ * ndo_peer_deadline() or until the link's file descriptor is readable
+ * (only compute_seconds is measured on CLOCK_MONOTONIC).  One thread.
+ */
+#ifndef NDO_PEER_H
+#define NDO_PEER_H
+
+#include <stdint.h>
+
+#include "ndo/grid.h"
+#include "ndo/net.h"
+#include "ndo/session.h"
+#include "ndo/sim.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef enum ndo_clock { NDO_CLOCK_LOCKSTEP = 1, NDO_CLOCK_REALTIME = 2 } ndo_clock;
+
+/* "lockstep", "realtime"; parse: −1 if unknown. */
+const char *ndo_clock_name(ndo_clock s);
+int ndo_clock_parse(const char *s);
+
+typedef struct ndo_peer_opts {
+	/* role, name, poi, partition, heartbeat, timeout, ids (tile_fn is
+	 * the peer's own) */
+	ndo_session_opts session;
+	/* The owner's choices for the session (a joiner takes the owner's): */
+	ndo_clock clock;        /* 0: lock-step */
+	double step_timeout;    /* lock-step: seconds a step waits for the halo,
+	                           then goes on with the newest values (0: 0.5) */
+	double speed;           /* realtime: simulated seconds per wall-clock
+	                           second (0: 1) */
+	int peers;              /* start when this many peers simulate, the
+	                           owner included (≤ 1: at once) */
+	int hold_boundary;      /* 1: the others' nodes stand still during a
+	                           step, at the values received (the thesis);
+	                           0 (default): they move with their
+	                           velocities (ndo_sim_set_held_motion: the
+	                           lag's error O(h²) instead of O(h)), and a
+	                           value of another step is first carried
+	                           along its velocity, by one step at most */
+	/* Each peer's own: */
+	double start_timeout;   /* owner: end the session (NDO_PEER_ENDED) when
+	                           `peers` have not joined within this; joiner:
+	                           end when no object arrived within it (0: 60 s) */
+	double resend;          /* first re-send of own tiles while waiting
+	                           (0: 0.01 s) */
+	double gather_timeout;  /* owner: after the last step, wait at most this
+	                           for the others' last tiles (0: 10 s) */
+	/* Progress messages ("peer 5 joined", "partition 3: ...", misses);
+	 * may be NULL. */
+	void (*note)(void *user, const char *msg);
+	void *note_user;
+} ndo_peer_opts;
+
+/* What the owner runs: its physics settings (ndo_scene_physics()), the
+ * step (resolved, seconds) and the number of steps. */
+typedef struct ndo_peer_run {
+	const char *physics;
+	double dt;
+	int64_t steps;
+} ndo_peer_run;
+
+typedef struct ndo_peer ndo_peer;
+
+/* Create a peer on `net` (taken over).  Owner: `grid` holds the object
+ * (position, velocity, rest f64; pin u8) in the state `sim` starts from,
+ * at grid->step and grid->time; both are taken over; `run` is required.
+ * Joiner: grid, sim and run are NULL; they come with the description.
+ * NDO_EINVAL for an inconsistent call, NDO_ENOMEM. */
+int ndo_peer_create(const ndo_peer_opts *o, ndo_net *net, ndo_grid *grid, ndo_sim *sim,
+                    const ndo_peer_run *run, ndo_peer **out);
+
+/* Leave (the owner: end the session for everyone, with `message`) and
+ * free.  Accepts NULL. */
+void ndo_peer_destroy(ndo_peer *p, const char *message);
+
+typedef enum ndo_peer_state {
+	NDO_PEER_WAITING = 0, /* nothing to report: call again by the deadline */
+	NDO_PEER_STEPPED,     /* one step taken (state at ndo_peer_step()) */
+	NDO_PEER_DONE,        /* the run is complete: owner, every node of the
+	                         last step gathered (or gather_timeout passed:
+	                         see ndo_peer_stats.ungathered); joiner, the
+	                         owner ended the session after its last step */
+	NDO_PEER_ENDED        /* the session ended before the run completed
+	                         (owner quit or fell silent, this peer was
+	                         dropped, the owner's peers did not come):
+	                         ndo_peer_message() says why */
+} ndo_peer_state;
+
+/* Do what is due at `now`: the session's protocol, the others' tiles, at
+ * most one step, re-sends.  Returns an ndo_peer_state, or a negative
+ * status: NDO_EDIVERGED (the simulation diverged: ndo_errdetail()), NDO_EIO
+ * (the link failed), NDO_ERANGE/NDO_EINVAL (a joiner cannot use the
+ * owner's description: ndo_errdetail()), NDO_ENOMEM. */
+int ndo_peer_update(ndo_peer *p, double now);
+
+/* The latest time by which ndo_peer_update() should be called again (it
+ * may be called any time before; messages arriving on the link are a
+ * reason too). */
+double ndo_peer_deadline(const ndo_peer *p);
+
+/* The object as this peer holds it: its own region at ndo_peer_step(),
+ * the others' newest values; channels position, velocity, rest, pin,
+ * owner (ndo_session_grid).  NULL before the description. */
+ndo_grid *ndo_peer_grid(ndo_peer *p);
+/* The simulation (NULL before it starts, and for an observer). */
+ndo_sim *ndo_peer_sim(ndo_peer *p);
+ndo_session *ndo_peer_session(ndo_peer *p);
+/* The step this peer's region is at, and the run's first and last step. */
+int64_t ndo_peer_step(const ndo_peer *p);
+int64_t ndo_peer_first_step(const ndo_peer *p);
+int64_t ndo_peer_final_step(const ndo_peer *p);
+double ndo_peer_dt(const ndo_peer *p);
+ndo_clock ndo_peer_clock(const ndo_peer *p);
+/* Why the session ended (NDO_PEER_ENDED, or a joiner's NDO_PEER_DONE). */
+const char *ndo_peer_message(const ndo_peer *p);
+/* 1 once the run has started here (this peer's clock runs). */
+int ndo_peer_started(const ndo_peer *p);
+/* 1 if this peer simulates (is in the partition). */
+int ndo_peer_simulating(const ndo_peer *p);
+
+typedef struct ndo_peer_stats {
+	int64_t steps;          /* steps taken */
+	int64_t waited;         /* lock-step: steps that waited for the halo */
+	double wait_seconds;    /* time spent waiting for it */
+	double compute_seconds; /* time in ndo_sim_step (CLOCK_MONOTONIC) */
+	int64_t timeouts;       /* steps that went on after step_timeout */
+	int64_t missed;         /* halo node-steps integrated with an older step's
+	                           value (lock-step: after a timeout) */
+	double lag_sum;         /* Σ over steps of the halo's mean |age| in steps
+	                           (0 when every value is of the step itself;
+	                           realtime values can be of a later step) */
+	double lag_max;         /* the largest |age| of a halo value used */
+	int64_t resends;        /* times this peer sent its tiles again */
+	int64_t behind;         /* realtime: steps taken late (the schedule had
+	                           passed) or to catch up with a peer further on */
+	int64_t stale;          /* tiles not used: of an older step or partition */
+	int64_t stashed;        /* tiles kept for a later step or partition */
+	int64_t repartitions;   /* partitions this peer simulated under, after
+	                           the first */
+	int64_t ungathered;     /* owner: nodes not at the last step when the run
+	                           ended (after gather_timeout) */
+	double start_time;      /* caller's clock at the first step */
+	double end_time;        /* ... at the last */
+} ndo_peer_stats;
+void ndo_peer_stats_get(const ndo_peer *p, ndo_peer_stats *st);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,78 @@
+/* ndo/watch.h — a passive observer of a peers' session: the whole object,
+ * step by step, assembled from the tiles the simulating peers publish
+ * (docs/peers.md, "Record and replay").
+ *
+ * A watch sends nothing.  It attaches to the first object described on
+ * its net (or the one asked for), keeps the owner's partitions by epoch,
+ * and builds the frame of a step s from the tiles of step s: each node
+ * from the tile of the peer that owns it in the partition that tile was
+ * simulated under.  A frame is complete when every node has its value of
+ * step s; frames are handed out in step order, a complete one once no
+ * older frame is still open.  An open frame is given up (a tile was lost)
+ * when `window` later frames are open too, or at the end; it is counted,
+ * not shown.  With no loss the frames depend only on which tiles were
+ * published, not on their timing or order: a recorded run
+ * (ndo_link_open_log) gives the frames of the live one.
+ *
+ * Frames are grids with position, owner (the partition in force at that
+ * step), and rest and pin when the owner has sent them (it does when a
+ * peer joins), step and time.  One thread.
+ */
+#ifndef NDO_WATCH_H
+#define NDO_WATCH_H
+
+#include <stdint.h>
+
+#include "ndo/grid.h"
+#include "ndo/net.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct ndo_watch_opts {
+	int64_t object_id; /* 0: the first object described */
+	int64_t every;     /* frames of the steps that are multiples of this
+	                      (≤ 1: every step) */
+	int window;        /* steps assembled at once (0: 16) */
+	double timeout;    /* end when nothing is heard for this many seconds
+	                      (0: never) */
+} ndo_watch_opts;
+
+typedef struct ndo_watch ndo_watch;
+
+/* Watch `net` (taken over; ndo_net_keep_all_tiles is turned on). */
+int ndo_watch_create(ndo_net *net, const ndo_watch_opts *o, ndo_watch **out);
+void ndo_watch_destroy(ndo_watch *w); /* accepts NULL */
+
+/* Drain the net and assemble.  `now`: seconds, monotonic (for the
+ * timeout).  0, or NDO_EIO/NDO_EFORMAT/... from the link (a log that
+ * turns out corrupt), NDO_ENOMEM. */
+int ndo_watch_update(ndo_watch *w, double now);
+
+/* The next complete frame, in step order: 1 and *frame (the caller owns
+ * it), or 0 when none is ready. */
+int ndo_watch_next(ndo_watch *w, ndo_grid **frame);
+
+/* 1 when no frame will come any more: the owner ended the session, the
+ * link ended (the log was read), or the timeout passed; ndo_watch_why()
+ * says which. */
+int ndo_watch_ended(const ndo_watch *w);
+const char *ndo_watch_why(const ndo_watch *w);
+
+typedef struct ndo_watch_stats {
+	int64_t frames;      /* handed out */
+	int64_t incomplete;  /* given up: a tile never came */
+	int64_t tiles;       /* state tiles used */
+	int64_t unused;      /* state tiles of steps not watched, done, or too old */
+	int64_t unknown;     /* tiles whose partition never came (kept until it
+	                        does, up to 4096) */
+	int64_t object_id;   /* the object watched (0: none yet) */
+	int level;           /* its level (−1: none yet) */
+} ndo_watch_stats;
+void ndo_watch_stats_get(const ndo_watch *w, ndo_watch_stats *st);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,480 @@
+/* watch.c — a passive observer of a peers' session (ndo/watch.h). */
+#include "ndo/watch.h"
+#include "ndo/partition.h"
+#include "ndo/quadtree.h"
+#include "ndo/session.h"
+#include "ndo/status.h"
+#include "ndo/tile.h"
+#include "ndo/topology.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define EPOCHS 16    /* partitions kept, newest first out */
+#define HELD_MAX 4096 /* tiles kept until their partition arrives */
+#define CLOSE_GRACE 0.25 /* s to listen on after the owner quit */
+
+typedef struct epoch_map {
+	int32_t epoch; /* −1: empty */
+	int32_t *owner;
+} epoch_map;
+
+typedef struct pending {
+	int64_t step; /* −1: free */
+	double time;
+	double *x;        /* positions, 3 per stored node */
+	int32_t *epoch;   /* per canonical node: the epoch of its value, −1 none */
+	int32_t top;      /* the newest epoch used */
+	size_t filled;
+	int complete;     /* every node has its value: out when the older are */
+} pending;
+
+struct ndo_watch {
+	ndo_watch_opts o;
+	ndo_net *net;
+	int attached, ended;
+	int64_t object;
+	int32_t owner_id;
+	int level;
+	size_t count, ncanon;
+	int32_t *canon;
+	ndo_grid *base;   /* rest and pin as received */
+	int have_rest, have_pin;
+	epoch_map maps[EPOCHS];
+	pending *pend;
+	int npend;
+	int64_t done_step; /* the last step handed out or skipped */
+	ndo_msg_tile_t *held; /* tiles of a partition not received yet */
+	size_t nheld, capheld;
+	ndo_grid **ready;  /* complete frames, in step order */
+	int nready, capready;
+	double heard, now;
+	double close_at;   /* the owner quit: end at this time (−1: not yet) */
+	char why[300];
+	ndo_watch_stats st;
+};
+
+int ndo_watch_create(ndo_net *net, const ndo_watch_opts *o, ndo_watch **out)
+{
+	ndo__clear_error();
+	ndo_watch *w = calloc(1, sizeof *w);
+	if (!w) {
+		ndo_net_destroy(net);
+		return ndo__fail(NDO_ENOMEM, "out of memory");
+	}
+	w->o = *o;
+	if (w->o.every < 1)
+		w->o.every = 1;
+	if (w->o.window <= 0)
+		w->o.window = 16;
+	w->net = net;
+	w->level = -1;
+	w->st.level = -1;
+	w->done_step = -1;
+	w->heard = -1;
+	w->close_at = -1;
+	for (int k = 0; k < EPOCHS; k++)
+		w->maps[k].epoch = -1;
+	ndo_net_keep_all_tiles(net, 1);
+	*out = w;
+	return 0;
+}
+
+static void free_pending(pending *p)
+{
+	free(p->x);
+	free(p->epoch);
+	p->x = NULL;
+	p->epoch = NULL;
+	p->step = -1;
+}
+
+void ndo_watch_destroy(ndo_watch *w)
+{
+	if (!w)
+		return;
+	ndo_net_destroy(w->net);
+	ndo_grid_destroy(w->base);
+	for (int k = 0; k < EPOCHS; k++)
+		free(w->maps[k].owner);
+	for (int k = 0; k < w->npend; k++)
+		free_pending(&w->pend[k]);
+	free(w->pend);
+	for (int k = 0; k < w->nready; k++)
+		ndo_grid_destroy(w->ready[k]);
+	for (size_t k = 0; k < w->nheld; k++)
+		free(w->held[k].values);
+	free(w->held);
+	free(w->ready);
+	free(w->canon);
+	free(w);
+}
+
+/* ---- the object ---------------------------------------------------------- */
+static int attach(ndo_watch *w, const ndo_msg_description_t *d)
+{
+	if (w->attached || (w->o.object_id && d->hdr.object_id != w->o.object_id))
+		return 0;
+	int rc = ndo_grid_create(d->level, &w->base);
+	if (rc)
+		return rc;
+	if (ndo_grid_add(w->base, NDO_CH_REST, NDO_F64, 3, NULL) ||
+	    ndo_grid_add(w->base, NDO_CH_PIN, NDO_U8, 1, NULL))
+		return ndo__fail(NDO_ENOMEM, "out of memory");
+	w->level = d->level;
+	w->count = w->base->count;
+	w->canon = malloc(w->count * sizeof *w->canon);
+	w->pend = calloc((size_t)w->o.window, sizeof *w->pend);
+	if (!w->canon || !w->pend)
+		return ndo__fail(NDO_ENOMEM, "out of memory");
+	w->npend = w->o.window;
+	for (int k = 0; k < w->npend; k++)
+		w->pend[k].step = -1;
+	w->ncanon = 0;
+	for (size_t k = 0; k < w->count; k++) {
+		w->canon[k] = (int32_t)ndo_canonical(w->level, (int)(k % (size_t)w->base->w),
+		                                     (int)(k / (size_t)w->base->w));
+		w->ncanon += (size_t)w->canon[k] == k;
+	}
+	w->object = d->hdr.object_id;
+	w->owner_id = d->hdr.sender_id;
+	w->attached = 1;
+	w->st.object_id = w->object;
+	w->st.level = w->level;
+	ndo_net_attach(w->net, w->object, w->level);
+	return 0;
+}
+
+static int release(ndo_watch *w, int32_t epoch);
+
+static epoch_map *find_epoch(ndo_watch *w, int32_t epoch)
+{
+	for (int k = 0; k < EPOCHS; k++)
+		if (w->maps[k].epoch == epoch)
+			return &w->maps[k];
+	return NULL;
+}
+
+static int on_partition(ndo_watch *w, const ndo_msg_partition_t *p)
+{
+	if (p->hdr.sender_id != w->owner_id || find_epoch(w, p->epoch))
+		return 0;
+	epoch_map *m = &w->maps[0]; /* replace the oldest */
+	for (int k = 1; k < EPOCHS; k++)
+		if (w->maps[k].epoch < m->epoch)
+			m = &w->maps[k];
+	size_t ncells = ndo_cell_count(w->level);
+	int32_t *cells = malloc(ncells * sizeof *cells);
+	int32_t *owner = m->owner ? m->owner : malloc(w->count * sizeof *owner);
+	if (!cells || !owner) {
+		free(cells);
+		if (!m->owner)
+			free(owner);
+		return ndo__fail(NDO_ENOMEM, "out of memory");
+	}
+	ndo_partition_cells(w->level, p, cells);
+	ndo_partition_node_owner(w->level, cells, p->peers, owner);
+	free(cells);
+	m->owner = owner;
+	m->epoch = p->epoch;
+	return release(w, p->epoch);
+}
+
+/* ---- frames -------------------------------------------------------------- */
+static int push_ready(ndo_watch *w, ndo_grid *g)
+{
+	if (w->nready == w->capready) {
+		int cap = w->capready ? 2 * w->capready : 8;
+		ndo_grid **r = realloc(w->ready, (size_t)cap * sizeof *r);
+		if (!r)
+			return ndo__fail(NDO_ENOMEM, "out of memory");
+		w->ready = r;
+		w->capready = cap;
+	}
+	w->ready[w->nready++] = g;
+	return 0;
+}
+
+/* Hand out frame p (complete). */
+static int emit(ndo_watch *w, pending *p)
+{
+	ndo_grid *g;
+	int rc = ndo_grid_create(w->level, &g);
+	if (rc)
+		return rc;
+	ndo_channel *own;
+	if (ndo_grid_add(g, NDO_CH_OWNER, NDO_I32, 1, &own)) {
+		ndo_grid_destroy(g);
+		return ndo__fail(NDO_ENOMEM, "out of memory");
+	}
+	memcpy(ndo_grid_f64(g, NDO_CH_POSITION, 3), p->x, 3 * w->count * sizeof *p->x);
+	epoch_map *m = find_epoch(w, p->top);
+	if (m)
+		memcpy(own->data, m->owner, w->count * sizeof *m->owner);
+	if (w->have_rest) {
+		ndo_channel *c;
+		if (ndo_grid_add(g, NDO_CH_REST, NDO_F64, 3, &c) == 0)
+			memcpy(c->data, ndo_grid_find(w->base, NDO_CH_REST)->data, 3 * w->count * sizeof(double));
+	}
+	if (w->have_pin) {
+		ndo_channel *c;
+		if (ndo_grid_add(g, NDO_CH_PIN, NDO_U8, 1, &c) == 0)
+			memcpy(c->data, ndo_grid_find(w->base, NDO_CH_PIN)->data, w->count);
+	}
+	g->step = p->step;
+	g->time = p->time;
+	ndo_grid_sync(g);
+	if ((rc = push_ready(w, g))) {
+		ndo_grid_destroy(g);
+		return rc;
+	}
+	w->st.frames++;
+	w->done_step = p->step;
+	free_pending(p);
+	return 0;
+}
+
+static pending *oldest_open(ndo_watch *w)
+{
+	pending *o = NULL;
+	for (int k = 0; k < w->npend; k++)
+		if (w->pend[k].step >= 0 && (!o || w->pend[k].step < o->step))
+			o = &w->pend[k];
+	return o;
+}
+
+/* Hand out the complete frames that no open older frame holds back; with
+ * `all` (the end), skip the incomplete ones instead of waiting. */
+static int flush(ndo_watch *w, int all)
+{
+	pending *o;
+	while ((o = oldest_open(w))) {
+		if (o->complete) {
+			int rc = emit(w, o);
+			if (rc)
+				return rc;
+		} else if (all) {
+			w->done_step = o->step;
+			free_pending(o);
+			w->st.incomplete++;
+		} else {
+			break;
+		}
+	}
+	return 0;
+}
+
+/* The open frame of `step`, opened if need be (closing the oldest when
+ * all are in use); NULL when out of memory. */
+static pending *frame_of(ndo_watch *w, int64_t step, int *failed)
+{
+	pending *free_slot = NULL, *oldest = NULL;
+	for (int k = 0; k < w->npend; k++) {
+		pending *p = &w->pend[k];
+		if (p->step == step)
+			return p;
+		if (p->step < 0 && !free_slot)
+			free_slot = p;
+		if (p->step >= 0 && (!oldest || p->step < oldest->step))
+			oldest = p;
+	}
+	if (!free_slot) { /* give the oldest up: its tiles are lost */
+		if (oldest->step > step)
+			return NULL; /* older than every open frame: too late */
+		w->done_step = oldest->step;
+		free_pending(oldest);
+		w->st.incomplete++;
+		int rc = flush(w, 0);
+		if (rc) {
+			*failed = 1;
+			return NULL;
+		}
+		free_slot = oldest;
+	}
+	pending *p = free_slot;
+	p->x = malloc(3 * w->count * sizeof *p->x);
+	p->epoch = malloc(w->count * sizeof *p->epoch);
+	if (!p->x || !p->epoch) {
+		free_pending(p);
+		*failed = 1;
+		return NULL;
+	}
+	for (size_t k = 0; k < w->count; k++)
+		p->epoch[k] = -1;
+	p->step = step;
+	p->filled = 0;
+	p->top = -1;
+	p->complete = 0;
+	return p;
+}
+
+static int hold(ndo_watch *w, const ndo_msg_tile_t *t)
+{
+	if (w->nheld == HELD_MAX) {
+		free(w->held[0].values);
+		memmove(w->held, w->held + 1, (w->nheld - 1) * sizeof *w->held);
+		w->nheld--;
+		w->st.unknown++;
+	}
+	if (w->nheld == w->capheld) {
+		size_t cap = w->capheld ? 2 * w->capheld : 64;
+		ndo_msg_tile_t *q = realloc(w->held, cap * sizeof *q);
+		if (!q)
+			return ndo__fail(NDO_ENOMEM, "out of memory");
+		w->held = q;
+		w->capheld = cap;
+	}
+	int rc = ndo_tile_copy(t, &w->held[w->nheld]);
+	if (rc)
+		return rc;
+	w->nheld++;
+	return 0;
+}
+
+static int on_tile(ndo_watch *w, const ndo_msg_tile_t *t);
+
+/* A partition arrived: the tiles that waited for it. */
+static int release(ndo_watch *w, int32_t epoch)
+{
+	size_t keep = 0;
+	int rc = 0;
+	for (size_t k = 0; k < w->nheld; k++) {
+		if (w->held[k].epoch == epoch && !rc) {
+			rc = on_tile(w, &w->held[k]);
+			free(w->held[k].values);
+		} else {
+			w->held[keep++] = w->held[k];
+		}
+	}
+	w->nheld = keep;
+	return rc;
+}
+
+static int on_tile(ndo_watch *w, const ndo_msg_tile_t *t)
+{
+	int32_t from = t->hdr.sender_id;
+	if (t->channels & (NDO_TILE_REST | NDO_TILE_PIN)) {
+		if (from == w->owner_id) {
+			ndo_tile_apply(w->base, t, NULL, 0);
+			ndo_grid_sync(w->base);
+			w->have_rest |= (t->channels & NDO_TILE_REST) != 0;
+			w->have_pin |= (t->channels & NDO_TILE_PIN) != 0;
+		}
+		return 0;
+	}
+	if (!(t->channels & NDO_TILE_POSITION) || t->step % w->o.every != 0 ||
+	    t->step <= w->done_step) {
+		w->st.unused++;
+		return 0;
+	}
+	epoch_map *m = find_epoch(w, t->epoch);
+	if (!m) /* its partition may come later (reordered): keep it */
+		return hold(w, t);
+	int failed = 0;
+	pending *p = frame_of(w, t->step, &failed);
+	if (!p) {
+		if (failed)
+			return ndo__fail(NDO_ENOMEM, "out of memory");
+		w->st.unused++;
+		return 0;
+	}
+	p->time = t->time;
+	int per = ndo_tile_values_per_node(t->channels);
+	size_t k = 0;
+	for (int j = t->j0; j <= t->j1; j++)
+		for (int i = t->i0; i <= t->i1; i++, k += (size_t)per) {
+			size_t node = ndo_node(w->base->w, i, j), c = (size_t)w->canon[node];
+			if (m->owner[c] != from || p->epoch[c] > t->epoch)
+				continue;
+			memcpy(p->x + 3 * node, &t->values[k], 3 * sizeof *p->x);
+			if (node == c) {
+				if (p->epoch[c] < 0)
+					p->filled++;
+				p->epoch[c] = t->epoch;
+			}
+		}
+	if (t->epoch > p->top)
+		p->top = t->epoch;
+	w->st.tiles++;
+	if (p->filled == w->ncanon && !p->complete) {
+		p->complete = 1;
+		return flush(w, 0);
+	}
+	return 0;
+}
+
+static void on_leave(ndo_watch *w, const ndo_msg_leave_t *l)
+{
+	if (l->hdr.sender_id == w->owner_id && w->close_at < 0 &&
+	    (l->peer == w->owner_id || l->reason == NDO_LEAVE_OWNER_QUIT)) {
+		/* the others' last tiles may still be on their way */
+		w->close_at = w->now + CLOSE_GRACE;
+		snprintf(w->why, sizeof w->why, "the owner quit%s%s", *l->message ? ": " : "",
+		         l->message);
+	}
+}
+
+int ndo_watch_update(ndo_watch *w, double now)
+{
+	ndo__clear_error();
+	w->now = now;
+	if (w->heard < 0)
+		w->heard = now;
+	if (w->ended)
+		return 0;
+	int rc = ndo_net_poll(w->net, now);
+	if (rc < 0)
+		return rc;
+	if (rc > 0)
+		w->heard = now;
+	ndo_msg m;
+	while (!w->ended && ndo_net_next(w->net, &m)) {
+		switch (m.type) {
+		case NDO_MSG_DESCRIPTION: rc = attach(w, &m.u.description); break;
+		case NDO_MSG_PARTITION: rc = w->attached ? on_partition(w, &m.u.partition) : 0; break;
+		case NDO_MSG_TILE: rc = w->attached ? on_tile(w, &m.u.tile) : 0; break;
+		case NDO_MSG_LEAVE: if (w->attached) on_leave(w, &m.u.leave); rc = 0; break;
+		default: rc = 0; break;
+		}
+		ndo_msg_free(&m);
+		if (rc < 0)
+			return rc;
+	}
+	if (!w->ended && w->close_at >= 0 && now >= w->close_at)
+		w->ended = 1;
+	if (!w->ended && ndo_link_ended(ndo_net_link(w->net))) { /* a log read to its end */
+		w->ended = 1;
+		if (!*w->why)
+			snprintf(w->why, sizeof w->why, "the end of the log");
+	}
+	if (!w->ended && w->o.timeout > 0 && now - w->heard > w->o.timeout) {
+		w->ended = 1;
+		snprintf(w->why, sizeof w->why, "nothing heard for %.3g s", now - w->heard);
+	}
+	return w->ended && w->attached ? flush(w, 1) : 0;
+}
+
+int ndo_watch_next(ndo_watch *w, ndo_grid **frame)
+{
+	if (!w->nready)
+		return 0;
+	*frame = w->ready[0];
+	memmove(w->ready, w->ready + 1, (size_t)(w->nready - 1) * sizeof *w->ready);
+	w->nready--;
+	return 1;
+}
+
+int ndo_watch_ended(const ndo_watch *w)
+{
+	return w->ended && w->nready == 0;
+}
+
+const char *ndo_watch_why(const ndo_watch *w) { return w->why; }
+
+void ndo_watch_stats_get(const ndo_watch *w, ndo_watch_stats *st)
+{
+	*st = w->st;
+	if (w->ended)
+		st->unknown += (int64_t)w->nheld;
+}

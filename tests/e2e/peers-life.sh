@@ -1,0 +1,121 @@
+#!/usr/bin/env bash
+# A session's life over real LCM in a private network namespace: a peer
+# killed with SIGKILL is detected by its silence and its region taken over
+# within the heartbeat timeout (1 s here) + 0.5 s; an owner that quits ends
+# the others with its message and exit status 4; eight peers join and leave
+# during one run; a peer left waiting ends after --start-timeout.
+. "$(dirname "$0")/netns.bash"
+. "$(dirname "$0")/lib.sh"
+
+SCENE=$NDO_ROOT/samples/thesis-fig5.3.scene
+remesh --shape wavy -l 4 -o wavy4.tgrid 2>/dev/null || fail "remesh"
+
+# wait_for FILE REGEX SECONDS: until a line of FILE matches; prints the
+# time it took (fails after SECONDS).
+wait_for() {
+	local t0=$EPOCHREALTIME
+	while ! grep -Eq -- "$2" "$1" 2>/dev/null; do
+		awk "BEGIN{exit !($EPOCHREALTIME - $t0 > $3)}" && return 1
+		sleep 0.02
+	done
+	awk "BEGIN{printf \"%.2f\", $EPOCHREALTIME - $t0}"
+}
+
+# --- a killed peer ----------------------------------------------------------
+# Lock-step, realtime pacing of the owner would not matter: the run is long
+# enough (2000 steps) to be under way when the peer dies.
+simulate-peer --owner wavy4.tgrid -s "$SCENE" --dt 0.002 -t 4 --peers 3 --peer-timeout 1 \
+	--step-timeout 0.2 -o killed.tgrid 2>owner.err &
+owner=$!
+simulate-peer --join --poi 300 --peer-timeout 1 2>j1.err &
+j1=$!
+simulate-peer --join --poi 900 --peer-timeout 1 2>j2.err &
+j2=$!
+if wait_for owner.err 'starting: step' 30 >/dev/null && sleep 0.5; then
+	kill -KILL $j2
+	if took=$(wait_for owner.err "left: no heartbeat" 5); then
+		wait $owner; ro=$?
+		wait $j1; r1=$?
+		wait $j2 2>/dev/null
+		# the owner's output holds the owner and the survivor only
+		owners=$(/usr/bin/python3 "$NDO_ROOT/tests/e2e/tgrid.py" killed.tgrid \
+			"len(np.unique(owner))" 2>/dev/null)
+		if awk "BEGIN{exit !($took <= 1.5)}" && [ $ro = 0 ] && [ $r1 = 0 ] && [ "$owners" = 2 ]; then
+			pass "a killed peer: its region re-partitioned $took s after SIGKILL (timeout 1 s); the run completed on the others, 2 owners left"
+		else
+			fail "a killed peer" "detected after $took s, owner exit $ro, joiner exit $r1, $owners owners"
+			tail -3 owner.err | sed 's/^/    /'
+		fi
+	else
+		fail "a killed peer" "not detected within 5 s"
+		tail -5 owner.err | sed 's/^/    /'
+		kill $owner $j1 2>/dev/null; wait
+	fi
+else
+	fail "a killed peer" "the run did not start"
+	kill $owner $j1 $j2 2>/dev/null; wait
+fi
+
+# --- the owner quits -----------------------------------------------------------
+simulate-peer --owner wavy4.tgrid -s "$SCENE" --dt 0.001 -t 100 --peers 2 -o never.tgrid \
+	2>owner.err &
+owner=$!
+simulate-peer --join --poi 300 2>j1.err &
+j1=$!
+simulate-peer --join -o observer.tgrid 2>j2.err & # an observer
+j2=$!
+if wait_for owner.err 'starting: step' 30 >/dev/null || wait_for j1.err 'starting: step' 1 >/dev/null; then
+	sleep 0.5
+	kill -INT $owner
+	wait $owner; ro=$?
+	took=$(wait_for j1.err 'the session ended' 5)
+	wait $j1; r1=$?
+	wait $j2; r2=$?
+	if [ $ro = 130 ] && [ $r1 = 4 ] && grep -q 'the session ended at step [0-9]*: the owner quit: interrupted at step' j1.err &&
+		[ ! -e never.tgrid ]; then
+		pass "the owner quits (SIGINT, exit 130): the joiner ends with its message, exit 4"
+	else
+		fail "the owner quits" "owner exit $ro, joiner exit $r1, observer exit $r2"
+		tail -2 j1.err | sed 's/^/    /'
+	fi
+	# a peer is not 'done' when the run did not complete
+	[ $r2 = 4 ] && [ ! -e observer.tgrid ] && pass "the observer of an unfinished run: exit 4, no output" ||
+		fail "the observer of an unfinished run" "exit $r2"
+else
+	fail "the owner quits" "the run did not start"
+	kill $owner $j1 $j2 2>/dev/null; wait
+fi
+
+# --- eight peers join and leave ------------------------------------------------
+# The owner runs on the wall clock (6 s) from the start; 7 joiners come
+# 0.2 s apart; when all 8 simulate, 3 of them leave (SIGTERM: an announced
+# leave); the other 4 stay to the end with the owner.
+SECONDS=0
+simulate-peer --owner wavy4.tgrid -s "$SCENE" -t 6 --clock realtime -o eight.tgrid \
+	2>owner.err &
+owner=$!
+pids=()
+for k in 1 2 3 4 5 6 7; do
+	sleep 0.2
+	simulate-peer --join --poi $((k * 140)) 2>"j$k.err" &
+	pids+=($!)
+done
+peak=$(wait_for owner.err 'partition [0-9]+ at step [0-9]+: 8 peers' 10 >/dev/null && echo 8)
+sleep 0.5
+kill -TERM "${pids[0]}" "${pids[2]}" "${pids[4]}"
+wait $owner; ro=$?
+codes=""
+for p in "${pids[@]}"; do wait "$p"; codes="$codes $?"; done
+owners=$(/usr/bin/python3 "$NDO_ROOT/tests/e2e/tgrid.py" eight.tgrid "len(np.unique(owner))" 2>/dev/null)
+if [ "$peak" = 8 ] && [ $ro = 0 ] && [ "$codes" = " 130 0 130 0 130 0 0" ] && [ "$owners" = 5 ]; then
+	pass "8 peers: 7 joined the running owner (8 simulating at the peak), 3 left, 5 finished together (${SECONDS}s)"
+else
+	fail "8 peers join and leave" "peak ${peak:-<8}, owner exit $ro, joiners$codes, $owners owners at the end"
+	grep -h 'partition\|left' owner.err | tail -5 | sed 's/^/    /'
+fi
+
+# --- nobody comes ----------------------------------------------------------------
+expect_error "an owner whose peers do not come" 4 'only 1 of 2 peers came within 0.5 s' \
+	simulate-peer -q --owner wavy4.tgrid -s "$SCENE" -t 0.1 --peers 2 --start-timeout 0.5 -o x.tgrid
+expect_error "a joiner that finds no owner" 4 'no object was described within 0.5 s' \
+	simulate-peer -q --join --start-timeout 0.5

@@ -1,0 +1,336 @@
+/* test_peer — simulating peers in one process: an owner and joiners on
+ * an in-memory bus with a fake clock (ndo/peer.h), the thesis' wavy
+ * surface with its sinusoidal face force, against the single-process
+ * run of the same scene. */
+#include "check.h"
+#include "ndo/ndo.h"
+#include "ndo/peer.h"
+#include "ndo/tile.h"
+#include "ndo/watch.h"
+
+#include <lcm/eventlog.h>
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "peer_world.h"
+
+#define LEVEL 4
+
+static void lockstep_matches_the_single_process(void)
+{
+	for (int n = 2; n <= 4; n++) {
+		/* one-stage: exact to rounding; rk4: the boundary lag, O(h²) with the
+		 * boundary extrapolated over the step */
+		setup se = {.integrator = "symplectic-euler", .dt = 0.02, .steps = 50,
+		            .clock = NDO_CLOCK_LOCKSTEP, .peers = n};
+		setup rk = {.integrator = "rk4", .dt = 0.02, .steps = 50,
+		            .clock = NDO_CLOCK_LOCKSTEP, .peers = n};
+		ndo_peer_stats st;
+		int ok;
+		double d = split_run(&se, n, &st, &ok);
+		CHECK(ok && d < 1e-12, "%d peers, symplectic Euler: done %d, differs by %.3g", n, ok, d);
+		CHECK(st.timeouts == 0 && st.missed == 0 && st.ungathered == 0,
+		      "%d peers: %lld timeouts, %lld missed, %lld ungathered", n,
+		      (long long)st.timeouts, (long long)st.missed, (long long)st.ungathered);
+		double dr = split_run(&rk, n, &st, &ok);
+		CHECK(ok && dr < 0.02 && dr > 1e-9, "%d peers, rk4: done %d, differs by %.3g", n, ok, dr);
+		printf("    %d peers: symplectic Euler %.2g, rk4 %.3g of the largest displacement\n", n,
+		       d, dr);
+	}
+}
+
+static void lockstep_survives_loss(void)
+{
+	setup su = {.integrator = "symplectic-euler", .dt = 0.02, .steps = 50,
+	            .clock = NDO_CLOCK_LOCKSTEP, .peers = 3};
+	su.faults = (ndo_faults){.drop = 0.2, .delay_ms = 2, .jitter_ms = 3, .reorder = 0.1,
+	                         .seed = 5};
+	ndo_peer_stats st;
+	int ok;
+	double d = split_run(&su, 3, &st, &ok);
+	CHECK(ok && d < 1e-12, "20%% loss: done %d, differs by %.3g", ok, d);
+	CHECK(st.resends > 0 && st.timeouts == 0, "20%% loss: %lld re-sends, %lld timeouts",
+	      (long long)st.resends, (long long)st.timeouts);
+	printf("    20%% loss, 3 peers: difference %.2g, owner waited %lld steps (%.3f s), %lld "
+	       "re-sends\n", d, (long long)st.waited, st.wait_seconds, (long long)st.resends);
+}
+
+static void realtime_lags_but_completes(void)
+{
+	setup su = {.integrator = "rk4", .dt = 0.02, .steps = 50,
+	            .clock = NDO_CLOCK_REALTIME, .peers = 2};
+	su.faults = (ndo_faults){.delay_ms = 15, .seed = 3}; /* most of a step late */
+	ndo_peer_stats st;
+	int ok;
+	double d = split_run(&su, 2, &st, &ok);
+	CHECK(ok && d < 0.2 && st.waited == 0, "realtime: done %d, differs by %.3g, waited %lld",
+	      ok, d, (long long)st.waited);
+	CHECK(st.lag_sum / (double)st.steps > 0.5, "realtime with 15 ms delay: mean lag %.3g steps",
+	      st.lag_sum / (double)st.steps);
+	printf("    realtime, 15 ms delay: difference %.3g, mean boundary lag %.2f steps\n", d,
+	       st.lag_sum / (double)st.steps);
+}
+
+/* Joins during the run, an announced leave, a silent peer; the run still
+ * ends on every live peer, and the silent one's region is taken over
+ * within the heartbeat timeout. */
+static void joins_leaves_and_a_dead_peer(void)
+{
+	setup su = {.integrator = "rk4", .dt = 0.002, .steps = 3000,
+	            .clock = NDO_CLOCK_LOCKSTEP, .peers = 1, .step_timeout = 0.2};
+	world *w = world_new();
+	CHECK(add_owner(w, &su) == 0, "owner");
+	run(w, 0.3);
+	CHECK(ndo_peer_step(w->p[0]) > 0, "the owner alone runs at once: step %lld",
+	      (long long)ndo_peer_step(w->p[0]));
+	add_joiner(w, &su, POIS[0]);
+	add_joiner(w, &su, POIS[1]);
+	add_joiner(w, &su, -1); /* an observer */
+	run(w, 1.0);
+	int np = 0;
+	ndo_session_cells(ndo_peer_session(w->p[0]), &np, NULL);
+	CHECK(np == 3 && ndo_peer_simulating(w->p[1]) && ndo_peer_simulating(w->p[2]) &&
+	      !ndo_peer_simulating(w->p[3]), "3 simulate, the observer not: %d", np);
+	/* peer 1 leaves (announced): the owner re-partitions at once */
+	int64_t at = ndo_peer_step(w->p[0]);
+	ndo_peer_destroy(w->p[1], "bye");
+	w->p[1] = NULL;
+	run(w, w->t + 0.2);
+	ndo_session_cells(ndo_peer_session(w->p[0]), &np, NULL);
+	CHECK(np == 2, "after a leave: %d simulate", np);
+	CHECK(ndo_peer_step(w->p[0]) > at, "the run goes on: step %lld -> %lld", (long long)at,
+	      (long long)ndo_peer_step(w->p[0]));
+	/* peer 2 falls silent (no update: as if killed) */
+	double died = w->t;
+	ndo_peer *dead = w->p[2];
+	w->p[2] = NULL;
+	double until = died + 3;
+	while (w->t < until) {
+		run(w, w->t + 0.05);
+		ndo_session_cells(ndo_peer_session(w->p[0]), &np, NULL);
+		if (np == 1)
+			break;
+	}
+	double detected = w->t - died;
+	CHECK(np == 1 && detected <= 1.0 + 0.3, "the silent peer's region taken over after %.2f s "
+	      "(timeout 1 s, heartbeat 0.1 s)", detected);
+	printf("    silent peer detected and re-partitioned after %.2f s (timeout 1.0 s)\n",
+	       detected);
+	CHECK(run(w, 60) == 0 && w->state[0] == NDO_PEER_DONE && w->state[3] == NDO_PEER_DONE,
+	      "the run ends: owner %d, observer %d", w->state[0], w->state[3]);
+	double *x = solo(&su);
+	double d = difference(ndo_peer_grid(w->p[0]), x);
+	ndo_peer_stats st;
+	ndo_peer_stats_get(w->p[0], &st);
+	printf("    joins, a leave and a dead peer: differs by %.3g; owner: %lld timeouts, %lld "
+	       "repartitions\n", d, (long long)st.timeouts, (long long)st.repartitions);
+	CHECK(isfinite(d) && d < 1, "the result stays near the single process: %.3g", d);
+	free(x);
+	ndo_peer_destroy(dead, NULL); /* quietly: its leave finds no one to read it */
+	world_free(w);
+}
+
+static void owner_quit_ends_the_others(void)
+{
+	setup su = {.integrator = "rk4", .dt = 0.01, .steps = 1000,
+	            .clock = NDO_CLOCK_LOCKSTEP, .peers = 3};
+	world *w = world_new();
+	add_owner(w, &su);
+	add_joiner(w, &su, POIS[0]);
+	add_joiner(w, &su, POIS[2]);
+	run(w, 0.5);
+	CHECK(ndo_peer_step(w->p[1]) > 0, "running: step %lld", (long long)ndo_peer_step(w->p[1]));
+	ndo_peer_destroy(w->p[0], "interrupted");
+	w->p[0] = NULL;
+	run(w, w->t + 0.5);
+	for (int i = 1; i < 3; i++)
+		CHECK(w->state[i] == NDO_PEER_ENDED && strstr(ndo_peer_message(w->p[i]), "owner quit") &&
+		      strstr(ndo_peer_message(w->p[i]), "interrupted"),
+		      "joiner %d: state %d, '%s'", i, w->state[i], ndo_peer_message(w->p[i]));
+	world_free(w);
+}
+
+/* A stranger publishes tiles for the object: they are never used. */
+static void strangers_tiles_are_not_used(void)
+{
+	setup su = {.integrator = "symplectic-euler", .dt = 0.02, .steps = 40,
+	            .clock = NDO_CLOCK_LOCKSTEP, .peers = 2};
+	world *w = world_new();
+	add_owner(w, &su);
+	add_joiner(w, &su, POIS[1]);
+	ndo_link *l;
+	ndo_net *rogue;
+	ndo_link_open_mem(w->bus, &l);
+	ndo_net_create(l, "T", 666, &rogue);
+	ndo_net_attach(rogue, 77, LEVEL);
+	ndo_grid *g;
+	ndo_grid_create(LEVEL, &g);
+	ndo_grid_add(g, NDO_CH_VELOCITY, NDO_F64, 3, NULL);
+	double *x = ndo_grid_f64(g, NDO_CH_POSITION, 3);
+	for (size_t k = 0; k < 3 * g->count; k++)
+		x[k] = 5;
+	int bad = 0;
+	for (int k = 0; k < 4000 && w->state[0] != NDO_PEER_DONE; k++) {
+		run(w, w->t + TICK);
+		for (int d = 1; d <= 2; d++) { /* every step and epoch it could claim */
+			ndo_msg_tile_t t = {0};
+			ndo_tile_pack(g, (ndo_quad){d, k % 2, 0}, NDO_TILE_POSITION | NDO_TILE_VELOCITY, &t);
+			t.step = ndo_peer_step(w->p[0]) + k % 2;
+			t.epoch = ndo_session_epoch(ndo_peer_session(w->p[0]));
+			bad |= ndo_net_publish(rogue, NDO_MSG_TILE, &t) != 0;
+			free(t.values);
+		}
+	}
+	run(w, 60);
+	double *ref = solo(&su);
+	double d = difference(ndo_peer_grid(w->p[0]), ref);
+	CHECK(!bad && w->state[0] == NDO_PEER_DONE && d < 1e-12,
+	      "with a stranger's tiles: done %d, differs by %.3g", w->state[0], d);
+	free(ref);
+	ndo_grid_destroy(g);
+	ndo_net_destroy(rogue);
+	world_free(w);
+}
+
+/* ---- record and replay ---------------------------------------------------- */
+typedef struct frames {
+	ndo_watch *w;
+	int n;
+	int64_t step[64];
+	double *x[64];
+	size_t count;
+} frames;
+
+static void collect(frames *f, double now)
+{
+	ndo_grid *g;
+	if (ndo_watch_update(f->w, now))
+		printf("    watch: %s\n", ndo_errdetail());
+	while (ndo_watch_next(f->w, &g)) {
+		if (f->n < 64) {
+			f->step[f->n] = g->step;
+			f->count = 3 * g->count;
+			f->x[f->n] = malloc(f->count * sizeof(double));
+			memcpy(f->x[f->n++], ndo_grid_f64(g, NDO_CH_POSITION, 3), f->count * sizeof(double));
+		}
+		ndo_grid_destroy(g);
+	}
+}
+
+static frames live, shuffled;
+static ndo_link *recorder;
+static lcm_eventlog_t *logfile;
+static int64_t log_time;
+
+static void record(void *user, const char *channel, const void *data, size_t len)
+{
+	(void)user;
+	lcm_eventlog_event_t e = {0, log_time++, (int32_t)strlen(channel), (int32_t)len,
+	                          (char *)channel, (void *)data};
+	lcm_eventlog_write_event(logfile, &e);
+}
+
+static void watch_tick(world *w)
+{
+	collect(&live, w->t);
+	collect(&shuffled, w->t);
+	ndo_link_poll(recorder, w->t, record, NULL);
+}
+
+static ndo_watch *watch_on(ndo_link *l, int64_t every)
+{
+	ndo_net *n;
+	ndo_watch *wa = NULL;
+	ndo_net_create(l, "T", 999, &n);
+	ndo_watch_opts o = {.every = every};
+	ndo_watch_create(n, &o, &wa);
+	return wa;
+}
+
+static int same_frames(const frames *a, const frames *b)
+{
+	if (a->n != b->n)
+		return 0;
+	for (int k = 0; k < a->n; k++)
+		if (a->step[k] != b->step[k] || memcmp(a->x[k], b->x[k], a->count * sizeof(double)))
+			return 0;
+	return 1;
+}
+
+/* A watch assembles the same frames live, with the traffic delayed and
+ * reordered, and from a log of it; the last is the owner's result. */
+static void a_replayed_log_gives_the_live_frames(void)
+{
+	setup su = {.integrator = "rk4", .dt = 0.02, .steps = 30,
+	            .clock = NDO_CLOCK_LOCKSTEP, .peers = 3};
+	world *w = world_new();
+	add_owner(w, &su);
+	add_joiner(w, &su, POIS[0]);
+	add_joiner(w, &su, POIS[3]);
+	ndo_link *l;
+	ndo_link_open_mem(w->bus, &l);
+	live.w = watch_on(l, 3);
+	ndo_link_open_mem(w->bus, &l);
+	ndo_faults f = {.delay_ms = 3, .jitter_ms = 10, .reorder = 0.3, .seed = 9};
+	ndo_link_faults(l, &f, &l);
+	shuffled.w = watch_on(l, 3);
+	const char *tmp = getenv("NDO_TMP");
+	char path[512];
+	snprintf(path, sizeof path, "%s/test_peer.lcmlog", tmp ? tmp : "/tmp");
+	logfile = lcm_eventlog_create(path, "w");
+	ndo_link_open_mem(w->bus, &recorder);
+	on_tick = watch_tick;
+	CHECK(run(w, 60) == 0 && w->state[0] == NDO_PEER_DONE, "the run ends");
+	for (int k = 0; k < 100; k++) { /* the delayed traffic, then the end */
+		w->t += TICK;
+		watch_tick(w);
+	}
+	on_tick = NULL;
+	lcm_eventlog_destroy(logfile);
+	ndo_link_destroy(recorder);
+	frames replay = {0};
+	ndo_link_open_log(path, "T", 0, &l);
+	replay.w = watch_on(l, 3);
+	for (int k = 0; k < 100000 && !ndo_watch_ended(replay.w); k++)
+		collect(&replay, 0);
+	ndo_watch_stats st;
+	ndo_watch_stats_get(live.w, &st);
+	CHECK(live.n == 11 && st.incomplete == 0, "live: %d frames (steps 0, 3, .., 30), %lld "
+	      "incomplete", live.n, (long long)st.incomplete);
+	ndo_watch_stats s2;
+	ndo_watch_stats_get(shuffled.w, &s2);
+	CHECK(same_frames(&live, &shuffled), "delayed and reordered: %d frames (from step %lld), "
+	      "not the same; %lld incomplete, %lld unknown, %lld unused", shuffled.n,
+	      (long long)shuffled.step[0], (long long)s2.incomplete, (long long)s2.unknown,
+	      (long long)s2.unused);
+	CHECK(same_frames(&live, &replay) && ndo_watch_ended(replay.w),
+	      "replayed: %d frames, not the same (%s)", replay.n, ndo_watch_why(replay.w));
+	const double *own = ndo_grid_f64(ndo_peer_grid(w->p[0]), NDO_CH_POSITION, 3);
+	CHECK(live.n > 0 && live.step[live.n - 1] == 30 &&
+	      memcmp(live.x[live.n - 1], own, live.count * sizeof(double)) == 0,
+	      "the last frame is the owner's result");
+	frames *all[3] = {&live, &shuffled, &replay};
+	for (int q = 0; q < 3; q++) {
+		for (int k = 0; k < all[q]->n; k++)
+			free(all[q]->x[k]);
+		ndo_watch_destroy(all[q]->w);
+		memset(all[q], 0, sizeof *all[q]);
+	}
+	remove(path);
+	world_free(w);
+}
+
+int main(void)
+{
+	ck_program = "test_peer";
+	RUN(lockstep_matches_the_single_process);
+	RUN(lockstep_survives_loss);
+	RUN(realtime_lags_but_completes);
+	RUN(joins_leaves_and_a_dead_peer);
+	RUN(owner_quit_ends_the_others);
+	RUN(strangers_tiles_are_not_used);
+	RUN(a_replayed_log_gives_the_live_frames);
+	return ck_failed_cases != 0;
+}

@@ -1,0 +1,70 @@
+/* simulate.h — what simulate-peer's two halves share: the run's settings
+ * and the single-process setup (main.c), used again by the owner of a
+ * multi-peer run (peers.c). */
+#ifndef SIMULATE_PEER_H
+#define SIMULATE_PEER_H
+
+#include "ndo/ndo.h"
+#include "ndo/link.h"
+#include "ndo/peer.h"
+
+enum { EXIT_DIVERGED = 3, EXIT_ENDED = 4, EXIT_INTERRUPTED = 130 };
+
+/* The peers' command line (docs/peers.md). */
+typedef struct peer_cli {
+	int role;              /* 0: one process; NDO_ROLE_OWNER, NDO_ROLE_JOINER */
+	int32_t poi;           /* --poi, −1 none */
+	const char *lcm;       /* --lcm URL, NULL: LCM_DEFAULT_URL, LCM's default */
+	const char *prefix;    /* --channel */
+	const char *name;      /* --name */
+	int partition;         /* --partition */
+	ndo_clock clock;       /* --clock */
+	double speed, step_timeout, peer_timeout, start_timeout, gather_timeout;
+	int peers, hold_boundary;
+	ndo_faults faults;     /* --drop --delay --jitter --reorder --fault-seed */
+	int fault_seed_set;
+	const char *physics;   /* the first physics option given (a joiner's error) */
+} peer_cli;
+
+typedef struct run {
+	ndo_scene sc;
+	const char *in;
+	int quiet, info;
+	ndo_grid *g;       /* the input, then the output */
+	ndo_grid *frame;   /* frames: a copy carrying this command in its history */
+	ndo_sim *sim;
+	ndo_critical crit;
+	double dt;
+	int64_t steps;
+	ndo_outfile log;
+	int logging;
+	uint8_t *pins;     /* from --pin, or NULL */
+	/* Work arrays, kept here so that they stay reachable when an error
+	 * exits (the leak checker of the sanitizer build). */
+	const char **keys, **vals;
+	double *rest, *x0;
+	uint8_t *pin;
+	ndo_force *forces;
+	uint8_t *allpins;  /* peers' owner: every pinned node (grid and --pin) */
+	peer_cli net;      /* the peers' options (role 0: a single process) */
+} run;
+
+/* Load the input, rest shape, pins and forces; create the simulation. */
+void setup(run *r);
+/* The critical step, the step size and the step count (prints them). */
+void plan(run *r);
+/* --log: open the CSV log with its header (nothing without --log); one row
+ * of `sim`'s energies at `step`. */
+void log_open(run *r);
+void log_row(run *r, ndo_sim *sim, int64_t step);
+/* The peers' options: defaults, one option (a usage error when bad), and
+ * the checks once all are read (scene: the -s file or NULL; in: the input
+ * or NULL; the n settings keys given on the command line). */
+void peer_defaults(peer_cli *c);
+void peer_option(peer_cli *c, const char *name, const char *arg);
+void peer_check(const peer_cli *c, const char *scene, const char *in, int n,
+                const char *const *keys);
+/* The run as one of several peers; returns the exit status. */
+int peers_main(run *r);
+
+#endif
