@@ -21,7 +21,7 @@ CC := gcc
 CXX := g++
 
 # Debian packages (make deps).  Grouped by who needs them.
-DEBS_BUILD := build-essential pkg-config zlib1g-dev libassimp-dev
+DEBS_BUILD := build-essential pkg-config zlib1g-dev libassimp-dev iproute2
 DEBS_TEST := python3 python3-numpy clang libclang-rt-14-dev libopenmesh-dev
 # Recursive: the tools' build.mk fragments, included below, add DEBS_TOOLS.
 DEBS = $(DEBS_BUILD) $(DEBS_TEST) $(DEBS_TOOLS)
@@ -145,6 +145,6 @@ clean:
 	rm -rf build bin lib/libndo.a
 
 help:
-	@sed -n '3,13s/^# //p' Makefile
+	@sed -n '3,11s/^# //p' Makefile
 
 -include $(ALL_OBJS:.o=.d) $(TEST_OBJS:.o=.d)
