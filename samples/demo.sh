@@ -20,7 +20,7 @@ mkdir -p "$out/png"
 report=()
 now() { date +%s.%N; }
 stage() { # stage NAME START: remember how long NAME took
-	report+=("$(awk -v a="$2" -v b="$(now)" -v n="$1" 'BEGIN { printf "  %-44s %6.1f s", n, b - a }')")
+	report+=("$(awk -v a="$2" -v b="$(now)" -v n="$1" 'BEGIN { printf "  %-50s %6.1f s", n, b - a }')")
 }
 t0=$(now)
 
@@ -58,4 +58,4 @@ echo "  peers/frames/, png/             $(ls "$out/png" | wc -l) frames as grids
 echo "  bunny-end.obj                   the final state as a mesh for any viewer"
 echo "demo: what each stage cost"
 printf '%s\n' "${report[@]}"
-awk -v a="$t0" -v b="$(now)" 'BEGIN { printf "  %-44s %6.1f s\n", "in all", b - a }'
+awk -v a="$t0" -v b="$(now)" 'BEGIN { printf "  %-50s %6.1f s\n", "in all", b - a }'
