@@ -133,6 +133,8 @@ install: all
 	install -m 755 $(TOOLS:%=$(BIN)/%) $(DESTDIR)$(PREFIX)/bin
 	install -m 644 $(LIBNDO) $(DESTDIR)$(PREFIX)/lib/libndo.a
 	install -m 644 lib/ndo/*.h $(DESTDIR)$(PREFIX)/include/ndo
+	install -d $(DESTDIR)$(PREFIX)/include/ndo_msg
+	install -m 644 $(LCM_GEN_DIR)/ndo_msg/*.h $(DESTDIR)$(PREFIX)/include/ndo_msg
 	install -m 644 $(wildcard tools/*.1) $(DESTDIR)$(PREFIX)/share/man/man1
 	$(if $(wildcard shaders/*),install -m 644 $(wildcard shaders/*) $(DESTDIR)$(PREFIX)/share/ndo/shaders)
 	printf '%s\n' 'prefix=$(PREFIX)' 'libdir=$${prefix}/lib' \
