@@ -57,6 +57,13 @@ struct ndo_session {
 	int holding_force;
 	int applied; /* a tile was written since the last ndo_grid_sync */
 	uint64_t rng;
+	/* compact state (ndo/codec.h) */
+	ndo_codec_params codec;   /* raw until known */
+	ndo_codec *enc;           /* this peer's encoder (NULL: raw) */
+	uint8_t *cls, *cls_exact; /* per stored node: NDO_NODE_* (and all own EXACT) */
+	size_t nexact;
+	int tdepth_enc;
+	int64_t exact_step;
 };
 
 static void push_event(ndo_session *s, ndo_event e)
@@ -108,7 +115,52 @@ static int prepare_grid(ndo_session *s)
 	                                 ndo_net_channel(s->net, NDO_MSG_TILE));
 	s->tdepth_rest = ndo_tile_depth(g->level, NDO_TILE_REST | NDO_TILE_PIN,
 	                                ndo_net_channel(s->net, NDO_MSG_TILE));
+	/* encoded tiles are 4 times larger (a quarter of the messages and of
+	 * their headers): a tile that does not fit goes raw, as its 4 children */
+	s->tdepth_enc = s->tdepth_state > 0 ? s->tdepth_state - 1 : 0;
+	free(s->cls);
+	free(s->cls_exact);
+	s->cls = calloc(g->count, 1);
+	s->cls_exact = calloc(g->count, 1);
+	if (!s->cls || !s->cls_exact)
+		return NDO_ENOMEM;
 	return 0;
+}
+
+/* The classes of the stored nodes for the encoder: this peer's nodes next
+ * to another simulating peer's region (what its halo holds: the 1-ring,
+ * through the ghost map, of that region) EXACT, its other nodes LOSSY,
+ * the rest SKIP. */
+static void classify(ndo_session *s)
+{
+	ndo_grid *g = s->grid;
+	const int32_t *own = ndo_grid_find(g, NDO_CH_OWNER)->data;
+	size_t *canon = malloc(g->count * sizeof *canon);
+	memset(s->cls, NDO_NODE_SKIP, g->count);
+	memset(s->cls_exact, NDO_NODE_SKIP, g->count);
+	s->nexact = 0;
+	if (!canon)
+		return; /* then everything goes lossy: still correct, less exact */
+	for (size_t k = 0; k < g->count; k++) {
+		canon[k] = ndo_canonical(g->level, (int)(k % (size_t)g->w), (int)(k / (size_t)g->w));
+		if (own[canon[k]] == s->self)
+			s->cls[canon[k]] = NDO_NODE_LOSSY;
+	}
+	for (size_t k = 0; k < g->count; k++) {
+		if (canon[k] != k || own[k] == s->self)
+			continue;
+		size_t nb[6];
+		ndo_neighbors(g->level, (int)(k % (size_t)g->w), (int)(k / (size_t)g->w), nb);
+		for (int d = 0; d < 6; d++)
+			if (own[canon[nb[d]]] == s->self)
+				s->cls[canon[nb[d]]] = NDO_NODE_EXACT;
+	}
+	for (size_t k = 0; k < g->count; k++) {
+		s->cls[k] = s->cls[canon[k]];
+		s->cls_exact[k] = s->cls[k] == NDO_NODE_SKIP ? NDO_NODE_SKIP : NDO_NODE_EXACT;
+		s->nexact += s->cls[k] == NDO_NODE_EXACT;
+	}
+	free(canon);
 }
 
 static int32_t *owner_channel(ndo_session *s)
@@ -142,9 +194,11 @@ static int install(ndo_session *s, int32_t *cells, int npeers, const int32_t *pe
 	free(s->tiles);
 	s->tiles = NULL;
 	s->ntiles = 0;
-	if (slot >= 0 && ndo_quad_cover(s->level, cells, slot, s->tdepth_state, TILE_FILL, &s->tiles,
-	                                &s->ntiles) != 0)
+	if (slot >= 0 && ndo_quad_cover(s->level, cells, slot, s->enc ? s->tdepth_enc : s->tdepth_state,
+	                                TILE_FILL, &s->tiles, &s->ntiles) != 0)
 		return NDO_ENOMEM;
+	if (s->enc)
+		classify(s);
 	/* the leaves as the owner sends them: as coarse as they come */
 	free(s->leaf_codes);
 	free(s->leaf_slots);
@@ -228,6 +282,63 @@ static int publish_description(ndo_session *s)
 	return ndo_net_publish(s->net, NDO_MSG_DESCRIPTION, &d);
 }
 
+static int publish_raw(ndo_session *s, const ndo_grid *src, ndo_quad q, int channels,
+                       int64_t step, double time)
+{
+	ndo_msg_tile_t t;
+	memset(&t, 0, sizeof t);
+	int rc = ndo_tile_pack(src, q, channels, &t);
+	if (rc)
+		return rc;
+	t.step = step;
+	t.time = time;
+	t.epoch = s->epoch;
+	rc = ndo_net_publish(s->net, NDO_MSG_TILE, &t);
+	free(t.values);
+	return rc;
+}
+
+/* One position+velocity tile in the session's encoding: 1 sent, 0 not
+ * sent (unchanged), or a negative status.  A tile that cannot be encoded
+ * or does not fit one datagram goes raw (its children when it is
+ * shallower than a raw tile). */
+static int publish_encoded(ndo_session *s, const ndo_grid *src, ndo_quad q, int64_t step,
+                           double time)
+{
+	ndo_msg_tile_t t;
+	memset(&t, 0, sizeof t);
+	int i0, j0, i1, j1;
+	ndo_quad_range(s->level, q, &i0, &j0, &i1, &j1);
+	t.depth = (int8_t)q.depth;
+	t.i0 = i0, t.j0 = j0, t.i1 = i1, t.j1 = j1;
+	t.channels = NDO_TILE_POSITION | NDO_TILE_VELOCITY;
+	t.step = step;
+	t.time = time;
+	t.epoch = s->epoch;
+	const uint8_t *cls = step == s->exact_step ? s->cls_exact : s->cls;
+	int rc = ndo_codec_encode_tile(s->enc, s->self, src, cls, q, src != s->grid, &t);
+	if (rc == 1)
+		return 0;
+	if (rc == 0) {
+		rc = ndo_net_publish(s->net, NDO_MSG_TILE, &t);
+		free(t.data);
+		if (rc != NDO_ERANGE)
+			return rc ? rc : 1;
+		ndo_codec_forget_tile(s->enc, s->self, q); /* receivers never saw it */
+	} else if (rc != NDO_ERANGE) {
+		return rc;
+	}
+	const int ch = NDO_TILE_POSITION | NDO_TILE_VELOCITY;
+	if (q.depth >= s->tdepth_state)
+		return (rc = publish_raw(s, src, q, ch, step, time)) ? rc : 1;
+	for (int c = 0; c < 4; c++) {
+		ndo_quad k = {q.depth + 1, 2 * q.qi + (c & 1), 2 * q.qj + (c >> 1)};
+		if ((rc = publish_raw(s, src, k, ch, step, time)))
+			return rc;
+	}
+	return 1;
+}
+
 static int publish_tiles_from(ndo_session *s, const ndo_grid *src, const int32_t *codes,
                               size_t n, int channels, int64_t step, double time)
 {
@@ -235,6 +346,13 @@ static int publish_tiles_from(ndo_session *s, const ndo_grid *src, const int32_t
 	for (size_t k = 0; k < n; k++) {
 		ndo_quad q;
 		ndo_quad_decode(s->level, codes[k], &q);
+		if (s->enc && channels == (NDO_TILE_POSITION | NDO_TILE_VELOCITY)) {
+			int rc = publish_encoded(s, src, q, step, time);
+			if (rc < 0)
+				return rc;
+			sent += rc;
+			continue;
+		}
 		ndo_msg_tile_t t;
 		memset(&t, 0, sizeof t);
 		int rc = ndo_tile_pack(src, q, channels, &t);
@@ -269,8 +387,12 @@ static int publish_everything(ndo_session *s, int depth, int channels)
 	for (int qj = 0; qj < rows; qj++)
 		for (int qi = 0; qi < cols; qi++)
 			codes[qj * cols + qi] = ndo_quad_code((ndo_quad){depth, qi, qj});
+	/* raw: a joiner starts from the exact state */
+	ndo_codec *enc = s->enc;
+	s->enc = NULL;
 	int rc = publish_tiles(s, codes, (size_t)cols * rows, channels, s->grid->step,
 	                       s->grid->time);
+	s->enc = enc;
 	free(codes);
 	return rc;
 }
@@ -347,6 +469,20 @@ static int on_description(ndo_session *s, const ndo_msg_description_t *d)
 	}
 	if (s->o.object_id && d->hdr.object_id != s->o.object_id)
 		return 0;
+	{ /* a description whose tile encoding this build cannot use: ignored */
+		char *text = malloc((size_t)d->scene_len + 1);
+		if (!text)
+			return NDO_ENOMEM;
+		memcpy(text, d->scene, (size_t)d->scene_len);
+		text[d->scene_len] = 0;
+		ndo_codec_params cp;
+		int bad = ndo_codec_params_take(text, &cp);
+		free(text);
+		if (bad) {
+			((ndo_net_stats *)ndo_net_stats_get(s->net))->dropped[NDO_DROP_RANGE]++;
+			return 0;
+		}
+	}
 	ndo_grid *g;
 	int rc = ndo_grid_create(d->level, &g);
 	if (rc)
@@ -364,6 +500,12 @@ static int on_description(ndo_session *s, const ndo_msg_description_t *d)
 	if (d->scene_len)
 		memcpy(s->scene, d->scene, (size_t)d->scene_len);
 	s->scene[d->scene_len] = 0;
+	/* the tile encoding: decoded by the net, encoded by this peer */
+	if ((rc = ndo_codec_params_take(s->scene, &s->codec)) ||
+	    (rc = ndo_net_set_codec(s->net, &s->codec, s->level)))
+		return rc; /* checked above: only out of memory */
+	if (s->codec.encoding != NDO_ENC_RAW && (rc = ndo_codec_create(&s->codec, s->level, &s->enc)))
+		return rc;
 	s->method = (ndo_part_method)d->partition;
 	s->have = calloc(g->count, 1);
 	if (!s->have)
@@ -739,6 +881,44 @@ int ndo_session_send_forces(ndo_session *s, int64_t step, int n, const int32_t *
 }
 
 /* ---- life -------------------------------------------------------------- */
+/* The owner's encoding: the box, the encoder, the net's decoder and the
+ * description's lines. */
+static int owner_codec(ndo_session *s, const ndo_codec_params *p)
+{
+	s->codec = *p;
+	if (!(s->codec.ext[0] > 0)) {
+		const double *x = ndo_grid_f64(s->grid, NDO_CH_REST, 3);
+		ndo_channel *rest = ndo_grid_find(s->grid, NDO_CH_REST);
+		int have_rest = x && rest && rest->data; /* a rest channel that is not all zero */
+		if (have_rest) {
+			have_rest = 0;
+			for (size_t k = 0; k < 3 * s->grid->count && !have_rest; k++)
+				have_rest = x[k] != 0;
+		}
+		if (!have_rest)
+			x = ndo_grid_f64(s->grid, NDO_CH_POSITION, 3);
+		ndo_codec_box(x, s->grid->count, s->codec.lo, s->codec.ext);
+	}
+	char lines[512];
+	int n = ndo_codec_params_text(&s->codec, lines, sizeof lines), rc;
+	if (n < 0)
+		return n;
+	if ((rc = ndo_codec_create(&s->codec, s->level, &s->enc)) ||
+	    (rc = ndo_net_set_codec(s->net, &s->codec, s->level)))
+		return rc;
+	if (strlen(s->scene) + (size_t)n > NDO_MAX_SCENE)
+		return ndo__fail(NDO_ERANGE, "the description takes more than %d bytes", NDO_MAX_SCENE);
+	char *sc = malloc(strlen(s->scene) + (size_t)n + 1);
+	if (!sc)
+		return NDO_ENOMEM;
+	size_t have = strlen(s->scene);
+	memcpy(sc, s->scene, have);
+	memcpy(sc + have, lines, (size_t)n + 1);
+	free(s->scene);
+	s->scene = sc;
+	return 0;
+}
+
 int ndo_session_create(const ndo_session_opts *o, ndo_net *net, ndo_grid *grid,
                        ndo_session **out)
 {
@@ -773,6 +953,8 @@ int ndo_session_create(const ndo_session_opts *o, ndo_net *net, ndo_grid *grid,
 		ndo_net_keep_all_tiles(net, 1);
 	s->level = -1;
 	s->epoch = 0;
+	s->exact_step = -1;
+	s->codec.encoding = NDO_ENC_RAW;
 	s->method = s->o.partition;
 	s->rng = o->seed ? o->seed : (uint64_t)time(NULL) * 1000003u ^ (uint64_t)getpid() << 20 ^
 	                             (uint64_t)(ndo_now() * 1e9);
@@ -788,6 +970,8 @@ int ndo_session_create(const ndo_session_opts *o, ndo_net *net, ndo_grid *grid,
 		rc = prepare_grid(s);
 		c->level = s->level;
 		s->described = s->ready = 1;
+		if (!rc && o->codec && o->codec->encoding != NDO_ENC_RAW)
+			rc = owner_codec(s, o->codec);
 		if (!rc)
 			rc = repartition(s);
 		s->evcount = 0; /* the owner's first partition is no news */
@@ -830,7 +1014,29 @@ void ndo_session_destroy(ndo_session *s, const char *message)
 	free(s->leaf_slots);
 	free(s->tiles);
 	free(s->have);
+	free(s->cls);
+	free(s->cls_exact);
+	ndo_codec_destroy(s->enc);
 	free(s);
+}
+
+void ndo_session_set_exact_step(ndo_session *s, int64_t step) { s->exact_step = step; }
+const ndo_codec_params *ndo_session_codec(const ndo_session *s) { return &s->codec; }
+size_t ndo_session_exact_nodes(const ndo_session *s) { return s->enc ? s->nexact : 0; }
+
+void ndo_session_codec_stats(const ndo_session *s, ndo_codec_stats *enc, ndo_codec_stats *dec)
+{
+	if (enc) {
+		memset(enc, 0, sizeof *enc);
+		if (s->enc)
+			ndo_codec_stats_get(s->enc, enc);
+	}
+	if (dec) {
+		memset(dec, 0, sizeof *dec);
+		const ndo_codec *c = ndo_net_codec(s->net);
+		if (c)
+			ndo_codec_stats_get(c, dec);
+	}
 }
 
 ndo_grid *ndo_session_grid(ndo_session *s) { return s->described ? s->grid : NULL; }
