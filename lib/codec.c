@@ -51,6 +51,7 @@ int ndo_codec_parse(const char *spec, ndo_codec_params *p)
 			key = (int)kk;
 		}
 	}
+	memset(p, 0, sizeof *p); /* the box: the session's to find (ext 0) */
 	p->encoding = e;
 	p->bits = bits;
 	p->keyframe = key;

@@ -246,6 +246,19 @@ int ndo_codec_encode_tile(ndo_codec *c, int32_t self, const ndo_grid *g, const u
 	}
 	if (rc)
 		return rc;
+	if (!standalone)
+		for (int n = 0; n < nodes; n++)
+			if (c->cls[n] == NDO_NODE_LOSSY) {
+				double d2 = 0;
+				for (int d = 0; d < 3; d++) {
+					double e_ = c->fr.x[3 * n + d] - c->x[3 * n + d];
+					d2 += e_ * e_;
+				}
+				c->st.sum_sq_error += d2;
+				c->st.error_nodes++;
+				if (d2 > c->st.max_error * c->st.max_error)
+					c->st.max_error = sqrt(d2);
+			}
 	if (!standalone && unchanged && e->skips < NDO_CODEC_MAX_SKIP) {
 		free(data);
 		e->skips++;

@@ -84,7 +84,8 @@ typedef struct ndo_codec_params {
 } ndo_codec_params;
 
 /* "raw", "float32", "fixed[:BITS]", "predict[:BITS[:KEYFRAME]]" →
- * encoding, bits and keyframe (the box is left as it is).  0, or
+ * encoding, bits and keyframe; the box is zero (the owner's session
+ * takes its rest shape's).  0, or
  * NDO_EINVAL with a detail naming what is wrong. */
 int ndo_codec_parse(const char *spec, ndo_codec_params *p);
 /* The spec back ("predict:13:32"). */
@@ -196,6 +197,11 @@ typedef struct ndo_codec_stats {
 	uint64_t decoded, implied, corrupt, nobase;
 	double encode_seconds, decode_seconds; /* CLOCK_MONOTONIC */
 	uint64_t payload_bytes;                /* data[] bytes encoded */
+	/* encoder: the position error it introduced (LOSSY nodes of every
+	 * frame sent or skipped: the distance of what receivers reconstruct
+	 * from the value) */
+	double max_error, sum_sq_error;
+	uint64_t error_nodes;
 } ndo_codec_stats;
 
 /* Tiles of a level-`level` object under *p. */
