@@ -232,9 +232,11 @@ int ndo_codec_encode_tile(ndo_codec *c, int32_t self, const ndo_grid *g, const u
 			c->cls[n] = cls[node];
 		}
 	ndo_codec_input in = {rows, cols, c->x, c->v, c->cls, t->step, t->time, t->epoch};
-	int intra = standalone ? 2
-	            : e->last_key < 0 || t->step - e->last_key >= c->p.keyframe || t->step <= e->last_sent
-	                ? 1 : 0;
+	/* a keyframe when one is due — but not right after skipped steps: the
+	 * frame after them tells receivers what they were (the next is the key) */
+	int due = e->last_key < 0 || t->step <= e->last_sent || e->h.f[0].step < 0 ||
+	          (t->step - e->last_key >= c->p.keyframe && e->skips == 0);
+	int intra = standalone ? 2 : due ? 1 : 0;
 	uint8_t *data;
 	size_t len;
 	int64_t base;
@@ -268,6 +270,8 @@ int ndo_codec_encode_tile(ndo_codec *c, int32_t self, const ndo_grid *g, const u
 		return 1;
 	}
 	if (!standalone) {
+		if (base < 0) /* a keyframe: later frames refer to it and after only */
+			ndo_codec_hist_clear(&e->h);
 		ndo_codec_hist_put(&e->h, &c->fr);
 		e->skips = 0;
 		e->last_sent = t->step;
@@ -337,8 +341,11 @@ ndo_drop ndo_codec_decode_tile(ndo_codec *c, ndo_msg_tile_t *t)
 	}
 	const ndo_codec_frame *base = ndo_codec_hist_find(&e->h, t->base_step);
 	e->base_time = base ? base->time : t->time;
-	if (c->fr.step >= 0 && keep)
+	if (c->fr.step >= 0 && keep) {
+		if (t->base_step < 0) /* a keyframe, as the sender keeps it */
+			ndo_codec_hist_clear(&e->h);
 		ndo_codec_hist_put(&e->h, &c->fr);
+	}
 	e->dec_step = keep ? t->step : -1;
 	e->dec_base = t->base_step;
 	e->dec_time = t->time;

@@ -329,8 +329,6 @@ static int publish_encoded(ndo_session *s, const ndo_grid *src, ndo_quad q, int6
 		return rc;
 	}
 	const int ch = NDO_TILE_POSITION | NDO_TILE_VELOCITY;
-	if (getenv("NDO_DEBUG_CODEC"))
-		fprintf(stderr, "raw fallback: %s\n", ndo_errdetail());
 	if (q.depth >= s->tdepth_state)
 		return (rc = publish_raw(s, src, q, ch, step, time)) ? rc : 1;
 	for (int c = 0; c < 4; c++) {

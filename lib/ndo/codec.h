@@ -22,6 +22,10 @@
  *          estimates their velocity from its previous frame of the tile;
  *   SKIP   nodes of other peers that the tile's range covers: not sent.
  *
+ * A keyframe starts a tile's history again at both ends (the tile layer
+ * clears it before keeping the keyframe), so frames after it refer to it
+ * and later frames only.
+ *
  * `predict` is closed-loop: every prediction is made from the frames as a
  * receiver reconstructs them (integer codes, so the arithmetic is exact
  * and the same on every machine), and errors do not drift.  A node's code

@@ -273,10 +273,10 @@ int nb_run(const nb_opts *o, int level, const ndo_codec_params *enc, double loss
 	row->divergence = NAN;
 
 	ndo_scene sc;
-	ndo_grid *g;
-	ndo_sim *sim;
-	double dt;
-	int64_t steps;
+	ndo_grid *g = NULL;
+	ndo_sim *sim = NULL;
+	double dt = 0;
+	int64_t steps = 0;
 	int rc = object(level, o->time, &sc, &g, &sim, &dt, &steps);
 	if (rc)
 		return rc;
