@@ -331,8 +331,10 @@ static int publish_encoded(ndo_session *s, const ndo_grid *src, ndo_quad q, int6
 	const int ch = NDO_TILE_POSITION | NDO_TILE_VELOCITY;
 	if (q.depth >= s->tdepth_state)
 		return (rc = publish_raw(s, src, q, ch, step, time)) ? rc : 1;
-	for (int c = 0; c < 4; c++) {
-		ndo_quad k = {q.depth + 1, 2 * q.qi + (c & 1), 2 * q.qj + (c >> 1)};
+	/* the children: the root has two (the N x N squares), the others four */
+	for (int c = 0; c < (q.depth == 0 ? 2 : 4); c++) {
+		ndo_quad k = q.depth == 0 ? (ndo_quad){1, c, 0}
+		                          : (ndo_quad){q.depth + 1, 2 * q.qi + (c & 1), 2 * q.qj + (c >> 1)};
 		if ((rc = publish_raw(s, src, k, ch, step, time)))
 			return rc;
 	}
