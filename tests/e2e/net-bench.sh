@@ -92,7 +92,7 @@ fi
 URL='udpm://239.255.76.67:7667?ttl=0&recv_buf_size=4194304'
 for enc in raw predict; do
 	mkdir -p "f-$enc"
-	render-frame --lcm "$URL" --timeout 20 -W 96 -H 72 -o "f-$enc/f%04d.png" 2>"rf-$enc.err" &
+	render-frame --lcm "$URL" --lcm-timeout 3 -s 96x72 -o "f-$enc/f%04d.png" 2>"rf-$enc.err" &
 	rf=$!
 	sleep 0.5
 	simulate-peer --lcm "$URL" --owner w5.tgrid -s "$SCENE" --dt 0.01 -t 0.2 --encoding "$enc" \

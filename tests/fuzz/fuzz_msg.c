@@ -41,8 +41,13 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 	strcpy(ch, "F_");
 	strcat(ch, ndo_msg_suffix(t));
 	ndo_link_publish(tx, ch, data + 1, size - 1);
-	if (data[0] & 0x80)
+	if (data[0] & 0x80) {
+		/* encoded tiles go through the decoder (ndo/codec.h) */
+		ndo_codec_params cp = {.encoding = 1 + data[0] % 3, .bits = 13, .keyframe = 32,
+		                       .lo = {-1, -1, -1}, .ext = {2, 2, 2}};
+		ndo_net_set_codec(rx, &cp, data[0] % 8);
 		ndo_net_attach(rx, 42, data[0] % 8);
+	}
 	ndo_net_poll(rx, 0);
 	ndo_link_poll(tx, 0, discard, NULL); /* lets the bus free what both read */
 	ndo_msg q;
