@@ -21,7 +21,7 @@ CC := gcc
 CXX := g++
 
 # Debian packages (make deps).  Grouped by who needs them.
-DEBS_BUILD := build-essential pkg-config zlib1g-dev libzstd-dev libassimp-dev
+DEBS_BUILD := build-essential pkg-config zlib1g-dev libzstd-dev libassimp-dev iproute2
 DEBS_TEST := python3 python3-numpy clang libclang-rt-14-dev libopenmesh-dev
 # Recursive: the tools' build.mk fragments, included below, add DEBS_TOOLS.
 DEBS = $(DEBS_BUILD) $(DEBS_TEST) $(DEBS_TOOLS)
@@ -133,6 +133,8 @@ install: all
 	install -m 755 $(TOOLS:%=$(BIN)/%) $(DESTDIR)$(PREFIX)/bin
 	install -m 644 $(LIBNDO) $(DESTDIR)$(PREFIX)/lib/libndo.a
 	install -m 644 lib/ndo/*.h $(DESTDIR)$(PREFIX)/include/ndo
+	install -d $(DESTDIR)$(PREFIX)/include/ndo_msg
+	install -m 644 $(LCM_GEN_DIR)/ndo_msg/*.h $(DESTDIR)$(PREFIX)/include/ndo_msg
 	install -m 644 $(wildcard tools/*.1) $(DESTDIR)$(PREFIX)/share/man/man1
 	$(if $(wildcard shaders/*),install -m 644 $(wildcard shaders/*) $(DESTDIR)$(PREFIX)/share/ndo/shaders)
 	printf '%s\n' 'prefix=$(PREFIX)' 'libdir=$${prefix}/lib' \
@@ -145,6 +147,6 @@ clean:
 	rm -rf build bin lib/libndo.a
 
 help:
-	@sed -n '3,13s/^# //p' Makefile
+	@sed -n '3,11s/^# //p' Makefile
 
 -include $(ALL_OBJS:.o=.d) $(TEST_OBJS:.o=.d)

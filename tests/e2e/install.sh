@@ -13,13 +13,15 @@ else
 	exit 0
 fi
 missing=
-for f in bin/subdivide bin/remesh lib/libndo.a include/ndo/ndo.h include/ndo/grid.h \
+for f in bin/subdivide bin/remesh bin/simulate-peer bin/render-frame lib/libndo.a \
+	include/ndo/ndo.h include/ndo/grid.h include/ndo_msg/ndo_msg_tile_t.h share/ndo/shaders/surface.vert \
 	lib/pkgconfig/ndo.pc share/man/man1/subdivide.1; do
 	[ -e "$prefix/$f" ] || missing="$missing $f"
 done
 if [ -z "$missing" ]; then pass "installed files in place"; else fail "installed files" "missing:$missing"; fi
 cat >user.c <<'C'
 #include <ndo/ndo.h>
+#include <ndo/msg.h> /* includes the generated LCM message headers */
 #include <stdio.h>
 int main(void)
 {

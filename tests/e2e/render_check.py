@@ -34,16 +34,13 @@ with "what was expected, what was found" when the check fails.
   colorbar IMG                  the bar runs from viridis' dark end at the
                                 bottom to its bright end at the top
 """
-import struct
 import sys
-import zlib
 
 import numpy as np
 from PIL import Image
 
-MAGIC = bytes([0x89, ord('N'), ord('D'), ord('O'), 0x0D, 0x0A, 0x1A, 0x0A])
-TYPES = {1: np.float64, 2: np.float32, 3: np.uint8, 4: np.int32}
-CODES = {np.dtype(v): k for k, v in TYPES.items()}
+import gridfile
+
 # Tableau 10, render-frame's owner palette
 PALETTE = np.array([[0x4e, 0x79, 0xa7], [0xf2, 0x8e, 0x2b], [0xe1, 0x57, 0x59],
                     [0x76, 0xb7, 0xb2], [0x59, 0xa1, 0x4f], [0xed, 0xc9, 0x48],
@@ -56,47 +53,13 @@ def fail(msg):
     sys.exit(1)
 
 
-def pad8(n):
-    return (n + 7) & ~7
-
-
 def read_grid(path):
-    b = open(path, 'rb').read()
-    assert b[:8] == MAGIC, "not a grid file"
-    level, nch, hlen = struct.unpack_from('<III', b, 12)
-    step, time = struct.unpack_from('<qd', b, 24)
-    w, h = (2 << level) + 1, (1 << level) + 1
-    off = 64
-    table = []
-    for c in range(nch):
-        e = b[off + 32 * c: off + 32 * c + 32]
-        table.append((e[:16].rstrip(b'\0').decode(), TYPES[e[16]], e[17]))
-    off += 32 * nch
-    history = b[off:off + hlen].decode()
-    off += pad8(hlen)
-    ch = {}
-    for name, t, comps in table:
-        n = w * h * comps * np.dtype(t).itemsize
-        ch[name] = np.frombuffer(b, t, w * h * comps, off).reshape(h, w, comps).copy()
-        off += pad8(n)
-    return {'level': level, 'step': step, 'time': time, 'history': history, 'ch': ch}
+    g = gridfile.read(path)
+    return {'level': g['level'], 'step': g['step'], 'time': g['time'],
+            'history': g['history'], 'ch': {k: v.copy() for k, v in g['channels'].items()}}
 
 
-def write_grid(path, g):
-    level = g['level']
-    table = b''
-    payload = b''
-    for name, a in g['ch'].items():
-        a = np.ascontiguousarray(a)
-        table += name.encode().ljust(16, b'\0') + bytes([CODES[a.dtype], a.shape[2]]) + bytes(14)
-        d = a.tobytes()
-        payload += d + bytes(pad8(len(d)) - len(d))
-    hist = g['history'].encode()
-    body = table + hist + bytes(pad8(len(hist)) - len(hist)) + payload
-    head = MAGIC + struct.pack('<HHIIIqdQ', 1, 64, level, len(g['ch']), len(hist),
-                               g['step'], g['time'], len(payload)) + bytes(12)
-    head += struct.pack('<I', zlib.crc32(head))
-    open(path, 'wb').write(head + body + struct.pack('<I', zlib.crc32(body)) + b'END\n')
+write_grid = gridfile.write_grid
 
 
 def load_png(path):

@@ -30,3 +30,21 @@ for scene in "$S"/*.scene; do
 		fail "$name" "$(tail -1 sim.log)"
 	fi
 done
+
+# Two and three peers in a private network namespace (samples/peers.sh
+# makes its own), and the whole demo on a small grid and a short run.
+remesh --shape wavy -l 3 -o wavy3.tgrid
+for n in 2 3; do
+	if OWNER_ARGS='-t 0.3' "$S/peers.sh" -n "$n" wavy3.tgrid "$S/thesis-fig5.3.scene" "peers$n" >peers.log 2>&1 &&
+		[ -s "peers$n/end.tgrid" ] && grep -q "$n peers at the end" "peers$n/peer-0.log"; then
+		pass "peers.sh -n $n: the run completes, the owner writes the object"
+	else
+		fail "peers.sh -n $n" "$(tail -2 peers.log) $(tail -2 "peers$n/peer-0.log" 2>/dev/null)"
+	fi
+done
+if LEVEL=3 OWNER_ARGS='-t 0.2' "$S/demo.sh" >demo.log 2>&1 && grep -q "in all" demo.log &&
+	[ -s "$OUT/peers/end.tgrid" ] && [ -s "$OUT/bunny-end.obj" ] && ls "$OUT"/png/*.png >/dev/null; then
+	pass "demo.sh runs end to end (level 3, 0.2 s)"
+else
+	fail "demo.sh" "$(tail -3 demo.log)"
+fi

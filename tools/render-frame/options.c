@@ -253,7 +253,7 @@ void rf_options_parse(int argc, char **argv, rf_options *o)
 		{0, 0, 0, 0}};
 	int c;
 	double v[4];
-	while ((c = getopt_long(argc, argv, "o:s:k:vh", opts, NULL)) != -1) {
+	while ((c = getopt_long(argc, argv, ":o:s:k:vh", opts, NULL)) != -1) {
 		switch (c) {
 		case 'o': o->output = optarg; break;
 		case OPT_START: o->start_number = ndo_opt_long("--start-number", optarg, 0, 999999999); break;
@@ -340,7 +340,7 @@ void rf_options_parse(int argc, char **argv, rf_options *o)
 		case 'v': o->verbose = 1; break;
 		case 'h': usage();
 		case OPT_VERSION: ndo_print_version();
-		default: ndo_usage_error("unknown option");
+		default: ndo_bad_option(c);
 		}
 	}
 	if (cam->have_eye && have_angles)

@@ -488,7 +488,7 @@ static void options(run *r, int argc, char **argv)
 	if (!keys || !vals)
 		ndo_die("out of memory");
 	int n = 0, c, idx;
-	while ((c = getopt_long(argc, argv, "s:i:n:t:k:b:o:qh", opts, &idx)) != -1) {
+	while ((c = getopt_long(argc, argv, ":s:i:n:t:k:b:o:qh", opts, &idx)) != -1) {
 		switch (c) {
 		case 's': scene = optarg; break;
 		case 'i': keys[n] = "integrator", vals[n++] = optarg; break;
@@ -504,7 +504,7 @@ static void options(run *r, int argc, char **argv)
 		case 'q': r->quiet = 1; break;
 		case 'h': usage();
 		case OPT_VERSION: ndo_print_version();
-		default: ndo_usage_error("unknown option");
+		default: ndo_bad_option(c);
 		}
 	}
 	if (optind + 1 < argc)
