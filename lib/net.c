@@ -298,11 +298,13 @@ static void on_bytes(void *user, const char *channel, const void *data, size_t l
 			ndo_msg_free(&m);
 			return;
 		}
+		m.decoded = 1;
 		int skipped = n->skipped && n->keep_all ? ndo_codec_skipped(n->codec, &m.u.tile) : 0;
 		for (int k = 0; k < skipped; k++) {
 			ndo_msg sk;
 			memset(&sk, 0, sizeof sk);
 			sk.type = NDO_MSG_TILE;
+			sk.decoded = 1;
 			if (ndo_codec_skipped_tile(n->codec, &m.u.tile, k, &sk.u.tile) != 0)
 				break;
 			sk.hdr = (const ndo_msg_header_t *)&sk.u;

@@ -600,7 +600,7 @@ static int on_leave(ndo_session *s, const ndo_msg_leave_t *l)
 	return 0;
 }
 
-static void apply_tile(ndo_session *s, const ndo_msg_tile_t *t);
+static void apply_tile(ndo_session *s, const ndo_msg_tile_t *t, int decoded);
 
 static int handle(ndo_session *s, ndo_msg *m)
 {
@@ -644,7 +644,7 @@ static int handle(ndo_session *s, ndo_msg *m)
 	case NDO_MSG_PEERS: on_peers(s, &m->u.peers); return 0;
 	case NDO_MSG_TILE: /* with tile_fn: every tile, in arrival order */
 		if (s->grid && s->described)
-			apply_tile(s, &m->u.tile);
+			apply_tile(s, &m->u.tile, m->decoded);
 		return 0;
 	case NDO_MSG_LEAVE: return on_leave(s, &m->u.leave);
 	case NDO_MSG_FORCE: {
@@ -671,8 +671,12 @@ static int handle(ndo_session *s, ndo_msg *m)
 /* One tile from another peer.  Rest and pin come only from the owner and
  * are written here; position and velocity go into the nodes the sender
  * owns (before READY the owner's snapshot fills every node), or to the
- * caller's tile_fn.  Marks what a joiner has received. */
-static void apply_tile(ndo_session *s, const ndo_msg_tile_t *t)
+ * caller's tile_fn.  Marks what a joiner has received: only tiles that
+ * travelled raw count.  A decoded tile (ndo/codec.h) is no snapshot: it
+ * carries the sender's nodes only (NaN elsewhere), its LOSSY values are
+ * not the sender's, and marking its whole range made a joiner that had
+ * lost part of the snapshot READY with zeros in its region (issue 7). */
+static void apply_tile(ndo_session *s, const ndo_msg_tile_t *t, int decoded)
 {
 	int32_t *own = owner_channel(s);
 	int32_t from = t->hdr.sender_id;
@@ -683,14 +687,14 @@ static void apply_tile(ndo_session *s, const ndo_msg_tile_t *t)
 		}
 		ndo_tile_apply(s->grid, t, NULL, 0);
 	} else {
-		int fill = !s->ready && from == s->owner_id;
+		int fill = !s->ready && from == s->owner_id && !decoded;
 		if (s->o.tile_fn)
 			s->o.tile_fn(s->o.tile_user, t, fill);
 		else
 			ndo_tile_apply(s->grid, t, fill ? NULL : own, from);
 	}
 	s->applied = 1;
-	if (s->have) {
+	if (s->have && !decoded) {
 		uint8_t bit = (t->channels & NDO_TILE_REST) ? 1 : 2;
 		for (int j = t->j0; j <= t->j1; j++)
 			for (int i = t->i0; i <= t->i1; i++) {
@@ -718,7 +722,7 @@ static void apply_tiles(ndo_session *s)
 		return;
 	if (s->grid && s->described)
 		for (size_t k = 0; k < n; k++)
-			apply_tile(s, &tiles[k].u.tile);
+			apply_tile(s, &tiles[k].u.tile, tiles[k].decoded);
 	for (size_t k = 0; k < n; k++)
 		ndo_msg_free(&tiles[k]);
 	free(tiles);

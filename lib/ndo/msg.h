@@ -96,6 +96,10 @@ const char *ndo_drop_name(ndo_drop r); /* "malformed" */
 typedef struct ndo_msg {
 	ndo_msg_type type;
 	const ndo_msg_header_t *hdr;
+	/* A tile that arrived encoded and was decoded on arrival (ndo/net.h,
+	 * ndo/codec.h): its values are a reconstruction, NaN where the tile
+	 * does not carry a node — never an exact snapshot of its range. */
+	int decoded;
 	union {
 		ndo_msg_description_t description;
 		ndo_msg_tile_t tile;
