@@ -194,6 +194,19 @@ int ndo_codec_params_take(char *text, ndo_codec_params *p)
 	return seen ? ndo_codec_params_check(p) : 0;
 }
 
+int ndo_codec_params_read(const void *scene, size_t len, ndo_codec_params *p)
+{
+	char *text = malloc(len + 1);
+	if (!text)
+		return ndo__fail(NDO_ENOMEM, "out of memory");
+	if (len)
+		memcpy(text, scene, len);
+	text[len] = 0;
+	int rc = ndo_codec_params_take(text, p);
+	free(text);
+	return rc;
+}
+
 /* ---- history ---------------------------------------------------------------- */
 static void frame_clear(ndo_codec_frame *f) { f->step = -1; }
 

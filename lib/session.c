@@ -472,14 +472,10 @@ static int on_description(ndo_session *s, const ndo_msg_description_t *d)
 	if (s->o.object_id && d->hdr.object_id != s->o.object_id)
 		return 0;
 	{ /* a description whose tile encoding this build cannot use: ignored */
-		char *text = malloc((size_t)d->scene_len + 1);
-		if (!text)
-			return NDO_ENOMEM;
-		memcpy(text, d->scene, (size_t)d->scene_len);
-		text[d->scene_len] = 0;
 		ndo_codec_params cp;
-		int bad = ndo_codec_params_take(text, &cp);
-		free(text);
+		int bad = ndo_codec_params_read(d->scene, (size_t)d->scene_len, &cp);
+		if (bad == NDO_ENOMEM)
+			return bad;
 		if (bad) {
 			((ndo_net_stats *)ndo_net_stats_get(s->net))->dropped[NDO_DROP_RANGE]++;
 			return 0;

@@ -118,14 +118,8 @@ static int attach(ndo_watch *w, const ndo_msg_description_t *d)
 	if (w->attached || (w->o.object_id && d->hdr.object_id != w->o.object_id))
 		return 0;
 	/* the owner's tile encoding (ndo/codec.h): decoded by the net */
-	char *text = malloc((size_t)d->scene_len + 1);
-	if (!text)
-		return ndo__fail(NDO_ENOMEM, "out of memory");
-	memcpy(text, d->scene, (size_t)d->scene_len);
-	text[d->scene_len] = 0;
 	ndo_codec_params cp;
-	int rc = ndo_codec_params_take(text, &cp);
-	free(text);
+	int rc = ndo_codec_params_read(d->scene, (size_t)d->scene_len, &cp);
 	if (rc == 0)
 		rc = ndo_net_set_codec(w->net, &cp, d->level);
 	if (rc == NDO_EINVAL)

@@ -111,6 +111,10 @@ int ndo_codec_params_text(const ndo_codec_params *p, char *buf, size_t size);
  * place): *p is raw when there are none.  0, or NDO_EINVAL (a bad line:
  * ndo_errdetail()). */
 int ndo_codec_params_take(char *text, ndo_codec_params *p);
+/* The same for a description's scene as it arrives (len bytes, not
+ * NUL-terminated; NULL when len is 0), which is left as it is.  0,
+ * NDO_EINVAL or NDO_ENOMEM. */
+int ndo_codec_params_read(const void *scene, size_t len, ndo_codec_params *p);
 /* 0 when *p is a consistent set of parameters, else NDO_EINVAL. */
 int ndo_codec_params_check(const ndo_codec_params *p);
 
