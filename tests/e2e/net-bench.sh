@@ -10,7 +10,7 @@
 
 # 1. one row: level 4, predict, 1 s
 SECONDS=0
-if net-bench -q -l 4 -e predict -t 1 --csv row.csv >table.txt 2>err.txt; then
+if net-bench -q -l 4 -e predict -t 1 --csv row.csv -o table.txt >stdout.txt 2>err.txt; then
 	/usr/bin/python3 - row.csv <<'PY' >check.txt
 import csv, math, sys
 rows = list(csv.DictReader(open(sys.argv[1])))
@@ -33,7 +33,7 @@ print("ok" if not why else "; ".join(why),
       f"{f['bits_per_node_update']:.3g} bits/node/update, max error {f['max_error_rel']:.3g}")
 PY
 	read -r verdict rest <check.txt
-	if [ "$verdict" = ok ] && grep -q '| 4 | 561 | predict' table.txt; then
+	if [ "$verdict" = ok ] && grep -q '| 4 | 561 | predict' table.txt && [ ! -s stdout.txt ]; then
 		pass "one row (level 4, predict): CSV columns and values sane: $rest (${SECONDS}s)"
 	else
 		fail "one row" "$(cat check.txt)"
@@ -47,8 +47,9 @@ expect_error "bad level" 2 "^net-bench: --level: .*1\.\.8" net-bench -l 12
 expect_error "unknown encoding" 2 "^net-bench: --encoding: 'zip': unknown encoding" net-bench -e zip
 expect_error "bad loss" 2 "^net-bench: --loss" net-bench --loss 2
 expect_error "unwritable CSV" 1 "^net-bench: no/such/dir/x.csv: " net-bench -l 4 -e raw --csv no/such/dir/x.csv
+expect_error "unwritable table" 1 "^net-bench: no/such/dir/x.md: " net-bench -l 4 -e raw -o no/such/dir/x.md
 expect_error "stray argument" 2 "^net-bench: unexpected argument" net-bench extra
-[ ! -e no/such/dir/x.csv ] || fail "unwritable CSV" "a file appeared"
+[ ! -e no/such/dir ] || fail "unwritable CSV or table" "a file appeared"
 
 # 3. 2 peers, each compact encoding against raw
 SCENE=$NDO_ROOT/samples/thesis-fig5.3.scene

@@ -11,18 +11,20 @@
 
 static __attribute__((noreturn)) void usage(void)
 {
-	printf("Usage: %s [-l L] [-e ENCODING] [--csv FILE] [--lcm URL] [options]\n"
+	printf("Usage: %s [-l L] [-e ENCODING] [-o FILE] [--csv FILE] [--lcm URL] [options]\n"
 	       "Measure the peers' traffic on the thesis' scene (figure 5.3: the wavy surface,\n"
 	       "k = 1 N/m, b = 0.1, 2.4 N at 1 Hz, rk4) through real LCM: an owner and\n"
 	       "joiners in lock-step and a passive observer, in this process, in a private\n"
 	       "network namespace (or on --lcm URL).  With no -l and no -e, the whole table\n"
 	       "(levels 4-8 x raw, float32, fixed, predict) and a loss sweep; otherwise the\n"
-	       "rows asked for.  Prints a table beside the thesis' Table 5.2.\n"
+	       "rows asked for.  Prints a Markdown table beside the thesis' Table 5.2.\n"
 	       "\n"
 	       "  -l, --level L       the grid level, 1..8 (default: 4 to 8)\n"
 	       "  -e, --encoding E    raw, float32, fixed[:BITS] or predict[:BITS[:KEYFRAME]]\n"
 	       "                      (default: all four; bits 1..24, default 13)\n"
-	       "      --csv FILE      write the rows as CSV too ('-': standard output)\n"
+	       "  -o, --output FILE   write the table to FILE (default: standard output)\n"
+	       "      --csv FILE      write the rows as CSV too ('-': standard output,\n"
+	       "                      instead of the table)\n"
 	       "      --lcm URL       use this LCM URL as it is, no private namespace\n"
 	       "  -t, --time S        simulated seconds per run, 0.05..60 (default 5)\n"
 	       "      --peers N       simulating peers, 1..8 (default 2)\n"
@@ -74,26 +76,26 @@ static void csv_row(FILE *f, const nb_row *r)
 	        r->divergence, thesis_mbit(r->level));
 }
 
-static void table_head(void)
+static void table_head(FILE *f)
 {
-	printf("| level | nodes | encoding | bits/node/update | Mbit/s | steps/s | thesis Mbit/s "
+	fprintf(f, "| level | nodes | encoding | bits/node/update | Mbit/s | steps/s | thesis Mbit/s "
 	       "| max error | RMS error | encode ms | decode ms | latency p50 µs | p99 µs "
 	       "| kernel drops |\n"
 	       "|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
 }
 
-static void table_row(const nb_row *r)
+static void table_row(FILE *f, const nb_row *r)
 {
 	double th = thesis_mbit(r->level);
 	char ths[32] = "–";
 	if (!isnan(th))
 		snprintf(ths, sizeof ths, "%.4g", th);
-	printf("| %d | %zu | %s | %.3g | %.3g | %.0f | %s | %.2g | %.2g | %.3g | %.3g | %.0f | "
+	fprintf(f, "| %d | %zu | %s | %.3g | %.3g | %.0f | %s | %.2g | %.2g | %.3g | %.3g | %.0f | "
 	       "%.0f | %ld |\n",
 	       r->level, r->nodes, r->encoding, r->bits_per_node_update, r->mbit_s, r->steps_per_s,
 	       ths, r->max_error_rel, r->rms_error_rel, r->encode_ms, r->decode_ms,
 	       r->latency_p50_us, r->latency_p99_us, r->kernel_drops);
-	fflush(stdout);
+	fflush(f);
 }
 
 static int parse_losses(const char *arg, double *out, int max)
@@ -120,7 +122,7 @@ int main(int argc, char **argv)
 	ndo_cli_init(argc, argv);
 	nb_opts o = {.url = NULL, .time = 5, .peers = 2, .timeout = 300};
 	int level = -1, nloss = -1;
-	const char *csv = NULL;
+	const char *csv = NULL, *output = NULL;
 	ndo_codec_params one;
 	int have_enc = 0;
 	double losses[16];
@@ -128,6 +130,7 @@ int main(int argc, char **argv)
 	static const struct option opts[] = {
 		{"level", required_argument, 0, 'l'},
 		{"encoding", required_argument, 0, 'e'},
+		{"output", required_argument, 0, 'o'},
 		{"csv", required_argument, 0, OPT_CSV},
 		{"lcm", required_argument, 0, OPT_LCM},
 		{"time", required_argument, 0, 't'},
@@ -139,7 +142,7 @@ int main(int argc, char **argv)
 		{"version", no_argument, 0, OPT_VERSION},
 		{0, 0, 0, 0}};
 	int c;
-	while ((c = getopt_long(argc, argv, ":l:e:t:qh", opts, NULL)) != -1) {
+	while ((c = getopt_long(argc, argv, ":l:e:o:t:qh", opts, NULL)) != -1) {
 		switch (c) {
 		case 'l': level = (int)ndo_opt_long("--level", optarg, 1, 8); break;
 		case 'e':
@@ -147,6 +150,7 @@ int main(int argc, char **argv)
 				ndo_usage_error("--encoding: %s", ndo_errdetail());
 			have_enc = 1;
 			break;
+		case 'o': output = optarg; break;
 		case OPT_CSV: csv = optarg; break;
 		case OPT_LCM:
 			if (!*optarg)
@@ -174,11 +178,22 @@ int main(int argc, char **argv)
 			nloss = 5;
 		}
 	}
-	ndo_outfile out;
-	int to_stdout = csv && strcmp(csv, "-") == 0;
-	if (csv && !to_stdout && ndo_out_open(csv, &out))
+	/* the CSV on standard output takes the place of the table there */
+	int csv_stdout = csv && ndo_is_stdio(csv);
+	int table = !(csv_stdout && ndo_is_stdio(output));
+	ndo_outfile cout, tout;
+	FILE *cf = NULL, *tf = NULL;
+	if (csv && !csv_stdout && ndo_out_open(csv, &cout))
 		ndo_die("%s: %s", csv, ndo_errdetail());
-	FILE *cf = csv ? (to_stdout ? stdout : out.f) : NULL;
+	if (csv)
+		cf = csv_stdout ? stdout : cout.f;
+	if (table && ndo_out_open(output, &tout)) {
+		if (csv && !csv_stdout)
+			ndo_out_abort(&cout);
+		ndo_die("%s: %s", output, ndo_errdetail());
+	}
+	if (table)
+		tf = tout.f;
 	if (!o.url) {
 		char why[300];
 		if (nb_private_netns(why, sizeof why))
@@ -196,8 +211,8 @@ int main(int argc, char **argv)
 	}
 	if (cf)
 		fprintf(cf, "%s\n", header);
-	if (!to_stdout)
-		table_head();
+	if (tf)
+		table_head(tf);
 	int failed = 0;
 	for (int l = lo; l <= hi && !failed; l++)
 		for (int e = 0; e < nenc && !failed; e++) {
@@ -211,8 +226,8 @@ int main(int argc, char **argv)
 				ndo_warn("level %d: %s", l, ndo_errdetail());
 				failed = 1;
 			} else {
-				if (!to_stdout)
-					table_row(&r);
+				if (tf)
+					table_row(tf, &r);
 				if (cf)
 					csv_row(cf, &r);
 			}
@@ -229,8 +244,8 @@ int main(int argc, char **argv)
 			ndo_warn("loss sweep: %s", ndo_errdetail());
 			failed = 1;
 		}
-		if (!failed && !to_stdout)
-			printf("\nLoss sweep (level %d, %s, %d peers, drop on every peer's receiving "
+		if (!failed && tf)
+			fprintf(tf, "\nLoss sweep (level %d, %s, %d peers, drop on every peer's receiving "
 			       "side):\n\n| drop | divergence | steps/s | resends | nobase drops | "
 			       "observer frames | incomplete |\n|---:|---:|---:|---:|---:|---:|---:|\n",
 			       sl, ref.encoding, o.peers);
@@ -242,8 +257,8 @@ int main(int argc, char **argv)
 			} else {
 				if (r.final_x && ref.final_x)
 					r.divergence = nb_divergence(r.final_x, ref.final_x, ref.rest, r.nodes);
-				if (!to_stdout)
-					printf("| %g | %.3g | %.0f | %llu | %llu | %lld | %lld |\n", r.loss,
+				if (tf)
+					fprintf(tf, "| %g | %.3g | %.0f | %llu | %llu | %lld | %lld |\n", r.loss,
 					       r.divergence, r.steps_per_s, (unsigned long long)r.resends,
 					       (unsigned long long)r.nobase, (long long)r.frames,
 					       (long long)r.incomplete);
@@ -254,11 +269,18 @@ int main(int argc, char **argv)
 		}
 		nb_row_free(&ref);
 	}
-	if (csv && !to_stdout) {
+	/* a failed run leaves no half-written file behind */
+	if (csv && !csv_stdout) {
 		if (failed)
-			ndo_out_abort(&out);
-		else if (ndo_out_commit(&out))
+			ndo_out_abort(&cout);
+		else if (ndo_out_commit(&cout))
 			ndo_die("%s: %s", csv, ndo_errdetail());
+	}
+	if (tf && !ndo_is_stdio(output)) {
+		if (failed)
+			ndo_out_abort(&tout);
+		else if (ndo_out_commit(&tout))
+			ndo_die("%s: %s", output, ndo_errdetail());
 	}
 	ndo_close_stdout();
 	return failed ? NDO_EXIT_FAIL : NDO_EXIT_OK;
