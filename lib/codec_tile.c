@@ -3,6 +3,7 @@
  * (ndo/codec.h). */
 #include "ndo/codec.h"
 #include "ndo/status.h"
+#include "ndo/topology.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -47,6 +48,34 @@ struct ndo_codec {
 	ndo_codec_frame fr; /* a frame, scratch */
 	int frnodes;
 };
+
+size_t ndo_codec_classify(int level, const int32_t *own, int32_t self, uint8_t *cls)
+{
+	const int w = (2 << level) + 1;
+	const size_t count = (size_t)w * (size_t)((1 << level) + 1);
+	for (size_t k = 0; k < count; k++) {
+		size_t c = ndo_canonical(level, (int)(k % (size_t)w), (int)(k / (size_t)w));
+		cls[k] = own[c] == self ? NDO_NODE_LOSSY : NDO_NODE_SKIP;
+	}
+	for (size_t k = 0; k < count; k++) {
+		int i = (int)(k % (size_t)w), j = (int)(k / (size_t)w);
+		if (ndo_canonical(level, i, j) != k || own[k] == self)
+			continue;
+		size_t nb[6];
+		ndo_neighbors(level, i, j, nb);
+		for (int d = 0; d < 6; d++) {
+			size_t c = ndo_canonical(level, (int)(nb[d] % (size_t)w), (int)(nb[d] / (size_t)w));
+			if (own[c] == self)
+				cls[c] = NDO_NODE_EXACT;
+		}
+	}
+	size_t n = 0;
+	for (size_t k = 0; k < count; k++) { /* duplicates as their canonical node */
+		cls[k] = cls[ndo_canonical(level, (int)(k % (size_t)w), (int)(k / (size_t)w))];
+		n += cls[k] == NDO_NODE_EXACT;
+	}
+	return n;
+}
 
 static double mono(void)
 {

@@ -127,40 +127,13 @@ static int prepare_grid(ndo_session *s)
 	return 0;
 }
 
-/* The classes of the stored nodes for the encoder: this peer's nodes next
- * to another simulating peer's region (what its halo holds: the 1-ring,
- * through the ghost map, of that region) EXACT, its other nodes LOSSY,
- * the rest SKIP. */
+/* The classes of the stored nodes for the encoder (ndo_codec_classify). */
 static void classify(ndo_session *s)
 {
-	ndo_grid *g = s->grid;
-	const int32_t *own = ndo_grid_find(g, NDO_CH_OWNER)->data;
-	size_t *canon = malloc(g->count * sizeof *canon);
-	memset(s->cls, NDO_NODE_SKIP, g->count);
-	memset(s->cls_exact, NDO_NODE_SKIP, g->count);
-	s->nexact = 0;
-	if (!canon)
-		return; /* then everything goes lossy: still correct, less exact */
-	for (size_t k = 0; k < g->count; k++) {
-		canon[k] = ndo_canonical(g->level, (int)(k % (size_t)g->w), (int)(k / (size_t)g->w));
-		if (own[canon[k]] == s->self)
-			s->cls[canon[k]] = NDO_NODE_LOSSY;
-	}
-	for (size_t k = 0; k < g->count; k++) {
-		if (canon[k] != k || own[k] == s->self)
-			continue;
-		size_t nb[6];
-		ndo_neighbors(g->level, (int)(k % (size_t)g->w), (int)(k / (size_t)g->w), nb);
-		for (int d = 0; d < 6; d++)
-			if (own[canon[nb[d]]] == s->self)
-				s->cls[canon[nb[d]]] = NDO_NODE_EXACT;
-	}
-	for (size_t k = 0; k < g->count; k++) {
-		s->cls[k] = s->cls[canon[k]];
+	s->nexact = ndo_codec_classify(s->level, ndo_grid_find(s->grid, NDO_CH_OWNER)->data, s->self,
+	                               s->cls);
+	for (size_t k = 0; k < s->grid->count; k++)
 		s->cls_exact[k] = s->cls[k] == NDO_NODE_SKIP ? NDO_NODE_SKIP : NDO_NODE_EXACT;
-		s->nexact += s->cls[k] == NDO_NODE_EXACT;
-	}
-	free(canon);
 }
 
 static int32_t *owner_channel(ndo_session *s)

@@ -212,6 +212,13 @@ typedef struct ndo_codec_stats {
 	uint64_t error_nodes;
 } ndo_codec_stats;
 
+/* The classes of a level's stored nodes (W × H) for sender `self`, from
+ * the owner channel (W × H ids, stored duplicates agreeing): its nodes in
+ * the 1-ring (through the ghost map) of another peer's region EXACT — what
+ * that peer's halo holds —, its other nodes LOSSY, the rest SKIP.
+ * Returns the count of EXACT stored nodes. */
+size_t ndo_codec_classify(int level, const int32_t *owner, int32_t self, uint8_t *cls);
+
 /* Tiles of a level-`level` object under *p. */
 int ndo_codec_create(const ndo_codec_params *p, int level, ndo_codec **out);
 void ndo_codec_destroy(ndo_codec *c); /* accepts NULL */
