@@ -1,10 +1,10 @@
 #!/usr/bin/env bash
 # net-bench and compact state tiles (issue 7), in a private network
 # namespace: one small net-bench row and its CSV's columns and sanity; the
-# expected failures; a 2-peer simulate-peer run with each compact encoding
+# expected failures; 2-peer simulate-peer runs with each compact encoding
 # against the raw run (the boundary and the last step travel exact, so the
-# owner's result is the raw run's bit for bit), and render-frame's
-# observer decoding them.
+# owner's result is the raw run's bit for bit) and that against the 1-peer
+# run; and render-frame's observer decoding them.
 . "$(dirname "$0")/netns.bash"
 . "$(dirname "$0")/lib.sh"
 
@@ -51,42 +51,68 @@ expect_error "unwritable table" 1 "^net-bench: no/such/dir/x.md: " net-bench -l 
 expect_error "stray argument" 2 "^net-bench: unexpected argument" net-bench extra
 [ ! -e no/such/dir ] || fail "unwritable CSV or table" "a file appeared"
 
-# 3. 2 peers, each compact encoding against raw
+# 3. 2 peers, each compact encoding RUNS times, against the raw 2-peer run
+# (bit for bit: the boundary and the last step travel exact) and that
+# against the 1-peer run (close: the partitioned scheme holds its boundary
+# over a step).  A joiner that counted the owner's encoded step-0 tiles as
+# its snapshot became READY before the raw snapshot came and started its
+# region from zeros, ~0.86 off: about one run in two, hence several runs
+# (issue 7).
 SCENE=$NDO_ROOT/samples/thesis-fig5.3.scene
+RUNS=${NET_BENCH_RUNS:-4}
 remesh --shape wavy -l 5 -o w5.tgrid 2>/dev/null || fail "remesh"
-run2() { # run2 ENCODING OUT
+run2() { # run2 ENCODING OUT: 0 when both peers succeed
 	simulate-peer --owner w5.tgrid -s "$SCENE" --dt 0.01 -t 0.6 --peers 2 --encoding "$1" \
 		--start-timeout 30 -o "$2" 2>owner.err &
 	local o=$!
 	simulate-peer --join --poi 1000 --start-timeout 30 2>joiner.err &
 	local j=$!
-	wait $o && wait $j
+	wait $o && wait $j || { wait; return 1; }
 }
-if run2 raw two-raw.tgrid; then
-	for enc in float32 fixed:13 predict; do
-		if run2 "$enc" two-enc.tgrid; then
-			d=$(/usr/bin/python3 "$NDO_ROOT/tests/e2e/tgrid.py" two-enc.tgrid \
-				"float(abs(position - __import__('tgrid').read('two-raw.tgrid')[3]['position']).max())" 2>/dev/null ||
-				/usr/bin/python3 - two-enc.tgrid two-raw.tgrid "$NDO_ROOT/tests/e2e" <<'PY'
+# maxdiff REFERENCE FILE...: per FILE, the largest difference of position
+# and velocity from REFERENCE
+maxdiff() {
+	/usr/bin/python3 - "$NDO_ROOT/tests/e2e" "$@" <<'PY'
 import sys
-sys.path.insert(0, sys.argv[3])
+sys.path.insert(0, sys.argv[1])
 import numpy as np, tgrid
-a = tgrid.read(sys.argv[1])[3]; b = tgrid.read(sys.argv[2])[3]
-print(float(max(np.abs(a["position"] - b["position"]).max(), np.abs(a["velocity"] - b["velocity"]).max())))
+ref = tgrid.read(sys.argv[2])[3]
+for f in sys.argv[3:]:
+    c = tgrid.read(f)[3]
+    print(repr(max(float(np.abs(c[k] - ref[k]).max()) for k in ("position", "velocity"))))
 PY
-)
-			sent=$(grep -o 'sent [0-9.e+-]* MB' owner.err | head -1)
-			if [ "$d" = 0.0 ]; then
-				pass "2 peers, $enc: the owner's result equals the raw run's exactly ($sent by the owner)"
+}
+if simulate-peer --owner w5.tgrid -s "$SCENE" --dt 0.01 -t 0.6 -q -o one.tgrid && run2 raw two-raw.tgrid; then
+	d=$(maxdiff one.tgrid two-raw.tgrid)
+	if /usr/bin/python3 -c "import sys; sys.exit(not float(sys.argv[1]) < 1e-2)" "$d"; then
+		pass "2 peers, raw: within $d of the 1-peer run"
+	else
+		fail "2 peers, raw" "differs from the 1-peer run by $d"
+	fi
+	for enc in float32 fixed:13 predict; do
+		outs=() failed=
+		for ((r = 1; r <= RUNS; r++)); do
+			if run2 "$enc" "two-$enc-$r.tgrid"; then
+				outs+=("two-$enc-$r.tgrid")
 			else
-				fail "2 peers, $enc" "differs from raw by $d"
+				failed="run $r: a peer failed: $(tail -1 owner.err) / $(tail -1 joiner.err)"
+				break
 			fi
+		done
+		sent=$(grep -o 'sent [0-9.e+-]* MB' owner.err | head -1)
+		if [ -n "$failed" ]; then
+			fail "2 peers, $enc" "$failed"
+			continue
+		fi
+		ds=$(maxdiff two-raw.tgrid "${outs[@]}" | tr '\n' ' ')
+		if [ "$(wc -w <<<"$ds")" = "$RUNS" ] && ! grep -qv '^0\.0$' <<<"$(tr ' ' '\n' <<<"${ds% }")"; then
+			pass "2 peers, $enc: $RUNS runs, each owner's result equals the raw run's exactly ($sent by the owner)"
 		else
-			fail "2 peers, $enc" "a peer failed: $(tail -1 owner.err)"
+			fail "2 peers, $enc" "differences from the raw run in $RUNS runs: $ds"
 		fi
 	done
 else
-	fail "2 peers, raw" "a peer failed: $(tail -1 owner.err)"
+	fail "2 peers, raw" "a run failed: $(tail -1 owner.err)"
 fi
 
 # 4. the observer decodes: render-frame --lcm draws predict tiles as it draws raw ones
