@@ -21,7 +21,7 @@ CC := gcc
 CXX := g++
 
 # Debian packages (make deps).  Grouped by who needs them.
-DEBS_BUILD := build-essential pkg-config zlib1g-dev libassimp-dev iproute2
+DEBS_BUILD := build-essential pkg-config zlib1g-dev libzstd-dev libassimp-dev iproute2
 DEBS_TEST := python3 python3-numpy clang libclang-rt-14-dev libopenmesh-dev
 # Recursive: the tools' build.mk fragments, included below, add DEBS_TOOLS.
 DEBS = $(DEBS_BUILD) $(DEBS_TEST) $(DEBS_TOOLS)
@@ -49,7 +49,7 @@ CFLAGS += -std=c11 $(OPTFLAGS) $(WARN)
 CXXFLAGS += -std=c++17 $(OPTFLAGS) $(WARN)
 LDFLAGS += $(filter -fsanitize=%,$(OPTFLAGS))
 # What a program linking lib/libndo.a links besides (ndo.pc says the same).
-NDO_LIBS := -lassimp -lz -lm
+NDO_LIBS := -lassimp -lz -lzstd -lm
 
 LIB_SRCS := $(sort $(wildcard lib/*.c))
 LIB_OBJS := $(LIB_SRCS:%=$(OBJ)/%.o)

@@ -65,7 +65,8 @@ const char *ndo_drop_name(ndo_drop r)
 {
 	static const char *names[NDO_DROP_N] = {
 		"none", "injected", "channel", "malformed", "version", "foreign", "unknown",
-		"range", "length", "nonfinite", "encoding", "stale", "authority"};
+		"range", "length", "nonfinite", "encoding", "stale", "authority", "corrupt",
+		"nobase"};
 	return (unsigned)r < NDO_DROP_N ? names[r] : "?";
 }
 
@@ -391,8 +392,16 @@ ndo_drop ndo_msg_validate(const ndo_msg *m, const ndo_msg_ctx *c)
 			return NDO_DROP_RANGE;
 		if (t->channels <= 0 || (t->channels & ~NDO_TILE_ALL))
 			return NDO_DROP_RANGE;
-		if (t->encoding != NDO_ENC_RAW)
+		if (t->encoding < NDO_ENC_RAW || t->encoding > NDO_ENC_PREDICT)
 			return NDO_DROP_ENCODING;
+		if (t->encoding != NDO_ENC_RAW) { /* the payload is the codec's to check */
+			if (t->channels != (NDO_TILE_POSITION | NDO_TILE_VELOCITY) || t->base_step < -1 ||
+			    t->base_step >= t->step)
+				return NDO_DROP_RANGE;
+			if (t->nvalues != 0 || t->nbytes < 1)
+				return NDO_DROP_LENGTH;
+			return NDO_DROP_NONE;
+		}
 		if (t->base_step != -1 || t->nbytes != 0)
 			return NDO_DROP_LENGTH;
 		int64_t want = (int64_t)ndo_quad_node_count(L, t->depth) *

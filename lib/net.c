@@ -37,6 +37,8 @@ struct ndo_net {
 	ndo_msg *queue;
 	size_t qhead, qcount, qcap;
 	int keep_all; /* tiles queue in arrival order too (ndo_net_keep_all_tiles) */
+	int skipped;  /* and skipped steps' tiles are made (ndo_net_skipped_tiles) */
+	ndo_codec *codec;
 	ndo_net_stats st;
 	double now;
 	/* messages that arrived before the object was known (a description
@@ -93,6 +95,7 @@ void ndo_net_destroy(ndo_net *n)
 		return;
 	unpark_all(n);
 	free(n->park);
+	ndo_codec_destroy(n->codec);
 	clear_tiles(n);
 	free(n->slots);
 	for (size_t k = 0; k < n->qcount; k++)
@@ -104,6 +107,17 @@ void ndo_net_destroy(ndo_net *n)
 
 ndo_msg_ctx *ndo_net_ctx(ndo_net *n) { return &n->ctx; }
 void ndo_net_keep_all_tiles(ndo_net *n, int on) { n->keep_all = on != 0; }
+void ndo_net_skipped_tiles(ndo_net *n, int on) { n->skipped = on != 0; }
+const ndo_codec *ndo_net_codec(const ndo_net *n) { return n->codec; }
+
+int ndo_net_set_codec(ndo_net *n, const ndo_codec_params *p, int level)
+{
+	ndo_codec_destroy(n->codec);
+	n->codec = NULL;
+	if (p->encoding == NDO_ENC_RAW)
+		return 0;
+	return ndo_codec_create(p, level, &n->codec);
+}
 ndo_link *ndo_net_link(const ndo_net *n) { return n->link; }
 const ndo_net_stats *ndo_net_stats_get(const ndo_net *n) { return &n->st; }
 const char *ndo_net_channel(const ndo_net *n, ndo_msg_type t) { return n->channel[t]; }
@@ -274,6 +288,31 @@ static void on_bytes(void *user, const char *channel, const void *data, size_t l
 		n->st.dropped[r]++;
 		ndo_msg_free(&m);
 		return;
+	}
+	if (t == NDO_MSG_TILE && m.u.tile.encoding != NDO_ENC_RAW) {
+		/* decoded here, in arrival order: each frame is a reference for
+		 * the next ones, whoever uses it */
+		r = n->codec ? ndo_codec_decode_tile(n->codec, &m.u.tile) : NDO_DROP_ENCODING;
+		if (r != NDO_DROP_NONE) {
+			n->st.dropped[r]++;
+			ndo_msg_free(&m);
+			return;
+		}
+		m.decoded = 1;
+		int skipped = n->skipped && n->keep_all ? ndo_codec_skipped(n->codec, &m.u.tile) : 0;
+		for (int k = 0; k < skipped; k++) {
+			ndo_msg sk;
+			memset(&sk, 0, sizeof sk);
+			sk.type = NDO_MSG_TILE;
+			sk.decoded = 1;
+			if (ndo_codec_skipped_tile(n->codec, &m.u.tile, k, &sk.u.tile) != 0)
+				break;
+			sk.hdr = (const ndo_msg_header_t *)&sk.u;
+			if (enqueue(n, &sk) != 0) {
+				ndo_msg_free(&sk);
+				break;
+			}
+		}
 	}
 	sender *s = find_sender(n, m.hdr->sender_id, 1);
 	s->heard = n->now;

@@ -149,10 +149,13 @@ static void write_tile(ndo_peer *p, const ndo_msg_tile_t *t, int fill)
 			 * not known otherwise (its other values are the owner's view:
 			 * of no known step) */
 			int take = mine ? t->step >= p->nstep[c] : fill && p->nstep[c] < 0;
+			/* a decoded tile's NaN: a node it does not carry (ndo/codec.h) */
+			if (hasx && isnan(t->values[k]))
+				take = 0;
 			if (take) {
 				if (hasx)
 					memcpy(x + 3 * node, &t->values[k], 3 * sizeof *x);
-				if (hasv)
+				if (hasv && !isnan(t->values[k + (hasx ? 3 : 0)]))
 					memcpy(v + 3 * node, &t->values[k + (hasx ? 3 : 0)], 3 * sizeof *v);
 				if (mine && node == c) {
 					p->nstep[c] = t->step;
@@ -449,6 +452,8 @@ static int joiner_ready(ndo_peer *p)
 		ndo_scene_free(&sc);
 		return rc;
 	}
+	/* the last step's tiles are exact: what the owner gathers (ndo/codec.h) */
+	ndo_session_set_exact_step(p->s, p->final);
 	p->dt = sc.dt;
 	ndo_grid *g = ndo_session_grid(p->s);
 	double *rest = ndo_grid_f64(g, NDO_CH_REST, 3);
@@ -964,6 +969,8 @@ int ndo_peer_create(const ndo_peer_opts *o, ndo_net *net, ndo_grid *grid, ndo_si
 		ndo_peer_destroy(p, NULL);
 		return rc;
 	}
+	if (owner)
+		ndo_session_set_exact_step(p->s, p->final);
 	if (owner && ((rc = arrays(p)) || (rc = region(p)))) {
 		ndo_peer_destroy(p, NULL);
 		return rc;

@@ -57,6 +57,13 @@ struct ndo_session {
 	int holding_force;
 	int applied; /* a tile was written since the last ndo_grid_sync */
 	uint64_t rng;
+	/* compact state (ndo/codec.h) */
+	ndo_codec_params codec;   /* raw until known */
+	ndo_codec *enc;           /* this peer's encoder (NULL: raw) */
+	uint8_t *cls, *cls_exact; /* per stored node: NDO_NODE_* (and all own EXACT) */
+	size_t nexact;
+	int tdepth_enc;
+	int64_t exact_step;
 };
 
 static void push_event(ndo_session *s, ndo_event e)
@@ -108,7 +115,25 @@ static int prepare_grid(ndo_session *s)
 	                                 ndo_net_channel(s->net, NDO_MSG_TILE));
 	s->tdepth_rest = ndo_tile_depth(g->level, NDO_TILE_REST | NDO_TILE_PIN,
 	                                ndo_net_channel(s->net, NDO_MSG_TILE));
+	/* encoded tiles are 4 times larger (a quarter of the messages and of
+	 * their headers): a tile that does not fit goes raw, as its 4 children */
+	s->tdepth_enc = s->tdepth_state > 0 ? s->tdepth_state - 1 : 0;
+	free(s->cls);
+	free(s->cls_exact);
+	s->cls = calloc(g->count, 1);
+	s->cls_exact = calloc(g->count, 1);
+	if (!s->cls || !s->cls_exact)
+		return NDO_ENOMEM;
 	return 0;
+}
+
+/* The classes of the stored nodes for the encoder (ndo_codec_classify). */
+static void classify(ndo_session *s)
+{
+	s->nexact = ndo_codec_classify(s->level, ndo_grid_find(s->grid, NDO_CH_OWNER)->data, s->self,
+	                               s->cls);
+	for (size_t k = 0; k < s->grid->count; k++)
+		s->cls_exact[k] = s->cls[k] == NDO_NODE_SKIP ? NDO_NODE_SKIP : NDO_NODE_EXACT;
 }
 
 static int32_t *owner_channel(ndo_session *s)
@@ -142,9 +167,11 @@ static int install(ndo_session *s, int32_t *cells, int npeers, const int32_t *pe
 	free(s->tiles);
 	s->tiles = NULL;
 	s->ntiles = 0;
-	if (slot >= 0 && ndo_quad_cover(s->level, cells, slot, s->tdepth_state, TILE_FILL, &s->tiles,
-	                                &s->ntiles) != 0)
+	if (slot >= 0 && ndo_quad_cover(s->level, cells, slot, s->enc ? s->tdepth_enc : s->tdepth_state,
+	                                TILE_FILL, &s->tiles, &s->ntiles) != 0)
 		return NDO_ENOMEM;
+	if (s->enc)
+		classify(s);
 	/* the leaves as the owner sends them: as coarse as they come */
 	free(s->leaf_codes);
 	free(s->leaf_slots);
@@ -228,6 +255,65 @@ static int publish_description(ndo_session *s)
 	return ndo_net_publish(s->net, NDO_MSG_DESCRIPTION, &d);
 }
 
+static int publish_raw(ndo_session *s, const ndo_grid *src, ndo_quad q, int channels,
+                       int64_t step, double time)
+{
+	ndo_msg_tile_t t;
+	memset(&t, 0, sizeof t);
+	int rc = ndo_tile_pack(src, q, channels, &t);
+	if (rc)
+		return rc;
+	t.step = step;
+	t.time = time;
+	t.epoch = s->epoch;
+	rc = ndo_net_publish(s->net, NDO_MSG_TILE, &t);
+	free(t.values);
+	return rc;
+}
+
+/* One position+velocity tile in the session's encoding: 1 sent, 0 not
+ * sent (unchanged), or a negative status.  A tile that cannot be encoded
+ * or does not fit one datagram goes raw (its children when it is
+ * shallower than a raw tile). */
+static int publish_encoded(ndo_session *s, const ndo_grid *src, ndo_quad q, int64_t step,
+                           double time)
+{
+	ndo_msg_tile_t t;
+	memset(&t, 0, sizeof t);
+	int i0, j0, i1, j1;
+	ndo_quad_range(s->level, q, &i0, &j0, &i1, &j1);
+	t.depth = (int8_t)q.depth;
+	t.i0 = i0, t.j0 = j0, t.i1 = i1, t.j1 = j1;
+	t.channels = NDO_TILE_POSITION | NDO_TILE_VELOCITY;
+	t.step = step;
+	t.time = time;
+	t.epoch = s->epoch;
+	const uint8_t *cls = step == s->exact_step ? s->cls_exact : s->cls;
+	int rc = ndo_codec_encode_tile(s->enc, s->self, src, cls, q, src != s->grid, &t);
+	if (rc == 1)
+		return 0;
+	if (rc == 0) {
+		rc = ndo_net_publish(s->net, NDO_MSG_TILE, &t);
+		free(t.data);
+		if (rc != NDO_ERANGE)
+			return rc ? rc : 1;
+		ndo_codec_forget_tile(s->enc, s->self, q); /* receivers never saw it */
+	} else if (rc != NDO_ERANGE) {
+		return rc;
+	}
+	const int ch = NDO_TILE_POSITION | NDO_TILE_VELOCITY;
+	if (q.depth >= s->tdepth_state)
+		return (rc = publish_raw(s, src, q, ch, step, time)) ? rc : 1;
+	/* the children: the root has two (the N x N squares), the others four */
+	for (int c = 0; c < (q.depth == 0 ? 2 : 4); c++) {
+		ndo_quad k = q.depth == 0 ? (ndo_quad){1, c, 0}
+		                          : (ndo_quad){q.depth + 1, 2 * q.qi + (c & 1), 2 * q.qj + (c >> 1)};
+		if ((rc = publish_raw(s, src, k, ch, step, time)))
+			return rc;
+	}
+	return 1;
+}
+
 static int publish_tiles_from(ndo_session *s, const ndo_grid *src, const int32_t *codes,
                               size_t n, int channels, int64_t step, double time)
 {
@@ -235,6 +321,13 @@ static int publish_tiles_from(ndo_session *s, const ndo_grid *src, const int32_t
 	for (size_t k = 0; k < n; k++) {
 		ndo_quad q;
 		ndo_quad_decode(s->level, codes[k], &q);
+		if (s->enc && channels == (NDO_TILE_POSITION | NDO_TILE_VELOCITY)) {
+			int rc = publish_encoded(s, src, q, step, time);
+			if (rc < 0)
+				return rc;
+			sent += rc;
+			continue;
+		}
 		ndo_msg_tile_t t;
 		memset(&t, 0, sizeof t);
 		int rc = ndo_tile_pack(src, q, channels, &t);
@@ -269,8 +362,12 @@ static int publish_everything(ndo_session *s, int depth, int channels)
 	for (int qj = 0; qj < rows; qj++)
 		for (int qi = 0; qi < cols; qi++)
 			codes[qj * cols + qi] = ndo_quad_code((ndo_quad){depth, qi, qj});
+	/* raw: a joiner starts from the exact state */
+	ndo_codec *enc = s->enc;
+	s->enc = NULL;
 	int rc = publish_tiles(s, codes, (size_t)cols * rows, channels, s->grid->step,
 	                       s->grid->time);
+	s->enc = enc;
 	free(codes);
 	return rc;
 }
@@ -347,6 +444,16 @@ static int on_description(ndo_session *s, const ndo_msg_description_t *d)
 	}
 	if (s->o.object_id && d->hdr.object_id != s->o.object_id)
 		return 0;
+	{ /* a description whose tile encoding this build cannot use: ignored */
+		ndo_codec_params cp;
+		int bad = ndo_codec_params_read(d->scene, (size_t)d->scene_len, &cp);
+		if (bad == NDO_ENOMEM)
+			return bad;
+		if (bad) {
+			((ndo_net_stats *)ndo_net_stats_get(s->net))->dropped[NDO_DROP_RANGE]++;
+			return 0;
+		}
+	}
 	ndo_grid *g;
 	int rc = ndo_grid_create(d->level, &g);
 	if (rc)
@@ -364,6 +471,12 @@ static int on_description(ndo_session *s, const ndo_msg_description_t *d)
 	if (d->scene_len)
 		memcpy(s->scene, d->scene, (size_t)d->scene_len);
 	s->scene[d->scene_len] = 0;
+	/* the tile encoding: decoded by the net, encoded by this peer */
+	if ((rc = ndo_codec_params_take(s->scene, &s->codec)) ||
+	    (rc = ndo_net_set_codec(s->net, &s->codec, s->level)))
+		return rc; /* checked above: only out of memory */
+	if (s->codec.encoding != NDO_ENC_RAW && (rc = ndo_codec_create(&s->codec, s->level, &s->enc)))
+		return rc;
 	s->method = (ndo_part_method)d->partition;
 	s->have = calloc(g->count, 1);
 	if (!s->have)
@@ -456,7 +569,7 @@ static int on_leave(ndo_session *s, const ndo_msg_leave_t *l)
 	return 0;
 }
 
-static void apply_tile(ndo_session *s, const ndo_msg_tile_t *t);
+static void apply_tile(ndo_session *s, const ndo_msg_tile_t *t, int decoded);
 
 static int handle(ndo_session *s, ndo_msg *m)
 {
@@ -500,7 +613,7 @@ static int handle(ndo_session *s, ndo_msg *m)
 	case NDO_MSG_PEERS: on_peers(s, &m->u.peers); return 0;
 	case NDO_MSG_TILE: /* with tile_fn: every tile, in arrival order */
 		if (s->grid && s->described)
-			apply_tile(s, &m->u.tile);
+			apply_tile(s, &m->u.tile, m->decoded);
 		return 0;
 	case NDO_MSG_LEAVE: return on_leave(s, &m->u.leave);
 	case NDO_MSG_FORCE: {
@@ -527,8 +640,12 @@ static int handle(ndo_session *s, ndo_msg *m)
 /* One tile from another peer.  Rest and pin come only from the owner and
  * are written here; position and velocity go into the nodes the sender
  * owns (before READY the owner's snapshot fills every node), or to the
- * caller's tile_fn.  Marks what a joiner has received. */
-static void apply_tile(ndo_session *s, const ndo_msg_tile_t *t)
+ * caller's tile_fn.  Marks what a joiner has received: only tiles that
+ * travelled raw count.  A decoded tile (ndo/codec.h) is no snapshot: it
+ * carries the sender's nodes only (NaN elsewhere), its LOSSY values are
+ * not the sender's, and marking its whole range made a joiner that had
+ * lost part of the snapshot READY with zeros in its region (issue 7). */
+static void apply_tile(ndo_session *s, const ndo_msg_tile_t *t, int decoded)
 {
 	int32_t *own = owner_channel(s);
 	int32_t from = t->hdr.sender_id;
@@ -539,14 +656,14 @@ static void apply_tile(ndo_session *s, const ndo_msg_tile_t *t)
 		}
 		ndo_tile_apply(s->grid, t, NULL, 0);
 	} else {
-		int fill = !s->ready && from == s->owner_id;
+		int fill = !s->ready && from == s->owner_id && !decoded;
 		if (s->o.tile_fn)
 			s->o.tile_fn(s->o.tile_user, t, fill);
 		else
 			ndo_tile_apply(s->grid, t, fill ? NULL : own, from);
 	}
 	s->applied = 1;
-	if (s->have) {
+	if (s->have && !decoded) {
 		uint8_t bit = (t->channels & NDO_TILE_REST) ? 1 : 2;
 		for (int j = t->j0; j <= t->j1; j++)
 			for (int i = t->i0; i <= t->i1; i++) {
@@ -574,7 +691,7 @@ static void apply_tiles(ndo_session *s)
 		return;
 	if (s->grid && s->described)
 		for (size_t k = 0; k < n; k++)
-			apply_tile(s, &tiles[k].u.tile);
+			apply_tile(s, &tiles[k].u.tile, tiles[k].decoded);
 	for (size_t k = 0; k < n; k++)
 		ndo_msg_free(&tiles[k]);
 	free(tiles);
@@ -739,6 +856,44 @@ int ndo_session_send_forces(ndo_session *s, int64_t step, int n, const int32_t *
 }
 
 /* ---- life -------------------------------------------------------------- */
+/* The owner's encoding: the box, the encoder, the net's decoder and the
+ * description's lines. */
+static int owner_codec(ndo_session *s, const ndo_codec_params *p)
+{
+	s->codec = *p;
+	if (!(s->codec.ext[0] > 0)) {
+		const double *x = ndo_grid_f64(s->grid, NDO_CH_REST, 3);
+		ndo_channel *rest = ndo_grid_find(s->grid, NDO_CH_REST);
+		int have_rest = x && rest && rest->data; /* a rest channel that is not all zero */
+		if (have_rest) {
+			have_rest = 0;
+			for (size_t k = 0; k < 3 * s->grid->count && !have_rest; k++)
+				have_rest = x[k] != 0;
+		}
+		if (!have_rest)
+			x = ndo_grid_f64(s->grid, NDO_CH_POSITION, 3);
+		ndo_codec_box(x, s->grid->count, s->codec.lo, s->codec.ext);
+	}
+	char lines[512];
+	int n = ndo_codec_params_text(&s->codec, lines, sizeof lines), rc;
+	if (n < 0)
+		return n;
+	if ((rc = ndo_codec_create(&s->codec, s->level, &s->enc)) ||
+	    (rc = ndo_net_set_codec(s->net, &s->codec, s->level)))
+		return rc;
+	if (strlen(s->scene) + (size_t)n > NDO_MAX_SCENE)
+		return ndo__fail(NDO_ERANGE, "the description takes more than %d bytes", NDO_MAX_SCENE);
+	char *sc = malloc(strlen(s->scene) + (size_t)n + 1);
+	if (!sc)
+		return NDO_ENOMEM;
+	size_t have = strlen(s->scene);
+	memcpy(sc, s->scene, have);
+	memcpy(sc + have, lines, (size_t)n + 1);
+	free(s->scene);
+	s->scene = sc;
+	return 0;
+}
+
 int ndo_session_create(const ndo_session_opts *o, ndo_net *net, ndo_grid *grid,
                        ndo_session **out)
 {
@@ -773,6 +928,8 @@ int ndo_session_create(const ndo_session_opts *o, ndo_net *net, ndo_grid *grid,
 		ndo_net_keep_all_tiles(net, 1);
 	s->level = -1;
 	s->epoch = 0;
+	s->exact_step = -1;
+	s->codec.encoding = NDO_ENC_RAW;
 	s->method = s->o.partition;
 	s->rng = o->seed ? o->seed : (uint64_t)time(NULL) * 1000003u ^ (uint64_t)getpid() << 20 ^
 	                             (uint64_t)(ndo_now() * 1e9);
@@ -788,6 +945,8 @@ int ndo_session_create(const ndo_session_opts *o, ndo_net *net, ndo_grid *grid,
 		rc = prepare_grid(s);
 		c->level = s->level;
 		s->described = s->ready = 1;
+		if (!rc && o->codec && o->codec->encoding != NDO_ENC_RAW)
+			rc = owner_codec(s, o->codec);
 		if (!rc)
 			rc = repartition(s);
 		s->evcount = 0; /* the owner's first partition is no news */
@@ -830,7 +989,29 @@ void ndo_session_destroy(ndo_session *s, const char *message)
 	free(s->leaf_slots);
 	free(s->tiles);
 	free(s->have);
+	free(s->cls);
+	free(s->cls_exact);
+	ndo_codec_destroy(s->enc);
 	free(s);
+}
+
+void ndo_session_set_exact_step(ndo_session *s, int64_t step) { s->exact_step = step; }
+const ndo_codec_params *ndo_session_codec(const ndo_session *s) { return &s->codec; }
+size_t ndo_session_exact_nodes(const ndo_session *s) { return s->enc ? s->nexact : 0; }
+
+void ndo_session_codec_stats(const ndo_session *s, ndo_codec_stats *enc, ndo_codec_stats *dec)
+{
+	if (enc) {
+		memset(enc, 0, sizeof *enc);
+		if (s->enc)
+			ndo_codec_stats_get(s->enc, enc);
+	}
+	if (dec) {
+		memset(dec, 0, sizeof *dec);
+		const ndo_codec *c = ndo_net_codec(s->net);
+		if (c)
+			ndo_codec_stats_get(c, dec);
+	}
 }
 
 ndo_grid *ndo_session_grid(ndo_session *s) { return s->described ? s->grid : NULL; }

@@ -2,6 +2,7 @@
 #include "ndo/tile.h"
 #include "ndo/status.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -64,7 +65,8 @@ size_t ndo_tile_apply(ndo_grid *g, const ndo_msg_tile_t *t, const int32_t *owner
 			written += take;
 			for (int c = 0; c < 3; c++)
 				if (t->channels & (1 << c)) {
-					if (take && vec[c])
+					/* NaN: a decoded tile does not carry this node (ndo/codec.h) */
+					if (take && vec[c] && !isnan(t->values[k]))
 						memcpy(&vec[c][3 * node], &t->values[k], 3 * sizeof(double));
 					k += 3;
 				}

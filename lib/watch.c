@@ -7,6 +7,7 @@
 #include "ndo/tile.h"
 #include "ndo/topology.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -116,7 +117,17 @@ static int attach(ndo_watch *w, const ndo_msg_description_t *d)
 {
 	if (w->attached || (w->o.object_id && d->hdr.object_id != w->o.object_id))
 		return 0;
-	int rc = ndo_grid_create(d->level, &w->base);
+	/* the owner's tile encoding (ndo/codec.h): decoded by the net */
+	ndo_codec_params cp;
+	int rc = ndo_codec_params_read(d->scene, (size_t)d->scene_len, &cp);
+	if (rc == 0)
+		rc = ndo_net_set_codec(w->net, &cp, d->level);
+	if (rc == NDO_EINVAL)
+		return 0; /* a description this build cannot use: wait for another */
+	if (rc)
+		return rc;
+	ndo_net_skipped_tiles(w->net, 1);
+	rc = ndo_grid_create(d->level, &w->base);
 	if (rc)
 		return rc;
 	if (ndo_grid_add(w->base, NDO_CH_REST, NDO_F64, 3, NULL) ||
@@ -385,8 +396,8 @@ static int on_tile(ndo_watch *w, const ndo_msg_tile_t *t)
 	for (int j = t->j0; j <= t->j1; j++)
 		for (int i = t->i0; i <= t->i1; i++, k += (size_t)per) {
 			size_t node = ndo_node(w->base->w, i, j), c = (size_t)w->canon[node];
-			if (m->owner[c] != from || p->epoch[c] > t->epoch)
-				continue;
+			if (m->owner[c] != from || p->epoch[c] > t->epoch || isnan(t->values[k]))
+				continue; /* NaN: a node a decoded tile does not carry */
 			memcpy(p->x + 3 * node, &t->values[k], 3 * sizeof *p->x);
 			if (node == c) {
 				if (p->epoch[c] < 0)

@@ -85,6 +85,8 @@ typedef enum ndo_drop {
 	NDO_DROP_ENCODING,  /* a tile encoding this build does not decode */
 	NDO_DROP_STALE,     /* older than what was already received */
 	NDO_DROP_AUTHORITY, /* owner-only message from a peer that is not the owner */
+	NDO_DROP_CORRUPT,   /* an encoded tile whose payload does not decode (ndo/codec.h) */
+	NDO_DROP_NOBASE,    /* a predicted tile whose reference frame this receiver lacks */
 	NDO_DROP_N
 } ndo_drop;
 const char *ndo_drop_name(ndo_drop r); /* "malformed" */
@@ -94,6 +96,10 @@ const char *ndo_drop_name(ndo_drop r); /* "malformed" */
 typedef struct ndo_msg {
 	ndo_msg_type type;
 	const ndo_msg_header_t *hdr;
+	/* A tile that arrived encoded and was decoded on arrival (ndo/net.h,
+	 * ndo/codec.h): its values are a reconstruction, NaN where the tile
+	 * does not carry a node — never an exact snapshot of its range. */
+	int decoded;
 	union {
 		ndo_msg_description_t description;
 		ndo_msg_tile_t tile;
@@ -137,9 +143,10 @@ enum { NDO_TILE_POSITION = 1, NDO_TILE_VELOCITY = 2, NDO_TILE_REST = 4,
        NDO_TILE_PIN = 8, NDO_TILE_ALL = 15 };
 int ndo_tile_values_per_node(int channels); /* 3 per vector bit, 1 for pin */
 
-/* Tile encodings (tile_t.encoding).  This build decodes NDO_ENC_RAW only;
- * the others are reserved for compact state (issue 7). */
-enum { NDO_ENC_RAW = 0 };
+/* Tile encodings (tile_t.encoding; ndo/codec.h).  RAW carries doubles in
+ * values[]; the others a payload in data[] (position+velocity tiles only),
+ * decoded by the receiver's codec (ndo_net_set_codec). */
+enum { NDO_ENC_RAW = 0, NDO_ENC_FLOAT32 = 1, NDO_ENC_FIXED = 2, NDO_ENC_PREDICT = 3 };
 
 /* The shallowest quad-tree depth at which a raw tile carrying `channels`
  * fits one datagram on `channel`, for a level-`level` grid. */

@@ -16,6 +16,7 @@
 
 #include <stdint.h>
 
+#include "ndo/codec.h"
 #include "ndo/link.h"
 #include "ndo/msg.h"
 
@@ -77,6 +78,20 @@ int ndo_net_take_tiles(ndo_net *n, ndo_msg **tiles, size_t *count);
  * renderer of every step) sees each one and decides.  Gaps are still
  * counted.  ndo_net_take_tiles() then returns nothing. */
 void ndo_net_keep_all_tiles(ndo_net *n, int on);
+
+/* Decode encoded tiles (ndo/codec.h) with these parameters from now on,
+ * for an object of `level` (the session and the watch call it with the
+ * owner's description, before ndo_net_attach): every accepted tile is then
+ * raw, NaN where it carries nothing (ndo/tile.h).  Without a codec an
+ * encoded tile is dropped as `encoding`.  Raw parameters remove the codec.
+ * 0, or NDO_EINVAL/NDO_ENOMEM. */
+int ndo_net_set_codec(ndo_net *n, const ndo_codec_params *p, int level);
+/* The codec (NULL: none): its statistics. */
+const ndo_codec *ndo_net_codec(const ndo_net *n);
+/* With keep-all tiles on: a predicted tile that follows skipped steps of
+ * its range (ndo/codec.h) is preceded by one tile per skipped step, its
+ * prediction (a watch needs every step of every node). */
+void ndo_net_skipped_tiles(ndo_net *n, int on);
 
 /* Forget a sender's sequence numbers and pending tiles (it left; if it
  * comes back with the same id its numbers start again). */

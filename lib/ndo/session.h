@@ -24,6 +24,7 @@
 
 #include <stdint.h>
 
+#include "ndo/codec.h"
 #include "ndo/grid.h"
 #include "ndo/msg.h"
 #include "ndo/net.h"
@@ -61,6 +62,11 @@ typedef struct ndo_session_opts {
 	 * session makes stored duplicates agree after each update. */
 	void (*tile_fn)(void *user, const ndo_msg_tile_t *t, int fill);
 	void *tile_user;
+	/* Owner: the encoding of position/velocity tiles (ndo/codec.h; NULL:
+	 * raw).  A box with ext[0] == 0 is the grid's rest shape's (its
+	 * positions' without one).  The description carries it; a joiner and
+	 * an observer take it from there. */
+	const ndo_codec_params *codec;
 } ndo_session_opts;
 
 typedef enum ndo_event_type {
@@ -114,6 +120,19 @@ int ndo_session_publish(ndo_session *s, int64_t step, double time);
 /* The same from another grid of the object's level (f64 position and
  * velocity): to send the state of an earlier step again. */
 int ndo_session_publish_from(ndo_session *s, const ndo_grid *src, int64_t step, double time);
+
+/* Tiles of `step` carry every node this peer simulates at full precision
+ * (the run's last step: what the owner gathers is exact); −1: none. */
+void ndo_session_set_exact_step(ndo_session *s, int64_t step);
+
+/* The tile encoding in force (raw until a joiner has the description),
+ * and its statistics: `enc` this peer's encoder, `dec` the decoder of the
+ * others' tiles (either may be NULL). */
+const ndo_codec_params *ndo_session_codec(const ndo_session *s);
+void ndo_session_codec_stats(const ndo_session *s, ndo_codec_stats *enc, ndo_codec_stats *dec);
+/* Nodes (stored) this peer sends at full precision in every step: its
+ * nodes next to another simulating peer's region. */
+size_t ndo_session_exact_nodes(const ndo_session *s);
 
 /* Ask for a share of the work at face `face` (−1: withdraw, observe). */
 int ndo_session_set_poi(ndo_session *s, int32_t face);

@@ -19,8 +19,10 @@ extern "C" {
 int ndo_tile_pack(const ndo_grid *g, ndo_quad q, int channels, ndo_msg_tile_t *t);
 
 /* Write a validated tile into g: every node of its range where `owner` is
- * NULL or owner[node] == `only` (the tile's sender normally).  Returns the
- * nodes written.  Stored duplicates are made equal afterwards by the
+ * NULL or owner[node] == `only` (the tile's sender normally).  A vector
+ * whose first component is NaN is not written: a decoded tile
+ * (ndo_codec_decode_tile) marks so what it does not carry.  Returns the
+ * nodes taken.  Stored duplicates are made equal afterwards by the
  * caller (ndo_grid_sync) once all tiles are in. */
 size_t ndo_tile_apply(ndo_grid *g, const ndo_msg_tile_t *t, const int32_t *owner,
                       int32_t only);

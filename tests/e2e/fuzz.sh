@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # The libFuzzer targets (tests/fuzz/), each for a bounded time, from seeds
-# made by the real tools where there are any: fuzz_gridfile (the grid file
-# reader), fuzz_msg (every LCM message decoder and validator, and the
-# receive path).  A crash, a sanitizer report or a round-trip
-# mismatch fails the case and leaves the input in the log.
+# made by the real tools: fuzz_gridfile (the grid file reader), fuzz_msg
+# (every LCM message decoder and validator, and the receive path with the
+# tile decoder, from recorded runs in each tile encoding).  A crash, a
+# sanitizer report or a round-trip mismatch fails the case and leaves the
+# input in the log.
 . "$(dirname "$0")/lib.sh"
 secs=${NDO_FUZZ_SECONDS:-20}
 for target in "$NDO_TESTBIN"/fuzz_*; do
@@ -16,6 +17,37 @@ for target in "$NDO_TESTBIN"/fuzz_*; do
 		remesh --shape sphere -l 1 -o corpus-$name/sphere1.tgrid
 		remesh --shape wavy -l 2 | subdivide -l 0 -o corpus-$name/wavy2.tgrid
 		cat corpus-$name/tetra0.tgrid corpus-$name/sphere1.tgrid >corpus-$name/stream.tgrid
+		;;
+	fuzz_msg)
+		# every message of three short owner runs (written by LCM's file
+		# provider, no network), one per tile encoding, its first byte as
+		# fuzz_msg.c reads it: the type, and for a tile the receiver's
+		# level-3 decoder of that encoding
+		remesh --shape wavy -l 3 -o w3.tgrid
+		for enc in float32 fixed predict; do
+			simulate-peer --lcm "file://$PWD/$enc.lcmlog?mode=w" --owner w3.tgrid \
+				-s "$NDO_ROOT/samples/thesis-fig5.3.scene" --dt 0.01 -n 40 --encoding $enc \
+				-q -o /dev/null
+		done
+		/usr/bin/python3 - corpus-$name <<'PY' || fail "$name seeds" "no recorded messages"
+import struct, sys
+suffixes = "DESC TILE POI PARTITION HELLO PEERS LEAVE HEARTBEAT DESC_REQUEST FORCE".split()
+tile_byte = {"float32": 171, "fixed": 211, "predict": 131}  # type 1, level 3, 1 + byte % 3
+n = 0
+for enc, tb in tile_byte.items():
+    b = open(f"{enc}.lcmlog", "rb").read()
+    o = 0
+    while o + 28 <= len(b):
+        _, _, _, cl, dl = struct.unpack(">IqqII", b[o:o + 28])
+        ch = b[o + 28:o + 28 + cl].decode()
+        data = b[o + 28 + cl:o + 28 + cl + dl]
+        o += 28 + cl + dl
+        t = suffixes.index(ch.split("_", 1)[1])
+        with open(f"{sys.argv[1]}/{enc}-{n:03d}", "wb") as f:
+            f.write(bytes([tb if t == 1 else t]) + data)
+        n += 1
+sys.exit(n < 3 * 40)
+PY
 		;;
 	esac
 	if "$target" -max_total_time="$secs" -max_len=8192 -rss_limit_mb=2048 \

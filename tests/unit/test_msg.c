@@ -68,8 +68,10 @@ static void tile_fields_checked(void)
 	t.nvalues -= 6;
 	CHECK(roundtrip(NDO_MSG_TILE, &t, &c) == NDO_DROP_LENGTH, "short values array");
 	t.nvalues += 6;
-	t.encoding = 3;
+	t.encoding = 9;
 	CHECK(roundtrip(NDO_MSG_TILE, &t, &c) == NDO_DROP_ENCODING, "unknown encoding");
+	t.encoding = NDO_ENC_PREDICT;
+	CHECK(roundtrip(NDO_MSG_TILE, &t, &c) == NDO_DROP_LENGTH, "an encoded tile with values[]");
 	t.encoding = 0;
 	t.channels = 64;
 	CHECK(roundtrip(NDO_MSG_TILE, &t, &c) == NDO_DROP_RANGE, "unknown channel bits");

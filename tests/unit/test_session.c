@@ -16,8 +16,8 @@ static double value(size_t node, int d, int64_t step)
 	return (double)node * 0.001 + d + 0.5 * (double)step;
 }
 
-static ndo_session *open_peer(ndo_bus *bus, ndo_role role, int32_t id, int32_t poi,
-                              const ndo_faults *f)
+static ndo_session *open_peer_enc(ndo_bus *bus, ndo_role role, int32_t id, int32_t poi,
+                                  const ndo_faults *f, const ndo_codec_params *codec)
 {
 	ndo_link *l;
 	ndo_net *n;
@@ -37,10 +37,17 @@ static ndo_session *open_peer(ndo_bus *bus, ndo_role role, int32_t id, int32_t p
 			r[k] = (double)k;
 	}
 	ndo_session_opts o = {.role = role, .poi = poi, .self_id = id, .object_id = role == NDO_ROLE_OWNER ? 77 : 0,
-	                      .scene = "sigma=1\nrho=1\n", .timeout = 1.0, .heartbeat = 0.1, .retry = 0.3};
+	                      .scene = "sigma=1\nrho=1\n", .timeout = 1.0, .heartbeat = 0.1, .retry = 0.3,
+	                      .codec = codec};
 	if (ndo_session_create(&o, n, g, &s))
 		return NULL;
 	return s;
+}
+
+static ndo_session *open_peer(ndo_bus *bus, ndo_role role, int32_t id, int32_t poi,
+                              const ndo_faults *f)
+{
+	return open_peer_enc(bus, role, id, poi, f, NULL);
 }
 
 /* Every peer writes its nodes at `step` and publishes. */
@@ -227,6 +234,61 @@ static void late_joiner_over_lossy_link(void)
 	ndo_bus_destroy(bus);
 }
 
+/* A joiner is READY only when it holds every node: the owner's encoded
+ * tiles carry the owner's nodes only (the others decode as NaN), so they
+ * must not count as the snapshot's — a joiner that lost part of the
+ * snapshot over a lossy link would otherwise start its region from zeros
+ * (issue 7: one 2-peer run in three over LCM).  Each seed is one lossy
+ * schedule; at READY every node must hold a value the owner wrote (every
+ * written value has y, z >= 1; the joiner's grid starts at 0). */
+static void encoded_tiles_are_no_snapshot(void)
+{
+	const char *encs[] = {"float32", "fixed:13", "predict"};
+	int ready = 0, early = 0, runs = 0;
+	for (int e = 0; e < 3; e++)
+		for (uint64_t seed = 1; seed <= 32; seed++) {
+			ndo_codec_params cp;
+			ndo_codec_parse(encs[e], &cp);
+			ndo_bus *bus;
+			ndo_bus_create(&bus);
+			ndo_faults f = {.drop = 0.5, .reorder = 0.2, .delay_ms = 2, .jitter_ms = 4,
+			                .seed = seed};
+			ndo_session *p[2] = {open_peer_enc(bus, NDO_ROLE_OWNER, 1, -1, NULL, &cp), NULL};
+			double t = 0;
+			int64_t step = 0;
+			run(p, 1, &t, &step, 3);
+			p[1] = open_peer(bus, NDO_ROLE_JOINER, 2, 200, &f);
+			size_t missing = 0;
+			for (int k = 0; k < 400 && !ndo_session_ready(p[1]); k++) {
+				for (int i = 0; i < 2; i++)
+					ndo_session_update(p[i], t);
+				if (ndo_session_ready(p[1])) { /* before the joiner writes its own */
+					ndo_grid *g = ndo_session_grid(p[1]);
+					const double *x = ndo_grid_f64(g, NDO_CH_POSITION, 3);
+					for (size_t n = 0; n < g->count; n++)
+						missing += !(x[3 * n + 1] >= 1 && x[3 * n + 2] >= 1);
+					break;
+				}
+				for (int i = 0; i < 2; i++)
+					write_own(p[i], step);
+				t += 0.01;
+				step++;
+			}
+			runs++;
+			ready += ndo_session_ready(p[1]);
+			if (missing) {
+				if (!early++)
+					printf("    %s, seed %llu: READY with %zu nodes never received\n", encs[e],
+					       (unsigned long long)seed, missing);
+			}
+			for (int i = 0; i < 2; i++)
+				ndo_session_destroy(p[i], NULL);
+			ndo_bus_destroy(bus);
+		}
+	CHECK(ready == runs, "joiners ready in %d of %d lossy runs", ready, runs);
+	CHECK(early == 0, "%d of %d joiners were READY before holding every node", early, runs);
+}
+
 static void garbage_is_counted_not_trusted(void)
 {
 	ndo_bus *bus;
@@ -262,6 +324,7 @@ int main(void)
 	RUN(join_share_and_reassemble);
 	RUN(timeout_detected_and_repartitioned);
 	RUN(late_joiner_over_lossy_link);
+	RUN(encoded_tiles_are_no_snapshot);
 	RUN(garbage_is_counted_not_trusted);
 	return ck_failed_cases != 0;
 }

@@ -93,6 +93,10 @@ static __attribute__((noreturn)) void usage(void)
 	    "      --speed X           owner, realtime: simulated s per wall s (default 1)\n"
 	    "      --boundary MODE     owner: extrapolate (default) or hold (the thesis)\n"
 	    "      --partition M       owner: quadtree (default), table41 or metis\n"
+	    "      --encoding E        owner: state tiles raw (default), float32,\n"
+	    "                          fixed[:BITS] or predict[:BITS[:KEYFRAME]] (bits\n"
+	    "                          1..24, default 13: error <= 6.1e-5 of the box's\n"
+	    "                          diagonal; keyframe 1..4096 steps, default 32)\n"
 	    "      --step-timeout S    owner, lockstep: wait for a neighbour (default 0.5)\n"
 	    "      --peer-timeout S    silence after which a peer is gone (default 2)\n"
 	    "      --start-timeout S   owner: for the --peers; joiner: for an object\n"
@@ -461,6 +465,7 @@ static void options(run *r, int argc, char **argv)
 		{"speed", required_argument, 0, OPT_PEER},
 		{"peers", required_argument, 0, OPT_PEER},
 		{"boundary", required_argument, 0, OPT_PEER},
+		{"encoding", required_argument, 0, OPT_PEER},
 		{"step-timeout", required_argument, 0, OPT_PEER},
 		{"peer-timeout", required_argument, 0, OPT_PEER},
 		{"start-timeout", required_argument, 0, OPT_PEER},

@@ -38,7 +38,7 @@ void peer_defaults(peer_cli *c)
 
 /* Options only the owner decides; a joiner takes them from it. */
 static const char *const owner_only[] = {"partition", "clock", "speed", "peers", "boundary",
-                                         "step-timeout", "gather-timeout", NULL};
+                                         "step-timeout", "gather-timeout", "encoding", NULL};
 static uint32_t given; /* bit k: owner_only[k] was given */
 
 void peer_option(peer_cli *c, const char *name, const char *arg)
@@ -83,6 +83,9 @@ void peer_option(peer_cli *c, const char *name, const char *arg)
 			c->hold_boundary = 0;
 		else
 			ndo_usage_error("--boundary: '%s' is not extrapolate or hold", arg);
+	} else if (strcmp(name, "encoding") == 0) {
+		if (ndo_codec_parse(arg, &c->codec))
+			ndo_usage_error("--encoding: %s", ndo_errdetail());
 	} else if (strcmp(name, "step-timeout") == 0) {
 		c->step_timeout = ndo_opt_double(opt, arg, 1e-3, 3600);
 	} else if (strcmp(name, "peer-timeout") == 0) {
@@ -327,7 +330,7 @@ int peers_main(run *r)
 	ndo_peer_opts o = {
 		.session = {.role = owner ? NDO_ROLE_OWNER : NDO_ROLE_JOINER, .name = c->name,
 		            .poi = c->poi, .partition = (ndo_part_method)c->partition,
-		            .timeout = c->peer_timeout},
+		            .timeout = c->peer_timeout, .codec = &c->codec},
 		.clock = c->clock, .step_timeout = c->step_timeout, .speed = c->speed,
 		.peers = c->peers, .hold_boundary = c->hold_boundary,
 		.start_timeout = c->start_timeout, .gather_timeout = c->gather_timeout,

@@ -1,0 +1,1104 @@
+/* codec.c — the encodings of a tile's frame: parameters, prediction,
+ * payload (ndo/codec.h).  Pure functions: all state is the caller's. */
+#include "ndo/codec.h"
+#include "ndo/status.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <zstd.h>
+
+enum { KIND_INTRA = 0, KIND_PRED = 1, F_ZSTD = 4, F_WIDE = 8, F_NOREF = 16 };
+#define ZSTD_LEVEL 1     /* level 1: 0.1-0.2 ms a level-7 state; higher levels gain ~2 % */
+#define CODE_MAX (1 << 30)
+
+/* ---- parameters ----------------------------------------------------------- */
+static const char *const enc_names[] = {"raw", "float32", "fixed", "predict"};
+
+int ndo_codec_parse(const char *spec, ndo_codec_params *p)
+{
+	char name[32];
+	int bits = NDO_CODEC_BITS_DEFAULT, key = NDO_CODEC_KEYFRAME_DEFAULT;
+	const char *colon = strchr(spec, ':');
+	size_t n = colon ? (size_t)(colon - spec) : strlen(spec);
+	if (n == 0 || n >= sizeof name)
+		return ndo__fail(NDO_EINVAL, "'%s': not raw, float32, fixed[:BITS] or "
+		                 "predict[:BITS[:KEYFRAME]]", spec);
+	memcpy(name, spec, n);
+	name[n] = 0;
+	int e = -1;
+	for (int k = 0; k < 4; k++)
+		if (strcmp(name, enc_names[k]) == 0)
+			e = k;
+	if (e < 0)
+		return ndo__fail(NDO_EINVAL, "'%s': unknown encoding (raw, float32, fixed, predict)",
+		                 name);
+	if (colon) {
+		if (e < NDO_ENC_FIXED)
+			return ndo__fail(NDO_EINVAL, "'%s': %s takes no parameters", spec, name);
+		char *end;
+		long b = strtol(colon + 1, &end, 10);
+		if (end == colon + 1 || b < 1 || b > 24 || (*end && *end != ':'))
+			return ndo__fail(NDO_EINVAL, "'%s': bits must be 1..24", spec);
+		bits = (int)b;
+		if (*end == ':') {
+			const char *ks = end + 1;
+			long kk = strtol(ks, &end, 10);
+			if (e != NDO_ENC_PREDICT || end == ks || *end || kk < 1 || kk > 4096)
+				return ndo__fail(NDO_EINVAL, "'%s': the keyframe period must be 1..4096 "
+				                 "(predict only)", spec);
+			key = (int)kk;
+		}
+	}
+	memset(p, 0, sizeof *p); /* the box: the session's to find (ext 0) */
+	p->encoding = e;
+	p->bits = bits;
+	p->keyframe = key;
+	return 0;
+}
+
+void ndo_codec_name(const ndo_codec_params *p, char *buf, size_t size)
+{
+	int e = p->encoding >= 0 && p->encoding < 4 ? p->encoding : 0;
+	if (e == NDO_ENC_FIXED)
+		snprintf(buf, size, "fixed:%d", p->bits);
+	else if (e == NDO_ENC_PREDICT)
+		snprintf(buf, size, "predict:%d:%d", p->bits, p->keyframe);
+	else
+		snprintf(buf, size, "%s", enc_names[e]);
+}
+
+void ndo_codec_box(const double *x, size_t n, double lo[3], double ext[3])
+{
+	double hi[3];
+	for (int c = 0; c < 3; c++)
+		lo[c] = n ? INFINITY : 0, hi[c] = n ? -INFINITY : 0;
+	for (size_t k = 0; k < n; k++)
+		for (int c = 0; c < 3; c++) {
+			double v = x[3 * k + c];
+			if (!isfinite(v))
+				continue;
+			lo[c] = fmin(lo[c], v);
+			hi[c] = fmax(hi[c], v);
+		}
+	double big = 0;
+	for (int c = 0; c < 3; c++) {
+		if (!isfinite(lo[c]))
+			lo[c] = hi[c] = 0;
+		ext[c] = hi[c] - lo[c];
+		big = fmax(big, ext[c]);
+	}
+	for (int c = 0; c < 3; c++)
+		if (!(ext[c] > 1e-6 * big))
+			ext[c] = big > 0 ? 1e-6 * big : 1;
+}
+
+double ndo_codec_diagonal(const ndo_codec_params *p)
+{
+	return sqrt(p->ext[0] * p->ext[0] + p->ext[1] * p->ext[1] + p->ext[2] * p->ext[2]);
+}
+
+double ndo_codec_max_error(const ndo_codec_params *p)
+{
+	switch (p->encoding) {
+	case NDO_ENC_FIXED:
+	case NDO_ENC_PREDICT:
+		return ldexp(ndo_codec_diagonal(p), -(p->bits + 1));
+	case NDO_ENC_FLOAT32: {
+		/* round to nearest float: half an ulp of the largest magnitude in
+		 * the box, per axis */
+		double s = 0;
+		for (int c = 0; c < 3; c++) {
+			double m = fmax(fabs(p->lo[c]), fabs(p->lo[c] + p->ext[c]));
+			int e;
+			frexp(m, &e);
+			double h = ldexp(1, e - 25);
+			s += h * h;
+		}
+		return sqrt(s);
+	}
+	default:
+		return 0;
+	}
+}
+
+int ndo_codec_params_check(const ndo_codec_params *p)
+{
+	if (p->encoding < NDO_ENC_RAW || p->encoding > NDO_ENC_PREDICT)
+		return ndo__fail(NDO_EINVAL, "tile encoding %d unknown", p->encoding);
+	if (p->encoding == NDO_ENC_RAW)
+		return 0;
+	if (p->bits < 1 || p->bits > 24 || p->keyframe < 1 || p->keyframe > 4096)
+		return ndo__fail(NDO_EINVAL, "tile encoding: bits %d (1..24), keyframe %d (1..4096)",
+		                 p->bits, p->keyframe);
+	for (int c = 0; c < 3; c++)
+		if (!isfinite(p->lo[c]) || !isfinite(p->ext[c]) || !(p->ext[c] > 0) ||
+		    fabs(p->lo[c]) > 1e300 || p->ext[c] > 1e300)
+			return ndo__fail(NDO_EINVAL, "tile encoding: a bad box");
+	return 0;
+}
+
+int ndo_codec_params_text(const ndo_codec_params *p, char *buf, size_t size)
+{
+	int n = 0;
+	if (p->encoding != NDO_ENC_RAW)
+		n = snprintf(buf, size,
+		             "tile-encoding %d\ntile-bits %d\ntile-keyframe %d\n"
+		             "tile-box %.17g %.17g %.17g %.17g %.17g %.17g\n",
+		             p->encoding, p->bits, p->keyframe, p->lo[0], p->lo[1], p->lo[2], p->ext[0],
+		             p->ext[1], p->ext[2]);
+	else if (size)
+		*buf = 0;
+	if (n < 0 || (size_t)n >= size)
+		return ndo__fail(NDO_ERANGE, "tile encoding: the description lines do not fit");
+	return n;
+}
+
+int ndo_codec_params_take(char *text, ndo_codec_params *p)
+{
+	memset(p, 0, sizeof *p);
+	p->encoding = NDO_ENC_RAW;
+	int seen = 0, rc = 0;
+	char *w = text;
+	for (char *line = text; *line;) {
+		char *end = strchr(line, '\n');
+		size_t len = end ? (size_t)(end - line) + 1 : strlen(line);
+		if (strncmp(line, "tile-", 5) != 0) {
+			memmove(w, line, len);
+			w += len;
+			line += len;
+			continue;
+		}
+		char l[256];
+		snprintf(l, sizeof l, "%.*s", (int)(end ? len - 1 : len), line);
+		line += len;
+		int k;
+		if (sscanf(l, "tile-encoding %d", &k) == 1)
+			p->encoding = k, seen |= 1;
+		else if (sscanf(l, "tile-bits %d", &k) == 1)
+			p->bits = k, seen |= 2;
+		else if (sscanf(l, "tile-keyframe %d", &k) == 1)
+			p->keyframe = k, seen |= 4;
+		else if (sscanf(l, "tile-box %lf %lf %lf %lf %lf %lf", &p->lo[0], &p->lo[1], &p->lo[2],
+		                &p->ext[0], &p->ext[1], &p->ext[2]) == 6)
+			seen |= 8;
+		else if (!rc)
+			rc = ndo__fail(NDO_EINVAL, "the owner's description: bad line '%s'", l);
+	}
+	*w = 0;
+	if (rc)
+		return rc;
+	if (seen && seen != 15)
+		return ndo__fail(NDO_EINVAL, "the owner's description: incomplete tile-* lines");
+	return seen ? ndo_codec_params_check(p) : 0;
+}
+
+int ndo_codec_params_read(const void *scene, size_t len, ndo_codec_params *p)
+{
+	char *text = malloc(len + 1);
+	if (!text)
+		return ndo__fail(NDO_ENOMEM, "out of memory");
+	if (len)
+		memcpy(text, scene, len);
+	text[len] = 0;
+	int rc = ndo_codec_params_take(text, p);
+	free(text);
+	return rc;
+}
+
+/* ---- history ---------------------------------------------------------------- */
+static void frame_clear(ndo_codec_frame *f) { f->step = -1; }
+
+int ndo_codec_hist_init(ndo_codec_hist *h, int nodes)
+{
+	memset(h, 0, sizeof *h);
+	h->nodes = nodes;
+	for (int k = 0; k < NDO_CODEC_HISTORY; k++) {
+		ndo_codec_frame *f = &h->f[k];
+		f->x = malloc(3 * (size_t)nodes * sizeof *f->x);
+		f->k = malloc(3 * (size_t)nodes * sizeof *f->k);
+		f->have = malloc((size_t)nodes);
+		f->step = -1;
+		if (!f->x || !f->k || !f->have) {
+			ndo_codec_hist_free(h);
+			return ndo__fail(NDO_ENOMEM, "out of memory");
+		}
+	}
+	return 0;
+}
+
+void ndo_codec_hist_free(ndo_codec_hist *h)
+{
+	for (int k = 0; k < NDO_CODEC_HISTORY; k++) {
+		free(h->f[k].x), free(h->f[k].k), free(h->f[k].have);
+		h->f[k].x = NULL, h->f[k].k = NULL, h->f[k].have = NULL;
+	}
+}
+
+void ndo_codec_hist_clear(ndo_codec_hist *h)
+{
+	for (int k = 0; k < NDO_CODEC_HISTORY; k++)
+		frame_clear(&h->f[k]);
+}
+
+static void frame_copy(ndo_codec_frame *d, const ndo_codec_frame *s, int nodes)
+{
+	d->step = s->step;
+	d->time = s->time;
+	d->epoch = s->epoch;
+	memcpy(d->x, s->x, 3 * (size_t)nodes * sizeof *d->x);
+	memcpy(d->k, s->k, 3 * (size_t)nodes * sizeof *d->k);
+	memcpy(d->have, s->have, (size_t)nodes);
+}
+
+void ndo_codec_hist_put(ndo_codec_hist *h, const ndo_codec_frame *f)
+{
+	for (int k = 0; k < NDO_CODEC_HISTORY; k++)
+		if (h->f[k].step >= 0 && (h->f[k].epoch != f->epoch || h->f[k].step == f->step))
+			frame_clear(&h->f[k]); /* another partition's, or this step's again */
+	/* compact: held frames first, newest first */
+	ndo_codec_frame tmp[NDO_CODEC_HISTORY];
+	int n = 0;
+	for (int k = 0; k < NDO_CODEC_HISTORY; k++)
+		if (h->f[k].step >= 0 && h->f[k].step != f->step)
+			tmp[n++] = h->f[k];
+	for (int k = 0; k < NDO_CODEC_HISTORY; k++)
+		if (h->f[k].step < 0 || h->f[k].step == f->step)
+			tmp[n++] = h->f[k];
+	for (int a = 1; a < NDO_CODEC_HISTORY; a++) /* insertion sort, newest first */
+		for (int b = a; b > 0 && tmp[b].step > tmp[b - 1].step; b--) {
+			ndo_codec_frame t = tmp[b];
+			tmp[b] = tmp[b - 1];
+			tmp[b - 1] = t;
+		}
+	/* the slot to fill: the oldest (last), unless f is older than all held */
+	int slot = NDO_CODEC_HISTORY - 1;
+	if (tmp[slot].step >= 0 && tmp[slot].step > f->step)
+		return; /* older than every frame held: of no use */
+	frame_copy(&tmp[slot], f, h->nodes);
+	for (int b = slot; b > 0 && tmp[b].step > tmp[b - 1].step; b--) {
+		ndo_codec_frame t = tmp[b];
+		tmp[b] = tmp[b - 1];
+		tmp[b - 1] = t;
+	}
+	memcpy(h->f, tmp, sizeof tmp);
+}
+
+const ndo_codec_frame *ndo_codec_hist_find(const ndo_codec_hist *h, int64_t step)
+{
+	if (!h || step < 0)
+		return NULL;
+	for (int k = 0; k < NDO_CODEC_HISTORY; k++)
+		if (h->f[k].step == step)
+			return &h->f[k];
+	return NULL;
+}
+
+/* The newest frame before `step` (velocity estimates). */
+static const ndo_codec_frame *before(const ndo_codec_hist *h, int64_t step, int32_t epoch)
+{
+	const ndo_codec_frame *b = NULL;
+	if (h)
+		for (int k = 0; k < NDO_CODEC_HISTORY; k++)
+			if (h->f[k].step >= 0 && h->f[k].step < step && h->f[k].epoch == epoch &&
+			    (!b || h->f[k].step > b->step))
+				b = &h->f[k];
+	return b;
+}
+
+/* ---- workspace ---------------------------------------------------------------- */
+struct ndo_codec_work {
+	ZSTD_CCtx *cc;
+	ZSTD_DCtx *dc;
+	uint8_t *buf, *buf2;
+	size_t cap, cap2;
+	int64_t *e;      /* nodes: this frame's extrapolation errors */
+	uint8_t *has_e;
+	size_t ecap;
+};
+
+ndo_codec_work *ndo_codec_work_create(void)
+{
+	ndo_codec_work *w = calloc(1, sizeof *w);
+	if (!w)
+		return NULL;
+	w->cc = ZSTD_createCCtx();
+	w->dc = ZSTD_createDCtx();
+	if (!w->cc || !w->dc) {
+		ndo_codec_work_destroy(w);
+		return NULL;
+	}
+	return w;
+}
+
+void ndo_codec_work_destroy(ndo_codec_work *w)
+{
+	if (!w)
+		return;
+	ZSTD_freeCCtx(w->cc);
+	ZSTD_freeDCtx(w->dc);
+	free(w->buf), free(w->buf2), free(w->e), free(w->has_e);
+	free(w);
+}
+
+static int grow(uint8_t **b, size_t *cap, size_t need)
+{
+	if (need <= *cap)
+		return 0;
+	uint8_t *n = realloc(*b, need);
+	if (!n)
+		return -1;
+	*b = n;
+	*cap = need;
+	return 0;
+}
+
+static int work_nodes(ndo_codec_work *w, size_t nodes)
+{
+	if (nodes <= w->ecap)
+		return 0;
+	int64_t *e = realloc(w->e, nodes * sizeof *e);
+	if (!e)
+		return -1;
+	w->e = e;
+	uint8_t *h = realloc(w->has_e, nodes);
+	if (!h)
+		return -1;
+	w->has_e = h;
+	w->ecap = nodes;
+	return 0;
+}
+
+/* ---- bytes ---------------------------------------------------------------------- */
+typedef struct wbuf { uint8_t *p; size_t n, cap; int fail; } wbuf;
+
+static void put(wbuf *b, const void *src, size_t n)
+{
+	if (b->fail)
+		return;
+	if (b->n + n > b->cap) {
+		size_t cap = b->cap ? 2 * b->cap : 4096;
+		while (cap < b->n + n)
+			cap *= 2;
+		uint8_t *q = realloc(b->p, cap);
+		if (!q) {
+			b->fail = 1;
+			return;
+		}
+		b->p = q;
+		b->cap = cap;
+	}
+	memcpy(b->p + b->n, src, n);
+	b->n += n;
+}
+
+static void put_byte(wbuf *b, uint8_t v)
+{
+	if (b->n < b->cap && !b->fail)
+		b->p[b->n++] = v;
+	else
+		put(b, &v, 1);
+}
+
+static void put_varint(wbuf *b, uint64_t v)
+{
+	uint8_t t[10];
+	int n = 0;
+	do {
+		t[n++] = (uint8_t)((v & 127) | (v > 127 ? 128 : 0));
+		v >>= 7;
+	} while (v);
+	put(b, t, (size_t)n);
+}
+
+static void put_f64(wbuf *b, double d)
+{
+	uint64_t u;
+	memcpy(&u, &d, 8);
+	uint8_t t[8];
+	for (int k = 0; k < 8; k++)
+		t[k] = (uint8_t)(u >> (8 * k));
+	put(b, t, 8);
+}
+
+typedef struct rbuf { const uint8_t *p; size_t n, pos; int bad; } rbuf;
+
+static uint64_t get_varint(rbuf *r)
+{
+	uint64_t v = 0;
+	for (int s = 0; s < 64; s += 7) {
+		if (r->pos >= r->n) {
+			r->bad = 1;
+			return 0;
+		}
+		uint8_t c = r->p[r->pos++];
+		v |= (uint64_t)(c & 127) << s;
+		if (!(c & 128))
+			return v;
+	}
+	r->bad = 1;
+	return 0;
+}
+
+static double get_f64(rbuf *r)
+{
+	if (r->n - r->pos < 8 || r->pos > r->n) {
+		r->bad = 1;
+		return 0;
+	}
+	uint64_t u = 0;
+	for (int k = 0; k < 8; k++)
+		u |= (uint64_t)r->p[r->pos + k] << (8 * k);
+	r->pos += 8;
+	double d;
+	memcpy(&d, &u, 8);
+	return d;
+}
+
+static uint64_t zigzag(int64_t v) { return ((uint64_t)v << 1) ^ (uint64_t)(v >> 63); }
+static int64_t unzigzag(uint64_t u) { return (int64_t)(u >> 1) ^ -(int64_t)(u & 1); }
+
+/* ---- codes and prediction ------------------------------------------------------- */
+static double qstep(const ndo_codec_params *p, int c) { return ldexp(p->ext[c], -p->bits); }
+
+/* The code of coordinate x on axis c, 0 when it is out of range (*ok = 0). */
+static int32_t code_of(const ndo_codec_params *p, int c, double x, int *ok)
+{
+	double k = floor((x - p->lo[c]) / qstep(p, c) + 0.5);
+	if (!(k > -CODE_MAX && k < CODE_MAX)) {
+		*ok = 0;
+		return 0;
+	}
+	return (int32_t)k;
+}
+
+static double value_of(const ndo_codec_params *p, int c, int64_t k)
+{
+	return p->lo[c] + (double)k * qstep(p, c);
+}
+
+/* a/b rounded half away from zero (b > 0) */
+static int64_t rdiv(int64_t a, int64_t b)
+{
+	if (b <= 0)
+		return a; /* cannot happen: references are of distinct steps */
+	return a >= 0 ? (a + b / 2) / b : -((-a + b / 2) / b);
+}
+
+static int64_t med3(int64_t a, int64_t b, int64_t c)
+{
+	int64_t mx = a > b ? a : b, mn = a < b ? a : b;
+	if (c >= mx)
+		return mn;
+	if (c <= mn)
+		return mx;
+	return a + b - c;
+}
+
+/* What the predictor works with for one frame (ndo/codec.h, "predict"). */
+typedef struct pctx {
+	const ndo_codec_frame *r[3]; /* references, newest first (NULL: absent) */
+	int64_t step;
+	int cols, nodes;
+	const uint8_t *cls;          /* this frame's classes */
+	const int32_t *cur;          /* this frame's codes so far (one component) */
+	int64_t *e;                  /* this frame's extrapolation errors */
+	uint8_t *has_e;
+	int cons, cons3;             /* r0, r1 at step−1, step−2; and r2 at step−3 */
+} pctx;
+
+static void pctx_init(pctx *c, const ndo_codec_frame *r0, const ndo_codec_frame *r1,
+                      const ndo_codec_frame *r2, int64_t step)
+{
+	c->r[0] = r0, c->r[1] = r0 ? r1 : NULL, c->r[2] = r0 && r1 ? r2 : NULL;
+	c->step = step;
+	c->cons = c->r[1] && r0->step == step - 1 && r1->step == step - 2;
+	c->cons3 = c->cons && c->r[2] && r2->step == step - 3;
+}
+
+/* The extrapolation of node n's component d from the references, and
+ * whether there is one (both r0 and r1 hold the node). */
+static int extrapolate(const pctx *c, int n, int d, int64_t *lin)
+{
+	const ndo_codec_frame *r0 = c->r[0], *r1 = c->r[1];
+	if (!r1 || !r0->have[n] || !r1->have[n])
+		return 0;
+	int64_t k0 = r0->k[3 * n + d], k1 = r1->k[3 * n + d];
+	if (c->cons)
+		*lin = 2 * k0 - k1;
+	else
+		*lin = k0 + rdiv((k0 - k1) * (c->step - r0->step), r0->step - r1->step);
+	return 1;
+}
+
+static int carried(const pctx *c, int m) { return c->cls[m] != NDO_NODE_SKIP; }
+
+/* The prediction of node n's code on component d (node n is carried; the
+ * nodes before it in raster order are decoded in c->cur, their errors in
+ * c->e).  Records n's own extrapolation (for its neighbours) in *lin_out. */
+static int64_t predict(const pctx *c, int n, int d, int64_t *lin_out, int *has_lin)
+{
+	int i = n % c->cols;
+	int left = i > 0 ? n - 1 : -1, up = n >= c->cols ? n - c->cols : -1;
+	int ul = left >= 0 && up >= 0 ? up - 1 : -1;
+	int64_t lin;
+	*has_lin = 0;
+	if (c->r[0] && extrapolate(c, n, d, &lin)) {
+		*has_lin = 1;
+		*lin_out = lin;
+		int64_t sum = 0;
+		int terms = 0;
+		if (c->cons3 && c->r[2]->have[n]) { /* last step's second difference */
+			sum += c->r[0]->k[3 * n + d] - 2 * (int64_t)c->r[1]->k[3 * n + d] +
+			       c->r[2]->k[3 * n + d];
+			terms++;
+		}
+		if (c->cons) { /* the neighbours' errors this step */
+			int a = left >= 0 && c->has_e[left], b = up >= 0 && c->has_e[up],
+			    u = ul >= 0 && c->has_e[ul];
+			int64_t s;
+			if (a && b && u)
+				s = med3(c->e[left], c->e[up], c->e[ul]);
+			else if (a && b)
+				s = rdiv(c->e[left] + c->e[up], 2);
+			else if (a || b)
+				s = a ? c->e[left] : c->e[up];
+			else
+				goto none;
+			sum += s;
+			terms++;
+		}
+	none:
+		return lin + (terms == 2 ? rdiv(sum, 2) : sum);
+	}
+	if (c->r[0] && c->r[0]->have[n])
+		return c->r[0]->k[3 * n + d];
+	/* intra: from this frame's neighbours */
+	int a = left >= 0 && carried(c, left), b = up >= 0 && carried(c, up),
+	    u = ul >= 0 && carried(c, ul);
+	if (a && b && u)
+		return med3(c->cur[left], c->cur[up], c->cur[ul]);
+	if (a && b)
+		return rdiv((int64_t)c->cur[left] + c->cur[up], 2);
+	if (a)
+		return c->cur[left];
+	if (b)
+		return c->cur[up];
+	return 0;
+}
+
+/* ---- the body ------------------------------------------------------------------- */
+static void put_classes(wbuf *b, const uint8_t *cls, int nodes)
+{
+	for (int n = 0; n < nodes;) {
+		int m = n;
+		while (m < nodes && cls[m] == cls[n])
+			m++;
+		put_byte(b, cls[n]);
+		put_varint(b, (uint64_t)(m - n));
+		n = m;
+	}
+}
+
+static int get_classes(rbuf *r, uint8_t *cls, int nodes)
+{
+	for (int n = 0; n < nodes;) {
+		if (r->pos >= r->n)
+			return -1;
+		uint8_t c = r->p[r->pos++];
+		uint64_t run = get_varint(r);
+		if (r->bad || c > NDO_NODE_EXACT || run == 0 || run > (uint64_t)(nodes - n))
+			return -1;
+		memset(cls + n, c, (size_t)run);
+		n += (int)run;
+	}
+	return 0;
+}
+
+/* The largest body a tile of `nodes` can have (bomb check). */
+static size_t body_bound(int nodes)
+{
+	return (size_t)nodes * (2 * 11 + 48 + 3 * 11) + 64;
+}
+
+int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_codec_hist *h,
+                     int intra, const ndo_codec_input *in, uint8_t **data, size_t *len,
+                     int64_t *base_step, ndo_codec_frame *recon, int *unchanged)
+{
+	int own_w = !w;
+	if (own_w && !(w = ndo_codec_work_create()))
+		return ndo__fail(NDO_ENOMEM, "out of memory");
+	const int nodes = in->rows * in->cols, enc = p->encoding;
+	int rc = 0, ok = 1, allzero = 1, nexact = 0;
+	*data = NULL;
+	*len = 0;
+	*unchanged = 0;
+	*base_step = -1;
+	wbuf body = {0}, out = {0};
+	/* references */
+	const ndo_codec_frame *r[3] = {0};
+	if (enc == NDO_ENC_PREDICT && !intra && h)
+		for (int k = 0, m = 0; k < NDO_CODEC_HISTORY && m < 3; k++)
+			if (h->f[k].step >= 0 && h->f[k].step < in->step && h->f[k].epoch == in->epoch &&
+			    in->step - h->f[k].step <= NDO_CODEC_MAX_GAP)
+				r[m++] = &h->f[k];
+	uint8_t flags = r[0] ? KIND_PRED : KIND_INTRA;
+	if (intra == 2)
+		flags |= F_NOREF;
+	recon->step = in->step;
+	recon->time = in->time;
+	recon->epoch = in->epoch;
+	if (work_nodes(w, (size_t)nodes)) {
+		rc = ndo__fail(NDO_ENOMEM, "out of memory");
+		goto done;
+	}
+	put_classes(&body, in->cls, nodes);
+	for (int n = 0; n < nodes; n++) {
+		recon->have[n] = in->cls[n] != NDO_NODE_SKIP;
+		if (in->cls[n] != NDO_NODE_EXACT)
+			continue;
+		nexact++;
+		for (int d = 0; d < 3; d++) {
+			if (!isfinite(in->x[3 * n + d]) || !isfinite(in->v[3 * n + d]))
+				ok = 0;
+			recon->x[3 * n + d] = in->x[3 * n + d];
+		}
+		for (int d = 0; d < 3; d++)
+			put_f64(&body, in->x[3 * n + d]);
+		for (int d = 0; d < 3; d++)
+			put_f64(&body, in->v[3 * n + d]);
+	}
+	if (enc == NDO_ENC_FLOAT32) {
+		for (int n = 0; n < nodes; n++)
+			if (in->cls[n] == NDO_NODE_LOSSY)
+				for (int d = 0; d < 3; d++) {
+					float f = (float)in->x[3 * n + d];
+					if (!isfinite(f))
+						ok = 0;
+					uint32_t u;
+					memcpy(&u, &f, 4);
+					uint8_t t[4] = {(uint8_t)u, (uint8_t)(u >> 8), (uint8_t)(u >> 16),
+					                (uint8_t)(u >> 24)};
+					put(&body, t, 4);
+					recon->x[3 * n + d] = f;
+				}
+	} else {
+		/* codes of every carried node */
+		for (int n = 0; n < nodes; n++)
+			if (recon->have[n])
+				for (int d = 0; d < 3; d++) {
+					recon->k[3 * n + d] = code_of(p, d, in->x[3 * n + d], &ok);
+					if (in->cls[n] == NDO_NODE_LOSSY)
+						recon->x[3 * n + d] = value_of(p, d, recon->k[3 * n + d]);
+				}
+	}
+	if (!ok) {
+		rc = ndo__fail(NDO_ERANGE, "a position out of the codes' range");
+		goto done;
+	}
+	if (enc == NDO_ENC_FIXED) {
+		/* bits+2 wide, offset by 2^bits: the box and its extent on each side */
+		int width = p->bits + 2;
+		int64_t off = (int64_t)1 << p->bits, top = (int64_t)1 << width;
+		int wide = 0;
+		for (int n = 0; n < nodes && !wide; n++)
+			if (in->cls[n] == NDO_NODE_LOSSY)
+				for (int d = 0; d < 3; d++) {
+					int64_t v = (int64_t)recon->k[3 * n + d] + off;
+					wide |= v < 0 || v >= top;
+				}
+		if (wide) {
+			flags |= F_WIDE;
+			for (int n = 0; n < nodes; n++)
+				if (in->cls[n] == NDO_NODE_LOSSY)
+					for (int d = 0; d < 3; d++) {
+						uint32_t u = (uint32_t)recon->k[3 * n + d];
+						uint8_t t[4] = {(uint8_t)u, (uint8_t)(u >> 8), (uint8_t)(u >> 16),
+						                (uint8_t)(u >> 24)};
+						put(&body, t, 4);
+					}
+		} else {
+			uint64_t acc = 0;
+			int nb = 0;
+			for (int n = 0; n < nodes; n++)
+				if (in->cls[n] == NDO_NODE_LOSSY)
+					for (int d = 0; d < 3; d++) {
+						acc |= (uint64_t)(recon->k[3 * n + d] + off) << nb;
+						nb += width;
+						while (nb >= 8) {
+							put_byte(&body, (uint8_t)acc);
+							acc >>= 8;
+							nb -= 8;
+						}
+					}
+			if (nb > 0)
+				put_byte(&body, (uint8_t)acc);
+		}
+	} else if (enc == NDO_ENC_PREDICT) {
+		pctx c = {.cols = in->cols, .nodes = nodes, .cls = in->cls, .e = w->e, .has_e = w->has_e};
+		pctx_init(&c, r[0], r[1], r[2], in->step);
+		int32_t *cur = malloc((size_t)nodes * sizeof *cur);
+		if (!cur) {
+			rc = ndo__fail(NDO_ENOMEM, "out of memory");
+			goto done;
+		}
+		c.cur = cur;
+		for (int d = 0; d < 3; d++) {
+			for (int n = 0; n < nodes; n++)
+				cur[n] = recon->k[3 * n + d];
+			for (int n = 0; n < nodes; n++) {
+				w->has_e[n] = 0;
+				if (!recon->have[n])
+					continue;
+				int64_t lin;
+				int has;
+				int64_t pr = predict(&c, n, d, &lin, &has);
+				if (has) {
+					w->e[n] = cur[n] - lin;
+					w->has_e[n] = 1;
+				}
+				if (in->cls[n] != NDO_NODE_LOSSY)
+					continue;
+				int64_t res = cur[n] - pr;
+				allzero &= res == 0;
+				uint64_t u = zigzag(res);
+				if (u < 255) {
+					put_byte(&body, (uint8_t)u);
+				} else {
+					put_byte(&body, 255);
+					put_varint(&body, u - 255);
+				}
+			}
+		}
+		free(cur);
+	}
+	if (body.fail) {
+		rc = ndo__fail(NDO_ENOMEM, "out of memory");
+		goto done;
+	}
+	/* the header and the body, compressed when it pays */
+	put_byte(&out, flags);
+	if (r[0]) {
+		put_varint(&out, r[1] ? (uint64_t)(r[0]->step - r[1]->step) : 0);
+		put_varint(&out, r[1] && r[2] ? (uint64_t)(r[1]->step - r[2]->step) : 0);
+		*base_step = r[0]->step;
+	}
+	if (enc == NDO_ENC_PREDICT) {
+		size_t bound = ZSTD_compressBound(body.n);
+		if (grow(&w->buf, &w->cap, bound)) {
+			rc = ndo__fail(NDO_ENOMEM, "out of memory");
+			goto done;
+		}
+		size_t z = ZSTD_compressCCtx(w->cc, w->buf, bound, body.p, body.n, ZSTD_LEVEL);
+		if (!ZSTD_isError(z) && z < body.n) {
+			out.p[0] |= F_ZSTD;
+			put(&out, w->buf, z);
+		} else {
+			put(&out, body.p, body.n);
+		}
+	} else {
+		put(&out, body.p, body.n);
+	}
+	if (out.fail) {
+		rc = ndo__fail(NDO_ENOMEM, "out of memory");
+		goto done;
+	}
+	*unchanged = r[0] && allzero && nexact == 0;
+	*data = out.p;
+	*len = out.n;
+	out.p = NULL;
+done:
+	free(body.p);
+	free(out.p);
+	if (own_w)
+		ndo_codec_work_destroy(w);
+	return rc;
+}
+
+/* Decode the LOSSY positions of the body (after the exact nodes). */
+static int decode_lossy(const ndo_codec_params *p, ndo_codec_work *w, rbuf *r, uint8_t flags,
+                        const uint8_t *cls, int rows, int cols, const ndo_codec_frame *ref[3],
+                        int64_t step, ndo_codec_frame *recon)
+{
+	const int nodes = rows * cols, enc = p->encoding;
+	if (enc == NDO_ENC_FLOAT32) {
+		for (int n = 0; n < nodes; n++)
+			if (cls[n] == NDO_NODE_LOSSY)
+				for (int d = 0; d < 3; d++) {
+					if (r->n - r->pos < 4)
+						return -1;
+					const uint8_t *t = r->p + r->pos;
+					uint32_t u = t[0] | (uint32_t)t[1] << 8 | (uint32_t)t[2] << 16 |
+					             (uint32_t)t[3] << 24;
+					r->pos += 4;
+					float f;
+					memcpy(&f, &u, 4);
+					if (!isfinite(f))
+						return -1;
+					recon->x[3 * n + d] = f;
+				}
+		return 0;
+	}
+	if (enc == NDO_ENC_FIXED) {
+		int width = p->bits + 2;
+		int64_t off = (int64_t)1 << p->bits;
+		uint64_t acc = 0;
+		int nb = 0;
+		for (int n = 0; n < nodes; n++)
+			if (cls[n] == NDO_NODE_LOSSY)
+				for (int d = 0; d < 3; d++) {
+					int64_t k;
+					if (flags & F_WIDE) {
+						if (r->n - r->pos < 4)
+							return -1;
+						const uint8_t *t = r->p + r->pos;
+						k = (int32_t)(t[0] | (uint32_t)t[1] << 8 | (uint32_t)t[2] << 16 |
+						              (uint32_t)t[3] << 24);
+						r->pos += 4;
+						if (k <= -CODE_MAX || k >= CODE_MAX)
+							return -1;
+					} else {
+						while (nb < width) {
+							if (r->pos >= r->n)
+								return -1;
+							acc |= (uint64_t)r->p[r->pos++] << nb;
+							nb += 8;
+						}
+						k = (int64_t)(acc & (((uint64_t)1 << width) - 1)) - off;
+						acc >>= width;
+						nb -= width;
+					}
+					recon->k[3 * n + d] = (int32_t)k;
+					recon->x[3 * n + d] = value_of(p, d, k);
+				}
+		return 0;
+	}
+	/* predict */
+	pctx c = {.cols = cols, .nodes = nodes, .cls = cls, .e = w->e, .has_e = w->has_e};
+	pctx_init(&c, ref[0], ref[1], ref[2], step);
+	int32_t *cur = malloc((size_t)nodes * sizeof *cur);
+	if (!cur)
+		return -2;
+	c.cur = cur;
+	int bad = 0;
+	for (int d = 0; d < 3 && !bad; d++) {
+		for (int n = 0; n < nodes; n++)
+			cur[n] = recon->k[3 * n + d]; /* exact nodes' codes */
+		for (int n = 0; n < nodes && !bad; n++) {
+			w->has_e[n] = 0;
+			if (cls[n] == NDO_NODE_SKIP)
+				continue;
+			int64_t lin;
+			int has;
+			int64_t pr = predict(&c, n, d, &lin, &has);
+			if (cls[n] == NDO_NODE_LOSSY) {
+				if (r->pos >= r->n) {
+					bad = 1;
+					break;
+				}
+				uint64_t u = r->p[r->pos++];
+				if (u == 255) {
+					u = get_varint(r);
+					if (r->bad || u > ((uint64_t)1 << 40)) {
+						bad = 1;
+						break;
+					}
+					u += 255;
+				}
+				int64_t k = pr + unzigzag(u);
+				if (k <= -CODE_MAX || k >= CODE_MAX) {
+					bad = 1;
+					break;
+				}
+				cur[n] = (int32_t)k;
+				recon->k[3 * n + d] = (int32_t)k;
+				recon->x[3 * n + d] = value_of(p, d, k);
+			}
+			if (has) {
+				w->e[n] = cur[n] - lin;
+				w->has_e[n] = 1;
+			}
+		}
+	}
+	free(cur);
+	return bad ? -1 : 0;
+}
+
+ndo_drop ndo_codec_decode(const ndo_codec_params *p, ndo_codec_work *w,
+                          const ndo_codec_hist *h, int rows, int cols, const uint8_t *data,
+                          size_t len, int64_t step, double time, int32_t epoch,
+                          int64_t base_step, double *x, double *v, ndo_codec_frame *recon)
+{
+	const int nodes = rows * cols, enc = p->encoding;
+	if (enc <= NDO_ENC_RAW || enc > NDO_ENC_PREDICT || nodes <= 0)
+		return NDO_DROP_ENCODING;
+	if (!data || len < 1)
+		return NDO_DROP_CORRUPT;
+	int own_w = !w;
+	if (own_w && !(w = ndo_codec_work_create()))
+		return NDO_DROP_RANGE;
+	ndo_drop res = NDO_DROP_NONE;
+	uint8_t *cls = NULL, flags = 0;
+	rbuf r = {data, len, 0, 0};
+	flags = data[r.pos++];
+	int kind = flags & 3;
+	const ndo_codec_frame *ref[3] = {0};
+	if ((flags & 0xe0) || kind > KIND_PRED || ((flags & F_ZSTD) && enc != NDO_ENC_PREDICT) ||
+	    ((flags & F_WIDE) && enc != NDO_ENC_FIXED) || (kind == KIND_PRED) != (base_step >= 0) ||
+	    (kind == KIND_PRED && enc != NDO_ENC_PREDICT) || base_step >= step ||
+	    (base_step >= 0 && step - base_step > NDO_CODEC_MAX_GAP)) {
+		res = NDO_DROP_CORRUPT;
+		goto done;
+	}
+	if (kind == KIND_PRED) {
+		uint64_t g2 = get_varint(&r), g3 = get_varint(&r);
+		if (r.bad || g2 > (uint64_t)base_step || (g2 == 0 && g3) ||
+		    g3 > (uint64_t)base_step - g2) {
+			res = NDO_DROP_CORRUPT;
+			goto done;
+		}
+		ref[0] = ndo_codec_hist_find(h, base_step);
+		ref[1] = g2 ? ndo_codec_hist_find(h, base_step - (int64_t)g2) : NULL;
+		ref[2] = g3 ? ndo_codec_hist_find(h, base_step - (int64_t)g2 - (int64_t)g3) : NULL;
+		if (!ref[0] || (g2 && !ref[1]) || (g3 && !ref[2])) {
+			res = NDO_DROP_NOBASE;
+			goto done;
+		}
+		for (int k = 0; k < 3; k++)
+			if (ref[k] && ref[k]->epoch != epoch) {
+				res = NDO_DROP_NOBASE;
+				goto done;
+			}
+	}
+	if (work_nodes(w, (size_t)nodes) || !(cls = malloc((size_t)nodes))) {
+		res = NDO_DROP_RANGE;
+		goto done;
+	}
+	rbuf b = {data + r.pos, len - r.pos, 0, 0};
+	if (flags & F_ZSTD) {
+		unsigned long long n = ZSTD_getFrameContentSize(b.p, b.n);
+		size_t bound = body_bound(nodes);
+		if (n == ZSTD_CONTENTSIZE_ERROR || n == ZSTD_CONTENTSIZE_UNKNOWN || n > bound) {
+			res = NDO_DROP_CORRUPT; /* not zstd, or a bomb */
+			goto done;
+		}
+		if (grow(&w->buf2, &w->cap2, (size_t)n + 1)) {
+			res = NDO_DROP_RANGE;
+			goto done;
+		}
+		size_t got = ZSTD_decompressDCtx(w->dc, w->buf2, (size_t)n, b.p, b.n);
+		if (ZSTD_isError(got) || got != n) {
+			res = NDO_DROP_CORRUPT;
+			goto done;
+		}
+		b = (rbuf){w->buf2, (size_t)n, 0, 0};
+	}
+	recon->step = step;
+	recon->time = time;
+	recon->epoch = epoch;
+	if (get_classes(&b, cls, nodes)) {
+		res = NDO_DROP_CORRUPT;
+		goto done;
+	}
+	int ok = 1;
+	for (int n = 0; n < nodes; n++) {
+		recon->have[n] = cls[n] != NDO_NODE_SKIP;
+		if (cls[n] != NDO_NODE_EXACT)
+			continue;
+		for (int d = 0; d < 3; d++)
+			x[3 * n + d] = recon->x[3 * n + d] = get_f64(&b);
+		for (int d = 0; d < 3; d++)
+			v[3 * n + d] = get_f64(&b);
+		for (int d = 0; d < 3; d++) {
+			ok &= isfinite(x[3 * n + d]) && isfinite(v[3 * n + d]);
+			if (enc != NDO_ENC_FLOAT32)
+				recon->k[3 * n + d] = code_of(p, d, x[3 * n + d], &ok);
+		}
+		if (b.bad || !ok)
+			break;
+	}
+	if (b.bad || !ok) {
+		res = NDO_DROP_CORRUPT;
+		goto done;
+	}
+	int dl = decode_lossy(p, w, &b, flags, cls, rows, cols, ref, step, recon);
+	if (dl == -2) {
+		res = NDO_DROP_RANGE;
+		goto done;
+	}
+	if (dl || b.pos != b.n) {
+		res = NDO_DROP_CORRUPT;
+		goto done;
+	}
+	/* positions out; velocities of LOSSY nodes from the previous frame */
+	const ndo_codec_frame *prev = before(h, step, epoch);
+	double dtp = prev ? time - prev->time : 0;
+	for (int n = 0; n < nodes; n++) {
+		if (cls[n] == NDO_NODE_EXACT)
+			continue;
+		int lossy = cls[n] == NDO_NODE_LOSSY;
+		int est = lossy && prev && prev->have[n] && dtp > 0;
+		for (int d = 0; d < 3; d++) {
+			x[3 * n + d] = lossy ? recon->x[3 * n + d] : NAN;
+			v[3 * n + d] = est ? (recon->x[3 * n + d] - prev->x[3 * n + d]) / dtp : NAN;
+		}
+	}
+done:
+	free(cls);
+	if (own_w)
+		ndo_codec_work_destroy(w);
+	if (res != NDO_DROP_NONE || (flags & F_NOREF))
+		recon->step = -1; /* not to be kept as a reference */
+	return res;
+}
+
+int ndo_codec_implied(const ndo_codec_params *p, const ndo_codec_hist *h, int rows, int cols,
+                      int64_t step, double time, double *x, ndo_codec_frame *recon)
+{
+	const int nodes = rows * cols;
+	const ndo_codec_frame *r[3] = {0};
+	for (int k = 0, m = 0; h && k < NDO_CODEC_HISTORY && m < 3; k++)
+		if (h->f[k].step >= 0 && h->f[k].step < step && step - h->f[k].step <= NDO_CODEC_MAX_GAP)
+			r[m++] = &h->f[k];
+	if (!r[0] || p->encoding != NDO_ENC_PREDICT)
+		return ndo__fail(NDO_EINVAL, "no frame to predict step %lld from", (long long)step);
+	uint8_t *cls = malloc((size_t)nodes);
+	int64_t *e = malloc((size_t)nodes * sizeof *e);
+	uint8_t *has_e = malloc((size_t)nodes);
+	int32_t *cur = malloc((size_t)nodes * sizeof *cur);
+	if (!cls || !e || !has_e || !cur) {
+		free(cls), free(e), free(has_e), free(cur);
+		return ndo__fail(NDO_ENOMEM, "out of memory");
+	}
+	for (int n = 0; n < nodes; n++)
+		cls[n] = r[0]->have[n] ? NDO_NODE_LOSSY : NDO_NODE_SKIP;
+	pctx c = {.cols = cols, .nodes = nodes, .cls = cls, .e = e, .has_e = has_e, .cur = cur};
+	pctx_init(&c, r[0], r[1], r[2], step);
+	recon->step = step;
+	recon->time = time;
+	recon->epoch = r[0]->epoch;
+	for (int d = 0; d < 3; d++)
+		for (int n = 0; n < nodes; n++) {
+			has_e[n] = 0;
+			recon->have[n] = cls[n] != NDO_NODE_SKIP;
+			if (cls[n] == NDO_NODE_SKIP) {
+				x[3 * n + d] = NAN;
+				continue;
+			}
+			int64_t lin;
+			int has;
+			int64_t k = predict(&c, n, d, &lin, &has);
+			if (k <= -CODE_MAX || k >= CODE_MAX)
+				k = r[0]->k[3 * n + d];
+			cur[n] = (int32_t)k;
+			if (has) {
+				e[n] = k - lin;
+				has_e[n] = 1;
+			}
+			recon->k[3 * n + d] = (int32_t)k;
+			x[3 * n + d] = recon->x[3 * n + d] = value_of(p, d, k);
+		}
+	free(cls), free(e), free(has_e), free(cur);
+	return 0;
+}

@@ -1,0 +1,457 @@
+/* codec_tile.c — encoded tiles on the wire: each (sender, tile)'s history,
+ * the last frames sent (to send them again), decoding in place
+ * (ndo/codec.h). */
+#include "ndo/codec.h"
+#include "ndo/status.h"
+#include "ndo/topology.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#define MEMORY_MAX ((size_t)256 << 20) /* history kept for all tiles: LRU beyond */
+#define CACHED 2                       /* frames kept per tile to send again */
+
+typedef struct cached {
+	int64_t step, base;
+	uint8_t *data;
+	size_t len;
+} cached;
+
+typedef struct entry {
+	int32_t sender, code;
+	int32_t epoch;
+	int nodes;
+	ndo_codec_hist h;
+	int64_t last_key;   /* encoder: step of the last keyframe */
+	int64_t last_sent;  /* encoder: step of the last frame sent (or skipped) */
+	int skips;          /* encoder: steps skipped in a row */
+	cached c[CACHED];   /* encoder: the last frames sent */
+	uint64_t used;
+	/* decoder: the last frame decoded (for ndo_codec_skipped) */
+	int64_t dec_step, dec_base;
+	double dec_time, base_time;
+} entry;
+
+struct ndo_codec {
+	ndo_codec_params p;
+	int level;
+	ndo_codec_work *w;
+	entry **e;
+	size_t n, cap, memory;
+	uint64_t clock;
+	ndo_codec_stats st;
+	double *x, *v;      /* a tile's values, scratch */
+	uint8_t *cls;
+	size_t scap;
+	ndo_codec_frame fr; /* a frame, scratch */
+	int frnodes;
+};
+
+size_t ndo_codec_classify(int level, const int32_t *own, int32_t self, uint8_t *cls)
+{
+	const int w = (2 << level) + 1;
+	const size_t count = (size_t)w * (size_t)((1 << level) + 1);
+	for (size_t k = 0; k < count; k++) {
+		size_t c = ndo_canonical(level, (int)(k % (size_t)w), (int)(k / (size_t)w));
+		cls[k] = own[c] == self ? NDO_NODE_LOSSY : NDO_NODE_SKIP;
+	}
+	for (size_t k = 0; k < count; k++) {
+		int i = (int)(k % (size_t)w), j = (int)(k / (size_t)w);
+		if (ndo_canonical(level, i, j) != k || own[k] == self)
+			continue;
+		size_t nb[6];
+		ndo_neighbors(level, i, j, nb);
+		for (int d = 0; d < 6; d++) {
+			size_t c = ndo_canonical(level, (int)(nb[d] % (size_t)w), (int)(nb[d] / (size_t)w));
+			if (own[c] == self)
+				cls[c] = NDO_NODE_EXACT;
+		}
+	}
+	size_t n = 0;
+	for (size_t k = 0; k < count; k++) { /* duplicates as their canonical node */
+		cls[k] = cls[ndo_canonical(level, (int)(k % (size_t)w), (int)(k / (size_t)w))];
+		n += cls[k] == NDO_NODE_EXACT;
+	}
+	return n;
+}
+
+static double mono(void)
+{
+	struct timespec t;
+	clock_gettime(CLOCK_MONOTONIC, &t);
+	return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+int ndo_codec_create(const ndo_codec_params *p, int level, ndo_codec **out)
+{
+	ndo__clear_error();
+	int rc = ndo_codec_params_check(p);
+	if (rc)
+		return rc;
+	if (level < 0 || level > 10)
+		return ndo__fail(NDO_EINVAL, "codec: level %d", level);
+	ndo_codec *c = calloc(1, sizeof *c);
+	if (!c || !(c->w = ndo_codec_work_create())) {
+		free(c);
+		return ndo__fail(NDO_ENOMEM, "out of memory");
+	}
+	c->p = *p;
+	c->level = level;
+	*out = c;
+	return 0;
+}
+
+static void entry_free(entry *e)
+{
+	if (!e)
+		return;
+	ndo_codec_hist_free(&e->h);
+	for (int k = 0; k < CACHED; k++)
+		free(e->c[k].data);
+	free(e);
+}
+
+static size_t entry_size(int nodes) { return (size_t)nodes * 40 * NDO_CODEC_HISTORY; }
+
+void ndo_codec_destroy(ndo_codec *c)
+{
+	if (!c)
+		return;
+	for (size_t k = 0; k < c->n; k++)
+		entry_free(c->e[k]);
+	free(c->e);
+	free(c->x), free(c->v), free(c->cls);
+	free(c->fr.x), free(c->fr.k), free(c->fr.have);
+	ndo_codec_work_destroy(c->w);
+	free(c);
+}
+
+const ndo_codec_params *ndo_codec_params_of(const ndo_codec *c) { return &c->p; }
+void ndo_codec_stats_get(const ndo_codec *c, ndo_codec_stats *st) { *st = c->st; }
+
+/* Scratch for a tile of `nodes`. */
+static int scratch(ndo_codec *c, int nodes)
+{
+	if ((size_t)nodes > c->scap) {
+		free(c->x), free(c->v), free(c->cls);
+		c->x = malloc(3 * (size_t)nodes * sizeof *c->x);
+		c->v = malloc(3 * (size_t)nodes * sizeof *c->v);
+		c->cls = malloc((size_t)nodes);
+		c->scap = c->x && c->v && c->cls ? (size_t)nodes : 0;
+		if (!c->scap)
+			return ndo__fail(NDO_ENOMEM, "out of memory");
+	}
+	if (nodes > c->frnodes) {
+		free(c->fr.x), free(c->fr.k), free(c->fr.have);
+		c->fr.x = malloc(3 * (size_t)nodes * sizeof *c->fr.x);
+		c->fr.k = malloc(3 * (size_t)nodes * sizeof *c->fr.k);
+		c->fr.have = malloc((size_t)nodes);
+		c->frnodes = c->fr.x && c->fr.k && c->fr.have ? nodes : 0;
+		if (!c->frnodes)
+			return ndo__fail(NDO_ENOMEM, "out of memory");
+	}
+	return 0;
+}
+
+/* The entry of (sender, code), made when missing (NULL: out of memory). */
+static entry *get(ndo_codec *c, int32_t sender, int32_t code, int nodes)
+{
+	for (size_t k = 0; k < c->n; k++)
+		if (c->e[k]->sender == sender && c->e[k]->code == code) {
+			c->e[k]->used = ++c->clock;
+			return c->e[k];
+		}
+	while (c->memory + entry_size(nodes) > MEMORY_MAX && c->n) { /* forget the least used */
+		size_t lru = 0;
+		for (size_t k = 1; k < c->n; k++)
+			if (c->e[k]->used < c->e[lru]->used)
+				lru = k;
+		c->memory -= entry_size(c->e[lru]->nodes);
+		entry_free(c->e[lru]);
+		c->e[lru] = c->e[--c->n];
+	}
+	if (c->n == c->cap) {
+		size_t cap = c->cap ? 2 * c->cap : 64;
+		entry **e = realloc(c->e, cap * sizeof *e);
+		if (!e)
+			return NULL;
+		c->e = e;
+		c->cap = cap;
+	}
+	entry *e = calloc(1, sizeof *e);
+	if (!e || ndo_codec_hist_init(&e->h, nodes)) {
+		free(e);
+		return NULL;
+	}
+	e->sender = sender;
+	e->code = code;
+	e->nodes = nodes;
+	e->epoch = -1;
+	e->last_key = e->last_sent = e->dec_step = e->dec_base = -1;
+	for (int k = 0; k < CACHED; k++)
+		e->c[k].step = -1;
+	e->used = ++c->clock;
+	c->e[c->n++] = e;
+	c->memory += entry_size(nodes);
+	return e;
+}
+
+static void forget(entry *e, int32_t epoch)
+{
+	ndo_codec_hist_clear(&e->h);
+	e->epoch = epoch;
+	e->last_key = e->last_sent = -1;
+	e->skips = 0;
+	for (int k = 0; k < CACHED; k++) {
+		free(e->c[k].data);
+		e->c[k].data = NULL;
+		e->c[k].step = -1;
+	}
+}
+
+static int fill_tile(ndo_msg_tile_t *t, int enc, int64_t base, const uint8_t *data, size_t len)
+{
+	uint8_t *d = malloc(len ? len : 1);
+	if (!d)
+		return ndo__fail(NDO_ENOMEM, "out of memory");
+	memcpy(d, data, len);
+	t->encoding = (int8_t)enc;
+	t->base_step = base;
+	t->nvalues = 0;
+	t->values = NULL;
+	t->nbytes = (int32_t)len;
+	t->data = d;
+	return 0;
+}
+
+int ndo_codec_encode_tile(ndo_codec *c, int32_t self, const ndo_grid *g, const uint8_t *cls,
+                          ndo_quad q, int standalone, ndo_msg_tile_t *t)
+{
+	double t0 = mono();
+	int i0, j0, i1, j1;
+	ndo_quad_range(g->level, q, &i0, &j0, &i1, &j1);
+	int cols = i1 - i0 + 1, rows = j1 - j0 + 1, nodes = rows * cols;
+	const double *x = ndo_grid_f64((ndo_grid *)g, NDO_CH_POSITION, 3);
+	const double *v = ndo_grid_f64((ndo_grid *)g, NDO_CH_VELOCITY, 3);
+	if (!x || !v)
+		return ndo__fail(NDO_EINVAL, "codec: the grid has no f64 position and velocity");
+	int rc = scratch(c, nodes);
+	if (rc)
+		return rc;
+	entry *e = get(c, self, ndo_quad_code(q), nodes);
+	if (!e)
+		return ndo__fail(NDO_ENOMEM, "out of memory");
+	if (e->epoch != t->epoch && !standalone)
+		forget(e, t->epoch);
+	if (standalone) { /* a step sent again: the same bytes, if still held */
+		for (int k = 0; k < CACHED; k++)
+			if (e->c[k].step == t->step && e->c[k].data && e->epoch == t->epoch)
+				return fill_tile(t, c->p.encoding, e->c[k].base, e->c[k].data, e->c[k].len);
+		if (e->epoch == t->epoch && t->step <= e->last_sent && t->step > e->c[0].step &&
+		    e->c[0].step >= 0)
+			return 1; /* it was skipped */
+	}
+	for (int j = 0, n = 0; j < rows; j++)
+		for (int i = 0; i < cols; i++, n++) {
+			size_t node = ndo_node(g->w, i0 + i, j0 + j);
+			memcpy(c->x + 3 * n, x + 3 * node, 3 * sizeof *x);
+			memcpy(c->v + 3 * n, v + 3 * node, 3 * sizeof *v);
+			c->cls[n] = cls[node];
+		}
+	ndo_codec_input in = {rows, cols, c->x, c->v, c->cls, t->step, t->time, t->epoch};
+	/* a keyframe when one is due — but not right after skipped steps: the
+	 * frame after them tells receivers what they were (the next is the key) */
+	int due = e->last_key < 0 || t->step <= e->last_sent || e->h.f[0].step < 0 ||
+	          (t->step - e->last_key >= c->p.keyframe && e->skips == 0);
+	int intra = standalone ? 2 : due ? 1 : 0;
+	uint8_t *data;
+	size_t len;
+	int64_t base;
+	int unchanged;
+	rc = ndo_codec_encode(&c->p, c->w, &e->h, intra, &in, &data, &len, &base, &c->fr, &unchanged);
+	if (rc == NDO_ERANGE && !standalone) {
+		forget(e, t->epoch);
+		c->st.raw_fallbacks++;
+	}
+	if (rc)
+		return rc;
+	if (!standalone)
+		for (int n = 0; n < nodes; n++)
+			if (c->cls[n] == NDO_NODE_LOSSY) {
+				double d2 = 0;
+				for (int d = 0; d < 3; d++) {
+					double e_ = c->fr.x[3 * n + d] - c->x[3 * n + d];
+					d2 += e_ * e_;
+				}
+				c->st.sum_sq_error += d2;
+				c->st.error_nodes++;
+				if (d2 > c->st.max_error * c->st.max_error)
+					c->st.max_error = sqrt(d2);
+			}
+	if (!standalone && unchanged && e->skips < NDO_CODEC_MAX_SKIP) {
+		free(data);
+		e->skips++;
+		e->last_sent = t->step;
+		c->st.skipped++;
+		c->st.encode_seconds += mono() - t0;
+		return 1;
+	}
+	if (!standalone) {
+		if (base < 0) /* a keyframe: later frames refer to it and after only */
+			ndo_codec_hist_clear(&e->h);
+		ndo_codec_hist_put(&e->h, &c->fr);
+		e->skips = 0;
+		e->last_sent = t->step;
+		if (base < 0)
+			e->last_key = t->step;
+		free(e->c[CACHED - 1].data);
+		memmove(&e->c[1], &e->c[0], (CACHED - 1) * sizeof e->c[0]);
+		e->c[0] = (cached){t->step, base, data, len};
+		rc = fill_tile(t, c->p.encoding, base, data, len);
+	} else {
+		rc = fill_tile(t, c->p.encoding, base, data, len);
+		free(data);
+	}
+	c->st.encoded++;
+	c->st.keyframes += base < 0;
+	c->st.payload_bytes += len;
+	c->st.encode_seconds += mono() - t0;
+	return rc;
+}
+
+void ndo_codec_forget_tile(ndo_codec *c, int32_t self, ndo_quad q)
+{
+	int32_t code = ndo_quad_code(q);
+	for (size_t k = 0; k < c->n; k++)
+		if (c->e[k]->sender == self && c->e[k]->code == code)
+			forget(c->e[k], c->e[k]->epoch);
+}
+
+ndo_drop ndo_codec_decode_tile(ndo_codec *c, ndo_msg_tile_t *t)
+{
+	if (t->encoding == NDO_ENC_RAW)
+		return NDO_DROP_NONE;
+	if (t->encoding != c->p.encoding)
+		return NDO_DROP_ENCODING;
+	double t0 = mono();
+	int cols = t->i1 - t->i0 + 1, rows = t->j1 - t->j0 + 1, nodes = rows * cols;
+	ndo_quad q;
+	if (ndo_quad_from_range(c->level, t->depth, t->i0, t->j0, t->i1, t->j1, &q) != 0)
+		return NDO_DROP_RANGE;
+	if (scratch(c, nodes))
+		return NDO_DROP_RANGE;
+	entry *e = get(c, t->hdr.sender_id, ndo_quad_code(q), nodes);
+	double *vals = malloc(6 * (size_t)nodes * sizeof *vals);
+	if (!e || !vals) {
+		free(vals);
+		return NDO_DROP_RANGE;
+	}
+	int keep = t->epoch >= e->epoch; /* an old partition's frame is no reference */
+	if (e->epoch != t->epoch) {
+		if (!keep && t->base_step >= 0) {
+			free(vals);
+			c->st.nobase++;
+			return NDO_DROP_NOBASE;
+		}
+		if (keep)
+			forget(e, t->epoch);
+	}
+	ndo_drop r = ndo_codec_decode(&c->p, c->w, &e->h, rows, cols, t->data, (size_t)t->nbytes,
+	                              t->step, t->time, t->epoch, t->base_step, c->x, c->v, &c->fr);
+	if (r != NDO_DROP_NONE) {
+		free(vals);
+		if (r == NDO_DROP_CORRUPT)
+			c->st.corrupt++;
+		if (r == NDO_DROP_NOBASE)
+			c->st.nobase++;
+		return r;
+	}
+	const ndo_codec_frame *base = ndo_codec_hist_find(&e->h, t->base_step);
+	e->base_time = base ? base->time : t->time;
+	if (c->fr.step >= 0 && keep) {
+		if (t->base_step < 0) /* a keyframe, as the sender keeps it */
+			ndo_codec_hist_clear(&e->h);
+		ndo_codec_hist_put(&e->h, &c->fr);
+	}
+	e->dec_step = keep ? t->step : -1;
+	e->dec_base = t->base_step;
+	e->dec_time = t->time;
+	for (int n = 0; n < nodes; n++) {
+		memcpy(vals + 6 * n, c->x + 3 * n, 3 * sizeof *vals);
+		memcpy(vals + 6 * n + 3, c->v + 3 * n, 3 * sizeof *vals);
+	}
+	free(t->data);
+	t->data = NULL;
+	t->nbytes = 0;
+	free(t->values);
+	t->values = vals;
+	t->nvalues = 6 * nodes;
+	t->encoding = NDO_ENC_RAW;
+	t->base_step = -1;
+	c->st.decoded++;
+	c->st.decode_seconds += mono() - t0;
+	return NDO_DROP_NONE;
+}
+
+/* The entry a just-decoded tile came from. */
+static entry *entry_of(const ndo_codec *c, const ndo_msg_tile_t *t)
+{
+	ndo_quad q;
+	if (ndo_quad_from_range(c->level, t->depth, t->i0, t->j0, t->i1, t->j1, &q) != 0)
+		return NULL;
+	int32_t code = ndo_quad_code(q);
+	for (size_t k = 0; k < c->n; k++)
+		if (c->e[k]->sender == t->hdr.sender_id && c->e[k]->code == code)
+			return c->e[k];
+	return NULL;
+}
+
+int ndo_codec_skipped(const ndo_codec *c, const ndo_msg_tile_t *t)
+{
+	entry *e = entry_of(c, t);
+	if (!e || e->dec_step != t->step || e->dec_base < 0 || c->p.encoding != NDO_ENC_PREDICT)
+		return 0;
+	int64_t gap = t->step - e->dec_base - 1;
+	return gap > 0 && gap <= NDO_CODEC_MAX_SKIP ? (int)gap : 0;
+}
+
+int ndo_codec_skipped_tile(ndo_codec *c, const ndo_msg_tile_t *t, int k, ndo_msg_tile_t *out)
+{
+	entry *e = entry_of(c, t);
+	int n = ndo_codec_skipped(c, t);
+	if (!e || k < 0 || k >= n)
+		return ndo__fail(NDO_EINVAL, "no skipped step %d", k);
+	int cols = t->i1 - t->i0 + 1, rows = t->j1 - t->j0 + 1, nodes = rows * cols;
+	if (scratch(c, nodes))
+		return NDO_ENOMEM;
+	int64_t step = e->dec_base + 1 + k;
+	double frac = (double)(step - e->dec_base) / (double)(t->step - e->dec_base);
+	double time = e->base_time + frac * (t->time - e->base_time);
+	/* the frames before `step`: the history without the newer ones */
+	ndo_codec_hist view = e->h;
+	for (int f = 0; f < NDO_CODEC_HISTORY; f++)
+		if (view.f[f].step >= step)
+			view.f[f].step = -1;
+	int rc = ndo_codec_implied(&c->p, &view, rows, cols, step, time, c->x, &c->fr);
+	if (rc)
+		return rc;
+	double *vals = malloc(6 * (size_t)nodes * sizeof *vals);
+	if (!vals)
+		return ndo__fail(NDO_ENOMEM, "out of memory");
+	for (int m = 0; m < nodes; m++) {
+		memcpy(vals + 6 * m, c->x + 3 * m, 3 * sizeof *vals);
+		for (int d = 0; d < 3; d++)
+			vals[6 * m + 3 + d] = NAN;
+	}
+	*out = *t;
+	out->step = step;
+	out->time = time;
+	out->values = vals;
+	out->nvalues = 6 * nodes;
+	out->data = NULL;
+	out->nbytes = 0;
+	c->st.implied++;
+	return 0;
+}

@@ -1,0 +1,259 @@
+/* ndo/codec.h — compact state: the encodings of a state tile's positions
+ * and velocities (tile_t.encoding; docs/protocol.md "Encodings",
+ * docs/net-bench.md).
+ *
+ * Four encodings, chosen by the owner for a session (the description
+ * carries the choice as "tile-*" lines, so every peer and observer agrees):
+ *
+ *   raw      every value a double in tile_t.values[] (384 bits a node)
+ *   float32  positions as float32 (the thesis' state: 96 bits a node)
+ *   fixed    positions as fixed-point integers, q = extent / 2^bits per
+ *            axis of the object's bounding box, packed bits+2 wide
+ *   predict  positions as those integers, predicted (below) and the
+ *            residuals entropy-coded with zstd
+ *
+ * Nodes of a tile fall in three classes (the sender decides):
+ *   EXACT  nodes another simulating peer integrates with (its halo: the
+ *          sender's nodes next to that peer's region): position and
+ *          velocity travel as doubles, so lock-step runs are what they are
+ *          with raw tiles, bit for bit;
+ *   LOSSY  the sender's other nodes: position only, with an error of at
+ *          most ndo_codec_max_error() (half a step per axis); a receiver
+ *          estimates their velocity from its previous frame of the tile;
+ *   SKIP   nodes of other peers that the tile's range covers: not sent.
+ *
+ * A keyframe starts a tile's history again at both ends (the tile layer
+ * clears it before keeping the keyframe), so frames after it refer to it
+ * and later frames only.
+ *
+ * `predict` is closed-loop: every prediction is made from the frames as a
+ * receiver reconstructs them (integer codes, so the arithmetic is exact
+ * and the same on every machine), and errors do not drift.  A node's code
+ * is predicted from the tile's last three frames sent, k1, k2, k3, at the
+ * steps before: the linear extrapolation 2k1 − k2 plus the mean of two
+ * corrections, last step's second difference k1 − 2k2 + k3 and the median
+ * (LOCO-I) of the same extrapolation's errors at the node's left, upper
+ * and upper-left neighbours in this frame.  A keyframe (no reference:
+ * the codes predicted from their neighbours) comes every `keyframe` steps
+ * and whenever the sender has no reference, so a receiver that lost a
+ * frame of a tile recovers by the next keyframe.  A tile whose every node
+ * is predicted exactly (every residual 0) and carries no EXACT node is not
+ * sent (at most MAX_SKIP steps in a row); the next frame's base step tells
+ * a receiver which steps were skipped, and their frames are the
+ * predictions (ndo_codec_implied()).
+ *
+ * The payload (tile_t.data) is: one flags byte (bits 0-1 kind: 0 intra,
+ * 1 predicted; bit 2 zstd; bit 3 wide fixed-point; bits 4-7 zero), for a
+ * predicted frame two unsigned LEB128 varints g2, g3 (the steps from the
+ * base to the second and third reference, 0 when absent), then the body —
+ * zstd-compressed with bit 2 —: the classes as run lengths (varint pairs:
+ * class, count; raster order over the tile), the EXACT nodes' six doubles
+ * each (little-endian), then the LOSSY nodes' positions: float32 ×3;
+ * fixed codes bit-packed; predict residuals zigzag-coded, one byte each
+ * below 255, else 255 and a varint, component by component.
+ *
+ * Nothing received is trusted: a payload that does not parse, decompresses
+ * to more than a tile of that size can hold (a decompression bomb), carries
+ * a non-finite double or a code out of range is NDO_DROP_CORRUPT; a
+ * predicted frame whose reference frames the receiver does not hold is
+ * NDO_DROP_NOBASE.  Both are counted drops, never a crash.
+ */
+#ifndef NDO_CODEC_H
+#define NDO_CODEC_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "ndo/grid.h"
+#include "ndo/msg.h"
+#include "ndo/quadtree.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+enum { NDO_NODE_SKIP = 0, NDO_NODE_LOSSY = 1, NDO_NODE_EXACT = 2 };
+
+#define NDO_CODEC_BITS_DEFAULT 13     /* max error 0.61e-4 of the box's diagonal */
+#define NDO_CODEC_KEYFRAME_DEFAULT 32 /* steps between keyframes */
+#define NDO_CODEC_MAX_SKIP 8          /* steps a tile may go unsent in a row */
+#define NDO_CODEC_MAX_GAP 8192        /* steps between a frame and its reference */
+
+typedef struct ndo_codec_params {
+	int encoding;     /* NDO_ENC_RAW, _FLOAT32, _FIXED, _PREDICT */
+	int bits;         /* fixed, predict: 1..24 */
+	int keyframe;     /* predict: 1..4096 */
+	double lo[3];     /* the box the codes count from (the rest shape's) */
+	double ext[3];    /* its extent per axis, > 0 */
+} ndo_codec_params;
+
+/* "raw", "float32", "fixed[:BITS]", "predict[:BITS[:KEYFRAME]]" →
+ * encoding, bits and keyframe; the box is zero (the owner's session
+ * takes its rest shape's).  0, or
+ * NDO_EINVAL with a detail naming what is wrong. */
+int ndo_codec_parse(const char *spec, ndo_codec_params *p);
+/* The spec back ("predict:13:32"). */
+void ndo_codec_name(const ndo_codec_params *p, char *buf, size_t size);
+/* The box of n points (3 doubles each): lo and ext; an axis of zero
+ * extent gets 1e-6 of the largest (or 1 for a single point). */
+void ndo_codec_box(const double *x, size_t n, double lo[3], double ext[3]);
+/* The largest distance between a LOSSY position and its decoded value:
+ * half the quantization step's diagonal, diag/2^(bits+1) (float32: the
+ * float rounding of the box's far corner; raw: 0). */
+double ndo_codec_max_error(const ndo_codec_params *p);
+/* The box's diagonal. */
+double ndo_codec_diagonal(const ndo_codec_params *p);
+
+/* The description lines ("tile-encoding 3\ntile-bits 13\n..."), nothing
+ * for raw.  Returns the length written (< size) or NDO_ERANGE. */
+int ndo_codec_params_text(const ndo_codec_params *p, char *buf, size_t size);
+/* Read and remove the "tile-*" lines from a description's text (in
+ * place): *p is raw when there are none.  0, or NDO_EINVAL (a bad line:
+ * ndo_errdetail()). */
+int ndo_codec_params_take(char *text, ndo_codec_params *p);
+/* The same for a description's scene as it arrives (len bytes, not
+ * NUL-terminated; NULL when len is 0), which is left as it is.  0,
+ * NDO_EINVAL or NDO_ENOMEM. */
+int ndo_codec_params_read(const void *scene, size_t len, ndo_codec_params *p);
+/* 0 when *p is a consistent set of parameters, else NDO_EINVAL. */
+int ndo_codec_params_check(const ndo_codec_params *p);
+
+/* ---- one tile's frames (pure functions) ------------------------------------ */
+
+/* A frame of a tile as every receiver reconstructs it. */
+typedef struct ndo_codec_frame {
+	int64_t step;  /* −1: none */
+	double time;
+	int32_t epoch;
+	double *x;     /* nodes × 3: positions */
+	int32_t *k;    /* nodes × 3: codes (fixed, predict) */
+	uint8_t *have; /* nodes: 1 where the frame holds the node */
+} ndo_codec_frame;
+
+/* A tile's history: its last frames, newest first. */
+#define NDO_CODEC_HISTORY 4
+typedef struct ndo_codec_hist {
+	int nodes;
+	ndo_codec_frame f[NDO_CODEC_HISTORY];
+} ndo_codec_hist;
+
+int ndo_codec_hist_init(ndo_codec_hist *h, int nodes); /* 0 or NDO_ENOMEM */
+void ndo_codec_hist_free(ndo_codec_hist *h);
+/* Forget every frame. */
+void ndo_codec_hist_clear(ndo_codec_hist *h);
+/* Insert frame `f` (copied) in step order, replacing one of the same step;
+ * the oldest falls out.  Frames of another epoch than f's are forgotten. */
+void ndo_codec_hist_put(ndo_codec_hist *h, const ndo_codec_frame *f);
+/* The frame of `step` held, or NULL. */
+const ndo_codec_frame *ndo_codec_hist_find(const ndo_codec_hist *h, int64_t step);
+
+/* Scratch space and zstd contexts for the calls below (one thread each);
+ * NULL to a call: made and freed within it (slower). */
+typedef struct ndo_codec_work ndo_codec_work;
+ndo_codec_work *ndo_codec_work_create(void); /* NULL when out of memory */
+void ndo_codec_work_destroy(ndo_codec_work *w);
+
+/* What the encoder is given: one tile's rows × cols nodes, row-major. */
+typedef struct ndo_codec_input {
+	int rows, cols;
+	const double *x, *v;  /* nodes × 3 */
+	const uint8_t *cls;   /* nodes: NDO_NODE_* */
+	int64_t step;
+	double time;
+	int32_t epoch;
+} ndo_codec_input;
+
+/* Encode one frame.  `h`: the tile's history as receivers hold it;
+ * intra: 0 predict from h (a keyframe when h holds nothing), 1 a keyframe,
+ * 2 a keyframe receivers do not keep as a reference (flags bit 4: a step
+ * sent again after its frame left the history).  Out: *data (malloc'd, *len bytes), the
+ * base step (−1: none) and `recon`, the frame every receiver will
+ * reconstruct (arrays sized for in->rows × cols, owned by the caller).
+ * *unchanged is set when the frame is predicted, holds no EXACT node and
+ * every residual is 0 (the caller may skip it).  0, NDO_ENOMEM, or
+ * NDO_ERANGE (a position too far out of the box for the codes, or not
+ * finite: send this tile raw). */
+int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_codec_hist *h,
+                     int intra,
+                     const ndo_codec_input *in, uint8_t **data, size_t *len,
+                     int64_t *base_step, ndo_codec_frame *recon, int *unchanged);
+
+/* Decode one frame of rows × cols nodes: x, v (nodes × 3, the caller's)
+ * get every carried node's position and velocity; the others, and the
+ * velocities of LOSSY nodes without a previous frame in `h`, are NaN.
+ * `recon` as for ndo_codec_encode (its step is −1 when the frame is not to
+ * be kept as a reference).  NDO_DROP_NONE, NDO_DROP_CORRUPT,
+ * NDO_DROP_NOBASE, or NDO_DROP_RANGE (a memory shortage: not the
+ * sender's fault, but the frame is lost all the same). */
+ndo_drop ndo_codec_decode(const ndo_codec_params *p, ndo_codec_work *w,
+                          const ndo_codec_hist *h, int rows,
+                          int cols, const uint8_t *data, size_t len, int64_t step, double time,
+                          int32_t epoch, int64_t base_step, double *x, double *v,
+                          ndo_codec_frame *recon);
+
+/* The frame of a skipped step (base_step < step < the next frame's step):
+ * every node the base frame holds, predicted with no residual. */
+int ndo_codec_implied(const ndo_codec_params *p, const ndo_codec_hist *h, int rows, int cols,
+                      int64_t step, double time, double *x, ndo_codec_frame *recon);
+
+/* ---- tiles on the wire (state per sender and tile) ------------------------- */
+
+typedef struct ndo_codec ndo_codec;
+
+typedef struct ndo_codec_stats {
+	uint64_t encoded, skipped, keyframes, raw_fallbacks;
+	uint64_t decoded, implied, corrupt, nobase;
+	double encode_seconds, decode_seconds; /* CLOCK_MONOTONIC */
+	uint64_t payload_bytes;                /* data[] bytes encoded */
+	/* encoder: the position error it introduced (LOSSY nodes of every
+	 * frame sent or skipped: the distance of what receivers reconstruct
+	 * from the value) */
+	double max_error, sum_sq_error;
+	uint64_t error_nodes;
+} ndo_codec_stats;
+
+/* The classes of a level's stored nodes (W × H) for sender `self`, from
+ * the owner channel (W × H ids, stored duplicates agreeing): its nodes in
+ * the 1-ring (through the ghost map) of another peer's region EXACT — what
+ * that peer's halo holds —, its other nodes LOSSY, the rest SKIP.
+ * Returns the count of EXACT stored nodes. */
+size_t ndo_codec_classify(int level, const int32_t *owner, int32_t self, uint8_t *cls);
+
+/* Tiles of a level-`level` object under *p. */
+int ndo_codec_create(const ndo_codec_params *p, int level, ndo_codec **out);
+void ndo_codec_destroy(ndo_codec *c); /* accepts NULL */
+const ndo_codec_params *ndo_codec_params_of(const ndo_codec *c);
+
+/* Encode a position+velocity tile of g (f64 position and velocity) for
+ * quad-tree node q, step `t->step`, time, epoch already set in *t: fills
+ * t->encoding, base_step, nbytes, data (malloc'd; values NULL).  cls:
+ * per stored node of g, NDO_NODE_*.  Keeps the tile's history under
+ * (sender `self`, q); `standalone` ≠ 0: a keyframe that does not touch
+ * the history (a step sent again whose frame is no longer held).
+ * Returns 1 when the tile is unchanged and may be skipped (nothing
+ * filled), 0 when filled, NDO_ERANGE when it cannot be encoded (send it
+ * raw: its history is forgotten), NDO_ENOMEM. */
+int ndo_codec_encode_tile(ndo_codec *c, int32_t self, const ndo_grid *g, const uint8_t *cls,
+                          ndo_quad q, int standalone, ndo_msg_tile_t *t);
+
+/* Forget the history of (self, q): a tile that was encoded but not sent. */
+void ndo_codec_forget_tile(ndo_codec *c, int32_t self, ndo_quad q);
+
+/* Decode a validated tile in place into raw form (encoding RAW, values
+ * malloc'd: nodes × (position, velocity), NaN where not carried; data
+ * freed).  A raw tile is left as it is.  NDO_DROP_NONE or the reason. */
+ndo_drop ndo_codec_decode_tile(ndo_codec *c, ndo_msg_tile_t *t);
+
+/* After ndo_codec_decode_tile() of a predicted tile t: the steps skipped
+ * before it (0 when none) and the tile of the k-th of them (0-based,
+ * oldest first) into *out (raw, values malloc'd; header copied from t).
+ * 0 or NDO_ENOMEM. */
+int ndo_codec_skipped(const ndo_codec *c, const ndo_msg_tile_t *t);
+int ndo_codec_skipped_tile(ndo_codec *c, const ndo_msg_tile_t *t, int k, ndo_msg_tile_t *out);
+
+void ndo_codec_stats_get(const ndo_codec *c, ndo_codec_stats *st);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,386 @@
+/* test_codec — compact state tiles (ndo/codec.h): round trips of every
+ * encoding within the stated error, EXACT nodes bit for bit, closed-loop
+ * prediction without drift, keyframe recovery after a lost frame, skipped
+ * frames and their implied values, and hostile payloads (corrupt,
+ * truncated, a decompression bomb) as counted drops. */
+#include "check.h"
+#include "ndo/codec.h"
+#include "ndo/link.h"
+#include "ndo/shapes.h"
+#include "ndo/status.h"
+
+#include <stdlib.h>
+#include <string.h>
+#include <zstd.h>
+
+#define ROWS 17
+#define COLS 33
+#define NODES (ROWS * COLS)
+
+/* A moving wavy patch: node n at step s. */
+static void state(int64_t s, double *x, double *v, double amp)
+{
+	for (int j = 0; j < ROWS; j++)
+		for (int i = 0; i < COLS; i++) {
+			int n = j * COLS + i;
+			double u = i / (double)(COLS - 1), w = j / (double)(ROWS - 1), t = 0.02 * (double)s;
+			x[3 * n] = 2 * u - 1 + amp * sin(3 * w + t);
+			x[3 * n + 1] = 2 * w - 1 + amp * cos(2 * u - t);
+			x[3 * n + 2] = 0.3 * sin(4 * u) * cos(3 * w) + amp * sin(5 * u + 7 * w + 2 * t);
+			v[3 * n] = 0.02 * amp * cos(3 * w + t);
+			v[3 * n + 1] = 0.02 * amp * sin(2 * u - t);
+			v[3 * n + 2] = 0.04 * amp * cos(5 * u + 7 * w + 2 * t);
+		}
+}
+
+static void classes(uint8_t *cls)
+{
+	for (int n = 0; n < NODES; n++) {
+		int i = n % COLS, j = n / COLS;
+		cls[n] = i > 24 ? NDO_NODE_SKIP : i >= 22 || j == 5 ? NDO_NODE_EXACT : NDO_NODE_LOSSY;
+	}
+}
+
+static ndo_codec_params params(const char *spec)
+{
+	ndo_codec_params p;
+	if (ndo_codec_parse(spec, &p))
+		printf("    parse %s: %s\n", spec, ndo_errdetail());
+	for (int c = 0; c < 3; c++)
+		p.lo[c] = -1.2, p.ext[c] = 2.4;
+	return p;
+}
+
+typedef struct side {
+	ndo_codec_hist h;
+	ndo_codec_frame f;
+	ndo_codec_hist fh; /* storage for f */
+} side;
+
+static void side_init(side *s)
+{
+	ndo_codec_hist_init(&s->h, NODES);
+	ndo_codec_hist_init(&s->fh, NODES);
+	s->f = s->fh.f[0];
+}
+
+static void side_free(side *s)
+{
+	ndo_codec_hist_free(&s->h);
+	ndo_codec_hist_free(&s->fh);
+}
+
+/* Encode step s at the sender, decode at the receiver (unless `lose`):
+ * returns the decode result and the largest LOSSY position error. */
+static ndo_drop step(const ndo_codec_params *p, side *tx, side *rx, int64_t s, int intra,
+                     int lose, double *err, size_t *bytes, int *unchanged)
+{
+	double x[3 * NODES], v[3 * NODES], xo[3 * NODES], vo[3 * NODES];
+	uint8_t cls[NODES];
+	state(s, x, v, 0.2);
+	classes(cls);
+	ndo_codec_input in = {ROWS, COLS, x, v, cls, s, 0.01 * (double)s, 0};
+	uint8_t *data;
+	size_t len;
+	int64_t base;
+	int un;
+	if (ndo_codec_encode(p, NULL, &tx->h, intra, &in, &data, &len, &base, &tx->f, &un) != 0)
+		return NDO_DROP_N;
+	if (base < 0 && intra != 2)
+		ndo_codec_hist_clear(&tx->h); /* a keyframe starts the history again */
+	ndo_codec_hist_put(&tx->h, &tx->f);
+	if (bytes)
+		*bytes += len;
+	if (unchanged)
+		*unchanged = un;
+	ndo_drop r = NDO_DROP_NONE;
+	*err = 0;
+	if (!lose) {
+		r = ndo_codec_decode(p, NULL, &rx->h, ROWS, COLS, data, len, s, 0.01 * (double)s, 0, base,
+		                     xo, vo, &rx->f);
+		if (r == NDO_DROP_NONE) {
+			if (base < 0)
+				ndo_codec_hist_clear(&rx->h);
+			ndo_codec_hist_put(&rx->h, &rx->f);
+			for (int n = 0; n < NODES; n++) {
+				for (int d = 0; d < 3; d++) {
+					if (cls[n] == NDO_NODE_EXACT &&
+					    (xo[3 * n + d] != x[3 * n + d] || vo[3 * n + d] != v[3 * n + d]))
+						*err = INFINITY; /* exact means bit for bit */
+					if (cls[n] == NDO_NODE_SKIP && !isnan(xo[3 * n + d]))
+						*err = INFINITY; /* not carried: NaN */
+					/* the receiver holds what the sender says it does */
+					if (cls[n] != NDO_NODE_SKIP && xo[3 * n + d] != tx->f.x[3 * n + d])
+						*err = INFINITY;
+				}
+				if (cls[n] == NDO_NODE_LOSSY) {
+					double e = 0;
+					for (int d = 0; d < 3; d++)
+						e += (xo[3 * n + d] - x[3 * n + d]) * (xo[3 * n + d] - x[3 * n + d]);
+					*err = fmax(*err, sqrt(e));
+				}
+			}
+		}
+	}
+	free(data);
+	return r;
+}
+
+static void round_trips_within_the_stated_error(void)
+{
+	const char *specs[] = {"float32", "fixed:13", "fixed:8", "predict:13", "predict:6:4",
+	                       "predict:20:1"};
+	for (size_t k = 0; k < sizeof specs / sizeof *specs; k++) {
+		ndo_codec_params p = params(specs[k]);
+		double bound = ndo_codec_max_error(&p), worst = 0;
+		side tx, rx;
+		side_init(&tx), side_init(&rx);
+		int ok = 1;
+		for (int64_t s = 0; s < 60 && ok; s++) {
+			double err;
+			ndo_drop r = step(&p, &tx, &rx, s, 0, 0, &err, NULL, NULL);
+			ok = r == NDO_DROP_NONE;
+			CHECK(ok, "%s step %lld: decoded (got drop %s)", specs[k], (long long)s,
+			      ndo_drop_name(r));
+			worst = fmax(worst, err);
+		}
+		/* errors do not drift: the bound holds at every step */
+		CHECK(worst <= bound * (1 + 1e-9), "%s: error %.3g within the stated %.3g", specs[k],
+		      worst, bound);
+		CHECK(bound > 0 && bound < 0.1, "%s: a positive small bound (%.3g)", specs[k], bound);
+		side_free(&tx), side_free(&rx);
+	}
+	ndo_codec_params p = params("predict:13");
+	CHECK_NEAR(ndo_codec_max_error(&p) / ndo_codec_diagonal(&p), 1.0 / 16384, 1e-12,
+	           "13 bits: diag / 2^14");
+}
+
+static void prediction_is_compact(void)
+{
+	size_t fixed = 0, pred = 0;
+	ndo_codec_params pf = params("fixed:13"), pp = params("predict:13:1000");
+	side a, b, c, d;
+	side_init(&a), side_init(&b), side_init(&c), side_init(&d);
+	double err;
+	for (int64_t s = 0; s < 40; s++) {
+		step(&pf, &a, &b, s, 0, 0, &err, &fixed, NULL);
+		step(&pp, &c, &d, s, 0, 0, &err, &pred, NULL);
+	}
+	CHECK(pred * 2 < fixed, "predict takes less than half of fixed: %zu vs %zu bytes", pred,
+	      fixed);
+	side_free(&a), side_free(&b), side_free(&c), side_free(&d);
+}
+
+static void keyframe_recovers_after_loss(void)
+{
+	ndo_codec_params p = params("predict:13:8");
+	side tx, rx;
+	side_init(&tx), side_init(&rx);
+	double err;
+	int nobase = 0, recovered = -1;
+	for (int64_t s = 0; s < 40; s++) {
+		int intra = s > 0 && s % 8 == 0; /* the tile layer's keyframes */
+		ndo_drop r = step(&p, &tx, &rx, s, intra, s == 10, &err, NULL, NULL);
+		if (s > 10 && r == NDO_DROP_NOBASE)
+			nobase++;
+		if (s > 10 && r == NDO_DROP_NONE && recovered < 0)
+			recovered = (int)s;
+		if (recovered >= 0 && s > 10)
+			CHECK(r == NDO_DROP_NONE && err <= ndo_codec_max_error(&p) * (1 + 1e-9),
+			      "after recovery, step %lld decodes within the bound", (long long)s);
+	}
+	CHECK(nobase == 5, "steps 11-15 need the lost frame: %d nobase", nobase);
+	CHECK(recovered == 16, "the keyframe at step 16 recovers: %d", recovered);
+	side_free(&tx), side_free(&rx);
+}
+
+static void unchanged_frames_and_their_prediction(void)
+{
+	ndo_codec_params p = params("predict:13");
+	double x[3 * NODES], v[3 * NODES], xo[3 * NODES];
+	uint8_t cls[NODES];
+	for (int n = 0; n < NODES; n++)
+		cls[n] = NDO_NODE_LOSSY;
+	side tx;
+	side_init(&tx);
+	int un = 0;
+	for (int64_t s = 0; s < 5; s++) {
+		state(0, x, v, 0.2); /* standing still */
+		ndo_codec_input in = {ROWS, COLS, x, v, cls, s, 0.01 * (double)s, 0};
+		uint8_t *data;
+		size_t len;
+		int64_t base;
+		ndo_codec_encode(&p, NULL, &tx.h, 0, &in, &data, &len, &base, &tx.f, &un);
+		ndo_codec_hist_put(&tx.h, &tx.f);
+		free(data);
+	}
+	CHECK(un, "a still tile is unchanged");
+	/* the prediction of a skipped step is the frame a receiver makes */
+	ndo_codec_frame f = tx.fh.f[1];
+	CHECK(ndo_codec_implied(&p, &tx.h, ROWS, COLS, 5, 0.05, xo, &f) == 0, "implied");
+	double e = 0;
+	for (int k = 0; k < 3 * NODES; k++)
+		e = fmax(e, fabs(xo[k] - x[k]));
+	CHECK(e <= ndo_codec_max_error(&p), "implied frame within the bound: %.3g", e);
+	side_free(&tx);
+}
+
+/* Hostile payloads: every one a counted drop, none a crash (the sanitizer
+ * build runs this). */
+static void hostile_payloads_are_dropped(void)
+{
+	ndo_codec_params p = params("predict:13");
+	double x[3 * NODES], v[3 * NODES], xo[3 * NODES], vo[3 * NODES];
+	uint8_t cls[NODES];
+	state(3, x, v, 0.2);
+	classes(cls);
+	side tx, rx;
+	side_init(&tx), side_init(&rx);
+	ndo_codec_input in = {ROWS, COLS, x, v, cls, 3, 0.03, 0};
+	uint8_t *data;
+	size_t len;
+	int64_t base;
+	int un;
+	ndo_codec_encode(&p, NULL, &tx.h, 1, &in, &data, &len, &base, &tx.f, &un);
+	CHECK(ndo_codec_decode(&p, NULL, &rx.h, ROWS, COLS, data, len, 3, 0.03, 0, base, xo, vo,
+	                       &rx.f) == NDO_DROP_NONE, "the good payload decodes");
+	int crashes_avoided = 0;
+	for (size_t cut = 0; cut < len; cut += 1 + len / 40) {
+		ndo_drop r = ndo_codec_decode(&p, NULL, &rx.h, ROWS, COLS, data, cut, 3, 0.03, 0, base,
+		                              xo, vo, &rx.f);
+		CHECK(r == NDO_DROP_CORRUPT, "truncated to %zu of %zu: corrupt (%s)", cut, len,
+		      ndo_drop_name(r));
+		crashes_avoided++;
+	}
+	uint64_t rng = 7;
+	for (int trial = 0; trial < 300; trial++) {
+		uint8_t *bad = malloc(len);
+		memcpy(bad, data, len);
+		for (int k = 0; k < 3; k++)
+			bad[ndo_rng_next(&rng) % len] ^= (uint8_t)(1 + ndo_rng_next(&rng) % 255);
+		ndo_drop r = ndo_codec_decode(&p, NULL, &rx.h, ROWS, COLS, bad, len, 3, 0.03, 0, base,
+		                              xo, vo, &rx.f);
+		CHECK(r == NDO_DROP_NONE || r == NDO_DROP_CORRUPT || r == NDO_DROP_NOBASE,
+		      "flipped bytes: decoded or dropped (%s)", ndo_drop_name(r));
+		free(bad);
+	}
+	/* a decompression bomb: 64 MB of zeros in a few kB */
+	size_t big = 64u << 20;
+	uint8_t *zeros = calloc(big, 1), *bomb = malloc(ZSTD_compressBound(big) + 1);
+	bomb[0] = 4; /* intra, zstd */
+	size_t z = ZSTD_compress(bomb + 1, ZSTD_compressBound(big), zeros, big, 1);
+	CHECK(!ZSTD_isError(z) && z < 100000, "the bomb is small: %zu bytes", z);
+	CHECK(ndo_codec_decode(&p, NULL, &rx.h, ROWS, COLS, bomb, z + 1, 3, 0.03, 0, -1, xo, vo,
+	                       &rx.f) == NDO_DROP_CORRUPT, "a decompression bomb is corrupt");
+	free(zeros), free(bomb);
+	/* a predicted frame with no reference */
+	CHECK(ndo_codec_decode(&p, NULL, &rx.h, ROWS, COLS, data, len, 5, 0.05, 0, 4, xo, vo,
+	                       &rx.f) == NDO_DROP_CORRUPT, "an intra payload claiming a base");
+	uint8_t pred[] = {1, 1, 1, 0};
+	CHECK(ndo_codec_decode(&p, NULL, &rx.h, ROWS, COLS, pred, sizeof pred, 50, 0.5, 0, 40, xo,
+	                       vo, &rx.f) == NDO_DROP_NOBASE, "a predicted frame without its base");
+	CHECK(crashes_avoided > 10, "truncations tried");
+	free(data);
+	side_free(&tx), side_free(&rx);
+}
+
+/* Whole tiles through the stateful layer: encode from a grid, decode in
+ * place, skipped steps filled in. */
+static void tiles_in_place(void)
+{
+	ndo_grid *g;
+	ndo_shape_make("wavy", 4, NULL, &g);
+	ndo_grid_add(g, NDO_CH_VELOCITY, NDO_F64, 3, NULL);
+	ndo_codec_params p;
+	ndo_codec_parse("predict", &p);
+	double *x = ndo_grid_f64(g, NDO_CH_POSITION, 3);
+	ndo_codec_box(x, g->count, p.lo, p.ext);
+	ndo_codec *tx, *rx;
+	CHECK(ndo_codec_create(&p, 4, &tx) == 0 && ndo_codec_create(&p, 4, &rx) == 0, "created");
+	uint8_t *cls = malloc(g->count);
+	memset(cls, NDO_NODE_LOSSY, g->count);
+	ndo_quad q = {1, 0, 0};
+	int sent = 0, skipped = 0, implied = 0;
+	for (int64_t s = 0; s < 30; s++) {
+		if (s < 10)
+			for (size_t k = 0; k < 3 * g->count; k++)
+				x[k] += 1e-3 * sin((double)k + 0.1 * (double)s);
+		ndo_msg_tile_t t;
+		memset(&t, 0, sizeof t);
+		t.hdr.sender_id = 5;
+		t.step = s;
+		t.time = 0.1 * (double)s;
+		int i0, j0, i1, j1;
+		ndo_quad_range(4, q, &i0, &j0, &i1, &j1);
+		t.depth = 1, t.i0 = i0, t.j0 = j0, t.i1 = i1, t.j1 = j1;
+		t.channels = NDO_TILE_POSITION | NDO_TILE_VELOCITY;
+		int rc = ndo_codec_encode_tile(tx, 5, g, cls, q, 0, &t);
+		if (rc == 1) {
+			skipped++;
+			continue;
+		}
+		CHECK(rc == 0, "step %lld encoded", (long long)s);
+		sent++;
+		CHECK(ndo_codec_decode_tile(rx, &t) == NDO_DROP_NONE && t.encoding == NDO_ENC_RAW,
+		      "step %lld decoded in place", (long long)s);
+		implied += ndo_codec_skipped(rx, &t);
+		if (ndo_codec_skipped(rx, &t)) {
+			ndo_msg_tile_t o;
+			CHECK(ndo_codec_skipped_tile(rx, &t, 0, &o) == 0 && o.step == t.step - ndo_codec_skipped(rx, &t),
+			      "the first skipped step's tile");
+			free(o.values);
+		}
+		free(t.values);
+	}
+	CHECK(skipped > 0 && sent > 0, "a still object's tiles are skipped: %d sent, %d skipped",
+	      sent, skipped);
+	CHECK(implied > 0, "the receiver learns of skipped steps: %d", implied);
+	ndo_codec_stats st;
+	ndo_codec_stats_get(tx, &st);
+	CHECK(st.max_error <= ndo_codec_max_error(&p) * (1 + 1e-9), "encoder's error %.3g",
+	      st.max_error);
+	ndo_codec_destroy(tx), ndo_codec_destroy(rx);
+	free(cls);
+	ndo_grid_destroy(g);
+}
+
+static void specs_and_description_lines(void)
+{
+	ndo_codec_params p;
+	CHECK(ndo_codec_parse("zip", &p) == NDO_EINVAL, "unknown encoding");
+	CHECK(ndo_codec_parse("fixed:0", &p) == NDO_EINVAL, "bits 0");
+	CHECK(ndo_codec_parse("fixed:25", &p) == NDO_EINVAL, "bits 25");
+	CHECK(ndo_codec_parse("float32:3", &p) == NDO_EINVAL, "float32 takes no bits");
+	CHECK(ndo_codec_parse("fixed:12:4", &p) == NDO_EINVAL, "keyframes are predict's");
+	CHECK(ndo_codec_parse("predict:12:5000", &p) == NDO_EINVAL, "keyframe 5000");
+	CHECK(ndo_codec_parse("predict:11:64", &p) == 0 && p.bits == 11 && p.keyframe == 64,
+	      "predict:11:64");
+	p.lo[0] = -1.5, p.lo[1] = 0.25, p.lo[2] = 1e-3, p.ext[0] = 3, p.ext[1] = 0.1, p.ext[2] = 7;
+	char text[600] = "stiffness 1\n";
+	size_t n = strlen(text);
+	CHECK(ndo_codec_params_text(&p, text + n, sizeof text - n) > 0, "lines written");
+	strcat(text, "damping 0.1\n");
+	ndo_codec_params q;
+	CHECK(ndo_codec_params_take(text, &q) == 0 && memcmp(&p, &q, sizeof p) == 0,
+	      "the parameters come back exactly");
+	CHECK(strcmp(text, "stiffness 1\ndamping 0.1\n") == 0, "the other lines stay: '%s'", text);
+	char bad[] = "tile-encoding 3\ntile-bits 99\ntile-keyframe 1\ntile-box 0 0 0 1 1 1\n";
+	CHECK(ndo_codec_params_take(bad, &q) == NDO_EINVAL, "bits 99 refused");
+	char part[] = "tile-encoding 3\n";
+	CHECK(ndo_codec_params_take(part, &q) == NDO_EINVAL, "incomplete lines refused");
+	char none[] = "dt 0.1\n";
+	CHECK(ndo_codec_params_take(none, &q) == 0 && q.encoding == NDO_ENC_RAW, "none: raw");
+}
+
+int main(void)
+{
+	ck_program = "test_codec";
+	RUN(round_trips_within_the_stated_error);
+	RUN(prediction_is_compact);
+	RUN(keyframe_recovers_after_loss);
+	RUN(unchanged_frames_and_their_prediction);
+	RUN(hostile_payloads_are_dropped);
+	RUN(tiles_in_place);
+	RUN(specs_and_description_lines);
+	return ck_failed_cases != 0;
+}

@@ -1,0 +1,51 @@
+/* bench.h — one row of net-bench: peers of the thesis' scene over real LCM,
+ * in this process, and what their traffic costs (docs/net-bench.md). */
+#ifndef NET_BENCH_H
+#define NET_BENCH_H
+
+#include "ndo/ndo.h"
+#include "ndo/codec.h"
+
+typedef struct nb_opts {
+	const char *url;   /* LCM URL; NULL: the default, in a private namespace */
+	double time;       /* simulated seconds of the scene (default 5) */
+	int peers;         /* simulating peers (default 2) */
+	double timeout;    /* wall seconds a row may take */
+	int quiet;
+} nb_opts;
+
+typedef struct nb_row {
+	int level, peers;
+	char encoding[32];
+	double loss;
+	int64_t steps;
+	size_t nodes;              /* stored nodes, W × H (the thesis' count) */
+	size_t exact_nodes;        /* sent at full precision every step */
+	double bits_per_node_update, mbit_s, steps_per_s;
+	double max_error_rel, rms_error_rel;
+	double encode_ms, decode_ms; /* per step, the whole object */
+	double latency_p50_us, latency_p99_us;
+	long kernel_drops;
+	double divergence;         /* the owner's final state vs the row it is compared with */
+	uint64_t nobase, corrupt, messages, resends;
+	int64_t frames, incomplete; /* the observer's */
+	double wall;
+	double *final_x;           /* the owner's final positions (malloc'd) */
+	double *rest;              /* the rest positions (malloc'd) */
+} nb_row;
+
+/* Enter a private network namespace with multicast on the loopback (needs
+ * root or CAP_SYS_ADMIN).  0, or −1 with a message in *why. */
+int nb_private_netns(char *why, size_t size);
+
+/* Run one row: level, encoding, drop probability on every peer's
+ * receiving side (0: none).  0, or a negative status (ndo_errdetail()). */
+int nb_run(const nb_opts *o, int level, const ndo_codec_params *enc, double loss,
+           nb_row *row);
+void nb_row_free(nb_row *r);
+
+/* The largest position difference of a from b over b's largest
+ * displacement from `rest` (n nodes). */
+double nb_divergence(const double *a, const double *b, const double *rest, size_t n);
+
+#endif

@@ -1,0 +1,287 @@
+/* net-bench — what the peers' traffic costs, by level and tile encoding,
+ * through real LCM (docs/net-bench.md).  The work is bench.c: each row
+ * runs the thesis' scene with peers in this process. */
+#include "bench.h"
+
+#include <getopt.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static __attribute__((noreturn)) void usage(void)
+{
+	printf("Usage: %s [-l L] [-e ENCODING] [-o FILE] [--csv FILE] [--lcm URL] [options]\n"
+	       "Measure the peers' traffic on the thesis' scene (figure 5.3: the wavy surface,\n"
+	       "k = 1 N/m, b = 0.1, 2.4 N at 1 Hz, rk4) through real LCM: an owner and\n"
+	       "joiners in lock-step and a passive observer, in this process, in a private\n"
+	       "network namespace (or on --lcm URL).  With no -l and no -e, the whole table\n"
+	       "(levels 4-8 x raw, float32, fixed, predict) and a loss sweep; otherwise the\n"
+	       "rows asked for.  Prints a Markdown table beside the thesis' Table 5.2.\n"
+	       "\n"
+	       "  -l, --level L       the grid level, 1..8 (default: 4 to 8)\n"
+	       "  -e, --encoding E    raw, float32, fixed[:BITS] or predict[:BITS[:KEYFRAME]]\n"
+	       "                      (default: all four; bits 1..24, default 13)\n"
+	       "  -o, --output FILE   write the table to FILE (default: standard output)\n"
+	       "      --csv FILE      write the rows as CSV too ('-': standard output,\n"
+	       "                      instead of the table)\n"
+	       "      --lcm URL       use this LCM URL as it is, no private namespace\n"
+	       "  -t, --time S        simulated seconds per run, 0.05..60 (default 5)\n"
+	       "      --peers N       simulating peers, 1..8 (default 2)\n"
+	       "      --loss LIST     drop rates for the loss sweep, each 0..0.9, comma-\n"
+	       "                      separated, or 'none' (default: 0.01,0.05,0.1,0.2,0.3\n"
+	       "                      for the whole table at level 5 with predict, none for\n"
+	       "                      chosen rows)\n"
+	       "      --timeout S     wall seconds one run may take, 1..3600 (default 300)\n"
+	       "  -q, --quiet         no progress on standard error\n"
+	       "  -h, --help          show this help and exit\n"
+	       "      --version       show the version and exit\n"
+	       "\n"
+	       "Columns: bits per node per update (all traffic on the wire: payload, LCM,\n"
+	       "UDP and IPv4 headers, over W x H nodes and the steps), Mbit/s at the rate the\n"
+	       "run went, the position error the encoding introduced (max and RMS over the\n"
+	       "bounding-box diagonal), encoding and decoding ms per step for the whole\n"
+	       "object, publish-to-receive latency (p50, p99), kernel drops (/proc/net/udp).\n"
+	       "\n"
+	       "Exit status: 0 success, 1 a run failed or the CSV could not be written, 2\n"
+	       "usage error.\n",
+	       ndo_progname);
+	ndo_close_stdout();
+	exit(NDO_EXIT_OK);
+}
+
+/* Thesis Table 5.2 (uncompressed), Mbit/s by level 4..7. */
+static double thesis_mbit(int level)
+{
+	static const double t[] = {0.735, 2.75, 10.75, 42.49};
+	return level >= 4 && level <= 7 ? t[level - 4] : NAN;
+}
+
+static const char *const header =
+	"level,encoding,loss,peers,steps,nodes,exact_nodes,bits_per_node_update,mbit_s,"
+	"steps_per_s,max_error_rel,rms_error_rel,encode_ms,decode_ms,latency_p50_us,"
+	"latency_p99_us,kernel_drops,messages,resends,nobase,corrupt,observer_frames,"
+	"observer_incomplete,divergence,thesis_mbit_s";
+
+static void csv_row(FILE *f, const nb_row *r)
+{
+	fprintf(f, "%d,%s,%g,%d,%lld,%zu,%zu,%.4g,%.4g,%.4g,%.3g,%.3g,%.4g,%.4g,%.4g,%.4g,%ld,"
+	        "%llu,%llu,%llu,%llu,%lld,%lld,%.3g,%.4g\n",
+	        r->level, r->encoding, r->loss, r->peers, (long long)r->steps, r->nodes,
+	        r->exact_nodes, r->bits_per_node_update, r->mbit_s, r->steps_per_s,
+	        r->max_error_rel, r->rms_error_rel, r->encode_ms, r->decode_ms, r->latency_p50_us,
+	        r->latency_p99_us, r->kernel_drops, (unsigned long long)r->messages,
+	        (unsigned long long)r->resends, (unsigned long long)r->nobase,
+	        (unsigned long long)r->corrupt, (long long)r->frames, (long long)r->incomplete,
+	        r->divergence, thesis_mbit(r->level));
+}
+
+static void table_head(FILE *f)
+{
+	fprintf(f, "| level | nodes | encoding | bits/node/update | Mbit/s | steps/s | thesis Mbit/s "
+	       "| max error | RMS error | encode ms | decode ms | latency p50 µs | p99 µs "
+	       "| kernel drops |\n"
+	       "|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+}
+
+static void table_row(FILE *f, const nb_row *r)
+{
+	double th = thesis_mbit(r->level);
+	char ths[32] = "–";
+	if (!isnan(th))
+		snprintf(ths, sizeof ths, "%.4g", th);
+	fprintf(f, "| %d | %zu | %s | %.3g | %.3g | %.0f | %s | %.2g | %.2g | %.3g | %.3g | %.0f | "
+	       "%.0f | %ld |\n",
+	       r->level, r->nodes, r->encoding, r->bits_per_node_update, r->mbit_s, r->steps_per_s,
+	       ths, r->max_error_rel, r->rms_error_rel, r->encode_ms, r->decode_ms,
+	       r->latency_p50_us, r->latency_p99_us, r->kernel_drops);
+	fflush(f);
+}
+
+static int parse_losses(const char *arg, double *out, int max)
+{
+	if (strcmp(arg, "none") == 0)
+		return 0;
+	int n = 0;
+	char *copy = strdup(arg), *save = NULL;
+	if (!copy)
+		ndo_die("out of memory");
+	for (char *tok = strtok_r(copy, ",", &save); tok; tok = strtok_r(NULL, ",", &save)) {
+		if (n == max)
+			ndo_usage_error("--loss: at most %d rates", max);
+		out[n++] = ndo_opt_double("--loss", tok, 0, 0.9);
+	}
+	free(copy);
+	if (!n)
+		ndo_usage_error("--loss: '%s': give rates like 0.05,0.2 or 'none'", arg);
+	return n;
+}
+
+int main(int argc, char **argv)
+{
+	ndo_cli_init(argc, argv);
+	nb_opts o = {.url = NULL, .time = 5, .peers = 2, .timeout = 300};
+	int level = -1, nloss = -1;
+	const char *csv = NULL, *output = NULL;
+	ndo_codec_params one;
+	int have_enc = 0;
+	double losses[16];
+	enum { OPT_CSV = 256, OPT_LCM, OPT_PEERS, OPT_LOSS, OPT_TIMEOUT, OPT_VERSION };
+	static const struct option opts[] = {
+		{"level", required_argument, 0, 'l'},
+		{"encoding", required_argument, 0, 'e'},
+		{"output", required_argument, 0, 'o'},
+		{"csv", required_argument, 0, OPT_CSV},
+		{"lcm", required_argument, 0, OPT_LCM},
+		{"time", required_argument, 0, 't'},
+		{"peers", required_argument, 0, OPT_PEERS},
+		{"loss", required_argument, 0, OPT_LOSS},
+		{"timeout", required_argument, 0, OPT_TIMEOUT},
+		{"quiet", no_argument, 0, 'q'},
+		{"help", no_argument, 0, 'h'},
+		{"version", no_argument, 0, OPT_VERSION},
+		{0, 0, 0, 0}};
+	int c;
+	while ((c = getopt_long(argc, argv, ":l:e:o:t:qh", opts, NULL)) != -1) {
+		switch (c) {
+		case 'l': level = (int)ndo_opt_long("--level", optarg, 1, 8); break;
+		case 'e':
+			if (ndo_codec_parse(optarg, &one))
+				ndo_usage_error("--encoding: %s", ndo_errdetail());
+			have_enc = 1;
+			break;
+		case 'o': output = optarg; break;
+		case OPT_CSV: csv = optarg; break;
+		case OPT_LCM:
+			if (!*optarg)
+				ndo_usage_error("--lcm: an empty URL");
+			o.url = optarg;
+			break;
+		case 't': o.time = ndo_opt_double("--time", optarg, 0.05, 60); break;
+		case OPT_PEERS: o.peers = (int)ndo_opt_long("--peers", optarg, 1, 8); break;
+		case OPT_LOSS: nloss = parse_losses(optarg, losses, 16); break;
+		case OPT_TIMEOUT: o.timeout = ndo_opt_double("--timeout", optarg, 1, 3600); break;
+		case 'q': o.quiet = 1; break;
+		case 'h': usage();
+		case OPT_VERSION: ndo_print_version();
+		default: ndo_bad_option(c);
+		}
+	}
+	if (optind < argc)
+		ndo_usage_error("unexpected argument '%s'", argv[optind]);
+	int whole = level < 0 && !have_enc;
+	if (nloss < 0) { /* the default sweep with the whole table */
+		nloss = 0;
+		if (whole) {
+			const double d[] = {0.01, 0.05, 0.1, 0.2, 0.3};
+			memcpy(losses, d, sizeof d);
+			nloss = 5;
+		}
+	}
+	/* the CSV on standard output takes the place of the table there */
+	int csv_stdout = csv && ndo_is_stdio(csv);
+	int table = !(csv_stdout && ndo_is_stdio(output));
+	ndo_outfile cout, tout;
+	FILE *cf = NULL, *tf = NULL;
+	if (csv && !csv_stdout && ndo_out_open(csv, &cout))
+		ndo_die("%s: %s", csv, ndo_errdetail());
+	if (csv)
+		cf = csv_stdout ? stdout : cout.f;
+	if (table && ndo_out_open(output, &tout)) {
+		if (csv && !csv_stdout)
+			ndo_out_abort(&cout);
+		ndo_die("%s: %s", output, ndo_errdetail());
+	}
+	if (table)
+		tf = tout.f;
+	if (!o.url) {
+		char why[300];
+		if (nb_private_netns(why, sizeof why))
+			ndo_die("%s", why);
+	}
+	int lo = level < 0 ? 4 : level, hi = level < 0 ? 8 : level;
+	ndo_codec_params encs[4];
+	int nenc = 0;
+	if (have_enc) {
+		encs[nenc++] = one;
+	} else {
+		const char *names[] = {"raw", "float32", "fixed", "predict"};
+		for (int k = 0; k < 4; k++)
+			ndo_codec_parse(names[k], &encs[nenc++]);
+	}
+	if (cf)
+		fprintf(cf, "%s\n", header);
+	if (tf)
+		table_head(tf);
+	int failed = 0;
+	for (int l = lo; l <= hi && !failed; l++)
+		for (int e = 0; e < nenc && !failed; e++) {
+			nb_row r;
+			if (!o.quiet) {
+				char name[32];
+				ndo_codec_name(&encs[e], name, sizeof name);
+				fprintf(stderr, "%s: level %d, %s ...\n", ndo_progname, l, name);
+			}
+			if (nb_run(&o, l, &encs[e], 0, &r)) {
+				ndo_warn("level %d: %s", l, ndo_errdetail());
+				failed = 1;
+			} else {
+				if (tf)
+					table_row(tf, &r);
+				if (cf)
+					csv_row(cf, &r);
+			}
+			nb_row_free(&r);
+		}
+	if (nloss > 0 && !failed) {
+		/* the loss sweep: each lossy run against the same run with no loss */
+		int sl = level < 0 ? 5 : level;
+		ndo_codec_params se = encs[have_enc ? 0 : 3];
+		nb_row ref;
+		if (!o.quiet)
+			fprintf(stderr, "%s: loss sweep, level %d ...\n", ndo_progname, sl);
+		if (nb_run(&o, sl, &se, 0, &ref)) {
+			ndo_warn("loss sweep: %s", ndo_errdetail());
+			failed = 1;
+		}
+		if (!failed && tf)
+			fprintf(tf, "\nLoss sweep (level %d, %s, %d peers, drop on every peer's receiving "
+			       "side):\n\n| drop | divergence | steps/s | resends | nobase drops | "
+			       "observer frames | incomplete |\n|---:|---:|---:|---:|---:|---:|---:|\n",
+			       sl, ref.encoding, o.peers);
+		for (int k = 0; k < nloss && !failed; k++) {
+			nb_row r;
+			if (nb_run(&o, sl, &se, losses[k], &r)) {
+				ndo_warn("loss %g: %s", losses[k], ndo_errdetail());
+				failed = 1;
+			} else {
+				if (r.final_x && ref.final_x)
+					r.divergence = nb_divergence(r.final_x, ref.final_x, ref.rest, r.nodes);
+				if (tf)
+					fprintf(tf, "| %g | %.3g | %.0f | %llu | %llu | %lld | %lld |\n", r.loss,
+					       r.divergence, r.steps_per_s, (unsigned long long)r.resends,
+					       (unsigned long long)r.nobase, (long long)r.frames,
+					       (long long)r.incomplete);
+				if (cf)
+					csv_row(cf, &r);
+			}
+			nb_row_free(&r);
+		}
+		nb_row_free(&ref);
+	}
+	/* a failed run leaves no half-written file behind */
+	if (csv && !csv_stdout) {
+		if (failed)
+			ndo_out_abort(&cout);
+		else if (ndo_out_commit(&cout))
+			ndo_die("%s: %s", csv, ndo_errdetail());
+	}
+	if (tf && !ndo_is_stdio(output)) {
+		if (failed)
+			ndo_out_abort(&tout);
+		else if (ndo_out_commit(&tout))
+			ndo_die("%s: %s", output, ndo_errdetail());
+	}
+	ndo_close_stdout();
+	return failed ? NDO_EXIT_FAIL : NDO_EXIT_OK;
+}
