@@ -92,6 +92,14 @@ if ! below "$eb" "$ea" && below "$ea" "$(awk -v h="$h6" 'BEGIN { print 1.5 * h }
 	&& below "$h6" "$(awk -v e="$ea" 'BEGIN { print 1.5 * e }')"; then pass "rotation-estimate"
 else fail "rotation-estimate" "estimated $eb -> $ea, measured $h6"; fi
 
+# a mesh much coarser than the grid is parameterized on a 1-to-4 split copy
+# (the same surface): cactus' 1236 faces for a level-5 grid's 4096 triangles
+remesh_ok cactus-subdivided 5 "$M/cactus.off"
+hc=$(json cactus-subdivided.json hausdorff_rel)
+if [ "$(json cactus-subdivided.json subdivided)" = 1 ] && [ "$(json cactus-subdivided.json param_faces)" = 4944 ] \
+	&& below "$hc" 0.02; then pass "cactus-subdivided-close"
+else fail "cactus-subdivided-close" "subdivided $(json cactus-subdivided.json subdivided), Hausdorff $hc"; fi
+
 # inward orientation is fixed and said
 if remesh inward.off -l 2 -o inward.tgrid --json=inward.json 2>inward.err \
 	&& grep -q "oriented inward; reversed" inward.err && [ "$(json inward.json flips)" = 0 ]; then

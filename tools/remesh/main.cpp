@@ -135,7 +135,8 @@ static void print_json(FILE *f, const Report &r)
 		           "\"estimated_flipped_before\": %ld, \"estimated_flipped\": %ld,\n",
 		        r.rot.level, r.rot.evaluated, r.rot.hausdorff_before / r.diag,
 		        r.rot.hausdorff_after / r.diag, r.rot.flipped_before, r.rot.flipped_after);
-	fprintf(f, " \"stretch_efficiency\": %.6g, \"flips\": %ld,\n", r.ps.efficiency, r.ps.flips);
+	fprintf(f, " \"stretch_efficiency\": %.6g, \"flips\": %ld, \"subdivided\": %d, \"param_faces\": %zu,\n",
+	        r.ps.efficiency, r.ps.flips, r.ps.subdivided, r.ps.faces);
 	fprintf(f, " \"remesh_stretch_efficiency\": %.6g, \"area_ratio\": %.6g, \"degenerate\": %ld,\n",
 	        r.q.efficiency, r.q.area_ratio, r.q.degenerate);
 	fprintf(f, " \"hausdorff_rel\": %.6g, \"rms_rel\": %.6g, \"flipped\": %ld, \"selfintersect\": %ld,\n",
@@ -158,6 +159,9 @@ static void print_report(FILE *f, const Report &r)
 	        r.input.c_str(), r.in_vertices, r.in_faces, r.level, nv, nt);
 	fprintf(f, "  parameterization  %s: L2 stretch efficiency %.3f, %ld flipped spherical triangles\n",
 	        r.param, r.ps.efficiency, r.ps.flips);
+	if (r.ps.subdivided)
+		fprintf(f, "                    (of the input split 1-to-4 %d× first: %zu faces)\n",
+		        r.ps.subdivided, r.ps.faces);
 	if (r.rotated)
 		fprintf(f, "  domain            %s map, rotation optimized over %d rotations: estimated at\n"
 		           "                    level %d, Hausdorff %.4f%% → %.4f%%, fold-overs %ld → %ld\n",
@@ -209,13 +213,17 @@ static ndo_grid *remesh_file(const char *path, int level, const MeshOptions &o, 
 	std::vector<Vec3> s;
 	ParamOptions po = o.po;
 	po.level = level;
-	parameterize(m, po, s, r.ps);
+	Mesh mr;
+	int sub = o.po.method == ParamMethod::Hierarchical ? param_mesh(m, level, mr) : 0;
+	const Mesh &mp = sub ? mr : m;
+	parameterize(mp, po, s, r.ps);
+	r.ps.subdivided = sub, r.ps.faces = mp.f.size();
 	if (r.ps.placement_failures)
 		r.notes.push_back(std::to_string(r.ps.placement_failures) +
 		                  " vertex splits found no kernel point (flips possible)");
 	double t3 = now_seconds();
 	r.t_param = t3 - t2;
-	SphereLocator *loc = locator_create(m, s);
+	SphereLocator *loc = locator_create(mp, s);
 	double R[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
 	r.diag = bbox_diagonal(m);
 	if (o.rotate) {

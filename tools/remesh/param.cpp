@@ -889,6 +889,38 @@ static void spring(const Mesh &m, const ParamOptions &o, std::vector<Vec3> &s)
 
 } // namespace
 
+int param_mesh(const Mesh &m, int level, Mesh &out)
+{
+	size_t faces = std::min<size_t>(100000, 2 * ndo_triangle_count(level));
+	out = m;
+	int times = 0;
+	while (4 * out.f.size() <= faces) {
+		Mesh next;
+		next.p = out.p;
+		std::unordered_map<uint64_t, int> mid;
+		auto midpoint = [&](int a, int b) {
+			uint64_t key = (uint64_t)(uint32_t)std::min(a, b) << 32 | (uint32_t)std::max(a, b);
+			auto it = mid.find(key);
+			if (it != mid.end())
+				return it->second;
+			int k = (int)next.p.size();
+			next.p.push_back(mul(add(out.p[a], out.p[b]), 0.5));
+			mid.emplace(key, k);
+			return k;
+		};
+		for (const Tri &t : out.f) {
+			int ab = midpoint(t[0], t[1]), bc = midpoint(t[1], t[2]), ca = midpoint(t[2], t[0]);
+			next.f.push_back({t[0], ab, ca});
+			next.f.push_back({ab, t[1], bc});
+			next.f.push_back({ca, bc, t[2]});
+			next.f.push_back({ab, bc, ca});
+		}
+		out = std::move(next);
+		times++;
+	}
+	return times;
+}
+
 void parameterize(const Mesh &m, const ParamOptions &o, std::vector<Vec3> &s, ParamStats &st)
 {
 	if (o.method == ParamMethod::Spring)

@@ -64,7 +64,17 @@ struct ParamStats {
 	long flips = 0;        /* spherical triangles with det(s_a, s_b, s_c) <= 0 */
 	int base_vertices = 0; /* hierarchical: vertices of the base mesh */
 	long placement_failures = 0; /* hierarchical: splits with no kernel point found (0 expected) */
+	int subdivided = 0;    /* times the input was split 1-to-4 first (param_mesh) */
+	size_t faces = 0;      /* faces parameterized */
 };
+/* The mesh the parameterization works on: m, split 1-to-4 at its edge
+ * midpoints (the same surface) as long as that leaves at most twice the
+ * level's grid triangles, and at most 100 000 faces.  Within one face the
+ * parameterization is linear, so a grid finer than the input samples each
+ * large face uniformly however curved its surroundings; smaller faces let
+ * the samples gather at creases and tips (cactus, 1236 faces, at level 7:
+ * Hausdorff 0.59% → 0.37%).  Returns the number of splits (0: out = m). */
+int param_mesh(const Mesh &m, int level, Mesh &out);
 void parameterize(const Mesh &m, const ParamOptions &o, std::vector<Vec3> &s,
                   ParamStats &st);
 /* L2 stretch efficiency (ΣA)² / (E·ΣA') of the map from the chord
