@@ -96,8 +96,6 @@ void domain_points(const Domain &dom, int level, std::vector<Vec3> &d);
 struct SphereLocator; /* point location on the parameterized sphere (sphere.h) */
 SphereLocator *locator_create(const Mesh &m, const std::vector<Vec3> &s);
 void locator_destroy(SphereLocator *l);
-/* The surface point whose parameter is the direction q (any length). */
-Vec3 locate(const SphereLocator *l, const Vec3 &q);
 
 /* The rotation R (row-major 3×3, applied to the domain's points) for a
  * grid of `level`: the identity and `rotations` random rotations (fixed

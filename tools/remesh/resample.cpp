@@ -164,12 +164,6 @@ Vec3 locate_face(const SphereLocator *l, const Vec3 &q, int *face)
 	        b[0] * x[2] + b[1] * y[2] + b[2] * z[2]};
 }
 
-Vec3 locate(const SphereLocator *l, const Vec3 &q)
-{
-	int f = -1;
-	return locate_face(l, q, &f);
-}
-
 void sample(const SphereLocator *l, int level, const std::vector<Vec3> &d, const double R[9],
             double *pos, int *faces, bool show)
 {
