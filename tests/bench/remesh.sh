@@ -90,7 +90,8 @@ bench_minutes=$(awk -v a="$bench_start" -v b="$(date +%s)" 'BEGIN { printf "%.1f
 	  if (n7) printf "- (not goals) level 7 self-intersections no worse: %d of %d; RMS no worse: %d of %d\n", s7, n7, r7, n7
 	  if (n6) printf "- (not goals) level 6 self-intersections no worse: %d of %d; RMS no worse: %d of %d\n", s6, n6, r6, n6
 	}' "$REF" "$rows"
-	awk -F'\t' '$1 == "bunny00" || $1 == "armadillo" || $1 == "man" { if (!s[$1]++) printf "- stretch efficiency %s: %.3f (PH %s)\n", $1, $7, ($1 == "bunny00" ? "0.72" : $1 == "armadillo" ? "0.42" : "0.24") }' "$rows"
+	awk -F'\t' '$1 == "bunny00" || $1 == "armadillo" || $1 == "man" { e[$1] = e[$1] (e[$1] == "" ? "" : ", ") sprintf("level %s %.3f", $2, $7) }
+	END { for (k in e) printf "- stretch efficiency %s: %s (PH %s)\n", k, e[k], (k == "bunny00" ? "0.72" : k == "armadillo" ? "0.42" : "0.24") }' "$rows" | sort
 	echo "- bunny00 to level 7 (no report): median of three runs ${bunny_median} s (goal 10 s; PH's parameterization alone: 31 s)"
 	echo "- this benchmark: ${bench_minutes} min"
 } >"$out"
