@@ -64,6 +64,8 @@ remesh_ok hand 5 "$M/hand.off"
 remesh_ok oblong-gnomonic 4 "$M/oblong.off" --map gnomonic
 remesh_ok part-spring-domain 4 "$M/part.off" --map spring
 remesh_ok blobby-no-rotation 4 "$M/blobby.off" --no-rotation
+# the plain objective (L2 stretch alone, no importance) on the equal-area map
+remesh_ok cow-plain-stretch 4 "$M/cow.off" --map equal-area --conformal 0 --importance 0 --rotations 4
 ALLOW_FLIPS=1 remesh_ok octahedron-spring-embedder 3 octa.off --param spring --spring-steps 50
 
 # accuracy on a real mesh: hand (1197 vertices) at level 5 is within 3%
@@ -77,6 +79,27 @@ remesh_ok hand-level3 3 "$M/hand.off"
 h3=$(json hand-level3.json hausdorff_rel)
 if below "$h" "$h3"; then pass "hand-finer-is-closer"
 else fail "hand-finer-is-closer" "level 5 Hausdorff $h not below level 3's $h3"; fi
+# quality on a real mesh at level 6: hand below Praun-Hoppe's figures
+# (Hausdorff 1.082% of the diagonal, 10 fold-overs; we measure 0.60%, 2)
+remesh_ok hand-level6 6 "$M/hand.off"
+h6=$(json hand-level6.json hausdorff_rel); f6=$(json hand-level6.json flipped)
+if below "$h6" 0.01082 && [ "$f6" -le 10 ]; then pass "hand-level6-beats-praun-hoppe"
+else fail "hand-level6-beats-praun-hoppe" "Hausdorff $h6 (want < 0.01082), fold-overs $f6 (want <= 10)"; fi
+# the rotation search: its estimate never above the unrotated domain's, and
+# within a factor 1.5 of the Hausdorff distance CGAL measures
+eb=$(json hand-level6.json estimated_hausdorff_rel_before); ea=$(json hand-level6.json estimated_hausdorff_rel)
+if ! below "$eb" "$ea" && below "$ea" "$(awk -v h="$h6" 'BEGIN { print 1.5 * h }')" \
+	&& below "$h6" "$(awk -v e="$ea" 'BEGIN { print 1.5 * e }')"; then pass "rotation-estimate"
+else fail "rotation-estimate" "estimated $eb -> $ea, measured $h6"; fi
+
+# a mesh much coarser than the grid is parameterized on a 1-to-4 split copy
+# (the same surface): cactus' 1236 faces for a level-5 grid's 4096 triangles
+remesh_ok cactus-subdivided 5 "$M/cactus.off"
+hc=$(json cactus-subdivided.json hausdorff_rel)
+if [ "$(json cactus-subdivided.json subdivided)" = 1 ] && [ "$(json cactus-subdivided.json param_faces)" = 4944 ] \
+	&& below "$hc" 0.02; then pass "cactus-subdivided-close"
+else fail "cactus-subdivided-close" "subdivided $(json cactus-subdivided.json subdivided), Hausdorff $hc"; fi
+
 # inward orientation is fixed and said
 if remesh inward.off -l 2 -o inward.tgrid --json=inward.json 2>inward.err \
 	&& grep -q "oriented inward; reversed" inward.err && [ "$(json inward.json flips)" = 0 ]; then
@@ -119,6 +142,12 @@ expect_error bad-param 2 "--param: 'x' is not hierarchical or spring" remesh oct
 expect_error bad-sweeps 2 '--sweeps' remesh octa.off --sweeps 1000
 expect_error two-inputs 2 'one input mesh at a time' remesh octa.off octa.off
 expect_error spring-shape 2 '--map: spring is for meshes' remesh --shape sphere --map spring
+expect_error blend-shape 2 '--map: blend is for meshes' remesh --shape sphere --map blend
+expect_error bad-map 2 "--map: 'x' is not" remesh octa.off --map x
+expect_error bad-blend 2 '--blend' remesh octa.off --blend 1.5
+expect_error bad-conformal 2 '--conformal' remesh octa.off --conformal -1
+expect_error bad-importance 2 '--importance' remesh octa.off --importance 11
+expect_error bad-rotations 2 '--rotations' remesh octa.off --rotations 100001
 
 # the procedural shapes keep working, every option
 check shape-sphere remesh --shape sphere -l 3 -o sphere.tgrid

@@ -30,16 +30,24 @@ static __attribute__((noreturn)) void usage(void)
 	       "  -l, --level L         grid level, 0..10 (default 5)\n"
 	       "  -o, --output OUT      a grid file (.tgrid or no extension, '-' for\n"
 	       "                        stdout; the default) or a mesh: .obj .ply .stl .glb .gltf\n"
-	       "      --map MAP         tetrahedron → sphere: equal-area (default), gnomonic,\n"
-	       "                        or spring (meshes only: the thesis' stretch-optimized\n"
-	       "                        gnomonic projection)\n"
+	       "      --map MAP         tetrahedron → sphere: equal-area (shapes' default),\n"
+	       "                        gnomonic, or for meshes blend (their default: equal-area\n"
+	       "                        moved --blend of the way to gnomonic) or spring (the\n"
+	       "                        thesis' stretch-optimized gnomonic projection)\n"
 	       "Meshes:\n"
+	       "      --blend T         blend map: the gnomonic share, 0..1 (default 0.3)\n"
 	       "      --param METHOD    spherical parameterization: hierarchical (default;\n"
 	       "                        coarse-to-fine stretch minimization, never flips) or\n"
 	       "                        spring (the thesis' spring embedder; may flip)\n"
 	       "      --sweeps N        hierarchical: final optimization sweeps, 0..100 (default 6)\n"
+	       "      --conformal W     hierarchical: weight of the inverse map's stretch, which\n"
+	       "                        keeps parameter triangles round (fewer fold-overs), 0..10\n"
+	       "                        (default 0.5; 0: L2 stretch alone)\n"
+	       "      --importance B    hierarchical: extra samples where the surface is curved\n"
+	       "                        at the grid's scale, 0..10 (default 1; 0: none)\n"
 	       "      --spring-steps N  spring: time steps, 1..100000 (default 400)\n"
 	       "      --no-relax        spring: without the relaxation step (eq. 4.7)\n"
+	       "      --rotations N     random domain rotations screened, 0..100000 (default 48)\n"
 	       "      --no-rotation     keep the domain's rotation (default: optimized)\n"
 	       "      --report          print timings and quality on stderr (Hausdorff and\n"
 	       "                        RMS distance, fold-overs, self-intersections, stretch)\n"
@@ -93,7 +101,8 @@ struct Report {
 	const char *param = "", *map = "";
 	ParamStats ps;
 	bool rotated = false;
-	double rot_before = 0, rot_after = 0;
+	RotationResult rot;
+	double diag = 0;
 	Quality q;
 	double t_load = 0, t_validate = 0, t_param = 0, t_rotation = 0, t_resample = 0,
 	       t_quality = 0;
@@ -120,7 +129,14 @@ static void print_json(FILE *f, const Report &r)
 	        json_str(r.input).c_str(), r.in_vertices, r.in_faces, r.level);
 	fprintf(f, " \"param\": \"%s\", \"map\": \"%s\", \"rotation_optimized\": %s,\n", r.param,
 	        r.map, r.rotated ? "true" : "false");
-	fprintf(f, " \"stretch_efficiency\": %.6g, \"flips\": %ld,\n", r.ps.efficiency, r.ps.flips);
+	if (r.rotated)
+		fprintf(f, " \"rotation_level\": %d, \"rotations_evaluated\": %d, "
+		           "\"estimated_hausdorff_rel_before\": %.6g, \"estimated_hausdorff_rel\": %.6g, "
+		           "\"estimated_flipped_before\": %ld, \"estimated_flipped\": %ld,\n",
+		        r.rot.level, r.rot.evaluated, r.rot.hausdorff_before / r.diag,
+		        r.rot.hausdorff_after / r.diag, r.rot.flipped_before, r.rot.flipped_after);
+	fprintf(f, " \"stretch_efficiency\": %.6g, \"flips\": %ld, \"subdivided\": %d, \"param_faces\": %zu,\n",
+	        r.ps.efficiency, r.ps.flips, r.ps.subdivided, r.ps.faces);
 	fprintf(f, " \"remesh_stretch_efficiency\": %.6g, \"area_ratio\": %.6g, \"degenerate\": %ld,\n",
 	        r.q.efficiency, r.q.area_ratio, r.q.degenerate);
 	fprintf(f, " \"hausdorff_rel\": %.6g, \"rms_rel\": %.6g, \"flipped\": %ld, \"selfintersect\": %ld,\n",
@@ -143,9 +159,14 @@ static void print_report(FILE *f, const Report &r)
 	        r.input.c_str(), r.in_vertices, r.in_faces, r.level, nv, nt);
 	fprintf(f, "  parameterization  %s: L2 stretch efficiency %.3f, %ld flipped spherical triangles\n",
 	        r.param, r.ps.efficiency, r.ps.flips);
+	if (r.ps.subdivided)
+		fprintf(f, "                    (of the input split 1-to-4 %d× first: %zu faces)\n",
+		        r.ps.subdivided, r.ps.faces);
 	if (r.rotated)
-		fprintf(f, "  domain            %s map, rotation optimized (grid stretch energy %.4g → %.4g)\n",
-		        r.map, r.rot_before, r.rot_after);
+		fprintf(f, "  domain            %s map, rotation optimized over %d rotations: estimated at\n"
+		           "                    level %d, Hausdorff %.4f%% → %.4f%%, fold-overs %ld → %ld\n",
+		        r.map, r.rot.evaluated, r.rot.level, 100 * r.rot.hausdorff_before / r.diag,
+		        100 * r.rot.hausdorff_after / r.diag, r.rot.flipped_before, r.rot.flipped_after);
 	else
 		fprintf(f, "  domain            %s map, rotation not optimized\n", r.map);
 	fprintf(f, "  distance          Hausdorff %.4f%%, RMS %.5f%% of the bounding-box diagonal %.6g\n",
@@ -165,7 +186,8 @@ static void print_report(FILE *f, const Report &r)
 
 struct MeshOptions {
 	ParamOptions po;
-	DomainMap map = DomainMap::EqualArea;
+	Domain dom;
+	int rotations = 48;
 	bool rotate = true, report = false, json = false;
 	const char *json_path = nullptr;
 };
@@ -189,16 +211,23 @@ static ndo_grid *remesh_file(const char *path, int level, const MeshOptions &o, 
 	double t2 = now_seconds();
 	r.t_validate = t2 - t1;
 	std::vector<Vec3> s;
-	parameterize(m, o.po, s, r.ps);
+	ParamOptions po = o.po;
+	po.level = level;
+	Mesh mr;
+	int sub = o.po.method == ParamMethod::Hierarchical ? param_mesh(m, level, mr) : 0;
+	const Mesh &mp = sub ? mr : m;
+	parameterize(mp, po, s, r.ps);
+	r.ps.subdivided = sub, r.ps.faces = mp.f.size();
 	if (r.ps.placement_failures)
 		r.notes.push_back(std::to_string(r.ps.placement_failures) +
 		                  " vertex splits found no kernel point (flips possible)");
 	double t3 = now_seconds();
 	r.t_param = t3 - t2;
-	SphereLocator *loc = locator_create(m, s);
+	SphereLocator *loc = locator_create(mp, s);
 	double R[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+	r.diag = bbox_diagonal(m);
 	if (o.rotate) {
-		optimize_rotation(loc, o.map, R, &r.rot_before, &r.rot_after);
+		optimize_rotation(loc, o.dom, level, o.rotations, R, r.rot);
 		progress_done();
 		r.rotated = true;
 	}
@@ -207,7 +236,7 @@ static ndo_grid *remesh_file(const char *path, int level, const MeshOptions &o, 
 	ndo_grid *g;
 	if (ndo_grid_create(level, &g) != NDO_OK)
 		ndo_die("%s", ndo_errdetail());
-	resample(loc, o.map, R, g);
+	resample(loc, o.dom, R, g);
 	progress_done();
 	locator_destroy(loc);
 	double t5 = now_seconds();
@@ -227,9 +256,10 @@ int main(int argc, char **argv)
 	const char *shape = NULL, *out = NULL;
 	int level = 5;
 	MeshOptions mo;
-	const char *map_name = "equal-area";
+	const char *map_name = nullptr;
 	enum { OPT_MAP = 256, OPT_AXES, OPT_AMP, OPT_FREQ, OPT_VERSION, OPT_PARAM, OPT_SWEEPS,
-	       OPT_SPRING_STEPS, OPT_NO_RELAX, OPT_NO_ROT, OPT_REPORT, OPT_JSON };
+	       OPT_SPRING_STEPS, OPT_NO_RELAX, OPT_NO_ROT, OPT_REPORT, OPT_JSON, OPT_BLEND,
+	       OPT_CONFORMAL, OPT_IMPORTANCE, OPT_ROTATIONS };
 	static const struct option opts[] = {
 		{"shape", required_argument, 0, 's'},
 		{"level", required_argument, 0, 'l'},
@@ -243,6 +273,10 @@ int main(int argc, char **argv)
 		{"spring-steps", required_argument, 0, OPT_SPRING_STEPS},
 		{"no-relax", no_argument, 0, OPT_NO_RELAX},
 		{"no-rotation", no_argument, 0, OPT_NO_ROT},
+		{"rotations", required_argument, 0, OPT_ROTATIONS},
+		{"blend", required_argument, 0, OPT_BLEND},
+		{"conformal", required_argument, 0, OPT_CONFORMAL},
+		{"importance", required_argument, 0, OPT_IMPORTANCE},
 		{"report", no_argument, 0, OPT_REPORT},
 		{"json", optional_argument, 0, OPT_JSON},
 		{"help", no_argument, 0, 'h'},
@@ -257,14 +291,20 @@ int main(int argc, char **argv)
 		case OPT_MAP:
 			map_name = optarg;
 			if (strcmp(optarg, "equal-area") == 0)
-				sp.map = NDO_MAP_EQUAL_AREA, mo.map = DomainMap::EqualArea;
+				sp.map = NDO_MAP_EQUAL_AREA, mo.dom.map = DomainMap::EqualArea;
 			else if (strcmp(optarg, "gnomonic") == 0)
-				sp.map = NDO_MAP_GNOMONIC, mo.map = DomainMap::Gnomonic;
+				sp.map = NDO_MAP_GNOMONIC, mo.dom.map = DomainMap::Gnomonic;
+			else if (strcmp(optarg, "blend") == 0)
+				mo.dom.map = DomainMap::Blend;
 			else if (strcmp(optarg, "spring") == 0)
-				mo.map = DomainMap::Spring;
+				mo.dom.map = DomainMap::Spring;
 			else
-				ndo_usage_error("--map: '%s' is not equal-area, gnomonic or spring", optarg);
+				ndo_usage_error("--map: '%s' is not equal-area, gnomonic, blend or spring", optarg);
 			break;
+		case OPT_BLEND: mo.dom.blend = ndo_opt_double("--blend", optarg, 0, 1); break;
+		case OPT_CONFORMAL: mo.po.conformal = ndo_opt_double("--conformal", optarg, 0, 10); break;
+		case OPT_IMPORTANCE: mo.po.importance = ndo_opt_double("--importance", optarg, 0, 10); break;
+		case OPT_ROTATIONS: mo.rotations = (int)ndo_opt_long("--rotations", optarg, 0, 100000); break;
 		case OPT_AXES: ndo_opt_doubles("--axes", optarg, 3, sp.axes, 1e-6, 1e6); break;
 		case OPT_AMP: sp.amplitude = ndo_opt_double("--amplitude", optarg, -0.9, 0.9); break;
 		case OPT_FREQ: sp.frequency = ndo_opt_double("--frequency", optarg, 0, 1000); break;
@@ -296,8 +336,8 @@ int main(int argc, char **argv)
 		ndo_usage_error("'%s': one input mesh at a time", argv[optind]);
 	if (shape && input)
 		ndo_usage_error("'%s': give an input mesh or --shape, not both", input);
-	if (shape && mo.map == DomainMap::Spring)
-		ndo_usage_error("--map: spring is for meshes; shapes use equal-area or gnomonic");
+	if (shape && (mo.dom.map == DomainMap::Spring || mo.dom.map == DomainMap::Blend) && map_name)
+		ndo_usage_error("--map: %s is for meshes; shapes use equal-area or gnomonic", map_name);
 	ndo_cli_check_output(out);
 	bool to_stdout = !out || strcmp(out, "-") == 0;
 	if (mo.json && mo.json_path && strcmp(mo.json_path, "-") == 0 && to_stdout)
@@ -311,7 +351,7 @@ int main(int argc, char **argv)
 			ndo_usage_error("no input mesh and no --shape (standard input is a terminal)");
 		Report r;
 		r.param = mo.po.method == ParamMethod::Spring ? "spring" : "hierarchical";
-		r.map = map_name;
+		r.map = map_name ? map_name : "blend";
 		try {
 			g = remesh_file(input, level, mo, r);
 		} catch (const std::bad_alloc &) {

@@ -65,15 +65,22 @@ static inline bool valid_triangle(const Vec3 &a, const Vec3 &b, const Vec3 &c)
 	return o > 6e-13 * l && o > 3e-3 * norm(n); /* plane 0.001 off the centre */
 }
 
-/* The stretch energy of one triangle, A3 · ‖J‖² / 2 (Sander 2001: A3 the
- * surface area, J the Jacobian of the map from the parameter triangle
+/* The energy of one triangle: its stretch A3 · ‖J‖² / 2 (Sander 2001: A3
+ * the surface area, J the Jacobian of the map from the parameter triangle
  * p0 p1 p2 to the surface triangle), with ‖J‖² = Σ_i L_i cot θ_i / (2 A_p)
  * = Σ_i L_i (−e_j·e_k) / (4 A_p²) (L_i the squared surface edge opposite
- * corner i, θ_i the parameter angle at i).  +∞ if the parameter triangle
- * is flipped or degenerate. */
+ * corner i, θ_i the parameter angle at i); plus mu times the Dirichlet
+ * energy of the inverse map, A3 · ‖J⁻¹‖² / 2 = Σ_i L_i (−e_j·e_k) / (8 A3)
+ * (the same sum: the inverse's stretch, which grows where the parameter
+ * triangle is large or thin for its surface triangle).  Stretch alone lets
+ * parameter triangles go thin for free (only the larger singular value
+ * costs), and the resampled grid then folds over where they are; the
+ * inverse term keeps them round, pulling towards a conformal map.  +∞ if
+ * the parameter triangle is flipped or degenerate. */
 struct FaceGeom {
-	double a3;   /* surface area */
-	double L[3]; /* squared surface edge lengths opposite each corner */
+	double a3;     /* surface area */
+	double L[3];   /* squared surface edge lengths opposite each corner */
+	double mu = 0; /* weight of the inverse map's Dirichlet energy */
 };
 
 static FaceGeom face_geom(const std::vector<Vec3> &X, const Tri &t, bool floor = true)
@@ -112,11 +119,11 @@ static double face_energy(const FaceGeom &g, const Vec3 &p0, const Vec3 &p1, con
 	 * hemisphere, whose flat area then says nothing of its spherical one;
 	 * without the barrier coarse levels would collapse onto great circles. */
 	double h = barrier ? dot(c, add(add(p0, p1), p2)) / (3 * std::sqrt(c2)) : 1;
-	return 0.5 * g.a3 * N / c2 / h;
+	return 0.5 * g.a3 * N / c2 / h + g.mu * N / g.a3;
 }
 
-/* Its gradient with respect to p0 (p1, p2 fixed): with E = (A3/2) N/|c|²,
- * ∇N = −L0 (a + b) + (L1 − L2) e0 and ∇|c|² = 2 c × e0. */
+/* Its gradient with respect to p0 (p1, p2 fixed): with E = (A3/2) N/|c|²
+ * + mu N / A3, ∇N = −L0 (a + b) + (L1 − L2) e0 and ∇|c|² = 2 c × e0. */
 static Vec3 face_grad0(const FaceGeom &g, const Vec3 &p0, const Vec3 &p1, const Vec3 &p2)
 {
 	Vec3 a = sub(p1, p0), b = sub(p2, p0), e0 = sub(p2, p1);
@@ -131,7 +138,7 @@ static Vec3 face_grad0(const FaceGeom &g, const Vec3 &p0, const Vec3 &p1, const 
 	Vec3 S = add(add(p0, p1), p2);
 	double cl = std::sqrt(c2), orient = dot(c, S), h = orient / (3 * cl);
 	Vec3 gh = mul(sub(mul(add(cross(S, e0), c), cl), mul(cross(c, e0), orient / cl)), 1 / (3 * c2));
-	return sub(mul(gE, 1 / h), mul(gh, E / (h * h)));
+	return add(sub(mul(gE, 1 / h), mul(gh, E / (h * h))), mul(gN, g.mu / g.a3));
 }
 
 void param_measure(const Mesh &m, const std::vector<Vec3> &s, ParamStats &st)
@@ -156,6 +163,74 @@ void param_measure(const Mesh &m, const std::vector<Vec3> &s, ParamStats &st)
 	st.flips = flips;
 	/* Scale the parameter to the surface's total area: L2² = E·ΣA_p/(ΣA3)². */
 	st.efficiency = E > 0 && std::isfinite(E) ? A3 * A3 / (E * Ap) : 0;
+}
+
+/* How much each face matters for the grid of `level`: 1 + beta · min(8,
+ * κ h), with h the grid's mean edge length on this surface and κ a
+ * curvature: the largest dihedral angle of the face over the distance
+ * between the two centroids, averaged over about h (n Jacobi sweeps over
+ * face neighbours spread over √n face widths).  A surface triangle that
+ * matters w times as much is weighed as a similar triangle w times larger,
+ * which for L2 stretch gives it w times the samples: the distance of a
+ * linear interpolant from a curved surface grows like κ h², so curved
+ * places (tips of thin parts, rims, creases) get the samples that bring
+ * the Hausdorff distance down, flat places give them up. */
+static std::vector<double> importance(const Mesh &m, int level, double beta)
+{
+	size_t nf = m.f.size();
+	std::vector<double> imp(nf, 1.0);
+	if (!(beta > 0) || level <= 0)
+		return imp;
+	std::vector<Vec3> n(nf), c(nf);
+	std::vector<double> area(nf);
+	double A = 0;
+	for (size_t i = 0; i < nf; i++) {
+		const Tri &t = m.f[i];
+		Vec3 x = cross(sub(m.p[t[1]], m.p[t[0]]), sub(m.p[t[2]], m.p[t[0]]));
+		double l = norm(x);
+		area[i] = 0.5 * l;
+		A += area[i];
+		n[i] = l > 0 ? mul(x, 1 / l) : Vec3{0, 0, 0};
+		c[i] = mul(add(add(m.p[t[0]], m.p[t[1]]), m.p[t[2]]), 1.0 / 3);
+	}
+	double T = std::pow(4.0, level + 1), h = std::sqrt(4 * A / (std::sqrt(3.0) * T));
+	/* face adjacency */
+	std::vector<std::pair<uint64_t, int>> e;
+	for (size_t i = 0; i < nf; i++)
+		for (int k = 0; k < 3; k++) {
+			uint32_t a = m.f[i][k], b = m.f[i][(k + 1) % 3];
+			e.push_back({(uint64_t)std::min(a, b) << 32 | std::max(a, b), (int)i});
+		}
+	std::sort(e.begin(), e.end());
+	std::vector<std::vector<int>> adj(nf);
+	std::vector<double> kap(nf, 0);
+	double elen = 0;
+	for (size_t i = 0; i + 1 < e.size(); i++)
+		if (e[i].first == e[i + 1].first) {
+			int a = e[i].second, b = e[i + 1].second;
+			adj[a].push_back(b), adj[b].push_back(a);
+			double ang = std::acos(std::max(-1.0, std::min(1.0, dot(n[a], n[b]))));
+			double d = norm(sub(c[a], c[b]));
+			elen += d;
+			double k = d > 0 ? ang / d : 0;
+			kap[a] = std::max(kap[a], k), kap[b] = std::max(kap[b], k);
+			i++;
+		}
+	elen /= std::max<size_t>(1, e.size() / 2);
+	int iters = (int)std::min(30.0, std::max(1.0, (h / elen) * (h / elen)));
+	std::vector<double> nk(nf);
+	for (int it = 0; it < iters; it++) {
+		for (size_t i = 0; i < nf; i++) {
+			double s = kap[i] * area[i], w = area[i];
+			for (int j : adj[i])
+				s += kap[j] * area[j], w += area[j];
+			nk[i] = w > 0 ? s / w : kap[i];
+		}
+		kap.swap(nk);
+	}
+	for (size_t i = 0; i < nf; i++)
+		imp[i] = 1 + beta * std::min(8.0, kap[i] * h);
+	return imp;
 }
 
 /* ---- the progressive mesh ------------------------------------------ */
@@ -190,6 +265,7 @@ struct Collapse {
 	int v, u;             /* v was collapsed into u */
 	int fl, fr;           /* the two faces that vanished */
 	std::vector<int> mod; /* faces in which v was replaced by u */
+	double share, share0; /* surface area (weighted, plain) each face of mod took over from fl, fr */
 };
 
 struct Candidate {
@@ -205,15 +281,26 @@ struct Hier {
 	std::vector<char> falive, valive;
 	std::vector<std::vector<int>> vf;
 	std::vector<Collapse> rec;
+	/* The surface each alive face stands for: its own, plus what the
+	 * faces that vanished in collapses around it stood for (shared out
+	 * equally among the faces whose corner changed, given back on the
+	 * split), weighted by importance (w) and plain (w0). */
+	std::vector<double> w, w0;
 	int nalive;
 
-	explicit Hier(const Mesh &mesh) : m(mesh), f(mesh.f), falive(mesh.f.size(), 1),
-	                                   valive(mesh.p.size(), 1), vf(mesh.p.size()),
-	                                   nalive((int)mesh.p.size())
+	Hier(const Mesh &mesh, const std::vector<double> &imp)
+	    : m(mesh), f(mesh.f), falive(mesh.f.size(), 1), valive(mesh.p.size(), 1),
+	      vf(mesh.p.size()), nalive((int)mesh.p.size())
 	{
 		for (size_t i = 0; i < f.size(); i++)
 			for (int v : f[i])
 				vf[v].push_back((int)i);
+		w.resize(f.size());
+		w0.resize(f.size());
+		for (size_t i = 0; i < f.size(); i++) {
+			w0[i] = 0.5 * norm(cross(sub(m.p[f[i][1]], m.p[f[i][0]]), sub(m.p[f[i][2]], m.p[f[i][0]])));
+			w[i] = imp[i] * w0[i];
+		}
 	}
 
 	void ring(int v, std::vector<int> &out) const
@@ -305,6 +392,10 @@ struct Hier {
 		vf[v].clear();
 		valive[v] = 0;
 		nalive--;
+		c.share = c.mod.empty() ? 0 : (w[c.fl] + w[c.fr]) / c.mod.size();
+		c.share0 = c.mod.empty() ? 0 : (w0[c.fl] + w0[c.fr]) / c.mod.size();
+		for (int fi : c.mod)
+			w[fi] += c.share, w0[fi] += c.share0;
 		rec.push_back(std::move(c));
 	}
 
@@ -313,11 +404,12 @@ struct Hier {
 		valive[c.v] = 1;
 		nalive++;
 		for (int fi : c.mod) {
-			for (int &w : f[fi])
-				if (w == c.u)
-					w = c.v;
+			for (int &x : f[fi])
+				if (x == c.u)
+					x = c.v;
 			drop(vf[c.u], fi);
 			vf[c.v].push_back(fi);
+			w[fi] -= c.share, w0[fi] -= c.share0;
 		}
 		for (int fi : {c.fl, c.fr}) {
 			falive[fi] = 1;
@@ -369,15 +461,14 @@ struct Hier {
 				Q[c.u] += Q[c.v];
 				stamp[c.u]++;
 				stamp[c.v]++;
+				/* only the costs of u's edges changed (u's quadric); edges
+				 * that became legal or illegal nearby are checked when they
+				 * come up.  (Re-queueing the whole 2-ring instead built the
+				 * same hierarchy five times slower: bunny00 1.4 s → 0.3 s.) */
 				ring(c.u, ru);
 				for (int w : ru) {
-					stamp[w]++; /* its ring changed: re-queue its edges */
-					std::vector<int> rw;
-					ring(w, rw);
-					for (int x : rw) {
-						push(w, x);
-						push(x, w);
-					}
+					push(w, c.u);
+					push(c.u, w);
 				}
 				if ((rec.size() & 1023) == 0)
 					progress("simplify", (double)rec.size() / (double)(total - 4));
@@ -391,9 +482,34 @@ struct Optimizer {
 	std::vector<Vec3> &s;
 	std::vector<FaceGeom> geom; /* per face, for the face's current corners */
 
-	Optimizer(const Hier &hier, std::vector<Vec3> &sphere) : h(hier), s(sphere), geom(hier.f.size()) {}
+	double mu;                  /* inverse-term weight of a face of importance 1 */
 
-	void refresh(int fi) { geom[fi] = face_geom(h.m.p, h.f[fi]); }
+	Optimizer(const Hier &hier, std::vector<Vec3> &sphere, double mu1)
+	    : h(hier), s(sphere), geom(hier.f.size()), mu(mu1)
+	{
+	}
+
+	/* A face's weights for its current corners.  A coarse face stands for
+	 * the surface collapsed into it (Hier::w) and is weighed as a similar
+	 * triangle of that area, so that coarse levels share the sphere out
+	 * the way the finished surface will (thin parts keep their due);
+	 * importance enters the same way.  The inverse term grows with the
+	 * square of the importance, so that faces weighed larger keep their
+	 * shape as they get more of the sphere (measured: without it the
+	 * important places fold over). */
+	void refresh(int fi)
+	{
+		FaceGeom &g = geom[fi];
+		g = face_geom(h.m.p, h.f[fi]);
+		if (h.w[fi] > g.a3) {
+			double r = h.w[fi] / g.a3;
+			g.a3 *= r;
+			for (double &L : g.L)
+				L *= r;
+		}
+		double imp = h.w0[fi] > 0 ? h.w[fi] / h.w0[fi] : 1;
+		g.mu = mu * imp * imp;
+	}
 
 	/* Energy of v's faces with v at p. */
 	double energy(int v, const Vec3 &p) const
@@ -442,28 +558,60 @@ struct Optimizer {
 		return n ? r / n : 0;
 	}
 
-	/* Gradient descent on the sphere with backtracking: a move is taken
-	 * only if it lowers the energy, which is +∞ for any flipped or
-	 * degenerate triangle. */
+	/* Gradient of v's energy at p (tangent part), with v moved to p. */
+	Vec3 gradient_at(int v, const Vec3 &p)
+	{
+		Vec3 keep = s[v];
+		s[v] = p;
+		Vec3 g = gradient(v);
+		s[v] = keep;
+		return g;
+	}
+
+	/* Newton's method on v's energy in the tangent plane (the Hessian from
+	 * differences of the analytic gradient), with backtracking: a move is
+	 * taken only if it lowers the energy, which is +∞ for any flipped or
+	 * degenerate triangle.  A gradient step where the Hessian is not
+	 * positive definite, or while v is below the margin (E = +∞: any valid
+	 * move is taken).  Newton's steps converge in a few iterations where
+	 * gradient descent zig-zags in the long narrow valleys of thin
+	 * triangles: at equal time the L2 stretch efficiency of man went from
+	 * 0.204 to 0.220 and its fold-overs halved. */
 	void relax(int v, int iters)
 	{
-		double E0 = energy(v, s[v]); /* +∞ while below the margin: any valid move is taken */
+		double E0 = energy(v, s[v]);
 		for (int it = 0; it < iters; it++) {
+			const Vec3 p = s[v];
 			Vec3 g = gradient(v);
 			double gl = norm(g);
 			if (!(gl > 0))
 				return;
-			Vec3 d = mul(g, -1 / gl);
-			/* first step: half the ring's size, or E/|∇E| when smaller —
-			 * the distance to the barrier of a nearly degenerate
-			 * triangle, where E grows like 1/distance */
-			double t = E0 < INF ? std::min(0.5 * scale(v), E0 / gl) : 0.5 * scale(v);
+			Vec3 t1 = mul(g, 1 / gl), t2 = cross(p, t1);
+			double sc = scale(v), hh = 1e-4 * sc;
+			Vec3 ga = gradient_at(v, unit(add(p, mul(t1, hh)))),
+			     gb = gradient_at(v, unit(add(p, mul(t2, hh))));
+			/* in the basis t1 (along the gradient), t2: g = (gl, 0) */
+			double H11 = (dot(ga, t1) - gl) / hh, H22 = dot(gb, t2) / hh,
+			       H12 = 0.5 * (dot(ga, t2) + dot(gb, t1) - gl) / hh;
+			double det = H11 * H22 - H12 * H12;
+			Vec3 d;
+			double t;
+			if (H11 > 0 && H22 > 0 && det > 0 && E0 < INF) {
+				d = add(mul(t1, -H22 * gl / det), mul(t2, H12 * gl / det));
+				t = 1;
+				double dl = norm(d);
+				if (dl > 0.5 * sc)
+					t = 0.5 * sc / dl;
+			} else {
+				d = mul(t1, -1);
+				t = E0 < INF ? std::min(0.5 * sc, E0 / gl) : 0.5 * sc;
+			}
 			bool moved = false;
 			for (int k = 0; k < 30; k++, t *= 0.5) {
-				Vec3 p = unit(add(s[v], mul(d, t)));
-				double E = energy(v, p);
+				Vec3 q = unit(add(p, mul(d, t)));
+				double E = energy(v, q);
 				if (E < E0) {
-					s[v] = p;
+					s[v] = q;
 					E0 = E;
 					moved = true;
 					break;
@@ -584,7 +732,14 @@ static void embed_base(const Hier &h, std::vector<Vec3> &s)
 static void hierarchical(const Mesh &m, const ParamOptions &o, std::vector<Vec3> &s,
                          ParamStats &st)
 {
-	Hier h(m);
+	/* The inverse term's weight: stretch and inverse stretch count alike,
+	 * times o.conformal, for a triangle mapped with the sphere's mean scale
+	 * s0² = A / 4π (energy A3 s0² each); their ratio is then o.conformal. */
+	double A = 0;
+	for (const Tri &t : m.f)
+		A += 0.5 * norm(cross(sub(m.p[t[1]], m.p[t[0]]), sub(m.p[t[2]], m.p[t[0]])));
+	double s02 = A / (4 * M_PI);
+	Hier h(m, importance(m, o.level, o.importance));
 	h.simplify(4);
 	st.base_vertices = h.nalive;
 	if (h.nalive != 4) /* cannot happen for a valid genus-0 input */
@@ -592,7 +747,7 @@ static void hierarchical(const Mesh &m, const ParamOptions &o, std::vector<Vec3>
 		                         " vertices");
 	s.assign(m.p.size(), {0, 0, 0});
 	embed_base(h, s);
-	Optimizer opt(h, s);
+	Optimizer opt(h, s, o.conformal * s02 * s02 / 8);
 	for (size_t fi = 0; fi < h.f.size(); fi++)
 		if (h.falive[fi])
 			opt.refresh((int)fi);
@@ -623,9 +778,15 @@ static void hierarchical(const Mesh &m, const ParamOptions &o, std::vector<Vec3>
 			opt.relax(w, 1);
 		if (alive.size() >= next) {
 			/* Praun–Hoppe optimize all vertices whenever the mesh has
-			 * grown by a constant factor: linear total cost per level. */
-			for (int v : alive)
-				opt.relax(v, 1);
+			 * grown by a constant factor: linear total cost.  Eight
+			 * sweeps each time: the coarse levels decide how the sphere
+			 * is shared out, which the fine sweeps cannot move far
+			 * (measured, stretch efficiency of armadillo / man: one
+			 * sweep 0.283 / 0.152, four 0.330 / 0.164 — with gradient
+			 * descent; more sweeps at the end barely move it). */
+			for (int sweep = 0; sweep < 8; sweep++)
+				for (int v : alive)
+					opt.relax(v, 1);
 			next = std::max(next * 1.3, next + 8);
 		}
 		if ((k & 511) == 0)
@@ -727,6 +888,38 @@ static void spring(const Mesh &m, const ParamOptions &o, std::vector<Vec3> &s)
 }
 
 } // namespace
+
+int param_mesh(const Mesh &m, int level, Mesh &out)
+{
+	size_t faces = std::min<size_t>(100000, 2 * ndo_triangle_count(level));
+	out = m;
+	int times = 0;
+	while (4 * out.f.size() <= faces) {
+		Mesh next;
+		next.p = out.p;
+		std::unordered_map<uint64_t, int> mid;
+		auto midpoint = [&](int a, int b) {
+			uint64_t key = (uint64_t)(uint32_t)std::min(a, b) << 32 | (uint32_t)std::max(a, b);
+			auto it = mid.find(key);
+			if (it != mid.end())
+				return it->second;
+			int k = (int)next.p.size();
+			next.p.push_back(mul(add(out.p[a], out.p[b]), 0.5));
+			mid.emplace(key, k);
+			return k;
+		};
+		for (const Tri &t : out.f) {
+			int ab = midpoint(t[0], t[1]), bc = midpoint(t[1], t[2]), ca = midpoint(t[2], t[0]);
+			next.f.push_back({t[0], ab, ca});
+			next.f.push_back({ab, t[1], bc});
+			next.f.push_back({ca, bc, t[2]});
+			next.f.push_back({ab, bc, ca});
+		}
+		out = std::move(next);
+		times++;
+	}
+	return times;
+}
 
 void parameterize(const Mesh &m, const ParamOptions &o, std::vector<Vec3> &s, ParamStats &st)
 {

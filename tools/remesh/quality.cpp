@@ -51,6 +51,16 @@ void grid_mesh(const ndo_grid *g, Mesh &out)
 		out.f[t] = {vid[tri[3 * t]], vid[tri[3 * t + 1]], vid[tri[3 * t + 2]]};
 }
 
+double bbox_diagonal(const Mesh &m)
+{
+	Vec3 lo = m.p[0], hi = m.p[0];
+	for (const Vec3 &p : m.p)
+		for (int k = 0; k < 3; k++)
+			lo[k] = std::min(lo[k], p[k]), hi[k] = std::max(hi[k], p[k]);
+	return std::sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
+	                 (hi[2] - lo[2]) * (hi[2] - lo[2]));
+}
+
 static bool to_sm(const Mesh &m, SM &sm)
 {
 	std::vector<Point> pts;
@@ -107,12 +117,7 @@ void measure_quality(const Mesh &input, const ndo_grid *g, bool distances, bool 
 {
 	Mesh out;
 	grid_mesh(g, out);
-	Vec3 lo = input.p[0], hi = input.p[0];
-	for (const Vec3 &p : input.p)
-		for (int k = 0; k < 3; k++)
-			lo[k] = std::min(lo[k], p[k]), hi[k] = std::max(hi[k], p[k]);
-	q.diag = std::sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
-	                   (hi[2] - lo[2]) * (hi[2] - lo[2]));
+	q.diag = bbox_diagonal(input);
 	/* areas, degenerate triangles, stretch efficiency of tetra → surface */
 	double amin = INFINITY, amax = 0, A3 = 0, E = 0;
 	q.degenerate = 0;
