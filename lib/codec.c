@@ -252,7 +252,19 @@ static void frame_copy(ndo_codec_frame *d, const ndo_codec_frame *s, int nodes)
 	memcpy(d->have, s->have, (size_t)nodes);
 }
 
+static int hist_insert(ndo_codec_hist *h, ndo_codec_frame *f, int take);
+
 void ndo_codec_hist_put(ndo_codec_hist *h, const ndo_codec_frame *f)
+{
+	hist_insert(h, (ndo_codec_frame *)f, 0); /* not written to */
+}
+
+int ndo_codec_hist_take(ndo_codec_hist *h, ndo_codec_frame *f)
+{
+	return hist_insert(h, f, 1);
+}
+
+static int hist_insert(ndo_codec_hist *h, ndo_codec_frame *f, int take)
 {
 	for (int k = 0; k < NDO_CODEC_HISTORY; k++)
 		if (h->f[k].step >= 0 && (h->f[k].epoch != f->epoch || h->f[k].step == f->step))
@@ -275,14 +287,21 @@ void ndo_codec_hist_put(ndo_codec_hist *h, const ndo_codec_frame *f)
 	/* the slot to fill: the oldest (last), unless f is older than all held */
 	int slot = NDO_CODEC_HISTORY - 1;
 	if (tmp[slot].step >= 0 && tmp[slot].step > f->step)
-		return; /* older than every frame held: of no use */
-	frame_copy(&tmp[slot], f, h->nodes);
+		return 0; /* older than every frame held: of no use */
+	if (take) { /* the frame's arrays into the slot, the slot's to the caller */
+		ndo_codec_frame old = tmp[slot];
+		tmp[slot] = *f;
+		f->x = old.x, f->k = old.k, f->have = old.have;
+	} else {
+		frame_copy(&tmp[slot], f, h->nodes);
+	}
 	for (int b = slot; b > 0 && tmp[b].step > tmp[b - 1].step; b--) {
 		ndo_codec_frame t = tmp[b];
 		tmp[b] = tmp[b - 1];
 		tmp[b - 1] = t;
 	}
 	memcpy(h->f, tmp, sizeof tmp);
+	return take;
 }
 
 const ndo_codec_frame *ndo_codec_hist_find(const ndo_codec_hist *h, int64_t step)
@@ -313,8 +332,9 @@ struct ndo_codec_work {
 	ZSTD_DCtx *dc;
 	uint8_t *buf, *buf2;
 	size_t cap, cap2;
-	int64_t *e;      /* nodes: this frame's extrapolation errors */
-	uint8_t *has_e;
+	int64_t *lin;    /* nodes: one component's predictions (fast path) */
+	int32_t *cur;    /* nodes: one component's codes */
+	uint64_t *u;     /* 3 x nodes: the residuals, zigzag-coded */
 	size_t ecap;
 };
 
@@ -338,7 +358,7 @@ void ndo_codec_work_destroy(ndo_codec_work *w)
 		return;
 	ZSTD_freeCCtx(w->cc);
 	ZSTD_freeDCtx(w->dc);
-	free(w->buf), free(w->buf2), free(w->e), free(w->has_e);
+	free(w->buf), free(w->buf2), free(w->lin), free(w->cur), free(w->u);
 	free(w);
 }
 
@@ -358,14 +378,18 @@ static int work_nodes(ndo_codec_work *w, size_t nodes)
 {
 	if (nodes <= w->ecap)
 		return 0;
-	int64_t *e = realloc(w->e, nodes * sizeof *e);
-	if (!e)
+	int64_t *lin = realloc(w->lin, nodes * sizeof *lin);
+	if (!lin)
 		return -1;
-	w->e = e;
-	uint8_t *h = realloc(w->has_e, nodes);
-	if (!h)
+	w->lin = lin;
+	int32_t *cur = realloc(w->cur, nodes * sizeof *cur);
+	if (!cur)
 		return -1;
-	w->has_e = h;
+	w->cur = cur;
+	uint64_t *u = realloc(w->u, 3 * nodes * sizeof *u);
+	if (!u)
+		return -1;
+	w->u = u;
 	w->ecap = nodes;
 	return 0;
 }
@@ -391,6 +415,26 @@ static void put(wbuf *b, const void *src, size_t n)
 	}
 	memcpy(b->p + b->n, src, n);
 	b->n += n;
+}
+
+/* Room for n more bytes at b->p + b->n (0, or −1: out of memory). */
+static int reserve(wbuf *b, size_t n)
+{
+	if (b->fail)
+		return -1;
+	if (b->n + n <= b->cap)
+		return 0;
+	size_t cap = b->cap ? b->cap : 4096;
+	while (cap < b->n + n)
+		cap *= 2;
+	uint8_t *q = realloc(b->p, cap);
+	if (!q) {
+		b->fail = 1;
+		return -1;
+	}
+	b->p = q;
+	b->cap = cap;
+	return 0;
 }
 
 static void put_byte(wbuf *b, uint8_t v)
@@ -460,22 +504,33 @@ static uint64_t zigzag(int64_t v) { return ((uint64_t)v << 1) ^ (uint64_t)(v >> 
 static int64_t unzigzag(uint64_t u) { return (int64_t)(u >> 1) ^ -(int64_t)(u & 1); }
 
 /* ---- codes and prediction ------------------------------------------------------- */
-static double qstep(const ndo_codec_params *p, int c) { return ldexp(p->ext[c], -p->bits); }
+/* The quantization step per axis, ext / 2^bits (exact: a power of two's
+ * scaling), computed once for a set of parameters. */
+typedef struct quant { double lo[3], q[3]; } quant;
+
+static quant quant_of(const ndo_codec_params *p)
+{
+	quant z;
+	for (int c = 0; c < 3; c++)
+		z.lo[c] = p->lo[c], z.q[c] = ldexp(p->ext[c], -p->bits);
+	return z;
+}
 
 /* The code of coordinate x on axis c, 0 when it is out of range (*ok = 0). */
-static int32_t code_of(const ndo_codec_params *p, int c, double x, int *ok)
+static inline int32_t code_of(const quant *z, int c, double x, int *ok)
 {
-	double k = floor((x - p->lo[c]) / qstep(p, c) + 0.5);
-	if (!(k > -CODE_MAX && k < CODE_MAX)) {
+	double t = (x - z->lo[c]) / z->q[c] + 0.5;
+	if (!(t >= -CODE_MAX + 1 && t < CODE_MAX)) { /* floor(t) in (−CODE_MAX, CODE_MAX) */
 		*ok = 0;
 		return 0;
 	}
-	return (int32_t)k;
+	int32_t k = (int32_t)t; /* floor(t), without a call to libm */
+	return k - ((double)k > t);
 }
 
-static double value_of(const ndo_codec_params *p, int c, int64_t k)
+static inline double value_of(const quant *z, int c, int64_t k)
 {
-	return p->lo[c] + (double)k * qstep(p, c);
+	return z->lo[c] + (double)k * z->q[c];
 }
 
 /* a/b rounded half away from zero (b > 0) */
@@ -486,14 +541,14 @@ static int64_t rdiv(int64_t a, int64_t b)
 	return a >= 0 ? (a + b / 2) / b : -((-a + b / 2) / b);
 }
 
-static int64_t med3(int64_t a, int64_t b, int64_t c)
+/* LOCO-I's median predictor of left a, up b, upper-left c: min(a, b)
+ * when c ≥ max(a, b), max(a, b) when c ≤ min(a, b), else a + b − c.
+ * Without branches: the data decide, and would mispredict them. */
+static inline int64_t med3(int64_t a, int64_t b, int64_t c)
 {
 	int64_t mx = a > b ? a : b, mn = a < b ? a : b;
-	if (c >= mx)
-		return mn;
-	if (c <= mn)
-		return mx;
-	return a + b - c;
+	int64_t r = c <= mn ? mx : a + b - c;
+	return c >= mx ? mn : r;
 }
 
 /* What the predictor works with for one frame (ndo/codec.h, "predict"). */
@@ -503,8 +558,6 @@ typedef struct pctx {
 	int cols, nodes;
 	const uint8_t *cls;          /* this frame's classes */
 	const int32_t *cur;          /* this frame's codes so far (one component) */
-	int64_t *e;                  /* this frame's extrapolation errors */
-	uint8_t *has_e;
 	int cons, cons3;             /* r0, r1 at step−1, step−2; and r2 at step−3 */
 } pctx;
 
@@ -534,47 +587,26 @@ static int extrapolate(const pctx *c, int n, int d, int64_t *lin)
 
 static int carried(const pctx *c, int m) { return c->cls[m] != NDO_NODE_SKIP; }
 
-/* The prediction of node n's code on component d (node n is carried; the
- * nodes before it in raster order are decoded in c->cur, their errors in
- * c->e).  Records n's own extrapolation (for its neighbours) in *lin_out. */
-static int64_t predict(const pctx *c, int n, int d, int64_t *lin_out, int *has_lin)
+/* rdiv(a, 2): halves rounded away from zero (C division truncates) */
+static inline int64_t half(int64_t a) { return (a + 1 - 2 * (a < 0)) / 2; }
+
+/* The prediction of node n's code on component d (node n is carried; in a
+ * keyframe, the nodes before it in raster order are decoded in c->cur). */
+static int64_t predict(const pctx *c, int n, int d)
 {
-	int i = n % c->cols;
-	int left = i > 0 ? n - 1 : -1, up = n >= c->cols ? n - c->cols : -1;
-	int ul = left >= 0 && up >= 0 ? up - 1 : -1;
 	int64_t lin;
-	*has_lin = 0;
 	if (c->r[0] && extrapolate(c, n, d, &lin)) {
-		*has_lin = 1;
-		*lin_out = lin;
-		int64_t sum = 0;
-		int terms = 0;
-		if (c->cons3 && c->r[2]->have[n]) { /* last step's second difference */
-			sum += c->r[0]->k[3 * n + d] - 2 * (int64_t)c->r[1]->k[3 * n + d] +
-			       c->r[2]->k[3 * n + d];
-			terms++;
-		}
-		if (c->cons) { /* the neighbours' errors this step */
-			int a = left >= 0 && c->has_e[left], b = up >= 0 && c->has_e[up],
-			    u = ul >= 0 && c->has_e[ul];
-			int64_t s;
-			if (a && b && u)
-				s = med3(c->e[left], c->e[up], c->e[ul]);
-			else if (a && b)
-				s = rdiv(c->e[left] + c->e[up], 2);
-			else if (a || b)
-				s = a ? c->e[left] : c->e[up];
-			else
-				goto none;
-			sum += s;
-			terms++;
-		}
-	none:
-		return lin + (terms == 2 ? rdiv(sum, 2) : sum);
+		if (c->cons3 && c->r[2]->have[n]) /* half last step's second difference */
+			lin += half(c->r[0]->k[3 * n + d] - 2 * (int64_t)c->r[1]->k[3 * n + d] +
+			            c->r[2]->k[3 * n + d]);
+		return lin;
 	}
 	if (c->r[0] && c->r[0]->have[n])
 		return c->r[0]->k[3 * n + d];
 	/* intra: from this frame's neighbours */
+	int i = n % c->cols;
+	int left = i > 0 ? n - 1 : -1, up = n >= c->cols ? n - c->cols : -1;
+	int ul = left >= 0 && up >= 0 ? up - 1 : -1;
 	int a = left >= 0 && carried(c, left), b = up >= 0 && carried(c, up),
 	    u = ul >= 0 && carried(c, ul);
 	if (a && b && u)
@@ -585,6 +617,165 @@ static int64_t predict(const pctx *c, int n, int d, int64_t *lin_out, int *has_l
 		return c->cur[left];
 	if (b)
 		return c->cur[up];
+	return 0;
+}
+
+/* ---- the predictor's common case, fast ------------------------------------------ */
+/* Set (tests only): every frame through the general predictor above, so
+ * that the fast one below can be checked against it byte for byte. */
+int ndo__codec_general_only;
+
+/* Whether a frame is in a common case, where predict() reduces to the
+ * loops of fast_component() — the same integers without its branches:
+ * every node carried, and the references predict() uses (r0; r1; r2 when
+ * the last three steps are consecutive) holding every node.  Then every
+ * node is predicted the same way (from its neighbours in a keyframe; r0's
+ * code with r0 alone; else extrapolated) and its neighbours' values or
+ * errors exist wherever the neighbours do. */
+static int uniform(const pctx *c)
+{
+	if (ndo__codec_general_only)
+		return 0;
+	const uint8_t *h0 = c->r[0] ? c->r[0]->have : NULL, *h1 = c->r[1] ? c->r[1]->have : h0,
+	              *h2 = c->cons3 ? c->r[2]->have : h1;
+	int all = 1;
+	if (!h0) {
+		for (int n = 0; n < c->nodes; n++)
+			all &= c->cls[n] != NDO_NODE_SKIP;
+	} else {
+		for (int n = 0; n < c->nodes; n++)
+			all &= (c->cls[n] != NDO_NODE_SKIP) & h0[n] & h1[n] & h2[n];
+	}
+	return all;
+}
+
+/* One component of a uniform frame (see uniform()), the same integers as
+ * predict().  Encoder (dec = 0): cur holds every code; the LOSSY nodes'
+ * residuals, zigzag-coded, go to u[*m], u[*m + 1], ...  Decoder (dec = 1):
+ * cur holds the EXACT nodes' codes; the LOSSY ones are made from u[*m],
+ * ...; −1 when one is out of range.  lin, e: nodes of scratch. */
+static int fast_component(const pctx *c, int d, int dec, int32_t *cur, int64_t *lin,
+                          uint64_t *u, size_t *m)
+{
+	const int nodes = c->nodes, cols = c->cols, rows = nodes / cols;
+	const uint8_t *cls = c->cls;
+	size_t mm = *m;
+	if (!c->r[1]) { /* a keyframe: from the neighbours; r0 alone: its codes */
+		const int32_t *k0 = c->r[0] ? c->r[0]->k + d : NULL;
+		for (int n = 0, j = 0; j < rows; j++)
+			for (int i = 0; i < cols; i++, n++) {
+				int64_t pr;
+				if (k0)
+					pr = k0[3 * n];
+				else if (i > 0 && j > 0)
+					pr = med3(cur[n - 1], cur[n - cols], cur[n - cols - 1]);
+				else if (i > 0)
+					pr = cur[n - 1];
+				else if (j > 0)
+					pr = cur[n - cols];
+				else
+					pr = 0;
+				if (cls[n] != NDO_NODE_LOSSY)
+					continue;
+				if (!dec) {
+					u[mm++] = zigzag(cur[n] - pr);
+					continue;
+				}
+				int64_t k = pr + unzigzag(u[mm++]);
+				if (k <= -CODE_MAX || k >= CODE_MAX)
+					return -1;
+				cur[n] = (int32_t)k;
+			}
+		*m = mm;
+		return 0;
+	}
+	const int32_t *k0 = c->r[0]->k + d, *k1 = c->r[1]->k + d,
+	              *k2 = c->cons3 ? c->r[2]->k + d : NULL;
+	int64_t *pr = lin;
+	if (k2) { /* consecutive steps: 2k0 − k1 + half(k0 − 2k1 + k2) */
+		for (int n = 0; n < nodes; n++) {
+			int64_t a = k0[3 * n], b = k1[3 * n];
+			pr[n] = 2 * a - b + half(a - 2 * b + k2[3 * n]);
+		}
+	} else if (c->cons) {
+		for (int n = 0; n < nodes; n++)
+			pr[n] = 2 * (int64_t)k0[3 * n] - k1[3 * n];
+	} else {
+		int64_t g = c->step - c->r[0]->step, gap = c->r[0]->step - c->r[1]->step;
+		for (int n = 0; n < nodes; n++)
+			pr[n] = k0[3 * n] + rdiv(((int64_t)k0[3 * n] - k1[3 * n]) * g, gap);
+	}
+	if (!dec) {
+		for (int n = 0; n < nodes; n++)
+			if (cls[n] == NDO_NODE_LOSSY)
+				u[mm++] = zigzag(cur[n] - pr[n]);
+	} else {
+		for (int n = 0; n < nodes; n++)
+			if (cls[n] == NDO_NODE_LOSSY) {
+				int64_t k = pr[n] + unzigzag(u[mm++]);
+				if (k <= -CODE_MAX || k >= CODE_MAX)
+					return -1;
+				cur[n] = (int32_t)k;
+			}
+	}
+	*m = mm;
+	return 0;
+}
+
+/* The residuals u[0..m) (zigzag codes): 2-bit symbols, four to a byte,
+ * first in the low bits — u itself below 3, 3 for an escape —, then each
+ * escape's u − 3 as a varint. */
+static void put_residuals(wbuf *b, const uint64_t *u, size_t m)
+{
+	size_t esc = 0;
+	for (size_t k = 0; k < m; k++)
+		esc += u[k] >= 3;
+	if (reserve(b, (m + 3) / 4 + 10 * esc))
+		return;
+	uint8_t *o = b->p + b->n;
+	size_t k = 0;
+	for (; k + 4 <= m; k += 4) {
+		unsigned s0 = u[k] < 3 ? (unsigned)u[k] : 3, s1 = u[k + 1] < 3 ? (unsigned)u[k + 1] : 3,
+		         s2 = u[k + 2] < 3 ? (unsigned)u[k + 2] : 3,
+		         s3 = u[k + 3] < 3 ? (unsigned)u[k + 3] : 3;
+		*o++ = (uint8_t)(s0 | s1 << 2 | s2 << 4 | s3 << 6);
+	}
+	if (k < m) {
+		unsigned byte = 0;
+		for (int sh = 0; k < m; k++, sh += 2)
+			byte |= (u[k] < 3 ? (unsigned)u[k] : 3) << sh;
+		*o++ = (uint8_t)byte;
+	}
+	for (k = 0; k < m; k++)
+		if (u[k] >= 3) {
+			uint64_t v = u[k] - 3;
+			for (; v > 127; v >>= 7)
+				*o++ = (uint8_t)(v | 128);
+			*o++ = (uint8_t)v;
+		}
+	b->n = (size_t)(o - b->p);
+}
+
+/* The m residuals back (−1: the bytes end early, or a value beyond
+ * 2^40, more than any code difference). */
+static int get_residuals(rbuf *r, uint64_t *u, size_t m)
+{
+	size_t nb = (m + 3) / 4;
+	if (r->pos > r->n || r->n - r->pos < nb)
+		return -1;
+	const uint8_t *in = r->p + r->pos;
+	for (size_t k = 0; k < m; k++)
+		u[k] = (in[k >> 2] >> (2 * (k & 3))) & 3;
+	if (m & 3 && in[nb - 1] >> (2 * (m & 3)))
+		return -1; /* the last byte's unused bits are zero */
+	r->pos += nb;
+	for (size_t k = 0; k < m; k++)
+		if (u[k] == 3) {
+			uint64_t v = get_varint(r);
+			if (r->bad || v > ((uint64_t)1 << 40))
+				return -1;
+			u[k] = v + 3;
+		}
 	return 0;
 }
 
@@ -630,6 +821,7 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 	if (own_w && !(w = ndo_codec_work_create()))
 		return ndo__fail(NDO_ENOMEM, "out of memory");
 	const int nodes = in->rows * in->cols, enc = p->encoding;
+	const quant z = quant_of(p);
 	int rc = 0, ok = 1, allzero = 1, nexact = 0;
 	*data = NULL;
 	*len = 0;
@@ -684,14 +876,26 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 					recon->x[3 * n + d] = f;
 				}
 	} else {
-		/* codes of every carried node */
-		for (int n = 0; n < nodes; n++)
-			if (recon->have[n])
-				for (int d = 0; d < 3; d++) {
-					recon->k[3 * n + d] = code_of(p, d, in->x[3 * n + d], &ok);
-					if (in->cls[n] == NDO_NODE_LOSSY)
-						recon->x[3 * n + d] = value_of(p, d, recon->k[3 * n + d]);
-				}
+		/* codes of every carried node (the others' are not used) and the
+		 * LOSSY nodes' values: code_of() and value_of() without branches */
+		int out = 0;
+		for (int n = 0; n < nodes; n++) {
+			const double *xn = in->x + 3 * n;
+			int lossy = in->cls[n] == NDO_NODE_LOSSY;
+			for (int d = 0; d < 3; d++) {
+				double t = (xn[d] - z.lo[d]) / z.q[d] + 0.5;
+				int inr = t >= -CODE_MAX + 1 && t < CODE_MAX;
+				out |= (!inr) & recon->have[n];
+				t = inr ? t : 0;
+				int32_t k = (int32_t)t;
+				k -= (double)k > t;
+				recon->k[3 * n + d] = k;
+				double val = z.lo[d] + (double)k * z.q[d];
+				recon->x[3 * n + d] = lossy ? val : xn[d];
+			}
+		}
+		if (out)
+			ok = 0;
 	}
 	if (!ok) {
 		rc = ndo__fail(NDO_ERANGE, "a position out of the codes' range");
@@ -736,42 +940,28 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 				put_byte(&body, (uint8_t)acc);
 		}
 	} else if (enc == NDO_ENC_PREDICT) {
-		pctx c = {.cols = in->cols, .nodes = nodes, .cls = in->cls, .e = w->e, .has_e = w->has_e};
+		pctx c = {.cols = in->cols, .nodes = nodes, .cls = in->cls};
 		pctx_init(&c, r[0], r[1], r[2], in->step);
-		int32_t *cur = malloc((size_t)nodes * sizeof *cur);
-		if (!cur) {
-			rc = ndo__fail(NDO_ENOMEM, "out of memory");
-			goto done;
-		}
+		int32_t *cur = w->cur;
 		c.cur = cur;
+		size_t m = 0;
+		int fast = uniform(&c);
 		for (int d = 0; d < 3; d++) {
 			for (int n = 0; n < nodes; n++)
 				cur[n] = recon->k[3 * n + d];
-			for (int n = 0; n < nodes; n++) {
-				w->has_e[n] = 0;
-				if (!recon->have[n])
-					continue;
-				int64_t lin;
-				int has;
-				int64_t pr = predict(&c, n, d, &lin, &has);
-				if (has) {
-					w->e[n] = cur[n] - lin;
-					w->has_e[n] = 1;
-				}
-				if (in->cls[n] != NDO_NODE_LOSSY)
-					continue;
-				int64_t res = cur[n] - pr;
-				allzero &= res == 0;
-				uint64_t u = zigzag(res);
-				if (u < 255) {
-					put_byte(&body, (uint8_t)u);
-				} else {
-					put_byte(&body, 255);
-					put_varint(&body, u - 255);
-				}
+			if (fast) {
+				fast_component(&c, d, 0, cur, w->lin, w->u, &m);
+				continue;
 			}
+			for (int n = 0; n < nodes; n++)
+				if (in->cls[n] == NDO_NODE_LOSSY)
+					w->u[m++] = zigzag(cur[n] - predict(&c, n, d));
 		}
-		free(cur);
+		uint64_t any = 0;
+		for (size_t k = 0; k < m; k++)
+			any |= w->u[k];
+		allzero = any == 0;
+		put_residuals(&body, w->u, m);
 	}
 	if (body.fail) {
 		rc = ndo__fail(NDO_ENOMEM, "out of memory");
@@ -822,6 +1012,7 @@ static int decode_lossy(const ndo_codec_params *p, ndo_codec_work *w, rbuf *r, u
                         int64_t step, ndo_codec_frame *recon)
 {
 	const int nodes = rows * cols, enc = p->encoding;
+	const quant z = quant_of(p);
 	if (enc == NDO_ENC_FLOAT32) {
 		for (int n = 0; n < nodes; n++)
 			if (cls[n] == NDO_NODE_LOSSY)
@@ -870,59 +1061,45 @@ static int decode_lossy(const ndo_codec_params *p, ndo_codec_work *w, rbuf *r, u
 						nb -= width;
 					}
 					recon->k[3 * n + d] = (int32_t)k;
-					recon->x[3 * n + d] = value_of(p, d, k);
+					recon->x[3 * n + d] = value_of(&z, d, k);
 				}
 		return 0;
 	}
 	/* predict */
-	pctx c = {.cols = cols, .nodes = nodes, .cls = cls, .e = w->e, .has_e = w->has_e};
+	pctx c = {.cols = cols, .nodes = nodes, .cls = cls};
 	pctx_init(&c, ref[0], ref[1], ref[2], step);
-	int32_t *cur = malloc((size_t)nodes * sizeof *cur);
-	if (!cur)
-		return -2;
+	int32_t *cur = w->cur;
 	c.cur = cur;
-	int bad = 0;
-	for (int d = 0; d < 3 && !bad; d++) {
+	size_t m = 0, lossy = 0;
+	for (int n = 0; n < nodes; n++)
+		lossy += cls[n] == NDO_NODE_LOSSY;
+	if (get_residuals(r, w->u, 3 * lossy))
+		return -1;
+	int fast = uniform(&c);
+	for (int d = 0; d < 3; d++) {
 		for (int n = 0; n < nodes; n++)
 			cur[n] = recon->k[3 * n + d]; /* exact nodes' codes */
-		for (int n = 0; n < nodes && !bad; n++) {
-			w->has_e[n] = 0;
-			if (cls[n] == NDO_NODE_SKIP)
-				continue;
-			int64_t lin;
-			int has;
-			int64_t pr = predict(&c, n, d, &lin, &has);
-			if (cls[n] == NDO_NODE_LOSSY) {
-				if (r->pos >= r->n) {
-					bad = 1;
-					break;
+		if (fast) {
+			if (fast_component(&c, d, 1, cur, w->lin, w->u, &m))
+				return -1;
+		} else {
+			for (int n = 0; n < nodes; n++)
+				if (cls[n] == NDO_NODE_LOSSY) {
+					int64_t k = predict(&c, n, d) + unzigzag(w->u[m++]);
+					if (k <= -CODE_MAX || k >= CODE_MAX)
+						return -1;
+					cur[n] = (int32_t)k;
 				}
-				uint64_t u = r->p[r->pos++];
-				if (u == 255) {
-					u = get_varint(r);
-					if (r->bad || u > ((uint64_t)1 << 40)) {
-						bad = 1;
-						break;
-					}
-					u += 255;
-				}
-				int64_t k = pr + unzigzag(u);
-				if (k <= -CODE_MAX || k >= CODE_MAX) {
-					bad = 1;
-					break;
-				}
-				cur[n] = (int32_t)k;
-				recon->k[3 * n + d] = (int32_t)k;
-				recon->x[3 * n + d] = value_of(p, d, k);
-			}
-			if (has) {
-				w->e[n] = cur[n] - lin;
-				w->has_e[n] = 1;
-			}
 		}
+		const double lo = z.lo[d], q = z.q[d];
+		for (int n = 0; n < nodes; n++)
+			if (cls[n] == NDO_NODE_LOSSY) {
+				recon->k[3 * n + d] = cur[n];
+				recon->x[3 * n + d] = lo + (double)cur[n] * q;
+			}
 	}
-	free(cur);
-	return bad ? -1 : 0;
+	return 0;
+
 }
 
 ndo_drop ndo_codec_decode(const ndo_codec_params *p, ndo_codec_work *w,
@@ -931,6 +1108,7 @@ ndo_drop ndo_codec_decode(const ndo_codec_params *p, ndo_codec_work *w,
                           int64_t base_step, double *x, double *v, ndo_codec_frame *recon)
 {
 	const int nodes = rows * cols, enc = p->encoding;
+	const quant z = quant_of(p);
 	if (enc <= NDO_ENC_RAW || enc > NDO_ENC_PREDICT || nodes <= 0)
 		return NDO_DROP_ENCODING;
 	if (!data || len < 1)
@@ -1013,7 +1191,7 @@ ndo_drop ndo_codec_decode(const ndo_codec_params *p, ndo_codec_work *w,
 		for (int d = 0; d < 3; d++) {
 			ok &= isfinite(x[3 * n + d]) && isfinite(v[3 * n + d]);
 			if (enc != NDO_ENC_FLOAT32)
-				recon->k[3 * n + d] = code_of(p, d, x[3 * n + d], &ok);
+				recon->k[3 * n + d] = code_of(&z, d, x[3 * n + d], &ok);
 		}
 		if (b.bad || !ok)
 			break;
@@ -1033,15 +1211,16 @@ ndo_drop ndo_codec_decode(const ndo_codec_params *p, ndo_codec_work *w,
 	}
 	/* positions out; velocities of LOSSY nodes from the previous frame */
 	const ndo_codec_frame *prev = before(h, step, epoch);
-	double dtp = prev ? time - prev->time : 0;
+	double dtp = prev ? time - prev->time : 0, inv = dtp > 0 ? 1 / dtp : 0;
 	for (int n = 0; n < nodes; n++) {
 		if (cls[n] == NDO_NODE_EXACT)
 			continue;
 		int lossy = cls[n] == NDO_NODE_LOSSY;
 		int est = lossy && prev && prev->have[n] && dtp > 0;
+		const double *px = prev ? prev->x + 3 * n : recon->x + 3 * n;
 		for (int d = 0; d < 3; d++) {
 			x[3 * n + d] = lossy ? recon->x[3 * n + d] : NAN;
-			v[3 * n + d] = est ? (recon->x[3 * n + d] - prev->x[3 * n + d]) / dtp : NAN;
+			v[3 * n + d] = est ? (recon->x[3 * n + d] - px[d]) * inv : NAN;
 		}
 	}
 done:
@@ -1057,6 +1236,7 @@ int ndo_codec_implied(const ndo_codec_params *p, const ndo_codec_hist *h, int ro
                       int64_t step, double time, double *x, ndo_codec_frame *recon)
 {
 	const int nodes = rows * cols;
+	const quant z = quant_of(p);
 	const ndo_codec_frame *r[3] = {0};
 	for (int k = 0, m = 0; h && k < NDO_CODEC_HISTORY && m < 3; k++)
 		if (h->f[k].step >= 0 && h->f[k].step < step && step - h->f[k].step <= NDO_CODEC_MAX_GAP)
@@ -1064,41 +1244,32 @@ int ndo_codec_implied(const ndo_codec_params *p, const ndo_codec_hist *h, int ro
 	if (!r[0] || p->encoding != NDO_ENC_PREDICT)
 		return ndo__fail(NDO_EINVAL, "no frame to predict step %lld from", (long long)step);
 	uint8_t *cls = malloc((size_t)nodes);
-	int64_t *e = malloc((size_t)nodes * sizeof *e);
-	uint8_t *has_e = malloc((size_t)nodes);
 	int32_t *cur = malloc((size_t)nodes * sizeof *cur);
-	if (!cls || !e || !has_e || !cur) {
-		free(cls), free(e), free(has_e), free(cur);
+	if (!cls || !cur) {
+		free(cls), free(cur);
 		return ndo__fail(NDO_ENOMEM, "out of memory");
 	}
 	for (int n = 0; n < nodes; n++)
 		cls[n] = r[0]->have[n] ? NDO_NODE_LOSSY : NDO_NODE_SKIP;
-	pctx c = {.cols = cols, .nodes = nodes, .cls = cls, .e = e, .has_e = has_e, .cur = cur};
+	pctx c = {.cols = cols, .nodes = nodes, .cls = cls, .cur = cur};
 	pctx_init(&c, r[0], r[1], r[2], step);
 	recon->step = step;
 	recon->time = time;
 	recon->epoch = r[0]->epoch;
 	for (int d = 0; d < 3; d++)
 		for (int n = 0; n < nodes; n++) {
-			has_e[n] = 0;
 			recon->have[n] = cls[n] != NDO_NODE_SKIP;
 			if (cls[n] == NDO_NODE_SKIP) {
 				x[3 * n + d] = NAN;
 				continue;
 			}
-			int64_t lin;
-			int has;
-			int64_t k = predict(&c, n, d, &lin, &has);
+			int64_t k = predict(&c, n, d);
 			if (k <= -CODE_MAX || k >= CODE_MAX)
 				k = r[0]->k[3 * n + d];
 			cur[n] = (int32_t)k;
-			if (has) {
-				e[n] = k - lin;
-				has_e[n] = 1;
-			}
 			recon->k[3 * n + d] = (int32_t)k;
-			x[3 * n + d] = recon->x[3 * n + d] = value_of(p, d, k);
+			x[3 * n + d] = recon->x[3 * n + d] = value_of(&z, d, k);
 		}
-	free(cls), free(e), free(has_e), free(cur);
+	free(cls), free(cur);
 	return 0;
 }
