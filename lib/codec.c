@@ -332,7 +332,6 @@ struct ndo_codec_work {
 	ZSTD_DCtx *dc;
 	uint8_t *buf, *buf2;
 	size_t cap, cap2;
-	int64_t *lin;    /* nodes: one component's predictions (fast path) */
 	int32_t *cur;    /* nodes: one component's codes */
 	uint64_t *u;     /* 3 x nodes: the residuals, zigzag-coded */
 	size_t ecap;
@@ -358,7 +357,7 @@ void ndo_codec_work_destroy(ndo_codec_work *w)
 		return;
 	ZSTD_freeCCtx(w->cc);
 	ZSTD_freeDCtx(w->dc);
-	free(w->buf), free(w->buf2), free(w->lin), free(w->cur), free(w->u);
+	free(w->buf), free(w->buf2), free(w->cur), free(w->u);
 	free(w);
 }
 
@@ -378,10 +377,6 @@ static int work_nodes(ndo_codec_work *w, size_t nodes)
 {
 	if (nodes <= w->ecap)
 		return 0;
-	int64_t *lin = realloc(w->lin, nodes * sizeof *lin);
-	if (!lin)
-		return -1;
-	w->lin = lin;
 	int32_t *cur = realloc(w->cur, nodes * sizeof *cur);
 	if (!cur)
 		return -1;
@@ -649,77 +644,92 @@ static int uniform(const pctx *c)
 	return all;
 }
 
-/* One component of a uniform frame (see uniform()), the same integers as
- * predict().  Encoder (dec = 0): cur holds every code; the LOSSY nodes'
- * residuals, zigzag-coded, go to u[*m], u[*m + 1], ...  Decoder (dec = 1):
- * cur holds the EXACT nodes' codes; the LOSSY ones are made from u[*m],
- * ...; −1 when one is out of range.  lin, e: nodes of scratch. */
-static int fast_component(const pctx *c, int d, int dec, int32_t *cur, int64_t *lin,
-                          uint64_t *u, size_t *m)
+/* The prediction of node n's component d in a uniform frame (see
+ * uniform(); predict() without its checks): k holds this frame's codes
+ * of the nodes before n in raster order (a keyframe's references). */
+static inline int64_t fast_predict(const pctx *c, const int32_t *k, int n, int i, int j, int d)
 {
-	const int nodes = c->nodes, cols = c->cols, rows = nodes / cols;
+	const int cols = c->cols, m = 3 * n + d;
+	if (!c->r[0]) {
+		if (i > 0 && j > 0)
+			return med3(k[m - 3], k[m - 3 * cols], k[m - 3 * cols - 3]);
+		return i > 0 ? k[m - 3] : j > 0 ? k[m - 3 * cols] : 0;
+	}
+	int64_t a = c->r[0]->k[m];
+	if (!c->r[1])
+		return a;
+	int64_t b = c->r[1]->k[m];
+	if (c->cons3)
+		return 2 * a - b + half(a - 2 * b + c->r[2]->k[m]);
+	if (c->cons)
+		return 2 * a - b;
+	return a + rdiv((a - b) * (c->step - c->r[0]->step), c->r[0]->step - c->r[1]->step);
+}
+
+/* Encoder, a uniform frame, in one pass over the nodes: codes (as
+ * code_of(), without branches) into recon->k, the LOSSY nodes' values into
+ * recon->x (the others' positions as they are), the LOSSY residuals,
+ * zigzag-coded, into u[d × lossy + the node's rank].  Returns −1 when a
+ * code is out of range, else 0; *any: the residuals or'ed together. */
+static int fast_encode(const pctx *c, const quant *z, const double *x, ndo_codec_frame *recon,
+                       uint64_t *u, size_t lossy, uint64_t *any)
+{
+	const int cols = c->cols, rows = c->nodes / cols;
 	const uint8_t *cls = c->cls;
-	size_t mm = *m;
-	if (!c->r[1]) { /* a keyframe: from the neighbours; r0 alone: its codes */
-		const int32_t *k0 = c->r[0] ? c->r[0]->k + d : NULL;
-		for (int n = 0, j = 0; j < rows; j++)
-			for (int i = 0; i < cols; i++, n++) {
-				int64_t pr;
-				if (k0)
-					pr = k0[3 * n];
-				else if (i > 0 && j > 0)
-					pr = med3(cur[n - 1], cur[n - cols], cur[n - cols - 1]);
-				else if (i > 0)
-					pr = cur[n - 1];
-				else if (j > 0)
-					pr = cur[n - cols];
-				else
-					pr = 0;
-				if (cls[n] != NDO_NODE_LOSSY)
-					continue;
-				if (!dec) {
-					u[mm++] = zigzag(cur[n] - pr);
-					continue;
-				}
-				int64_t k = pr + unzigzag(u[mm++]);
-				if (k <= -CODE_MAX || k >= CODE_MAX)
-					return -1;
-				cur[n] = (int32_t)k;
+	int32_t *k = recon->k;
+	int out = 0;
+	uint64_t acc = 0;
+	size_t li = 0;
+	for (int j = 0, n = 0; j < rows; j++)
+		for (int i = 0; i < cols; i++, n++) {
+			const int ls = cls[n] == NDO_NODE_LOSSY;
+			for (int d = 0; d < 3; d++) {
+				const double xv = x[3 * n + d];
+				double t = (xv - z->lo[d]) / z->q[d] + 0.5;
+				int inr = t >= -CODE_MAX + 1 && t < CODE_MAX;
+				out |= !inr;
+				t = inr ? t : 0;
+				int32_t kk = (int32_t)t;
+				kk -= (double)kk > t;
+				k[3 * n + d] = kk;
+				recon->x[3 * n + d] = ls ? z->lo[d] + (double)kk * z->q[d] : xv;
+				uint64_t uu = zigzag(kk - fast_predict(c, k, n, i, j, d));
+				if (ls)
+					u[d * lossy + li] = uu;
+				acc |= ls ? uu : 0;
 			}
-		*m = mm;
-		return 0;
-	}
-	const int32_t *k0 = c->r[0]->k + d, *k1 = c->r[1]->k + d,
-	              *k2 = c->cons3 ? c->r[2]->k + d : NULL;
-	int64_t *pr = lin;
-	if (k2) { /* consecutive steps: 2k0 − k1 + half(k0 − 2k1 + k2) */
-		for (int n = 0; n < nodes; n++) {
-			int64_t a = k0[3 * n], b = k1[3 * n];
-			pr[n] = 2 * a - b + half(a - 2 * b + k2[3 * n]);
+			li += (size_t)ls;
 		}
-	} else if (c->cons) {
-		for (int n = 0; n < nodes; n++)
-			pr[n] = 2 * (int64_t)k0[3 * n] - k1[3 * n];
-	} else {
-		int64_t g = c->step - c->r[0]->step, gap = c->r[0]->step - c->r[1]->step;
-		for (int n = 0; n < nodes; n++)
-			pr[n] = k0[3 * n] + rdiv(((int64_t)k0[3 * n] - k1[3 * n]) * g, gap);
-	}
-	if (!dec) {
-		for (int n = 0; n < nodes; n++)
-			if (cls[n] == NDO_NODE_LOSSY)
-				u[mm++] = zigzag(cur[n] - pr[n]);
-	} else {
-		for (int n = 0; n < nodes; n++)
-			if (cls[n] == NDO_NODE_LOSSY) {
-				int64_t k = pr[n] + unzigzag(u[mm++]);
-				if (k <= -CODE_MAX || k >= CODE_MAX)
-					return -1;
-				cur[n] = (int32_t)k;
+	*any = acc;
+	return out ? -1 : 0;
+}
+
+/* Decoder, a uniform frame: the LOSSY nodes' codes and values from the
+ * residuals (as fast_encode() lays them out); recon->k holds the EXACT
+ * nodes' codes.  −1 when a code comes out of range. */
+static int fast_decode(const pctx *c, const quant *z, const uint64_t *u, size_t lossy,
+                       ndo_codec_frame *recon)
+{
+	const int cols = c->cols, rows = c->nodes / cols;
+	const uint8_t *cls = c->cls;
+	int32_t *k = recon->k;
+	size_t li = 0;
+	int bad = 0;
+	for (int j = 0, n = 0; j < rows; j++)
+		for (int i = 0; i < cols; i++, n++) {
+			if (cls[n] != NDO_NODE_LOSSY)
+				continue;
+			for (int d = 0; d < 3; d++) {
+				int64_t kk = fast_predict(c, k, n, i, j, d) + unzigzag(u[d * lossy + li]);
+				int inr = kk > -CODE_MAX && kk < CODE_MAX;
+				bad |= !inr;
+				kk = inr ? kk : 0;
+				k[3 * n + d] = (int32_t)kk;
+				recon->x[3 * n + d] = z->lo[d] + (double)kk * z->q[d];
 			}
-	}
-	*m = mm;
-	return 0;
+			li++;
+		}
+	return bad ? -1 : 0;
 }
 
 /* The residuals u[0..m) (zigzag codes): 2-bit symbols, four to a byte,
@@ -845,6 +855,12 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 		rc = ndo__fail(NDO_ENOMEM, "out of memory");
 		goto done;
 	}
+	pctx pc = {.cols = in->cols, .nodes = nodes, .cls = in->cls};
+	pctx_init(&pc, r[0], r[1], r[2], in->step);
+	const int fast = enc == NDO_ENC_PREDICT && uniform(&pc);
+	size_t lossy = 0;
+	for (int n = 0; n < nodes; n++)
+		lossy += in->cls[n] == NDO_NODE_LOSSY;
 	put_classes(&body, in->cls, nodes);
 	for (int n = 0; n < nodes; n++) {
 		recon->have[n] = in->cls[n] != NDO_NODE_SKIP;
@@ -875,6 +891,12 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 					put(&body, t, 4);
 					recon->x[3 * n + d] = f;
 				}
+	} else if (fast) {
+		uint64_t any;
+		if (fast_encode(&pc, &z, in->x, recon, w->u, lossy, &any))
+			ok = 0;
+		allzero = any == 0;
+		put_residuals(&body, w->u, 3 * lossy);
 	} else {
 		/* codes of every carried node (the others' are not used) and the
 		 * LOSSY nodes' values: code_of() and value_of() without branches */
@@ -939,20 +961,14 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 			if (nb > 0)
 				put_byte(&body, (uint8_t)acc);
 		}
-	} else if (enc == NDO_ENC_PREDICT) {
-		pctx c = {.cols = in->cols, .nodes = nodes, .cls = in->cls};
-		pctx_init(&c, r[0], r[1], r[2], in->step);
+	} else if (enc == NDO_ENC_PREDICT && !fast) {
+		pctx c = pc;
 		int32_t *cur = w->cur;
 		c.cur = cur;
 		size_t m = 0;
-		int fast = uniform(&c);
 		for (int d = 0; d < 3; d++) {
 			for (int n = 0; n < nodes; n++)
 				cur[n] = recon->k[3 * n + d];
-			if (fast) {
-				fast_component(&c, d, 0, cur, w->lin, w->u, &m);
-				continue;
-			}
 			for (int n = 0; n < nodes; n++)
 				if (in->cls[n] == NDO_NODE_LOSSY)
 					w->u[m++] = zigzag(cur[n] - predict(&c, n, d));
@@ -1075,22 +1091,18 @@ static int decode_lossy(const ndo_codec_params *p, ndo_codec_work *w, rbuf *r, u
 		lossy += cls[n] == NDO_NODE_LOSSY;
 	if (get_residuals(r, w->u, 3 * lossy))
 		return -1;
-	int fast = uniform(&c);
+	if (uniform(&c))
+		return fast_decode(&c, &z, w->u, lossy, recon);
 	for (int d = 0; d < 3; d++) {
 		for (int n = 0; n < nodes; n++)
 			cur[n] = recon->k[3 * n + d]; /* exact nodes' codes */
-		if (fast) {
-			if (fast_component(&c, d, 1, cur, w->lin, w->u, &m))
-				return -1;
-		} else {
-			for (int n = 0; n < nodes; n++)
-				if (cls[n] == NDO_NODE_LOSSY) {
-					int64_t k = predict(&c, n, d) + unzigzag(w->u[m++]);
-					if (k <= -CODE_MAX || k >= CODE_MAX)
-						return -1;
-					cur[n] = (int32_t)k;
-				}
-		}
+		for (int n = 0; n < nodes; n++)
+			if (cls[n] == NDO_NODE_LOSSY) {
+				int64_t k = predict(&c, n, d) + unzigzag(w->u[m++]);
+				if (k <= -CODE_MAX || k >= CODE_MAX)
+					return -1;
+				cur[n] = (int32_t)k;
+			}
 		const double lo = z.lo[d], q = z.q[d];
 		for (int n = 0; n < nodes; n++)
 			if (cls[n] == NDO_NODE_LOSSY) {
@@ -1099,7 +1111,6 @@ static int decode_lossy(const ndo_codec_params *p, ndo_codec_work *w, rbuf *r, u
 			}
 	}
 	return 0;
-
 }
 
 ndo_drop ndo_codec_decode(const ndo_codec_params *p, ndo_codec_work *w,
