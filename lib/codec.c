@@ -789,6 +789,64 @@ static int get_residuals(rbuf *r, uint64_t *u, size_t m)
 	return 0;
 }
 
+/* ---- EXACT nodes under predict -------------------------------------------------- */
+/* Their doubles travel losslessly, the positions not as they are: each
+ * XOR its extrapolation from the references' positions, the 3E words as
+ * byte planes, most significant first, so that zstd finds the planes of
+ * agreeing high bytes as runs; then the velocities as they are (predicted
+ * from the positions, or as planes, they saved under 2 % of the bits,
+ * measured).  Double arithmetic without fused operations (C11 mode): the
+ * same on every machine. */
+static uint64_t bits_of(double d)
+{
+	uint64_t u;
+	memcpy(&u, &d, 8);
+	return u;
+}
+
+static double double_of(uint64_t u)
+{
+	double d;
+	memcpy(&d, &u, 8);
+	return d;
+}
+
+static double pred_position(const ndo_codec_frame *r0, const ndo_codec_frame *r1, int n, int d,
+                            double now)
+{
+	if (!r0 || !r0->have[n])
+		return 0;
+	double x0 = r0->x[3 * n + d], p = x0;
+	if (r1 && r1->have[n] && r0->time > r1->time)
+		p = x0 + (x0 - r1->x[3 * n + d]) * ((now - r0->time) / (r0->time - r1->time));
+	return isfinite(p) ? p : 0;
+}
+
+static void put_planes(wbuf *b, const uint64_t *w, size_t m)
+{
+	if (reserve(b, 8 * m))
+		return;
+	uint8_t *o = b->p + b->n;
+	for (int plane = 7; plane >= 0; plane--)
+		for (size_t k = 0; k < m; k++)
+			*o++ = (uint8_t)(w[k] >> (8 * plane));
+	b->n += 8 * m;
+}
+
+static int get_planes(rbuf *r, uint64_t *w, size_t m)
+{
+	if (r->pos > r->n || (r->n - r->pos) / 8 < m)
+		return -1;
+	const uint8_t *in = r->p + r->pos;
+	for (size_t k = 0; k < m; k++)
+		w[k] = 0;
+	for (int plane = 7; plane >= 0; plane--)
+		for (size_t k = 0; k < m; k++)
+			w[k] |= (uint64_t)*in++ << (8 * plane);
+	r->pos += 8 * m;
+	return 0;
+}
+
 /* ---- the body ------------------------------------------------------------------- */
 static void put_classes(wbuf *b, const uint8_t *cls, int nodes)
 {
@@ -862,6 +920,7 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 	for (int n = 0; n < nodes; n++)
 		lossy += in->cls[n] == NDO_NODE_LOSSY;
 	put_classes(&body, in->cls, nodes);
+	size_t nw = 0; /* EXACT words under predict */
 	for (int n = 0; n < nodes; n++) {
 		recon->have[n] = in->cls[n] != NDO_NODE_SKIP;
 		if (in->cls[n] != NDO_NODE_EXACT)
@@ -872,10 +931,23 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 				ok = 0;
 			recon->x[3 * n + d] = in->x[3 * n + d];
 		}
+		if (enc == NDO_ENC_PREDICT) {
+			for (int d = 0; d < 3; d++)
+				w->u[nw++] = bits_of(in->x[3 * n + d]) ^
+				             bits_of(pred_position(r[0], r[1], n, d, in->time));
+			continue;
+		}
 		for (int d = 0; d < 3; d++)
 			put_f64(&body, in->x[3 * n + d]);
 		for (int d = 0; d < 3; d++)
 			put_f64(&body, in->v[3 * n + d]);
+	}
+	if (nw) {
+		put_planes(&body, w->u, nw);
+		for (int n = 0; n < nodes; n++) /* velocities as they are */
+			if (in->cls[n] == NDO_NODE_EXACT)
+				for (int d = 0; d < 3; d++)
+					put_f64(&body, in->v[3 * n + d]);
 	}
 	if (enc == NDO_ENC_FLOAT32) {
 		for (int n = 0; n < nodes; n++)
@@ -1191,14 +1263,29 @@ ndo_drop ndo_codec_decode(const ndo_codec_params *p, ndo_codec_work *w,
 		goto done;
 	}
 	int ok = 1;
+	size_t nexact = 0, nw = 0;
+	for (int n = 0; n < nodes; n++)
+		nexact += cls[n] == NDO_NODE_EXACT;
+	if (enc == NDO_ENC_PREDICT && nexact && get_planes(&b, w->u, 3 * nexact)) {
+		res = NDO_DROP_CORRUPT;
+		goto done;
+	}
 	for (int n = 0; n < nodes; n++) {
 		recon->have[n] = cls[n] != NDO_NODE_SKIP;
 		if (cls[n] != NDO_NODE_EXACT)
 			continue;
-		for (int d = 0; d < 3; d++)
-			x[3 * n + d] = recon->x[3 * n + d] = get_f64(&b);
-		for (int d = 0; d < 3; d++)
-			v[3 * n + d] = get_f64(&b);
+		if (enc == NDO_ENC_PREDICT) {
+			for (int d = 0; d < 3; d++)
+				x[3 * n + d] = recon->x[3 * n + d] =
+				    double_of(w->u[nw++] ^ bits_of(pred_position(ref[0], ref[1], n, d, time)));
+			for (int d = 0; d < 3; d++)
+				v[3 * n + d] = get_f64(&b);
+		} else {
+			for (int d = 0; d < 3; d++)
+				x[3 * n + d] = recon->x[3 * n + d] = get_f64(&b);
+			for (int d = 0; d < 3; d++)
+				v[3 * n + d] = get_f64(&b);
+		}
 		for (int d = 0; d < 3; d++) {
 			ok &= isfinite(x[3 * n + d]) && isfinite(v[3 * n + d]);
 			if (enc != NDO_ENC_FLOAT32)

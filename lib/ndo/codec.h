@@ -53,7 +53,10 @@
  * base to the second and third reference, 0 when absent), then the body —
  * zstd-compressed with bit 2 —: the classes as run lengths (varint pairs:
  * class, count; raster order over the tile), the EXACT nodes' six doubles
- * each (little-endian), then the LOSSY nodes' positions: float32 ×3;
+ * each (little-endian; predict: first every EXACT position XOR its
+ * extrapolation from the references' positions, as 8 byte planes, most
+ * significant first, then the velocities), then the LOSSY nodes'
+ * positions: float32 ×3;
  * fixed codes bit-packed; predict residuals zigzag-coded, component by
  * component, as 2-bit symbols four to a byte (first in the low bits; the
  * residual itself below 3, 3 an escape; unused bits of the last byte zero)
