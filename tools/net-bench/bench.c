@@ -511,7 +511,9 @@ int nb_run(const nb_opts *o, int level, const ndo_codec_params *enc, double loss
 	 * owner's steps after the last join) */
 	row->whole = lis.tr;
 	row->steady = lis.tr;
-	row->steady_steps = step0 >= 0 ? row->steps - 1 - step0 : 0; /* the last step apart */
+	if (step0 < 0) /* the observer saw no frame: the whole run */
+		step0 = 0, memset(&tr0, 0, sizeof tr0);
+	row->steady_steps = row->steps - 1 - step0; /* the last step apart */
 	for (int k = 0; k < NB_KINDS; k++) {
 		row->steady.messages[k] -= tr0.messages[k];
 		row->steady.bytes[k] -= tr0.bytes[k];

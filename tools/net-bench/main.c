@@ -37,9 +37,13 @@ static __attribute__((noreturn)) void usage(void)
 	       "  -h, --help          show this help and exit\n"
 	       "      --version       show the version and exit\n"
 	       "\n"
-	       "Columns: bits per node per update (all traffic on the wire: payload, LCM,\n"
-	       "UDP and IPv4 headers, over W x H nodes and the steps), Mbit/s at the rate the\n"
-	       "run went, the position error the encoding introduced (max and RMS over the\n"
+	       "Columns, as a listener on every channel of the run sees the traffic: bits\n"
+	       "per node per update (over W x H nodes and the owner's steps) of the state\n"
+	       "tiles' payload alone and of every message on the wire (with message, LCM,\n"
+	       "UDP and IPv4 headers), both in the steady state (after the last join,\n"
+	       "before the last step, which goes exact), and of the whole run with the\n"
+	       "joins and the last step; Mbit/s of the steady state at the rate the run\n"
+	       "went, the position error the encoding introduced (max and RMS over the\n"
 	       "bounding-box diagonal), encoding and decoding ms per step for the whole\n"
 	       "object, publish-to-receive latency (p50, p99), kernel drops (/proc/net/udp).\n"
 	       "\n"
@@ -91,11 +95,11 @@ static void csv_row(FILE *f, const nb_row *r)
 
 static void table_head(FILE *f)
 {
-	fprintf(f, "| level | nodes | peers | encoding | payload bits/node/update "
+	fprintf(f, "| level | nodes | encoding | peers | payload bits/node/update "
 	       "| wire bits/node/update | whole run incl. joins | Mbit/s | steps/s | thesis Mbit/s "
 	       "| max error | RMS error | encode ms | decode ms | latency p50 µs | p99 µs "
 	       "| kernel drops |\n"
-	       "|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+	       "|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
 	       "---:|\n");
 }
 
@@ -105,9 +109,9 @@ static void table_row(FILE *f, const nb_row *r)
 	char ths[32] = "–";
 	if (!isnan(th))
 		snprintf(ths, sizeof ths, "%.4g", th);
-	fprintf(f, "| %d | %zu | %d | %s | %.3g | %.3g | %.3g | %.3g | %.0f | %s | %.2g | %.2g | "
+	fprintf(f, "| %d | %zu | %s | %d | %.3g | %.3g | %.3g | %.3g | %.0f | %s | %.2g | %.2g | "
 	       "%.3g | %.3g | %.0f | %.0f | %ld |\n",
-	       r->level, r->nodes, r->peers, r->encoding, r->payload_bits, r->bits_per_node_update,
+	       r->level, r->nodes, r->encoding, r->peers, r->payload_bits, r->bits_per_node_update,
 	       r->total_bits, r->mbit_s, r->steps_per_s,
 	       ths, r->max_error_rel, r->rms_error_rel, r->encode_ms, r->decode_ms,
 	       r->latency_p50_us, r->latency_p99_us, r->kernel_drops);
