@@ -20,6 +20,7 @@ int ndo_codec_parse(const char *spec, ndo_codec_params *p)
 {
 	char name[32];
 	int bits = NDO_CODEC_BITS_DEFAULT, key = NDO_CODEC_KEYFRAME_DEFAULT;
+	double err = 0;
 	const char *colon = strchr(spec, ':');
 	size_t n = colon ? (size_t)(colon - spec) : strlen(spec);
 	if (n == 0 || n >= sizeof name)
@@ -38,10 +39,22 @@ int ndo_codec_parse(const char *spec, ndo_codec_params *p)
 		if (e < NDO_ENC_FIXED)
 			return ndo__fail(NDO_EINVAL, "'%s': %s takes no parameters", spec, name);
 		char *end;
-		long b = strtol(colon + 1, &end, 10);
-		if (end == colon + 1 || b < 1 || b > 24 || (*end && *end != ':'))
-			return ndo__fail(NDO_EINVAL, "'%s': bits must be 1..24", spec);
-		bits = (int)b;
+		const char *f = colon + 1;
+		size_t digits = strspn(f, "0123456789");
+		if (digits && (f[digits] == '.' || f[digits] == 'e' || f[digits] == 'E')) {
+			/* an error budget: the largest error over the diagonal */
+			err = strtod(f, &end);
+			if (end == f || !(err >= NDO_CODEC_ERROR_MIN && err <= NDO_CODEC_ERROR_MAX) ||
+			    (*end && *end != ':'))
+				return ndo__fail(NDO_EINVAL, "'%s': the error budget must be %g..%g of the "
+				                 "diagonal", spec, NDO_CODEC_ERROR_MIN, NDO_CODEC_ERROR_MAX);
+		} else {
+			long b = strtol(f, &end, 10);
+			if (end == f || b < 1 || b > 24 || (*end && *end != ':'))
+				return ndo__fail(NDO_EINVAL, "'%s': bits must be 1..24, or an error "
+				                 "budget (1e-4)", spec);
+			bits = (int)b;
+		}
 		if (*end == ':') {
 			const char *ks = end + 1;
 			long kk = strtol(ks, &end, 10);
@@ -55,16 +68,24 @@ int ndo_codec_parse(const char *spec, ndo_codec_params *p)
 	p->encoding = e;
 	p->bits = bits;
 	p->keyframe = key;
+	p->error = err;
 	return 0;
 }
 
 void ndo_codec_name(const ndo_codec_params *p, char *buf, size_t size)
 {
 	int e = p->encoding >= 0 && p->encoding < 4 ? p->encoding : 0;
+	char depth[32];
+	if (p->error > 0)
+		snprintf(depth, sizeof depth, "%.3g", p->error);
+	else
+		snprintf(depth, sizeof depth, "%d", p->bits);
+	if (!strpbrk(depth, ".e") && p->error > 0) /* "1" would read as bits */
+		snprintf(depth, sizeof depth, "%.1f", p->error);
 	if (e == NDO_ENC_FIXED)
-		snprintf(buf, size, "fixed:%d", p->bits);
+		snprintf(buf, size, "fixed:%s", depth);
 	else if (e == NDO_ENC_PREDICT)
-		snprintf(buf, size, "predict:%d:%d", p->bits, p->keyframe);
+		snprintf(buf, size, "predict:%s:%d", depth, p->keyframe);
 	else
 		snprintf(buf, size, "%s", enc_names[e]);
 }
@@ -104,6 +125,8 @@ double ndo_codec_max_error(const ndo_codec_params *p)
 	switch (p->encoding) {
 	case NDO_ENC_FIXED:
 	case NDO_ENC_PREDICT:
+		if (p->error > 0)
+			return p->error * ndo_codec_diagonal(p);
 		return ldexp(ndo_codec_diagonal(p), -(p->bits + 1));
 	case NDO_ENC_FLOAT32: {
 		/* round to nearest float: half an ulp of the largest magnitude in
@@ -132,6 +155,9 @@ int ndo_codec_params_check(const ndo_codec_params *p)
 	if (p->bits < 1 || p->bits > 24 || p->keyframe < 1 || p->keyframe > 4096)
 		return ndo__fail(NDO_EINVAL, "tile encoding: bits %d (1..24), keyframe %d (1..4096)",
 		                 p->bits, p->keyframe);
+	if (p->error != 0 && !(p->error >= NDO_CODEC_ERROR_MIN && p->error <= NDO_CODEC_ERROR_MAX))
+		return ndo__fail(NDO_EINVAL, "tile encoding: error budget %g (%g..%g)", p->error,
+		                 NDO_CODEC_ERROR_MIN, NDO_CODEC_ERROR_MAX);
 	for (int c = 0; c < 3; c++)
 		if (!isfinite(p->lo[c]) || !isfinite(p->ext[c]) || !(p->ext[c] > 0) ||
 		    fabs(p->lo[c]) > 1e300 || p->ext[c] > 1e300)
@@ -150,6 +176,10 @@ int ndo_codec_params_text(const ndo_codec_params *p, char *buf, size_t size)
 		             p->ext[1], p->ext[2]);
 	else if (size)
 		*buf = 0;
+	if (n >= 0 && (size_t)n < size && p->encoding != NDO_ENC_RAW && p->error > 0) {
+		int m = snprintf(buf + n, size - (size_t)n, "tile-error %.17g\n", p->error);
+		n = m < 0 ? m : n + m;
+	}
 	if (n < 0 || (size_t)n >= size)
 		return ndo__fail(NDO_ERANGE, "tile encoding: the description lines do not fit");
 	return n;
@@ -183,13 +213,15 @@ int ndo_codec_params_take(char *text, ndo_codec_params *p)
 		else if (sscanf(l, "tile-box %lf %lf %lf %lf %lf %lf", &p->lo[0], &p->lo[1], &p->lo[2],
 		                &p->ext[0], &p->ext[1], &p->ext[2]) == 6)
 			seen |= 8;
+		else if (sscanf(l, "tile-error %lf", &p->error) == 1 && p->error > 0)
+			seen |= 16; /* optional: the step from an error budget */
 		else if (!rc)
 			rc = ndo__fail(NDO_EINVAL, "the owner's description: bad line '%s'", l);
 	}
 	*w = 0;
 	if (rc)
 		return rc;
-	if (seen && seen != 15)
+	if (seen && (seen & 15) != 15)
 		return ndo__fail(NDO_EINVAL, "the owner's description: incomplete tile-* lines");
 	return seen ? ndo_codec_params_check(p) : 0;
 }
@@ -506,9 +538,27 @@ typedef struct quant { double lo[3], q[3]; } quant;
 static quant quant_of(const ndo_codec_params *p)
 {
 	quant z;
+	/* an error budget: one step on every axis, half its cube's diagonal
+	 * the budget — √3 q / 2 = error × diagonal */
+	double q = p->error > 0 ? 2 * p->error * ndo_codec_diagonal(p) / sqrt(3) : 0;
 	for (int c = 0; c < 3; c++)
-		z.lo[c] = p->lo[c], z.q[c] = ldexp(p->ext[c], -p->bits);
+		z.lo[c] = p->lo[c], z.q[c] = p->error > 0 ? q : ldexp(p->ext[c], -p->bits);
 	return z;
+}
+
+/* The bits of a code across the box: `bits`, or those of the steps in
+ * the box's longest axis (an error budget). */
+static int code_bits(const ndo_codec_params *p, const quant *z)
+{
+	if (!(p->error > 0))
+		return p->bits;
+	double most = 0;
+	for (int c = 0; c < 3; c++)
+		most = fmax(most, p->ext[c] / z->q[c]);
+	int b = 1;
+	while (b < 28 && ldexp(1, b) < most)
+		b++;
+	return b;
 }
 
 /* The code of coordinate x on axis c, 0 when it is out of range (*ok = 0). */
@@ -997,8 +1047,8 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 	}
 	if (enc == NDO_ENC_FIXED) {
 		/* bits+2 wide, offset by 2^bits: the box and its extent on each side */
-		int width = p->bits + 2;
-		int64_t off = (int64_t)1 << p->bits, top = (int64_t)1 << width;
+		int cb = code_bits(p, &z), width = cb + 2;
+		int64_t off = (int64_t)1 << cb, top = (int64_t)1 << width;
 		int wide = 0;
 		for (int n = 0; n < nodes && !wide; n++)
 			if (in->cls[n] == NDO_NODE_LOSSY)
@@ -1120,8 +1170,8 @@ static int decode_lossy(const ndo_codec_params *p, ndo_codec_work *w, rbuf *r, u
 		return 0;
 	}
 	if (enc == NDO_ENC_FIXED) {
-		int width = p->bits + 2;
-		int64_t off = (int64_t)1 << p->bits;
+		int cb = code_bits(p, &z), width = cb + 2;
+		int64_t off = (int64_t)1 << cb;
 		uint64_t acc = 0;
 		int nb = 0;
 		for (int n = 0; n < nodes; n++)

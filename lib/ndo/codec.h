@@ -88,18 +88,26 @@ enum { NDO_NODE_SKIP = 0, NDO_NODE_LOSSY = 1, NDO_NODE_EXACT = 2 };
 #define NDO_CODEC_KEYFRAME_DEFAULT 32 /* steps between keyframes */
 #define NDO_CODEC_MAX_SKIP 8          /* steps a tile may go unsent in a row */
 #define NDO_CODEC_MAX_GAP 8192        /* steps between a frame and its reference */
+#define NDO_CODEC_ERROR_MIN 1e-7      /* error budgets, over the box's diagonal */
+#define NDO_CODEC_ERROR_MAX 0.01
 
 typedef struct ndo_codec_params {
 	int encoding;     /* NDO_ENC_RAW, _FLOAT32, _FIXED, _PREDICT */
 	int bits;         /* fixed, predict: 1..24 */
 	int keyframe;     /* predict: 1..4096 */
+	double error;     /* fixed, predict: > 0, an error budget instead of bits:
+	                     the largest LOSSY error over the box's diagonal
+	                     (NDO_CODEC_ERROR_MIN..MAX), one step q on every
+	                     axis with √3 q / 2 = error × diagonal; 0: bits */
 	double lo[3];     /* the box the codes count from (the rest shape's) */
 	double ext[3];    /* its extent per axis, > 0 */
 } ndo_codec_params;
 
 /* "raw", "float32", "fixed[:BITS]", "predict[:BITS[:KEYFRAME]]" →
- * encoding, bits and keyframe; the box is zero (the owner's session
- * takes its rest shape's).  0, or
+ * encoding, bits and keyframe; BITS may be an error budget instead, a
+ * number with a point or an exponent ("predict:1e-4": the largest error
+ * 1e-4 of the box's diagonal, the coarsest step that keeps it).  The box
+ * is zero (the owner's session takes its rest shape's).  0, or
  * NDO_EINVAL with a detail naming what is wrong. */
 int ndo_codec_parse(const char *spec, ndo_codec_params *p);
 /* The spec back ("predict:13:32"). */
@@ -108,7 +116,8 @@ void ndo_codec_name(const ndo_codec_params *p, char *buf, size_t size);
  * extent gets 1e-6 of the largest (or 1 for a single point). */
 void ndo_codec_box(const double *x, size_t n, double lo[3], double ext[3]);
 /* The largest distance between a LOSSY position and its decoded value:
- * half the quantization step's diagonal, diag/2^(bits+1) (float32: the
+ * half the quantization step's diagonal, diag/2^(bits+1), or the error
+ * budget × diag (float32: the
  * float rounding of the box's far corner; raw: 0). */
 double ndo_codec_max_error(const ndo_codec_params *p);
 /* The box's diagonal. */

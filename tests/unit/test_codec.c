@@ -128,8 +128,9 @@ static ndo_drop step(const ndo_codec_params *p, side *tx, side *rx, int64_t s, i
 
 static void round_trips_within_the_stated_error(void)
 {
-	const char *specs[] = {"float32", "fixed:13", "fixed:8", "predict:13", "predict:6:4",
-	                       "predict:20:1"};
+	const char *specs[] = {"float32",    "fixed:13",     "fixed:8",     "predict:13",
+	                       "predict:6:4", "predict:20:1", "predict:1e-4", "fixed:3e-3",
+	                       "predict:0.004:5"};
 	for (size_t k = 0; k < sizeof specs / sizeof *specs; k++) {
 		ndo_codec_params p = params(specs[k]);
 		double bound = ndo_codec_max_error(&p), worst = 0;
@@ -513,6 +514,30 @@ static void specs_and_description_lines(void)
 	CHECK(ndo_codec_params_take(part, &q) == NDO_EINVAL, "incomplete lines refused");
 	char none[] = "dt 0.1\n";
 	CHECK(ndo_codec_params_take(none, &q) == 0 && q.encoding == NDO_ENC_RAW, "none: raw");
+	/* an error budget instead of bits */
+	CHECK(ndo_codec_parse("predict:1e-4", &p) == 0 && p.error == 1e-4 && p.keyframe == 32,
+	      "predict:1e-4");
+	CHECK(ndo_codec_parse("fixed:0.002", &p) == 0 && p.error == 0.002, "fixed:0.002");
+	CHECK(ndo_codec_parse("predict:2.5e-5:8", &p) == 0 && p.error == 2.5e-5 && p.keyframe == 8,
+	      "predict:2.5e-5:8");
+	char name[64];
+	ndo_codec_name(&p, name, sizeof name);
+	CHECK(strcmp(name, "predict:2.5e-05:8") == 0, "its name: %s", name);
+	CHECK(ndo_codec_parse(name, &q) == 0 && q.error == p.error, "the name parses back");
+	CHECK(ndo_codec_parse("predict:0.5", &p) == NDO_EINVAL, "a budget of half the diagonal");
+	CHECK(ndo_codec_parse("predict:1e-9", &p) == NDO_EINVAL, "a budget of 1e-9");
+	CHECK(ndo_codec_parse("predict:1e-4x", &p) == NDO_EINVAL, "a budget with a tail");
+	ndo_codec_parse("predict:1e-4", &p);
+	p.lo[0] = -1.5, p.ext[0] = 3, p.ext[1] = 0.1, p.ext[2] = 7;
+	text[0] = 0;
+	CHECK(ndo_codec_params_text(&p, text, sizeof text) > 0 && strstr(text, "tile-error "),
+	      "a tile-error line");
+	CHECK(ndo_codec_params_take(text, &q) == 0 && memcmp(&p, &q, sizeof p) == 0 &&
+	          ndo_codec_max_error(&q) == 1e-4 * ndo_codec_diagonal(&q),
+	      "the budget comes back exactly, and is the stated error");
+	char badbudget[] = "tile-encoding 3\ntile-bits 13\ntile-keyframe 1\n"
+	                   "tile-box 0 0 0 1 1 1\ntile-error 0.5\n";
+	CHECK(ndo_codec_params_take(badbudget, &q) == NDO_EINVAL, "a budget of 0.5 refused");
 }
 
 int main(void)
