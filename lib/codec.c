@@ -10,7 +10,9 @@
 #include <zstd.h>
 
 enum { KIND_INTRA = 0, KIND_PRED = 1, F_ZSTD = 4, F_WIDE = 8, F_NOREF = 16 };
-#define ZSTD_LEVEL 1     /* level 1: 0.1-0.2 ms a level-7 state; higher levels gain ~2 % */
+/* zstd's level: 1 (docs/bench/net.md: levels -5..3 against bits and time;
+ * set by bench_codec -z only) */
+int ndo__codec_zstd_level = 1;
 #define CODE_MAX (1 << 30)
 
 /* ---- parameters ----------------------------------------------------------- */
@@ -1118,7 +1120,8 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 			rc = ndo__fail(NDO_ENOMEM, "out of memory");
 			goto done;
 		}
-		size_t z = ZSTD_compressCCtx(w->cc, w->buf, bound, body.p, body.n, ZSTD_LEVEL);
+		size_t z = ZSTD_compressCCtx(w->cc, w->buf, bound, body.p, body.n,
+		                             ndo__codec_zstd_level);
 		if (!ZSTD_isError(z) && z < body.n) {
 			out.p[0] |= F_ZSTD;
 			put(&out, w->buf, z);

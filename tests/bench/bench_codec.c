@@ -6,7 +6,7 @@
  * tile, its region's cover) and decoded by a receiver, which must
  * reconstruct exactly what the encoder says it will.
  *
- *   bench_codec [-l LEVEL] [-e ENCODING] [-p PEERS] [-t SECONDS]
+ *   bench_codec [-l LEVEL] [-e ENCODING] [-p PEERS] [-t SECONDS] [-z ZSTD_LEVEL]
  *
  * Prints one line: payload bits per node per update (over W x H nodes,
  * the thesis' count; without message headers), the share of the EXACT
@@ -71,6 +71,10 @@ int main(int argc, char **argv)
 			dump = argv[a + 1];
 		else if (!strcmp(argv[a], "-t"))
 			seconds = atof(argv[a + 1]);
+		else if (!strcmp(argv[a], "-z")) { /* zstd's level (lib/codec.c) */
+			extern int ndo__codec_zstd_level;
+			ndo__codec_zstd_level = atoi(argv[a + 1]);
+		}
 	}
 	ndo_codec_params p;
 	if (ndo_codec_parse(spec, &p)) {
