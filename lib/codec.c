@@ -699,21 +699,30 @@ static int uniform(const pctx *c)
 /* The prediction of node n's component d in a uniform frame (see
  * uniform(); predict() without its checks): k holds this frame's codes
  * of the nodes before n in raster order (a keyframe's references). */
-static inline int64_t fast_predict(const pctx *c, const int32_t *k, int n, int i, int j, int d)
+enum { M_INTRA, M_COPY, M_CURVED, M_LINEAR, M_GAP }; /* which references (uniform frames) */
+
+static int fast_mode(const pctx *c)
+{
+	return !c->r[0] ? M_INTRA : !c->r[1] ? M_COPY : c->cons3 ? M_CURVED : c->cons ? M_LINEAR : M_GAP;
+}
+
+/* mode: fast_mode(c), a constant where this is inlined (a loop each) */
+static inline __attribute__((always_inline)) int64_t
+fast_predict(const pctx *c, const int mode, const int32_t *k, int n, int i, int j, int d)
 {
 	const int cols = c->cols, m = 3 * n + d;
-	if (!c->r[0]) {
+	if (mode == M_INTRA) {
 		if (i > 0 && j > 0)
 			return med3(k[m - 3], k[m - 3 * cols], k[m - 3 * cols - 3]);
 		return i > 0 ? k[m - 3] : j > 0 ? k[m - 3 * cols] : 0;
 	}
 	int64_t a = c->r[0]->k[m];
-	if (!c->r[1])
+	if (mode == M_COPY)
 		return a;
 	int64_t b = c->r[1]->k[m];
-	if (c->cons3)
+	if (mode == M_CURVED)
 		return 2 * a - b + half(a - 2 * b + c->r[2]->k[m]);
-	if (c->cons)
+	if (mode == M_LINEAR)
 		return 2 * a - b;
 	return a + rdiv((a - b) * (c->step - c->r[0]->step), c->r[0]->step - c->r[1]->step);
 }
@@ -723,8 +732,9 @@ static inline int64_t fast_predict(const pctx *c, const int32_t *k, int n, int i
  * recon->x (the others' positions as they are), the LOSSY residuals,
  * zigzag-coded, into u[d × lossy + the node's rank].  Returns −1 when a
  * code is out of range, else 0; *any: the residuals or'ed together. */
-static int fast_encode(const pctx *c, const quant *z, const double *x, ndo_codec_frame *recon,
-                       uint64_t *u, size_t lossy, uint64_t *any)
+static inline __attribute__((always_inline)) int
+fast_encode_mode(const pctx *c, const int mode, const quant *z, const double *x,
+                 ndo_codec_frame *recon, uint64_t *u, size_t lossy, uint64_t *any)
 {
 	const int cols = c->cols, rows = c->nodes / cols;
 	const uint8_t *cls = c->cls;
@@ -745,7 +755,7 @@ static int fast_encode(const pctx *c, const quant *z, const double *x, ndo_codec
 				kk -= (double)kk > t;
 				k[3 * n + d] = kk;
 				recon->x[3 * n + d] = ls ? z->lo[d] + (double)kk * z->q[d] : xv;
-				uint64_t uu = zigzag(kk - fast_predict(c, k, n, i, j, d));
+				uint64_t uu = zigzag(kk - fast_predict(c, mode, k, n, i, j, d));
 				if (ls)
 					u[d * lossy + li] = uu;
 				acc |= ls ? uu : 0;
@@ -756,11 +766,24 @@ static int fast_encode(const pctx *c, const quant *z, const double *x, ndo_codec
 	return out ? -1 : 0;
 }
 
+static int fast_encode(const pctx *c, const quant *z, const double *x, ndo_codec_frame *recon,
+                       uint64_t *u, size_t lossy, uint64_t *any)
+{
+	switch (fast_mode(c)) {
+	case M_INTRA: return fast_encode_mode(c, M_INTRA, z, x, recon, u, lossy, any);
+	case M_COPY: return fast_encode_mode(c, M_COPY, z, x, recon, u, lossy, any);
+	case M_CURVED: return fast_encode_mode(c, M_CURVED, z, x, recon, u, lossy, any);
+	case M_LINEAR: return fast_encode_mode(c, M_LINEAR, z, x, recon, u, lossy, any);
+	default: return fast_encode_mode(c, M_GAP, z, x, recon, u, lossy, any);
+	}
+}
+
 /* Decoder, a uniform frame: the LOSSY nodes' codes and values from the
  * residuals (as fast_encode() lays them out); recon->k holds the EXACT
  * nodes' codes.  −1 when a code comes out of range. */
-static int fast_decode(const pctx *c, const quant *z, const uint64_t *u, size_t lossy,
-                       ndo_codec_frame *recon)
+static inline __attribute__((always_inline)) int
+fast_decode_mode(const pctx *c, const int mode, const quant *z, const uint64_t *u, size_t lossy,
+                 ndo_codec_frame *recon)
 {
 	const int cols = c->cols, rows = c->nodes / cols;
 	const uint8_t *cls = c->cls;
@@ -772,7 +795,7 @@ static int fast_decode(const pctx *c, const quant *z, const uint64_t *u, size_t 
 			if (cls[n] != NDO_NODE_LOSSY)
 				continue;
 			for (int d = 0; d < 3; d++) {
-				int64_t kk = fast_predict(c, k, n, i, j, d) + unzigzag(u[d * lossy + li]);
+				int64_t kk = fast_predict(c, mode, k, n, i, j, d) + unzigzag(u[d * lossy + li]);
 				int inr = kk > -CODE_MAX && kk < CODE_MAX;
 				bad |= !inr;
 				kk = inr ? kk : 0;
@@ -784,6 +807,18 @@ static int fast_decode(const pctx *c, const quant *z, const uint64_t *u, size_t 
 	return bad ? -1 : 0;
 }
 
+static int fast_decode(const pctx *c, const quant *z, const uint64_t *u, size_t lossy,
+                       ndo_codec_frame *recon)
+{
+	switch (fast_mode(c)) {
+	case M_INTRA: return fast_decode_mode(c, M_INTRA, z, u, lossy, recon);
+	case M_COPY: return fast_decode_mode(c, M_COPY, z, u, lossy, recon);
+	case M_CURVED: return fast_decode_mode(c, M_CURVED, z, u, lossy, recon);
+	case M_LINEAR: return fast_decode_mode(c, M_LINEAR, z, u, lossy, recon);
+	default: return fast_decode_mode(c, M_GAP, z, u, lossy, recon);
+	}
+}
+
 /* The residuals u[0..m) (zigzag codes): 2-bit symbols, four to a byte,
  * first in the low bits — u itself below 3, 3 for an escape —, then each
  * escape's u − 3 as a varint. */
@@ -792,30 +827,26 @@ static void put_residuals(wbuf *b, const uint64_t *u, size_t m)
 	size_t esc = 0;
 	for (size_t k = 0; k < m; k++)
 		esc += u[k] >= 3;
-	if (reserve(b, (m + 3) / 4 + 10 * esc))
+	if (reserve(b, (m + 3) / 4 + 10 * esc + 1)) /* + 1: the escape slot written ahead */
 		return;
-	uint8_t *o = b->p + b->n;
-	size_t k = 0;
-	for (; k + 4 <= m; k += 4) {
-		unsigned s0 = u[k] < 3 ? (unsigned)u[k] : 3, s1 = u[k + 1] < 3 ? (unsigned)u[k + 1] : 3,
-		         s2 = u[k + 2] < 3 ? (unsigned)u[k + 2] : 3,
-		         s3 = u[k + 3] < 3 ? (unsigned)u[k + 3] : 3;
-		*o++ = (uint8_t)(s0 | s1 << 2 | s2 << 4 | s3 << 6);
-	}
-	if (k < m) {
+	uint8_t *o = b->p + b->n, *e = o + (m + 3) / 4; /* symbols; escapes after them */
+	for (size_t k = 0; k < m; k += 4) {
 		unsigned byte = 0;
-		for (int sh = 0; k < m; k++, sh += 2)
-			byte |= (u[k] < 3 ? (unsigned)u[k] : 3) << sh;
+		for (size_t q = 0; q < 4 && k + q < m; q++) {
+			uint64_t v = u[k + q];
+			byte |= (v < 3 ? (unsigned)v : 3) << (2 * q);
+			if (v < 3 + 128) { /* the escape of one byte, or none: no branch */
+				*e = (uint8_t)(v - 3);
+				e += v >= 3;
+			} else {
+				for (v -= 3; v > 127; v >>= 7)
+					*e++ = (uint8_t)(v | 128);
+				*e++ = (uint8_t)v;
+			}
+		}
 		*o++ = (uint8_t)byte;
 	}
-	for (k = 0; k < m; k++)
-		if (u[k] >= 3) {
-			uint64_t v = u[k] - 3;
-			for (; v > 127; v >>= 7)
-				*o++ = (uint8_t)(v | 128);
-			*o++ = (uint8_t)v;
-		}
-	b->n = (size_t)(o - b->p);
+	b->n = (size_t)(e - b->p);
 }
 
 /* The m residuals back (−1: the bytes end early, or a value beyond
@@ -825,19 +856,27 @@ static int get_residuals(rbuf *r, uint64_t *u, size_t m)
 	size_t nb = (m + 3) / 4;
 	if (r->pos > r->n || r->n - r->pos < nb)
 		return -1;
-	const uint8_t *in = r->p + r->pos;
-	for (size_t k = 0; k < m; k++)
-		u[k] = (in[k >> 2] >> (2 * (k & 3))) & 3;
+	const uint8_t *in = r->p + r->pos, *e = in + nb, *end = r->p + r->n;
 	if (m & 3 && in[nb - 1] >> (2 * (m & 3)))
 		return -1; /* the last byte's unused bits are zero */
-	r->pos += nb;
-	for (size_t k = 0; k < m; k++)
-		if (u[k] == 3) {
-			uint64_t v = get_varint(r);
-			if (r->bad || v > ((uint64_t)1 << 40))
-				return -1;
-			u[k] = v + 3;
+	for (size_t k = 0; k < m; k++) {
+		unsigned s = (in[k >> 2] >> (2 * (k & 3))) & 3;
+		if (s < 3) {
+			u[k] = s;
+			continue;
 		}
+		if (e < end && *e < 128) { /* an escape of one byte */
+			u[k] = (uint64_t)*e++ + 3;
+			continue;
+		}
+		rbuf t = {r->p, r->n, (size_t)(e - r->p), 0};
+		uint64_t v = get_varint(&t);
+		if (t.bad || v > ((uint64_t)1 << 40))
+			return -1;
+		u[k] = v + 3;
+		e = r->p + t.pos;
+	}
+	r->pos = (size_t)(e - r->p);
 	return 0;
 }
 
