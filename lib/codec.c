@@ -1277,11 +1277,13 @@ static int decode_lossy(const ndo_codec_params *p, ndo_codec_work *w, rbuf *r, u
 	return 0;
 }
 
-ndo_drop ndo_codec_decode(const ndo_codec_params *p, ndo_codec_work *w,
-                          const ndo_codec_hist *h, int rows, int cols, const uint8_t *data,
-                          size_t len, int64_t step, double time, int32_t epoch,
-                          int64_t base_step, double *x, double *v, ndo_codec_frame *recon)
+ndo_drop ndo_codec_decode_strided(const ndo_codec_params *p, ndo_codec_work *w,
+                                  const ndo_codec_hist *h, int rows, int cols,
+                                  const uint8_t *data, size_t len, int64_t step, double time,
+                                  int32_t epoch, int64_t base_step, double *x, double *v,
+                                  int stride, ndo_codec_frame *recon)
 {
+	const size_t S = (size_t)stride;
 	const int nodes = rows * cols, enc = p->encoding;
 	const quant z = quant_of(p);
 	if (enc <= NDO_ENC_RAW || enc > NDO_ENC_PREDICT || nodes <= 0)
@@ -1368,20 +1370,20 @@ ndo_drop ndo_codec_decode(const ndo_codec_params *p, ndo_codec_work *w,
 			continue;
 		if (enc == NDO_ENC_PREDICT) {
 			for (int d = 0; d < 3; d++)
-				x[3 * n + d] = recon->x[3 * n + d] =
+				x[S * n + d] = recon->x[3 * n + d] =
 				    double_of(w->u[nw++] ^ bits_of(pred_position(ref[0], ref[1], n, d, time)));
 			for (int d = 0; d < 3; d++)
-				v[3 * n + d] = get_f64(&b);
+				v[S * n + d] = get_f64(&b);
 		} else {
 			for (int d = 0; d < 3; d++)
-				x[3 * n + d] = recon->x[3 * n + d] = get_f64(&b);
+				x[S * n + d] = recon->x[3 * n + d] = get_f64(&b);
 			for (int d = 0; d < 3; d++)
-				v[3 * n + d] = get_f64(&b);
+				v[S * n + d] = get_f64(&b);
 		}
 		for (int d = 0; d < 3; d++) {
-			ok &= isfinite(x[3 * n + d]) && isfinite(v[3 * n + d]);
+			ok &= isfinite(x[S * n + d]) && isfinite(v[S * n + d]);
 			if (enc != NDO_ENC_FLOAT32)
-				recon->k[3 * n + d] = code_of(&z, d, x[3 * n + d], &ok);
+				recon->k[3 * n + d] = code_of(&z, d, x[S * n + d], &ok);
 		}
 		if (b.bad || !ok)
 			break;
@@ -1409,8 +1411,8 @@ ndo_drop ndo_codec_decode(const ndo_codec_params *p, ndo_codec_work *w,
 		int est = lossy && prev && prev->have[n] && dtp > 0;
 		const double *px = prev ? prev->x + 3 * n : recon->x + 3 * n;
 		for (int d = 0; d < 3; d++) {
-			x[3 * n + d] = lossy ? recon->x[3 * n + d] : NAN;
-			v[3 * n + d] = est ? (recon->x[3 * n + d] - px[d]) * inv : NAN;
+			x[S * n + d] = lossy ? recon->x[3 * n + d] : NAN;
+			v[S * n + d] = est ? (recon->x[3 * n + d] - px[d]) * inv : NAN;
 		}
 	}
 done:
@@ -1420,6 +1422,15 @@ done:
 	if (res != NDO_DROP_NONE || (flags & F_NOREF))
 		recon->step = -1; /* not to be kept as a reference */
 	return res;
+}
+
+ndo_drop ndo_codec_decode(const ndo_codec_params *p, ndo_codec_work *w,
+                          const ndo_codec_hist *h, int rows, int cols, const uint8_t *data,
+                          size_t len, int64_t step, double time, int32_t epoch,
+                          int64_t base_step, double *x, double *v, ndo_codec_frame *recon)
+{
+	return ndo_codec_decode_strided(p, w, h, rows, cols, data, len, step, time, epoch, base_step,
+	                                x, v, 3, recon);
 }
 
 int ndo_codec_implied(const ndo_codec_params *p, const ndo_codec_hist *h, int rows, int cols,

@@ -371,8 +371,9 @@ ndo_drop ndo_codec_decode_tile(ndo_codec *c, ndo_msg_tile_t *t)
 		if (keep)
 			forget(e, t->epoch);
 	}
-	ndo_drop r = ndo_codec_decode(&c->p, c->w, &e->h, rows, cols, t->data, (size_t)t->nbytes,
-	                              t->step, t->time, t->epoch, t->base_step, c->x, c->v, &c->fr);
+	ndo_drop r = ndo_codec_decode_strided(&c->p, c->w, &e->h, rows, cols, t->data,
+	                                      (size_t)t->nbytes, t->step, t->time, t->epoch,
+	                                      t->base_step, vals, vals + 3, 6, &c->fr);
 	if (r != NDO_DROP_NONE) {
 		free(vals);
 		if (r == NDO_DROP_CORRUPT)
@@ -392,10 +393,6 @@ ndo_drop ndo_codec_decode_tile(ndo_codec *c, ndo_msg_tile_t *t)
 	e->dec_step = keep ? t->step : -1;
 	e->dec_base = t->base_step;
 	e->dec_time = t->time;
-	for (int n = 0; n < nodes; n++) {
-		memcpy(vals + 6 * n, c->x + 3 * n, 3 * sizeof *vals);
-		memcpy(vals + 6 * n + 3, c->v + 3 * n, 3 * sizeof *vals);
-	}
 	free(t->data);
 	t->data = NULL;
 	t->nbytes = 0;

@@ -215,6 +215,14 @@ ndo_drop ndo_codec_decode(const ndo_codec_params *p, ndo_codec_work *w,
                           int32_t epoch, int64_t base_step, double *x, double *v,
                           ndo_codec_frame *recon);
 
+/* The same, node n's position and velocity at x[stride × n ...] and
+ * v[stride × n ...] (stride ≥ 3): a tile's values (6 a node) in place. */
+ndo_drop ndo_codec_decode_strided(const ndo_codec_params *p, ndo_codec_work *w,
+                                  const ndo_codec_hist *h, int rows, int cols,
+                                  const uint8_t *data, size_t len, int64_t step, double time,
+                                  int32_t epoch, int64_t base_step, double *x, double *v,
+                                  int stride, ndo_codec_frame *recon);
+
 /* The frame of a skipped step (base_step < step < the next frame's step):
  * every node the base frame holds, predicted with no residual. */
 int ndo_codec_implied(const ndo_codec_params *p, const ndo_codec_hist *h, int rows, int cols,
