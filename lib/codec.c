@@ -368,6 +368,8 @@ struct ndo_codec_work {
 	size_t cap, cap2;
 	int32_t *cur;    /* nodes: one component's codes */
 	uint64_t *u;     /* 3 x nodes: the residuals, zigzag-coded */
+	double err_max2, err_sum2; /* the last frame encoded: its LOSSY errors */
+	size_t err_n;
 	size_t ecap;
 };
 
@@ -393,6 +395,11 @@ void ndo_codec_work_destroy(ndo_codec_work *w)
 	ZSTD_freeDCtx(w->dc);
 	free(w->buf), free(w->buf2), free(w->cur), free(w->u);
 	free(w);
+}
+
+void ndo_codec_work_error(const ndo_codec_work *w, double *max2, double *sum2, size_t *count)
+{
+	*max2 = w->err_max2, *sum2 = w->err_sum2, *count = w->err_n;
 }
 
 static int grow(uint8_t **b, size_t *cap, size_t need)
@@ -734,8 +741,9 @@ fast_predict(const pctx *c, const int mode, const int32_t *k, int n, int i, int 
  * code is out of range, else 0; *any: the residuals or'ed together. */
 static inline __attribute__((always_inline)) int
 fast_encode_mode(const pctx *c, const int mode, const quant *z, const double *x,
-                 ndo_codec_frame *recon, uint64_t *u, size_t lossy, uint64_t *any)
+                 ndo_codec_frame *recon, uint64_t *u, size_t lossy, uint64_t *any, double err[2])
 {
+	double max2 = 0, sum2 = 0;
 	const int cols = c->cols, rows = c->nodes / cols;
 	const uint8_t *cls = c->cls;
 	int32_t *k = recon->k;
@@ -745,6 +753,7 @@ fast_encode_mode(const pctx *c, const int mode, const quant *z, const double *x,
 	for (int j = 0, n = 0; j < rows; j++)
 		for (int i = 0; i < cols; i++, n++) {
 			const int ls = cls[n] == NDO_NODE_LOSSY;
+			double e2 = 0;
 			for (int d = 0; d < 3; d++) {
 				const double xv = x[3 * n + d];
 				double t = (xv - z->lo[d]) / z->q[d] + 0.5;
@@ -754,27 +763,32 @@ fast_encode_mode(const pctx *c, const int mode, const quant *z, const double *x,
 				int32_t kk = (int32_t)t;
 				kk -= (double)kk > t;
 				k[3 * n + d] = kk;
-				recon->x[3 * n + d] = ls ? z->lo[d] + (double)kk * z->q[d] : xv;
+				const double val = ls ? z->lo[d] + (double)kk * z->q[d] : xv;
+				recon->x[3 * n + d] = val;
+				e2 += (val - xv) * (val - xv);
 				uint64_t uu = zigzag(kk - fast_predict(c, mode, k, n, i, j, d));
 				if (ls)
 					u[d * lossy + li] = uu;
 				acc |= ls ? uu : 0;
 			}
 			li += (size_t)ls;
+			sum2 += e2; /* 0 but for LOSSY nodes */
+			max2 = e2 > max2 ? e2 : max2;
 		}
 	*any = acc;
+	err[0] = max2, err[1] = sum2;
 	return out ? -1 : 0;
 }
 
 static int fast_encode(const pctx *c, const quant *z, const double *x, ndo_codec_frame *recon,
-                       uint64_t *u, size_t lossy, uint64_t *any)
+                       uint64_t *u, size_t lossy, uint64_t *any, double err[2])
 {
 	switch (fast_mode(c)) {
-	case M_INTRA: return fast_encode_mode(c, M_INTRA, z, x, recon, u, lossy, any);
-	case M_COPY: return fast_encode_mode(c, M_COPY, z, x, recon, u, lossy, any);
-	case M_CURVED: return fast_encode_mode(c, M_CURVED, z, x, recon, u, lossy, any);
-	case M_LINEAR: return fast_encode_mode(c, M_LINEAR, z, x, recon, u, lossy, any);
-	default: return fast_encode_mode(c, M_GAP, z, x, recon, u, lossy, any);
+	case M_INTRA: return fast_encode_mode(c, M_INTRA, z, x, recon, u, lossy, any, err);
+	case M_COPY: return fast_encode_mode(c, M_COPY, z, x, recon, u, lossy, any, err);
+	case M_CURVED: return fast_encode_mode(c, M_CURVED, z, x, recon, u, lossy, any, err);
+	case M_LINEAR: return fast_encode_mode(c, M_LINEAR, z, x, recon, u, lossy, any, err);
+	default: return fast_encode_mode(c, M_GAP, z, x, recon, u, lossy, any, err);
 	}
 }
 
@@ -981,7 +995,7 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 		return ndo__fail(NDO_ENOMEM, "out of memory");
 	const int nodes = in->rows * in->cols, enc = p->encoding;
 	const quant z = quant_of(p);
-	int rc = 0, ok = 1, allzero = 1, nexact = 0;
+	int rc = 0, ok = 1, allzero = 1, nexact = 0, errors_known = 0;
 	*data = NULL;
 	*len = 0;
 	*unchanged = 0;
@@ -1056,8 +1070,11 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 				}
 	} else if (fast) {
 		uint64_t any;
-		if (fast_encode(&pc, &z, in->x, recon, w->u, lossy, &any))
+		double err[2];
+		if (fast_encode(&pc, &z, in->x, recon, w->u, lossy, &any, err))
 			ok = 0;
+		w->err_max2 = err[0], w->err_sum2 = err[1], w->err_n = lossy;
+		errors_known = 1;
 		allzero = any == 0;
 		put_residuals(&body, w->u, 3 * lossy);
 	} else {
@@ -1085,6 +1102,21 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 	if (!ok) {
 		rc = ndo__fail(NDO_ERANGE, "a position out of the codes' range");
 		goto done;
+	}
+	if (!errors_known) { /* the error this frame introduces */
+		double max2 = 0, sum2 = 0;
+		for (int n = 0; n < nodes; n++) {
+			if (in->cls[n] != NDO_NODE_LOSSY)
+				continue;
+			double e2 = 0;
+			for (int d = 0; d < 3; d++) {
+				double e = recon->x[3 * n + d] - in->x[3 * n + d];
+				e2 += e * e;
+			}
+			sum2 += e2;
+			max2 = e2 > max2 ? e2 : max2;
+		}
+		w->err_max2 = max2, w->err_sum2 = sum2, w->err_n = lossy;
 	}
 	if (enc == NDO_ENC_FIXED) {
 		/* bits+2 wide, offset by 2^bits: the box and its extent on each side */

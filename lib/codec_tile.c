@@ -283,20 +283,9 @@ int ndo_codec_encode_tile(ndo_codec *c, int32_t self, const ndo_grid *g, const u
 	if (rc)
 		return rc;
 	if (!standalone) { /* the error of the LOSSY nodes (the others' is 0) */
-		double sum = 0, max2 = 0;
-		size_t count = 0;
-		for (int n = 0; n < nodes; n++) {
-			double d2 = 0;
-			for (int d = 0; d < 3; d++) {
-				double e_ = c->fr.x[3 * n + d] - c->x[3 * n + d];
-				d2 += e_ * e_;
-			}
-			int lossy = c->cls[n] == NDO_NODE_LOSSY;
-			d2 = lossy ? d2 : 0;
-			sum += d2;
-			max2 = d2 > max2 ? d2 : max2;
-			count += (size_t)lossy;
-		}
+		double max2, sum;
+		size_t count;
+		ndo_codec_work_error(c->w, &max2, &sum, &count);
 		c->st.sum_sq_error += sum;
 		c->st.error_nodes += count;
 		if (max2 > c->st.max_error * c->st.max_error)

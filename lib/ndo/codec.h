@@ -176,6 +176,10 @@ const ndo_codec_frame *ndo_codec_hist_find(const ndo_codec_hist *h, int64_t step
 typedef struct ndo_codec_work ndo_codec_work;
 ndo_codec_work *ndo_codec_work_create(void); /* NULL when out of memory */
 void ndo_codec_work_destroy(ndo_codec_work *w);
+/* The position error of the last frame ndo_codec_encode() made with w
+ * (its LOSSY nodes: what receivers reconstruct against the value): the
+ * largest squared distance, their sum, the count of LOSSY nodes. */
+void ndo_codec_work_error(const ndo_codec_work *w, double *max2, double *sum2, size_t *count);
 
 /* What the encoder is given: one tile's rows × cols nodes, row-major. */
 typedef struct ndo_codec_input {
