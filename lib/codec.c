@@ -731,7 +731,10 @@ fast_predict(const pctx *c, const int mode, const int32_t *k, int n, int i, int 
 		return 2 * a - b + half(a - 2 * b + c->r[2]->k[m]);
 	if (mode == M_LINEAR)
 		return 2 * a - b;
-	return a + rdiv((a - b) * (c->step - c->r[0]->step), c->r[0]->step - c->r[1]->step);
+	const int64_t g = c->step - c->r[0]->step, gap = c->r[0]->step - c->r[1]->step;
+	if (gap == 1) /* the usual gap, after skipped steps: rdiv() without a division */
+		return a + (a - b) * g;
+	return a + rdiv((a - b) * g, gap);
 }
 
 /* Encoder, a uniform frame, in one pass over the nodes: codes (as
