@@ -798,10 +798,23 @@ static int fast_encode(const pctx *c, const quant *z, const double *x, ndo_codec
 /* Decoder, a uniform frame: the LOSSY nodes' codes and values from the
  * residuals (as fast_encode() lays them out); recon->k holds the EXACT
  * nodes' codes.  −1 when a code comes out of range. */
+/* Where a decoder's positions and velocities go (ndo_codec_decode_strided),
+ * and what velocities are estimated from; done: the LOSSY nodes' are out. */
+typedef struct outs {
+	double *x, *v;
+	size_t S;
+	const ndo_codec_frame *prev; /* NULL: none */
+	double inv;                  /* 1 / (time − prev's), 0: no estimate */
+	int done;
+} outs;
+
 static inline __attribute__((always_inline)) int
 fast_decode_mode(const pctx *c, const int mode, const quant *z, const uint64_t *u, size_t lossy,
-                 ndo_codec_frame *recon)
+                 ndo_codec_frame *recon, outs *o)
 {
+	const ndo_codec_frame *prev = o->prev && o->inv > 0 ? o->prev : NULL;
+	const double inv = o->inv;
+	const size_t S = o->S;
 	const int cols = c->cols, rows = c->nodes / cols;
 	const uint8_t *cls = c->cls;
 	int32_t *k = recon->k;
@@ -811,28 +824,33 @@ fast_decode_mode(const pctx *c, const int mode, const quant *z, const uint64_t *
 		for (int i = 0; i < cols; i++, n++) {
 			if (cls[n] != NDO_NODE_LOSSY)
 				continue;
+			const int est = prev && prev->have[n];
 			for (int d = 0; d < 3; d++) {
 				int64_t kk = fast_predict(c, mode, k, n, i, j, d) + unzigzag(u[d * lossy + li]);
 				int inr = kk > -CODE_MAX && kk < CODE_MAX;
 				bad |= !inr;
 				kk = inr ? kk : 0;
 				k[3 * n + d] = (int32_t)kk;
-				recon->x[3 * n + d] = z->lo[d] + (double)kk * z->q[d];
+				const double val = z->lo[d] + (double)kk * z->q[d];
+				recon->x[3 * n + d] = val;
+				o->x[S * n + d] = val;
+				o->v[S * n + d] = est ? (val - prev->x[3 * n + d]) * inv : NAN;
 			}
 			li++;
 		}
+	o->done = 1;
 	return bad ? -1 : 0;
 }
 
 static int fast_decode(const pctx *c, const quant *z, const uint64_t *u, size_t lossy,
-                       ndo_codec_frame *recon)
+                       ndo_codec_frame *recon, outs *o)
 {
 	switch (fast_mode(c)) {
-	case M_INTRA: return fast_decode_mode(c, M_INTRA, z, u, lossy, recon);
-	case M_COPY: return fast_decode_mode(c, M_COPY, z, u, lossy, recon);
-	case M_CURVED: return fast_decode_mode(c, M_CURVED, z, u, lossy, recon);
-	case M_LINEAR: return fast_decode_mode(c, M_LINEAR, z, u, lossy, recon);
-	default: return fast_decode_mode(c, M_GAP, z, u, lossy, recon);
+	case M_INTRA: return fast_decode_mode(c, M_INTRA, z, u, lossy, recon, o);
+	case M_COPY: return fast_decode_mode(c, M_COPY, z, u, lossy, recon, o);
+	case M_CURVED: return fast_decode_mode(c, M_CURVED, z, u, lossy, recon, o);
+	case M_LINEAR: return fast_decode_mode(c, M_LINEAR, z, u, lossy, recon, o);
+	default: return fast_decode_mode(c, M_GAP, z, u, lossy, recon, o);
 	}
 }
 
@@ -1224,7 +1242,7 @@ done:
 /* Decode the LOSSY positions of the body (after the exact nodes). */
 static int decode_lossy(const ndo_codec_params *p, ndo_codec_work *w, rbuf *r, uint8_t flags,
                         const uint8_t *cls, int rows, int cols, const ndo_codec_frame *ref[3],
-                        int64_t step, ndo_codec_frame *recon)
+                        int64_t step, ndo_codec_frame *recon, outs *o)
 {
 	const int nodes = rows * cols, enc = p->encoding;
 	const quant z = quant_of(p);
@@ -1291,7 +1309,7 @@ static int decode_lossy(const ndo_codec_params *p, ndo_codec_work *w, rbuf *r, u
 	if (get_residuals(r, w->u, 3 * lossy))
 		return -1;
 	if (uniform(&c))
-		return fast_decode(&c, &z, w->u, lossy, recon);
+		return fast_decode(&c, &z, w->u, lossy, recon, o);
 	for (int d = 0; d < 3; d++) {
 		for (int n = 0; n < nodes; n++)
 			cur[n] = recon->k[3 * n + d]; /* exact nodes' codes */
@@ -1427,7 +1445,11 @@ ndo_drop ndo_codec_decode_strided(const ndo_codec_params *p, ndo_codec_work *w,
 		res = NDO_DROP_CORRUPT;
 		goto done;
 	}
-	int dl = decode_lossy(p, w, &b, flags, cls, rows, cols, ref, step, recon);
+	/* velocities of LOSSY nodes from the previous frame */
+	const ndo_codec_frame *prev = before(h, step, epoch);
+	double dtp = prev ? time - prev->time : 0, inv = dtp > 0 ? 1 / dtp : 0;
+	outs o = {x, v, S, prev, inv, 0};
+	int dl = decode_lossy(p, w, &b, flags, cls, rows, cols, ref, step, recon, &o);
 	if (dl == -2) {
 		res = NDO_DROP_RANGE;
 		goto done;
@@ -1436,10 +1458,9 @@ ndo_drop ndo_codec_decode_strided(const ndo_codec_params *p, ndo_codec_work *w,
 		res = NDO_DROP_CORRUPT;
 		goto done;
 	}
-	/* positions out; velocities of LOSSY nodes from the previous frame */
-	const ndo_codec_frame *prev = before(h, step, epoch);
-	double dtp = prev ? time - prev->time : 0, inv = dtp > 0 ? 1 / dtp : 0;
-	for (int n = 0; n < nodes; n++) {
+	/* positions and velocities out (the fast decoder's are: no node of its
+	 * frames is SKIP) */
+	for (int n = 0; n < nodes && !o.done; n++) {
 		if (cls[n] == NDO_NODE_EXACT)
 			continue;
 		int lossy = cls[n] == NDO_NODE_LOSSY;
