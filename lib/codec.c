@@ -368,6 +368,7 @@ struct ndo_codec_work {
 	size_t cap, cap2;
 	int32_t *cur;    /* nodes: one component's codes */
 	uint64_t *u;     /* 3 x nodes: the residuals, zigzag-coded */
+	int64_t *erow;   /* 6 x nodes: two rows' extrapolation errors (pctx) */
 	double err_max2, err_sum2; /* the last frame encoded: its LOSSY errors */
 	size_t err_n;
 	size_t ecap;
@@ -393,7 +394,7 @@ void ndo_codec_work_destroy(ndo_codec_work *w)
 		return;
 	ZSTD_freeCCtx(w->cc);
 	ZSTD_freeDCtx(w->dc);
-	free(w->buf), free(w->buf2), free(w->cur), free(w->u);
+	free(w->buf), free(w->buf2), free(w->cur), free(w->u), free(w->erow);
 	free(w);
 }
 
@@ -426,6 +427,10 @@ static int work_nodes(ndo_codec_work *w, size_t nodes)
 	if (!u)
 		return -1;
 	w->u = u;
+	int64_t *er = realloc(w->erow, 6 * nodes * sizeof *er);
+	if (!er)
+		return -1;
+	w->erow = er;
 	w->ecap = nodes;
 	return 0;
 }
@@ -605,6 +610,13 @@ static inline int64_t med3(int64_t a, int64_t b, int64_t c)
 	return c >= mx ? mn : r;
 }
 
+/* a clamped between b and c (the median of the three) */
+static inline int64_t clamp3(int64_t a, int64_t b, int64_t c)
+{
+	int64_t mx = b > c ? b : c, mn = b < c ? b : c;
+	return a < mn ? mn : a > mx ? mx : a;
+}
+
 /* What the predictor works with for one frame (ndo/codec.h, "predict"). */
 typedef struct pctx {
 	const ndo_codec_frame *r[3]; /* references, newest first (NULL: absent) */
@@ -613,6 +625,7 @@ typedef struct pctx {
 	const uint8_t *cls;          /* this frame's classes */
 	const int32_t *cur;          /* this frame's codes so far (one component) */
 	int cons, cons3;             /* r0, r1 at step−1, step−2; and r2 at step−3 */
+	int64_t *erow;               /* fast loops: 2 rows × cols × 3 errors, scratch */
 } pctx;
 
 static void pctx_init(pctx *c, const ndo_codec_frame *r0, const ndo_codec_frame *r1,
@@ -646,14 +659,35 @@ static inline int64_t half(int64_t a) { return (a + 1 - 2 * (a < 0)) / 2; }
 
 /* The prediction of node n's code on component d (node n is carried; in a
  * keyframe, the nodes before it in raster order are decoded in c->cur). */
+/* Node m's extrapolation error this step (consecutive steps), in *e;
+ * 0 when it has none (not carried, or not held by r0 and r1). */
+static int error_at(const pctx *c, int m, int d, int64_t *e)
+{
+	if (!carried(c, m) || !c->r[0]->have[m] || !c->r[1]->have[m])
+		return 0;
+	*e = c->cur[m] - (2 * (int64_t)c->r[0]->k[3 * m + d] - c->r[1]->k[3 * m + d]);
+	return 1;
+}
+
 static int64_t predict(const pctx *c, int n, int d)
 {
 	int64_t lin;
 	if (c->r[0] && extrapolate(c, n, d, &lin)) {
-		if (c->cons3 && c->r[2]->have[n]) /* half last step's second difference */
-			lin += half(c->r[0]->k[3 * n + d] - 2 * (int64_t)c->r[1]->k[3 * n + d] +
-			            c->r[2]->k[3 * n + d]);
-		return lin;
+		if (!c->cons)
+			return lin;
+		int64_t corr = 0, eu, el, er;
+		if (c->cons3 && c->r[2]->have[n]) /* last step's second difference */
+			corr = c->r[0]->k[3 * n + d] - 2 * (int64_t)c->r[1]->k[3 * n + d] +
+			       c->r[2]->k[3 * n + d];
+		int i = n % c->cols, u = n - c->cols;
+		if (u >= 0 && error_at(c, u, d, &eu)) { /* the upper row's errors this step */
+			if (i == 0 || !error_at(c, u - 1, d, &el))
+				el = eu;
+			if (i + 1 == c->cols || !error_at(c, u + 1, d, &er))
+				er = eu;
+			corr += clamp3(eu, el, er);
+		}
+		return lin + half(corr);
 	}
 	if (c->r[0] && c->r[0]->have[n])
 		return c->r[0]->k[3 * n + d];
@@ -715,7 +749,8 @@ static int fast_mode(const pctx *c)
 
 /* mode: fast_mode(c), a constant where this is inlined (a loop each) */
 static inline __attribute__((always_inline)) int64_t
-fast_predict(const pctx *c, const int mode, const int32_t *k, int n, int i, int j, int d)
+fast_predict(const pctx *c, const int mode, const int32_t *k, const int64_t *eprev, int64_t *lin,
+             int n, int i, int j, int d)
 {
 	const int cols = c->cols, m = 3 * n + d;
 	if (mode == M_INTRA) {
@@ -727,10 +762,16 @@ fast_predict(const pctx *c, const int mode, const int32_t *k, int n, int i, int 
 	if (mode == M_COPY)
 		return a;
 	int64_t b = c->r[1]->k[m];
-	if (mode == M_CURVED)
-		return 2 * a - b + half(a - 2 * b + c->r[2]->k[m]);
-	if (mode == M_LINEAR)
-		return 2 * a - b;
+	if (mode == M_CURVED || mode == M_LINEAR) {
+		int64_t corr = mode == M_CURVED ? a - 2 * b + c->r[2]->k[m] : 0;
+		if (j > 0) { /* the upper row's extrapolation errors this step */
+			const int q = 3 * i + d;
+			int64_t eu = eprev[q];
+			corr += clamp3(eu, i > 0 ? eprev[q - 3] : eu, i + 1 < cols ? eprev[q + 3] : eu);
+		}
+		*lin = 2 * a - b;
+		return *lin + half(corr);
+	}
 	const int64_t g = c->step - c->r[0]->step, gap = c->r[0]->step - c->r[1]->step;
 	if (gap == 1) /* the usual gap, after skipped steps: rdiv() without a division */
 		return a + (a - b) * g;
@@ -747,13 +788,16 @@ fast_encode_mode(const pctx *c, const int mode, const quant *z, const double *x,
                  ndo_codec_frame *recon, uint64_t *u, size_t lossy, uint64_t *any, double err[2])
 {
 	double max2 = 0, sum2 = 0;
+	int64_t *erow = c->erow;
 	const int cols = c->cols, rows = c->nodes / cols;
 	const uint8_t *cls = c->cls;
 	int32_t *k = recon->k;
 	int out = 0;
 	uint64_t acc = 0;
 	size_t li = 0;
-	for (int j = 0, n = 0; j < rows; j++)
+	for (int j = 0, n = 0; j < rows; j++) {
+		int64_t *ecur = erow + (size_t)(j & 1) * 3 * (size_t)cols,
+		        *eprev = erow + (size_t)(~j & 1) * 3 * (size_t)cols;
 		for (int i = 0; i < cols; i++, n++) {
 			const int ls = cls[n] == NDO_NODE_LOSSY;
 			double e2 = 0;
@@ -769,7 +813,9 @@ fast_encode_mode(const pctx *c, const int mode, const quant *z, const double *x,
 				const double val = ls ? z->lo[d] + (double)kk * z->q[d] : xv;
 				recon->x[3 * n + d] = val;
 				e2 += (val - xv) * (val - xv);
-				uint64_t uu = zigzag(kk - fast_predict(c, mode, k, n, i, j, d));
+				int64_t lin = 0;
+				uint64_t uu = zigzag(kk - fast_predict(c, mode, k, eprev, &lin, n, i, j, d));
+				ecur[3 * i + d] = kk - lin; /* used in the two modes that set lin */
 				if (ls)
 					u[d * lossy + li] = uu;
 				acc |= ls ? uu : 0;
@@ -778,6 +824,7 @@ fast_encode_mode(const pctx *c, const int mode, const quant *z, const double *x,
 			sum2 += e2; /* 0 but for LOSSY nodes */
 			max2 = e2 > max2 ? e2 : max2;
 		}
+	}
 	*any = acc;
 	err[0] = max2, err[1] = sum2;
 	return out ? -1 : 0;
@@ -820,17 +867,28 @@ fast_decode_mode(const pctx *c, const int mode, const quant *z, const uint64_t *
 	int32_t *k = recon->k;
 	size_t li = 0;
 	int bad = 0;
-	for (int j = 0, n = 0; j < rows; j++)
+	int64_t *erow = c->erow;
+	for (int j = 0, n = 0; j < rows; j++) {
+		int64_t *ecur = erow + (size_t)(j & 1) * 3 * (size_t)cols,
+		        *eprev = erow + (size_t)(~j & 1) * 3 * (size_t)cols;
 		for (int i = 0; i < cols; i++, n++) {
-			if (cls[n] != NDO_NODE_LOSSY)
+			if (cls[n] != NDO_NODE_LOSSY) { /* EXACT: its code is known; its error */
+				if (mode == M_CURVED || mode == M_LINEAR)
+					for (int d = 0; d < 3; d++)
+						ecur[3 * i + d] = k[3 * n + d] - (2 * (int64_t)c->r[0]->k[3 * n + d] -
+						                                  c->r[1]->k[3 * n + d]);
 				continue;
+			}
 			const int est = prev && prev->have[n];
 			for (int d = 0; d < 3; d++) {
-				int64_t kk = fast_predict(c, mode, k, n, i, j, d) + unzigzag(u[d * lossy + li]);
+				int64_t lin = 0;
+				int64_t kk = fast_predict(c, mode, k, eprev, &lin, n, i, j, d) +
+				             unzigzag(u[d * lossy + li]);
 				int inr = kk > -CODE_MAX && kk < CODE_MAX;
 				bad |= !inr;
 				kk = inr ? kk : 0;
 				k[3 * n + d] = (int32_t)kk;
+				ecur[3 * i + d] = kk - lin;
 				const double val = z->lo[d] + (double)kk * z->q[d];
 				recon->x[3 * n + d] = val;
 				o->x[S * n + d] = val;
@@ -838,6 +896,7 @@ fast_decode_mode(const pctx *c, const int mode, const quant *z, const uint64_t *
 			}
 			li++;
 		}
+	}
 	o->done = 1;
 	return bad ? -1 : 0;
 }
@@ -1039,7 +1098,7 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 		rc = ndo__fail(NDO_ENOMEM, "out of memory");
 		goto done;
 	}
-	pctx pc = {.cols = in->cols, .nodes = nodes, .cls = in->cls};
+	pctx pc = {.cols = in->cols, .nodes = nodes, .cls = in->cls, .erow = w->erow};
 	pctx_init(&pc, r[0], r[1], r[2], in->step);
 	const int fast = enc == NDO_ENC_PREDICT && uniform(&pc);
 	size_t lossy = 0;
@@ -1299,7 +1358,7 @@ static int decode_lossy(const ndo_codec_params *p, ndo_codec_work *w, rbuf *r, u
 		return 0;
 	}
 	/* predict */
-	pctx c = {.cols = cols, .nodes = nodes, .cls = cls};
+	pctx c = {.cols = cols, .nodes = nodes, .cls = cls, .erow = w->erow};
 	pctx_init(&c, ref[0], ref[1], ref[2], step);
 	int32_t *cur = w->cur;
 	c.cur = cur;

@@ -30,14 +30,17 @@
  * receiver reconstructs them (integer codes, so the arithmetic is exact
  * and the same on every machine), and errors do not drift.  A node's code
  * is predicted from the tile's last three frames sent, k1, k2, k3, at the
- * steps before: the linear extrapolation 2k1 − k2 plus half of last step's
- * second difference k1 − 2k2 + k3 (rounded half away from zero; without
- * it when the steps are not consecutive, the extrapolation scaled to the
- * gap).  The prediction is per node, from its own past only, so encoding
- * and decoding are loops without a chain from node to node (a spatial
- * correction from the neighbours' errors this step saved 13 % of the bits
- * at level 6 — 4.5 against 5.2 bits a node —, none at 7, and made
- * decoding sequential: dropped).  A
+ * steps before: the linear extrapolation 2k1 − k2 plus half the sum of two
+ * corrections (rounded half away from zero): last step's second
+ * difference k1 − 2k2 + k3, and the upper row's extrapolation errors this
+ * step — the upper neighbour's, clamped between the upper-left's and the
+ * upper-right's (the upper's standing in for a missing one; none on the
+ * first row or without an upper neighbour).  Neither correction when the
+ * steps are not consecutive (the extrapolation scaled to the gap), each
+ * only when it exists.  Only the row above enters, never the node to the
+ * left, so a row decodes without a chain from node to node (LOCO-I's
+ * median of left, upper and upper-left, as before, saved no more bits
+ * and made decoding sequential).  A
  * keyframe (no reference: the codes predicted from their left, upper and
  * upper-left neighbours, LOCO-I's median) comes every `keyframe` steps
  * and whenever the sender has no reference, so a receiver that lost a
