@@ -38,9 +38,10 @@
  * first row or without an upper neighbour).  Neither correction when the
  * steps are not consecutive (the extrapolation scaled to the gap), each
  * only when it exists.  Only the row above enters, never the node to the
- * left, so a row decodes without a chain from node to node (LOCO-I's
- * median of left, upper and upper-left, as before, saved no more bits
- * and made decoding sequential).  A
+ * left, so a row decodes without a chain from node to node (the earlier
+ * correction, LOCO-I's median of the left, upper and upper-left errors,
+ * took 1 % fewer bits at level 6 over 2 s, 4.51 against 4.57 a node, and
+ * made decoding sequential).  A
  * keyframe (no reference: the codes predicted from their left, upper and
  * upper-left neighbours, LOCO-I's median) comes every `keyframe` steps
  * and whenever the sender has no reference, so a receiver that lost a
