@@ -10,7 +10,9 @@
 #include <zstd.h>
 
 enum { KIND_INTRA = 0, KIND_PRED = 1, F_ZSTD = 4, F_WIDE = 8, F_NOREF = 16 };
-#define ZSTD_LEVEL 1     /* level 1: 0.1-0.2 ms a level-7 state; higher levels gain ~2 % */
+/* zstd's level: 1 (docs/bench/net.md: levels -5..3 against bits and time;
+ * set by bench_codec -z only) */
+int ndo__codec_zstd_level = 1;
 #define CODE_MAX (1 << 30)
 
 /* ---- parameters ----------------------------------------------------------- */
@@ -20,6 +22,7 @@ int ndo_codec_parse(const char *spec, ndo_codec_params *p)
 {
 	char name[32];
 	int bits = NDO_CODEC_BITS_DEFAULT, key = NDO_CODEC_KEYFRAME_DEFAULT;
+	double err = 0;
 	const char *colon = strchr(spec, ':');
 	size_t n = colon ? (size_t)(colon - spec) : strlen(spec);
 	if (n == 0 || n >= sizeof name)
@@ -38,10 +41,22 @@ int ndo_codec_parse(const char *spec, ndo_codec_params *p)
 		if (e < NDO_ENC_FIXED)
 			return ndo__fail(NDO_EINVAL, "'%s': %s takes no parameters", spec, name);
 		char *end;
-		long b = strtol(colon + 1, &end, 10);
-		if (end == colon + 1 || b < 1 || b > 24 || (*end && *end != ':'))
-			return ndo__fail(NDO_EINVAL, "'%s': bits must be 1..24", spec);
-		bits = (int)b;
+		const char *f = colon + 1;
+		size_t digits = strspn(f, "0123456789");
+		if (digits && (f[digits] == '.' || f[digits] == 'e' || f[digits] == 'E')) {
+			/* an error budget: the largest error over the diagonal */
+			err = strtod(f, &end);
+			if (end == f || !(err >= NDO_CODEC_ERROR_MIN && err <= NDO_CODEC_ERROR_MAX) ||
+			    (*end && *end != ':'))
+				return ndo__fail(NDO_EINVAL, "'%s': the error budget must be %g..%g of the "
+				                 "diagonal", spec, NDO_CODEC_ERROR_MIN, NDO_CODEC_ERROR_MAX);
+		} else {
+			long b = strtol(f, &end, 10);
+			if (end == f || b < 1 || b > 24 || (*end && *end != ':'))
+				return ndo__fail(NDO_EINVAL, "'%s': bits must be 1..24, or an error "
+				                 "budget (1e-4)", spec);
+			bits = (int)b;
+		}
 		if (*end == ':') {
 			const char *ks = end + 1;
 			long kk = strtol(ks, &end, 10);
@@ -55,16 +70,24 @@ int ndo_codec_parse(const char *spec, ndo_codec_params *p)
 	p->encoding = e;
 	p->bits = bits;
 	p->keyframe = key;
+	p->error = err;
 	return 0;
 }
 
 void ndo_codec_name(const ndo_codec_params *p, char *buf, size_t size)
 {
 	int e = p->encoding >= 0 && p->encoding < 4 ? p->encoding : 0;
+	char depth[32];
+	if (p->error > 0)
+		snprintf(depth, sizeof depth, "%.3g", p->error);
+	else
+		snprintf(depth, sizeof depth, "%d", p->bits);
+	if (!strpbrk(depth, ".e") && p->error > 0) /* "1" would read as bits */
+		snprintf(depth, sizeof depth, "%.1f", p->error);
 	if (e == NDO_ENC_FIXED)
-		snprintf(buf, size, "fixed:%d", p->bits);
+		snprintf(buf, size, "fixed:%s", depth);
 	else if (e == NDO_ENC_PREDICT)
-		snprintf(buf, size, "predict:%d:%d", p->bits, p->keyframe);
+		snprintf(buf, size, "predict:%s:%d", depth, p->keyframe);
 	else
 		snprintf(buf, size, "%s", enc_names[e]);
 }
@@ -104,6 +127,8 @@ double ndo_codec_max_error(const ndo_codec_params *p)
 	switch (p->encoding) {
 	case NDO_ENC_FIXED:
 	case NDO_ENC_PREDICT:
+		if (p->error > 0)
+			return p->error * ndo_codec_diagonal(p);
 		return ldexp(ndo_codec_diagonal(p), -(p->bits + 1));
 	case NDO_ENC_FLOAT32: {
 		/* round to nearest float: half an ulp of the largest magnitude in
@@ -132,6 +157,9 @@ int ndo_codec_params_check(const ndo_codec_params *p)
 	if (p->bits < 1 || p->bits > 24 || p->keyframe < 1 || p->keyframe > 4096)
 		return ndo__fail(NDO_EINVAL, "tile encoding: bits %d (1..24), keyframe %d (1..4096)",
 		                 p->bits, p->keyframe);
+	if (p->error != 0 && !(p->error >= NDO_CODEC_ERROR_MIN && p->error <= NDO_CODEC_ERROR_MAX))
+		return ndo__fail(NDO_EINVAL, "tile encoding: error budget %g (%g..%g)", p->error,
+		                 NDO_CODEC_ERROR_MIN, NDO_CODEC_ERROR_MAX);
 	for (int c = 0; c < 3; c++)
 		if (!isfinite(p->lo[c]) || !isfinite(p->ext[c]) || !(p->ext[c] > 0) ||
 		    fabs(p->lo[c]) > 1e300 || p->ext[c] > 1e300)
@@ -150,6 +178,10 @@ int ndo_codec_params_text(const ndo_codec_params *p, char *buf, size_t size)
 		             p->ext[1], p->ext[2]);
 	else if (size)
 		*buf = 0;
+	if (n >= 0 && (size_t)n < size && p->encoding != NDO_ENC_RAW && p->error > 0) {
+		int m = snprintf(buf + n, size - (size_t)n, "tile-error %.17g\n", p->error);
+		n = m < 0 ? m : n + m;
+	}
 	if (n < 0 || (size_t)n >= size)
 		return ndo__fail(NDO_ERANGE, "tile encoding: the description lines do not fit");
 	return n;
@@ -183,13 +215,15 @@ int ndo_codec_params_take(char *text, ndo_codec_params *p)
 		else if (sscanf(l, "tile-box %lf %lf %lf %lf %lf %lf", &p->lo[0], &p->lo[1], &p->lo[2],
 		                &p->ext[0], &p->ext[1], &p->ext[2]) == 6)
 			seen |= 8;
+		else if (sscanf(l, "tile-error %lf", &p->error) == 1 && p->error > 0)
+			seen |= 16; /* optional: the step from an error budget */
 		else if (!rc)
 			rc = ndo__fail(NDO_EINVAL, "the owner's description: bad line '%s'", l);
 	}
 	*w = 0;
 	if (rc)
 		return rc;
-	if (seen && seen != 15)
+	if (seen && (seen & 15) != 15)
 		return ndo__fail(NDO_EINVAL, "the owner's description: incomplete tile-* lines");
 	return seen ? ndo_codec_params_check(p) : 0;
 }
@@ -252,7 +286,19 @@ static void frame_copy(ndo_codec_frame *d, const ndo_codec_frame *s, int nodes)
 	memcpy(d->have, s->have, (size_t)nodes);
 }
 
+static int hist_insert(ndo_codec_hist *h, ndo_codec_frame *f, int take);
+
 void ndo_codec_hist_put(ndo_codec_hist *h, const ndo_codec_frame *f)
+{
+	hist_insert(h, (ndo_codec_frame *)f, 0); /* not written to */
+}
+
+int ndo_codec_hist_take(ndo_codec_hist *h, ndo_codec_frame *f)
+{
+	return hist_insert(h, f, 1);
+}
+
+static int hist_insert(ndo_codec_hist *h, ndo_codec_frame *f, int take)
 {
 	for (int k = 0; k < NDO_CODEC_HISTORY; k++)
 		if (h->f[k].step >= 0 && (h->f[k].epoch != f->epoch || h->f[k].step == f->step))
@@ -275,14 +321,21 @@ void ndo_codec_hist_put(ndo_codec_hist *h, const ndo_codec_frame *f)
 	/* the slot to fill: the oldest (last), unless f is older than all held */
 	int slot = NDO_CODEC_HISTORY - 1;
 	if (tmp[slot].step >= 0 && tmp[slot].step > f->step)
-		return; /* older than every frame held: of no use */
-	frame_copy(&tmp[slot], f, h->nodes);
+		return 0; /* older than every frame held: of no use */
+	if (take) { /* the frame's arrays into the slot, the slot's to the caller */
+		ndo_codec_frame old = tmp[slot];
+		tmp[slot] = *f;
+		f->x = old.x, f->k = old.k, f->have = old.have;
+	} else {
+		frame_copy(&tmp[slot], f, h->nodes);
+	}
 	for (int b = slot; b > 0 && tmp[b].step > tmp[b - 1].step; b--) {
 		ndo_codec_frame t = tmp[b];
 		tmp[b] = tmp[b - 1];
 		tmp[b - 1] = t;
 	}
 	memcpy(h->f, tmp, sizeof tmp);
+	return take;
 }
 
 const ndo_codec_frame *ndo_codec_hist_find(const ndo_codec_hist *h, int64_t step)
@@ -313,8 +366,11 @@ struct ndo_codec_work {
 	ZSTD_DCtx *dc;
 	uint8_t *buf, *buf2;
 	size_t cap, cap2;
-	int64_t *e;      /* nodes: this frame's extrapolation errors */
-	uint8_t *has_e;
+	int32_t *cur;    /* nodes: one component's codes */
+	uint64_t *u;     /* 3 x nodes: the residuals, zigzag-coded */
+	int64_t *erow;   /* 6 x nodes: two rows' extrapolation errors (pctx) */
+	double err_max2, err_sum2; /* the last frame encoded: its LOSSY errors */
+	size_t err_n;
 	size_t ecap;
 };
 
@@ -338,8 +394,13 @@ void ndo_codec_work_destroy(ndo_codec_work *w)
 		return;
 	ZSTD_freeCCtx(w->cc);
 	ZSTD_freeDCtx(w->dc);
-	free(w->buf), free(w->buf2), free(w->e), free(w->has_e);
+	free(w->buf), free(w->buf2), free(w->cur), free(w->u), free(w->erow);
 	free(w);
+}
+
+void ndo_codec_work_error(const ndo_codec_work *w, double *max2, double *sum2, size_t *count)
+{
+	*max2 = w->err_max2, *sum2 = w->err_sum2, *count = w->err_n;
 }
 
 static int grow(uint8_t **b, size_t *cap, size_t need)
@@ -358,14 +419,18 @@ static int work_nodes(ndo_codec_work *w, size_t nodes)
 {
 	if (nodes <= w->ecap)
 		return 0;
-	int64_t *e = realloc(w->e, nodes * sizeof *e);
-	if (!e)
+	int32_t *cur = realloc(w->cur, nodes * sizeof *cur);
+	if (!cur)
 		return -1;
-	w->e = e;
-	uint8_t *h = realloc(w->has_e, nodes);
-	if (!h)
+	w->cur = cur;
+	uint64_t *u = realloc(w->u, 3 * nodes * sizeof *u);
+	if (!u)
 		return -1;
-	w->has_e = h;
+	w->u = u;
+	int64_t *er = realloc(w->erow, 6 * nodes * sizeof *er);
+	if (!er)
+		return -1;
+	w->erow = er;
 	w->ecap = nodes;
 	return 0;
 }
@@ -391,6 +456,26 @@ static void put(wbuf *b, const void *src, size_t n)
 	}
 	memcpy(b->p + b->n, src, n);
 	b->n += n;
+}
+
+/* Room for n more bytes at b->p + b->n (0, or −1: out of memory). */
+static int reserve(wbuf *b, size_t n)
+{
+	if (b->fail)
+		return -1;
+	if (b->n + n <= b->cap)
+		return 0;
+	size_t cap = b->cap ? b->cap : 4096;
+	while (cap < b->n + n)
+		cap *= 2;
+	uint8_t *q = realloc(b->p, cap);
+	if (!q) {
+		b->fail = 1;
+		return -1;
+	}
+	b->p = q;
+	b->cap = cap;
+	return 0;
 }
 
 static void put_byte(wbuf *b, uint8_t v)
@@ -460,22 +545,51 @@ static uint64_t zigzag(int64_t v) { return ((uint64_t)v << 1) ^ (uint64_t)(v >> 
 static int64_t unzigzag(uint64_t u) { return (int64_t)(u >> 1) ^ -(int64_t)(u & 1); }
 
 /* ---- codes and prediction ------------------------------------------------------- */
-static double qstep(const ndo_codec_params *p, int c) { return ldexp(p->ext[c], -p->bits); }
+/* The quantization step per axis, ext / 2^bits (exact: a power of two's
+ * scaling), computed once for a set of parameters. */
+typedef struct quant { double lo[3], q[3]; } quant;
+
+static quant quant_of(const ndo_codec_params *p)
+{
+	quant z;
+	/* an error budget: one step on every axis, half its cube's diagonal
+	 * the budget — √3 q / 2 = error × diagonal */
+	double q = p->error > 0 ? 2 * p->error * ndo_codec_diagonal(p) / sqrt(3) : 0;
+	for (int c = 0; c < 3; c++)
+		z.lo[c] = p->lo[c], z.q[c] = p->error > 0 ? q : ldexp(p->ext[c], -p->bits);
+	return z;
+}
+
+/* The bits of a code across the box: `bits`, or those of the steps in
+ * the box's longest axis (an error budget). */
+static int code_bits(const ndo_codec_params *p, const quant *z)
+{
+	if (!(p->error > 0))
+		return p->bits;
+	double most = 0;
+	for (int c = 0; c < 3; c++)
+		most = fmax(most, p->ext[c] / z->q[c]);
+	int b = 1;
+	while (b < 28 && ldexp(1, b) < most)
+		b++;
+	return b;
+}
 
 /* The code of coordinate x on axis c, 0 when it is out of range (*ok = 0). */
-static int32_t code_of(const ndo_codec_params *p, int c, double x, int *ok)
+static inline int32_t code_of(const quant *z, int c, double x, int *ok)
 {
-	double k = floor((x - p->lo[c]) / qstep(p, c) + 0.5);
-	if (!(k > -CODE_MAX && k < CODE_MAX)) {
+	double t = (x - z->lo[c]) / z->q[c] + 0.5;
+	if (!(t >= -CODE_MAX + 1 && t < CODE_MAX)) { /* floor(t) in (−CODE_MAX, CODE_MAX) */
 		*ok = 0;
 		return 0;
 	}
-	return (int32_t)k;
+	int32_t k = (int32_t)t; /* floor(t), without a call to libm */
+	return k - ((double)k > t);
 }
 
-static double value_of(const ndo_codec_params *p, int c, int64_t k)
+static inline double value_of(const quant *z, int c, int64_t k)
 {
-	return p->lo[c] + (double)k * qstep(p, c);
+	return z->lo[c] + (double)k * z->q[c];
 }
 
 /* a/b rounded half away from zero (b > 0) */
@@ -486,14 +600,21 @@ static int64_t rdiv(int64_t a, int64_t b)
 	return a >= 0 ? (a + b / 2) / b : -((-a + b / 2) / b);
 }
 
-static int64_t med3(int64_t a, int64_t b, int64_t c)
+/* LOCO-I's median predictor of left a, up b, upper-left c: min(a, b)
+ * when c ≥ max(a, b), max(a, b) when c ≤ min(a, b), else a + b − c.
+ * Without branches: the data decide, and would mispredict them. */
+static inline int64_t med3(int64_t a, int64_t b, int64_t c)
 {
 	int64_t mx = a > b ? a : b, mn = a < b ? a : b;
-	if (c >= mx)
-		return mn;
-	if (c <= mn)
-		return mx;
-	return a + b - c;
+	int64_t r = c <= mn ? mx : a + b - c;
+	return c >= mx ? mn : r;
+}
+
+/* a clamped between b and c (the median of the three) */
+static inline int64_t clamp3(int64_t a, int64_t b, int64_t c)
+{
+	int64_t mx = b > c ? b : c, mn = b < c ? b : c;
+	return a < mn ? mn : a > mx ? mx : a;
 }
 
 /* What the predictor works with for one frame (ndo/codec.h, "predict"). */
@@ -503,9 +624,8 @@ typedef struct pctx {
 	int cols, nodes;
 	const uint8_t *cls;          /* this frame's classes */
 	const int32_t *cur;          /* this frame's codes so far (one component) */
-	int64_t *e;                  /* this frame's extrapolation errors */
-	uint8_t *has_e;
 	int cons, cons3;             /* r0, r1 at step−1, step−2; and r2 at step−3 */
+	int64_t *erow;               /* fast loops: 2 rows × cols × 3 errors, scratch */
 } pctx;
 
 static void pctx_init(pctx *c, const ndo_codec_frame *r0, const ndo_codec_frame *r1,
@@ -534,47 +654,47 @@ static int extrapolate(const pctx *c, int n, int d, int64_t *lin)
 
 static int carried(const pctx *c, int m) { return c->cls[m] != NDO_NODE_SKIP; }
 
-/* The prediction of node n's code on component d (node n is carried; the
- * nodes before it in raster order are decoded in c->cur, their errors in
- * c->e).  Records n's own extrapolation (for its neighbours) in *lin_out. */
-static int64_t predict(const pctx *c, int n, int d, int64_t *lin_out, int *has_lin)
+/* rdiv(a, 2): halves rounded away from zero (C division truncates) */
+static inline int64_t half(int64_t a) { return (a + 1 - 2 * (a < 0)) / 2; }
+
+/* The prediction of node n's code on component d (node n is carried; in a
+ * keyframe, the nodes before it in raster order are decoded in c->cur). */
+/* Node m's extrapolation error this step (consecutive steps), in *e;
+ * 0 when it has none (not carried, or not held by r0 and r1). */
+static int error_at(const pctx *c, int m, int d, int64_t *e)
 {
-	int i = n % c->cols;
-	int left = i > 0 ? n - 1 : -1, up = n >= c->cols ? n - c->cols : -1;
-	int ul = left >= 0 && up >= 0 ? up - 1 : -1;
+	if (!carried(c, m) || !c->r[0]->have[m] || !c->r[1]->have[m])
+		return 0;
+	*e = c->cur[m] - (2 * (int64_t)c->r[0]->k[3 * m + d] - c->r[1]->k[3 * m + d]);
+	return 1;
+}
+
+static int64_t predict(const pctx *c, int n, int d)
+{
 	int64_t lin;
-	*has_lin = 0;
 	if (c->r[0] && extrapolate(c, n, d, &lin)) {
-		*has_lin = 1;
-		*lin_out = lin;
-		int64_t sum = 0;
-		int terms = 0;
-		if (c->cons3 && c->r[2]->have[n]) { /* last step's second difference */
-			sum += c->r[0]->k[3 * n + d] - 2 * (int64_t)c->r[1]->k[3 * n + d] +
+		if (!c->cons)
+			return lin;
+		int64_t corr = 0, eu, el, er;
+		if (c->cons3 && c->r[2]->have[n]) /* last step's second difference */
+			corr = c->r[0]->k[3 * n + d] - 2 * (int64_t)c->r[1]->k[3 * n + d] +
 			       c->r[2]->k[3 * n + d];
-			terms++;
+		int i = n % c->cols, u = n - c->cols;
+		if (u >= 0 && error_at(c, u, d, &eu)) { /* the upper row's errors this step */
+			if (i == 0 || !error_at(c, u - 1, d, &el))
+				el = eu;
+			if (i + 1 == c->cols || !error_at(c, u + 1, d, &er))
+				er = eu;
+			corr += clamp3(eu, el, er);
 		}
-		if (c->cons) { /* the neighbours' errors this step */
-			int a = left >= 0 && c->has_e[left], b = up >= 0 && c->has_e[up],
-			    u = ul >= 0 && c->has_e[ul];
-			int64_t s;
-			if (a && b && u)
-				s = med3(c->e[left], c->e[up], c->e[ul]);
-			else if (a && b)
-				s = rdiv(c->e[left] + c->e[up], 2);
-			else if (a || b)
-				s = a ? c->e[left] : c->e[up];
-			else
-				goto none;
-			sum += s;
-			terms++;
-		}
-	none:
-		return lin + (terms == 2 ? rdiv(sum, 2) : sum);
+		return lin + half(corr);
 	}
 	if (c->r[0] && c->r[0]->have[n])
 		return c->r[0]->k[3 * n + d];
 	/* intra: from this frame's neighbours */
+	int i = n % c->cols;
+	int left = i > 0 ? n - 1 : -1, up = n >= c->cols ? n - c->cols : -1;
+	int ul = left >= 0 && up >= 0 ? up - 1 : -1;
 	int a = left >= 0 && carried(c, left), b = up >= 0 && carried(c, up),
 	    u = ul >= 0 && carried(c, ul);
 	if (a && b && u)
@@ -585,6 +705,330 @@ static int64_t predict(const pctx *c, int n, int d, int64_t *lin_out, int *has_l
 		return c->cur[left];
 	if (b)
 		return c->cur[up];
+	return 0;
+}
+
+/* ---- the predictor's common case, fast ------------------------------------------ */
+/* Set (tests only): every frame through the general predictor above, so
+ * that the fast one below can be checked against it byte for byte. */
+int ndo__codec_general_only;
+
+/* Whether a frame is in a common case, where predict() reduces to the
+ * loops of fast_component() — the same integers without its branches:
+ * every node carried, and the references predict() uses (r0; r1; r2 when
+ * the last three steps are consecutive) holding every node.  Then every
+ * node is predicted the same way (from its neighbours in a keyframe; r0's
+ * code with r0 alone; else extrapolated) and its neighbours' values or
+ * errors exist wherever the neighbours do. */
+static int uniform(const pctx *c)
+{
+	if (ndo__codec_general_only)
+		return 0;
+	const uint8_t *h0 = c->r[0] ? c->r[0]->have : NULL, *h1 = c->r[1] ? c->r[1]->have : h0,
+	              *h2 = c->cons3 ? c->r[2]->have : h1;
+	int all = 1;
+	if (!h0) {
+		for (int n = 0; n < c->nodes; n++)
+			all &= c->cls[n] != NDO_NODE_SKIP;
+	} else {
+		for (int n = 0; n < c->nodes; n++)
+			all &= (c->cls[n] != NDO_NODE_SKIP) & h0[n] & h1[n] & h2[n];
+	}
+	return all;
+}
+
+/* The prediction of node n's component d in a uniform frame (see
+ * uniform(); predict() without its checks): k holds this frame's codes
+ * of the nodes before n in raster order (a keyframe's references). */
+enum { M_INTRA, M_COPY, M_CURVED, M_LINEAR, M_GAP }; /* which references (uniform frames) */
+
+static int fast_mode(const pctx *c)
+{
+	return !c->r[0] ? M_INTRA : !c->r[1] ? M_COPY : c->cons3 ? M_CURVED : c->cons ? M_LINEAR : M_GAP;
+}
+
+/* mode: fast_mode(c), a constant where this is inlined (a loop each) */
+static inline __attribute__((always_inline)) int64_t
+fast_predict(const pctx *c, const int mode, const int32_t *k, const int64_t *eprev, int64_t *lin,
+             int n, int i, int j, int d)
+{
+	const int cols = c->cols, m = 3 * n + d;
+	if (mode == M_INTRA) {
+		if (i > 0 && j > 0)
+			return med3(k[m - 3], k[m - 3 * cols], k[m - 3 * cols - 3]);
+		return i > 0 ? k[m - 3] : j > 0 ? k[m - 3 * cols] : 0;
+	}
+	int64_t a = c->r[0]->k[m];
+	if (mode == M_COPY)
+		return a;
+	int64_t b = c->r[1]->k[m];
+	if (mode == M_CURVED || mode == M_LINEAR) {
+		int64_t corr = mode == M_CURVED ? a - 2 * b + c->r[2]->k[m] : 0;
+		if (j > 0) { /* the upper row's extrapolation errors this step */
+			const int q = 3 * i + d;
+			int64_t eu = eprev[q];
+			corr += clamp3(eu, i > 0 ? eprev[q - 3] : eu, i + 1 < cols ? eprev[q + 3] : eu);
+		}
+		*lin = 2 * a - b;
+		return *lin + half(corr);
+	}
+	const int64_t g = c->step - c->r[0]->step, gap = c->r[0]->step - c->r[1]->step;
+	if (gap == 1) /* the usual gap, after skipped steps: rdiv() without a division */
+		return a + (a - b) * g;
+	return a + rdiv((a - b) * g, gap);
+}
+
+/* Encoder, a uniform frame, in one pass over the nodes: codes (as
+ * code_of(), without branches) into recon->k, the LOSSY nodes' values into
+ * recon->x (the others' positions as they are), the LOSSY residuals,
+ * zigzag-coded, into u[d × lossy + the node's rank].  Returns −1 when a
+ * code is out of range, else 0; *any: the residuals or'ed together. */
+static inline __attribute__((always_inline)) int
+fast_encode_mode(const pctx *c, const int mode, const quant *z, const double *x,
+                 ndo_codec_frame *recon, uint64_t *u, size_t lossy, uint64_t *any, double err[2])
+{
+	double max2 = 0, sum2 = 0;
+	int64_t *erow = c->erow;
+	const int cols = c->cols, rows = c->nodes / cols;
+	const uint8_t *cls = c->cls;
+	int32_t *k = recon->k;
+	int out = 0;
+	uint64_t acc = 0;
+	size_t li = 0;
+	for (int j = 0, n = 0; j < rows; j++) {
+		int64_t *ecur = erow + (size_t)(j & 1) * 3 * (size_t)cols,
+		        *eprev = erow + (size_t)(~j & 1) * 3 * (size_t)cols;
+		for (int i = 0; i < cols; i++, n++) {
+			const int ls = cls[n] == NDO_NODE_LOSSY;
+			double e2 = 0;
+			for (int d = 0; d < 3; d++) {
+				const double xv = x[3 * n + d];
+				double t = (xv - z->lo[d]) / z->q[d] + 0.5;
+				int inr = t >= -CODE_MAX + 1 && t < CODE_MAX;
+				out |= !inr;
+				t = inr ? t : 0;
+				int32_t kk = (int32_t)t;
+				kk -= (double)kk > t;
+				k[3 * n + d] = kk;
+				const double val = ls ? z->lo[d] + (double)kk * z->q[d] : xv;
+				recon->x[3 * n + d] = val;
+				e2 += (val - xv) * (val - xv);
+				int64_t lin = 0;
+				uint64_t uu = zigzag(kk - fast_predict(c, mode, k, eprev, &lin, n, i, j, d));
+				ecur[3 * i + d] = kk - lin; /* used in the two modes that set lin */
+				if (ls)
+					u[d * lossy + li] = uu;
+				acc |= ls ? uu : 0;
+			}
+			li += (size_t)ls;
+			sum2 += e2; /* 0 but for LOSSY nodes */
+			max2 = e2 > max2 ? e2 : max2;
+		}
+	}
+	*any = acc;
+	err[0] = max2, err[1] = sum2;
+	return out ? -1 : 0;
+}
+
+static int fast_encode(const pctx *c, const quant *z, const double *x, ndo_codec_frame *recon,
+                       uint64_t *u, size_t lossy, uint64_t *any, double err[2])
+{
+	switch (fast_mode(c)) {
+	case M_INTRA: return fast_encode_mode(c, M_INTRA, z, x, recon, u, lossy, any, err);
+	case M_COPY: return fast_encode_mode(c, M_COPY, z, x, recon, u, lossy, any, err);
+	case M_CURVED: return fast_encode_mode(c, M_CURVED, z, x, recon, u, lossy, any, err);
+	case M_LINEAR: return fast_encode_mode(c, M_LINEAR, z, x, recon, u, lossy, any, err);
+	default: return fast_encode_mode(c, M_GAP, z, x, recon, u, lossy, any, err);
+	}
+}
+
+/* Decoder, a uniform frame: the LOSSY nodes' codes and values from the
+ * residuals (as fast_encode() lays them out); recon->k holds the EXACT
+ * nodes' codes.  −1 when a code comes out of range. */
+/* Where a decoder's positions and velocities go (ndo_codec_decode_strided),
+ * and what velocities are estimated from; done: the LOSSY nodes' are out. */
+typedef struct outs {
+	double *x, *v;
+	size_t S;
+	const ndo_codec_frame *prev; /* NULL: none */
+	double inv;                  /* 1 / (time − prev's), 0: no estimate */
+	int done;
+} outs;
+
+static inline __attribute__((always_inline)) int
+fast_decode_mode(const pctx *c, const int mode, const quant *z, const uint64_t *u, size_t lossy,
+                 ndo_codec_frame *recon, outs *o)
+{
+	const ndo_codec_frame *prev = o->prev && o->inv > 0 ? o->prev : NULL;
+	const double inv = o->inv;
+	const size_t S = o->S;
+	const int cols = c->cols, rows = c->nodes / cols;
+	const uint8_t *cls = c->cls;
+	int32_t *k = recon->k;
+	size_t li = 0;
+	int bad = 0;
+	int64_t *erow = c->erow;
+	for (int j = 0, n = 0; j < rows; j++) {
+		int64_t *ecur = erow + (size_t)(j & 1) * 3 * (size_t)cols,
+		        *eprev = erow + (size_t)(~j & 1) * 3 * (size_t)cols;
+		for (int i = 0; i < cols; i++, n++) {
+			if (cls[n] != NDO_NODE_LOSSY) { /* EXACT: its code is known; its error */
+				if (mode == M_CURVED || mode == M_LINEAR)
+					for (int d = 0; d < 3; d++)
+						ecur[3 * i + d] = k[3 * n + d] - (2 * (int64_t)c->r[0]->k[3 * n + d] -
+						                                  c->r[1]->k[3 * n + d]);
+				continue;
+			}
+			const int est = prev && prev->have[n];
+			for (int d = 0; d < 3; d++) {
+				int64_t lin = 0;
+				int64_t kk = fast_predict(c, mode, k, eprev, &lin, n, i, j, d) +
+				             unzigzag(u[d * lossy + li]);
+				int inr = kk > -CODE_MAX && kk < CODE_MAX;
+				bad |= !inr;
+				kk = inr ? kk : 0;
+				k[3 * n + d] = (int32_t)kk;
+				ecur[3 * i + d] = kk - lin;
+				const double val = z->lo[d] + (double)kk * z->q[d];
+				recon->x[3 * n + d] = val;
+				o->x[S * n + d] = val;
+				o->v[S * n + d] = est ? (val - prev->x[3 * n + d]) * inv : NAN;
+			}
+			li++;
+		}
+	}
+	o->done = 1;
+	return bad ? -1 : 0;
+}
+
+static int fast_decode(const pctx *c, const quant *z, const uint64_t *u, size_t lossy,
+                       ndo_codec_frame *recon, outs *o)
+{
+	switch (fast_mode(c)) {
+	case M_INTRA: return fast_decode_mode(c, M_INTRA, z, u, lossy, recon, o);
+	case M_COPY: return fast_decode_mode(c, M_COPY, z, u, lossy, recon, o);
+	case M_CURVED: return fast_decode_mode(c, M_CURVED, z, u, lossy, recon, o);
+	case M_LINEAR: return fast_decode_mode(c, M_LINEAR, z, u, lossy, recon, o);
+	default: return fast_decode_mode(c, M_GAP, z, u, lossy, recon, o);
+	}
+}
+
+/* The residuals u[0..m) (zigzag codes): 2-bit symbols, four to a byte,
+ * first in the low bits — u itself below 3, 3 for an escape —, then each
+ * escape's u − 3 as a varint. */
+static void put_residuals(wbuf *b, const uint64_t *u, size_t m)
+{
+	size_t esc = 0;
+	for (size_t k = 0; k < m; k++)
+		esc += u[k] >= 3;
+	if (reserve(b, (m + 3) / 4 + 10 * esc + 1)) /* + 1: the escape slot written ahead */
+		return;
+	uint8_t *o = b->p + b->n, *e = o + (m + 3) / 4; /* symbols; escapes after them */
+	for (size_t k = 0; k < m; k += 4) {
+		unsigned byte = 0;
+		for (size_t q = 0; q < 4 && k + q < m; q++) {
+			uint64_t v = u[k + q];
+			byte |= (v < 3 ? (unsigned)v : 3) << (2 * q);
+			if (v < 3 + 128) { /* the escape of one byte, or none: no branch */
+				*e = (uint8_t)(v - 3);
+				e += v >= 3;
+			} else {
+				for (v -= 3; v > 127; v >>= 7)
+					*e++ = (uint8_t)(v | 128);
+				*e++ = (uint8_t)v;
+			}
+		}
+		*o++ = (uint8_t)byte;
+	}
+	b->n = (size_t)(e - b->p);
+}
+
+/* The m residuals back (−1: the bytes end early, or a value beyond
+ * 2^40, more than any code difference). */
+static int get_residuals(rbuf *r, uint64_t *u, size_t m)
+{
+	size_t nb = (m + 3) / 4;
+	if (r->pos > r->n || r->n - r->pos < nb)
+		return -1;
+	const uint8_t *in = r->p + r->pos, *e = in + nb, *end = r->p + r->n;
+	if (m & 3 && in[nb - 1] >> (2 * (m & 3)))
+		return -1; /* the last byte's unused bits are zero */
+	for (size_t k = 0; k < m; k++) {
+		unsigned s = (in[k >> 2] >> (2 * (k & 3))) & 3;
+		if (s < 3) {
+			u[k] = s;
+			continue;
+		}
+		if (e < end && *e < 128) { /* an escape of one byte */
+			u[k] = (uint64_t)*e++ + 3;
+			continue;
+		}
+		rbuf t = {r->p, r->n, (size_t)(e - r->p), 0};
+		uint64_t v = get_varint(&t);
+		if (t.bad || v > ((uint64_t)1 << 40))
+			return -1;
+		u[k] = v + 3;
+		e = r->p + t.pos;
+	}
+	r->pos = (size_t)(e - r->p);
+	return 0;
+}
+
+/* ---- EXACT nodes under predict -------------------------------------------------- */
+/* Their doubles travel losslessly, the positions not as they are: each
+ * XOR its extrapolation from the references' positions, the 3E words as
+ * byte planes, most significant first, so that zstd finds the planes of
+ * agreeing high bytes as runs; then the velocities as they are (predicted
+ * from the positions, or as planes, they saved under 2 % of the bits,
+ * measured).  Double arithmetic without fused operations (C11 mode): the
+ * same on every machine. */
+static uint64_t bits_of(double d)
+{
+	uint64_t u;
+	memcpy(&u, &d, 8);
+	return u;
+}
+
+static double double_of(uint64_t u)
+{
+	double d;
+	memcpy(&d, &u, 8);
+	return d;
+}
+
+static double pred_position(const ndo_codec_frame *r0, const ndo_codec_frame *r1, int n, int d,
+                            double now)
+{
+	if (!r0 || !r0->have[n])
+		return 0;
+	double x0 = r0->x[3 * n + d], p = x0;
+	if (r1 && r1->have[n] && r0->time > r1->time)
+		p = x0 + (x0 - r1->x[3 * n + d]) * ((now - r0->time) / (r0->time - r1->time));
+	return isfinite(p) ? p : 0;
+}
+
+static void put_planes(wbuf *b, const uint64_t *w, size_t m)
+{
+	if (reserve(b, 8 * m))
+		return;
+	uint8_t *o = b->p + b->n;
+	for (int plane = 7; plane >= 0; plane--)
+		for (size_t k = 0; k < m; k++)
+			*o++ = (uint8_t)(w[k] >> (8 * plane));
+	b->n += 8 * m;
+}
+
+static int get_planes(rbuf *r, uint64_t *w, size_t m)
+{
+	if (r->pos > r->n || (r->n - r->pos) / 8 < m)
+		return -1;
+	const uint8_t *in = r->p + r->pos;
+	for (size_t k = 0; k < m; k++)
+		w[k] = 0;
+	for (int plane = 7; plane >= 0; plane--)
+		for (size_t k = 0; k < m; k++)
+			w[k] |= (uint64_t)*in++ << (8 * plane);
+	r->pos += 8 * m;
 	return 0;
 }
 
@@ -630,7 +1074,8 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 	if (own_w && !(w = ndo_codec_work_create()))
 		return ndo__fail(NDO_ENOMEM, "out of memory");
 	const int nodes = in->rows * in->cols, enc = p->encoding;
-	int rc = 0, ok = 1, allzero = 1, nexact = 0;
+	const quant z = quant_of(p);
+	int rc = 0, ok = 1, allzero = 1, nexact = 0, errors_known = 0;
 	*data = NULL;
 	*len = 0;
 	*unchanged = 0;
@@ -653,7 +1098,14 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 		rc = ndo__fail(NDO_ENOMEM, "out of memory");
 		goto done;
 	}
+	pctx pc = {.cols = in->cols, .nodes = nodes, .cls = in->cls, .erow = w->erow};
+	pctx_init(&pc, r[0], r[1], r[2], in->step);
+	const int fast = enc == NDO_ENC_PREDICT && uniform(&pc);
+	size_t lossy = 0;
+	for (int n = 0; n < nodes; n++)
+		lossy += in->cls[n] == NDO_NODE_LOSSY;
 	put_classes(&body, in->cls, nodes);
+	size_t nw = 0; /* EXACT words under predict */
 	for (int n = 0; n < nodes; n++) {
 		recon->have[n] = in->cls[n] != NDO_NODE_SKIP;
 		if (in->cls[n] != NDO_NODE_EXACT)
@@ -664,10 +1116,23 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 				ok = 0;
 			recon->x[3 * n + d] = in->x[3 * n + d];
 		}
+		if (enc == NDO_ENC_PREDICT) {
+			for (int d = 0; d < 3; d++)
+				w->u[nw++] = bits_of(in->x[3 * n + d]) ^
+				             bits_of(pred_position(r[0], r[1], n, d, in->time));
+			continue;
+		}
 		for (int d = 0; d < 3; d++)
 			put_f64(&body, in->x[3 * n + d]);
 		for (int d = 0; d < 3; d++)
 			put_f64(&body, in->v[3 * n + d]);
+	}
+	if (nw) {
+		put_planes(&body, w->u, nw);
+		for (int n = 0; n < nodes; n++) /* velocities as they are */
+			if (in->cls[n] == NDO_NODE_EXACT)
+				for (int d = 0; d < 3; d++)
+					put_f64(&body, in->v[3 * n + d]);
 	}
 	if (enc == NDO_ENC_FLOAT32) {
 		for (int n = 0; n < nodes; n++)
@@ -683,24 +1148,60 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 					put(&body, t, 4);
 					recon->x[3 * n + d] = f;
 				}
+	} else if (fast) {
+		uint64_t any;
+		double err[2];
+		if (fast_encode(&pc, &z, in->x, recon, w->u, lossy, &any, err))
+			ok = 0;
+		w->err_max2 = err[0], w->err_sum2 = err[1], w->err_n = lossy;
+		errors_known = 1;
+		allzero = any == 0;
+		put_residuals(&body, w->u, 3 * lossy);
 	} else {
-		/* codes of every carried node */
-		for (int n = 0; n < nodes; n++)
-			if (recon->have[n])
-				for (int d = 0; d < 3; d++) {
-					recon->k[3 * n + d] = code_of(p, d, in->x[3 * n + d], &ok);
-					if (in->cls[n] == NDO_NODE_LOSSY)
-						recon->x[3 * n + d] = value_of(p, d, recon->k[3 * n + d]);
-				}
+		/* codes of every carried node (the others' are not used) and the
+		 * LOSSY nodes' values: code_of() and value_of() without branches */
+		int out = 0;
+		for (int n = 0; n < nodes; n++) {
+			const double *xn = in->x + 3 * n;
+			int lossy = in->cls[n] == NDO_NODE_LOSSY;
+			for (int d = 0; d < 3; d++) {
+				double t = (xn[d] - z.lo[d]) / z.q[d] + 0.5;
+				int inr = t >= -CODE_MAX + 1 && t < CODE_MAX;
+				out |= (!inr) & recon->have[n];
+				t = inr ? t : 0;
+				int32_t k = (int32_t)t;
+				k -= (double)k > t;
+				recon->k[3 * n + d] = k;
+				double val = z.lo[d] + (double)k * z.q[d];
+				recon->x[3 * n + d] = lossy ? val : xn[d];
+			}
+		}
+		if (out)
+			ok = 0;
 	}
 	if (!ok) {
 		rc = ndo__fail(NDO_ERANGE, "a position out of the codes' range");
 		goto done;
 	}
+	if (!errors_known) { /* the error this frame introduces */
+		double max2 = 0, sum2 = 0;
+		for (int n = 0; n < nodes; n++) {
+			if (in->cls[n] != NDO_NODE_LOSSY)
+				continue;
+			double e2 = 0;
+			for (int d = 0; d < 3; d++) {
+				double e = recon->x[3 * n + d] - in->x[3 * n + d];
+				e2 += e * e;
+			}
+			sum2 += e2;
+			max2 = e2 > max2 ? e2 : max2;
+		}
+		w->err_max2 = max2, w->err_sum2 = sum2, w->err_n = lossy;
+	}
 	if (enc == NDO_ENC_FIXED) {
 		/* bits+2 wide, offset by 2^bits: the box and its extent on each side */
-		int width = p->bits + 2;
-		int64_t off = (int64_t)1 << p->bits, top = (int64_t)1 << width;
+		int cb = code_bits(p, &z), width = cb + 2;
+		int64_t off = (int64_t)1 << cb, top = (int64_t)1 << width;
 		int wide = 0;
 		for (int n = 0; n < nodes && !wide; n++)
 			if (in->cls[n] == NDO_NODE_LOSSY)
@@ -735,43 +1236,23 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 			if (nb > 0)
 				put_byte(&body, (uint8_t)acc);
 		}
-	} else if (enc == NDO_ENC_PREDICT) {
-		pctx c = {.cols = in->cols, .nodes = nodes, .cls = in->cls, .e = w->e, .has_e = w->has_e};
-		pctx_init(&c, r[0], r[1], r[2], in->step);
-		int32_t *cur = malloc((size_t)nodes * sizeof *cur);
-		if (!cur) {
-			rc = ndo__fail(NDO_ENOMEM, "out of memory");
-			goto done;
-		}
+	} else if (enc == NDO_ENC_PREDICT && !fast) {
+		pctx c = pc;
+		int32_t *cur = w->cur;
 		c.cur = cur;
+		size_t m = 0;
 		for (int d = 0; d < 3; d++) {
 			for (int n = 0; n < nodes; n++)
 				cur[n] = recon->k[3 * n + d];
-			for (int n = 0; n < nodes; n++) {
-				w->has_e[n] = 0;
-				if (!recon->have[n])
-					continue;
-				int64_t lin;
-				int has;
-				int64_t pr = predict(&c, n, d, &lin, &has);
-				if (has) {
-					w->e[n] = cur[n] - lin;
-					w->has_e[n] = 1;
-				}
-				if (in->cls[n] != NDO_NODE_LOSSY)
-					continue;
-				int64_t res = cur[n] - pr;
-				allzero &= res == 0;
-				uint64_t u = zigzag(res);
-				if (u < 255) {
-					put_byte(&body, (uint8_t)u);
-				} else {
-					put_byte(&body, 255);
-					put_varint(&body, u - 255);
-				}
-			}
+			for (int n = 0; n < nodes; n++)
+				if (in->cls[n] == NDO_NODE_LOSSY)
+					w->u[m++] = zigzag(cur[n] - predict(&c, n, d));
 		}
-		free(cur);
+		uint64_t any = 0;
+		for (size_t k = 0; k < m; k++)
+			any |= w->u[k];
+		allzero = any == 0;
+		put_residuals(&body, w->u, m);
 	}
 	if (body.fail) {
 		rc = ndo__fail(NDO_ENOMEM, "out of memory");
@@ -790,7 +1271,8 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 			rc = ndo__fail(NDO_ENOMEM, "out of memory");
 			goto done;
 		}
-		size_t z = ZSTD_compressCCtx(w->cc, w->buf, bound, body.p, body.n, ZSTD_LEVEL);
+		size_t z = ZSTD_compressCCtx(w->cc, w->buf, bound, body.p, body.n,
+		                             ndo__codec_zstd_level);
 		if (!ZSTD_isError(z) && z < body.n) {
 			out.p[0] |= F_ZSTD;
 			put(&out, w->buf, z);
@@ -819,9 +1301,10 @@ done:
 /* Decode the LOSSY positions of the body (after the exact nodes). */
 static int decode_lossy(const ndo_codec_params *p, ndo_codec_work *w, rbuf *r, uint8_t flags,
                         const uint8_t *cls, int rows, int cols, const ndo_codec_frame *ref[3],
-                        int64_t step, ndo_codec_frame *recon)
+                        int64_t step, ndo_codec_frame *recon, outs *o)
 {
 	const int nodes = rows * cols, enc = p->encoding;
+	const quant z = quant_of(p);
 	if (enc == NDO_ENC_FLOAT32) {
 		for (int n = 0; n < nodes; n++)
 			if (cls[n] == NDO_NODE_LOSSY)
@@ -841,8 +1324,8 @@ static int decode_lossy(const ndo_codec_params *p, ndo_codec_work *w, rbuf *r, u
 		return 0;
 	}
 	if (enc == NDO_ENC_FIXED) {
-		int width = p->bits + 2;
-		int64_t off = (int64_t)1 << p->bits;
+		int cb = code_bits(p, &z), width = cb + 2;
+		int64_t off = (int64_t)1 << cb;
 		uint64_t acc = 0;
 		int nb = 0;
 		for (int n = 0; n < nodes; n++)
@@ -870,67 +1353,51 @@ static int decode_lossy(const ndo_codec_params *p, ndo_codec_work *w, rbuf *r, u
 						nb -= width;
 					}
 					recon->k[3 * n + d] = (int32_t)k;
-					recon->x[3 * n + d] = value_of(p, d, k);
+					recon->x[3 * n + d] = value_of(&z, d, k);
 				}
 		return 0;
 	}
 	/* predict */
-	pctx c = {.cols = cols, .nodes = nodes, .cls = cls, .e = w->e, .has_e = w->has_e};
+	pctx c = {.cols = cols, .nodes = nodes, .cls = cls, .erow = w->erow};
 	pctx_init(&c, ref[0], ref[1], ref[2], step);
-	int32_t *cur = malloc((size_t)nodes * sizeof *cur);
-	if (!cur)
-		return -2;
+	int32_t *cur = w->cur;
 	c.cur = cur;
-	int bad = 0;
-	for (int d = 0; d < 3 && !bad; d++) {
+	size_t m = 0, lossy = 0;
+	for (int n = 0; n < nodes; n++)
+		lossy += cls[n] == NDO_NODE_LOSSY;
+	if (get_residuals(r, w->u, 3 * lossy))
+		return -1;
+	if (uniform(&c))
+		return fast_decode(&c, &z, w->u, lossy, recon, o);
+	for (int d = 0; d < 3; d++) {
 		for (int n = 0; n < nodes; n++)
 			cur[n] = recon->k[3 * n + d]; /* exact nodes' codes */
-		for (int n = 0; n < nodes && !bad; n++) {
-			w->has_e[n] = 0;
-			if (cls[n] == NDO_NODE_SKIP)
-				continue;
-			int64_t lin;
-			int has;
-			int64_t pr = predict(&c, n, d, &lin, &has);
+		for (int n = 0; n < nodes; n++)
 			if (cls[n] == NDO_NODE_LOSSY) {
-				if (r->pos >= r->n) {
-					bad = 1;
-					break;
-				}
-				uint64_t u = r->p[r->pos++];
-				if (u == 255) {
-					u = get_varint(r);
-					if (r->bad || u > ((uint64_t)1 << 40)) {
-						bad = 1;
-						break;
-					}
-					u += 255;
-				}
-				int64_t k = pr + unzigzag(u);
-				if (k <= -CODE_MAX || k >= CODE_MAX) {
-					bad = 1;
-					break;
-				}
+				int64_t k = predict(&c, n, d) + unzigzag(w->u[m++]);
+				if (k <= -CODE_MAX || k >= CODE_MAX)
+					return -1;
 				cur[n] = (int32_t)k;
-				recon->k[3 * n + d] = (int32_t)k;
-				recon->x[3 * n + d] = value_of(p, d, k);
 			}
-			if (has) {
-				w->e[n] = cur[n] - lin;
-				w->has_e[n] = 1;
+		const double lo = z.lo[d], q = z.q[d];
+		for (int n = 0; n < nodes; n++)
+			if (cls[n] == NDO_NODE_LOSSY) {
+				recon->k[3 * n + d] = cur[n];
+				recon->x[3 * n + d] = lo + (double)cur[n] * q;
 			}
-		}
 	}
-	free(cur);
-	return bad ? -1 : 0;
+	return 0;
 }
 
-ndo_drop ndo_codec_decode(const ndo_codec_params *p, ndo_codec_work *w,
-                          const ndo_codec_hist *h, int rows, int cols, const uint8_t *data,
-                          size_t len, int64_t step, double time, int32_t epoch,
-                          int64_t base_step, double *x, double *v, ndo_codec_frame *recon)
+ndo_drop ndo_codec_decode_strided(const ndo_codec_params *p, ndo_codec_work *w,
+                                  const ndo_codec_hist *h, int rows, int cols,
+                                  const uint8_t *data, size_t len, int64_t step, double time,
+                                  int32_t epoch, int64_t base_step, double *x, double *v,
+                                  int stride, ndo_codec_frame *recon)
 {
+	const size_t S = (size_t)stride;
 	const int nodes = rows * cols, enc = p->encoding;
+	const quant z = quant_of(p);
 	if (enc <= NDO_ENC_RAW || enc > NDO_ENC_PREDICT || nodes <= 0)
 		return NDO_DROP_ENCODING;
 	if (!data || len < 1)
@@ -1002,18 +1469,33 @@ ndo_drop ndo_codec_decode(const ndo_codec_params *p, ndo_codec_work *w,
 		goto done;
 	}
 	int ok = 1;
+	size_t nexact = 0, nw = 0;
+	for (int n = 0; n < nodes; n++)
+		nexact += cls[n] == NDO_NODE_EXACT;
+	if (enc == NDO_ENC_PREDICT && nexact && get_planes(&b, w->u, 3 * nexact)) {
+		res = NDO_DROP_CORRUPT;
+		goto done;
+	}
 	for (int n = 0; n < nodes; n++) {
 		recon->have[n] = cls[n] != NDO_NODE_SKIP;
 		if (cls[n] != NDO_NODE_EXACT)
 			continue;
-		for (int d = 0; d < 3; d++)
-			x[3 * n + d] = recon->x[3 * n + d] = get_f64(&b);
-		for (int d = 0; d < 3; d++)
-			v[3 * n + d] = get_f64(&b);
+		if (enc == NDO_ENC_PREDICT) {
+			for (int d = 0; d < 3; d++)
+				x[S * n + d] = recon->x[3 * n + d] =
+				    double_of(w->u[nw++] ^ bits_of(pred_position(ref[0], ref[1], n, d, time)));
+			for (int d = 0; d < 3; d++)
+				v[S * n + d] = get_f64(&b);
+		} else {
+			for (int d = 0; d < 3; d++)
+				x[S * n + d] = recon->x[3 * n + d] = get_f64(&b);
+			for (int d = 0; d < 3; d++)
+				v[S * n + d] = get_f64(&b);
+		}
 		for (int d = 0; d < 3; d++) {
-			ok &= isfinite(x[3 * n + d]) && isfinite(v[3 * n + d]);
+			ok &= isfinite(x[S * n + d]) && isfinite(v[S * n + d]);
 			if (enc != NDO_ENC_FLOAT32)
-				recon->k[3 * n + d] = code_of(p, d, x[3 * n + d], &ok);
+				recon->k[3 * n + d] = code_of(&z, d, x[S * n + d], &ok);
 		}
 		if (b.bad || !ok)
 			break;
@@ -1022,7 +1504,11 @@ ndo_drop ndo_codec_decode(const ndo_codec_params *p, ndo_codec_work *w,
 		res = NDO_DROP_CORRUPT;
 		goto done;
 	}
-	int dl = decode_lossy(p, w, &b, flags, cls, rows, cols, ref, step, recon);
+	/* velocities of LOSSY nodes from the previous frame */
+	const ndo_codec_frame *prev = before(h, step, epoch);
+	double dtp = prev ? time - prev->time : 0, inv = dtp > 0 ? 1 / dtp : 0;
+	outs o = {x, v, S, prev, inv, 0};
+	int dl = decode_lossy(p, w, &b, flags, cls, rows, cols, ref, step, recon, &o);
 	if (dl == -2) {
 		res = NDO_DROP_RANGE;
 		goto done;
@@ -1031,17 +1517,17 @@ ndo_drop ndo_codec_decode(const ndo_codec_params *p, ndo_codec_work *w,
 		res = NDO_DROP_CORRUPT;
 		goto done;
 	}
-	/* positions out; velocities of LOSSY nodes from the previous frame */
-	const ndo_codec_frame *prev = before(h, step, epoch);
-	double dtp = prev ? time - prev->time : 0;
-	for (int n = 0; n < nodes; n++) {
+	/* positions and velocities out (the fast decoder's are: no node of its
+	 * frames is SKIP) */
+	for (int n = 0; n < nodes && !o.done; n++) {
 		if (cls[n] == NDO_NODE_EXACT)
 			continue;
 		int lossy = cls[n] == NDO_NODE_LOSSY;
 		int est = lossy && prev && prev->have[n] && dtp > 0;
+		const double *px = prev ? prev->x + 3 * n : recon->x + 3 * n;
 		for (int d = 0; d < 3; d++) {
-			x[3 * n + d] = lossy ? recon->x[3 * n + d] : NAN;
-			v[3 * n + d] = est ? (recon->x[3 * n + d] - prev->x[3 * n + d]) / dtp : NAN;
+			x[S * n + d] = lossy ? recon->x[3 * n + d] : NAN;
+			v[S * n + d] = est ? (recon->x[3 * n + d] - px[d]) * inv : NAN;
 		}
 	}
 done:
@@ -1053,10 +1539,20 @@ done:
 	return res;
 }
 
+ndo_drop ndo_codec_decode(const ndo_codec_params *p, ndo_codec_work *w,
+                          const ndo_codec_hist *h, int rows, int cols, const uint8_t *data,
+                          size_t len, int64_t step, double time, int32_t epoch,
+                          int64_t base_step, double *x, double *v, ndo_codec_frame *recon)
+{
+	return ndo_codec_decode_strided(p, w, h, rows, cols, data, len, step, time, epoch, base_step,
+	                                x, v, 3, recon);
+}
+
 int ndo_codec_implied(const ndo_codec_params *p, const ndo_codec_hist *h, int rows, int cols,
                       int64_t step, double time, double *x, ndo_codec_frame *recon)
 {
 	const int nodes = rows * cols;
+	const quant z = quant_of(p);
 	const ndo_codec_frame *r[3] = {0};
 	for (int k = 0, m = 0; h && k < NDO_CODEC_HISTORY && m < 3; k++)
 		if (h->f[k].step >= 0 && h->f[k].step < step && step - h->f[k].step <= NDO_CODEC_MAX_GAP)
@@ -1064,41 +1560,32 @@ int ndo_codec_implied(const ndo_codec_params *p, const ndo_codec_hist *h, int ro
 	if (!r[0] || p->encoding != NDO_ENC_PREDICT)
 		return ndo__fail(NDO_EINVAL, "no frame to predict step %lld from", (long long)step);
 	uint8_t *cls = malloc((size_t)nodes);
-	int64_t *e = malloc((size_t)nodes * sizeof *e);
-	uint8_t *has_e = malloc((size_t)nodes);
 	int32_t *cur = malloc((size_t)nodes * sizeof *cur);
-	if (!cls || !e || !has_e || !cur) {
-		free(cls), free(e), free(has_e), free(cur);
+	if (!cls || !cur) {
+		free(cls), free(cur);
 		return ndo__fail(NDO_ENOMEM, "out of memory");
 	}
 	for (int n = 0; n < nodes; n++)
 		cls[n] = r[0]->have[n] ? NDO_NODE_LOSSY : NDO_NODE_SKIP;
-	pctx c = {.cols = cols, .nodes = nodes, .cls = cls, .e = e, .has_e = has_e, .cur = cur};
+	pctx c = {.cols = cols, .nodes = nodes, .cls = cls, .cur = cur};
 	pctx_init(&c, r[0], r[1], r[2], step);
 	recon->step = step;
 	recon->time = time;
 	recon->epoch = r[0]->epoch;
 	for (int d = 0; d < 3; d++)
 		for (int n = 0; n < nodes; n++) {
-			has_e[n] = 0;
 			recon->have[n] = cls[n] != NDO_NODE_SKIP;
 			if (cls[n] == NDO_NODE_SKIP) {
 				x[3 * n + d] = NAN;
 				continue;
 			}
-			int64_t lin;
-			int has;
-			int64_t k = predict(&c, n, d, &lin, &has);
+			int64_t k = predict(&c, n, d);
 			if (k <= -CODE_MAX || k >= CODE_MAX)
 				k = r[0]->k[3 * n + d];
 			cur[n] = (int32_t)k;
-			if (has) {
-				e[n] = k - lin;
-				has_e[n] = 1;
-			}
 			recon->k[3 * n + d] = (int32_t)k;
-			x[3 * n + d] = recon->x[3 * n + d] = value_of(p, d, k);
+			x[3 * n + d] = recon->x[3 * n + d] = value_of(&z, d, k);
 		}
-	free(cls), free(e), free(has_e), free(cur);
+	free(cls), free(cur);
 	return 0;
 }

@@ -253,13 +253,18 @@ int ndo_codec_encode_tile(ndo_codec *c, int32_t self, const ndo_grid *g, const u
 		    e->c[0].step >= 0)
 			return 1; /* it was skipped */
 	}
-	for (int j = 0, n = 0; j < rows; j++)
-		for (int i = 0; i < cols; i++, n++) {
-			size_t node = ndo_node(g->w, i0 + i, j0 + j);
-			memcpy(c->x + 3 * n, x + 3 * node, 3 * sizeof *x);
-			memcpy(c->v + 3 * n, v + 3 * node, 3 * sizeof *v);
-			c->cls[n] = cls[node];
-		}
+	int exact = 0;
+	for (int j = 0; j < rows; j++) { /* a row of the tile is a run of the grid's */
+		size_t node = ndo_node(g->w, i0, j0 + j), n = (size_t)j * (size_t)cols;
+		memcpy(c->x + 3 * n, x + 3 * node, 3 * (size_t)cols * sizeof *x);
+		memcpy(c->cls + n, cls + node, (size_t)cols);
+		for (int i = 0; i < cols; i++)
+			exact |= cls[node + (size_t)i] == NDO_NODE_EXACT;
+	}
+	for (int j = 0; j < rows && exact; j++) { /* velocities: the EXACT nodes' only */
+		size_t node = ndo_node(g->w, i0, j0 + j), n = (size_t)j * (size_t)cols;
+		memcpy(c->v + 3 * n, v + 3 * node, 3 * (size_t)cols * sizeof *v);
+	}
 	ndo_codec_input in = {rows, cols, c->x, c->v, c->cls, t->step, t->time, t->epoch};
 	/* a keyframe when one is due — but not right after skipped steps: the
 	 * frame after them tells receivers what they were (the next is the key) */
@@ -277,19 +282,15 @@ int ndo_codec_encode_tile(ndo_codec *c, int32_t self, const ndo_grid *g, const u
 	}
 	if (rc)
 		return rc;
-	if (!standalone)
-		for (int n = 0; n < nodes; n++)
-			if (c->cls[n] == NDO_NODE_LOSSY) {
-				double d2 = 0;
-				for (int d = 0; d < 3; d++) {
-					double e_ = c->fr.x[3 * n + d] - c->x[3 * n + d];
-					d2 += e_ * e_;
-				}
-				c->st.sum_sq_error += d2;
-				c->st.error_nodes++;
-				if (d2 > c->st.max_error * c->st.max_error)
-					c->st.max_error = sqrt(d2);
-			}
+	if (!standalone) { /* the error of the LOSSY nodes (the others' is 0) */
+		double max2, sum;
+		size_t count;
+		ndo_codec_work_error(c->w, &max2, &sum, &count);
+		c->st.sum_sq_error += sum;
+		c->st.error_nodes += count;
+		if (max2 > c->st.max_error * c->st.max_error)
+			c->st.max_error = sqrt(max2);
+	}
 	if (!standalone && unchanged && e->skips < NDO_CODEC_MAX_SKIP) {
 		free(data);
 		e->skips++;
@@ -301,7 +302,8 @@ int ndo_codec_encode_tile(ndo_codec *c, int32_t self, const ndo_grid *g, const u
 	if (!standalone) {
 		if (base < 0) /* a keyframe: later frames refer to it and after only */
 			ndo_codec_hist_clear(&e->h);
-		ndo_codec_hist_put(&e->h, &c->fr);
+		if (ndo_codec_hist_take(&e->h, &c->fr))
+			c->frnodes = nodes; /* c->fr now has the dropped frame's arrays */
 		e->skips = 0;
 		e->last_sent = t->step;
 		if (base < 0)
@@ -358,8 +360,9 @@ ndo_drop ndo_codec_decode_tile(ndo_codec *c, ndo_msg_tile_t *t)
 		if (keep)
 			forget(e, t->epoch);
 	}
-	ndo_drop r = ndo_codec_decode(&c->p, c->w, &e->h, rows, cols, t->data, (size_t)t->nbytes,
-	                              t->step, t->time, t->epoch, t->base_step, c->x, c->v, &c->fr);
+	ndo_drop r = ndo_codec_decode_strided(&c->p, c->w, &e->h, rows, cols, t->data,
+	                                      (size_t)t->nbytes, t->step, t->time, t->epoch,
+	                                      t->base_step, vals, vals + 3, 6, &c->fr);
 	if (r != NDO_DROP_NONE) {
 		free(vals);
 		if (r == NDO_DROP_CORRUPT)
@@ -373,15 +376,12 @@ ndo_drop ndo_codec_decode_tile(ndo_codec *c, ndo_msg_tile_t *t)
 	if (c->fr.step >= 0 && keep) {
 		if (t->base_step < 0) /* a keyframe, as the sender keeps it */
 			ndo_codec_hist_clear(&e->h);
-		ndo_codec_hist_put(&e->h, &c->fr);
+		if (ndo_codec_hist_take(&e->h, &c->fr))
+			c->frnodes = nodes;
 	}
 	e->dec_step = keep ? t->step : -1;
 	e->dec_base = t->base_step;
 	e->dec_time = t->time;
-	for (int n = 0; n < nodes; n++) {
-		memcpy(vals + 6 * n, c->x + 3 * n, 3 * sizeof *vals);
-		memcpy(vals + 6 * n + 3, c->v + 3 * n, 3 * sizeof *vals);
-	}
 	free(t->data);
 	t->data = NULL;
 	t->nbytes = 0;

@@ -128,8 +128,9 @@ static ndo_drop step(const ndo_codec_params *p, side *tx, side *rx, int64_t s, i
 
 static void round_trips_within_the_stated_error(void)
 {
-	const char *specs[] = {"float32", "fixed:13", "fixed:8", "predict:13", "predict:6:4",
-	                       "predict:20:1"};
+	const char *specs[] = {"float32",    "fixed:13",     "fixed:8",     "predict:13",
+	                       "predict:6:4", "predict:20:1", "predict:1e-4", "fixed:3e-3",
+	                       "predict:0.004:5"};
 	for (size_t k = 0; k < sizeof specs / sizeof *specs; k++) {
 		ndo_codec_params p = params(specs[k]);
 		double bound = ndo_codec_max_error(&p), worst = 0;
@@ -284,6 +285,159 @@ static void hostile_payloads_are_dropped(void)
 	side_free(&tx), side_free(&rx);
 }
 
+/* Set by tests: every frame through the general predictor (lib/codec.c). */
+extern int ndo__codec_general_only;
+
+/* Every node carried (LOSSY, a column of EXACT): the predictor's fast
+ * loops.  They must give the general predictor's payload byte for byte,
+ * and either decoder must read either's payload — keyframes, frames after
+ * a keyframe, consecutive steps, steps after a gap, a tight bit depth
+ * with residuals beyond the 2-bit symbols. */
+static void fast_and_general_predictors_agree(void)
+{
+	const char *specs[] = {"predict:13:8", "predict:20:16", "predict:4:5"};
+	for (size_t q = 0; q < sizeof specs / sizeof *specs; q++) {
+		ndo_codec_params p = params(specs[q]);
+		ndo_codec_hist ht[2], hr[2], fh;
+		for (int k = 0; k < 2; k++)
+			ndo_codec_hist_init(&ht[k], NODES), ndo_codec_hist_init(&hr[k], NODES);
+		ndo_codec_hist_init(&fh, NODES);
+		double x[3 * NODES], v[3 * NODES], xo[3 * NODES], vo[3 * NODES], first[6 * NODES];
+		uint8_t cls[NODES];
+		for (int n = 0; n < NODES; n++)
+			cls[n] = n % COLS == 7 ? NDO_NODE_EXACT : NDO_NODE_LOSSY;
+		int same = 1, decoded = 1, within = 1, frames = 0, outputs = 1;
+		double bound = ndo_codec_max_error(&p);
+		for (int64_t s = 0; s < 40; s++) {
+			if (s == 12 || s == 13 || s == 25)
+				continue; /* gaps: extrapolation over non-consecutive steps */
+			state(s, x, v, 0.2);
+			ndo_codec_input in = {ROWS, COLS, x, v, cls, s, 0.01 * (double)s, 0};
+			uint8_t *data[2];
+			size_t len[2];
+			int64_t base[2];
+			int un;
+			for (int k = 0; k < 2; k++) { /* k = 0: fast; 1: general */
+				ndo__codec_general_only = k;
+				ndo_codec_frame *f = &fh.f[k];
+				int intra = s % 8 == 0;
+				ndo_codec_encode(&p, NULL, &ht[k], intra, &in, &data[k], &len[k], &base[k], f,
+				                 &un);
+				if (base[k] < 0)
+					ndo_codec_hist_clear(&ht[k]);
+				ndo_codec_hist_put(&ht[k], f);
+			}
+			same &= len[0] == len[1] && base[0] == base[1] && !memcmp(data[0], data[1], len[0]);
+			/* decoder k reads encoder 1 − k's payload */
+			for (int k = 0; k < 2; k++) {
+				ndo__codec_general_only = k;
+				ndo_codec_frame *f = &fh.f[2 + k];
+				ndo_drop r = ndo_codec_decode(&p, NULL, &hr[k], ROWS, COLS, data[1 - k],
+				                              len[1 - k], s, 0.01 * (double)s, 0, base[1 - k],
+				                              xo, vo, f);
+				decoded &= r == NDO_DROP_NONE;
+				if (r != NDO_DROP_NONE)
+					break;
+				if (base[1 - k] < 0)
+					ndo_codec_hist_clear(&hr[k]);
+				ndo_codec_hist_put(&hr[k], f);
+				/* both decoders put out the same positions and velocity
+				 * estimates, bit for bit */
+				if (k == 0) {
+					memcpy(first, xo, sizeof xo);
+					memcpy(first + 3 * NODES, vo, sizeof vo);
+				} else {
+					outputs &= !memcmp(first, xo, sizeof xo) &&
+					           !memcmp(first + 3 * NODES, vo, sizeof vo);
+				}
+				for (int n = 0; n < NODES; n++) {
+					double e2 = 0;
+					for (int d = 0; d < 3; d++) {
+						double e = xo[3 * n + d] - x[3 * n + d];
+						e2 += e * e;
+						if (cls[n] == NDO_NODE_EXACT)
+							within &= e == 0 && vo[3 * n + d] == v[3 * n + d];
+					}
+					within &= sqrt(e2) <= bound * (1 + 1e-9);
+				}
+			}
+			frames++;
+			free(data[0]), free(data[1]);
+		}
+		ndo__codec_general_only = 0;
+		CHECK(same, "%s: the fast predictor's payloads are the general one's", specs[q]);
+		CHECK(decoded, "%s: each decoder reads the other's payloads", specs[q]);
+		CHECK(outputs, "%s: and puts out the same positions and velocities", specs[q]);
+		CHECK(within, "%s: within the stated error, EXACT nodes bit for bit", specs[q]);
+		CHECK(frames == 37, "%s: 37 frames", specs[q]);
+		for (int k = 0; k < 2; k++)
+			ndo_codec_hist_free(&ht[k]), ndo_codec_hist_free(&hr[k]);
+		ndo_codec_hist_free(&fh);
+	}
+}
+
+/* A predicted frame of a tile in the fast loops' case, cut short or with
+ * bytes changed: dropped, or decoded — never read out of bounds. */
+static void hostile_predicted_payloads(void)
+{
+	ndo_codec_params p = params("predict:10");
+	double x[3 * NODES], v[3 * NODES], xo[3 * NODES], vo[3 * NODES];
+	uint8_t cls[NODES];
+	memset(cls, NDO_NODE_LOSSY, sizeof cls);
+	side tx, rx;
+	side_init(&tx), side_init(&rx);
+	uint8_t *data = NULL;
+	size_t len = 0;
+	int64_t base = -1;
+	int un;
+	for (int64_t s = 0; s < 5; s++) {
+		free(data);
+		state(s, x, v, 0.2);
+		ndo_codec_input in = {ROWS, COLS, x, v, cls, s, 0.01 * (double)s, 0};
+		ndo_codec_encode(&p, NULL, &tx.h, 0, &in, &data, &len, &base, &tx.f, &un);
+		ndo_codec_hist_put(&tx.h, &tx.f);
+		if (s < 4) {
+			CHECK(ndo_codec_decode(&p, NULL, &rx.h, ROWS, COLS, data, len, s, 0.01 * (double)s,
+			                       0, base, xo, vo, &rx.f) == NDO_DROP_NONE, "step %lld decodes",
+			      (long long)s);
+			ndo_codec_hist_put(&rx.h, &rx.f);
+		}
+	}
+	CHECK(base == 3 && data[0] == (1 | 4), "a predicted zstd frame (base %lld, flags %d)",
+	      (long long)base, data[0]);
+	/* the body itself, uncompressed, cut at every length: corrupt */
+	size_t blen = ZSTD_getFrameContentSize(data + 3, len - 3);
+	uint8_t *body = malloc(blen), *plain = malloc(blen + 3);
+	CHECK(ZSTD_decompress(body, blen, data + 3, len - 3) == blen, "the body decompresses");
+	memcpy(plain, data, 3);
+	plain[0] &= (uint8_t)~4; /* not zstd */
+	memcpy(plain + 3, body, blen);
+	CHECK(ndo_codec_decode(&p, NULL, &rx.h, ROWS, COLS, plain, blen + 3, 4, 0.04, 0, 3, xo, vo,
+	                       &rx.f) == NDO_DROP_NONE, "the uncompressed body decodes");
+	int all = 1;
+	for (size_t cut = 3; cut < blen + 3; cut++)
+		all &= ndo_codec_decode(&p, NULL, &rx.h, ROWS, COLS, plain, cut, 4, 0.04, 0, 3, xo, vo,
+		                        &rx.f) == NDO_DROP_CORRUPT;
+	CHECK(all, "every truncation of the %zu-byte body is corrupt", blen);
+	uint8_t *longer = malloc(blen + 4);
+	memcpy(longer, plain, blen + 3);
+	longer[blen + 3] = 0;
+	CHECK(ndo_codec_decode(&p, NULL, &rx.h, ROWS, COLS, longer, blen + 4, 4, 0.04, 0, 3, xo, vo,
+	                       &rx.f) == NDO_DROP_CORRUPT, "a byte too many is corrupt");
+	uint64_t rng = 11;
+	int fine = 1;
+	for (int trial = 0; trial < 500; trial++) {
+		memcpy(longer, plain, blen + 3);
+		longer[3 + ndo_rng_next(&rng) % blen] ^= (uint8_t)(1 + ndo_rng_next(&rng) % 255);
+		ndo_drop r = ndo_codec_decode(&p, NULL, &rx.h, ROWS, COLS, longer, blen + 3, 4, 0.04, 0,
+		                              3, xo, vo, &rx.f);
+		fine &= r == NDO_DROP_NONE || r == NDO_DROP_CORRUPT;
+	}
+	CHECK(fine, "changed bytes: decoded or corrupt");
+	free(body), free(plain), free(longer), free(data);
+	side_free(&tx), side_free(&rx);
+}
+
 /* Whole tiles through the stateful layer: encode from a grid, decode in
  * place, skipped steps filled in. */
 static void tiles_in_place(void)
@@ -370,6 +524,30 @@ static void specs_and_description_lines(void)
 	CHECK(ndo_codec_params_take(part, &q) == NDO_EINVAL, "incomplete lines refused");
 	char none[] = "dt 0.1\n";
 	CHECK(ndo_codec_params_take(none, &q) == 0 && q.encoding == NDO_ENC_RAW, "none: raw");
+	/* an error budget instead of bits */
+	CHECK(ndo_codec_parse("predict:1e-4", &p) == 0 && p.error == 1e-4 && p.keyframe == 32,
+	      "predict:1e-4");
+	CHECK(ndo_codec_parse("fixed:0.002", &p) == 0 && p.error == 0.002, "fixed:0.002");
+	CHECK(ndo_codec_parse("predict:2.5e-5:8", &p) == 0 && p.error == 2.5e-5 && p.keyframe == 8,
+	      "predict:2.5e-5:8");
+	char name[64];
+	ndo_codec_name(&p, name, sizeof name);
+	CHECK(strcmp(name, "predict:2.5e-05:8") == 0, "its name: %s", name);
+	CHECK(ndo_codec_parse(name, &q) == 0 && q.error == p.error, "the name parses back");
+	CHECK(ndo_codec_parse("predict:0.5", &p) == NDO_EINVAL, "a budget of half the diagonal");
+	CHECK(ndo_codec_parse("predict:1e-9", &p) == NDO_EINVAL, "a budget of 1e-9");
+	CHECK(ndo_codec_parse("predict:1e-4x", &p) == NDO_EINVAL, "a budget with a tail");
+	ndo_codec_parse("predict:1e-4", &p);
+	p.lo[0] = -1.5, p.ext[0] = 3, p.ext[1] = 0.1, p.ext[2] = 7;
+	text[0] = 0;
+	CHECK(ndo_codec_params_text(&p, text, sizeof text) > 0 && strstr(text, "tile-error "),
+	      "a tile-error line");
+	CHECK(ndo_codec_params_take(text, &q) == 0 && memcmp(&p, &q, sizeof p) == 0 &&
+	          ndo_codec_max_error(&q) == 1e-4 * ndo_codec_diagonal(&q),
+	      "the budget comes back exactly, and is the stated error");
+	char badbudget[] = "tile-encoding 3\ntile-bits 13\ntile-keyframe 1\n"
+	                   "tile-box 0 0 0 1 1 1\ntile-error 0.5\n";
+	CHECK(ndo_codec_params_take(badbudget, &q) == NDO_EINVAL, "a budget of 0.5 refused");
 }
 
 int main(void)
@@ -380,6 +558,8 @@ int main(void)
 	RUN(keyframe_recovers_after_loss);
 	RUN(unchanged_frames_and_their_prediction);
 	RUN(hostile_payloads_are_dropped);
+	RUN(fast_and_general_predictors_agree);
+	RUN(hostile_predicted_payloads);
 	RUN(tiles_in_place);
 	RUN(specs_and_description_lines);
 	return ck_failed_cases != 0;

@@ -87,40 +87,85 @@ static long kernel_drops(void)
 	return sum;
 }
 
-/* ---- latency: a listener thread --------------------------------------------- */
+/* ---- the wire: a listener thread -------------------------------------------- */
+/* Every message on the run's channels, as any receiver on the bus sees it:
+ * its bytes by kind (bench.h, nb_traffic) and, for tiles, the
+ * publish-to-receive latency. */
 typedef struct listener {
 	lcm_t *lcm;
 	pthread_t thread;
 	volatile int stop;
+	char prefix[32];
+	int64_t final_step; /* the run's last step */
 	double *lat; /* µs */
 	size_t n, cap;
+	nb_traffic tr;
 	pthread_mutex_t mu;
 } listener;
 
-static void on_tile(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
+static void on_message(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
 {
 	listener *l = user;
 	struct timeval tv;
 	gettimeofday(&tv, NULL);
+	int type = ndo_msg_type_of(l->prefix, channel);
+	double wire = (double)rbuf->data_size + WIRE_OVERHEAD + (double)strlen(channel) + 1;
+	ndo_msg m;
+	int kind = NB_CONTROL;
+	double payload = 0;
+	if (type == NDO_MSG_HEARTBEAT) {
+		kind = NB_HEARTBEAT;
+	} else if (type == NDO_MSG_TILE &&
+	           ndo_msg_decode(NDO_MSG_TILE, rbuf->data, (size_t)rbuf->data_size, &m) ==
+	               NDO_DROP_NONE) {
+		const ndo_msg_tile_t *t = &m.u.tile;
+		if (t->step >= l->final_step) {
+			kind = NB_FINAL;
+		} else if (t->encoding != NDO_ENC_RAW) {
+			kind = NB_ENCODED;
+			payload = t->nbytes;
+		} else if (t->channels & (NDO_TILE_REST | NDO_TILE_PIN)) {
+			kind = NB_REST;
+		} else {
+			kind = NB_RAW_STATE;
+			payload = 8.0 * t->nvalues;
+		}
+		ndo_msg_free(&m);
+	}
 	/* tile_t: type hash (8), then header_t: version (2), object (8),
 	 * sender (4), seq (8), utime (8, big-endian µs) */
-	if (rbuf->data_size < 38)
-		return;
-	const uint8_t *b = rbuf->data;
-	int64_t ut = 0;
-	for (int k = 30; k < 38; k++)
-		ut = ut << 8 | b[k];
-	double lat = (double)((int64_t)tv.tv_sec * 1000000 + tv.tv_usec - ut);
-	pthread_mutex_lock(&l->mu);
-	if (l->n == l->cap && l->cap < 4000000) {
-		size_t cap = l->cap ? 2 * l->cap : 4096;
-		double *q = realloc(l->lat, cap * sizeof *q);
-		if (q)
-			l->lat = q, l->cap = cap;
+	double lat = NAN;
+	if (type == NDO_MSG_TILE && rbuf->data_size >= 38) {
+		const uint8_t *b = rbuf->data;
+		int64_t ut = 0;
+		for (int k = 30; k < 38; k++)
+			ut = ut << 8 | b[k];
+		lat = (double)((int64_t)tv.tv_sec * 1000000 + tv.tv_usec - ut);
 	}
-	if (l->n < l->cap)
-		l->lat[l->n++] = lat;
+	pthread_mutex_lock(&l->mu);
+	l->tr.messages[kind]++;
+	l->tr.bytes[kind] += wire;
+	l->tr.payload[kind] += payload;
+	if (!isnan(lat)) {
+		if (l->n == l->cap && l->cap < 4000000) {
+			size_t cap = l->cap ? 2 * l->cap : 4096;
+			double *q = realloc(l->lat, cap * sizeof *q);
+			if (q)
+				l->lat = q, l->cap = cap;
+		}
+		if (l->n < l->cap)
+			l->lat[l->n++] = lat;
+	}
 	pthread_mutex_unlock(&l->mu);
+}
+
+/* The traffic so far. */
+static nb_traffic listener_traffic(listener *l)
+{
+	pthread_mutex_lock(&l->mu);
+	nb_traffic t = l->tr;
+	pthread_mutex_unlock(&l->mu);
+	return t;
 }
 
 static void *listen_loop(void *user)
@@ -131,16 +176,18 @@ static void *listen_loop(void *user)
 	return NULL;
 }
 
-static int listener_start(listener *l, const char *url, const char *prefix)
+static int listener_start(listener *l, const char *url, const char *prefix, int64_t final_step)
 {
 	char full[512], chan[96];
 	memset(l, 0, sizeof *l);
+	l->final_step = final_step;
+	snprintf(l->prefix, sizeof l->prefix, "%s", prefix);
 	if (ndo_lcm_url(url, NDO_RECV_BUF_DEFAULT, full, sizeof full))
 		return ndo__fail(NDO_ERANGE, "the LCM URL is too long");
 	if (!(l->lcm = lcm_create(full)))
 		return ndo__fail(NDO_EIO, "LCM: cannot open %s", full);
-	snprintf(chan, sizeof chan, "%s_TILE", prefix);
-	lcm_subscribe(l->lcm, chan, on_tile, l);
+	snprintf(chan, sizeof chan, "%s_.*", prefix);
+	lcm_subscribe(l->lcm, chan, on_message, l);
 	pthread_mutex_init(&l->mu, NULL);
 	if (pthread_create(&l->thread, NULL, listen_loop, l)) {
 		lcm_destroy(l->lcm);
@@ -162,7 +209,7 @@ static void listener_stop(listener *l, double *p50, double *p99)
 	lcm_destroy(l->lcm);
 	pthread_mutex_destroy(&l->mu);
 	*p50 = *p99 = NAN;
-	if (l->n) {
+	if (l->n) { /* after the thread: no lock needed */
 		qsort(l->lat, l->n, sizeof *l->lat, cmp_double);
 		*p50 = l->lat[(l->n - 1) / 2];
 		*p99 = l->lat[(size_t)floor(0.99 * (double)(l->n - 1))];
@@ -295,14 +342,14 @@ int nb_run(const nb_opts *o, int level, const ndo_codec_params *enc, double loss
 	}
 	long drops0 = kernel_drops();
 	listener lis;
-	if ((rc = listener_start(&lis, o->url, prefix))) {
+	if ((rc = listener_start(&lis, o->url, prefix, steps))) {
 		ndo_grid_destroy(g), ndo_sim_destroy(sim), ndo_scene_free(&sc);
 		return rc;
 	}
 
 	ndo_peer *p[MAXP] = {0};
 	int np = o->peers, state[MAXP] = {0}, started[MAXP] = {0};
-	uint64_t bytes0[MAXP] = {0}, msgs0[MAXP] = {0};
+	uint64_t msgs0[MAXP] = {0};
 	ndo_watch *w = NULL;
 	ndo_net *wnet = NULL;
 	uint64_t seed = 0x9e3779b97f4a7c15ull * (uint64_t)(level * 131 + (int)(loss * 1000) + 7);
@@ -338,6 +385,9 @@ int nb_run(const nb_opts *o, int level, const ndo_codec_params *enc, double loss
 	ndo_grid_destroy(g);
 	ndo_sim_destroy(sim);
 	double t0 = ndo_now(), owner_done = -1;
+	int64_t step0 = -1; /* the owner's step when the steady state began */
+	nb_traffic tr0;
+	memset(&tr0, 0, sizeof tr0);
 	while (!rc) {
 		double now = ndo_now();
 		if (now - t0 > o->timeout) {
@@ -362,7 +412,6 @@ int nb_run(const nb_opts *o, int level, const ndo_codec_params *enc, double loss
 			if (!started[k] && ndo_peer_started(p[k])) {
 				const ndo_net_stats *ns = ndo_net_stats_get(ndo_session_net(ndo_peer_session(p[k])));
 				started[k] = 1;
-				bytes0[k] = ns->bytes_out;
 				msgs0[k] = ns->published;
 			}
 		}
@@ -372,8 +421,16 @@ int nb_run(const nb_opts *o, int level, const ndo_codec_params *enc, double loss
 			break;
 		rc = 0;
 		ndo_grid *f;
-		while (ndo_watch_next(w, &f))
+		while (ndo_watch_next(w, &f)) {
 			ndo_grid_destroy(f);
+			int all = p[0] != NULL;
+			for (int k = 0; k < np; k++)
+				all &= started[k];
+			if (step0 < 0 && all) { /* every join is over: the steady state */
+				step0 = ndo_peer_step(p[0]);
+				tr0 = listener_traffic(&lis);
+			}
+		}
 		if (state[0] == NDO_PEER_DONE && owner_done < 0) {
 			owner_done = now;
 			/* the traffic of the run, and what it cost */
@@ -382,13 +439,12 @@ int nb_run(const nb_opts *o, int level, const ndo_codec_params *enc, double loss
 			row->steps = st.steps;
 			double el = st.end_time - st.start_time;
 			row->steps_per_s = el > 0 ? (double)st.steps / el : 0;
-			uint64_t bytes = 0, msgs = 0;
+			uint64_t msgs = 0;
 			double enc_s = 0, sum_sq = 0, max_e = 0;
 			uint64_t err_n = 0;
 			for (int k = 0; k < np; k++) {
 				ndo_session *s = ndo_peer_session(p[k]);
 				const ndo_net_stats *ns = ndo_net_stats_get(ndo_session_net(s));
-				bytes += ns->bytes_out - bytes0[k];
 				msgs += ns->published - msgs0[k];
 				ndo_codec_stats es, ds;
 				ndo_session_codec_stats(s, &es, &ds);
@@ -403,10 +459,7 @@ int nb_run(const nb_opts *o, int level, const ndo_codec_params *enc, double loss
 				ndo_peer_stats_get(p[k], &pst);
 				row->resends += (uint64_t)pst.resends;
 			}
-			double wire = (double)bytes + (double)msgs * (WIRE_OVERHEAD + strlen(prefix) + 6);
 			row->messages = msgs;
-			row->bits_per_node_update = 8 * wire / ((double)row->nodes * (double)row->steps);
-			row->mbit_s = el > 0 ? 8 * wire / el / 1e6 : 0;
 			row->max_error_rel = max_e / diag;
 			row->rms_error_rel = err_n ? sqrt(sum_sq / (double)err_n) / diag : 0;
 			row->encode_ms = row->steps ? 1e3 * enc_s / (double)row->steps : 0;
@@ -454,6 +507,31 @@ int nb_run(const nb_opts *o, int level, const ndo_codec_params *enc, double loss
 		ndo_peer_destroy(p[k], NULL);
 	ndo_watch_destroy(w);
 	listener_stop(&lis, &row->latency_p50_us, &row->latency_p99_us);
+	/* what went over the wire: the whole run, and the steady state (the
+	 * owner's steps after the last join) */
+	row->whole = lis.tr;
+	row->steady = lis.tr;
+	if (step0 < 0) /* the observer saw no frame: the whole run */
+		step0 = 0, memset(&tr0, 0, sizeof tr0);
+	row->steady_steps = row->steps - 1 - step0; /* the last step apart */
+	for (int k = 0; k < NB_KINDS; k++) {
+		row->steady.messages[k] -= tr0.messages[k];
+		row->steady.bytes[k] -= tr0.bytes[k];
+		row->steady.payload[k] -= tr0.payload[k];
+	}
+	double wsum = 0, ssum = 0, spay = 0;
+	for (int k = 0; k < NB_KINDS; k++) {
+		wsum += row->whole.bytes[k];
+		if (k != NB_FINAL)
+			ssum += row->steady.bytes[k], spay += row->steady.payload[k];
+	}
+	double nu = (double)row->nodes * (double)row->steady_steps;
+	row->total_bits = row->steps ? 8 * wsum / ((double)row->nodes * (double)row->steps) : NAN;
+	row->bits_per_node_update = nu > 0 ? 8 * ssum / nu : NAN;
+	row->payload_bits = nu > 0 ? 8 * spay / nu : NAN;
+	row->mbit_s = row->steady_steps > 0 && row->steps_per_s > 0
+	                  ? 8 * ssum / ((double)row->steady_steps / row->steps_per_s) / 1e6
+	                  : NAN;
 	ndo_scene_free(&sc);
 	row->wall = ndo_now() - t0;
 	return rc;

@@ -14,6 +14,24 @@ typedef struct nb_opts {
 	int quiet;
 } nb_opts;
 
+/* Traffic on the bus by kind of message, as a listener sees it: bytes on
+ * the wire (message, LCM, UDP and IPv4 headers), and for state tiles the
+ * bytes of their payload alone (encoded: data[]; raw: the doubles). */
+enum {
+	NB_ENCODED,   /* encoded state tiles */
+	NB_RAW_STATE, /* raw state tiles (every one with raw; snapshots for a joiner,
+	                 fallbacks otherwise) */
+	NB_REST,      /* rest shape and pins (a joiner's) */
+	NB_FINAL,     /* the last step's state tiles: exact, whatever the encoding */
+	NB_HEARTBEAT,
+	NB_CONTROL,   /* descriptions, partitions, hellos, peers, POIs, leaves, forces */
+	NB_KINDS
+};
+typedef struct nb_traffic {
+	uint64_t messages[NB_KINDS];
+	double bytes[NB_KINDS], payload[NB_KINDS];
+} nb_traffic;
+
 typedef struct nb_row {
 	int level, peers;
 	char encoding[32];
@@ -21,7 +39,15 @@ typedef struct nb_row {
 	int64_t steps;
 	size_t nodes;              /* stored nodes, W × H (the thesis' count) */
 	size_t exact_nodes;        /* sent at full precision every step */
-	double bits_per_node_update, mbit_s, steps_per_s;
+	/* bits per node per update (over nodes × steps): */
+	double bits_per_node_update; /* every message on the wire, steady state (after
+	                                the last join: the observer's first frame;
+	                                before the last step) */
+	double payload_bits;         /* state tiles' payload alone, steady state */
+	double total_bits;           /* every message of the whole run, joins included */
+	nb_traffic whole, steady;    /* the whole run; the steady state */
+	int64_t steady_steps;
+	double mbit_s, steps_per_s;  /* Mbit/s: steady state, at the rate the run went */
 	double max_error_rel, rms_error_rel;
 	double encode_ms, decode_ms; /* per step, the whole object */
 	double latency_p50_us, latency_p99_us;

@@ -21,7 +21,9 @@ static __attribute__((noreturn)) void usage(void)
 	       "\n"
 	       "  -l, --level L       the grid level, 1..8 (default: 4 to 8)\n"
 	       "  -e, --encoding E    raw, float32, fixed[:BITS] or predict[:BITS[:KEYFRAME]]\n"
-	       "                      (default: all four; bits 1..24, default 13)\n"
+	       "                      (default: all four; bits 1..24, default 13; or\n"
+	       "                      instead of bits an error budget over the box's\n"
+	       "                      diagonal, 1e-7..0.01, e.g. predict:1e-4)\n"
 	       "  -o, --output FILE   write the table to FILE (default: standard output)\n"
 	       "      --csv FILE      write the rows as CSV too ('-': standard output,\n"
 	       "                      instead of the table)\n"
@@ -37,9 +39,13 @@ static __attribute__((noreturn)) void usage(void)
 	       "  -h, --help          show this help and exit\n"
 	       "      --version       show the version and exit\n"
 	       "\n"
-	       "Columns: bits per node per update (all traffic on the wire: payload, LCM,\n"
-	       "UDP and IPv4 headers, over W x H nodes and the steps), Mbit/s at the rate the\n"
-	       "run went, the position error the encoding introduced (max and RMS over the\n"
+	       "Columns, as a listener on every channel of the run sees the traffic: bits\n"
+	       "per node per update (over W x H nodes and the owner's steps) of the state\n"
+	       "tiles' payload alone and of every message on the wire (with message, LCM,\n"
+	       "UDP and IPv4 headers), both in the steady state (after the last join,\n"
+	       "before the last step, which goes exact), and of the whole run with the\n"
+	       "joins and the last step; Mbit/s of the steady state at the rate the run\n"
+	       "went, the position error the encoding introduced (max and RMS over the\n"
 	       "bounding-box diagonal), encoding and decoding ms per step for the whole\n"
 	       "object, publish-to-receive latency (p50, p99), kernel drops (/proc/net/udp).\n"
 	       "\n"
@@ -58,17 +64,30 @@ static double thesis_mbit(int level)
 }
 
 static const char *const header =
-	"level,encoding,loss,peers,steps,nodes,exact_nodes,bits_per_node_update,mbit_s,"
+	"level,encoding,loss,peers,steps,nodes,exact_nodes,bits_per_node_update,"
+	"payload_bits_per_node_update,total_bits_per_node_update,encoded_tile_bits,raw_tile_bits,"
+	"rest_tile_bits,final_tile_bits,heartbeat_bits,control_bits,tiles_per_step,steady_steps,mbit_s,"
 	"steps_per_s,max_error_rel,rms_error_rel,encode_ms,decode_ms,latency_p50_us,"
 	"latency_p99_us,kernel_drops,messages,resends,nobase,corrupt,observer_frames,"
 	"observer_incomplete,divergence,thesis_mbit_s";
 
 static void csv_row(FILE *f, const nb_row *r)
 {
-	fprintf(f, "%d,%s,%g,%d,%lld,%zu,%zu,%.4g,%.4g,%.4g,%.3g,%.3g,%.4g,%.4g,%.4g,%.4g,%ld,"
+	double nu = (double)r->nodes * (double)r->steady_steps, b[NB_KINDS];
+	for (int k = 0; k < NB_KINDS; k++)
+		b[k] = nu > 0 ? 8 * r->steady.bytes[k] / nu : NAN;
+	double tiles = r->steady_steps > 0 ? (double)(r->steady.messages[NB_ENCODED] +
+	                                              r->steady.messages[NB_RAW_STATE]) /
+	                                         (double)r->steady_steps
+	                                   : NAN;
+	fprintf(f, "%d,%s,%g,%d,%lld,%zu,%zu,%.4g,%.4g,%.4g,%.4g,%.4g,%.4g,%.4g,%.4g,%.4g,%.4g,%lld,"
+	        "%.4g,%.4g,%.3g,%.3g,%.4g,%.4g,%.4g,%.4g,%ld,"
 	        "%llu,%llu,%llu,%llu,%lld,%lld,%.3g,%.4g\n",
 	        r->level, r->encoding, r->loss, r->peers, (long long)r->steps, r->nodes,
-	        r->exact_nodes, r->bits_per_node_update, r->mbit_s, r->steps_per_s,
+	        r->exact_nodes, r->bits_per_node_update, r->payload_bits, r->total_bits,
+	        b[NB_ENCODED], b[NB_RAW_STATE], b[NB_REST], b[NB_FINAL], b[NB_HEARTBEAT],
+	        b[NB_CONTROL], tiles,
+	        (long long)r->steady_steps, r->mbit_s, r->steps_per_s,
 	        r->max_error_rel, r->rms_error_rel, r->encode_ms, r->decode_ms, r->latency_p50_us,
 	        r->latency_p99_us, r->kernel_drops, (unsigned long long)r->messages,
 	        (unsigned long long)r->resends, (unsigned long long)r->nobase,
@@ -78,10 +97,12 @@ static void csv_row(FILE *f, const nb_row *r)
 
 static void table_head(FILE *f)
 {
-	fprintf(f, "| level | nodes | encoding | bits/node/update | Mbit/s | steps/s | thesis Mbit/s "
+	fprintf(f, "| level | nodes | encoding | peers | payload bits/node/update "
+	       "| wire bits/node/update | whole run incl. joins | Mbit/s | steps/s | thesis Mbit/s "
 	       "| max error | RMS error | encode ms | decode ms | latency p50 µs | p99 µs "
 	       "| kernel drops |\n"
-	       "|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+	       "|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+	       "---:|\n");
 }
 
 static void table_row(FILE *f, const nb_row *r)
@@ -90,9 +111,10 @@ static void table_row(FILE *f, const nb_row *r)
 	char ths[32] = "–";
 	if (!isnan(th))
 		snprintf(ths, sizeof ths, "%.4g", th);
-	fprintf(f, "| %d | %zu | %s | %.3g | %.3g | %.0f | %s | %.2g | %.2g | %.3g | %.3g | %.0f | "
-	       "%.0f | %ld |\n",
-	       r->level, r->nodes, r->encoding, r->bits_per_node_update, r->mbit_s, r->steps_per_s,
+	fprintf(f, "| %d | %zu | %s | %d | %.3g | %.3g | %.3g | %.3g | %.0f | %s | %.2g | %.2g | "
+	       "%.3g | %.3g | %.0f | %.0f | %ld |\n",
+	       r->level, r->nodes, r->encoding, r->peers, r->payload_bits, r->bits_per_node_update,
+	       r->total_bits, r->mbit_s, r->steps_per_s,
 	       ths, r->max_error_rel, r->rms_error_rel, r->encode_ms, r->decode_ms,
 	       r->latency_p50_us, r->latency_p99_us, r->kernel_drops);
 	fflush(f);
