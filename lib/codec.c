@@ -369,6 +369,8 @@ struct ndo_codec_work {
 	int32_t *cur;    /* nodes: one component's codes */
 	uint64_t *u;     /* 3 x nodes: the residuals, zigzag-coded */
 	int64_t *erow;   /* 6 x nodes: two rows' extrapolation errors (pctx) */
+	void *row;       /* the row loops' scratch (row_scratch()) */
+	size_t rowcap;   /* its bytes */
 	double err_max2, err_sum2; /* the last frame encoded: its LOSSY errors */
 	size_t err_n;
 	size_t ecap;
@@ -394,7 +396,7 @@ void ndo_codec_work_destroy(ndo_codec_work *w)
 		return;
 	ZSTD_freeCCtx(w->cc);
 	ZSTD_freeDCtx(w->dc);
-	free(w->buf), free(w->buf2), free(w->cur), free(w->u), free(w->erow);
+	free(w->buf), free(w->buf2), free(w->cur), free(w->u), free(w->erow), free(w->row);
 	free(w);
 }
 
@@ -432,6 +434,38 @@ static int work_nodes(ndo_codec_work *w, size_t nodes)
 		return -1;
 	w->erow = er;
 	w->ecap = nodes;
+	return 0;
+}
+
+/* The row loops' scratch for rows of `cols` nodes (L = 3 cols values):
+ * three rows of extrapolation errors with 3 values of padding each side
+ * (the previous row, the current one, a row of zeros), the steps and
+ * offsets per value, and per-value temporaries. */
+typedef struct rowsc {
+	int64_t *e[2], *ez; /* [−3, L + 3) */
+	int64_t *lin, *kt;  /* L */
+	uint64_t *uu;       /* L */
+	double *lo, *q, *sq, *vv; /* L */
+	int32_t *kq;        /* L */
+} rowsc;
+
+static int row_scratch(ndo_codec_work *w, int cols, rowsc *rs)
+{
+	const size_t L = 3 * (size_t)cols, E = L + 6, need = (3 * E + 8 * L) * 8;
+	if (need > w->rowcap) {
+		void *b = realloc(w->row, need);
+		if (!b)
+			return -1;
+		w->row = b;
+		w->rowcap = need;
+	}
+	int64_t *p = w->row;
+	rs->e[0] = p + 3, rs->e[1] = p + E + 3, rs->ez = p + 2 * E + 3;
+	memset(p + 2 * E, 0, E * sizeof *p);
+	p += 3 * E;
+	rs->lin = p, rs->kt = p + L, rs->uu = (uint64_t *)(p + 2 * L);
+	rs->lo = (double *)(p + 3 * L), rs->q = (double *)(p + 4 * L), rs->sq = (double *)(p + 5 * L);
+	rs->vv = (double *)(p + 6 * L), rs->kq = (int32_t *)(p + 7 * L);
 	return 0;
 }
 
@@ -542,6 +576,20 @@ static double get_f64(rbuf *r)
 }
 
 static uint64_t zigzag(int64_t v) { return ((uint64_t)v << 1) ^ (uint64_t)(v >> 63); }
+static inline uint64_t bits_of(double d)
+{
+	uint64_t u;
+	memcpy(&u, &d, 8);
+	return u;
+}
+
+static inline double double_of(uint64_t u)
+{
+	double d;
+	memcpy(&d, &u, 8);
+	return d;
+}
+
 static int64_t unzigzag(uint64_t u) { return (int64_t)(u >> 1) ^ -(int64_t)(u & 1); }
 
 /* ---- codes and prediction ------------------------------------------------------- */
@@ -830,16 +878,20 @@ fast_encode_mode(const pctx *c, const int mode, const quant *z, const double *x,
 	return out ? -1 : 0;
 }
 
-static int fast_encode(const pctx *c, const quant *z, const double *x, ndo_codec_frame *recon,
-                       uint64_t *u, size_t lossy, uint64_t *any, double err[2])
+static void row_steps(rowsc *rs, const quant *z, size_t L);
+static int row_encode_mode_any(const pctx *c, int mode, rowsc *rs, const double *x,
+                               ndo_codec_frame *recon, uint64_t *u, size_t lossy, uint64_t *any,
+                               double err[2]);
+
+static int fast_encode(const pctx *c, const quant *z, rowsc *rs, const double *x,
+                       ndo_codec_frame *recon, uint64_t *u, size_t lossy, uint64_t *any,
+                       double err[2])
 {
-	switch (fast_mode(c)) {
-	case M_INTRA: return fast_encode_mode(c, M_INTRA, z, x, recon, u, lossy, any, err);
-	case M_COPY: return fast_encode_mode(c, M_COPY, z, x, recon, u, lossy, any, err);
-	case M_CURVED: return fast_encode_mode(c, M_CURVED, z, x, recon, u, lossy, any, err);
-	case M_LINEAR: return fast_encode_mode(c, M_LINEAR, z, x, recon, u, lossy, any, err);
-	default: return fast_encode_mode(c, M_GAP, z, x, recon, u, lossy, any, err);
-	}
+	const int mode = fast_mode(c);
+	if (mode == M_INTRA)
+		return fast_encode_mode(c, M_INTRA, z, x, recon, u, lossy, any, err);
+	row_steps(rs, z, 3 * (size_t)c->cols);
+	return row_encode_mode_any(c, mode, rs, x, recon, u, lossy, any, err);
 }
 
 /* Decoder, a uniform frame: the LOSSY nodes' codes and values from the
@@ -901,15 +953,260 @@ fast_decode_mode(const pctx *c, const int mode, const quant *z, const uint64_t *
 	return bad ? -1 : 0;
 }
 
-static int fast_decode(const pctx *c, const quant *z, const uint64_t *u, size_t lossy,
+static int row_decode_mode_any(const pctx *c, int mode, rowsc *rs, const uint64_t *u,
+                               size_t lossy, ndo_codec_frame *recon, outs *o);
+
+static int fast_decode(const pctx *c, const quant *z, rowsc *rs, const uint64_t *u, size_t lossy,
                        ndo_codec_frame *recon, outs *o)
 {
-	switch (fast_mode(c)) {
-	case M_INTRA: return fast_decode_mode(c, M_INTRA, z, u, lossy, recon, o);
-	case M_COPY: return fast_decode_mode(c, M_COPY, z, u, lossy, recon, o);
-	case M_CURVED: return fast_decode_mode(c, M_CURVED, z, u, lossy, recon, o);
-	case M_LINEAR: return fast_decode_mode(c, M_LINEAR, z, u, lossy, recon, o);
-	default: return fast_decode_mode(c, M_GAP, z, u, lossy, recon, o);
+	const int mode = fast_mode(c);
+	if (mode == M_INTRA)
+		return fast_decode_mode(c, M_INTRA, z, u, lossy, recon, o);
+	row_steps(rs, z, 3 * (size_t)c->cols);
+	return row_decode_mode_any(c, mode, rs, u, lossy, recon, o);
+}
+
+
+/* ---- the same, a row at a time -------------------------------------------------- */
+/* With references (every mode but M_INTRA) a node's prediction needs the
+ * references and the row above only, so a row's 3 × cols values go
+ * through one flat loop (no branches: the row above's errors padded with
+ * copies of its end values, as fast_predict() substitutes them, or zeros
+ * on the first row), and the classes enter after it, node by node.  The
+ * same integers as fast_predict(), hence the same bytes. */
+/* rdiv(a, b) for 0 < b ≤ NDO_CODEC_MAX_GAP and |a| < 2^62, without a
+ * division: rinv = (2^64 − 1) / b, the quotient estimated by a multiply
+ * (at most one short) and corrected. */
+static inline int64_t rdiv_by(int64_t a, int64_t b, uint64_t rinv)
+{
+	const uint64_t n = (uint64_t)(a < 0 ? -a : a) + (uint64_t)(b / 2);
+	uint64_t q = (uint64_t)(((unsigned __int128)n * rinv) >> 64);
+	q += n - q * (uint64_t)b >= (uint64_t)b;
+	return a < 0 ? -(int64_t)q : (int64_t)q;
+}
+
+static inline __attribute__((always_inline)) int64_t
+row_predict(const int mode, int64_t a, int64_t b, int64_t cc, const int64_t *ep, int64_t *lin,
+            int64_t g, int64_t gap, uint64_t rinv)
+{
+	if (mode == M_COPY)
+		return a;
+	if (mode == M_CURVED || mode == M_LINEAR) {
+		int64_t corr = mode == M_CURVED ? a - 2 * b + cc : 0;
+		corr += clamp3(ep[0], ep[-3], ep[3]);
+		*lin = 2 * a - b;
+		return *lin + half(corr);
+	}
+	if (gap == 1)
+		return a + (a - b) * g;
+	return a + rdiv_by((a - b) * g, gap, rinv);
+}
+
+static void row_pad(int64_t *e, size_t L)
+{
+	for (int d = 0; d < 3; d++)
+		e[d - 3] = e[d], e[L + (size_t)d] = e[L - 3 + (size_t)d];
+}
+
+static void row_steps(rowsc *rs, const quant *z, size_t L)
+{
+	for (size_t m = 0; m < L; m++)
+		rs->lo[m] = z->lo[m % 3], rs->q[m] = z->q[m % 3];
+}
+
+static inline __attribute__((always_inline)) int
+row_encode_mode(const pctx *c, const int mode, rowsc *rs, const double *x,
+                ndo_codec_frame *recon, uint64_t *u, size_t lossy, uint64_t *any, double err[2])
+{
+	const int cols = c->cols, rows = c->nodes / cols;
+	const size_t L = 3 * (size_t)cols;
+	const uint8_t *cls = c->cls;
+	/* every reference pointer valid (r0 standing in for an unused one): a
+	 * loop without branches */
+	const int32_t *r0 = c->r[0]->k, *r1 = mode != M_COPY ? c->r[1]->k : r0,
+	              *r2 = mode == M_CURVED ? c->r[2]->k : r0;
+	const int64_t g = c->step - c->r[0]->step,
+	              gap = mode == M_GAP ? c->r[0]->step - c->r[1]->step : 1;
+	const uint64_t rinv = UINT64_MAX / (uint64_t)gap;
+	const double *restrict LO = rs->lo, *restrict Q = rs->q;
+	double *restrict sq = rs->sq;
+	uint64_t *restrict uu = rs->uu;
+	double max2 = 0, sum2 = 0;
+	int out = 0;
+	uint64_t acc = 0;
+	size_t li = 0;
+	for (int j = 0; j < rows; j++) {
+		const size_t M0 = (size_t)j * L;
+		const int64_t *restrict ep = j ? rs->e[~j & 1] : rs->ez;
+		int64_t *restrict ec = rs->e[j & 1];
+		const double *restrict xr = x + M0;
+		int32_t *restrict kr = recon->k + M0;
+		double *restrict xo = recon->x + M0;
+		const int32_t *ar = r0 + M0, *br = r1 + M0, *cr = r2 + M0;
+		for (size_t m = 0; m < L; m++) { /* the codes (code_of()) */
+			const double xv = xr[m];
+			double t = (xv - LO[m]) / Q[m] + 0.5;
+			int inr = (t >= -CODE_MAX + 1) & (t < CODE_MAX);
+			out |= !inr;
+			uint64_t tb = bits_of(t) & -(uint64_t)inr; /* t, or 0 out of range: a */
+			t = double_of(tb);                        /* select that vectorizes */
+			int32_t kk = (int32_t)t;
+			kk -= (double)kk > t;
+			kr[m] = kk;
+			const double val = LO[m] + (double)kk * Q[m];
+			xo[m] = val;
+			sq[m] = (val - xv) * (val - xv);
+		}
+		for (size_t m = 0; m < L; m++) { /* their prediction */
+			const int64_t kk = kr[m];
+			int64_t lin = 0;
+			const int64_t pr = row_predict(mode, ar[m], br[m], cr[m], ep + m,
+			                               &lin, g, gap, rinv);
+			ec[m] = kk - lin;
+			uu[m] = zigzag(kk - pr);
+		}
+		row_pad(ec, L);
+		const uint8_t *cl = cls + (size_t)j * (size_t)cols;
+		for (int i = 0; i < cols; i++) {
+			const size_t m = 3 * (size_t)i;
+			if (cl[i] != NDO_NODE_LOSSY) { /* EXACT: its position as it is */
+				xo[m] = xr[m], xo[m + 1] = xr[m + 1], xo[m + 2] = xr[m + 2];
+				continue;
+			}
+			const double e2 = sq[m] + sq[m + 1] + sq[m + 2];
+			sum2 += e2;
+			max2 = e2 > max2 ? e2 : max2;
+			u[li] = uu[m], u[lossy + li] = uu[m + 1], u[2 * lossy + li] = uu[m + 2];
+			acc |= uu[m] | uu[m + 1] | uu[m + 2];
+			li++;
+		}
+	}
+	*any = acc;
+	err[0] = max2, err[1] = sum2;
+	return out ? -1 : 0;
+}
+
+/* The decoder's codes (out of range: 0, the frame rejected by the caller),
+ * their errors, values and velocity estimates, for a row's L values. */
+static inline __attribute__((always_inline)) void
+row_values(size_t L, const int64_t *restrict kt, const int64_t *restrict lins,
+           const double *restrict LO, const double *restrict Q, const double *restrict px,
+           double inv, int32_t *restrict kq, int64_t *restrict ec, double *restrict val,
+           double *restrict vv)
+{
+	for (size_t m = 0; m < L; m++) {
+		const int64_t k = kt[m];
+		const int64_t kc = k & -(int64_t)((k > -CODE_MAX) & (k < CODE_MAX));
+		const int32_t k32 = (int32_t)kc; /* int32 to double: a vector conversion */
+		kq[m] = k32;
+		ec[m] = kc - lins[m];
+		const double vl = LO[m] + (double)k32 * Q[m];
+		val[m] = vl;
+		vv[m] = (vl - px[m]) * inv;
+	}
+}
+
+static inline __attribute__((always_inline)) int
+row_decode_mode(const pctx *c, const int mode, rowsc *rs, const uint64_t *u, size_t lossy,
+                ndo_codec_frame *recon, outs *o)
+{
+	const ndo_codec_frame *prev = o->prev && o->inv > 0 ? o->prev : NULL;
+	const double inv = o->inv;
+	const size_t S = o->S;
+	const int cols = c->cols, rows = c->nodes / cols;
+	const size_t L = 3 * (size_t)cols;
+	const uint8_t *cls = c->cls;
+	/* every reference pointer valid (r0 standing in for an unused one): a
+	 * loop without branches */
+	const int32_t *r0 = c->r[0]->k, *r1 = mode != M_COPY ? c->r[1]->k : r0,
+	              *r2 = mode == M_CURVED ? c->r[2]->k : r0;
+	const int64_t g = c->step - c->r[0]->step,
+	              gap = mode == M_GAP ? c->r[0]->step - c->r[1]->step : 1;
+	const uint64_t rinv = UINT64_MAX / (uint64_t)gap;
+	const double *restrict LO = rs->lo, *restrict Q = rs->q;
+	uint64_t *restrict uu = rs->uu;
+	int64_t *restrict lins = rs->lin, *restrict kt = rs->kt;
+	size_t li = 0;
+	int bad = 0;
+	for (int j = 0; j < rows; j++) {
+		const size_t M0 = (size_t)j * L, n0 = (size_t)j * (size_t)cols;
+		const int64_t *restrict ep = j ? rs->e[~j & 1] : rs->ez;
+		int64_t *restrict ec = rs->e[j & 1];
+		int32_t *restrict kr = recon->k + M0;
+		const int32_t *ar = r0 + M0, *br = r1 + M0, *cr = r2 + M0;
+		const uint8_t *cl = cls + n0;
+		for (int i = 0; i < cols; i++) { /* the row's residuals, node by node */
+			const size_t m = 3 * (size_t)i;
+			if (cl[i] == NDO_NODE_LOSSY) {
+				uu[m] = u[li], uu[m + 1] = u[lossy + li], uu[m + 2] = u[2 * lossy + li];
+				li++;
+			} else {
+				uu[m] = uu[m + 1] = uu[m + 2] = 0;
+			}
+		}
+		for (size_t m = 0; m < L; m++) {
+			int64_t lin = 0;
+			const int64_t pr = row_predict(mode, ar[m], br[m], cr[m], ep + m,
+			                               &lin, g, gap, rinv);
+			kt[m] = pr + unzigzag(uu[m]);
+			lins[m] = lin;
+		}
+		/* codes (out of range: 0, the frame rejected below), values,
+		 * velocity estimates */
+		double *val = rs->sq, *vv = rs->vv;
+		int32_t *kq = rs->kq;
+		row_values(L, kt, lins, LO, Q, prev ? prev->x + M0 : LO, inv, kq, ec, val, vv);
+		for (int i = 0; i < cols; i++) {
+			const size_t m = 3 * (size_t)i, n = n0 + (size_t)i;
+			if (cl[i] != NDO_NODE_LOSSY) { /* EXACT: its code is known; its error */
+				for (int d = 0; d < 3; d++)
+					ec[m + d] = kr[m + d] - lins[m + d];
+				continue;
+			}
+			const int est = prev && prev->have[n];
+			for (int d = 0; d < 3; d++) {
+				const int64_t k = kt[m + d];
+				bad |= (k <= -CODE_MAX) | (k >= CODE_MAX);
+				kr[m + d] = kq[m + d];
+				recon->x[3 * n + d] = val[m + d];
+				o->x[S * n + d] = val[m + d];
+				o->v[S * n + d] = est ? vv[m + d] : NAN;
+			}
+		}
+		row_pad(ec, L);
+	}
+	o->done = 1;
+	return bad ? -1 : 0;
+}
+
+/* A loop per mode (the mode constant in each), compiled for x86-64 and
+ * x86-64-v3 (AVX2; integer results and unfused double operations: the
+ * same on both, lib/integrate.c's NDO_HOT). */
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define NDO_HOT __attribute__((target_clones("arch=x86-64-v3", "default"), optimize("O3")))
+#else
+#define NDO_HOT
+#endif
+NDO_HOT static int row_encode_mode_any(const pctx *c, int mode, rowsc *rs, const double *x,
+                               ndo_codec_frame *recon, uint64_t *u, size_t lossy, uint64_t *any,
+                               double err[2])
+{
+	switch (mode) {
+	case M_COPY: return row_encode_mode(c, M_COPY, rs, x, recon, u, lossy, any, err);
+	case M_CURVED: return row_encode_mode(c, M_CURVED, rs, x, recon, u, lossy, any, err);
+	case M_LINEAR: return row_encode_mode(c, M_LINEAR, rs, x, recon, u, lossy, any, err);
+	default: return row_encode_mode(c, M_GAP, rs, x, recon, u, lossy, any, err);
+	}
+}
+
+NDO_HOT static int row_decode_mode_any(const pctx *c, int mode, rowsc *rs, const uint64_t *u,
+                                       size_t lossy, ndo_codec_frame *recon, outs *o)
+{
+	switch (mode) {
+	case M_COPY: return row_decode_mode(c, M_COPY, rs, u, lossy, recon, o);
+	case M_CURVED: return row_decode_mode(c, M_CURVED, rs, u, lossy, recon, o);
+	case M_LINEAR: return row_decode_mode(c, M_LINEAR, rs, u, lossy, recon, o);
+	default: return row_decode_mode(c, M_GAP, rs, u, lossy, recon, o);
 	}
 }
 
@@ -982,19 +1279,6 @@ static int get_residuals(rbuf *r, uint64_t *u, size_t m)
  * from the positions, or as planes, they saved under 2 % of the bits,
  * measured).  Double arithmetic without fused operations (C11 mode): the
  * same on every machine. */
-static uint64_t bits_of(double d)
-{
-	uint64_t u;
-	memcpy(&u, &d, 8);
-	return u;
-}
-
-static double double_of(uint64_t u)
-{
-	double d;
-	memcpy(&d, &u, 8);
-	return d;
-}
 
 static double pred_position(const ndo_codec_frame *r0, const ndo_codec_frame *r1, int n, int d,
                             double now)
@@ -1151,7 +1435,12 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 	} else if (fast) {
 		uint64_t any;
 		double err[2];
-		if (fast_encode(&pc, &z, in->x, recon, w->u, lossy, &any, err))
+		rowsc rs;
+		if (row_scratch(w, in->cols, &rs)) {
+			rc = ndo__fail(NDO_ENOMEM, "out of memory");
+			goto done;
+		}
+		if (fast_encode(&pc, &z, &rs, in->x, recon, w->u, lossy, &any, err))
 			ok = 0;
 		w->err_max2 = err[0], w->err_sum2 = err[1], w->err_n = lossy;
 		errors_known = 1;
@@ -1367,8 +1656,12 @@ static int decode_lossy(const ndo_codec_params *p, ndo_codec_work *w, rbuf *r, u
 		lossy += cls[n] == NDO_NODE_LOSSY;
 	if (get_residuals(r, w->u, 3 * lossy))
 		return -1;
-	if (uniform(&c))
-		return fast_decode(&c, &z, w->u, lossy, recon, o);
+	if (uniform(&c)) {
+		rowsc rs;
+		if (row_scratch(w, cols, &rs))
+			return -2;
+		return fast_decode(&c, &z, &rs, w->u, lossy, recon, o);
+	}
 	for (int d = 0; d < 3; d++) {
 		for (int n = 0; n < nodes; n++)
 			cur[n] = recon->k[3 * n + d]; /* exact nodes' codes */
