@@ -1218,25 +1218,31 @@ static void put_residuals(wbuf *b, const uint64_t *u, size_t m)
 	size_t esc = 0;
 	for (size_t k = 0; k < m; k++)
 		esc += u[k] >= 3;
-	if (reserve(b, (m + 3) / 4 + 10 * esc + 1)) /* + 1: the escape slot written ahead */
+	const size_t nb = (m + 3) / 4;
+	if (reserve(b, nb + 10 * esc))
 		return;
-	uint8_t *o = b->p + b->n, *e = o + (m + 3) / 4; /* symbols; escapes after them */
-	for (size_t k = 0; k < m; k += 4) {
-		unsigned byte = 0;
-		for (size_t q = 0; q < 4 && k + q < m; q++) {
-			uint64_t v = u[k + q];
-			byte |= (v < 3 ? (unsigned)v : 3) << (2 * q);
-			if (v < 3 + 128) { /* the escape of one byte, or none: no branch */
-				*e = (uint8_t)(v - 3);
-				e += v >= 3;
-			} else {
-				for (v -= 3; v > 127; v >>= 7)
-					*e++ = (uint8_t)(v | 128);
-				*e++ = (uint8_t)v;
-			}
-		}
-		*o++ = (uint8_t)byte;
+	uint8_t *o = b->p + b->n, *e = o + nb; /* symbols; escapes after them */
+	const size_t full = m / 4;
+	for (size_t g = 0; g < full; g++) { /* four symbols a byte, without branches */
+		const uint64_t *q = u + 4 * g;
+		unsigned s0 = q[0] < 3 ? (unsigned)q[0] : 3, s1 = q[1] < 3 ? (unsigned)q[1] : 3,
+		         s2 = q[2] < 3 ? (unsigned)q[2] : 3, s3 = q[3] < 3 ? (unsigned)q[3] : 3;
+		o[g] = (uint8_t)(s0 | s1 << 2 | s2 << 4 | s3 << 6);
 	}
+	if (full < nb) {
+		unsigned byte = 0;
+		for (size_t k = 4 * full; k < m; k++)
+			byte |= (u[k] < 3 ? (unsigned)u[k] : 3) << (2 * (k & 3));
+		o[full] = (uint8_t)byte;
+	}
+	for (size_t k = 0; esc && k < m; k++) /* the escapes, in order (rare) */
+		if (u[k] >= 3) {
+			uint64_t v = u[k] - 3;
+			for (; v > 127; v >>= 7)
+				*e++ = (uint8_t)(v | 128);
+			*e++ = (uint8_t)v;
+			esc--;
+		}
 	b->n = (size_t)(e - b->p);
 }
 
@@ -1247,27 +1253,38 @@ static int get_residuals(rbuf *r, uint64_t *u, size_t m)
 	size_t nb = (m + 3) / 4;
 	if (r->pos > r->n || r->n - r->pos < nb)
 		return -1;
-	const uint8_t *in = r->p + r->pos, *e = in + nb, *end = r->p + r->n;
+	const uint8_t *in = r->p + r->pos;
 	if (m & 3 && in[nb - 1] >> (2 * (m & 3)))
 		return -1; /* the last byte's unused bits are zero */
-	for (size_t k = 0; k < m; k++) {
-		unsigned s = (in[k >> 2] >> (2 * (k & 3))) & 3;
-		if (s < 3) {
-			u[k] = s;
-			continue;
-		}
-		if (e < end && *e < 128) { /* an escape of one byte */
-			u[k] = (uint64_t)*e++ + 3;
-			continue;
-		}
-		rbuf t = {r->p, r->n, (size_t)(e - r->p), 0};
-		uint64_t v = get_varint(&t);
-		if (t.bad || v > ((uint64_t)1 << 40))
-			return -1;
-		u[k] = v + 3;
-		e = r->p + t.pos;
+	const size_t full = m / 4;
+	size_t esc = 0;
+	for (size_t g = 0; g < full; g++) { /* the symbols, without branches */
+		const unsigned c = in[g];
+		uint64_t *q = u + 4 * g;
+		q[0] = c & 3, q[1] = c >> 2 & 3, q[2] = c >> 4 & 3, q[3] = c >> 6;
+		esc += (c & 3) == 3, esc += (c >> 2 & 3) == 3, esc += (c >> 4 & 3) == 3,
+		    esc += c >> 6 == 3;
 	}
-	r->pos = (size_t)(e - r->p);
+	for (size_t k = 4 * full; k < m; k++) {
+		u[k] = (in[full] >> (2 * (k & 3))) & 3;
+		esc += u[k] == 3;
+	}
+	size_t pos = r->pos + nb;
+	for (size_t k = 0; esc && k < m; k++) /* the escapes (rare) */
+		if (u[k] == 3) {
+			if (pos < r->n && r->p[pos] < 128) { /* of one byte */
+				u[k] = (uint64_t)r->p[pos++] + 3;
+			} else {
+				rbuf t = {r->p, r->n, pos, 0};
+				uint64_t v = get_varint(&t);
+				if (t.bad || v > ((uint64_t)1 << 40))
+					return -1;
+				u[k] = v + 3;
+				pos = t.pos;
+			}
+			esc--;
+		}
+	r->pos = pos;
 	return 0;
 }
 
