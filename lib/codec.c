@@ -640,6 +640,29 @@ static inline double value_of(const quant *z, int c, int64_t k)
 	return z->lo[c] + (double)k * z->q[c];
 }
 
+/* Node n's position on axis d in frame f (which holds the node): from
+ * its code (NDO_HAVE_CODE), or as kept (NDO_HAVE_X). */
+static inline double frame_pos(const quant *z, const ndo_codec_frame *f, int n, int d)
+{
+	return f->have[n] == NDO_HAVE_X ? f->x[3 * n + d] : value_of(z, d, f->k[3 * n + d]);
+}
+
+/* What a frame holds of a node of class cls under encoding enc. */
+static inline uint8_t have_of(int enc, int cls)
+{
+	return cls == NDO_NODE_SKIP ? 0
+	       : cls == NDO_NODE_EXACT || enc == NDO_ENC_FLOAT32 ? NDO_HAVE_X
+	                                                         : NDO_HAVE_CODE;
+}
+
+void ndo_codec_frame_position(const ndo_codec_params *p, const ndo_codec_frame *f, int n,
+                              double x[3])
+{
+	const quant z = quant_of(p);
+	for (int d = 0; d < 3; d++)
+		x[d] = f->have[n] ? frame_pos(&z, f, n, d) : NAN;
+}
+
 /* a/b rounded half away from zero (b > 0) */
 static int64_t rdiv(int64_t a, int64_t b)
 {
@@ -780,7 +803,7 @@ static int uniform(const pctx *c)
 			all &= c->cls[n] != NDO_NODE_SKIP;
 	} else {
 		for (int n = 0; n < c->nodes; n++)
-			all &= (c->cls[n] != NDO_NODE_SKIP) & h0[n] & h1[n] & h2[n];
+			all &= (c->cls[n] != NDO_NODE_SKIP) & (h0[n] != 0) & (h1[n] != 0) & (h2[n] != 0);
 	}
 	return all;
 }
@@ -944,7 +967,7 @@ fast_decode_mode(const pctx *c, const int mode, const quant *z, const uint64_t *
 				const double val = z->lo[d] + (double)kk * z->q[d];
 				recon->x[3 * n + d] = val;
 				o->x[S * n + d] = val;
-				o->v[S * n + d] = est ? (val - prev->x[3 * n + d]) * inv : NAN;
+				o->v[S * n + d] = est ? (val - frame_pos(z, prev, n, d)) * inv : NAN;
 			}
 			li++;
 		}
@@ -1054,7 +1077,6 @@ row_encode_mode(const pctx *c, const int mode, rowsc *rs, const double *x,
 			kk -= (double)kk > t;
 			kr[m] = kk;
 			const double val = LO[m] + (double)kk * Q[m];
-			xo[m] = val;
 			sq[m] = (val - xv) * (val - xv);
 		}
 		for (size_t m = 0; m < L; m++) { /* their prediction */
@@ -1090,7 +1112,7 @@ row_encode_mode(const pctx *c, const int mode, rowsc *rs, const double *x,
  * their errors, values and velocity estimates, for a row's L values. */
 static inline __attribute__((always_inline)) void
 row_values(size_t L, const int64_t *restrict kt, const int64_t *restrict lins,
-           const double *restrict LO, const double *restrict Q, const double *restrict px,
+           const double *restrict LO, const double *restrict Q, const int32_t *restrict pk,
            double inv, int32_t *restrict kq, int64_t *restrict ec, double *restrict val,
            double *restrict vv)
 {
@@ -1102,7 +1124,7 @@ row_values(size_t L, const int64_t *restrict kt, const int64_t *restrict lins,
 		ec[m] = kc - lins[m];
 		const double vl = LO[m] + (double)k32 * Q[m];
 		val[m] = vl;
-		vv[m] = (vl - px[m]) * inv;
+		vv[m] = (vl - (LO[m] + (double)pk[m] * Q[m])) * inv; /* frame_pos() of a code */
 	}
 }
 
@@ -1155,7 +1177,7 @@ row_decode_mode(const pctx *c, const int mode, rowsc *rs, const uint64_t *u, siz
 		 * velocity estimates */
 		double *val = rs->sq, *vv = rs->vv;
 		int32_t *kq = rs->kq;
-		row_values(L, kt, lins, LO, Q, prev ? prev->x + M0 : LO, inv, kq, ec, val, vv);
+		row_values(L, kt, lins, LO, Q, prev ? prev->k + M0 : ar, inv, kq, ec, val, vv);
 		for (int i = 0; i < cols; i++) {
 			const size_t m = 3 * (size_t)i, n = n0 + (size_t)i;
 			if (cl[i] != NDO_NODE_LOSSY) { /* EXACT: its code is known; its error */
@@ -1163,14 +1185,15 @@ row_decode_mode(const pctx *c, const int mode, rowsc *rs, const uint64_t *u, siz
 					ec[m + d] = kr[m + d] - lins[m + d];
 				continue;
 			}
-			const int est = prev && prev->have[n];
+			const int ph = prev ? prev->have[n] : 0;
 			for (int d = 0; d < 3; d++) {
 				const int64_t k = kt[m + d];
 				bad |= (k <= -CODE_MAX) | (k >= CODE_MAX);
 				kr[m + d] = kq[m + d];
-				recon->x[3 * n + d] = val[m + d];
 				o->x[S * n + d] = val[m + d];
-				o->v[S * n + d] = est ? vv[m + d] : NAN;
+				o->v[S * n + d] = !ph                ? NAN
+				                  : ph == NDO_HAVE_X ? (val[m + d] - prev->x[3 * n + d]) * inv
+				                                     : vv[m + d];
 			}
 		}
 		row_pad(ec, L);
@@ -1297,14 +1320,14 @@ static int get_residuals(rbuf *r, uint64_t *u, size_t m)
  * measured).  Double arithmetic without fused operations (C11 mode): the
  * same on every machine. */
 
-static double pred_position(const ndo_codec_frame *r0, const ndo_codec_frame *r1, int n, int d,
-                            double now)
+static double pred_position(const quant *z, const ndo_codec_frame *r0,
+                            const ndo_codec_frame *r1, int n, int d, double now)
 {
 	if (!r0 || !r0->have[n])
 		return 0;
-	double x0 = r0->x[3 * n + d], p = x0;
+	double x0 = frame_pos(z, r0, n, d), p = x0;
 	if (r1 && r1->have[n] && r0->time > r1->time)
-		p = x0 + (x0 - r1->x[3 * n + d]) * ((now - r0->time) / (r0->time - r1->time));
+		p = x0 + (x0 - frame_pos(z, r1, n, d)) * ((now - r0->time) / (r0->time - r1->time));
 	return isfinite(p) ? p : 0;
 }
 
@@ -1408,7 +1431,7 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 	put_classes(&body, in->cls, nodes);
 	size_t nw = 0; /* EXACT words under predict */
 	for (int n = 0; n < nodes; n++) {
-		recon->have[n] = in->cls[n] != NDO_NODE_SKIP;
+		recon->have[n] = have_of(enc, in->cls[n]);
 		if (in->cls[n] != NDO_NODE_EXACT)
 			continue;
 		nexact++;
@@ -1420,7 +1443,7 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 		if (enc == NDO_ENC_PREDICT) {
 			for (int d = 0; d < 3; d++)
 				w->u[nw++] = bits_of(in->x[3 * n + d]) ^
-				             bits_of(pred_position(r[0], r[1], n, d, in->time));
+				             bits_of(pred_position(&z, r[0], r[1], n, d, in->time));
 			continue;
 		}
 		for (int d = 0; d < 3; d++)
@@ -1473,7 +1496,7 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 			for (int d = 0; d < 3; d++) {
 				double t = (xn[d] - z.lo[d]) / z.q[d] + 0.5;
 				int inr = t >= -CODE_MAX + 1 && t < CODE_MAX;
-				out |= (!inr) & recon->have[n];
+				out |= (!inr) & (recon->have[n] != 0);
 				t = inr ? t : 0;
 				int32_t k = (int32_t)t;
 				k -= (double)k > t;
@@ -1787,13 +1810,13 @@ ndo_drop ndo_codec_decode_strided(const ndo_codec_params *p, ndo_codec_work *w,
 		goto done;
 	}
 	for (int n = 0; n < nodes; n++) {
-		recon->have[n] = cls[n] != NDO_NODE_SKIP;
+		recon->have[n] = have_of(enc, cls[n]);
 		if (cls[n] != NDO_NODE_EXACT)
 			continue;
 		if (enc == NDO_ENC_PREDICT) {
 			for (int d = 0; d < 3; d++)
 				x[S * n + d] = recon->x[3 * n + d] =
-				    double_of(w->u[nw++] ^ bits_of(pred_position(ref[0], ref[1], n, d, time)));
+				    double_of(w->u[nw++] ^ bits_of(pred_position(&z, ref[0], ref[1], n, d, time)));
 			for (int d = 0; d < 3; d++)
 				v[S * n + d] = get_f64(&b);
 		} else {
@@ -1834,10 +1857,9 @@ ndo_drop ndo_codec_decode_strided(const ndo_codec_params *p, ndo_codec_work *w,
 			continue;
 		int lossy = cls[n] == NDO_NODE_LOSSY;
 		int est = lossy && prev && prev->have[n] && dtp > 0;
-		const double *px = prev ? prev->x + 3 * n : recon->x + 3 * n;
 		for (int d = 0; d < 3; d++) {
 			x[S * n + d] = lossy ? recon->x[3 * n + d] : NAN;
-			v[S * n + d] = est ? (recon->x[3 * n + d] - px[d]) * inv : NAN;
+			v[S * n + d] = est ? (recon->x[3 * n + d] - frame_pos(&z, prev, n, d)) * inv : NAN;
 		}
 	}
 done:

@@ -110,7 +110,9 @@ static ndo_drop step(const ndo_codec_params *p, side *tx, side *rx, int64_t s, i
 					if (cls[n] == NDO_NODE_SKIP && !isnan(xo[3 * n + d]))
 						*err = INFINITY; /* not carried: NaN */
 					/* the receiver holds what the sender says it does */
-					if (cls[n] != NDO_NODE_SKIP && xo[3 * n + d] != tx->f.x[3 * n + d])
+					double held[3];
+					ndo_codec_frame_position(p, &tx->f, n, held);
+					if (cls[n] != NDO_NODE_SKIP && xo[3 * n + d] != held[d])
 						*err = INFINITY;
 				}
 				if (cls[n] == NDO_NODE_LOSSY) {
