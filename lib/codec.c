@@ -650,9 +650,8 @@ static inline double frame_pos(const quant *z, const ndo_codec_frame *f, int n, 
 /* What a frame holds of a node of class cls under encoding enc. */
 static inline uint8_t have_of(int enc, int cls)
 {
-	return cls == NDO_NODE_SKIP ? 0
-	       : cls == NDO_NODE_EXACT || enc == NDO_ENC_FLOAT32 ? NDO_HAVE_X
-	                                                         : NDO_HAVE_CODE;
+	static const uint8_t code[3] = {0, NDO_HAVE_CODE, NDO_HAVE_X}, x[3] = {0, NDO_HAVE_X, NDO_HAVE_X};
+	return enc == NDO_ENC_FLOAT32 ? x[cls] : code[cls]; /* cls: NDO_NODE_* */
 }
 
 void ndo_codec_frame_position(const ndo_codec_params *p, const ndo_codec_frame *f, int n,
@@ -1242,7 +1241,7 @@ static void put_residuals(wbuf *b, const uint64_t *u, size_t m)
 	for (size_t k = 0; k < m; k++)
 		esc += u[k] >= 3;
 	const size_t nb = (m + 3) / 4;
-	if (reserve(b, nb + 10 * esc))
+	if (reserve(b, nb + 10 * esc + 1)) /* + 1: the escape slot written ahead */
 		return;
 	uint8_t *o = b->p + b->n, *e = o + nb; /* symbols; escapes after them */
 	const size_t full = m / 4;
@@ -1258,14 +1257,18 @@ static void put_residuals(wbuf *b, const uint64_t *u, size_t m)
 			byte |= (u[k] < 3 ? (unsigned)u[k] : 3) << (2 * (k & 3));
 		o[full] = (uint8_t)byte;
 	}
-	for (size_t k = 0; esc && k < m; k++) /* the escapes, in order (rare) */
-		if (u[k] >= 3) {
-			uint64_t v = u[k] - 3;
-			for (; v > 127; v >>= 7)
+	for (size_t k = 0; esc && k < m; k++) { /* the escapes, in order */
+		uint64_t v = u[k];
+		if (v < 3 + 128) { /* the escape of one byte, or none: no branch */
+			*e = (uint8_t)(v - 3);
+			e += v >= 3;
+		} else {
+			for (v -= 3; v > 127; v >>= 7)
 				*e++ = (uint8_t)(v | 128);
 			*e++ = (uint8_t)v;
-			esc--;
 		}
+		esc -= v >= 3;
+	}
 	b->n = (size_t)(e - b->p);
 }
 
@@ -1293,20 +1296,21 @@ static int get_residuals(rbuf *r, uint64_t *u, size_t m)
 		esc += u[k] == 3;
 	}
 	size_t pos = r->pos + nb;
-	for (size_t k = 0; esc && k < m; k++) /* the escapes (rare) */
-		if (u[k] == 3) {
-			if (pos < r->n && r->p[pos] < 128) { /* of one byte */
-				u[k] = (uint64_t)r->p[pos++] + 3;
-			} else {
-				rbuf t = {r->p, r->n, pos, 0};
-				uint64_t v = get_varint(&t);
-				if (t.bad || v > ((uint64_t)1 << 40))
-					return -1;
-				u[k] = v + 3;
-				pos = t.pos;
-			}
-			esc--;
+	for (size_t k = 0; esc && k < m; k++) { /* the escapes (rare: a branch) */
+		if (u[k] != 3)
+			continue;
+		if (pos < r->n && r->p[pos] < 128) { /* of one byte */
+			u[k] = (uint64_t)r->p[pos++] + 3;
+		} else {
+			rbuf t = {r->p, r->n, pos, 0};
+			uint64_t v = get_varint(&t);
+			if (t.bad || v > ((uint64_t)1 << 40))
+				return -1;
+			u[k] = v + 3;
+			pos = t.pos;
 		}
+		esc--;
+	}
 	r->pos = pos;
 	return 0;
 }
