@@ -425,7 +425,7 @@ static int work_nodes(ndo_codec_work *w, size_t nodes)
 	if (!cur)
 		return -1;
 	w->cur = cur;
-	uint64_t *u = realloc(w->u, 3 * nodes * sizeof *u);
+	uint64_t *u = realloc(w->u, (3 * nodes + 4) * sizeof *u); /* + 4: row_decode_mode() */
 	if (!u)
 		return -1;
 	w->u = u;
@@ -448,6 +448,17 @@ typedef struct rowsc {
 	double *lo, *q, *sq, *vv; /* L */
 	int32_t *kq;        /* L */
 } rowsc;
+
+/* The residuals as the payload has them (ndo/codec.h), read or written in
+ * place by the row loops: value k (component d of the LOSSY node of rank
+ * i: k = d × lossy + i) is the 2-bit symbol k of sym[]; the escapes (the
+ * values ≥ 3 themselves) of component d at esc[first[d] ...] in order
+ * (encoder: at esc[d × lossy ...], ne[d] of them). */
+typedef struct syms {
+	uint8_t *sym;
+	uint64_t *esc;
+	size_t lossy, first[3], ne[3];
+} syms;
 
 static int row_scratch(ndo_codec_work *w, int cols, rowsc *rs)
 {
@@ -902,18 +913,41 @@ fast_encode_mode(const pctx *c, const int mode, const quant *z, const double *x,
 
 static void row_steps(rowsc *rs, const quant *z, size_t L);
 static int row_encode_mode_any(const pctx *c, int mode, rowsc *rs, const double *x,
-                               ndo_codec_frame *recon, uint64_t *u, size_t lossy, uint64_t *any,
-                               double err[2]);
+                               ndo_codec_frame *recon, syms *sy, uint64_t *any, double err[2]);
+static void put_residuals(wbuf *b, const uint64_t *u, size_t m);
 
+/* The codes, their error statistics, and the residuals into b. */
 static int fast_encode(const pctx *c, const quant *z, rowsc *rs, const double *x,
                        ndo_codec_frame *recon, uint64_t *u, size_t lossy, uint64_t *any,
-                       double err[2])
+                       double err[2], wbuf *b)
 {
 	const int mode = fast_mode(c);
-	if (mode == M_INTRA)
-		return fast_encode_mode(c, M_INTRA, z, x, recon, u, lossy, any, err);
+	if (mode == M_INTRA) {
+		int rc = fast_encode_mode(c, M_INTRA, z, x, recon, u, lossy, any, err);
+		put_residuals(b, u, 3 * lossy);
+		return rc;
+	}
+	/* the symbols written in place, the escapes after them */
+	const size_t nb = (3 * lossy + 3) / 4;
+	if (reserve(b, nb))
+		return 0; /* b->fail */
+	memset(b->p + b->n, 0, nb);
+	syms sy = {.sym = b->p + b->n, .esc = u, .lossy = lossy};
+	b->n += nb;
 	row_steps(rs, z, 3 * (size_t)c->cols);
-	return row_encode_mode_any(c, mode, rs, x, recon, u, lossy, any, err);
+	int rc = row_encode_mode_any(c, mode, rs, x, recon, &sy, any, err);
+	if (reserve(b, 10 * (sy.ne[0] + sy.ne[1] + sy.ne[2])))
+		return 0;
+	uint8_t *e = b->p + b->n;
+	for (int d = 0; d < 3; d++)
+		for (size_t k = 0; k < sy.ne[d]; k++) {
+			uint64_t v = u[(size_t)d * lossy + k] - 3;
+			for (; v > 127; v >>= 7)
+				*e++ = (uint8_t)(v | 128);
+			*e++ = (uint8_t)v;
+		}
+	b->n = (size_t)(e - b->p);
+	return rc;
 }
 
 /* Decoder, a uniform frame: the LOSSY nodes' codes and values from the
@@ -975,17 +1009,18 @@ fast_decode_mode(const pctx *c, const int mode, const quant *z, const uint64_t *
 	return bad ? -1 : 0;
 }
 
-static int row_decode_mode_any(const pctx *c, int mode, rowsc *rs, const uint64_t *u,
-                               size_t lossy, ndo_codec_frame *recon, outs *o);
+static int row_decode_mode_any(const pctx *c, int mode, rowsc *rs, const syms *sy,
+                               ndo_codec_frame *recon, outs *o);
 
+/* A keyframe (u: its residuals), or a predicted frame (sy: its symbols). */
 static int fast_decode(const pctx *c, const quant *z, rowsc *rs, const uint64_t *u, size_t lossy,
-                       ndo_codec_frame *recon, outs *o)
+                       const syms *sy, ndo_codec_frame *recon, outs *o)
 {
 	const int mode = fast_mode(c);
 	if (mode == M_INTRA)
 		return fast_decode_mode(c, M_INTRA, z, u, lossy, recon, o);
 	row_steps(rs, z, 3 * (size_t)c->cols);
-	return row_decode_mode_any(c, mode, rs, u, lossy, recon, o);
+	return row_decode_mode_any(c, mode, rs, sy, recon, o);
 }
 
 
@@ -1038,8 +1073,12 @@ static void row_steps(rowsc *rs, const quant *z, size_t L)
 
 static inline __attribute__((always_inline)) int
 row_encode_mode(const pctx *c, const int mode, rowsc *rs, const double *x,
-                ndo_codec_frame *recon, uint64_t *u, size_t lossy, uint64_t *any, double err[2])
+                ndo_codec_frame *recon, syms *sy, uint64_t *any, double err[2])
 {
+	const size_t lossy = sy->lossy;
+	uint8_t *restrict sb = sy->sym;
+	uint64_t *restrict esc = sy->esc;
+	size_t ne0 = 0, ne1 = 0, ne2 = 0;
 	const int cols = c->cols, rows = c->nodes / cols;
 	const size_t L = 3 * (size_t)cols;
 	const uint8_t *cls = c->cls;
@@ -1097,13 +1136,23 @@ row_encode_mode(const pctx *c, const int mode, rowsc *rs, const double *x,
 			const double e2 = sq[m] + sq[m + 1] + sq[m + 2];
 			sum2 += e2;
 			max2 = e2 > max2 ? e2 : max2;
-			u[li] = uu[m], u[lossy + li] = uu[m + 1], u[2 * lossy + li] = uu[m + 2];
-			acc |= uu[m] | uu[m + 1] | uu[m + 2];
+			const uint64_t v0 = uu[m], v1 = uu[m + 1], v2 = uu[m + 2];
+			acc |= v0 | v1 | v2;
+			size_t k = li; /* symbols OR'ed into zeroed bytes; escapes stored, counted */
+			sb[k >> 2] |= (uint8_t)((v0 < 3 ? v0 : 3) << (2 * (k & 3)));
+			esc[ne0] = v0, ne0 += v0 >= 3;
+			k += lossy;
+			sb[k >> 2] |= (uint8_t)((v1 < 3 ? v1 : 3) << (2 * (k & 3)));
+			esc[lossy + ne1] = v1, ne1 += v1 >= 3;
+			k += lossy;
+			sb[k >> 2] |= (uint8_t)((v2 < 3 ? v2 : 3) << (2 * (k & 3)));
+			esc[2 * lossy + ne2] = v2, ne2 += v2 >= 3;
 			li++;
 		}
 	}
 	*any = acc;
 	err[0] = max2, err[1] = sum2;
+	sy->ne[0] = ne0, sy->ne[1] = ne1, sy->ne[2] = ne2;
 	return out ? -1 : 0;
 }
 
@@ -1128,9 +1177,13 @@ row_values(size_t L, const int64_t *restrict kt, const int64_t *restrict lins,
 }
 
 static inline __attribute__((always_inline)) int
-row_decode_mode(const pctx *c, const int mode, rowsc *rs, const uint64_t *u, size_t lossy,
+row_decode_mode(const pctx *c, const int mode, rowsc *rs, const syms *sy,
                 ndo_codec_frame *recon, outs *o)
 {
+	const size_t lossy = sy->lossy;
+	const uint8_t *restrict sb = sy->sym;
+	const uint64_t *restrict esc = sy->esc;
+	size_t e0 = sy->first[0], e1 = sy->first[1], e2 = sy->first[2];
 	const ndo_codec_frame *prev = o->prev && o->inv > 0 ? o->prev : NULL;
 	const double inv = o->inv;
 	const size_t S = o->S;
@@ -1158,8 +1211,16 @@ row_decode_mode(const pctx *c, const int mode, rowsc *rs, const uint64_t *u, siz
 		const uint8_t *cl = cls + n0;
 		for (int i = 0; i < cols; i++) { /* the row's residuals, node by node */
 			const size_t m = 3 * (size_t)i;
-			if (cl[i] == NDO_NODE_LOSSY) {
-				uu[m] = u[li], uu[m + 1] = u[lossy + li], uu[m + 2] = u[2 * lossy + li];
+			if (cl[i] == NDO_NODE_LOSSY) { /* an escape: the component's next */
+				size_t k = li;
+				unsigned s = (sb[k >> 2] >> (2 * (k & 3))) & 3;
+				uu[m] = s == 3 ? esc[e0] : s, e0 += s == 3;
+				k += lossy;
+				s = (sb[k >> 2] >> (2 * (k & 3))) & 3;
+				uu[m + 1] = s == 3 ? esc[e1] : s, e1 += s == 3;
+				k += lossy;
+				s = (sb[k >> 2] >> (2 * (k & 3))) & 3;
+				uu[m + 2] = s == 3 ? esc[e2] : s, e2 += s == 3;
 				li++;
 			} else {
 				uu[m] = uu[m + 1] = uu[m + 2] = 0;
@@ -1210,25 +1271,25 @@ row_decode_mode(const pctx *c, const int mode, rowsc *rs, const uint64_t *u, siz
 #define NDO_HOT
 #endif
 NDO_HOT static int row_encode_mode_any(const pctx *c, int mode, rowsc *rs, const double *x,
-                               ndo_codec_frame *recon, uint64_t *u, size_t lossy, uint64_t *any,
-                               double err[2])
+                                       ndo_codec_frame *recon, syms *sy, uint64_t *any,
+                                       double err[2])
 {
 	switch (mode) {
-	case M_COPY: return row_encode_mode(c, M_COPY, rs, x, recon, u, lossy, any, err);
-	case M_CURVED: return row_encode_mode(c, M_CURVED, rs, x, recon, u, lossy, any, err);
-	case M_LINEAR: return row_encode_mode(c, M_LINEAR, rs, x, recon, u, lossy, any, err);
-	default: return row_encode_mode(c, M_GAP, rs, x, recon, u, lossy, any, err);
+	case M_COPY: return row_encode_mode(c, M_COPY, rs, x, recon, sy, any, err);
+	case M_CURVED: return row_encode_mode(c, M_CURVED, rs, x, recon, sy, any, err);
+	case M_LINEAR: return row_encode_mode(c, M_LINEAR, rs, x, recon, sy, any, err);
+	default: return row_encode_mode(c, M_GAP, rs, x, recon, sy, any, err);
 	}
 }
 
-NDO_HOT static int row_decode_mode_any(const pctx *c, int mode, rowsc *rs, const uint64_t *u,
-                                       size_t lossy, ndo_codec_frame *recon, outs *o)
+NDO_HOT static int row_decode_mode_any(const pctx *c, int mode, rowsc *rs, const syms *sy,
+                                       ndo_codec_frame *recon, outs *o)
 {
 	switch (mode) {
-	case M_COPY: return row_decode_mode(c, M_COPY, rs, u, lossy, recon, o);
-	case M_CURVED: return row_decode_mode(c, M_CURVED, rs, u, lossy, recon, o);
-	case M_LINEAR: return row_decode_mode(c, M_LINEAR, rs, u, lossy, recon, o);
-	default: return row_decode_mode(c, M_GAP, rs, u, lossy, recon, o);
+	case M_COPY: return row_decode_mode(c, M_COPY, rs, sy, recon, o);
+	case M_CURVED: return row_decode_mode(c, M_CURVED, rs, sy, recon, o);
+	case M_LINEAR: return row_decode_mode(c, M_LINEAR, rs, sy, recon, o);
+	default: return row_decode_mode(c, M_GAP, rs, sy, recon, o);
 	}
 }
 
@@ -1311,6 +1372,58 @@ static int get_residuals(rbuf *r, uint64_t *u, size_t m)
 		}
 		esc--;
 	}
+	r->pos = pos;
+	return 0;
+}
+
+/* The same read in place for the row loops: the 3 × lossy symbols at r's
+ * position and their escapes (into esc, in order; sy->first: where each
+ * component's begin); the same checks as get_residuals(). */
+static int get_symbols(rbuf *r, size_t lossy, uint64_t *esc, syms *sy)
+{
+	const size_t m = 3 * lossy, nb = (m + 3) / 4;
+	if (r->pos > r->n || r->n - r->pos < nb)
+		return -1;
+	const uint8_t *in = r->p + r->pos;
+	if (m & 3 && in[nb - 1] >> (2 * (m & 3)))
+		return -1; /* the last byte's unused bits are zero */
+	/* the escapes before each component's first symbol (symbols 3: bit
+	 * pairs 11) */
+	size_t cnt[4] = {0, 0, 0, 0};
+	for (int d = 0; d < 3; d++) {
+		size_t k0 = (size_t)d * lossy, k1 = k0 + lossy, k = k0, c = 0;
+		for (; k < k1 && (k & 31); k++)
+			c += ((in[k >> 2] >> (2 * (k & 3))) & 3) == 3;
+		for (; k + 32 <= k1; k += 32) { /* 32 symbols a word */
+			uint64_t b;
+			memcpy(&b, in + (k >> 2), 8);
+			b = b & b >> 1 & 0x5555555555555555u; /* a pair's low bit: both set */
+			b = (b & 0x3333333333333333u) + (b >> 2 & 0x3333333333333333u);
+			b = (b + (b >> 4)) & 0x0f0f0f0f0f0f0f0fu;
+			c += (size_t)((b * 0x0101010101010101u) >> 56);
+		}
+		for (; k < k1; k++)
+			c += ((in[k >> 2] >> (2 * (k & 3))) & 3) == 3;
+		cnt[d + 1] = cnt[d] + c;
+	}
+	size_t pos = r->pos + nb;
+	for (size_t e = 0; e < cnt[3]; e++) {
+		if (pos < r->n && r->p[pos] < 128) { /* of one byte */
+			esc[e] = (uint64_t)r->p[pos++] + 3;
+			continue;
+		}
+		rbuf t = {r->p, r->n, pos, 0};
+		uint64_t v = get_varint(&t);
+		if (t.bad || v > ((uint64_t)1 << 40))
+			return -1;
+		esc[e] = v + 3;
+		pos = t.pos;
+	}
+	sy->sym = (uint8_t *)in;
+	sy->esc = esc;
+	sy->lossy = lossy;
+	for (int d = 0; d < 3; d++)
+		sy->first[d] = cnt[d];
 	r->pos = pos;
 	return 0;
 }
@@ -1484,12 +1597,11 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 			rc = ndo__fail(NDO_ENOMEM, "out of memory");
 			goto done;
 		}
-		if (fast_encode(&pc, &z, &rs, in->x, recon, w->u, lossy, &any, err))
+		if (fast_encode(&pc, &z, &rs, in->x, recon, w->u, lossy, &any, err, &body))
 			ok = 0;
 		w->err_max2 = err[0], w->err_sum2 = err[1], w->err_n = lossy;
 		errors_known = 1;
 		allzero = any == 0;
-		put_residuals(&body, w->u, 3 * lossy);
 	} else {
 		/* codes of every carried node (the others' are not used) and the
 		 * LOSSY nodes' values: code_of() and value_of() without branches */
@@ -1698,14 +1810,18 @@ static int decode_lossy(const ndo_codec_params *p, ndo_codec_work *w, rbuf *r, u
 	size_t m = 0, lossy = 0;
 	for (int n = 0; n < nodes; n++)
 		lossy += cls[n] == NDO_NODE_LOSSY;
-	if (get_residuals(r, w->u, 3 * lossy))
-		return -1;
 	if (uniform(&c)) {
 		rowsc rs;
+		syms sy;
 		if (row_scratch(w, cols, &rs))
 			return -2;
-		return fast_decode(&c, &z, &rs, w->u, lossy, recon, o);
+		if (fast_mode(&c) == M_INTRA ? get_residuals(r, w->u, 3 * lossy)
+		                             : get_symbols(r, lossy, w->u, &sy))
+			return -1;
+		return fast_decode(&c, &z, &rs, w->u, lossy, &sy, recon, o);
 	}
+	if (get_residuals(r, w->u, 3 * lossy))
+		return -1;
 	for (int d = 0; d < 3; d++) {
 		for (int n = 0; n < nodes; n++)
 			cur[n] = recon->k[3 * n + d]; /* exact nodes' codes */
