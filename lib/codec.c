@@ -370,6 +370,8 @@ struct ndo_codec_work {
 	uint64_t *u;     /* 3 x nodes: the residuals, zigzag-coded */
 	int64_t *erow;   /* 6 x nodes: two rows' extrapolation errors (pctx) */
 	void *row;       /* the row loops' scratch (row_scratch()) */
+	double *xg;      /* 6 x nodes: strided input gathered (ndo_codec_input.stride) */
+	size_t xgcap;
 	size_t rowcap;   /* its bytes */
 	double err_max2, err_sum2; /* the last frame encoded: its LOSSY errors */
 	size_t err_n;
@@ -396,7 +398,7 @@ void ndo_codec_work_destroy(ndo_codec_work *w)
 		return;
 	ZSTD_freeCCtx(w->cc);
 	ZSTD_freeDCtx(w->dc);
-	free(w->buf), free(w->buf2), free(w->cur), free(w->u), free(w->erow), free(w->row);
+	free(w->buf), free(w->buf2), free(w->cur), free(w->u), free(w->erow), free(w->row), free(w->xg);
 	free(w);
 }
 
@@ -912,18 +914,18 @@ fast_encode_mode(const pctx *c, const int mode, const quant *z, const double *x,
 }
 
 static void row_steps(rowsc *rs, const quant *z, size_t L);
-static int row_encode_mode_any(const pctx *c, int mode, rowsc *rs, const double *x,
+static int row_encode_mode_any(const pctx *c, int mode, rowsc *rs, const double *x, size_t xs,
                                ndo_codec_frame *recon, syms *sy, uint64_t *any, double err[2]);
 static void put_residuals(wbuf *b, const uint64_t *u, size_t m);
 
 /* The codes, their error statistics, and the residuals into b. */
-static int fast_encode(const pctx *c, const quant *z, rowsc *rs, const double *x,
+static int fast_encode(const pctx *c, const quant *z, rowsc *rs, const double *x, size_t xs,
                        ndo_codec_frame *recon, uint64_t *u, size_t lossy, uint64_t *any,
                        double err[2], wbuf *b)
 {
 	const int mode = fast_mode(c);
 	if (mode == M_INTRA) {
-		int rc = fast_encode_mode(c, M_INTRA, z, x, recon, u, lossy, any, err);
+		int rc = fast_encode_mode(c, M_INTRA, z, x, recon, u, lossy, any, err); /* xs: cols */
 		put_residuals(b, u, 3 * lossy);
 		return rc;
 	}
@@ -935,7 +937,7 @@ static int fast_encode(const pctx *c, const quant *z, rowsc *rs, const double *x
 	syms sy = {.sym = b->p + b->n, .esc = u, .lossy = lossy};
 	b->n += nb;
 	row_steps(rs, z, 3 * (size_t)c->cols);
-	int rc = row_encode_mode_any(c, mode, rs, x, recon, &sy, any, err);
+	int rc = row_encode_mode_any(c, mode, rs, x, xs, recon, &sy, any, err);
 	if (reserve(b, 10 * (sy.ne[0] + sy.ne[1] + sy.ne[2])))
 		return 0;
 	uint8_t *e = b->p + b->n;
@@ -1072,7 +1074,7 @@ static void row_steps(rowsc *rs, const quant *z, size_t L)
 }
 
 static inline __attribute__((always_inline)) int
-row_encode_mode(const pctx *c, const int mode, rowsc *rs, const double *x,
+row_encode_mode(const pctx *c, const int mode, rowsc *rs, const double *x, size_t xs,
                 ndo_codec_frame *recon, syms *sy, uint64_t *any, double err[2])
 {
 	const size_t lossy = sy->lossy;
@@ -1100,7 +1102,7 @@ row_encode_mode(const pctx *c, const int mode, rowsc *rs, const double *x,
 		const size_t M0 = (size_t)j * L;
 		const int64_t *restrict ep = j ? rs->e[~j & 1] : rs->ez;
 		int64_t *restrict ec = rs->e[j & 1];
-		const double *restrict xr = x + M0;
+		const double *restrict xr = x + 3 * (size_t)j * xs;
 		int32_t *restrict kr = recon->k + M0;
 		double *restrict xo = recon->x + M0;
 		const int32_t *ar = r0 + M0, *br = r1 + M0, *cr = r2 + M0;
@@ -1271,14 +1273,14 @@ row_decode_mode(const pctx *c, const int mode, rowsc *rs, const syms *sy,
 #define NDO_HOT
 #endif
 NDO_HOT static int row_encode_mode_any(const pctx *c, int mode, rowsc *rs, const double *x,
-                                       ndo_codec_frame *recon, syms *sy, uint64_t *any,
-                                       double err[2])
+                                       size_t xs, ndo_codec_frame *recon, syms *sy,
+                                       uint64_t *any, double err[2])
 {
 	switch (mode) {
-	case M_COPY: return row_encode_mode(c, M_COPY, rs, x, recon, sy, any, err);
-	case M_CURVED: return row_encode_mode(c, M_CURVED, rs, x, recon, sy, any, err);
-	case M_LINEAR: return row_encode_mode(c, M_LINEAR, rs, x, recon, sy, any, err);
-	default: return row_encode_mode(c, M_GAP, rs, x, recon, sy, any, err);
+	case M_COPY: return row_encode_mode(c, M_COPY, rs, x, xs, recon, sy, any, err);
+	case M_CURVED: return row_encode_mode(c, M_CURVED, rs, x, xs, recon, sy, any, err);
+	case M_LINEAR: return row_encode_mode(c, M_LINEAR, rs, x, xs, recon, sy, any, err);
+	default: return row_encode_mode(c, M_GAP, rs, x, xs, recon, sy, any, err);
 	}
 }
 
@@ -1542,6 +1544,28 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 	pctx pc = {.cols = in->cols, .nodes = nodes, .cls = in->cls, .erow = w->erow};
 	pctx_init(&pc, r[0], r[1], r[2], in->step);
 	const int fast = enc == NDO_ENC_PREDICT && uniform(&pc);
+	/* positions and velocities: rows in place (stride), or gathered
+	 * contiguous for every loop but the row loops' */
+	const double *X = in->x, *V = in->v;
+	size_t XS = in->stride > 0 ? (size_t)in->stride : (size_t)in->cols;
+	if (XS != (size_t)in->cols && !(fast && fast_mode(&pc) != M_INTRA)) {
+		const size_t need = 6 * (size_t)nodes * sizeof *w->xg;
+		if (need > w->xgcap) {
+			double *g = realloc(w->xg, need);
+			if (!g) {
+				rc = ndo__fail(NDO_ENOMEM, "out of memory");
+				goto done;
+			}
+			w->xg = g, w->xgcap = need;
+		}
+		for (int j = 0; j < in->rows; j++) {
+			memcpy(w->xg + 3 * (size_t)j * in->cols, in->x + 3 * (size_t)j * XS,
+			       3 * (size_t)in->cols * sizeof *X);
+			memcpy(w->xg + 3 * ((size_t)nodes + (size_t)j * in->cols), in->v + 3 * (size_t)j * XS,
+			       3 * (size_t)in->cols * sizeof *V);
+		}
+		X = w->xg, V = w->xg + 3 * (size_t)nodes, XS = (size_t)in->cols;
+	}
 	size_t lossy = 0;
 	for (int n = 0; n < nodes; n++)
 		lossy += in->cls[n] == NDO_NODE_LOSSY;
@@ -1552,34 +1576,37 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 		if (in->cls[n] != NDO_NODE_EXACT)
 			continue;
 		nexact++;
+		const double *xn = X + 3 * ((size_t)(n / in->cols) * XS + (size_t)(n % in->cols)),
+		             *vn = V + 3 * ((size_t)(n / in->cols) * XS + (size_t)(n % in->cols));
 		for (int d = 0; d < 3; d++) {
-			if (!isfinite(in->x[3 * n + d]) || !isfinite(in->v[3 * n + d]))
+			if (!isfinite(xn[d]) || !isfinite(vn[d]))
 				ok = 0;
-			recon->x[3 * n + d] = in->x[3 * n + d];
+			recon->x[3 * n + d] = xn[d];
 		}
 		if (enc == NDO_ENC_PREDICT) {
 			for (int d = 0; d < 3; d++)
-				w->u[nw++] = bits_of(in->x[3 * n + d]) ^
+				w->u[nw++] = bits_of(xn[d]) ^
 				             bits_of(pred_position(&z, r[0], r[1], n, d, in->time));
 			continue;
 		}
 		for (int d = 0; d < 3; d++)
-			put_f64(&body, in->x[3 * n + d]);
+			put_f64(&body, xn[d]);
 		for (int d = 0; d < 3; d++)
-			put_f64(&body, in->v[3 * n + d]);
+			put_f64(&body, vn[d]);
 	}
 	if (nw) {
 		put_planes(&body, w->u, nw);
 		for (int n = 0; n < nodes; n++) /* velocities as they are */
 			if (in->cls[n] == NDO_NODE_EXACT)
 				for (int d = 0; d < 3; d++)
-					put_f64(&body, in->v[3 * n + d]);
+					put_f64(&body, V[3 * ((size_t)(n / in->cols) * XS +
+					                      (size_t)(n % in->cols)) + (size_t)d]);
 	}
 	if (enc == NDO_ENC_FLOAT32) {
 		for (int n = 0; n < nodes; n++)
 			if (in->cls[n] == NDO_NODE_LOSSY)
 				for (int d = 0; d < 3; d++) {
-					float f = (float)in->x[3 * n + d];
+					float f = (float)X[3 * n + d];
 					if (!isfinite(f))
 						ok = 0;
 					uint32_t u;
@@ -1597,7 +1624,7 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 			rc = ndo__fail(NDO_ENOMEM, "out of memory");
 			goto done;
 		}
-		if (fast_encode(&pc, &z, &rs, in->x, recon, w->u, lossy, &any, err, &body))
+		if (fast_encode(&pc, &z, &rs, X, XS, recon, w->u, lossy, &any, err, &body))
 			ok = 0;
 		w->err_max2 = err[0], w->err_sum2 = err[1], w->err_n = lossy;
 		errors_known = 1;
@@ -1607,7 +1634,7 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 		 * LOSSY nodes' values: code_of() and value_of() without branches */
 		int out = 0;
 		for (int n = 0; n < nodes; n++) {
-			const double *xn = in->x + 3 * n;
+			const double *xn = X + 3 * n;
 			int lossy = in->cls[n] == NDO_NODE_LOSSY;
 			for (int d = 0; d < 3; d++) {
 				double t = (xn[d] - z.lo[d]) / z.q[d] + 0.5;
@@ -1635,7 +1662,7 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 				continue;
 			double e2 = 0;
 			for (int d = 0; d < 3; d++) {
-				double e = recon->x[3 * n + d] - in->x[3 * n + d];
+				double e = recon->x[3 * n + d] - X[3 * n + d];
 				e2 += e * e;
 			}
 			sum2 += e2;

@@ -201,6 +201,9 @@ typedef struct ndo_codec_input {
 	int64_t step;
 	double time;
 	int32_t epoch;
+	int stride;           /* nodes from a row's first in x and v to the next
+	                         row's (≥ cols; 0: cols) — a tile of a grid in
+	                         place; cls is always rows × cols */
 } ndo_codec_input;
 
 /* Encode one frame.  `h`: the tile's history as receivers hold it;
