@@ -9,6 +9,16 @@
 #include <string.h>
 #include <zstd.h>
 
+/* The hot loops are compiled for x86-64 and x86-64-v3 (AVX2), at -O3 so
+ * that they vectorize; the loader picks what the CPU runs (lib/integrate.c's
+ * NDO_HOT).  Integer results, and double operations without fused ones
+ * (C11 mode): the same on both. */
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define NDO_HOT __attribute__((target_clones("arch=x86-64-v3", "default"), optimize("O3")))
+#else
+#define NDO_HOT
+#endif
+
 enum { KIND_INTRA = 0, KIND_PRED = 1, F_ZSTD = 4, F_WIDE = 8, F_NOREF = 16 };
 /* zstd's level: 1 (docs/bench/net.md: levels -5..3 against bits and time;
  * set by bench_codec -z only) */
@@ -660,13 +670,6 @@ static inline double frame_pos(const quant *z, const ndo_codec_frame *f, int n, 
 	return f->have[n] == NDO_HAVE_X ? f->x[3 * n + d] : value_of(z, d, f->k[3 * n + d]);
 }
 
-/* What a frame holds of a node of class cls under encoding enc. */
-static inline uint8_t have_of(int enc, int cls)
-{
-	static const uint8_t code[3] = {0, NDO_HAVE_CODE, NDO_HAVE_X}, x[3] = {0, NDO_HAVE_X, NDO_HAVE_X};
-	return enc == NDO_ENC_FLOAT32 ? x[cls] : code[cls]; /* cls: NDO_NODE_* */
-}
-
 void ndo_codec_frame_position(const ndo_codec_params *p, const ndo_codec_frame *f, int n,
                               double x[3])
 {
@@ -803,7 +806,7 @@ int ndo__codec_general_only;
  * node is predicted the same way (from its neighbours in a keyframe; r0's
  * code with r0 alone; else extrapolated) and its neighbours' values or
  * errors exist wherever the neighbours do. */
-static int uniform(const pctx *c)
+NDO_HOT static int uniform(const pctx *c)
 {
 	if (ndo__codec_general_only)
 		return 0;
@@ -1264,14 +1267,7 @@ row_decode_mode(const pctx *c, const int mode, rowsc *rs, const syms *sy,
 	return bad ? -1 : 0;
 }
 
-/* A loop per mode (the mode constant in each), compiled for x86-64 and
- * x86-64-v3 (AVX2; integer results and unfused double operations: the
- * same on both, lib/integrate.c's NDO_HOT). */
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define NDO_HOT __attribute__((target_clones("arch=x86-64-v3", "default"), optimize("O3")))
-#else
-#define NDO_HOT
-#endif
+/* A loop per mode (the mode constant in each). */
 NDO_HOT static int row_encode_mode_any(const pctx *c, int mode, rowsc *rs, const double *x,
                                        size_t xs, ndo_codec_frame *recon, syms *sy,
                                        uint64_t *any, double err[2])
@@ -1476,6 +1472,22 @@ static int get_planes(rbuf *r, uint64_t *w, size_t m)
 }
 
 /* ---- the body ------------------------------------------------------------------- */
+/* A frame's have[] from its classes (cls[n] ≤ NDO_NODE_EXACT) and the count
+ * of each class, in one pass. */
+NDO_HOT static void class_pass(const uint8_t *restrict cls, int nodes, int enc,
+                               uint8_t *restrict have, size_t cnt[3])
+{
+	const uint8_t lossy = enc == NDO_ENC_FLOAT32 ? NDO_HAVE_X : NDO_HAVE_CODE;
+	unsigned c1 = 0, c2 = 0;
+	for (int n = 0; n < nodes; n++) {
+		const uint8_t c = cls[n];
+		have[n] = c == NDO_NODE_LOSSY ? lossy : c == NDO_NODE_EXACT ? NDO_HAVE_X : 0;
+		c1 += c == NDO_NODE_LOSSY;
+		c2 += c == NDO_NODE_EXACT;
+	}
+	cnt[0] = (size_t)nodes - c1 - c2, cnt[1] = c1, cnt[2] = c2;
+}
+
 static void put_classes(wbuf *b, const uint8_t *cls, int nodes)
 {
 	for (int n = 0; n < nodes;) {
@@ -1566,13 +1578,17 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 		}
 		X = w->xg, V = w->xg + 3 * (size_t)nodes, XS = (size_t)in->cols;
 	}
-	size_t lossy = 0;
-	for (int n = 0; n < nodes; n++)
-		lossy += in->cls[n] == NDO_NODE_LOSSY;
-	put_classes(&body, in->cls, nodes);
+	size_t cnt[3];
+	class_pass(in->cls, nodes, enc, recon->have, cnt);
+	const size_t lossy = cnt[1];
+	if (in->cls[0] <= NDO_NODE_EXACT && cnt[in->cls[0]] == (size_t)nodes) { /* one run */
+		put_byte(&body, in->cls[0]);
+		put_varint(&body, (uint64_t)nodes);
+	} else {
+		put_classes(&body, in->cls, nodes);
+	}
 	size_t nw = 0; /* EXACT words under predict */
-	for (int n = 0; n < nodes; n++) {
-		recon->have[n] = have_of(enc, in->cls[n]);
+	for (int n = 0; n < nodes && cnt[2]; n++) {
 		if (in->cls[n] != NDO_NODE_EXACT)
 			continue;
 		nexact++;
@@ -1772,8 +1788,9 @@ done:
 
 /* Decode the LOSSY positions of the body (after the exact nodes). */
 static int decode_lossy(const ndo_codec_params *p, ndo_codec_work *w, rbuf *r, uint8_t flags,
-                        const uint8_t *cls, int rows, int cols, const ndo_codec_frame *ref[3],
-                        int64_t step, ndo_codec_frame *recon, outs *o)
+                        const uint8_t *cls, size_t lossy, int rows, int cols,
+                        const ndo_codec_frame *ref[3], int64_t step, ndo_codec_frame *recon,
+                        outs *o)
 {
 	const int nodes = rows * cols, enc = p->encoding;
 	const quant z = quant_of(p);
@@ -1834,9 +1851,7 @@ static int decode_lossy(const ndo_codec_params *p, ndo_codec_work *w, rbuf *r, u
 	pctx_init(&c, ref[0], ref[1], ref[2], step);
 	int32_t *cur = w->cur;
 	c.cur = cur;
-	size_t m = 0, lossy = 0;
-	for (int n = 0; n < nodes; n++)
-		lossy += cls[n] == NDO_NODE_LOSSY;
+	size_t m = 0;
 	if (uniform(&c)) {
 		rowsc rs;
 		syms sy;
@@ -1949,15 +1964,14 @@ ndo_drop ndo_codec_decode_strided(const ndo_codec_params *p, ndo_codec_work *w,
 		goto done;
 	}
 	int ok = 1;
-	size_t nexact = 0, nw = 0;
-	for (int n = 0; n < nodes; n++)
-		nexact += cls[n] == NDO_NODE_EXACT;
+	size_t nw = 0, cnt[3];
+	class_pass(cls, nodes, enc, recon->have, cnt);
+	const size_t nexact = cnt[2];
 	if (enc == NDO_ENC_PREDICT && nexact && get_planes(&b, w->u, 3 * nexact)) {
 		res = NDO_DROP_CORRUPT;
 		goto done;
 	}
-	for (int n = 0; n < nodes; n++) {
-		recon->have[n] = have_of(enc, cls[n]);
+	for (int n = 0; n < nodes && nexact; n++) {
 		if (cls[n] != NDO_NODE_EXACT)
 			continue;
 		if (enc == NDO_ENC_PREDICT) {
@@ -1988,7 +2002,7 @@ ndo_drop ndo_codec_decode_strided(const ndo_codec_params *p, ndo_codec_work *w,
 	const ndo_codec_frame *prev = before(h, step, epoch);
 	double dtp = prev ? time - prev->time : 0, inv = dtp > 0 ? 1 / dtp : 0;
 	outs o = {x, v, S, prev, inv, 0};
-	int dl = decode_lossy(p, w, &b, flags, cls, rows, cols, ref, step, recon, &o);
+	int dl = decode_lossy(p, w, &b, flags, cls, cnt[1], rows, cols, ref, step, recon, &o);
 	if (dl == -2) {
 		res = NDO_DROP_RANGE;
 		goto done;
