@@ -9,6 +9,16 @@
 #include <string.h>
 #include <zstd.h>
 
+/* The hot loops are compiled for x86-64 and x86-64-v3 (AVX2), at -O3 so
+ * that they vectorize; the loader picks what the CPU runs (lib/integrate.c's
+ * NDO_HOT).  Integer results, and double operations without fused ones
+ * (C11 mode): the same on both. */
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define NDO_HOT __attribute__((target_clones("arch=x86-64-v3", "default"), optimize("O3")))
+#else
+#define NDO_HOT
+#endif
+
 enum { KIND_INTRA = 0, KIND_PRED = 1, F_ZSTD = 4, F_WIDE = 8, F_NOREF = 16 };
 /* zstd's level: 1 (docs/bench/net.md: levels -5..3 against bits and time;
  * set by bench_codec -z only) */
@@ -369,6 +379,10 @@ struct ndo_codec_work {
 	int32_t *cur;    /* nodes: one component's codes */
 	uint64_t *u;     /* 3 x nodes: the residuals, zigzag-coded */
 	int64_t *erow;   /* 6 x nodes: two rows' extrapolation errors (pctx) */
+	void *row;       /* the row loops' scratch (row_scratch()) */
+	double *xg;      /* 6 x nodes: strided input gathered (ndo_codec_input.stride) */
+	size_t xgcap;
+	size_t rowcap;   /* its bytes */
 	double err_max2, err_sum2; /* the last frame encoded: its LOSSY errors */
 	size_t err_n;
 	size_t ecap;
@@ -394,7 +408,7 @@ void ndo_codec_work_destroy(ndo_codec_work *w)
 		return;
 	ZSTD_freeCCtx(w->cc);
 	ZSTD_freeDCtx(w->dc);
-	free(w->buf), free(w->buf2), free(w->cur), free(w->u), free(w->erow);
+	free(w->buf), free(w->buf2), free(w->cur), free(w->u), free(w->erow), free(w->row), free(w->xg);
 	free(w);
 }
 
@@ -423,7 +437,7 @@ static int work_nodes(ndo_codec_work *w, size_t nodes)
 	if (!cur)
 		return -1;
 	w->cur = cur;
-	uint64_t *u = realloc(w->u, 3 * nodes * sizeof *u);
+	uint64_t *u = realloc(w->u, (3 * nodes + 4) * sizeof *u); /* + 4: row_decode_mode() */
 	if (!u)
 		return -1;
 	w->u = u;
@@ -432,6 +446,49 @@ static int work_nodes(ndo_codec_work *w, size_t nodes)
 		return -1;
 	w->erow = er;
 	w->ecap = nodes;
+	return 0;
+}
+
+/* The row loops' scratch for rows of `cols` nodes (L = 3 cols values):
+ * three rows of extrapolation errors with 3 values of padding each side
+ * (the previous row, the current one, a row of zeros), the steps and
+ * offsets per value, and per-value temporaries. */
+typedef struct rowsc {
+	int64_t *e[2], *ez; /* [−3, L + 3) */
+	int64_t *lin, *kt;  /* L */
+	uint64_t *uu;       /* L */
+	double *lo, *q, *sq, *vv; /* L */
+	int32_t *kq;        /* L */
+} rowsc;
+
+/* The residuals as the payload has them (ndo/codec.h), read or written in
+ * place by the row loops: value k (component d of the LOSSY node of rank
+ * i: k = d × lossy + i) is the 2-bit symbol k of sym[]; the escapes (the
+ * values ≥ 3 themselves) of component d at esc[first[d] ...] in order
+ * (encoder: at esc[d × lossy ...], ne[d] of them). */
+typedef struct syms {
+	uint8_t *sym;
+	uint64_t *esc;
+	size_t lossy, first[3], ne[3];
+} syms;
+
+static int row_scratch(ndo_codec_work *w, int cols, rowsc *rs)
+{
+	const size_t L = 3 * (size_t)cols, E = L + 6, need = (3 * E + 8 * L) * 8;
+	if (need > w->rowcap) {
+		void *b = realloc(w->row, need);
+		if (!b)
+			return -1;
+		w->row = b;
+		w->rowcap = need;
+	}
+	int64_t *p = w->row;
+	rs->e[0] = p + 3, rs->e[1] = p + E + 3, rs->ez = p + 2 * E + 3;
+	memset(p + 2 * E, 0, E * sizeof *p);
+	p += 3 * E;
+	rs->lin = p, rs->kt = p + L, rs->uu = (uint64_t *)(p + 2 * L);
+	rs->lo = (double *)(p + 3 * L), rs->q = (double *)(p + 4 * L), rs->sq = (double *)(p + 5 * L);
+	rs->vv = (double *)(p + 6 * L), rs->kq = (int32_t *)(p + 7 * L);
 	return 0;
 }
 
@@ -542,6 +599,20 @@ static double get_f64(rbuf *r)
 }
 
 static uint64_t zigzag(int64_t v) { return ((uint64_t)v << 1) ^ (uint64_t)(v >> 63); }
+static inline uint64_t bits_of(double d)
+{
+	uint64_t u;
+	memcpy(&u, &d, 8);
+	return u;
+}
+
+static inline double double_of(uint64_t u)
+{
+	double d;
+	memcpy(&d, &u, 8);
+	return d;
+}
+
 static int64_t unzigzag(uint64_t u) { return (int64_t)(u >> 1) ^ -(int64_t)(u & 1); }
 
 /* ---- codes and prediction ------------------------------------------------------- */
@@ -590,6 +661,21 @@ static inline int32_t code_of(const quant *z, int c, double x, int *ok)
 static inline double value_of(const quant *z, int c, int64_t k)
 {
 	return z->lo[c] + (double)k * z->q[c];
+}
+
+/* Node n's position on axis d in frame f (which holds the node): from
+ * its code (NDO_HAVE_CODE), or as kept (NDO_HAVE_X). */
+static inline double frame_pos(const quant *z, const ndo_codec_frame *f, int n, int d)
+{
+	return f->have[n] == NDO_HAVE_X ? f->x[3 * n + d] : value_of(z, d, f->k[3 * n + d]);
+}
+
+void ndo_codec_frame_position(const ndo_codec_params *p, const ndo_codec_frame *f, int n,
+                              double x[3])
+{
+	const quant z = quant_of(p);
+	for (int d = 0; d < 3; d++)
+		x[d] = f->have[n] ? frame_pos(&z, f, n, d) : NAN;
 }
 
 /* a/b rounded half away from zero (b > 0) */
@@ -720,7 +806,7 @@ int ndo__codec_general_only;
  * node is predicted the same way (from its neighbours in a keyframe; r0's
  * code with r0 alone; else extrapolated) and its neighbours' values or
  * errors exist wherever the neighbours do. */
-static int uniform(const pctx *c)
+NDO_HOT static int uniform(const pctx *c)
 {
 	if (ndo__codec_general_only)
 		return 0;
@@ -732,7 +818,7 @@ static int uniform(const pctx *c)
 			all &= c->cls[n] != NDO_NODE_SKIP;
 	} else {
 		for (int n = 0; n < c->nodes; n++)
-			all &= (c->cls[n] != NDO_NODE_SKIP) & h0[n] & h1[n] & h2[n];
+			all &= (c->cls[n] != NDO_NODE_SKIP) & (h0[n] != 0) & (h1[n] != 0) & (h2[n] != 0);
 	}
 	return all;
 }
@@ -830,16 +916,43 @@ fast_encode_mode(const pctx *c, const int mode, const quant *z, const double *x,
 	return out ? -1 : 0;
 }
 
-static int fast_encode(const pctx *c, const quant *z, const double *x, ndo_codec_frame *recon,
-                       uint64_t *u, size_t lossy, uint64_t *any, double err[2])
+static void row_steps(rowsc *rs, const quant *z, size_t L);
+static int row_encode_mode_any(const pctx *c, int mode, rowsc *rs, const double *x, size_t xs,
+                               ndo_codec_frame *recon, syms *sy, uint64_t *any, double err[2]);
+static void put_residuals(wbuf *b, const uint64_t *u, size_t m);
+
+/* The codes, their error statistics, and the residuals into b. */
+static int fast_encode(const pctx *c, const quant *z, rowsc *rs, const double *x, size_t xs,
+                       ndo_codec_frame *recon, uint64_t *u, size_t lossy, uint64_t *any,
+                       double err[2], wbuf *b)
 {
-	switch (fast_mode(c)) {
-	case M_INTRA: return fast_encode_mode(c, M_INTRA, z, x, recon, u, lossy, any, err);
-	case M_COPY: return fast_encode_mode(c, M_COPY, z, x, recon, u, lossy, any, err);
-	case M_CURVED: return fast_encode_mode(c, M_CURVED, z, x, recon, u, lossy, any, err);
-	case M_LINEAR: return fast_encode_mode(c, M_LINEAR, z, x, recon, u, lossy, any, err);
-	default: return fast_encode_mode(c, M_GAP, z, x, recon, u, lossy, any, err);
+	const int mode = fast_mode(c);
+	if (mode == M_INTRA) {
+		int rc = fast_encode_mode(c, M_INTRA, z, x, recon, u, lossy, any, err); /* xs: cols */
+		put_residuals(b, u, 3 * lossy);
+		return rc;
 	}
+	/* the symbols written in place, the escapes after them */
+	const size_t nb = (3 * lossy + 3) / 4;
+	if (reserve(b, nb))
+		return 0; /* b->fail */
+	memset(b->p + b->n, 0, nb);
+	syms sy = {.sym = b->p + b->n, .esc = u, .lossy = lossy};
+	b->n += nb;
+	row_steps(rs, z, 3 * (size_t)c->cols);
+	int rc = row_encode_mode_any(c, mode, rs, x, xs, recon, &sy, any, err);
+	if (reserve(b, 10 * (sy.ne[0] + sy.ne[1] + sy.ne[2])))
+		return 0;
+	uint8_t *e = b->p + b->n;
+	for (int d = 0; d < 3; d++)
+		for (size_t k = 0; k < sy.ne[d]; k++) {
+			uint64_t v = u[(size_t)d * lossy + k] - 3;
+			for (; v > 127; v >>= 7)
+				*e++ = (uint8_t)(v | 128);
+			*e++ = (uint8_t)v;
+		}
+	b->n = (size_t)(e - b->p);
+	return rc;
 }
 
 /* Decoder, a uniform frame: the LOSSY nodes' codes and values from the
@@ -892,7 +1005,7 @@ fast_decode_mode(const pctx *c, const int mode, const quant *z, const uint64_t *
 				const double val = z->lo[d] + (double)kk * z->q[d];
 				recon->x[3 * n + d] = val;
 				o->x[S * n + d] = val;
-				o->v[S * n + d] = est ? (val - prev->x[3 * n + d]) * inv : NAN;
+				o->v[S * n + d] = est ? (val - frame_pos(z, prev, n, d)) * inv : NAN;
 			}
 			li++;
 		}
@@ -901,15 +1014,280 @@ fast_decode_mode(const pctx *c, const int mode, const quant *z, const uint64_t *
 	return bad ? -1 : 0;
 }
 
-static int fast_decode(const pctx *c, const quant *z, const uint64_t *u, size_t lossy,
-                       ndo_codec_frame *recon, outs *o)
+static int row_decode_mode_any(const pctx *c, int mode, rowsc *rs, const syms *sy,
+                               ndo_codec_frame *recon, outs *o);
+
+/* A keyframe (u: its residuals), or a predicted frame (sy: its symbols). */
+static int fast_decode(const pctx *c, const quant *z, rowsc *rs, const uint64_t *u, size_t lossy,
+                       const syms *sy, ndo_codec_frame *recon, outs *o)
 {
-	switch (fast_mode(c)) {
-	case M_INTRA: return fast_decode_mode(c, M_INTRA, z, u, lossy, recon, o);
-	case M_COPY: return fast_decode_mode(c, M_COPY, z, u, lossy, recon, o);
-	case M_CURVED: return fast_decode_mode(c, M_CURVED, z, u, lossy, recon, o);
-	case M_LINEAR: return fast_decode_mode(c, M_LINEAR, z, u, lossy, recon, o);
-	default: return fast_decode_mode(c, M_GAP, z, u, lossy, recon, o);
+	const int mode = fast_mode(c);
+	if (mode == M_INTRA)
+		return fast_decode_mode(c, M_INTRA, z, u, lossy, recon, o);
+	row_steps(rs, z, 3 * (size_t)c->cols);
+	return row_decode_mode_any(c, mode, rs, sy, recon, o);
+}
+
+
+/* ---- the same, a row at a time -------------------------------------------------- */
+/* With references (every mode but M_INTRA) a node's prediction needs the
+ * references and the row above only, so a row's 3 × cols values go
+ * through one flat loop (no branches: the row above's errors padded with
+ * copies of its end values, as fast_predict() substitutes them, or zeros
+ * on the first row), and the classes enter after it, node by node.  The
+ * same integers as fast_predict(), hence the same bytes. */
+/* rdiv(a, b) for 0 < b ≤ NDO_CODEC_MAX_GAP and |a| < 2^62, without a
+ * division: rinv = (2^64 − 1) / b, the quotient estimated by a multiply
+ * (at most one short) and corrected. */
+static inline int64_t rdiv_by(int64_t a, int64_t b, uint64_t rinv)
+{
+	const uint64_t n = (uint64_t)(a < 0 ? -a : a) + (uint64_t)(b / 2);
+	uint64_t q = (uint64_t)(((unsigned __int128)n * rinv) >> 64);
+	q += n - q * (uint64_t)b >= (uint64_t)b;
+	return a < 0 ? -(int64_t)q : (int64_t)q;
+}
+
+static inline __attribute__((always_inline)) int64_t
+row_predict(const int mode, int64_t a, int64_t b, int64_t cc, const int64_t *ep, int64_t *lin,
+            int64_t g, int64_t gap, uint64_t rinv)
+{
+	if (mode == M_COPY)
+		return a;
+	if (mode == M_CURVED || mode == M_LINEAR) {
+		int64_t corr = mode == M_CURVED ? a - 2 * b + cc : 0;
+		corr += clamp3(ep[0], ep[-3], ep[3]);
+		*lin = 2 * a - b;
+		return *lin + half(corr);
+	}
+	if (gap == 1)
+		return a + (a - b) * g;
+	return a + rdiv_by((a - b) * g, gap, rinv);
+}
+
+static void row_pad(int64_t *e, size_t L)
+{
+	for (int d = 0; d < 3; d++)
+		e[d - 3] = e[d], e[L + (size_t)d] = e[L - 3 + (size_t)d];
+}
+
+static void row_steps(rowsc *rs, const quant *z, size_t L)
+{
+	for (size_t m = 0; m < L; m++)
+		rs->lo[m] = z->lo[m % 3], rs->q[m] = z->q[m % 3];
+}
+
+static inline __attribute__((always_inline)) int
+row_encode_mode(const pctx *c, const int mode, rowsc *rs, const double *x, size_t xs,
+                ndo_codec_frame *recon, syms *sy, uint64_t *any, double err[2])
+{
+	const size_t lossy = sy->lossy;
+	uint8_t *restrict sb = sy->sym;
+	uint64_t *restrict esc = sy->esc;
+	size_t ne0 = 0, ne1 = 0, ne2 = 0;
+	const int cols = c->cols, rows = c->nodes / cols;
+	const size_t L = 3 * (size_t)cols;
+	const uint8_t *cls = c->cls;
+	/* every reference pointer valid (r0 standing in for an unused one): a
+	 * loop without branches */
+	const int32_t *r0 = c->r[0]->k, *r1 = mode != M_COPY ? c->r[1]->k : r0,
+	              *r2 = mode == M_CURVED ? c->r[2]->k : r0;
+	const int64_t g = c->step - c->r[0]->step,
+	              gap = mode == M_GAP ? c->r[0]->step - c->r[1]->step : 1;
+	const uint64_t rinv = UINT64_MAX / (uint64_t)gap;
+	const double *restrict LO = rs->lo, *restrict Q = rs->q;
+	double *restrict sq = rs->sq;
+	uint64_t *restrict uu = rs->uu;
+	double max2 = 0, sum2 = 0;
+	int out = 0;
+	uint64_t acc = 0;
+	size_t li = 0;
+	for (int j = 0; j < rows; j++) {
+		const size_t M0 = (size_t)j * L;
+		const int64_t *restrict ep = j ? rs->e[~j & 1] : rs->ez;
+		int64_t *restrict ec = rs->e[j & 1];
+		const double *restrict xr = x + 3 * (size_t)j * xs;
+		int32_t *restrict kr = recon->k + M0;
+		double *restrict xo = recon->x + M0;
+		const int32_t *ar = r0 + M0, *br = r1 + M0, *cr = r2 + M0;
+		for (size_t m = 0; m < L; m++) { /* the codes (code_of()) */
+			const double xv = xr[m];
+			double t = (xv - LO[m]) / Q[m] + 0.5;
+			int inr = (t >= -CODE_MAX + 1) & (t < CODE_MAX);
+			out |= !inr;
+			uint64_t tb = bits_of(t) & -(uint64_t)inr; /* t, or 0 out of range: a */
+			t = double_of(tb);                        /* select that vectorizes */
+			int32_t kk = (int32_t)t;
+			kk -= (double)kk > t;
+			kr[m] = kk;
+			const double val = LO[m] + (double)kk * Q[m];
+			sq[m] = (val - xv) * (val - xv);
+		}
+		for (size_t m = 0; m < L; m++) { /* their prediction */
+			const int64_t kk = kr[m];
+			int64_t lin = 0;
+			const int64_t pr = row_predict(mode, ar[m], br[m], cr[m], ep + m,
+			                               &lin, g, gap, rinv);
+			ec[m] = kk - lin;
+			uu[m] = zigzag(kk - pr);
+		}
+		row_pad(ec, L);
+		const uint8_t *cl = cls + (size_t)j * (size_t)cols;
+		for (int i = 0; i < cols; i++) {
+			const size_t m = 3 * (size_t)i;
+			if (cl[i] != NDO_NODE_LOSSY) { /* EXACT: its position as it is */
+				xo[m] = xr[m], xo[m + 1] = xr[m + 1], xo[m + 2] = xr[m + 2];
+				continue;
+			}
+			const double e2 = sq[m] + sq[m + 1] + sq[m + 2];
+			sum2 += e2;
+			max2 = e2 > max2 ? e2 : max2;
+			const uint64_t v0 = uu[m], v1 = uu[m + 1], v2 = uu[m + 2];
+			acc |= v0 | v1 | v2;
+			size_t k = li; /* symbols OR'ed into zeroed bytes; escapes stored, counted */
+			sb[k >> 2] |= (uint8_t)((v0 < 3 ? v0 : 3) << (2 * (k & 3)));
+			esc[ne0] = v0, ne0 += v0 >= 3;
+			k += lossy;
+			sb[k >> 2] |= (uint8_t)((v1 < 3 ? v1 : 3) << (2 * (k & 3)));
+			esc[lossy + ne1] = v1, ne1 += v1 >= 3;
+			k += lossy;
+			sb[k >> 2] |= (uint8_t)((v2 < 3 ? v2 : 3) << (2 * (k & 3)));
+			esc[2 * lossy + ne2] = v2, ne2 += v2 >= 3;
+			li++;
+		}
+	}
+	*any = acc;
+	err[0] = max2, err[1] = sum2;
+	sy->ne[0] = ne0, sy->ne[1] = ne1, sy->ne[2] = ne2;
+	return out ? -1 : 0;
+}
+
+/* The decoder's codes (out of range: 0, the frame rejected by the caller),
+ * their errors, values and velocity estimates, for a row's L values. */
+static inline __attribute__((always_inline)) void
+row_values(size_t L, const int64_t *restrict kt, const int64_t *restrict lins,
+           const double *restrict LO, const double *restrict Q, const int32_t *restrict pk,
+           double inv, int32_t *restrict kq, int64_t *restrict ec, double *restrict val,
+           double *restrict vv)
+{
+	for (size_t m = 0; m < L; m++) {
+		const int64_t k = kt[m];
+		const int64_t kc = k & -(int64_t)((k > -CODE_MAX) & (k < CODE_MAX));
+		const int32_t k32 = (int32_t)kc; /* int32 to double: a vector conversion */
+		kq[m] = k32;
+		ec[m] = kc - lins[m];
+		const double vl = LO[m] + (double)k32 * Q[m];
+		val[m] = vl;
+		vv[m] = (vl - (LO[m] + (double)pk[m] * Q[m])) * inv; /* frame_pos() of a code */
+	}
+}
+
+static inline __attribute__((always_inline)) int
+row_decode_mode(const pctx *c, const int mode, rowsc *rs, const syms *sy,
+                ndo_codec_frame *recon, outs *o)
+{
+	const size_t lossy = sy->lossy;
+	const uint8_t *restrict sb = sy->sym;
+	const uint64_t *restrict esc = sy->esc;
+	size_t e0 = sy->first[0], e1 = sy->first[1], e2 = sy->first[2];
+	const ndo_codec_frame *prev = o->prev && o->inv > 0 ? o->prev : NULL;
+	const double inv = o->inv;
+	const size_t S = o->S;
+	const int cols = c->cols, rows = c->nodes / cols;
+	const size_t L = 3 * (size_t)cols;
+	const uint8_t *cls = c->cls;
+	/* every reference pointer valid (r0 standing in for an unused one): a
+	 * loop without branches */
+	const int32_t *r0 = c->r[0]->k, *r1 = mode != M_COPY ? c->r[1]->k : r0,
+	              *r2 = mode == M_CURVED ? c->r[2]->k : r0;
+	const int64_t g = c->step - c->r[0]->step,
+	              gap = mode == M_GAP ? c->r[0]->step - c->r[1]->step : 1;
+	const uint64_t rinv = UINT64_MAX / (uint64_t)gap;
+	const double *restrict LO = rs->lo, *restrict Q = rs->q;
+	uint64_t *restrict uu = rs->uu;
+	int64_t *restrict lins = rs->lin, *restrict kt = rs->kt;
+	size_t li = 0;
+	int bad = 0;
+	for (int j = 0; j < rows; j++) {
+		const size_t M0 = (size_t)j * L, n0 = (size_t)j * (size_t)cols;
+		const int64_t *restrict ep = j ? rs->e[~j & 1] : rs->ez;
+		int64_t *restrict ec = rs->e[j & 1];
+		int32_t *restrict kr = recon->k + M0;
+		const int32_t *ar = r0 + M0, *br = r1 + M0, *cr = r2 + M0;
+		const uint8_t *cl = cls + n0;
+		for (int i = 0; i < cols; i++) { /* the row's residuals, node by node */
+			const size_t m = 3 * (size_t)i;
+			if (cl[i] == NDO_NODE_LOSSY) { /* an escape: the component's next */
+				size_t k = li;
+				unsigned s = (sb[k >> 2] >> (2 * (k & 3))) & 3;
+				uu[m] = s == 3 ? esc[e0] : s, e0 += s == 3;
+				k += lossy;
+				s = (sb[k >> 2] >> (2 * (k & 3))) & 3;
+				uu[m + 1] = s == 3 ? esc[e1] : s, e1 += s == 3;
+				k += lossy;
+				s = (sb[k >> 2] >> (2 * (k & 3))) & 3;
+				uu[m + 2] = s == 3 ? esc[e2] : s, e2 += s == 3;
+				li++;
+			} else {
+				uu[m] = uu[m + 1] = uu[m + 2] = 0;
+			}
+		}
+		for (size_t m = 0; m < L; m++) {
+			int64_t lin = 0;
+			const int64_t pr = row_predict(mode, ar[m], br[m], cr[m], ep + m,
+			                               &lin, g, gap, rinv);
+			kt[m] = pr + unzigzag(uu[m]);
+			lins[m] = lin;
+		}
+		/* codes (out of range: 0, the frame rejected below), values,
+		 * velocity estimates */
+		double *val = rs->sq, *vv = rs->vv;
+		int32_t *kq = rs->kq;
+		row_values(L, kt, lins, LO, Q, prev ? prev->k + M0 : ar, inv, kq, ec, val, vv);
+		for (int i = 0; i < cols; i++) {
+			const size_t m = 3 * (size_t)i, n = n0 + (size_t)i;
+			if (cl[i] != NDO_NODE_LOSSY) { /* EXACT: its code is known; its error */
+				for (int d = 0; d < 3; d++)
+					ec[m + d] = kr[m + d] - lins[m + d];
+				continue;
+			}
+			const int ph = prev ? prev->have[n] : 0;
+			for (int d = 0; d < 3; d++) {
+				const int64_t k = kt[m + d];
+				bad |= (k <= -CODE_MAX) | (k >= CODE_MAX);
+				kr[m + d] = kq[m + d];
+				o->x[S * n + d] = val[m + d];
+				o->v[S * n + d] = !ph                ? NAN
+				                  : ph == NDO_HAVE_X ? (val[m + d] - prev->x[3 * n + d]) * inv
+				                                     : vv[m + d];
+			}
+		}
+		row_pad(ec, L);
+	}
+	o->done = 1;
+	return bad ? -1 : 0;
+}
+
+/* A loop per mode (the mode constant in each). */
+NDO_HOT static int row_encode_mode_any(const pctx *c, int mode, rowsc *rs, const double *x,
+                                       size_t xs, ndo_codec_frame *recon, syms *sy,
+                                       uint64_t *any, double err[2])
+{
+	switch (mode) {
+	case M_COPY: return row_encode_mode(c, M_COPY, rs, x, xs, recon, sy, any, err);
+	case M_CURVED: return row_encode_mode(c, M_CURVED, rs, x, xs, recon, sy, any, err);
+	case M_LINEAR: return row_encode_mode(c, M_LINEAR, rs, x, xs, recon, sy, any, err);
+	default: return row_encode_mode(c, M_GAP, rs, x, xs, recon, sy, any, err);
+	}
+}
+
+NDO_HOT static int row_decode_mode_any(const pctx *c, int mode, rowsc *rs, const syms *sy,
+                                       ndo_codec_frame *recon, outs *o)
+{
+	switch (mode) {
+	case M_COPY: return row_decode_mode(c, M_COPY, rs, sy, recon, o);
+	case M_CURVED: return row_decode_mode(c, M_CURVED, rs, sy, recon, o);
+	case M_LINEAR: return row_decode_mode(c, M_LINEAR, rs, sy, recon, o);
+	default: return row_decode_mode(c, M_GAP, rs, sy, recon, o);
 	}
 }
 
@@ -921,24 +1299,34 @@ static void put_residuals(wbuf *b, const uint64_t *u, size_t m)
 	size_t esc = 0;
 	for (size_t k = 0; k < m; k++)
 		esc += u[k] >= 3;
-	if (reserve(b, (m + 3) / 4 + 10 * esc + 1)) /* + 1: the escape slot written ahead */
+	const size_t nb = (m + 3) / 4;
+	if (reserve(b, nb + 10 * esc + 1)) /* + 1: the escape slot written ahead */
 		return;
-	uint8_t *o = b->p + b->n, *e = o + (m + 3) / 4; /* symbols; escapes after them */
-	for (size_t k = 0; k < m; k += 4) {
+	uint8_t *o = b->p + b->n, *e = o + nb; /* symbols; escapes after them */
+	const size_t full = m / 4;
+	for (size_t g = 0; g < full; g++) { /* four symbols a byte, without branches */
+		const uint64_t *q = u + 4 * g;
+		unsigned s0 = q[0] < 3 ? (unsigned)q[0] : 3, s1 = q[1] < 3 ? (unsigned)q[1] : 3,
+		         s2 = q[2] < 3 ? (unsigned)q[2] : 3, s3 = q[3] < 3 ? (unsigned)q[3] : 3;
+		o[g] = (uint8_t)(s0 | s1 << 2 | s2 << 4 | s3 << 6);
+	}
+	if (full < nb) {
 		unsigned byte = 0;
-		for (size_t q = 0; q < 4 && k + q < m; q++) {
-			uint64_t v = u[k + q];
-			byte |= (v < 3 ? (unsigned)v : 3) << (2 * q);
-			if (v < 3 + 128) { /* the escape of one byte, or none: no branch */
-				*e = (uint8_t)(v - 3);
-				e += v >= 3;
-			} else {
-				for (v -= 3; v > 127; v >>= 7)
-					*e++ = (uint8_t)(v | 128);
-				*e++ = (uint8_t)v;
-			}
+		for (size_t k = 4 * full; k < m; k++)
+			byte |= (u[k] < 3 ? (unsigned)u[k] : 3) << (2 * (k & 3));
+		o[full] = (uint8_t)byte;
+	}
+	for (size_t k = 0; esc && k < m; k++) { /* the escapes, in order */
+		uint64_t v = u[k];
+		if (v < 3 + 128) { /* the escape of one byte, or none: no branch */
+			*e = (uint8_t)(v - 3);
+			e += v >= 3;
+		} else {
+			for (v -= 3; v > 127; v >>= 7)
+				*e++ = (uint8_t)(v | 128);
+			*e++ = (uint8_t)v;
 		}
-		*o++ = (uint8_t)byte;
+		esc -= v >= 3;
 	}
 	b->n = (size_t)(e - b->p);
 }
@@ -950,27 +1338,91 @@ static int get_residuals(rbuf *r, uint64_t *u, size_t m)
 	size_t nb = (m + 3) / 4;
 	if (r->pos > r->n || r->n - r->pos < nb)
 		return -1;
-	const uint8_t *in = r->p + r->pos, *e = in + nb, *end = r->p + r->n;
+	const uint8_t *in = r->p + r->pos;
 	if (m & 3 && in[nb - 1] >> (2 * (m & 3)))
 		return -1; /* the last byte's unused bits are zero */
-	for (size_t k = 0; k < m; k++) {
-		unsigned s = (in[k >> 2] >> (2 * (k & 3))) & 3;
-		if (s < 3) {
-			u[k] = s;
+	const size_t full = m / 4;
+	size_t esc = 0;
+	for (size_t g = 0; g < full; g++) { /* the symbols, without branches */
+		const unsigned c = in[g];
+		uint64_t *q = u + 4 * g;
+		q[0] = c & 3, q[1] = c >> 2 & 3, q[2] = c >> 4 & 3, q[3] = c >> 6;
+		esc += (c & 3) == 3, esc += (c >> 2 & 3) == 3, esc += (c >> 4 & 3) == 3,
+		    esc += c >> 6 == 3;
+	}
+	for (size_t k = 4 * full; k < m; k++) {
+		u[k] = (in[full] >> (2 * (k & 3))) & 3;
+		esc += u[k] == 3;
+	}
+	size_t pos = r->pos + nb;
+	for (size_t k = 0; esc && k < m; k++) { /* the escapes (rare: a branch) */
+		if (u[k] != 3)
+			continue;
+		if (pos < r->n && r->p[pos] < 128) { /* of one byte */
+			u[k] = (uint64_t)r->p[pos++] + 3;
+		} else {
+			rbuf t = {r->p, r->n, pos, 0};
+			uint64_t v = get_varint(&t);
+			if (t.bad || v > ((uint64_t)1 << 40))
+				return -1;
+			u[k] = v + 3;
+			pos = t.pos;
+		}
+		esc--;
+	}
+	r->pos = pos;
+	return 0;
+}
+
+/* The same read in place for the row loops: the 3 × lossy symbols at r's
+ * position and their escapes (into esc, in order; sy->first: where each
+ * component's begin); the same checks as get_residuals(). */
+static int get_symbols(rbuf *r, size_t lossy, uint64_t *esc, syms *sy)
+{
+	const size_t m = 3 * lossy, nb = (m + 3) / 4;
+	if (r->pos > r->n || r->n - r->pos < nb)
+		return -1;
+	const uint8_t *in = r->p + r->pos;
+	if (m & 3 && in[nb - 1] >> (2 * (m & 3)))
+		return -1; /* the last byte's unused bits are zero */
+	/* the escapes before each component's first symbol (symbols 3: bit
+	 * pairs 11) */
+	size_t cnt[4] = {0, 0, 0, 0};
+	for (int d = 0; d < 3; d++) {
+		size_t k0 = (size_t)d * lossy, k1 = k0 + lossy, k = k0, c = 0;
+		for (; k < k1 && (k & 31); k++)
+			c += ((in[k >> 2] >> (2 * (k & 3))) & 3) == 3;
+		for (; k + 32 <= k1; k += 32) { /* 32 symbols a word */
+			uint64_t b;
+			memcpy(&b, in + (k >> 2), 8);
+			b = b & b >> 1 & 0x5555555555555555u; /* a pair's low bit: both set */
+			b = (b & 0x3333333333333333u) + (b >> 2 & 0x3333333333333333u);
+			b = (b + (b >> 4)) & 0x0f0f0f0f0f0f0f0fu;
+			c += (size_t)((b * 0x0101010101010101u) >> 56);
+		}
+		for (; k < k1; k++)
+			c += ((in[k >> 2] >> (2 * (k & 3))) & 3) == 3;
+		cnt[d + 1] = cnt[d] + c;
+	}
+	size_t pos = r->pos + nb;
+	for (size_t e = 0; e < cnt[3]; e++) {
+		if (pos < r->n && r->p[pos] < 128) { /* of one byte */
+			esc[e] = (uint64_t)r->p[pos++] + 3;
 			continue;
 		}
-		if (e < end && *e < 128) { /* an escape of one byte */
-			u[k] = (uint64_t)*e++ + 3;
-			continue;
-		}
-		rbuf t = {r->p, r->n, (size_t)(e - r->p), 0};
+		rbuf t = {r->p, r->n, pos, 0};
 		uint64_t v = get_varint(&t);
 		if (t.bad || v > ((uint64_t)1 << 40))
 			return -1;
-		u[k] = v + 3;
-		e = r->p + t.pos;
+		esc[e] = v + 3;
+		pos = t.pos;
 	}
-	r->pos = (size_t)(e - r->p);
+	sy->sym = (uint8_t *)in;
+	sy->esc = esc;
+	sy->lossy = lossy;
+	for (int d = 0; d < 3; d++)
+		sy->first[d] = cnt[d];
+	r->pos = pos;
 	return 0;
 }
 
@@ -982,28 +1434,15 @@ static int get_residuals(rbuf *r, uint64_t *u, size_t m)
  * from the positions, or as planes, they saved under 2 % of the bits,
  * measured).  Double arithmetic without fused operations (C11 mode): the
  * same on every machine. */
-static uint64_t bits_of(double d)
-{
-	uint64_t u;
-	memcpy(&u, &d, 8);
-	return u;
-}
 
-static double double_of(uint64_t u)
-{
-	double d;
-	memcpy(&d, &u, 8);
-	return d;
-}
-
-static double pred_position(const ndo_codec_frame *r0, const ndo_codec_frame *r1, int n, int d,
-                            double now)
+static double pred_position(const quant *z, const ndo_codec_frame *r0,
+                            const ndo_codec_frame *r1, int n, int d, double now)
 {
 	if (!r0 || !r0->have[n])
 		return 0;
-	double x0 = r0->x[3 * n + d], p = x0;
+	double x0 = frame_pos(z, r0, n, d), p = x0;
 	if (r1 && r1->have[n] && r0->time > r1->time)
-		p = x0 + (x0 - r1->x[3 * n + d]) * ((now - r0->time) / (r0->time - r1->time));
+		p = x0 + (x0 - frame_pos(z, r1, n, d)) * ((now - r0->time) / (r0->time - r1->time));
 	return isfinite(p) ? p : 0;
 }
 
@@ -1033,6 +1472,22 @@ static int get_planes(rbuf *r, uint64_t *w, size_t m)
 }
 
 /* ---- the body ------------------------------------------------------------------- */
+/* A frame's have[] from its classes (cls[n] ≤ NDO_NODE_EXACT) and the count
+ * of each class, in one pass. */
+NDO_HOT static void class_pass(const uint8_t *restrict cls, int nodes, int enc,
+                               uint8_t *restrict have, size_t cnt[3])
+{
+	const uint8_t lossy = enc == NDO_ENC_FLOAT32 ? NDO_HAVE_X : NDO_HAVE_CODE;
+	unsigned c1 = 0, c2 = 0;
+	for (int n = 0; n < nodes; n++) {
+		const uint8_t c = cls[n];
+		have[n] = c == NDO_NODE_LOSSY ? lossy : c == NDO_NODE_EXACT ? NDO_HAVE_X : 0;
+		c1 += c == NDO_NODE_LOSSY;
+		c2 += c == NDO_NODE_EXACT;
+	}
+	cnt[0] = (size_t)nodes - c1 - c2, cnt[1] = c1, cnt[2] = c2;
+}
+
 static void put_classes(wbuf *b, const uint8_t *cls, int nodes)
 {
 	for (int n = 0; n < nodes;) {
@@ -1101,44 +1556,73 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 	pctx pc = {.cols = in->cols, .nodes = nodes, .cls = in->cls, .erow = w->erow};
 	pctx_init(&pc, r[0], r[1], r[2], in->step);
 	const int fast = enc == NDO_ENC_PREDICT && uniform(&pc);
-	size_t lossy = 0;
-	for (int n = 0; n < nodes; n++)
-		lossy += in->cls[n] == NDO_NODE_LOSSY;
-	put_classes(&body, in->cls, nodes);
+	/* positions and velocities: rows in place (stride), or gathered
+	 * contiguous for every loop but the row loops' */
+	const double *X = in->x, *V = in->v;
+	size_t XS = in->stride > 0 ? (size_t)in->stride : (size_t)in->cols;
+	if (XS != (size_t)in->cols && !(fast && fast_mode(&pc) != M_INTRA)) {
+		const size_t need = 6 * (size_t)nodes * sizeof *w->xg;
+		if (need > w->xgcap) {
+			double *g = realloc(w->xg, need);
+			if (!g) {
+				rc = ndo__fail(NDO_ENOMEM, "out of memory");
+				goto done;
+			}
+			w->xg = g, w->xgcap = need;
+		}
+		for (int j = 0; j < in->rows; j++) {
+			memcpy(w->xg + 3 * (size_t)j * in->cols, in->x + 3 * (size_t)j * XS,
+			       3 * (size_t)in->cols * sizeof *X);
+			memcpy(w->xg + 3 * ((size_t)nodes + (size_t)j * in->cols), in->v + 3 * (size_t)j * XS,
+			       3 * (size_t)in->cols * sizeof *V);
+		}
+		X = w->xg, V = w->xg + 3 * (size_t)nodes, XS = (size_t)in->cols;
+	}
+	size_t cnt[3];
+	class_pass(in->cls, nodes, enc, recon->have, cnt);
+	const size_t lossy = cnt[1];
+	if (in->cls[0] <= NDO_NODE_EXACT && cnt[in->cls[0]] == (size_t)nodes) { /* one run */
+		put_byte(&body, in->cls[0]);
+		put_varint(&body, (uint64_t)nodes);
+	} else {
+		put_classes(&body, in->cls, nodes);
+	}
 	size_t nw = 0; /* EXACT words under predict */
-	for (int n = 0; n < nodes; n++) {
-		recon->have[n] = in->cls[n] != NDO_NODE_SKIP;
+	for (int n = 0; n < nodes && cnt[2]; n++) {
 		if (in->cls[n] != NDO_NODE_EXACT)
 			continue;
 		nexact++;
+		const double *xn = X + 3 * ((size_t)(n / in->cols) * XS + (size_t)(n % in->cols)),
+		             *vn = V + 3 * ((size_t)(n / in->cols) * XS + (size_t)(n % in->cols));
 		for (int d = 0; d < 3; d++) {
-			if (!isfinite(in->x[3 * n + d]) || !isfinite(in->v[3 * n + d]))
+			if (!isfinite(xn[d]) || !isfinite(vn[d]))
 				ok = 0;
-			recon->x[3 * n + d] = in->x[3 * n + d];
+			recon->x[3 * n + d] = xn[d];
 		}
 		if (enc == NDO_ENC_PREDICT) {
 			for (int d = 0; d < 3; d++)
-				w->u[nw++] = bits_of(in->x[3 * n + d]) ^
-				             bits_of(pred_position(r[0], r[1], n, d, in->time));
+				w->u[nw++] = bits_of(xn[d]) ^
+				             bits_of(pred_position(&z, r[0], r[1], n, d, in->time));
 			continue;
 		}
 		for (int d = 0; d < 3; d++)
-			put_f64(&body, in->x[3 * n + d]);
+			put_f64(&body, xn[d]);
 		for (int d = 0; d < 3; d++)
-			put_f64(&body, in->v[3 * n + d]);
+			put_f64(&body, vn[d]);
 	}
 	if (nw) {
 		put_planes(&body, w->u, nw);
 		for (int n = 0; n < nodes; n++) /* velocities as they are */
 			if (in->cls[n] == NDO_NODE_EXACT)
 				for (int d = 0; d < 3; d++)
-					put_f64(&body, in->v[3 * n + d]);
+					put_f64(&body, V[3 * ((size_t)(n / in->cols) * XS +
+					                      (size_t)(n % in->cols)) + (size_t)d]);
 	}
 	if (enc == NDO_ENC_FLOAT32) {
 		for (int n = 0; n < nodes; n++)
 			if (in->cls[n] == NDO_NODE_LOSSY)
 				for (int d = 0; d < 3; d++) {
-					float f = (float)in->x[3 * n + d];
+					float f = (float)X[3 * n + d];
 					if (!isfinite(f))
 						ok = 0;
 					uint32_t u;
@@ -1151,23 +1635,27 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 	} else if (fast) {
 		uint64_t any;
 		double err[2];
-		if (fast_encode(&pc, &z, in->x, recon, w->u, lossy, &any, err))
+		rowsc rs;
+		if (row_scratch(w, in->cols, &rs)) {
+			rc = ndo__fail(NDO_ENOMEM, "out of memory");
+			goto done;
+		}
+		if (fast_encode(&pc, &z, &rs, X, XS, recon, w->u, lossy, &any, err, &body))
 			ok = 0;
 		w->err_max2 = err[0], w->err_sum2 = err[1], w->err_n = lossy;
 		errors_known = 1;
 		allzero = any == 0;
-		put_residuals(&body, w->u, 3 * lossy);
 	} else {
 		/* codes of every carried node (the others' are not used) and the
 		 * LOSSY nodes' values: code_of() and value_of() without branches */
 		int out = 0;
 		for (int n = 0; n < nodes; n++) {
-			const double *xn = in->x + 3 * n;
+			const double *xn = X + 3 * n;
 			int lossy = in->cls[n] == NDO_NODE_LOSSY;
 			for (int d = 0; d < 3; d++) {
 				double t = (xn[d] - z.lo[d]) / z.q[d] + 0.5;
 				int inr = t >= -CODE_MAX + 1 && t < CODE_MAX;
-				out |= (!inr) & recon->have[n];
+				out |= (!inr) & (recon->have[n] != 0);
 				t = inr ? t : 0;
 				int32_t k = (int32_t)t;
 				k -= (double)k > t;
@@ -1190,7 +1678,7 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 				continue;
 			double e2 = 0;
 			for (int d = 0; d < 3; d++) {
-				double e = recon->x[3 * n + d] - in->x[3 * n + d];
+				double e = recon->x[3 * n + d] - X[3 * n + d];
 				e2 += e * e;
 			}
 			sum2 += e2;
@@ -1300,8 +1788,9 @@ done:
 
 /* Decode the LOSSY positions of the body (after the exact nodes). */
 static int decode_lossy(const ndo_codec_params *p, ndo_codec_work *w, rbuf *r, uint8_t flags,
-                        const uint8_t *cls, int rows, int cols, const ndo_codec_frame *ref[3],
-                        int64_t step, ndo_codec_frame *recon, outs *o)
+                        const uint8_t *cls, size_t lossy, int rows, int cols,
+                        const ndo_codec_frame *ref[3], int64_t step, ndo_codec_frame *recon,
+                        outs *o)
 {
 	const int nodes = rows * cols, enc = p->encoding;
 	const quant z = quant_of(p);
@@ -1362,13 +1851,19 @@ static int decode_lossy(const ndo_codec_params *p, ndo_codec_work *w, rbuf *r, u
 	pctx_init(&c, ref[0], ref[1], ref[2], step);
 	int32_t *cur = w->cur;
 	c.cur = cur;
-	size_t m = 0, lossy = 0;
-	for (int n = 0; n < nodes; n++)
-		lossy += cls[n] == NDO_NODE_LOSSY;
+	size_t m = 0;
+	if (uniform(&c)) {
+		rowsc rs;
+		syms sy;
+		if (row_scratch(w, cols, &rs))
+			return -2;
+		if (fast_mode(&c) == M_INTRA ? get_residuals(r, w->u, 3 * lossy)
+		                             : get_symbols(r, lossy, w->u, &sy))
+			return -1;
+		return fast_decode(&c, &z, &rs, w->u, lossy, &sy, recon, o);
+	}
 	if (get_residuals(r, w->u, 3 * lossy))
 		return -1;
-	if (uniform(&c))
-		return fast_decode(&c, &z, w->u, lossy, recon, o);
 	for (int d = 0; d < 3; d++) {
 		for (int n = 0; n < nodes; n++)
 			cur[n] = recon->k[3 * n + d]; /* exact nodes' codes */
@@ -1469,21 +1964,20 @@ ndo_drop ndo_codec_decode_strided(const ndo_codec_params *p, ndo_codec_work *w,
 		goto done;
 	}
 	int ok = 1;
-	size_t nexact = 0, nw = 0;
-	for (int n = 0; n < nodes; n++)
-		nexact += cls[n] == NDO_NODE_EXACT;
+	size_t nw = 0, cnt[3];
+	class_pass(cls, nodes, enc, recon->have, cnt);
+	const size_t nexact = cnt[2];
 	if (enc == NDO_ENC_PREDICT && nexact && get_planes(&b, w->u, 3 * nexact)) {
 		res = NDO_DROP_CORRUPT;
 		goto done;
 	}
-	for (int n = 0; n < nodes; n++) {
-		recon->have[n] = cls[n] != NDO_NODE_SKIP;
+	for (int n = 0; n < nodes && nexact; n++) {
 		if (cls[n] != NDO_NODE_EXACT)
 			continue;
 		if (enc == NDO_ENC_PREDICT) {
 			for (int d = 0; d < 3; d++)
 				x[S * n + d] = recon->x[3 * n + d] =
-				    double_of(w->u[nw++] ^ bits_of(pred_position(ref[0], ref[1], n, d, time)));
+				    double_of(w->u[nw++] ^ bits_of(pred_position(&z, ref[0], ref[1], n, d, time)));
 			for (int d = 0; d < 3; d++)
 				v[S * n + d] = get_f64(&b);
 		} else {
@@ -1508,7 +2002,7 @@ ndo_drop ndo_codec_decode_strided(const ndo_codec_params *p, ndo_codec_work *w,
 	const ndo_codec_frame *prev = before(h, step, epoch);
 	double dtp = prev ? time - prev->time : 0, inv = dtp > 0 ? 1 / dtp : 0;
 	outs o = {x, v, S, prev, inv, 0};
-	int dl = decode_lossy(p, w, &b, flags, cls, rows, cols, ref, step, recon, &o);
+	int dl = decode_lossy(p, w, &b, flags, cls, cnt[1], rows, cols, ref, step, recon, &o);
 	if (dl == -2) {
 		res = NDO_DROP_RANGE;
 		goto done;
@@ -1524,10 +2018,9 @@ ndo_drop ndo_codec_decode_strided(const ndo_codec_params *p, ndo_codec_work *w,
 			continue;
 		int lossy = cls[n] == NDO_NODE_LOSSY;
 		int est = lossy && prev && prev->have[n] && dtp > 0;
-		const double *px = prev ? prev->x + 3 * n : recon->x + 3 * n;
 		for (int d = 0; d < 3; d++) {
 			x[S * n + d] = lossy ? recon->x[3 * n + d] : NAN;
-			v[S * n + d] = est ? (recon->x[3 * n + d] - px[d]) * inv : NAN;
+			v[S * n + d] = est ? (recon->x[3 * n + d] - frame_pos(&z, prev, n, d)) * inv : NAN;
 		}
 	}
 done:

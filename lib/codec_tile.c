@@ -253,19 +253,14 @@ int ndo_codec_encode_tile(ndo_codec *c, int32_t self, const ndo_grid *g, const u
 		    e->c[0].step >= 0)
 			return 1; /* it was skipped */
 	}
-	int exact = 0;
 	for (int j = 0; j < rows; j++) { /* a row of the tile is a run of the grid's */
 		size_t node = ndo_node(g->w, i0, j0 + j), n = (size_t)j * (size_t)cols;
-		memcpy(c->x + 3 * n, x + 3 * node, 3 * (size_t)cols * sizeof *x);
 		memcpy(c->cls + n, cls + node, (size_t)cols);
-		for (int i = 0; i < cols; i++)
-			exact |= cls[node + (size_t)i] == NDO_NODE_EXACT;
 	}
-	for (int j = 0; j < rows && exact; j++) { /* velocities: the EXACT nodes' only */
-		size_t node = ndo_node(g->w, i0, j0 + j), n = (size_t)j * (size_t)cols;
-		memcpy(c->v + 3 * n, v + 3 * node, 3 * (size_t)cols * sizeof *v);
-	}
-	ndo_codec_input in = {rows, cols, c->x, c->v, c->cls, t->step, t->time, t->epoch};
+	/* positions and velocities read in place, a grid row apart */
+	const size_t first = ndo_node(g->w, i0, j0);
+	ndo_codec_input in = {rows,    cols,    x + 3 * first, v + 3 * first, c->cls,
+	                      t->step, t->time, t->epoch,      g->w};
 	/* a keyframe when one is due — but not right after skipped steps: the
 	 * frame after them tells receivers what they were (the next is the key) */
 	int due = e->last_key < 0 || t->step <= e->last_sent || e->h.f[0].step < 0 ||

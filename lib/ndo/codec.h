@@ -148,10 +148,18 @@ typedef struct ndo_codec_frame {
 	int64_t step;  /* −1: none */
 	double time;
 	int32_t epoch;
-	double *x;     /* nodes × 3: positions */
+	double *x;     /* nodes × 3: positions where have is NDO_HAVE_X */
 	int32_t *k;    /* nodes × 3: codes (fixed, predict) */
-	uint8_t *have; /* nodes: 1 where the frame holds the node */
+	uint8_t *have; /* nodes: 0 where the frame does not hold the node, else
+	                  how: NDO_HAVE_CODE (a LOSSY node under fixed or
+	                  predict: its position is lo + k q, x is not kept) or
+	                  NDO_HAVE_X (the position in x) */
 } ndo_codec_frame;
+enum { NDO_HAVE_CODE = 1, NDO_HAVE_X = 2 };
+
+/* Node n's position in frame f (NaN when f does not hold it). */
+void ndo_codec_frame_position(const ndo_codec_params *p, const ndo_codec_frame *f, int n,
+                              double x[3]);
 
 /* A tile's history: its last frames, newest first. */
 #define NDO_CODEC_HISTORY 4
@@ -193,6 +201,9 @@ typedef struct ndo_codec_input {
 	int64_t step;
 	double time;
 	int32_t epoch;
+	int stride;           /* nodes from a row's first in x and v to the next
+	                         row's (≥ cols; 0: cols) — a tile of a grid in
+	                         place; cls is always rows × cols */
 } ndo_codec_input;
 
 /* Encode one frame.  `h`: the tile's history as receivers hold it;

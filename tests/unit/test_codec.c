@@ -79,7 +79,7 @@ static ndo_drop step(const ndo_codec_params *p, side *tx, side *rx, int64_t s, i
 	uint8_t cls[NODES];
 	state(s, x, v, 0.2);
 	classes(cls);
-	ndo_codec_input in = {ROWS, COLS, x, v, cls, s, 0.01 * (double)s, 0};
+	ndo_codec_input in = {ROWS, COLS, x, v, cls, s, 0.01 * (double)s, 0, 0};
 	uint8_t *data;
 	size_t len;
 	int64_t base;
@@ -110,7 +110,9 @@ static ndo_drop step(const ndo_codec_params *p, side *tx, side *rx, int64_t s, i
 					if (cls[n] == NDO_NODE_SKIP && !isnan(xo[3 * n + d]))
 						*err = INFINITY; /* not carried: NaN */
 					/* the receiver holds what the sender says it does */
-					if (cls[n] != NDO_NODE_SKIP && xo[3 * n + d] != tx->f.x[3 * n + d])
+					double held[3];
+					ndo_codec_frame_position(p, &tx->f, n, held);
+					if (cls[n] != NDO_NODE_SKIP && xo[3 * n + d] != held[d])
 						*err = INFINITY;
 				}
 				if (cls[n] == NDO_NODE_LOSSY) {
@@ -207,7 +209,7 @@ static void unchanged_frames_and_their_prediction(void)
 	int un = 0;
 	for (int64_t s = 0; s < 5; s++) {
 		state(0, x, v, 0.2); /* standing still */
-		ndo_codec_input in = {ROWS, COLS, x, v, cls, s, 0.01 * (double)s, 0};
+		ndo_codec_input in = {ROWS, COLS, x, v, cls, s, 0.01 * (double)s, 0, 0};
 		uint8_t *data;
 		size_t len;
 		int64_t base;
@@ -237,7 +239,7 @@ static void hostile_payloads_are_dropped(void)
 	classes(cls);
 	side tx, rx;
 	side_init(&tx), side_init(&rx);
-	ndo_codec_input in = {ROWS, COLS, x, v, cls, 3, 0.03, 0};
+	ndo_codec_input in = {ROWS, COLS, x, v, cls, 3, 0.03, 0, 0};
 	uint8_t *data;
 	size_t len;
 	int64_t base;
@@ -312,7 +314,18 @@ static void fast_and_general_predictors_agree(void)
 			if (s == 12 || s == 13 || s == 25)
 				continue; /* gaps: extrapolation over non-consecutive steps */
 			state(s, x, v, 0.2);
-			ndo_codec_input in = {ROWS, COLS, x, v, cls, s, 0.01 * (double)s, 0};
+			ndo_codec_input in = {ROWS, COLS, x, v, cls, s, 0.01 * (double)s, 0, 0};
+			/* the fast encoder reads its rows in place, SW nodes apart (NaN
+			 * between them: read, they would change the bytes) */
+			enum { SW = COLS + 3 };
+			double xs[3 * ROWS * SW], vs[3 * ROWS * SW];
+			for (int k = 0; k < 3 * ROWS * SW; k++)
+				xs[k] = vs[k] = NAN;
+			for (int j = 0; j < ROWS; j++)
+				memcpy(xs + 3 * j * SW, x + 3 * j * COLS, 3 * COLS * sizeof *x),
+				    memcpy(vs + 3 * j * SW, v + 3 * j * COLS, 3 * COLS * sizeof *v);
+			ndo_codec_input ins = in;
+			ins.x = xs, ins.v = vs, ins.stride = SW;
 			uint8_t *data[2];
 			size_t len[2];
 			int64_t base[2];
@@ -321,8 +334,8 @@ static void fast_and_general_predictors_agree(void)
 				ndo__codec_general_only = k;
 				ndo_codec_frame *f = &fh.f[k];
 				int intra = s % 8 == 0;
-				ndo_codec_encode(&p, NULL, &ht[k], intra, &in, &data[k], &len[k], &base[k], f,
-				                 &un);
+				ndo_codec_encode(&p, NULL, &ht[k], intra, k ? &in : &ins, &data[k], &len[k],
+				                 &base[k], f, &un);
 				if (base[k] < 0)
 					ndo_codec_hist_clear(&ht[k]);
 				ndo_codec_hist_put(&ht[k], f);
@@ -393,7 +406,7 @@ static void hostile_predicted_payloads(void)
 	for (int64_t s = 0; s < 5; s++) {
 		free(data);
 		state(s, x, v, 0.2);
-		ndo_codec_input in = {ROWS, COLS, x, v, cls, s, 0.01 * (double)s, 0};
+		ndo_codec_input in = {ROWS, COLS, x, v, cls, s, 0.01 * (double)s, 0, 0};
 		ndo_codec_encode(&p, NULL, &tx.h, 0, &in, &data, &len, &base, &tx.f, &un);
 		ndo_codec_hist_put(&tx.h, &tx.f);
 		if (s < 4) {
