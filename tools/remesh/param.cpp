@@ -141,9 +141,46 @@ static Vec3 face_grad0(const FaceGeom &g, const Vec3 &p0, const Vec3 &p1, const 
 	return add(sub(mul(gE, 1 / h), mul(gh, E / (h * h))), mul(gN, g.mu / g.a3));
 }
 
+/* Praun–Hoppe's measure of one face (their SphereParam's efficiency):
+ * Σ A3 Γ² over the parameter triangle taken as the sphere sees it, not
+ * as its chord — split at the point of the longest edge's great circle
+ * nearest the opposite corner, so that a long thin spherical triangle,
+ * whose chord triangle stands up off the sphere with far more area (the
+ * "accordion"), counts with its small spherical area.  Γ² = ‖J‖²/2 of
+ * each half (domain → surface, the surface point on the split edge
+ * interpolated linearly), weighed by the half's surface area. */
+static double half_stretch(const Vec3 &d0, const Vec3 &d1, const Vec3 &d2, const Vec3 &x0,
+                           const Vec3 &x1, const Vec3 &x2)
+{
+	Vec3 a = sub(d1, d0), b = sub(d2, d0);
+	double la = norm(a), u = dot(b, a) / la, v = std::sqrt(std::max(0.0, dot(b, b) - u * u));
+	Vec3 ja = mul(sub(x1, x0), 1 / la);                     /* ∂x/∂u */
+	Vec3 jb = mul(sub(sub(x2, x0), mul(ja, u)), 1 / v);      /* ∂x/∂v */
+	double a3 = 0.5 * norm(cross(sub(x1, x0), sub(x2, x0)));
+	return 0.5 * (dot(ja, ja) + dot(jb, jb)) * a3;
+}
+
+static double sphere_face_stretch(const Vec3 d[3], const Vec3 x[3])
+{
+	double l[3];
+	for (int i = 0; i < 3; i++) {
+		Vec3 e = sub(d[(i + 1) % 3], d[(i + 2) % 3]);
+		l[i] = dot(e, e);
+	}
+	int i = l[0] > l[1] ? (l[0] > l[2] ? 0 : 2) : (l[1] > l[2] ? 1 : 2);
+	int j = (i + 1) % 3, k = (i + 2) % 3;
+	Vec3 n = unit(cross(d[j], d[k]));
+	Vec3 q = unit(sub(d[i], mul(n, dot(n, d[i])))); /* on arc j k, nearest i */
+	/* q = d_k + t (d_j − d_k) projected to the sphere: t from the chord */
+	Vec3 e = sub(d[j], d[k]);
+	double qe = dot(q, e), t = (qe * dot(q, d[k]) - dot(e, d[k])) / (l[i] - qe * qe);
+	Vec3 xq = add(mul(x[j], t), mul(x[k], 1 - t));
+	return half_stretch(q, d[i], d[j], xq, x[i], x[j]) + half_stretch(q, d[k], d[i], xq, x[k], x[i]);
+}
+
 void param_measure(const Mesh &m, const std::vector<Vec3> &s, ParamStats &st)
 {
-	double E = 0, A3 = 0, Ap = 0;
+	double E = 0, A3 = 0, Ap = 0, Es = 0;
 	long flips = 0;
 	for (const Tri &t : m.f) {
 		FaceGeom g = face_geom(m.p, t, false);
@@ -157,12 +194,17 @@ void param_measure(const Mesh &m, const std::vector<Vec3> &s, ParamStats &st)
 		Vec3 a = sub(p1, p0), b = sub(p2, p0), e0 = sub(p2, p1);
 		Vec3 c = cross(a, b);
 		E += 0.5 * g.a3 * (g.L[0] * dot(a, b) - g.L[1] * dot(a, e0) + g.L[2] * dot(b, e0)) / dot(c, c);
+		Vec3 d[3] = {p0, p1, p2}, x[3] = {m.p[t[0]], m.p[t[1]], m.p[t[2]]};
+		Es += sphere_face_stretch(d, x);
 		A3 += g.a3;
 		Ap += 0.5 * norm(cross(sub(p1, p0), sub(p2, p0)));
 	}
 	st.flips = flips;
 	/* Scale the parameter to the surface's total area: L2² = E·ΣA_p/(ΣA3)². */
 	st.efficiency = E > 0 && std::isfinite(E) ? A3 * A3 / (E * Ap) : 0;
+	/* Praun–Hoppe's: the sphere's area 4π as the parameter's, and the
+	 * spherical split above (equal to ours for small round triangles) */
+	st.efficiency_sphere = Es > 0 && std::isfinite(Es) && flips == 0 ? A3 * A3 / (Es * 4 * M_PI) : 0;
 }
 
 /* How much each face matters for the grid of `level`: 1 + beta · min(8,

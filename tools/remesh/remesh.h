@@ -61,6 +61,7 @@ struct ParamOptions {
 };
 struct ParamStats {
 	double efficiency = 0; /* L2 stretch efficiency (Sander 2001, 1 = isometric) */
+	double efficiency_sphere = 0; /* the same as Praun–Hoppe measure it: spherical triangles */
 	long flips = 0;        /* spherical triangles with det(s_a, s_b, s_c) <= 0 */
 	int base_vertices = 0; /* hierarchical: vertices of the base mesh */
 	long placement_failures = 0; /* hierarchical: splits with no kernel point found (0 expected) */
@@ -78,7 +79,9 @@ int param_mesh(const Mesh &m, int level, Mesh &out);
 void parameterize(const Mesh &m, const ParamOptions &o, std::vector<Vec3> &s,
                   ParamStats &st);
 /* L2 stretch efficiency (ΣA)² / (E·ΣA') of the map from the chord
- * triangles of s to the mesh, and the flipped count. */
+ * triangles of s to the mesh, the same over spherical triangles as
+ * Praun–Hoppe's SphereParam measures it ((ΣA)² / (E_sph·4π)), and the
+ * flipped count. */
 void param_measure(const Mesh &m, const std::vector<Vec3> &s, ParamStats &st);
 
 /* Domain → sphere maps for every stored node of a level-L grid.  Blend:
