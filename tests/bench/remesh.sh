@@ -60,7 +60,7 @@ bench_minutes=$(awk -v a="$bench_start" -v b="$(date +%s)" 'BEGIN { printf "%.1f
 	echo
 	echo "Command: \`tests/bench/remesh.sh\` (run by \`make bench\`), $(date -u '+%Y-%m-%d %H:%M UTC'),"
 	echo "$(nproc) cores, $(sed -n 's/^model name[[:space:]]*: //p' /proc/cpuinfo | head -n 1)."
-	echo "Defaults: hierarchical parameterization (Newton steps, --conformal 0.5, --importance 1,"
+	echo "Defaults: hierarchical parameterization (Newton steps, --conformal 0.35, --importance 1,"
 	echo "the input split 1-to-4 while it stays under twice the grid's triangles and 100 000 faces),"
 	echo "blend domain map (--blend 0.3), rotation by estimated Hausdorff distance and fold-overs."
 	echo "PH = Praun & Hoppe 2003 (their implementation, figures from"

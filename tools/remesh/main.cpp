@@ -42,7 +42,7 @@ static __attribute__((noreturn)) void usage(void)
 	       "      --sweeps N        hierarchical: final optimization sweeps, 0..100 (default 6)\n"
 	       "      --conformal W     hierarchical: weight of the inverse map's stretch, which\n"
 	       "                        keeps parameter triangles round (fewer fold-overs), 0..10\n"
-	       "                        (default 0.25; 0: L2 stretch alone)\n"
+	       "                        (default 0.35; 0: L2 stretch alone)\n"
 	       "      --importance B    hierarchical: extra samples where the surface is curved\n"
 	       "                        at the grid's scale, 0..10 (default 1; 0: none)\n"
 	       "      --spring-steps N  spring: time steps, 1..100000 (default 400)\n"

@@ -55,7 +55,7 @@ struct ParamOptions {
 	int spring_steps = 400;  /* spring embedder: time steps */
 	double spring_c = 0.95;  /* spring embedder: the thesis' C (eq. 4.4) */
 	int relax = 1;           /* spring embedder: relaxation (eq. 4.7) on */
-	double conformal = 0.25; /* hierarchical: weight of the inverse map's Dirichlet energy */
+	double conformal = 0.35; /* hierarchical: weight of the inverse map's Dirichlet energy */
 	double importance = 1;   /* hierarchical: curvature importance (0: plain L2 stretch) */
 	int level = 0;           /* hierarchical: the grid level it is for (importance's scale) */
 };
