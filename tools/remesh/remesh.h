@@ -55,12 +55,13 @@ struct ParamOptions {
 	int spring_steps = 400;  /* spring embedder: time steps */
 	double spring_c = 0.95;  /* spring embedder: the thesis' C (eq. 4.4) */
 	int relax = 1;           /* spring embedder: relaxation (eq. 4.7) on */
-	double conformal = 0.5;  /* hierarchical: weight of the inverse map's Dirichlet energy */
+	double conformal = 0.35; /* hierarchical: weight of the inverse map's Dirichlet energy */
 	double importance = 1;   /* hierarchical: curvature importance (0: plain L2 stretch) */
 	int level = 0;           /* hierarchical: the grid level it is for (importance's scale) */
 };
 struct ParamStats {
 	double efficiency = 0; /* L2 stretch efficiency (Sander 2001, 1 = isometric) */
+	double efficiency_sphere = 0; /* the same as Praun–Hoppe measure it: spherical triangles */
 	long flips = 0;        /* spherical triangles with det(s_a, s_b, s_c) <= 0 */
 	int base_vertices = 0; /* hierarchical: vertices of the base mesh */
 	long placement_failures = 0; /* hierarchical: splits with no kernel point found (0 expected) */
@@ -78,7 +79,9 @@ int param_mesh(const Mesh &m, int level, Mesh &out);
 void parameterize(const Mesh &m, const ParamOptions &o, std::vector<Vec3> &s,
                   ParamStats &st);
 /* L2 stretch efficiency (ΣA)² / (E·ΣA') of the map from the chord
- * triangles of s to the mesh, and the flipped count. */
+ * triangles of s to the mesh, the same over spherical triangles as
+ * Praun–Hoppe's SphereParam measures it ((ΣA)² / (E_sph·4π)), and the
+ * flipped count. */
 void param_measure(const Mesh &m, const std::vector<Vec3> &s, ParamStats &st);
 
 /* Domain → sphere maps for every stored node of a level-L grid.  Blend:
