@@ -328,16 +328,7 @@ static int publish_tiles_from(ndo_session *s, const ndo_grid *src, const int32_t
 			sent += rc;
 			continue;
 		}
-		ndo_msg_tile_t t;
-		memset(&t, 0, sizeof t);
-		int rc = ndo_tile_pack(src, q, channels, &t);
-		if (rc)
-			return rc;
-		t.step = step;
-		t.time = time;
-		t.epoch = s->epoch;
-		rc = ndo_net_publish(s->net, NDO_MSG_TILE, &t);
-		free(t.values);
+		int rc = publish_raw(s, src, q, channels, step, time);
 		if (rc)
 			return rc;
 		sent++;
