@@ -1101,6 +1101,7 @@ row_encode_mode(const pctx *c, const int mode, rowsc *rs, const double *x, size_
 	int out = 0;
 	uint64_t acc = 0;
 	size_t li = 0;
+	const int flat = lossy == (size_t)c->nodes; /* every node LOSSY */
 	for (int j = 0; j < rows; j++) {
 		const size_t M0 = (size_t)j * L;
 		const int64_t *restrict ep = j ? rs->e[~j & 1] : rs->ez;
@@ -1131,6 +1132,53 @@ row_encode_mode(const pctx *c, const int mode, rowsc *rs, const double *x, size_
 			uu[m] = zigzag(kk - pr);
 		}
 		row_pad(ec, L);
+		if (flat) { /* every node LOSSY: the same, component by component */
+			for (int i = 0; i < cols; i++) {
+				const size_t m = 3 * (size_t)i;
+				const double e2 = sq[m] + sq[m + 1] + sq[m + 2];
+				sum2 += e2;
+				max2 = e2 > max2 ? e2 : max2;
+			}
+			uint64_t a = 0;
+			for (size_t m = 0; m < L; m++)
+				a |= uu[m];
+			acc |= a;
+			size_t nn[3] = {ne0, ne1, ne2};
+			for (int d = 0; d < 3; d++) {
+				const size_t k0 = (size_t)d * lossy + li;
+				uint64_t *restrict ed = esc + (size_t)d * lossy;
+				size_t ne = nn[d];
+				const uint64_t *ud = uu + d;
+				int i = 0;
+				/* the symbols up to a byte boundary OR'ed in, then whole
+				 * bytes stored (no read-modify-write chain), the rest OR'ed */
+				for (; i < cols && ((k0 + (size_t)i) & 3); i++) {
+					const size_t k = k0 + (size_t)i;
+					const uint64_t v = ud[3 * (size_t)i];
+					sb[k >> 2] |= (uint8_t)((v < 3 ? v : 3) << (2 * (k & 3)));
+					ed[ne] = v, ne += v >= 3;
+				}
+				for (; i + 4 <= cols; i += 4) {
+					unsigned byte = 0;
+					for (int t = 0; t < 4; t++) {
+						const uint64_t v = ud[3 * (size_t)(i + t)];
+						byte |= (unsigned)(v < 3 ? v : 3) << (2 * t);
+						ed[ne] = v, ne += v >= 3;
+					}
+					sb[(k0 + (size_t)i) >> 2] = (uint8_t)byte;
+				}
+				for (; i < cols; i++) {
+					const size_t k = k0 + (size_t)i;
+					const uint64_t v = ud[3 * (size_t)i];
+					sb[k >> 2] |= (uint8_t)((v < 3 ? v : 3) << (2 * (k & 3)));
+					ed[ne] = v, ne += v >= 3;
+				}
+				nn[d] = ne;
+			}
+			ne0 = nn[0], ne1 = nn[1], ne2 = nn[2];
+			li += (size_t)cols;
+			continue;
+		}
 		const uint8_t *cl = cls + (size_t)j * (size_t)cols;
 		for (int i = 0; i < cols; i++) {
 			const size_t m = 3 * (size_t)i;
@@ -1207,6 +1255,12 @@ row_decode_mode(const pctx *c, const int mode, rowsc *rs, const syms *sy,
 	int64_t *restrict lins = rs->lin, *restrict kt = rs->kt;
 	size_t li = 0;
 	int bad = 0;
+	/* flat: every node LOSSY and every previous position a code (the
+	 * common case): each row's symbols are three runs, one a component,
+	 * and its codes, positions and velocities go out in flat loops */
+	int flat = lossy == (size_t)c->nodes && prev;
+	for (int n = 0; flat && n < c->nodes; n++)
+		flat &= prev->have[n] == NDO_HAVE_CODE;
 	for (int j = 0; j < rows; j++) {
 		const size_t M0 = (size_t)j * L, n0 = (size_t)j * (size_t)cols;
 		const int64_t *restrict ep = j ? rs->e[~j & 1] : rs->ez;
@@ -1214,6 +1268,46 @@ row_decode_mode(const pctx *c, const int mode, rowsc *rs, const syms *sy,
 		int32_t *restrict kr = recon->k + M0;
 		const int32_t *ar = r0 + M0, *br = r1 + M0, *cr = r2 + M0;
 		const uint8_t *cl = cls + n0;
+		if (flat) {
+			size_t ee[3] = {e0, e1, e2};
+			for (int d = 0; d < 3; d++) {
+				const size_t k0 = (size_t)d * lossy + n0;
+				size_t e = ee[d];
+				for (int i = 0; i < cols; i++) {
+					const size_t k = k0 + (size_t)i;
+					const unsigned s = (sb[k >> 2] >> (2 * (k & 3))) & 3;
+					uu[3 * (size_t)i + (size_t)d] = s == 3 ? esc[e] : s;
+					e += s == 3;
+				}
+				ee[d] = e;
+			}
+			e0 = ee[0], e1 = ee[1], e2 = ee[2];
+			for (size_t m = 0; m < L; m++) {
+				int64_t lin = 0;
+				const int64_t pr = row_predict(mode, ar[m], br[m], cr[m], ep + m,
+				                               &lin, g, gap, rinv);
+				kt[m] = pr + unzigzag(uu[m]);
+				lins[m] = lin;
+			}
+			double *val = rs->sq, *vv = rs->vv;
+			int32_t *kq = rs->kq;
+			row_values(L, kt, lins, LO, Q, prev->k + M0, inv, kq, ec, val, vv);
+			int b = 0;
+			for (size_t m = 0; m < L; m++) {
+				const int64_t k = kt[m];
+				b |= (k <= -CODE_MAX) | (k >= CODE_MAX);
+				kr[m] = kq[m];
+			}
+			bad |= b;
+			double *restrict ox = o->x + S * n0, *restrict ov = o->v + S * n0;
+			for (int i = 0; i < cols; i++)
+				for (int d = 0; d < 3; d++) {
+					ox[S * (size_t)i + (size_t)d] = val[3 * (size_t)i + (size_t)d];
+					ov[S * (size_t)i + (size_t)d] = vv[3 * (size_t)i + (size_t)d];
+				}
+			row_pad(ec, L);
+			continue;
+		}
 		for (int i = 0; i < cols; i++) { /* the row's residuals, node by node */
 			const size_t m = 3 * (size_t)i;
 			if (cl[i] == NDO_NODE_LOSSY) { /* an escape: the component's next */
