@@ -613,6 +613,16 @@ static inline double double_of(uint64_t u)
 	return d;
 }
 
+/* a little-endian word as read by memcpy, in the machine's order */
+static inline uint64_t le64(uint64_t w)
+{
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__
+	return __builtin_bswap64(w);
+#else
+	return w;
+#endif
+}
+
 static int64_t unzigzag(uint64_t u) { return (int64_t)(u >> 1) ^ -(int64_t)(u & 1); }
 
 /* ---- codes and prediction ------------------------------------------------------- */
@@ -1259,8 +1269,13 @@ row_decode_mode(const pctx *c, const int mode, rowsc *rs, const syms *sy,
 	 * common case): each row's symbols are three runs, one a component,
 	 * and its codes, positions and velocities go out in flat loops */
 	int flat = lossy == (size_t)c->nodes && prev;
-	for (int n = 0; flat && n < c->nodes; n++)
-		flat &= prev->have[n] == NDO_HAVE_CODE;
+	if (flat) {
+		unsigned f = 1;
+		for (int n = 0; n < c->nodes; n++) /* no early exit: vectorized */
+			f &= prev->have[n] == NDO_HAVE_CODE;
+		flat = (int)f;
+	}
+	const size_t nsb = (3 * lossy + 3) / 4; /* the symbols' bytes */
 	for (int j = 0; j < rows; j++) {
 		const size_t M0 = (size_t)j * L, n0 = (size_t)j * (size_t)cols;
 		const int64_t *restrict ep = j ? rs->e[~j & 1] : rs->ez;
@@ -1273,10 +1288,27 @@ row_decode_mode(const pctx *c, const int mode, rowsc *rs, const syms *sy,
 			for (int d = 0; d < 3; d++) {
 				const size_t k0 = (size_t)d * lossy + n0;
 				size_t e = ee[d];
-				for (int i = 0; i < cols; i++) {
+				uint64_t *restrict ud = uu + d;
+				int i = 0;
+				/* up to 29 symbols from a word read at once, while the
+				 * word lies within the symbols' bytes */
+				while (i < cols && ((k0 + (size_t)i) >> 2) + 8 <= nsb) {
+					const size_t k = k0 + (size_t)i;
+					uint64_t wd;
+					memcpy(&wd, sb + (k >> 2), 8);
+					wd = le64(wd) >> (2 * (k & 3));
+					const int n = cols - i < 29 ? cols - i : 29;
+					for (int t = 0; t < n; t++, wd >>= 2) {
+						const unsigned s = (unsigned)wd & 3;
+						ud[3 * (size_t)(i + t)] = s == 3 ? esc[e] : s;
+						e += s == 3;
+					}
+					i += n;
+				}
+				for (; i < cols; i++) {
 					const size_t k = k0 + (size_t)i;
 					const unsigned s = (sb[k >> 2] >> (2 * (k & 3))) & 3;
-					uu[3 * (size_t)i + (size_t)d] = s == 3 ? esc[e] : s;
+					ud[3 * (size_t)i] = s == 3 ? esc[e] : s;
 					e += s == 3;
 				}
 				ee[d] = e;
@@ -1299,12 +1331,19 @@ row_decode_mode(const pctx *c, const int mode, rowsc *rs, const syms *sy,
 				kr[m] = kq[m];
 			}
 			bad |= b;
-			double *restrict ox = o->x + S * n0, *restrict ov = o->v + S * n0;
-			for (int i = 0; i < cols; i++)
-				for (int d = 0; d < 3; d++) {
-					ox[S * (size_t)i + (size_t)d] = val[3 * (size_t)i + (size_t)d];
-					ov[S * (size_t)i + (size_t)d] = vv[3 * (size_t)i + (size_t)d];
+			double *ox = o->x + S * n0, *ov = o->v + S * n0;
+			if (S == 6 && o->v == o->x + 3) { /* a node's 6 values together */
+				for (int i = 0; i < cols; i++) {
+					memcpy(ox + 6 * (size_t)i, val + 3 * (size_t)i, 3 * sizeof *val);
+					memcpy(ox + 6 * (size_t)i + 3, vv + 3 * (size_t)i, 3 * sizeof *vv);
 				}
+			} else {
+				for (int i = 0; i < cols; i++)
+					for (int d = 0; d < 3; d++) {
+						ox[S * (size_t)i + (size_t)d] = val[3 * (size_t)i + (size_t)d];
+						ov[S * (size_t)i + (size_t)d] = vv[3 * (size_t)i + (size_t)d];
+					}
+			}
 			row_pad(ec, L);
 			continue;
 		}

@@ -308,6 +308,9 @@ static void fast_and_general_predictors_agree(void)
 		for (int k = 0; k < 2; k++)
 			ndo_codec_hist_init(&ht[k], NODES), ndo_codec_hist_init(&hr[k], NODES);
 		ndo_codec_hist_init(&fh, NODES);
+		ndo_codec_hist f6;
+		ndo_codec_hist_init(&f6, NODES);
+		double x6[6 * NODES];
 		double x[3 * NODES], v[3 * NODES], xo[3 * NODES], vo[3 * NODES], first[6 * NODES];
 		uint8_t cls[NODES];
 		for (int n = 0; n < NODES; n++)
@@ -355,6 +358,16 @@ static void fast_and_general_predictors_agree(void)
 				decoded &= r == NDO_DROP_NONE;
 				if (r != NDO_DROP_NONE)
 					break;
+				/* the same frame decoded into a tile's layout (a node's
+				 * position and velocity together, 6 doubles): the same
+				 * values, bit for bit */
+				ndo_drop r6 = ndo_codec_decode_strided(
+				    &p, NULL, &hr[k], ROWS, COLS, data[1 - k], len[1 - k], s, 0.01 * (double)s,
+				    0, base[1 - k], x6, x6 + 3, 6, &f6.f[0]);
+				decoded &= r6 == NDO_DROP_NONE;
+				for (int n = 0; n < NODES; n++)
+					outputs &= !memcmp(x6 + 6 * n, xo + 3 * n, 3 * sizeof *xo) &&
+					           !memcmp(x6 + 6 * n + 3, vo + 3 * n, 3 * sizeof *vo);
 				if (base[1 - k] < 0)
 					ndo_codec_hist_clear(&hr[k]);
 				ndo_codec_hist_put(&hr[k], f);
@@ -389,7 +402,7 @@ static void fast_and_general_predictors_agree(void)
 		CHECK(frames == 37, "%s%s: 37 frames", specs[q], all ? " (all LOSSY)" : "");
 		for (int k = 0; k < 2; k++)
 			ndo_codec_hist_free(&ht[k]), ndo_codec_hist_free(&hr[k]);
-		ndo_codec_hist_free(&fh);
+		ndo_codec_hist_free(&fh), ndo_codec_hist_free(&f6);
 	}
 }
 
