@@ -751,7 +751,13 @@ static int extrapolate(const pctx *c, int n, int d, int64_t *lin)
 static int carried(const pctx *c, int m) { return c->cls[m] != NDO_NODE_SKIP; }
 
 /* rdiv(a, 2): halves rounded away from zero (C division truncates) */
-static inline int64_t half(int64_t a) { return (a + 1 - 2 * (a < 0)) / 2; }
+static inline int64_t half(int64_t a)
+{
+	/* (a + 1 − 2 (a < 0)) / 2 as (a + (a ≥ 0)) >> 1, the arithmetic shift
+	 * as a logical one with the sign kept (AVX2 has no 64-bit one) */
+	const uint64_t t = (uint64_t)a + (a >= 0);
+	return (int64_t)((t >> 1) | (t & 0x8000000000000000u));
+}
 
 /* The prediction of node n's code on component d (node n is carried; in a
  * keyframe, the nodes before it in raster order are decoded in c->cur). */
