@@ -1304,11 +1304,11 @@ row_decode_mode(const pctx *c, const int mode, rowsc *rs, const syms *sy,
 					memcpy(&wd, sb + (k >> 2), 8);
 					wd = le64(wd) >> (2 * (k & 3));
 					const int n = cols - i < 29 ? cols - i : 29;
-					for (int t = 0; t < n; t++, wd >>= 2) {
-						const unsigned s = (unsigned)wd & 3;
-						ud[3 * (size_t)(i + t)] = s == 3 ? esc[e] : s;
-						e += s == 3;
-					}
+					wd &= ((uint64_t)1 << (2 * n)) - 1;
+					for (int t = 0; t < n; t++) /* the symbols, then the escapes */
+						ud[3 * (size_t)(i + t)] = (wd >> (2 * t)) & 3;
+					for (uint64_t em = wd & wd >> 1 & 0x5555555555555555u; em; em &= em - 1)
+						ud[3 * (size_t)(i + __builtin_ctzll(em) / 2)] = esc[e++];
 					i += n;
 				}
 				for (; i < cols; i++) {
