@@ -613,6 +613,16 @@ static inline double double_of(uint64_t u)
 	return d;
 }
 
+/* a little-endian word as read by memcpy, in the machine's order */
+static inline uint64_t le64(uint64_t w)
+{
+#if defined(__BYTE_ORDER__) && __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__
+	return __builtin_bswap64(w);
+#else
+	return w;
+#endif
+}
+
 static int64_t unzigzag(uint64_t u) { return (int64_t)(u >> 1) ^ -(int64_t)(u & 1); }
 
 /* ---- codes and prediction ------------------------------------------------------- */
@@ -741,7 +751,13 @@ static int extrapolate(const pctx *c, int n, int d, int64_t *lin)
 static int carried(const pctx *c, int m) { return c->cls[m] != NDO_NODE_SKIP; }
 
 /* rdiv(a, 2): halves rounded away from zero (C division truncates) */
-static inline int64_t half(int64_t a) { return (a + 1 - 2 * (a < 0)) / 2; }
+static inline int64_t half(int64_t a)
+{
+	/* (a + 1 − 2 (a < 0)) / 2 as (a + (a ≥ 0)) >> 1, the arithmetic shift
+	 * as a logical one with the sign kept (AVX2 has no 64-bit one) */
+	const uint64_t t = (uint64_t)a + (a >= 0);
+	return (int64_t)((t >> 1) | (t & 0x8000000000000000u));
+}
 
 /* The prediction of node n's code on component d (node n is carried; in a
  * keyframe, the nodes before it in raster order are decoded in c->cur). */
@@ -1101,6 +1117,7 @@ row_encode_mode(const pctx *c, const int mode, rowsc *rs, const double *x, size_
 	int out = 0;
 	uint64_t acc = 0;
 	size_t li = 0;
+	const int flat = lossy == (size_t)c->nodes; /* every node LOSSY */
 	for (int j = 0; j < rows; j++) {
 		const size_t M0 = (size_t)j * L;
 		const int64_t *restrict ep = j ? rs->e[~j & 1] : rs->ez;
@@ -1131,6 +1148,53 @@ row_encode_mode(const pctx *c, const int mode, rowsc *rs, const double *x, size_
 			uu[m] = zigzag(kk - pr);
 		}
 		row_pad(ec, L);
+		if (flat) { /* every node LOSSY: the same, component by component */
+			for (int i = 0; i < cols; i++) {
+				const size_t m = 3 * (size_t)i;
+				const double e2 = sq[m] + sq[m + 1] + sq[m + 2];
+				sum2 += e2;
+				max2 = e2 > max2 ? e2 : max2;
+			}
+			uint64_t a = 0;
+			for (size_t m = 0; m < L; m++)
+				a |= uu[m];
+			acc |= a;
+			size_t nn[3] = {ne0, ne1, ne2};
+			for (int d = 0; d < 3; d++) {
+				const size_t k0 = (size_t)d * lossy + li;
+				uint64_t *restrict ed = esc + (size_t)d * lossy;
+				size_t ne = nn[d];
+				const uint64_t *ud = uu + d;
+				int i = 0;
+				/* the symbols up to a byte boundary OR'ed in, then whole
+				 * bytes stored (no read-modify-write chain), the rest OR'ed */
+				for (; i < cols && ((k0 + (size_t)i) & 3); i++) {
+					const size_t k = k0 + (size_t)i;
+					const uint64_t v = ud[3 * (size_t)i];
+					sb[k >> 2] |= (uint8_t)((v < 3 ? v : 3) << (2 * (k & 3)));
+					ed[ne] = v, ne += v >= 3;
+				}
+				for (; i + 4 <= cols; i += 4) {
+					unsigned byte = 0;
+					for (int t = 0; t < 4; t++) {
+						const uint64_t v = ud[3 * (size_t)(i + t)];
+						byte |= (unsigned)(v < 3 ? v : 3) << (2 * t);
+						ed[ne] = v, ne += v >= 3;
+					}
+					sb[(k0 + (size_t)i) >> 2] = (uint8_t)byte;
+				}
+				for (; i < cols; i++) {
+					const size_t k = k0 + (size_t)i;
+					const uint64_t v = ud[3 * (size_t)i];
+					sb[k >> 2] |= (uint8_t)((v < 3 ? v : 3) << (2 * (k & 3)));
+					ed[ne] = v, ne += v >= 3;
+				}
+				nn[d] = ne;
+			}
+			ne0 = nn[0], ne1 = nn[1], ne2 = nn[2];
+			li += (size_t)cols;
+			continue;
+		}
 		const uint8_t *cl = cls + (size_t)j * (size_t)cols;
 		for (int i = 0; i < cols; i++) {
 			const size_t m = 3 * (size_t)i;
@@ -1207,6 +1271,17 @@ row_decode_mode(const pctx *c, const int mode, rowsc *rs, const syms *sy,
 	int64_t *restrict lins = rs->lin, *restrict kt = rs->kt;
 	size_t li = 0;
 	int bad = 0;
+	/* flat: every node LOSSY and every previous position a code (the
+	 * common case): each row's symbols are three runs, one a component,
+	 * and its codes, positions and velocities go out in flat loops */
+	int flat = lossy == (size_t)c->nodes && prev;
+	if (flat) {
+		unsigned f = 1;
+		for (int n = 0; n < c->nodes; n++) /* no early exit: vectorized */
+			f &= prev->have[n] == NDO_HAVE_CODE;
+		flat = (int)f;
+	}
+	const size_t nsb = (3 * lossy + 3) / 4; /* the symbols' bytes */
 	for (int j = 0; j < rows; j++) {
 		const size_t M0 = (size_t)j * L, n0 = (size_t)j * (size_t)cols;
 		const int64_t *restrict ep = j ? rs->e[~j & 1] : rs->ez;
@@ -1214,6 +1289,70 @@ row_decode_mode(const pctx *c, const int mode, rowsc *rs, const syms *sy,
 		int32_t *restrict kr = recon->k + M0;
 		const int32_t *ar = r0 + M0, *br = r1 + M0, *cr = r2 + M0;
 		const uint8_t *cl = cls + n0;
+		if (flat) {
+			size_t ee[3] = {e0, e1, e2};
+			for (int d = 0; d < 3; d++) {
+				const size_t k0 = (size_t)d * lossy + n0;
+				size_t e = ee[d];
+				uint64_t *restrict ud = uu + d;
+				int i = 0;
+				/* up to 29 symbols from a word read at once, while the
+				 * word lies within the symbols' bytes */
+				while (i < cols && ((k0 + (size_t)i) >> 2) + 8 <= nsb) {
+					const size_t k = k0 + (size_t)i;
+					uint64_t wd;
+					memcpy(&wd, sb + (k >> 2), 8);
+					wd = le64(wd) >> (2 * (k & 3));
+					const int n = cols - i < 29 ? cols - i : 29;
+					wd &= ((uint64_t)1 << (2 * n)) - 1;
+					for (int t = 0; t < n; t++) /* the symbols, then the escapes */
+						ud[3 * (size_t)(i + t)] = (wd >> (2 * t)) & 3;
+					for (uint64_t em = wd & wd >> 1 & 0x5555555555555555u; em; em &= em - 1)
+						ud[3 * (size_t)(i + __builtin_ctzll(em) / 2)] = esc[e++];
+					i += n;
+				}
+				for (; i < cols; i++) {
+					const size_t k = k0 + (size_t)i;
+					const unsigned s = (sb[k >> 2] >> (2 * (k & 3))) & 3;
+					ud[3 * (size_t)i] = s == 3 ? esc[e] : s;
+					e += s == 3;
+				}
+				ee[d] = e;
+			}
+			e0 = ee[0], e1 = ee[1], e2 = ee[2];
+			for (size_t m = 0; m < L; m++) {
+				int64_t lin = 0;
+				const int64_t pr = row_predict(mode, ar[m], br[m], cr[m], ep + m,
+				                               &lin, g, gap, rinv);
+				kt[m] = pr + unzigzag(uu[m]);
+				lins[m] = lin;
+			}
+			double *val = rs->sq, *vv = rs->vv;
+			int32_t *kq = rs->kq;
+			row_values(L, kt, lins, LO, Q, prev->k + M0, inv, kq, ec, val, vv);
+			int b = 0;
+			for (size_t m = 0; m < L; m++) {
+				const int64_t k = kt[m];
+				b |= (k <= -CODE_MAX) | (k >= CODE_MAX);
+				kr[m] = kq[m];
+			}
+			bad |= b;
+			double *ox = o->x + S * n0, *ov = o->v + S * n0;
+			if (S == 6 && o->v == o->x + 3) { /* a node's 6 values together */
+				for (int i = 0; i < cols; i++) {
+					memcpy(ox + 6 * (size_t)i, val + 3 * (size_t)i, 3 * sizeof *val);
+					memcpy(ox + 6 * (size_t)i + 3, vv + 3 * (size_t)i, 3 * sizeof *vv);
+				}
+			} else {
+				for (int i = 0; i < cols; i++)
+					for (int d = 0; d < 3; d++) {
+						ox[S * (size_t)i + (size_t)d] = val[3 * (size_t)i + (size_t)d];
+						ov[S * (size_t)i + (size_t)d] = vv[3 * (size_t)i + (size_t)d];
+					}
+			}
+			row_pad(ec, L);
+			continue;
+		}
 		for (int i = 0; i < cols; i++) { /* the row's residuals, node by node */
 			const size_t m = 3 * (size_t)i;
 			if (cl[i] == NDO_NODE_LOSSY) { /* an escape: the component's next */
