@@ -1063,9 +1063,31 @@ static inline int64_t rdiv_by(int64_t a, int64_t b, uint64_t rinv)
 	return a < 0 ? -(int64_t)q : (int64_t)q;
 }
 
+/* A mode's references for the row loops: every pointer valid (r0 standing
+ * in for an unused one: loops without branches), the steps since r0 (g)
+ * and from r1 to r0 (gap: more than 1 after skipped steps), and the gap's
+ * reciprocal for rdiv_by(). */
+typedef struct refs {
+	const int32_t *r0, *r1, *r2;
+	int64_t g, gap;
+	uint64_t rinv;
+} refs;
+
+static inline __attribute__((always_inline)) refs refs_of(const pctx *c, const int mode)
+{
+	refs R;
+	R.r0 = c->r[0]->k;
+	R.r1 = mode != M_COPY ? c->r[1]->k : R.r0;
+	R.r2 = mode == M_CURVED ? c->r[2]->k : R.r0;
+	R.g = c->step - c->r[0]->step;
+	R.gap = mode == M_GAP ? c->r[0]->step - c->r[1]->step : 1;
+	R.rinv = UINT64_MAX / (uint64_t)R.gap;
+	return R;
+}
+
 static inline __attribute__((always_inline)) int64_t
 row_predict(const int mode, int64_t a, int64_t b, int64_t cc, const int64_t *ep, int64_t *lin,
-            int64_t g, int64_t gap, uint64_t rinv)
+            const refs *R)
 {
 	if (mode == M_COPY)
 		return a;
@@ -1075,9 +1097,9 @@ row_predict(const int mode, int64_t a, int64_t b, int64_t cc, const int64_t *ep,
 		*lin = 2 * a - b;
 		return *lin + half(corr);
 	}
-	if (gap == 1)
-		return a + (a - b) * g;
-	return a + rdiv_by((a - b) * g, gap, rinv);
+	if (R->gap == 1)
+		return a + (a - b) * R->g;
+	return a + rdiv_by((a - b) * R->g, R->gap, R->rinv);
 }
 
 static void row_pad(int64_t *e, size_t L)
@@ -1103,13 +1125,7 @@ row_encode_mode(const pctx *c, const int mode, rowsc *rs, const double *x, size_
 	const int cols = c->cols, rows = c->nodes / cols;
 	const size_t L = 3 * (size_t)cols;
 	const uint8_t *cls = c->cls;
-	/* every reference pointer valid (r0 standing in for an unused one): a
-	 * loop without branches */
-	const int32_t *r0 = c->r[0]->k, *r1 = mode != M_COPY ? c->r[1]->k : r0,
-	              *r2 = mode == M_CURVED ? c->r[2]->k : r0;
-	const int64_t g = c->step - c->r[0]->step,
-	              gap = mode == M_GAP ? c->r[0]->step - c->r[1]->step : 1;
-	const uint64_t rinv = UINT64_MAX / (uint64_t)gap;
+	const refs R = refs_of(c, mode);
 	const double *restrict LO = rs->lo, *restrict Q = rs->q;
 	double *restrict sq = rs->sq;
 	uint64_t *restrict uu = rs->uu;
@@ -1125,7 +1141,7 @@ row_encode_mode(const pctx *c, const int mode, rowsc *rs, const double *x, size_
 		const double *restrict xr = x + 3 * (size_t)j * xs;
 		int32_t *restrict kr = recon->k + M0;
 		double *restrict xo = recon->x + M0;
-		const int32_t *ar = r0 + M0, *br = r1 + M0, *cr = r2 + M0;
+		const int32_t *ar = R.r0 + M0, *br = R.r1 + M0, *cr = R.r2 + M0;
 		for (size_t m = 0; m < L; m++) { /* the codes (code_of()) */
 			const double xv = xr[m];
 			double t = (xv - LO[m]) / Q[m] + 0.5;
@@ -1143,7 +1159,7 @@ row_encode_mode(const pctx *c, const int mode, rowsc *rs, const double *x, size_
 			const int64_t kk = kr[m];
 			int64_t lin = 0;
 			const int64_t pr = row_predict(mode, ar[m], br[m], cr[m], ep + m,
-			                               &lin, g, gap, rinv);
+			                               &lin, &R);
 			ec[m] = kk - lin;
 			uu[m] = zigzag(kk - pr);
 		}
@@ -1259,13 +1275,7 @@ row_decode_mode(const pctx *c, const int mode, rowsc *rs, const syms *sy,
 	const int cols = c->cols, rows = c->nodes / cols;
 	const size_t L = 3 * (size_t)cols;
 	const uint8_t *cls = c->cls;
-	/* every reference pointer valid (r0 standing in for an unused one): a
-	 * loop without branches */
-	const int32_t *r0 = c->r[0]->k, *r1 = mode != M_COPY ? c->r[1]->k : r0,
-	              *r2 = mode == M_CURVED ? c->r[2]->k : r0;
-	const int64_t g = c->step - c->r[0]->step,
-	              gap = mode == M_GAP ? c->r[0]->step - c->r[1]->step : 1;
-	const uint64_t rinv = UINT64_MAX / (uint64_t)gap;
+	const refs R = refs_of(c, mode);
 	const double *restrict LO = rs->lo, *restrict Q = rs->q;
 	uint64_t *restrict uu = rs->uu;
 	int64_t *restrict lins = rs->lin, *restrict kt = rs->kt;
@@ -1287,7 +1297,7 @@ row_decode_mode(const pctx *c, const int mode, rowsc *rs, const syms *sy,
 		const int64_t *restrict ep = j ? rs->e[~j & 1] : rs->ez;
 		int64_t *restrict ec = rs->e[j & 1];
 		int32_t *restrict kr = recon->k + M0;
-		const int32_t *ar = r0 + M0, *br = r1 + M0, *cr = r2 + M0;
+		const int32_t *ar = R.r0 + M0, *br = R.r1 + M0, *cr = R.r2 + M0;
 		const uint8_t *cl = cls + n0;
 		if (flat) {
 			size_t ee[3] = {e0, e1, e2};
@@ -1323,7 +1333,7 @@ row_decode_mode(const pctx *c, const int mode, rowsc *rs, const syms *sy,
 			for (size_t m = 0; m < L; m++) {
 				int64_t lin = 0;
 				const int64_t pr = row_predict(mode, ar[m], br[m], cr[m], ep + m,
-				                               &lin, g, gap, rinv);
+				                               &lin, &R);
 				kt[m] = pr + unzigzag(uu[m]);
 				lins[m] = lin;
 			}
@@ -1373,7 +1383,7 @@ row_decode_mode(const pctx *c, const int mode, rowsc *rs, const syms *sy,
 		for (size_t m = 0; m < L; m++) {
 			int64_t lin = 0;
 			const int64_t pr = row_predict(mode, ar[m], br[m], cr[m], ep + m,
-			                               &lin, g, gap, rinv);
+			                               &lin, &R);
 			kt[m] = pr + unzigzag(uu[m]);
 			lins[m] = lin;
 		}
