@@ -72,8 +72,12 @@ ALLOW_FLIPS=1 remesh_ok octahedron-spring-embedder 3 octa.off --param spring --s
 # of the diagonal (Hausdorff; Praun-Hoppe's level 6 is 1.1%) and keeps
 # more than half of the ideal stretch
 h=$(json hand.json hausdorff_rel); e=$(json hand.json stretch_efficiency)
+es=$(json hand.json stretch_efficiency_sphere)
 if below "$h" 0.03 && below 0.0 "$h" && below 0.5 "$e"; then pass "hand-accuracy"
 else fail "hand-accuracy" "Hausdorff $h (want < 0.03), stretch efficiency $e (want > 0.5)"; fi
+# Praun-Hoppe's measure (spherical triangles) is an efficiency too: in (0.5, 1]
+if below 0.5 "$es" && below "$es" 1.000001; then pass "hand-stretch-sphere"
+else fail "hand-stretch-sphere" "stretch efficiency on the sphere $es (want in (0.5, 1])"; fi
 # the same mesh at a higher level is closer
 remesh_ok hand-level3 3 "$M/hand.off"
 h3=$(json hand-level3.json hausdorff_rel)
