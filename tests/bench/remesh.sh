@@ -60,9 +60,10 @@ bench_minutes=$(awk -v a="$bench_start" -v b="$(date +%s)" 'BEGIN { printf "%.1f
 	echo
 	echo "Command: \`tests/bench/remesh.sh\` (run by \`make bench\`), $(date -u '+%Y-%m-%d %H:%M UTC'),"
 	echo "$(nproc) cores, $(sed -n 's/^model name[[:space:]]*: //p' /proc/cpuinfo | head -n 1)."
-	echo "Defaults: hierarchical parameterization (Newton steps, --conformal 0.35, --importance 1,"
-	echo "the input split 1-to-4 while it stays under twice the grid's triangles and 100 000 faces),"
-	echo "blend domain map (--blend 0.3), rotation by estimated Hausdorff distance and fold-overs."
+	echo "Defaults: hierarchical parameterization (Newton steps, --conformal 0.35 and --importance 0.5"
+	echo "fading towards the finest level, --guard 12; an input split 1-to-4 while it stays under"
+	echo "twice the grid's triangles and 100 000 faces is not faded and has no guard), blend domain"
+	echo "map (--blend 0.3), rotation (--rotations 96) by estimated Hausdorff distance and fold-overs."
 	echo "PH = Praun & Hoppe 2003 (their implementation, figures from"
 	echo "shared/reference/praun-hoppe-tetra-remesh.tsv). Distances in % of the bounding-box"
 	echo "diagonal; fold = remesh faces against the nearest input face; self = self-intersecting"

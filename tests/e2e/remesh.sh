@@ -78,6 +78,16 @@ else fail "hand-accuracy" "Hausdorff $h (want < 0.03), stretch efficiency $e (wa
 # Praun-Hoppe's measure (spherical triangles) is an efficiency too: in (0.5, 1]
 if below 0.5 "$es" && below "$es" 1.000001; then pass "hand-stretch-sphere"
 else fail "hand-stretch-sphere" "stretch efficiency on the sphere $es (want in (0.5, 1])"; fi
+# the anisotropy guard does what it says: hand at level 4 (parameterized as
+# it is, not split) has less of its surface mapped with anisotropy over 10
+# with the default guard than without, and less again with a tighter one
+remesh_ok hand-guard-off 4 "$M/hand.off" --guard 0 --rotations 4
+remesh_ok hand-guard 4 "$M/hand.off" --rotations 4
+remesh_ok hand-guard-3 4 "$M/hand.off" --guard 3 --rotations 4
+g0=$(json hand-guard-off.json sliver_share); g12=$(json hand-guard.json sliver_share)
+g3=$(json hand-guard-3.json sliver_share)
+if below "$g12" "$g0" && below "$g3" "$g12"; then pass "hand-guard-slivers"
+else fail "hand-guard-slivers" "sliver share: no guard $g0, guard 12 $g12, guard 3 $g3 (want decreasing)"; fi
 # the same mesh at a higher level is closer
 remesh_ok hand-level3 3 "$M/hand.off"
 h3=$(json hand-level3.json hausdorff_rel)
@@ -151,6 +161,8 @@ expect_error bad-map 2 "--map: 'x' is not" remesh octa.off --map x
 expect_error bad-blend 2 '--blend' remesh octa.off --blend 1.5
 expect_error bad-conformal 2 '--conformal' remesh octa.off --conformal -1
 expect_error bad-importance 2 '--importance' remesh octa.off --importance 11
+expect_error bad-guard 2 '--guard: 0.5 is below 1' remesh octa.off --guard 0.5
+expect_error big-guard 2 '--guard' remesh octa.off --guard 1001
 expect_error bad-rotations 2 '--rotations' remesh octa.off --rotations 100001
 
 # the procedural shapes keep working, every option

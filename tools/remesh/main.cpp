@@ -41,13 +41,18 @@ static __attribute__((noreturn)) void usage(void)
 	       "                        spring (the thesis' spring embedder; may flip)\n"
 	       "      --sweeps N        hierarchical: final optimization sweeps, 0..100 (default 6)\n"
 	       "      --conformal W     hierarchical: weight of the inverse map's stretch, which\n"
-	       "                        keeps parameter triangles round (fewer fold-overs), 0..10\n"
+	       "                        keeps parameter triangles round (fewer fold-overs), 0..10,\n"
+	       "                        at the coarse levels, a tenth of it at the finest\n"
 	       "                        (default 0.35; 0: L2 stretch alone)\n"
+	       "      --guard T         hierarchical: the anisotropy (ratio of a triangle's\n"
+	       "                        stretches) above which the energy rises, 0 or 1..1000\n"
+	       "                        (default 12; 0: off); fewer fold-overs, less stretch\n"
 	       "      --importance B    hierarchical: extra samples where the surface is curved\n"
-	       "                        at the grid's scale, 0..10 (default 1; 0: none)\n"
+	       "                        at the grid's scale (half of it at the finest level),\n"
+	       "                        0..10 (default 0.5; 0: none)\n"
 	       "      --spring-steps N  spring: time steps, 1..100000 (default 400)\n"
 	       "      --no-relax        spring: without the relaxation step (eq. 4.7)\n"
-	       "      --rotations N     random domain rotations screened, 0..100000 (default 48)\n"
+	       "      --rotations N     random domain rotations screened, 0..100000 (default 96)\n"
 	       "      --no-rotation     keep the domain's rotation (default: optimized)\n"
 	       "      --report          print timings and quality on stderr (Hausdorff and\n"
 	       "                        RMS distance, fold-overs, self-intersections, stretch)\n"
@@ -136,8 +141,9 @@ static void print_json(FILE *f, const Report &r)
 		        r.rot.level, r.rot.evaluated, r.rot.hausdorff_before / r.diag,
 		        r.rot.hausdorff_after / r.diag, r.rot.flipped_before, r.rot.flipped_after);
 	fprintf(f, " \"stretch_efficiency\": %.6g, \"stretch_efficiency_sphere\": %.6g, \"flips\": %ld,"
-	           " \"subdivided\": %d, \"param_faces\": %zu,\n",
-	        r.ps.efficiency, r.ps.efficiency_sphere, r.ps.flips, r.ps.subdivided, r.ps.faces);
+	           " \"sliver_share\": %.6g, \"subdivided\": %d, \"param_faces\": %zu,\n",
+	        r.ps.efficiency, r.ps.efficiency_sphere, r.ps.flips, r.ps.sliver_share, r.ps.subdivided,
+	        r.ps.faces);
 	fprintf(f, " \"remesh_stretch_efficiency\": %.6g, \"area_ratio\": %.6g, \"degenerate\": %ld,\n",
 	        r.q.efficiency, r.q.area_ratio, r.q.degenerate);
 	fprintf(f, " \"hausdorff_rel\": %.6g, \"rms_rel\": %.6g, \"flipped\": %ld, \"selfintersect\": %ld,\n",
@@ -159,8 +165,9 @@ static void print_report(FILE *f, const Report &r)
 	fprintf(f, "%s: %zu vertices, %zu faces → level %d grid (%zu vertices, %zu triangles)\n",
 	        r.input.c_str(), r.in_vertices, r.in_faces, r.level, nv, nt);
 	fprintf(f, "  parameterization  %s: L2 stretch efficiency %.3f (on spherical triangles %.3f),\n"
-	           "                    %ld flipped spherical triangles\n",
-	        r.param, r.ps.efficiency, r.ps.efficiency_sphere, r.ps.flips);
+	           "                    %ld flipped spherical triangles, %.2f%% of the surface mapped\n"
+	           "                    with anisotropy over 10\n",
+	        r.param, r.ps.efficiency, r.ps.efficiency_sphere, r.ps.flips, 100 * r.ps.sliver_share);
 	if (r.ps.subdivided)
 		fprintf(f, "                    (of the input split 1-to-4 %d× first: %zu faces)\n",
 		        r.ps.subdivided, r.ps.faces);
@@ -189,7 +196,7 @@ static void print_report(FILE *f, const Report &r)
 struct MeshOptions {
 	ParamOptions po;
 	Domain dom;
-	int rotations = 48;
+	int rotations = 96;
 	bool rotate = true, report = false, json = false;
 	const char *json_path = nullptr;
 };
@@ -218,6 +225,7 @@ static ndo_grid *remesh_file(const char *path, int level, const MeshOptions &o, 
 	Mesh mr;
 	int sub = o.po.method == ParamMethod::Hierarchical ? param_mesh(m, level, mr) : 0;
 	const Mesh &mp = sub ? mr : m;
+	po.fade = sub == 0;
 	parameterize(mp, po, s, r.ps);
 	r.ps.subdivided = sub, r.ps.faces = mp.f.size();
 	if (r.ps.placement_failures)
@@ -261,7 +269,7 @@ int main(int argc, char **argv)
 	const char *map_name = nullptr;
 	enum { OPT_MAP = 256, OPT_AXES, OPT_AMP, OPT_FREQ, OPT_VERSION, OPT_PARAM, OPT_SWEEPS,
 	       OPT_SPRING_STEPS, OPT_NO_RELAX, OPT_NO_ROT, OPT_REPORT, OPT_JSON, OPT_BLEND,
-	       OPT_CONFORMAL, OPT_IMPORTANCE, OPT_ROTATIONS };
+	       OPT_CONFORMAL, OPT_IMPORTANCE, OPT_ROTATIONS, OPT_GUARD };
 	static const struct option opts[] = {
 		{"shape", required_argument, 0, 's'},
 		{"level", required_argument, 0, 'l'},
@@ -279,6 +287,7 @@ int main(int argc, char **argv)
 		{"blend", required_argument, 0, OPT_BLEND},
 		{"conformal", required_argument, 0, OPT_CONFORMAL},
 		{"importance", required_argument, 0, OPT_IMPORTANCE},
+		{"guard", required_argument, 0, OPT_GUARD},
 		{"report", no_argument, 0, OPT_REPORT},
 		{"json", optional_argument, 0, OPT_JSON},
 		{"help", no_argument, 0, 'h'},
@@ -306,6 +315,11 @@ int main(int argc, char **argv)
 		case OPT_BLEND: mo.dom.blend = ndo_opt_double("--blend", optarg, 0, 1); break;
 		case OPT_CONFORMAL: mo.po.conformal = ndo_opt_double("--conformal", optarg, 0, 10); break;
 		case OPT_IMPORTANCE: mo.po.importance = ndo_opt_double("--importance", optarg, 0, 10); break;
+		case OPT_GUARD:
+			mo.po.guard = ndo_opt_double("--guard", optarg, 0, 1000);
+			if (mo.po.guard > 0 && mo.po.guard < 1)
+				ndo_usage_error("--guard: %s is below 1 (Γ/γ ≥ 1); 0 turns the guard off", optarg);
+			break;
 		case OPT_ROTATIONS: mo.rotations = (int)ndo_opt_long("--rotations", optarg, 0, 100000); break;
 		case OPT_AXES: ndo_opt_doubles("--axes", optarg, 3, sp.axes, 1e-6, 1e6); break;
 		case OPT_AMP: sp.amplitude = ndo_opt_double("--amplitude", optarg, -0.9, 0.9); break;

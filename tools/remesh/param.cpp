@@ -81,7 +81,24 @@ struct FaceGeom {
 	double a3;     /* surface area */
 	double L[3];   /* squared surface edge lengths opposite each corner */
 	double mu = 0; /* weight of the inverse map's Dirichlet energy */
+	double gk = 0, gm = 0; /* anisotropy guard: weight, bound (below) */
 };
+
+/* The anisotropy guard: gk (M / gm − 1)² where M = ‖J‖² / det J = Γ/γ +
+ * γ/Γ (the MIPS energy: 2 for a similar triangle, about the ratio Γ/γ of
+ * the singular values for a thin one) exceeds gm; nothing below.  The
+ * grid's fold-overs sit on such slivers: on bunny00 half of them on the
+ * 0.4% of the surface where Γ/γ > 20 (median Γ/γ of all faces 1.5), and
+ * curvature or undersampling (Γ) pick them out far worse.  Unlike the
+ * inverse term, which pulls every triangle towards a similar one at a
+ * cost in stretch everywhere, the guard only caps the anisotropy. */
+static inline double guard_energy(const FaceGeom &g, double N, double cl)
+{
+	if (!(g.gk > 0))
+		return 0;
+	double M = N / (2 * g.a3 * cl);
+	return M > g.gm ? g.gk * (M / g.gm - 1) * (M / g.gm - 1) : 0;
+}
 
 static FaceGeom face_geom(const std::vector<Vec3> &X, const Tri &t, bool floor = true)
 {
@@ -143,13 +160,14 @@ static double face_energy(const FaceGeom &g, const Vec3 &p0, const Vec3 &p1, con
 			return INF;
 		double q = 0.5 * std::sqrt(c2) / as;
 		if (q * q * h > 1)
-			return 0.5 * g.a3 * N / c2 * q * q + g.mu * N / g.a3;
+			return 0.5 * g.a3 * N / c2 * q * q + g.mu * N / g.a3 + guard_energy(g, N, std::sqrt(c2));
 	}
-	return 0.5 * g.a3 * N / c2 / h + g.mu * N / g.a3;
+	return 0.5 * g.a3 * N / c2 / h + g.mu * N / g.a3 + guard_energy(g, N, std::sqrt(c2));
 }
 
 /* Its gradient with respect to p0 (p1, p2 fixed): with E = (A3/2) N/|c|²
- * + mu N / A3, ∇N = −L0 (a + b) + (L1 − L2) e0 and ∇|c|² = 2 c × e0. */
+ * + mu N / A3, ∇N = −L0 (a + b) + (L1 − L2) e0 and ∇|c|² = 2 c × e0;
+ * the guard's M = N / (2 A3 |c|). */
 static Vec3 face_grad0(const FaceGeom &g, const Vec3 &p0, const Vec3 &p1, const Vec3 &p2)
 {
 	Vec3 a = sub(p1, p0), b = sub(p2, p0), e0 = sub(p2, p1);
@@ -160,6 +178,14 @@ static Vec3 face_grad0(const FaceGeom &g, const Vec3 &p0, const Vec3 &p1, const 
 	Vec3 gc = mul(cross(c, e0), 2 * N / c2);
 	Vec3 gE = mul(sub(gN, gc), 0.5 * g.a3 / c2);
 	double E = 0.5 * g.a3 * N / c2;
+	Vec3 gI = mul(gN, g.mu / g.a3); /* the inverse term and the guard */
+	if (g.gk > 0) {
+		double cl = std::sqrt(c2), M = N / (2 * g.a3 * cl);
+		if (M > g.gm) {
+			Vec3 gM = sub(mul(gN, 1 / (2 * g.a3 * cl)), mul(cross(c, e0), N / (2 * g.a3 * cl * c2)));
+			gI = add(gI, mul(gM, 2 * g.gk * (M / g.gm - 1) / g.gm));
+		}
+	}
 	/* h = orient / (3|c|): ∇orient = S × e0 + c, ∇|c| = (c × e0)/|c| */
 	Vec3 S = add(add(p0, p1), p2);
 	double cl = std::sqrt(c2), orient = dot(c, S), h = orient / (3 * cl);
@@ -176,10 +202,10 @@ static Vec3 face_grad0(const FaceGeom &g, const Vec3 &p0, const Vec3 &p1, const 
 			Vec3 gas = mul(sub(mul(cross(p1, p2), den), mul(add(p1, p2), num)), 2 / (num * num + den * den));
 			Vec3 gq = sub(mul(gap, 1 / as), mul(gas, ap / (as * as)));
 			Vec3 r = add(mul(gE, q * q), mul(gq, 2 * q * E));
-			return add(r, mul(gN, g.mu / g.a3));
+			return add(r, gI);
 		}
 	}
-	return add(sub(mul(gE, 1 / h), mul(gh, E / (h * h))), mul(gN, g.mu / g.a3));
+	return add(sub(mul(gE, 1 / h), mul(gh, E / (h * h))), gI);
 }
 
 /* Praun–Hoppe's measure of one face (their SphereParam's efficiency):
@@ -221,7 +247,7 @@ static double sphere_face_stretch(const Vec3 d[3], const Vec3 x[3])
 
 void param_measure(const Mesh &m, const std::vector<Vec3> &s, ParamStats &st)
 {
-	double E = 0, A3 = 0, Ap = 0, Es = 0;
+	double E = 0, A3 = 0, Ap = 0, Es = 0, Asliver = 0;
 	long flips = 0;
 	for (const Tri &t : m.f) {
 		FaceGeom g = face_geom(m.p, t, false);
@@ -234,13 +260,19 @@ void param_measure(const Mesh &m, const std::vector<Vec3> &s, ParamStats &st)
 		 * valid triangle too thin for face_energy's margin counts too */
 		Vec3 a = sub(p1, p0), b = sub(p2, p0), e0 = sub(p2, p1);
 		Vec3 c = cross(a, b);
-		E += 0.5 * g.a3 * (g.L[0] * dot(a, b) - g.L[1] * dot(a, e0) + g.L[2] * dot(b, e0)) / dot(c, c);
+		double N = g.L[0] * dot(a, b) - g.L[1] * dot(a, e0) + g.L[2] * dot(b, e0);
+		E += 0.5 * g.a3 * N / dot(c, c);
+		/* Γ/γ = r with r + 1/r = M = ‖J‖² / det J */
+		double M = N / (2 * g.a3 * norm(c));
+		if (!(g.a3 > 0) || 0.5 * (M + std::sqrt(std::max(0.0, M * M - 4))) > 10)
+			Asliver += g.a3;
 		Vec3 d[3] = {p0, p1, p2}, x[3] = {m.p[t[0]], m.p[t[1]], m.p[t[2]]};
 		Es += sphere_face_stretch(d, x);
 		A3 += g.a3;
 		Ap += 0.5 * norm(cross(sub(p1, p0), sub(p2, p0)));
 	}
 	st.flips = flips;
+	st.sliver_share = A3 > 0 ? Asliver / A3 : 0;
 	/* Scale the parameter to the surface's total area: L2² = E·ΣA_p/(ΣA3)². */
 	st.efficiency = E > 0 && std::isfinite(E) ? A3 * A3 / (E * Ap) : 0;
 	/* Praun–Hoppe's: the sphere's area 4π as the parameter's, and the
@@ -249,7 +281,8 @@ void param_measure(const Mesh &m, const std::vector<Vec3> &s, ParamStats &st)
 }
 
 /* How much each face matters for the grid of `level`: 1 + beta · min(8,
- * κ h), with h the grid's mean edge length on this surface and κ a
+ * max(0, κ h − 1)) (only what is curved at the grid's scale: a weight on
+ * every face costs stretch everywhere, which bunny00 cannot spare), with h the grid's mean edge length on this surface and κ a
  * curvature: the largest dihedral angle of the face over the distance
  * between the two centroids, averaged over about h (n Jacobi sweeps over
  * face neighbours spread over √n face widths).  A surface triangle that
@@ -258,7 +291,7 @@ void param_measure(const Mesh &m, const std::vector<Vec3> &s, ParamStats &st)
  * linear interpolant from a curved surface grows like κ h², so curved
  * places (tips of thin parts, rims, creases) get the samples that bring
  * the Hausdorff distance down, flat places give them up. */
-static std::vector<double> importance(const Mesh &m, int level, double beta)
+static std::vector<double> importance(const Mesh &m, int level, double beta, double k0)
 {
 	size_t nf = m.f.size();
 	std::vector<double> imp(nf, 1.0);
@@ -312,7 +345,7 @@ static std::vector<double> importance(const Mesh &m, int level, double beta)
 		kap.swap(nk);
 	}
 	for (size_t i = 0; i < nf; i++)
-		imp[i] = 1 + beta * std::min(8.0, kap[i] * h);
+		imp[i] = 1 + beta * std::min(8.0, std::max(0.0, kap[i] * h - k0));
 	return imp;
 }
 
@@ -566,9 +599,12 @@ struct Optimizer {
 	std::vector<FaceGeom> geom; /* per face, for the face's current corners */
 
 	double mu;                  /* inverse-term weight of a face of importance 1 */
+	double ia = 1;              /* share of the importance in force */
+	double gk = 0, gm = 0;      /* guard: weight per s0² A3, MIPS bound */
+	double s02;                 /* the sphere's mean scale², A / 4π */
 
-	Optimizer(const Hier &hier, std::vector<Vec3> &sphere, double mu1)
-	    : h(hier), s(sphere), geom(hier.f.size()), mu(mu1)
+	Optimizer(const Hier &hier, std::vector<Vec3> &sphere, double mu1, double scale2)
+	    : h(hier), s(sphere), geom(hier.f.size()), mu(mu1), s02(scale2)
 	{
 	}
 
@@ -579,19 +615,30 @@ struct Optimizer {
 	 * importance enters the same way.  The inverse term grows with the
 	 * square of the importance, so that faces weighed larger keep their
 	 * shape as they get more of the sphere (measured: without it the
-	 * important places fold over). */
+	 * important places fold over).  The share ia of the importance in
+	 * force, mu and the guard change over the hierarchy (hierarchical()). */
 	void refresh(int fi)
 	{
 		FaceGeom &g = geom[fi];
 		g = face_geom(h.m.p, h.f[fi]);
-		if (h.w[fi] > g.a3) {
-			double r = h.w[fi] / g.a3;
+		double w = h.w0[fi] + ia * (h.w[fi] - h.w0[fi]);
+		if (w > g.a3) {
+			double r = w / g.a3;
 			g.a3 *= r;
 			for (double &L : g.L)
 				L *= r;
 		}
-		double imp = h.w0[fi] > 0 ? h.w[fi] / h.w0[fi] : 1;
+		double imp = h.w0[fi] > 0 ? w / h.w0[fi] : 1;
 		g.mu = mu * imp * imp;
+		g.gk = gk * g.a3 * s02;
+		g.gm = gm;
+	}
+
+	void refresh_all()
+	{
+		for (size_t fi = 0; fi < h.f.size(); fi++)
+			if (h.falive[fi])
+				refresh((int)fi);
 	}
 
 	/* Energy of v's faces with v at p. */
@@ -706,6 +753,41 @@ struct Optimizer {
 	}
 
 	bool valid(int v, const Vec3 &p) const { return energy(v, p) < INF; }
+
+	/* The alive vertices in classes no two of which share a face (greedy
+	 * colouring): relax() reads v's ring and writes only v, so a class
+	 * relaxes in parallel, and the result does not depend on the number
+	 * of threads. */
+	void colour(const std::vector<int> &alive, std::vector<std::vector<int>> &cls) const
+	{
+		std::vector<int> col(h.m.p.size(), -1);
+		std::vector<char> used;
+		cls.clear();
+		for (int v : alive) {
+			used.assign(cls.size() + 1, 0);
+			for (int fi : h.vf[v])
+				for (int w : h.f[fi])
+					if (w != v && col[w] >= 0)
+						used[col[w]] = 1;
+			int c = 0;
+			while (used[c])
+				c++;
+			if (c == (int)cls.size())
+				cls.emplace_back();
+			col[v] = c;
+			cls[c].push_back(v);
+		}
+	}
+
+	/* One Gauss–Seidel sweep, class by class (in parallel within one). */
+	void sweep(const std::vector<std::vector<int>> &cls, int iters)
+	{
+		for (const std::vector<int> &c : cls) {
+#pragma omp parallel for schedule(dynamic, 64)
+			for (size_t i = 0; i < c.size(); i++)
+				relax(c[i], iters);
+		}
+	}
 
 	/* Put the vertex c.v just split off c.u at a point of its ring's
 	 * kernel: the ring's centroid if that is inside, else a point near u
@@ -822,7 +904,12 @@ static void hierarchical(const Mesh &m, const ParamOptions &o, std::vector<Vec3>
 	for (const Tri &t : m.f)
 		A += 0.5 * norm(cross(sub(m.p[t[1]], m.p[t[0]]), sub(m.p[t[2]], m.p[t[0]])));
 	double s02 = A / (4 * M_PI);
-	Hier h(m, importance(m, o.level, o.importance));
+	/* A split copy (no fade, below) weighs every curved face, twice as
+	 * much: its fine levels cannot give the tips their samples otherwise
+	 * (triceratops at level 7: Hausdorff 0.475% with the unsplit mesh's
+	 * weights, 0.347% so; Praun–Hoppe 0.449%). */
+	Hier h(m, o.fade ? importance(m, o.level, o.importance, 1)
+	                 : importance(m, o.level, 2 * o.importance, 0));
 	h.simplify(4);
 	st.base_vertices = h.nalive;
 	if (h.nalive != 4) /* cannot happen for a valid genus-0 input */
@@ -830,17 +917,50 @@ static void hierarchical(const Mesh &m, const ParamOptions &o, std::vector<Vec3>
 		                         " vertices");
 	s.assign(m.p.size(), {0, 0, 0});
 	embed_base(h, s);
-	Optimizer opt(h, s, o.conformal * s02 * s02 / 8);
-	for (size_t fi = 0; fi < h.f.size(); fi++)
-		if (h.falive[fi])
-			opt.refresh((int)fi);
+	const double mu1 = o.conformal * s02 * s02 / 8;
+	Optimizer opt(h, s, mu1, s02);
+	if (o.guard > 0 && o.fade) { /* with the fade only: see below */
+		opt.gk = 2; /* at M = 2 gm, twice a similar triangle's stretch */
+		opt.gm = o.guard + 1 / o.guard;
+	}
+	/* The schedule.  The coarse levels share the sphere out between the
+	 * parts of the surface, and the fine sweeps cannot move much of it
+	 * (measured); there the inverse term and the importance give thin and
+	 * curved parts their due.  From n0 = 0.3% of the vertices on, both
+	 * fade (t = √(log(n / n0) / log(N / n0)), 0 → 1): the importance to
+	 * half and the inverse term to a tenth, so the fine levels minimize
+	 * stretch, and the guard keeps them from the slivers that fold the
+	 * grid over.  Not on a 1-to-4 split copy (param_mesh): its fine levels
+	 * are flat patches of the input's faces, with no detail for the fade
+	 * to win stretch on, and faded they fold over (cactus, 1236 faces
+	 * split three times, at level 7: 1076 fold-overs, 40 unfaded; Praun–
+	 * Hoppe 807).  Unfaded, the full inverse term does the guard's work,
+	 * and the guard only gets in its way (fandisk: 4 fold-overs with it,
+	 * 0 without; Praun–Hoppe 0).  Measured at level 7 (stretch on spherical triangles,
+	 * fold-overs; Praun–Hoppe 0.72 / 126, 0.42 / 809, 0.24 / 2524):
+	 * bunny00, armadillo, man with the full weights throughout 0.703 / 0,
+	 * 0.393 / 180, 0.220 / 1308; faded without the guard 0.720 / 35,
+	 * 0.429 / 904, 0.256 / 2878; with it, and 24 sweeps per step, see
+	 * docs/bench/remesh.md. */
+	const size_t N = m.p.size();
+	const double n0 = std::max(8.0, 0.003 * (double)N);
+	auto schedule = [&](size_t alive) {
+		double t = 0;
+		if (o.fade && (double)alive > n0)
+			t = std::sqrt(std::min(1.0, std::log(alive / n0) / std::log(N / n0)));
+		opt.mu = mu1 * (1 - 0.9 * t);
+		opt.ia = 1 - 0.5 * t;
+		opt.refresh_all();
+	};
+	schedule(4);
 	std::vector<int> alive;
 	for (size_t v = 0; v < m.p.size(); v++)
 		if (h.valive[v])
 			alive.push_back((int)v);
+	std::vector<std::vector<int>> cls;
+	opt.colour(alive, cls);
 	for (int sweep = 0; sweep < 20; sweep++)
-		for (int v : alive)
-			opt.relax(v, 2);
+		opt.sweep(cls, 2);
 	size_t nsplit = h.rec.size();
 	double next = 8;
 	long failures = 0;
@@ -861,23 +981,26 @@ static void hierarchical(const Mesh &m, const ParamOptions &o, std::vector<Vec3>
 			opt.relax(w, 1);
 		if (alive.size() >= next) {
 			/* Praun–Hoppe optimize all vertices whenever the mesh has
-			 * grown by a constant factor: linear total cost.  Eight
-			 * sweeps each time: the coarse levels decide how the sphere
-			 * is shared out, which the fine sweeps cannot move far
-			 * (measured, stretch efficiency of armadillo / man: one
-			 * sweep 0.283 / 0.152, four 0.330 / 0.164 — with gradient
-			 * descent; more sweeps at the end barely move it). */
-			for (int sweep = 0; sweep < 8; sweep++)
-				for (int v : alive)
-					opt.relax(v, 1);
+			 * grown by a constant factor: linear total cost.  24 sweeps
+			 * each time: the coarse levels decide how the sphere is
+			 * shared out, which the fine sweeps cannot move far
+			 * (measured, stretch efficiency of bunny00 / armadillo / man
+			 * with the guard, 8 sweeps 0.719 / 0.431 / 0.247, 16 0.724 / 0.437 /
+			 * 0.257, 24 0.726 / 0.441 / 0.261 — fold-overs grow with
+			 * it; more sweeps at the end barely move it). */
+			schedule(alive.size());
+			opt.colour(alive, cls);
+			for (int sweep = 0; sweep < 24; sweep++)
+				opt.sweep(cls, 1);
 			next = std::max(next * 1.3, next + 8);
 		}
 		if ((k & 511) == 0)
 			progress("parameterize", 1.0 - (double)k / (double)nsplit);
 	}
+	schedule(alive.size());
+	opt.colour(alive, cls);
 	for (int sweep = 0; sweep < o.sweeps; sweep++) {
-		for (int v : alive)
-			opt.relax(v, 2);
+		opt.sweep(cls, 2);
 		progress("optimize", (sweep + 1.0) / o.sweeps);
 	}
 	st.placement_failures = failures;

@@ -56,13 +56,17 @@ struct ParamOptions {
 	double spring_c = 0.95;  /* spring embedder: the thesis' C (eq. 4.4) */
 	int relax = 1;           /* spring embedder: relaxation (eq. 4.7) on */
 	double conformal = 0.35; /* hierarchical: weight of the inverse map's Dirichlet energy */
-	double importance = 1;   /* hierarchical: curvature importance (0: plain L2 stretch) */
+	double importance = 0.5; /* hierarchical: curvature importance (0: plain L2 stretch) */
+	double guard = 12;       /* hierarchical: anisotropy Γ/γ the guard allows (0: off) */
+	bool fade = true;        /* hierarchical: fade the inverse term and importance (not
+	                          * for a split copy, see hierarchical()) */
 	int level = 0;           /* hierarchical: the grid level it is for (importance's scale) */
 };
 struct ParamStats {
 	double efficiency = 0; /* L2 stretch efficiency (Sander 2001, 1 = isometric) */
 	double efficiency_sphere = 0; /* the same as Praun–Hoppe measure it: spherical triangles */
 	long flips = 0;        /* spherical triangles with det(s_a, s_b, s_c) <= 0 */
+	double sliver_share = 0; /* share of the surface mapped with anisotropy Γ/γ > 10 */
 	int base_vertices = 0; /* hierarchical: vertices of the base mesh */
 	long placement_failures = 0; /* hierarchical: splits with no kernel point found (0 expected) */
 	int subdivided = 0;    /* times the input was split 1-to-4 first (param_mesh) */

@@ -78,6 +78,7 @@ void SphereIndex::build(const Vec3 *pts, const int32_t *tri, size_t ntri, const 
 	tree.clear();
 	tree.insert(tris.cbegin(), tris.cend());
 	tree.build();
+	tree.accelerate_distance_queries(); /* now, not at the first query: queries run in parallel */
 }
 
 int SphereIndex::find(const Vec3 &q, double b[3], int f) const

@@ -295,27 +295,41 @@ void optimize_rotation(const SphereLocator *l, const Domain &dom, int level, int
 	std::vector<int> faces;
 	/* One number to minimize: the larger one-way distance, raised by the
 	 * share of folded triangles (1% folded counts as 30% farther). */
-	auto score = [&](const DomainIndex &di, const double M[9], Deviation *out) {
-		Deviation dv = deviation(l, di, M, pos, faces);
+	auto score_in = [&](const DomainIndex &di, const double M[9], Deviation *out,
+	                    std::vector<double> &p, std::vector<int> &f) {
+		Deviation dv = deviation(l, di, M, p, f);
 		if (out)
 			*out = dv;
 		return std::max(dv.in, dv.out) * (1 + 30.0 * dv.folds / (double)(di.tri.size() / 3));
+	};
+	auto score = [&](const DomainIndex &di, const double M[9], Deviation *out) {
+		return score_in(di, M, out, pos, faces);
 	};
 	const double I[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
 	int total = rotations + 1 + top + refine, done = 0;
 	/* 1. the identity and `rotations` random rotations (fixed seed), at
 	 * the coarser level */
-	std::vector<std::pair<double, std::array<double, 9>>> cand;
+	std::vector<std::pair<double, std::array<double, 9>>> cand(rotations + 1);
 	std::mt19937 rng(12345);
 	for (int k = 0; k <= rotations; k++) {
-		std::array<double, 9> M;
+		std::array<double, 9> &M = cand[k].second;
 		if (k == 0)
 			std::copy(I, I + 9, M.begin());
 		else
 			random_rotation(rng, M.data());
-		cand.push_back({score(ds, M.data(), nullptr), M});
-		progress("rotation", (double)++done / total);
 	}
+	/* independent: in parallel, each thread with its own buffers (the
+	 * locator's walks and its AABB tree are read-only) */
+#pragma omp parallel
+	{
+		std::vector<double> p;
+		std::vector<int> f;
+#pragma omp for schedule(dynamic, 1)
+		for (int k = 0; k <= rotations; k++)
+			cand[k].first = score_in(ds, cand[k].second.data(), nullptr, p, f);
+	}
+	done += rotations + 1;
+	progress("rotation", (double)done / total);
 	/* 2. the identity (so the result is never estimated worse) and the
 	 * best few at the requested level */
 	std::stable_sort(cand.begin(), cand.end(),
