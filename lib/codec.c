@@ -1102,6 +1102,21 @@ row_predict(const int mode, int64_t a, int64_t b, int64_t cc, const int64_t *ep,
 	return a + rdiv_by((a - b) * R->g, R->gap, R->rinv);
 }
 
+/* The decoder's codes of a row: each prediction plus its residual uu
+ * (zigzagged), and the linear part of the prediction (lins). */
+static inline __attribute__((always_inline)) void
+row_codes(const int mode, size_t L, const int32_t *restrict ar, const int32_t *restrict br,
+          const int32_t *restrict cr, const int64_t *restrict ep, const uint64_t *restrict uu,
+          int64_t *restrict kt, int64_t *restrict lins, const refs *R)
+{
+	for (size_t m = 0; m < L; m++) {
+		int64_t lin = 0;
+		const int64_t pr = row_predict(mode, ar[m], br[m], cr[m], ep + m, &lin, R);
+		kt[m] = pr + unzigzag(uu[m]);
+		lins[m] = lin;
+	}
+}
+
 static void row_pad(int64_t *e, size_t L)
 {
 	for (int d = 0; d < 3; d++)
@@ -1330,13 +1345,7 @@ row_decode_mode(const pctx *c, const int mode, rowsc *rs, const syms *sy,
 				ee[d] = e;
 			}
 			e0 = ee[0], e1 = ee[1], e2 = ee[2];
-			for (size_t m = 0; m < L; m++) {
-				int64_t lin = 0;
-				const int64_t pr = row_predict(mode, ar[m], br[m], cr[m], ep + m,
-				                               &lin, &R);
-				kt[m] = pr + unzigzag(uu[m]);
-				lins[m] = lin;
-			}
+			row_codes(mode, L, ar, br, cr, ep, uu, kt, lins, &R);
 			double *val = rs->sq, *vv = rs->vv;
 			int32_t *kq = rs->kq;
 			row_values(L, kt, lins, LO, Q, prev->k + M0, inv, kq, ec, val, vv);
@@ -1380,13 +1389,7 @@ row_decode_mode(const pctx *c, const int mode, rowsc *rs, const syms *sy,
 				uu[m] = uu[m + 1] = uu[m + 2] = 0;
 			}
 		}
-		for (size_t m = 0; m < L; m++) {
-			int64_t lin = 0;
-			const int64_t pr = row_predict(mode, ar[m], br[m], cr[m], ep + m,
-			                               &lin, &R);
-			kt[m] = pr + unzigzag(uu[m]);
-			lins[m] = lin;
-		}
+		row_codes(mode, L, ar, br, cr, ep, uu, kt, lins, &R);
 		/* codes (out of range: 0, the frame rejected below), values,
 		 * velocity estimates */
 		double *val = rs->sq, *vv = rs->vv;
