@@ -92,11 +92,11 @@ struct FaceGeom {
  * curvature or undersampling (Γ) pick them out far worse.  Unlike the
  * inverse term, which pulls every triangle towards a similar one at a
  * cost in stretch everywhere, the guard only caps the anisotropy. */
-static inline double guard_energy(const FaceGeom &g, double N, double cl)
+static inline double guard_energy(const FaceGeom &g, double N, double c2)
 {
 	if (!(g.gk > 0))
 		return 0;
-	double M = N / (2 * g.a3 * cl);
+	double M = N / (2 * g.a3 * std::sqrt(c2));
 	return M > g.gm ? g.gk * (M / g.gm - 1) * (M / g.gm - 1) : 0;
 }
 
@@ -160,9 +160,9 @@ static double face_energy(const FaceGeom &g, const Vec3 &p0, const Vec3 &p1, con
 			return INF;
 		double q = 0.5 * std::sqrt(c2) / as;
 		if (q * q * h > 1)
-			return 0.5 * g.a3 * N / c2 * q * q + g.mu * N / g.a3 + guard_energy(g, N, std::sqrt(c2));
+			return 0.5 * g.a3 * N / c2 * q * q + g.mu * N / g.a3 + guard_energy(g, N, c2);
 	}
-	return 0.5 * g.a3 * N / c2 / h + g.mu * N / g.a3 + guard_energy(g, N, std::sqrt(c2));
+	return 0.5 * g.a3 * N / c2 / h + g.mu * N / g.a3 + guard_energy(g, N, c2);
 }
 
 /* Its gradient with respect to p0 (p1, p2 fixed): with E = (A3/2) N/|c|²
@@ -178,9 +178,10 @@ static Vec3 face_grad0(const FaceGeom &g, const Vec3 &p0, const Vec3 &p1, const 
 	Vec3 gc = mul(cross(c, e0), 2 * N / c2);
 	Vec3 gE = mul(sub(gN, gc), 0.5 * g.a3 / c2);
 	double E = 0.5 * g.a3 * N / c2;
+	const double cl = std::sqrt(c2);
 	Vec3 gI = mul(gN, g.mu / g.a3); /* the inverse term and the guard */
 	if (g.gk > 0) {
-		double cl = std::sqrt(c2), M = N / (2 * g.a3 * cl);
+		double M = N / (2 * g.a3 * cl);
 		if (M > g.gm) {
 			Vec3 gM = sub(mul(gN, 1 / (2 * g.a3 * cl)), mul(cross(c, e0), N / (2 * g.a3 * cl * c2)));
 			gI = add(gI, mul(gM, 2 * g.gk * (M / g.gm - 1) / g.gm));
@@ -188,7 +189,7 @@ static Vec3 face_grad0(const FaceGeom &g, const Vec3 &p0, const Vec3 &p1, const 
 	}
 	/* h = orient / (3|c|): ∇orient = S × e0 + c, ∇|c| = (c × e0)/|c| */
 	Vec3 S = add(add(p0, p1), p2);
-	double cl = std::sqrt(c2), orient = dot(c, S), h = orient / (3 * cl);
+	double orient = dot(c, S), h = orient / (3 * cl);
 	Vec3 gh = mul(sub(mul(add(cross(S, e0), c), cl), mul(cross(c, e0), orient / cl)), 1 / (3 * c2));
 	{
 		/* the needle branch of face_energy: E q², q = A_p / A_sph, with
@@ -264,7 +265,7 @@ void param_measure(const Mesh &m, const std::vector<Vec3> &s, ParamStats &st)
 		E += 0.5 * g.a3 * N / dot(c, c);
 		/* Γ/γ = r with r + 1/r = M = ‖J‖² / det J */
 		double M = N / (2 * g.a3 * norm(c));
-		if (!(g.a3 > 0) || 0.5 * (M + std::sqrt(std::max(0.0, M * M - 4))) > 10)
+		if (0.5 * (M + std::sqrt(std::max(0.0, M * M - 4))) > 10)
 			Asliver += g.a3;
 		Vec3 d[3] = {p0, p1, p2}, x[3] = {m.p[t[0]], m.p[t[1]], m.p[t[2]]};
 		Es += sphere_face_stretch(d, x);
@@ -939,7 +940,8 @@ static void hierarchical(const Mesh &m, const ParamOptions &o, std::vector<Vec3>
 	 * 0 without; Praun–Hoppe 0).  Measured at level 7 (stretch on spherical triangles,
 	 * fold-overs; Praun–Hoppe 0.72 / 126, 0.42 / 809, 0.24 / 2524):
 	 * bunny00, armadillo, man with the full weights throughout 0.703 / 0,
-	 * 0.393 / 180, 0.220 / 1308; faded without the guard 0.720 / 35,
+	 * 0.393 / 180, 0.220 / 1308; the inverse term faded to 8% and the
+	 * importance to none, without the guard, 0.720 / 35,
 	 * 0.429 / 904, 0.256 / 2878; with it, and 24 sweeps per step, see
 	 * docs/bench/remesh.md. */
 	const size_t N = m.p.size();
