@@ -44,14 +44,28 @@ BIN := $(if $(filter 1,$(SAN)),build/asan/bin,bin)
 TBIN := $(OUT)/tests
 
 WARN := -Wall -Wextra -Wno-unused-parameter
-CPPFLAGS += -Ilib -D_GNU_SOURCE -MMD -MP
+# The library's layers, lowest first (lib/LAYER/, public headers in
+# lib/LAYER/ndo/, included as "ndo/NAME.h"): grid and geometry, physics,
+# network.  A layer's sources see only their own headers and those of the
+# layers below (LAYER_INC); tools and tests see every layer.
+# tests/e2e/layers.sh checks the same rule on the #include lines and that
+# no two files call each other.
+LAYERS := grid sim net
+grid_INC := -Ilib/grid
+sim_INC := -Ilib/sim $(grid_INC)
+net_INC := -Ilib/net $(sim_INC)
+lib/grid_CPPFLAGS = $(grid_INC)
+lib/sim_CPPFLAGS = $(sim_INC)
+lib/net_CPPFLAGS = $(net_INC) -I$(LCM_GEN_DIR)
+ALL_INC := $(net_INC)
+CPPFLAGS += -D_GNU_SOURCE -MMD -MP
 CFLAGS += -std=c11 $(OPTFLAGS) $(WARN)
 CXXFLAGS += -std=c++17 $(OPTFLAGS) $(WARN)
 LDFLAGS += $(filter -fsanitize=%,$(OPTFLAGS))
 # What a program linking lib/libndo.a links besides (ndo.pc says the same).
 NDO_LIBS := -lassimp -lz -lzstd -lm
 
-LIB_SRCS := $(sort $(wildcard lib/*.c))
+LIB_SRCS := $(sort $(foreach l,$(LAYERS),$(wildcard lib/$(l)/*.c)))
 LIB_OBJS := $(LIB_SRCS:%=$(OBJ)/%.o)
 
 TOOLS :=
@@ -77,13 +91,16 @@ $(LIBNDO): $(LIB_OBJS)
 	rm -f $@
 	ar rcs $@ $^
 
+# A directory's own flags ($(DIR)_CPPFLAGS) or, outside lib/, every layer.
+dir_cppflags = $(if $(filter lib/%,$(1)),$($(1)_CPPFLAGS),$(ALL_INC) -I$(LCM_GEN_DIR) $($(1)_CPPFLAGS))
+
 $(OBJ)/%.c.o: %.c
 	@mkdir -p $(@D)
-	$(CC) $(CPPFLAGS) $(CFLAGS) $($(<D)_CPPFLAGS) -c -o $@ $<
+	$(CC) $(CPPFLAGS) $(CFLAGS) $(call dir_cppflags,$(<D)) -c -o $@ $<
 
 $(OBJ)/%.cpp.o: %.cpp
 	@mkdir -p $(@D)
-	$(CXX) $(CPPFLAGS) $(CXXFLAGS) $($(<D)_CPPFLAGS) -c -o $@ $<
+	$(CXX) $(CPPFLAGS) $(CXXFLAGS) $(call dir_cppflags,$(<D)) -c -o $@ $<
 
 # Install the packages that are missing; `apt-get update` first when the
 # package lists are empty (a fresh machine) or an install fails.
@@ -132,7 +149,7 @@ install: all
 	    $(DESTDIR)$(PREFIX)/share/ndo/shaders
 	install -m 755 $(TOOLS:%=$(BIN)/%) $(DESTDIR)$(PREFIX)/bin
 	install -m 644 $(LIBNDO) $(DESTDIR)$(PREFIX)/lib/libndo.a
-	install -m 644 lib/ndo/*.h $(DESTDIR)$(PREFIX)/include/ndo
+	install -m 644 $(foreach l,$(LAYERS),lib/$(l)/ndo/*.h) $(DESTDIR)$(PREFIX)/include/ndo
 	install -d $(DESTDIR)$(PREFIX)/include/ndo_msg
 	install -m 644 $(LCM_GEN_DIR)/ndo_msg/*.h $(DESTDIR)$(PREFIX)/include/ndo_msg
 	install -m 644 $(wildcard tools/*.1) $(DESTDIR)$(PREFIX)/share/man/man1

@@ -3,8 +3,8 @@
 # lcm-gen turns lib/lcmtypes/*.lcm into C under build/gen/ndo_msg/ (both
 # build variants share it: the generated code is the same); the C is
 # compiled into libndo.  --c-no-pubsub: ndo publishes encoded bytes itself
-# (lib/link_lcm.c), so the generated code needs only lcm_coretypes.h.
-# --c-typeinfo: the field tables that lib/msg_shape.c walks to check a
+# (lib/net/link_lcm.c), so the generated code needs only lcm_coretypes.h.
+# --c-typeinfo: the field tables that lib/net/msg.c walks to check a
 # message's lengths before LCM's decoder trusts them.
 
 LCM_TYPES := $(sort $(wildcard lib/lcmtypes/*.lcm))
@@ -22,7 +22,6 @@ $(LCM_GEN_SRCS): $(LCM_GEN_STAMP)
 	@test -f $@ || { echo "lcm-gen did not make $@" >&2; exit 1; }
 
 LIB_OBJS += $(LCM_GEN_SRCS:%=$(OBJ)/%.o)
-CPPFLAGS += -I$(LCM_GEN_DIR)
 # The generated code is not ours to warn about.  LCM 1.3.1's
 # lcm_coretypes.h copies zero-length arrays with memcpy(NULL, src, 0)
 # (lcm_malloc(0) returns NULL): formally undefined, harmless, and not

@@ -1,12 +1,7 @@
 TOOLS += simulate-peer
-simulate-peer_SRCS := tools/simulate-peer/main.c tools/simulate-peer/peers.c
-# The implicit integrators (lib/implicit.c) solve with CHOLMOD; the unit
-# tests check the membrane's spectrum with LAPACK's dense eigensolver.
-NDO_LIBS += -lcholmod -llapack -lblas
-DEBS_TOOLS += libsuitesparse-dev liblapack-dev libbullet-dev python3-matplotlib
-# The stencil kernels: loops vectorized (-O3), reductions in them too
-# (#pragma omp simd, no OpenMP runtime).
-$(OBJ)/lib/integrate.c.o: CFLAGS += -O3 -fopenmp-simd
+simulate-peer_SRCS := tools/simulate-peer/main.c tools/simulate-peer/run.c \
+                      tools/simulate-peer/peers.c
+DEBS_TOOLS += libbullet-dev python3-matplotlib
 
 # Bullet's soft bodies, the reference the speed benchmark compares with
 # (tests/bench/simulate.sh); linked only here, in double precision.
@@ -15,6 +10,6 @@ BULLET_LIBS := -lBulletSoftBody-float64 -lBulletDynamics-float64 \
                -lBulletCollision-float64 -lLinearMath-float64
 $(TBIN)/bullet_softbody: tests/bench/bullet_softbody.cpp $(LIBNDO)
 	@mkdir -p $(@D)
-	$(CXX) $(CPPFLAGS) $(CXXFLAGS) -Wno-maybe-uninitialized $(BULLET_CPPFLAGS) $(LDFLAGS) -o $@ $< $(LIBNDO) \
+	$(CXX) $(CPPFLAGS) $(ALL_INC) -I$(LCM_GEN_DIR) $(CXXFLAGS) -Wno-maybe-uninitialized $(BULLET_CPPFLAGS) $(LDFLAGS) -o $@ $< $(LIBNDO) \
 	    $(BULLET_LIBS) $(NDO_LIBS)
 bench: $(TBIN)/bullet_softbody
