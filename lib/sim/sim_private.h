@@ -1,12 +1,23 @@
 /* sim_private.h — the simulation's internals, shared by integrate.c,
- * forces.c, implicit.c and stability.c (not installed). */
+ * accel.c, forces.c, implicit.c and stability.c (not installed). */
 #ifndef NDO_SIM_PRIVATE_H
 #define NDO_SIM_PRIVATE_H
 
 #include "ndo/membrane.h"
 #include "ndo/sim.h"
 
+#include <math.h>
 #include <stdint.h>
+
+/* The hot loops are compiled twice, for x86-64 (SSE2) and for x86-64-v3
+ * (AVX2 + FMA), and the loader picks what the CPU runs (GCC function
+ * multi-versioning): about twice the speed where AVX2 exists, while the
+ * library still runs on any x86-64. */
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#define NDO_HOT __attribute__((target_clones("arch=x86-64-v3", "default")))
+#else
+#define NDO_HOT
+#endif
 
 /* A run of consecutive stored indices [a, b). */
 typedef struct ndo__span {
@@ -103,23 +114,39 @@ typedef struct ndo__diag {
 	double umax2; /* max |u|² */
 } ndo__diag;
 
+/* Add a kernel's partial sums to the diagnostics. */
+static inline void ndo__diag_add(ndo__diag *d, double pe2, double ke2, double power,
+                                 double umax2)
+{
+	d->pe2 += pe2;
+	d->ke2 += ke2;
+	d->power += power;
+	d->umax2 = fmax(d->umax2, umax2);
+}
+
+/* The power the held nodes put into the active ones, and the penalty
+ * springs' share of the diagnostics moved from input power to potential
+ * energy (accel.c; the fused RK4 kernel calls them too). */
+double ndo__held_power(const ndo_sim *s, const double *u, const double *v);
+void ndo__penalty_diag(const ndo_sim *s, const double *u, const double *v, ndo__diag *d);
+
 /* f ← external forces at time t with displacements u (forces.c). */
 void ndo__forces_eval(ndo_sim *s, double t, const double *u);
 int ndo__forces_resolve(ndo_sim *s, const ndo_force *forces, int nforces);
 void ndo__forces_free(ndo_sim *s);
 
 /* The force plane f at time t for displacements u: external forces plus
- * the penalty springs; NULL when there are neither (integrate.c). */
+ * the penalty springs; NULL when there are neither (accel.c). */
 const double *ndo__forces_prepare(ndo_sim *s, double t, const double *u);
 
 /* a ← M⁻¹(f − K u − penalty) − γ v on the active nodes, for the stage
  * state (u, v) at time t (external forces evaluated here); diag may be
- * NULL (integrate.c). */
+ * NULL (accel.c). */
 void ndo__accel(ndo_sim *s, double t, const double *u, const double *v, double *a,
                 ndo__diag *diag);
 
 /* The divergence test on a diagnosed state at the start of a step
- * (integrate.c).  commit: close the last step's work with this power. */
+ * (accel.c).  commit: close the last step's work with this power. */
 int ndo__diverged(ndo_sim *s, const ndo__diag *d, int commit);
 
 /* The input work so far, closing the last step with `power`. */
@@ -130,7 +157,8 @@ int ndo__implicit_step(ndo_sim *s, double h);
 void ndo__implicit_free(ndo_sim *s);
 void ndo__implicit_invalidate(ndo_sim *s, int pattern);
 
-/* Copy the canonical values of the stage planes to their duplicates. */
+/* Copy the canonical values of the stage planes to their duplicates
+ * (accel.c). */
 void ndo__sync_planes(const ndo_sim *s, double *planes, int nplanes);
 
 /* K re-assembled from the deformed shape X + u (integrate.c). */

@@ -1,0 +1,259 @@
+/* accel.c — the membrane's acceleration a = M⁻¹(f − K u) − γ v (thesis
+ * §4.3, appendix B) with the energy diagnostics, the external force plane,
+ * and the divergence test: what the explicit integrators (integrate.c) and
+ * the implicit ones (implicit.c) both evaluate, below both. */
+#include "sim_private.h"
+#include "ndo/status.h"
+#include "ndo/topology.h"
+
+#include <math.h>
+#include <string.h>
+
+void ndo__sync_planes(const ndo_sim *s, double *planes, int nplanes)
+{
+	for (int c = 0; c < nplanes; c++)
+		ndo_sync(s->level, planes + (size_t)c * s->count, sizeof(double));
+}
+
+/* ---- the acceleration ------------------------------------------------------ */
+
+/* a = M⁻¹(f − K u) − γ v over the interior runs.  hasF and hasD are
+ * constants at each call site, so the compiler emits four loops, the
+ * plain ones free to vectorize. */
+static inline __attribute__((always_inline)) void
+accel_interior(const ndo_sim *s, const double *restrict u, const double *restrict v,
+               const double *restrict F, double *restrict a, ndo__diag *d, const int hasF,
+               const int hasD)
+{
+	const size_t cnt = s->count, w = (size_t)s->w;
+	const double *restrict e0 = s->st.e[0], *restrict e1 = s->st.e[1],
+	                       *restrict e2 = s->st.e[2];
+	const double *restrict minv = s->minv, *restrict gam = s->gam, *restrict mass = s->mass;
+	const double *restrict ux = u, *restrict uy = u + cnt, *restrict uz = u + 2 * cnt;
+	const double *restrict vx = v, *restrict vy = v + cnt, *restrict vz = v + 2 * cnt;
+	double *restrict ax = a, *restrict ay = a + cnt, *restrict az = a + 2 * cnt;
+	double pe2 = 0, ke2 = 0, pw = 0, um = 0;
+	for (size_t k = 0; k < s->nispan; k++) {
+		const size_t lo = (size_t)s->ispan[k].a, hi = (size_t)s->ispan[k].b;
+		for (size_t p = lo; p < hi; p++) {
+			const double c0 = e0[p], c1 = e1[p], c2 = e2[p], c3 = e0[p - 1], c4 = e1[p - w],
+			             c5 = e2[p - w + 1];
+#define KU(U)                                                                             \
+	(c0 * (U[p] - U[p + 1]) + c1 * (U[p] - U[p + w]) + c2 * (U[p] - U[p + w - 1]) +     \
+	 c3 * (U[p] - U[p - 1]) + c4 * (U[p] - U[p - w]) + c5 * (U[p] - U[p - w + 1]))
+			const double kx = KU(ux), ky = KU(uy), kz = KU(uz);
+#undef KU
+			const double fx = hasF ? F[p] : 0, fy = hasF ? F[cnt + p] : 0,
+			             fz = hasF ? F[2 * cnt + p] : 0;
+			ax[p] = minv[p] * (fx - kx) - gam[p] * vx[p];
+			ay[p] = minv[p] * (fy - ky) - gam[p] * vy[p];
+			az[p] = minv[p] * (fz - kz) - gam[p] * vz[p];
+			if (hasD) {
+				pe2 += ux[p] * kx + uy[p] * ky + uz[p] * kz;
+				ke2 += mass[p] * (vx[p] * vx[p] + vy[p] * vy[p] + vz[p] * vz[p]);
+				pw += fx * vx[p] + fy * vy[p] + fz * vz[p];
+				const double u2 = ux[p] * ux[p] + uy[p] * uy[p] + uz[p] * uz[p];
+				um = u2 > um ? u2 : um; /* not fmax: a libm call stops vectorization */
+			}
+		}
+	}
+	if (hasD)
+		ndo__diag_add(d, pe2, ke2, pw, um);
+}
+
+/* The active border nodes, through their neighbour tables. */
+static void accel_border(const ndo_sim *s, const double *u, const double *v, const double *F,
+                         double *a, ndo__diag *d)
+{
+	const size_t cnt = s->count;
+	for (size_t k = 0; k < s->nbact; k++) {
+		size_t b = (size_t)s->bact[k];
+		size_t p = (size_t)s->st.border[b];
+		const int32_t *nb = s->st.bnb + 6 * b;
+		const double *cf = s->st.bc + 6 * b;
+		for (int c = 0; c < 3; c++) {
+			const double *U = u + (size_t)c * cnt;
+			double ku = 0;
+			for (int q = 0; q < 6; q++)
+				ku += cf[q] * (U[p] - U[nb[q]]);
+			double f = F ? F[(size_t)c * cnt + p] : 0, vc = v[(size_t)c * cnt + p];
+			a[(size_t)c * cnt + p] = s->minv[p] * (f - ku) - s->gam[p] * vc;
+			if (d) {
+				d->pe2 += U[p] * ku;
+				d->ke2 += s->mass[p] * vc * vc;
+				d->power += f * vc;
+			}
+		}
+		if (d)
+			d->umax2 = fmax(d->umax2, u[p] * u[p] + u[cnt + p] * u[cnt + p] +
+			                              u[2 * cnt + p] * u[2 * cnt + p]);
+	}
+}
+
+/* The power the held nodes put into the active ones: Σ v_p · c u_q over
+ * the edges from an active p to a held q (the part of −K u that the held
+ * displacements contribute).  Only for the divergence bound. */
+double ndo__held_power(const ndo_sim *s, const double *u, const double *v)
+{
+	const size_t cnt = s->count;
+	double pw = 0;
+	for (size_t k = 0; k < s->nhedge; k++) {
+		size_t p = (size_t)s->hedge[k].p, q = (size_t)s->hedge[k].q;
+		for (int c = 0; c < 3; c++)
+			pw += v[(size_t)c * cnt + p] * s->hedge[k].c * u[(size_t)c * cnt + q];
+	}
+	return pw;
+}
+
+const double *ndo__forces_prepare(ndo_sim *s, double t, const double *u)
+{
+	if (!s->f)
+		return NULL;
+	const size_t cnt = s->count;
+	for (size_t k = 0; k < s->npen; k++)
+		for (int c = 0; c < 3; c++)
+			s->f[(size_t)c * cnt + (size_t)s->pen[k]] = 0;
+	if (s->has_forces)
+		ndo__forces_eval(s, t, u);
+	/* Payne–Irons penalty springs (thesis §4.3.3) to the pins' initial
+	 * positions: a force like any other, so every kernel handles them. */
+	for (size_t k = 0; k < s->npen; k++) {
+		size_t p = (size_t)s->pen[k];
+		for (int c = 0; c < 3; c++)
+			s->f[(size_t)c * cnt + p] -=
+				s->alpha * (u[(size_t)c * cnt + p] - s->pen_target[3 * k + c]);
+	}
+	return s->f;
+}
+
+/* The kernels counted the penalty springs as forces: move their share
+ * from the input power to the potential energy. */
+void ndo__penalty_diag(const ndo_sim *s, const double *u, const double *v, ndo__diag *d)
+{
+	const size_t cnt = s->count;
+	for (size_t k = 0; k < s->npen; k++) {
+		size_t p = (size_t)s->pen[k];
+		if (!s->active[p])
+			continue;
+		for (int c = 0; c < 3; c++) {
+			double du = u[(size_t)c * cnt + p] - s->pen_target[3 * k + c];
+			d->pe2 += s->alpha * du * du;
+			d->power += s->alpha * du * v[(size_t)c * cnt + p];
+		}
+	}
+}
+
+NDO_HOT void ndo__accel(ndo_sim *s, double t, const double *u, const double *v, double *a,
+                        ndo__diag *d)
+{
+	const double *F = ndo__forces_prepare(s, t, u);
+	if (d) {
+		memset(d, 0, sizeof *d);
+		if (F)
+			accel_interior(s, u, v, F, a, d, 1, 1);
+		else
+			accel_interior(s, u, v, NULL, a, d, 0, 1);
+		d->power += ndo__held_power(s, u, v);
+	} else if (F) {
+		accel_interior(s, u, v, F, a, NULL, 1, 0);
+	} else {
+		accel_interior(s, u, v, NULL, a, NULL, 0, 0);
+	}
+	accel_border(s, u, v, F, a, d);
+	if (d)
+		ndo__penalty_diag(s, u, v, d);
+	s->stats.evaluations++;
+}
+
+/* ---- divergence ------------------------------------------------------------ */
+
+void ndo__pending_work(const ndo_sim *s, double power, double *w, double *w_abs)
+{
+	*w = s->work + 0.5 * s->pend_h * (s->pend_power + power);
+	*w_abs = s->work_abs + 0.5 * s->pend_h * (fabs(s->pend_power) + fabs(power));
+}
+
+int ndo__diverged(ndo_sim *s, const ndo__diag *d, int commit)
+{
+	double work, work_abs;
+	ndo__pending_work(s, d->power, &work, &work_abs);
+	if (commit) {
+		s->work = work;
+		s->work_abs = work_abs;
+		s->pend_h = 0;
+	}
+	double E = 0.5 * (d->pe2 + d->ke2);
+	if (!isfinite(E) || !isfinite(d->umax2) || !isfinite(d->power))
+		return ndo__fail(NDO_EDIVERGED, "the state is not finite (NaN or Inf)");
+	double umax = sqrt(d->umax2);
+	if (umax > 100 * s->rest_size)
+		return ndo__fail(NDO_EDIVERGED,
+		                 "a node is %.3g m from its rest position, more than 100 × the "
+		                 "object's size (%.3g m)", umax, s->rest_size);
+	if (!s->e0_set) {
+		/* A region's energy (its rows of uᵀKu) can be negative: the
+		 * cross terms with held neighbours.  The bound takes its size. */
+		s->e0 = fabs(E);
+		s->e0_set = 1;
+	}
+	/* The floor: the energy of a displacement of 1e-9 × the object's
+	 * size everywhere, so that rounding noise around a state at rest is
+	 * not mistaken for growth. */
+	double floor = 1e-18 * s->p.material.stiffness * s->rest_size * s->rest_size;
+	work_abs -= s->work_abs_base;
+	if (s->p.energy_bound > 0 && E > s->p.energy_bound * (s->e0 + work_abs) + floor)
+		return ndo__fail(NDO_EDIVERGED,
+		                 "energy %.3g J exceeds %g × (initial %.3g J + input work %.3g J)", E,
+		                 s->p.energy_bound, s->e0, work_abs);
+	return NDO_OK;
+}
+
+int ndo_sim_check(ndo_sim *s)
+{
+	ndo__clear_error();
+	ndo__diag d;
+	ndo__accel(s, s->t, s->u, s->v, s->tmp, &d);
+	return ndo__diverged(s, &d, 0);
+}
+
+void ndo_sim_energy_get(ndo_sim *s, ndo_sim_energy *e)
+{
+	const size_t cnt = s->count;
+	double ke2 = 0, pe2 = 0, um = 0;
+	for (int c = 0; c < 3; c++)
+		ndo_stencil_apply(&s->st, s->u + (size_t)c * cnt, s->tmp + (size_t)c * cnt);
+	for (size_t p = 0; p < cnt; p++) {
+		if (s->canon[p] != (int32_t)p)
+			continue;
+		double u2 = 0;
+		for (int c = 0; c < 3; c++) {
+			size_t q = (size_t)c * cnt + p;
+			ke2 += s->mass[p] * s->v[q] * s->v[q];
+			pe2 += s->u[q] * s->tmp[q];
+			u2 += s->u[q] * s->u[q];
+		}
+		um = fmax(um, u2);
+	}
+	for (size_t k = 0; k < s->npen; k++)
+		for (int c = 0; c < 3; c++) {
+			double du = s->u[(size_t)c * cnt + (size_t)s->pen[k]] - s->pen_target[3 * k + c];
+			pe2 += s->alpha * du * du;
+		}
+	/* The input power now closes the last step's work estimate. */
+	double power = 0, wabs;
+	const double *F = ndo__forces_prepare(s, s->t, s->u);
+	if (F)
+		for (size_t k = 0; k < s->nespan; k++)
+			for (size_t p = (size_t)s->espan[k].a; p < (size_t)s->espan[k].b; p++)
+				for (int c = 0; c < 3; c++)
+					power += F[(size_t)c * cnt + p] * s->v[(size_t)c * cnt + p];
+	for (size_t k = 0; k < s->npen && F; k++)
+		for (int c = 0; c < 3; c++) {
+			size_t q = (size_t)c * cnt + (size_t)s->pen[k];
+			power += s->alpha * (s->u[q] - s->pen_target[3 * k + c]) * s->v[q];
+		}
+	e->kinetic = 0.5 * ke2;
+	e->potential = 0.5 * pe2;
+	ndo__pending_work(s, power, &e->work, &wabs);
+	e->max_displacement = sqrt(um);
+}
