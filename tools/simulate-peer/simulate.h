@@ -1,6 +1,6 @@
-/* simulate.h — what simulate-peer's two halves share: the run's settings
- * and the single-process setup (main.c), used again by the owner of a
- * multi-peer run (peers.c). */
+/* simulate.h — what simulate-peer's files share: the run's settings, its
+ * setup, plan and log (run.c), used by the single process (main.c) and by
+ * the peers of a shared run (peers.c). */
 #ifndef SIMULATE_PEER_H
 #define SIMULATE_PEER_H
 
@@ -50,7 +50,8 @@ typedef struct run {
 	peer_cli net;      /* the peers' options (role 0: a single process) */
 } run;
 
-/* Load the input, rest shape, pins and forces; create the simulation. */
+/* run.c: load the input, rest shape, pins and forces; create the
+ * simulation. */
 void setup(run *r);
 /* The critical step, the step size and the step count (prints them). */
 void plan(run *r);
@@ -58,7 +59,7 @@ void plan(run *r);
  * of `sim`'s energies at `step`. */
 void log_open(run *r);
 void log_row(run *r, ndo_sim *sim, int64_t step);
-/* The peers' options: defaults, one option (a usage error when bad), and
+/* peers.c: the peers' options: defaults, one option (a usage error when bad), and
  * the checks once all are read (scene: the -s file or NULL; in: the input
  * or NULL; the n settings keys given on the command line). */
 void peer_defaults(peer_cli *c);
