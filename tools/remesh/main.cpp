@@ -71,32 +71,6 @@ static __attribute__((noreturn)) void usage(void)
 	exit(NDO_EXIT_OK);
 }
 
-/* ---- progress ------------------------------------------------------ */
-
-static int progress_on = -1;
-static double progress_last = 0;
-
-void remesh::progress(const char *phase, double f)
-{
-	if (progress_on < 0)
-		progress_on = isatty(STDERR_FILENO);
-	if (!progress_on)
-		return;
-	double t = now_seconds();
-	if (t - progress_last < 0.1 && f < 1)
-		return;
-	progress_last = t;
-	int w = 30, k = (int)(std::min(1.0, std::max(0.0, f)) * w);
-	fprintf(stderr, "\r%-14s [%.*s%*s] %3d%%", phase, k, "##############################",
-	        w - k, "", (int)(100 * f));
-}
-
-void remesh::progress_done()
-{
-	if (progress_on > 0)
-		fprintf(stderr, "\r\033[K");
-}
-
 /* ---- the report ---------------------------------------------------- */
 
 struct Report {
