@@ -22,6 +22,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <time.h>
+#include <zlib.h>
 
 static double now(void)
 {
@@ -71,7 +72,7 @@ int main(int argc, char **argv)
 			dump = argv[a + 1];
 		else if (!strcmp(argv[a], "-t"))
 			seconds = atof(argv[a + 1]);
-		else if (!strcmp(argv[a], "-z")) { /* zstd's level (lib/codec.c) */
+		else if (!strcmp(argv[a], "-z")) { /* zstd's level (lib/net/codec_entropy.c) */
 			extern int ndo__codec_zstd_level;
 			ndo__codec_zstd_level = atoi(argv[a + 1]);
 		}
@@ -132,6 +133,7 @@ int main(int argc, char **argv)
 	double *te = malloc((size_t)steps * sizeof *te), *td = malloc((size_t)steps * sizeof *td);
 	double *ce = malloc((size_t)steps * sizeof *ce), *cd = malloc((size_t)steps * sizeof *cd);
 	uint64_t bytes = 0, exact_bytes = 0;
+	unsigned long crc = crc32(0, Z_NULL, 0); /* every payload, in order: "same bytes" checks */
 	double maxerr = 0;
 	int bad = 0;
 	FILE *df = dump ? fopen(dump, "wb") : NULL;
@@ -169,6 +171,8 @@ int main(int argc, char **argv)
 				return 1;
 			}
 			bytes += (uint64_t)t.nbytes;
+			if (t.nbytes > 0)
+				crc = crc32(crc, t.data, (uInt)t.nbytes);
 			t0 = now(), c0 = cpu();
 			ndo_drop r = ndo_codec_decode_tile(dec, &t);
 			dec_t += now() - t0;
@@ -210,12 +214,13 @@ int main(int argc, char **argv)
 	printf("level %d, %s, %d peer%s (sender 1: %zu exact of %zu stored nodes, %zu tiles), %lld "
 	       "steps: %.3f bits/node/update (payload), encode %.3f ms, decode %.3f ms (medians; "
 	       "CPU time %.3f + %.3f ms), "
-	       "max error %.3g of the diagonal (bound %.3g), keyframes %llu, skipped %llu%s\n",
+	       "max error %.3g of the diagonal (bound %.3g), keyframes %llu, skipped %llu, "
+	       "payload CRC-32 %08lx%s\n",
 	       level, spec, peers, peers == 1 ? "" : "s", nexact, g->count, ntiles, (long long)steps,
 	       8.0 * (double)bytes / ((double)g->count * (double)steps), 1e3 * median(te, (size_t)steps),
 	       1e3 * median(td, (size_t)steps), 1e3 * median(ce, (size_t)steps),
 	       1e3 * median(cd, (size_t)steps), maxerr / diag, ndo_codec_max_error(&p) / diag,
-	       (unsigned long long)es.keyframes, (unsigned long long)es.skipped,
+	       (unsigned long long)es.keyframes, (unsigned long long)es.skipped, crc,
 	       bad == 1 ? " DECODE FAILED" : bad == 2 ? " EXACT NODE CHANGED" : "");
 	ndo_codec_destroy(enc);
 	ndo_codec_destroy(dec);
