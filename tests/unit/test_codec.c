@@ -2,7 +2,18 @@
  * encoding within the stated error, EXACT nodes bit for bit, closed-loop
  * prediction without drift, keyframe recovery after a lost frame, skipped
  * frames and their implied values, and hostile payloads (corrupt,
- * truncated, a decompression bomb) as counted drops. */
+ * truncated, a decompression bomb) as counted drops.
+ *
+ * The codec's parts (lib/net/codec_private.h) and the cases that hold each:
+ *   codec_params.c   specs_and_description_lines, round_trips_within_...
+ *   codec_predict.c  prediction_is_compact, keyframe_recovers_after_loss,
+ *                    unchanged_frames_and_their_prediction
+ *   codec_rows.c     fast_and_general_predictors_agree (byte for byte
+ *                    against codec_predict.c's general predictor),
+ *                    tiles_in_place
+ *   codec_entropy.c  hostile_payloads_are_dropped (bombs, truncations),
+ *                    hostile_predicted_payloads (symbols, escapes)
+ *   codec.c          every case: encode and decode of a frame */
 #include "check.h"
 #include "ndo/codec.h"
 #include "ndo/link.h"
