@@ -31,7 +31,7 @@ g = read_grid(open('tetra1.tgrid', 'rb'))
 x = g['channels']['position']
 case('tetra level 1 is 3 x 5 x 3', x.shape == (3, 5, 3) and g['level'] == 1)
 r = 1 / np.sqrt(3)
-case('tetra corners A B C D where lib/ndo/domain.h says',
+case('tetra corners A B C D where lib/grid/ndo/domain.h says',
      np.allclose(x[0, 0], [r, r, r]) and np.allclose(x[0, 2], [r, -r, -r]) and
      np.allclose(x[2, 0], [-r, r, -r]) and np.allclose(x[2, 2], [-r, -r, r]))
 case('history names the command', 'remesh --shape tetra -l 1' in g['history'])

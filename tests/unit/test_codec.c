@@ -298,7 +298,7 @@ static void hostile_payloads_are_dropped(void)
 	side_free(&tx), side_free(&rx);
 }
 
-/* Set by tests: every frame through the general predictor (lib/codec.c). */
+/* Set by tests: every frame through the general predictor (lib/net/codec_predict.c). */
 extern int ndo__codec_general_only;
 
 /* Every node carried (LOSSY, a column of EXACT): the predictor's fast

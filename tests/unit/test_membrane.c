@@ -1,4 +1,4 @@
-/* test_membrane — the membrane's stiffness K and mass M (lib/membrane.c):
+/* test_membrane — the membrane's stiffness K and mass M (lib/sim/membrane.c):
  * the stencil against the triangle-by-triangle CSR reference, symmetry,
  * positive semi-definiteness, constants in the null space, scale
  * invariance, and the sphere's spectrum σ l(l+1)/(ρR²) with its

@@ -1,4 +1,4 @@
-/* test_scene — scene files and settings (lib/scene.c): every value is
+/* test_scene — scene files and settings (lib/sim/scene.c): every value is
  * validated with a message naming the setting, files report their line,
  * force and pin selections resolve on the grid. */
 #include "check.h"

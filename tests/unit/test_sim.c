@@ -1,4 +1,4 @@
-/* test_sim — the integrators (lib/integrate.c, implicit.c), the critical
+/* test_sim — the integrators (lib/sim/integrate.c, accel.c, implicit.c), the critical
  * step (stability.c) and the stepping API for regions: against the exact
  * modal solution of the linear system, the predicted divergence step,
  * the sphere's l = 2 period, and the invariants (duplicates equal, pins

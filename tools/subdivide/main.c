@@ -1,5 +1,5 @@
 /* subdivide — refine a grid by modified butterfly subdivision.
- * The work is ndo_subdivide_levels() (lib/subdivide.c). */
+ * The work is ndo_subdivide_levels() (lib/grid/subdivide.c). */
 #include "ndo/ndo.h"
 
 #include <getopt.h>
