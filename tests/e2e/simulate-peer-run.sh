@@ -122,9 +122,17 @@ done
 
 # Interrupted: exit 130 after the current step, the log kept, no output
 # and no temporary file left.
+# The signal goes once the run is under way (its log, still a temporary
+# file, has a row), however long a loaded machine takes to get there.
 mkdir -p intr && cd intr
-timeout --preserve-status -s INT 1 simulate-peer -q ../s3.tgrid -n 100000000 --dt 1e-3 \
-	--log int.csv -o int.tgrid 2>err.log
+simulate-peer -q ../s3.tgrid -n 100000000 --dt 1e-3 --log int.csv -o int.tgrid 2>err.log &
+pid=$!
+for _ in $(seq 600); do
+	[ "$(cat int.csv.tmp.* 2>/dev/null | wc -l)" -ge 2 ] && break
+	sleep 0.1
+done
+kill -INT $pid
+wait $pid
 rc=$?
 if [ $rc = 130 ] && [ "$(ls)" = "err.log
 int.csv" ] && grep -q 'interrupted at step' err.log; then
