@@ -23,7 +23,7 @@ void ndo__sync_planes(const ndo_sim *s, double *planes, int nplanes)
 static inline __attribute__((always_inline)) void
 accel_interior(const ndo_sim *s, const double *restrict u, const double *restrict v,
                const double *restrict F, double *restrict a, ndo__diag *d, const int hasF,
-               const int hasD)
+               const int hasD, const size_t k0, const size_t k1)
 {
 	const size_t cnt = s->count, w = (size_t)s->w;
 	const double *restrict e0 = s->st.e[0], *restrict e1 = s->st.e[1],
@@ -33,7 +33,7 @@ accel_interior(const ndo_sim *s, const double *restrict u, const double *restric
 	const double *restrict vx = v, *restrict vy = v + cnt, *restrict vz = v + 2 * cnt;
 	double *restrict ax = a, *restrict ay = a + cnt, *restrict az = a + 2 * cnt;
 	double pe2 = 0, ke2 = 0, pw = 0, um = 0;
-	for (size_t k = 0; k < s->nispan; k++) {
+	for (size_t k = k0; k < k1; k++) {
 		const size_t lo = (size_t)s->ispan[k].a, hi = (size_t)s->ispan[k].b;
 		for (size_t p = lo; p < hi; p++) {
 			const double c0 = e0[p], c1 = e1[p], c2 = e2[p], c3 = e0[p - 1], c4 = e1[p - w],
@@ -143,25 +143,55 @@ void ndo__penalty_diag(const ndo_sim *s, const double *u, const double *v, ndo__
 	}
 }
 
-NDO_HOT void ndo__accel(ndo_sim *s, double t, const double *u, const double *v, double *a,
-                        ndo__diag *d)
+/* One chunk of the acceleration: interior runs, or (the last chunk) the
+ * border nodes. */
+typedef struct accel_job {
+	const ndo_sim *s;
+	const double *u, *v, *F;
+	double *a;
+	int diag;
+} accel_job;
+
+NDO_HOT static void accel_chunk(void *arg, int c)
 {
-	const double *F = ndo__forces_prepare(s, t, u);
-	if (d) {
-		memset(d, 0, sizeof *d);
-		if (F)
-			accel_interior(s, u, v, F, a, d, 1, 1);
-		else
-			accel_interior(s, u, v, NULL, a, d, 0, 1);
-		d->power += ndo__held_power(s, u, v);
-	} else if (F) {
-		accel_interior(s, u, v, F, a, NULL, 1, 0);
-	} else {
-		accel_interior(s, u, v, NULL, a, NULL, 0, 0);
-	}
-	accel_border(s, u, v, F, a, d);
+	const accel_job *j = arg;
+	const ndo_sim *s = j->s;
+	ndo__diag *d = j->diag ? &s->cdiag[c] : NULL;
 	if (d)
+		memset(d, 0, sizeof *d);
+	if (c == s->nichunk) {
+		accel_border(s, j->u, j->v, j->F, j->a, d);
+		return;
+	}
+	const size_t k0 = (size_t)s->ichunk[c], k1 = (size_t)s->ichunk[c + 1];
+	if (d) {
+		if (j->F)
+			accel_interior(s, j->u, j->v, j->F, j->a, d, 1, 1, k0, k1);
+		else
+			accel_interior(s, j->u, j->v, NULL, j->a, d, 0, 1, k0, k1);
+	} else if (j->F) {
+		accel_interior(s, j->u, j->v, j->F, j->a, NULL, 1, 0, k0, k1);
+	} else {
+		accel_interior(s, j->u, j->v, NULL, j->a, NULL, 0, 0, k0, k1);
+	}
+}
+
+void ndo__diag_sum(const ndo_sim *s, ndo__diag *d)
+{
+	memset(d, 0, sizeof *d);
+	for (int c = 0; c <= s->nichunk; c++)
+		ndo__diag_add(d, s->cdiag[c].pe2, s->cdiag[c].ke2, s->cdiag[c].power, s->cdiag[c].umax2);
+}
+
+void ndo__accel(ndo_sim *s, double t, const double *u, const double *v, double *a, ndo__diag *d)
+{
+	accel_job j = {s, u, v, ndo__forces_prepare(s, t, u), a, d != NULL};
+	ndo__sim_run(s, s->nichunk + 1, accel_chunk, &j);
+	if (d) {
+		ndo__diag_sum(s, d);
+		d->power += ndo__held_power(s, u, v);
 		ndo__penalty_diag(s, u, v, d);
+	}
 	s->stats.evaluations++;
 }
 

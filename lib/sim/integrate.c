@@ -160,6 +160,8 @@ static int check_params(const ndo_sim_params *p)
 		return ndo__fail(NDO_ERANGE, "energy bound %g: must be ≥ 0 and finite", p->energy_bound);
 	if (p->nforces < 0 || (p->nforces > 0 && !p->forces))
 		return ndo__fail(NDO_EINVAL, "bad force list");
+	if (p->threads < 0 || p->threads > NDO_POOL_MAX)
+		return ndo__fail(NDO_ERANGE, "%d threads: must be 0..%d", p->threads, NDO_POOL_MAX);
 	return NDO_OK;
 }
 
@@ -256,8 +258,37 @@ static void held_at(ndo_sim *s, double *buf, double tau)
 	ndo__sync_planes(s, buf, 3);
 }
 
-/* The runs of active nodes, the active border nodes, and the edges from
- * active to held nodes. */
+/* Runs sp[0..n) cut into chunks of about NDO__CHUNK nodes, at most
+ * NDO__CHUNKS of them, at run boundaries (a run is at most a row): *chunk
+ * gets the first run of each chunk and n at the end.  The cut depends on
+ * the runs alone, never on the thread count. */
+enum { NDO__CHUNK = 4096, NDO__CHUNKS = 64 };
+static int cut_chunks(const ndo__span *sp, size_t n, int32_t **chunk, int *nchunk)
+{
+	size_t total = 0;
+	for (size_t k = 0; k < n; k++)
+		total += (size_t)(sp[k].b - sp[k].a);
+	size_t want = total / NDO__CHUNK;
+	want = want < 1 ? 1 : want > NDO__CHUNKS ? NDO__CHUNKS : want;
+	free(*chunk);
+	if (!(*chunk = malloc((want + 1) * sizeof **chunk)))
+		return -1;
+	int c = 0;
+	size_t done = 0;
+	(*chunk)[c++] = 0;
+	for (size_t k = 0; k < n; k++) {
+		done += (size_t)(sp[k].b - sp[k].a);
+		/* close chunk c − 1 once its share of the total is reached */
+		if ((size_t)c < want && done * want >= total * (size_t)c && k + 1 < n)
+			(*chunk)[c++] = (int32_t)(k + 1);
+	}
+	(*chunk)[c] = (int32_t)n;
+	*nchunk = c;
+	return 0;
+}
+
+/* The runs of active nodes, the active border nodes, the edges from
+ * active to held nodes, and the chunks the threads share. */
 static int build_spans(ndo_sim *s)
 {
 	free(s->espan), free(s->ispan), free(s->bact);
@@ -290,6 +321,12 @@ static int build_spans(ndo_sim *s)
 	for (size_t b = 0; b < s->st.nborder; b++)
 		if (s->active[s->st.border[b]])
 			s->bact[s->nbact++] = (int32_t)b;
+	if (cut_chunks(s->ispan, s->nispan, &s->ichunk, &s->nichunk) ||
+	    cut_chunks(s->espan, s->nespan, &s->echunk, &s->nechunk))
+		return ndo__fail(NDO_ENOMEM, "out of memory for the active set");
+	free(s->cdiag);
+	if (!(s->cdiag = calloc((size_t)s->nichunk + 1, sizeof *s->cdiag)))
+		return ndo__fail(NDO_ENOMEM, "out of memory for the active set");
 	s->any_held = 0;
 	for (size_t p = 0; p < cnt; p++)
 		s->any_held |= !s->active[p];
@@ -436,6 +473,13 @@ int ndo_sim_create(int level, const double *x, const double *v, const double *re
 		goto fail;
 	if ((rc = workspace(s)) || (rc = set_active(s, NULL)))
 		goto fail;
+	if (p->threads > 1) {
+		size_t nodes = 0;
+		for (size_t k = 0; k < s->nespan; k++)
+			nodes += (size_t)(s->espan[k].b - s->espan[k].a);
+		if (nodes >= NDO_SIM_THREAD_MIN && (rc = ndo_pool_create(p->threads, &s->pool)))
+			goto fail;
+	}
 	free(aos);
 	*out = s;
 	return NDO_OK;
@@ -478,7 +522,9 @@ void ndo_sim_destroy(ndo_sim *s)
 	ndo_stencil_free(&s->st);
 	free(s->X), free(s->u), free(s->v), free(s->mass), free(s->minv), free(s->gam);
 	free(s->pin), free(s->active), free(s->canon);
+	ndo_pool_destroy(s->pool);
 	free(s->espan), free(s->ispan), free(s->bact), free(s->hedge), free(s->hmove);
+	free(s->ichunk), free(s->echunk), free(s->cdiag);
 	free(s->pen), free(s->pen_target);
 	if (s->forces)
 		ndo__forces_free(s);
@@ -494,6 +540,7 @@ void ndo_sim_destroy(ndo_sim *s)
 double ndo_sim_time(const ndo_sim *s) { return s->t; }
 int64_t ndo_sim_step_count(const ndo_sim *s) { return s->step; }
 int ndo_sim_level(const ndo_sim *s) { return s->level; }
+int ndo_sim_threads(const ndo_sim *s) { return ndo_pool_threads(s->pool); }
 ndo_method ndo_sim_method(const ndo_sim *s) { return s->p.method; }
 
 void ndo_sim_set_time(ndo_sim *s, double t, int64_t step)
@@ -593,33 +640,67 @@ int ndo_sim_store(const ndo_sim *s, ndo_grid *g)
 
 /* ---- explicit integrators ---------------------------------------------------- */
 
-/* out = base + h Σ_j coef_j src_j on the active nodes (3 planes). */
-NDO_HOT static void combine(const ndo_sim *s, double *restrict out, const double *restrict base,
-                    double h, int n, const double *coef, const double *const *src)
+/* out = base + h Σ_j coef_j src_j on the active nodes (3 planes), a chunk
+ * of runs at a time on the simulation's threads; axpy uses the same
+ * record with out = y and base = x. */
+typedef struct lincomb {
+	const ndo_sim *s;
+	double *out;
+	const double *base;
+	double h;
+	int n;
+	const double *coef;
+	const double *const *src;
+} lincomb;
+
+NDO_HOT static void combine_chunk(void *arg, int ch)
 {
+	const lincomb *l = arg;
+	const ndo_sim *s = l->s;
 	const size_t cnt = s->count;
+	double *restrict out = l->out;
+	const double *restrict base = l->base;
+	const double h = l->h;
 	for (int c = 0; c < 3; c++) {
 		const size_t o = (size_t)c * cnt;
-		for (size_t k = 0; k < s->nespan; k++)
+		for (size_t k = (size_t)s->echunk[ch]; k < (size_t)s->echunk[ch + 1]; k++)
 			for (size_t p = o + (size_t)s->espan[k].a; p < o + (size_t)s->espan[k].b; p++) {
 				double acc = 0;
-				for (int j = 0; j < n; j++)
-					acc += coef[j] * src[j][p];
+				for (int j = 0; j < l->n; j++)
+					acc += l->coef[j] * l->src[j][p];
 				out[p] = base[p] + h * acc;
 			}
 	}
 }
 
-/* y += h x on the active nodes (3 planes). */
-NDO_HOT static void axpy(const ndo_sim *s, double *restrict y, double h, const double *restrict x)
+static void combine(const ndo_sim *s, double *out, const double *base, double h, int n,
+                    const double *coef, const double *const *src)
 {
+	lincomb l = {s, out, base, h, n, coef, src};
+	ndo__sim_run(s, s->nechunk, combine_chunk, &l);
+}
+
+/* y += h x on the active nodes (3 planes). */
+NDO_HOT static void axpy_chunk(void *arg, int ch)
+{
+	const lincomb *l = arg;
+	const ndo_sim *s = l->s;
 	const size_t cnt = s->count;
+	double *restrict y = l->out;
+	const double *restrict x = l->base;
+	const double h = l->h;
 	for (int c = 0; c < 3; c++) {
 		const size_t o = (size_t)c * cnt;
-		for (size_t k = 0; k < s->nespan; k++)
+		for (size_t k = (size_t)s->echunk[ch]; k < (size_t)s->echunk[ch + 1]; k++)
 			for (size_t p = o + (size_t)s->espan[k].a; p < o + (size_t)s->espan[k].b; p++)
 				y[p] += h * x[p];
 	}
+}
+
+static void axpy(const ndo_sim *s, double *y, double h, const double *x)
+{
+	lincomb l = {s, y, x, h, 0, NULL, NULL};
+	ndo__sim_run(s, s->nechunk, axpy_chunk, &l);
 }
 
 /* A step of size h began with input power P: its work is added, by the
@@ -722,7 +803,8 @@ typedef struct rk4_pass {
 } rk4_pass;
 
 static inline __attribute__((always_inline)) void
-rk4_interior(const ndo_sim *s, const rk4_pass *g, const int mode, const int hasF, ndo__diag *d)
+rk4_interior(const ndo_sim *s, const rk4_pass *g, const int mode, const int hasF, ndo__diag *d,
+             const size_t k0, const size_t k1)
 {
 	const size_t cnt = s->count, w = (size_t)s->w;
 	const double *restrict e0 = s->st.e[0], *restrict e1 = s->st.e[1],
@@ -730,7 +812,7 @@ rk4_interior(const ndo_sim *s, const rk4_pass *g, const int mode, const int hasF
 	const double *restrict minv = s->minv, *restrict gam = s->gam, *restrict mass = s->mass;
 	const double c = g->c, h6 = g->h6;
 	double pe2 = 0, ke2 = 0, pw = 0, um = 0;
-	for (size_t k = 0; k < s->nispan; k++) {
+	for (size_t k = k0; k < k1; k++) {
 		const size_t lo = (size_t)s->ispan[k].a, hi = (size_t)s->ispan[k].b;
 		for (int comp = 0; comp < 3; comp++) {
 			const size_t o = (size_t)comp * cnt;
@@ -828,30 +910,52 @@ static void rk4_border(const ndo_sim *s, const rk4_pass *g, int mode, ndo__diag 
 	}
 }
 
-NDO_HOT static void rk4_pass_run(ndo_sim *s, rk4_pass *g, int mode, double t, ndo__diag *d)
+/* One chunk of a pass: interior runs, or (the last chunk) the border. */
+typedef struct rk4_job {
+	const ndo_sim *s;
+	const rk4_pass *g;
+	int mode, diag;
+} rk4_job;
+
+NDO_HOT static void rk4_chunk(void *arg, int c)
 {
-	g->F = ndo__forces_prepare(s, t, g->U);
+	const rk4_job *j = arg;
+	const ndo_sim *s = j->s;
+	const rk4_pass *g = j->g;
+	ndo__diag *d = j->diag ? &s->cdiag[c] : NULL;
 	if (d)
 		memset(d, 0, sizeof *d);
+	if (c == s->nichunk) {
+		rk4_border(s, g, j->mode, d);
+		return;
+	}
+	const size_t k0 = (size_t)s->ichunk[c], k1 = (size_t)s->ichunk[c + 1];
 	/* Constant arguments: the compiler makes one loop per combination. */
-	if (mode == RK4_FIRST) {
+	if (j->mode == RK4_FIRST) {
 		if (g->F)
-			rk4_interior(s, g, RK4_FIRST, 1, d);
+			rk4_interior(s, g, RK4_FIRST, 1, d, k0, k1);
 		else
-			rk4_interior(s, g, RK4_FIRST, 0, d);
-	} else if (mode == RK4_MID) {
+			rk4_interior(s, g, RK4_FIRST, 0, d, k0, k1);
+	} else if (j->mode == RK4_MID) {
 		if (g->F)
-			rk4_interior(s, g, RK4_MID, 1, NULL);
+			rk4_interior(s, g, RK4_MID, 1, NULL, k0, k1);
 		else
-			rk4_interior(s, g, RK4_MID, 0, NULL);
+			rk4_interior(s, g, RK4_MID, 0, NULL, k0, k1);
 	} else {
 		if (g->F)
-			rk4_interior(s, g, RK4_LAST, 1, NULL);
+			rk4_interior(s, g, RK4_LAST, 1, NULL, k0, k1);
 		else
-			rk4_interior(s, g, RK4_LAST, 0, NULL);
+			rk4_interior(s, g, RK4_LAST, 0, NULL, k0, k1);
 	}
-	rk4_border(s, g, mode, d);
+}
+
+static void rk4_pass_run(ndo_sim *s, rk4_pass *g, int mode, double t, ndo__diag *d)
+{
+	g->F = ndo__forces_prepare(s, t, g->U);
+	rk4_job j = {s, g, mode, d != NULL};
+	ndo__sim_run(s, s->nichunk + 1, rk4_chunk, &j);
 	if (d) {
+		ndo__diag_sum(s, d);
 		d->power += ndo__held_power(s, g->U, g->v);
 		ndo__penalty_diag(s, g->U, g->v, d);
 	}

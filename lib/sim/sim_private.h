@@ -104,6 +104,18 @@ struct ndo_sim {
 	double pend_h, pend_power; /* the last step: its size and start power */
 
 	ndo__implicit *imp;
+
+	/* Threads (ndo_sim_params.threads; NULL: one).  The runs are cut into
+	 * chunks fixed by the grid and its active set, not by the thread
+	 * count: chunk c of the interior is ispan[ichunk[c] .. ichunk[c+1]),
+	 * chunk nichunk the active border nodes; of the elementwise updates,
+	 * espan[echunk[c] .. echunk[c+1]).  Each interior chunk's diagnostics
+	 * go to cdiag[c] and are added in chunk order, so every thread count
+	 * gives the same bits. */
+	ndo_pool *pool;
+	int32_t *ichunk, *echunk;
+	int nichunk, nechunk;
+	struct ndo__diag *cdiag;
 };
 
 /* Stage diagnostics accumulated by the force evaluation. */
@@ -113,6 +125,15 @@ typedef struct ndo__diag {
 	double power; /* Σ f·v */
 	double umax2; /* max |u|² */
 } ndo__diag;
+
+/* The chunks' diagnostics (cdiag[0 .. nichunk]), added in chunk order. */
+void ndo__diag_sum(const ndo_sim *s, ndo__diag *d);
+
+/* fn(ctx, c) for every chunk c in 0..n−1, on the simulation's threads. */
+static inline void ndo__sim_run(const ndo_sim *s, int n, void (*fn)(void *, int), void *ctx)
+{
+	ndo_pool_run(s->pool, n, fn, ctx);
+}
 
 /* Add a kernel's partial sums to the diagnostics. */
 static inline void ndo__diag_add(ndo__diag *d, double pe2, double ke2, double power,

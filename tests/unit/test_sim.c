@@ -416,6 +416,80 @@ static void duplicates_agree_after_every_step(void)
 	ndo_grid_destroy(g);
 }
 
+/* Every explicit method gives the same bits on 1, 2 and 3 threads, with
+ * forces, pins, penalty springs and a region (the chunks are the grid's,
+ * not the threads'), and so does the divergence test's energy. */
+static void threads_give_the_same_bits(void)
+{
+	ndo_grid *g = shape("wavy", 6); /* 8,194 vertices: above NDO_SIM_THREAD_MIN */
+	size_t nn = 3 * g->count;
+	double *x0 = malloc(nn * sizeof *x0), *v0 = malloc(nn * sizeof *v0);
+	double *x[3], *v[3];
+	random_state(g, 0.01, x0, v0);
+	uint8_t *pin = calloc(g->count, 1), *mask = malloc(g->count);
+	pin[ndo_node(g->w, 40, 20)] = 1;
+	for (size_t q = 0; q < g->count; q++)
+		mask[q] = q / (size_t)g->w < 40;
+	int32_t faces[] = {0, 1, 2, 31, 500};
+	ndo_force f = {NDO_FORCE_FACE, 1.0, 2, 0, 1, {0}, 5, faces};
+	for (int m = 0; m < NDO_METHOD_COUNT; m++) {
+		if (ndo_method_is_implicit(m))
+			continue;
+		for (int variant = 0; variant < 2; variant++) {
+			ndo_sim_energy e[3];
+			for (int t = 0; t < 3; t++) {
+				ndo_sim_params p;
+				ndo_sim_defaults(&p);
+				p.method = m;
+				p.material.damping = 1;
+				p.forces = &f;
+				p.nforces = 1;
+				p.pin_mode = variant ? NDO_PINS_PENALTY : NDO_PINS_PROJECT;
+				p.penalty = 20;
+				p.threads = t + 1;
+				ndo_sim *s = make(g, x0, v0, pin, &p);
+				CHECK(ndo_sim_threads(s) == t + 1, "%d threads asked, %d used", t + 1,
+				      ndo_sim_threads(s));
+				if (variant)
+					ndo_sim_set_active(s, mask);
+				for (int k = 0; k < 12; k++)
+					CHECK(ndo_sim_step(s, 1e-3) == 0, "%s: %s", ndo_method_names[m],
+					      ndo_errdetail());
+				x[t] = malloc(nn * sizeof *x[t]), v[t] = malloc(nn * sizeof *v[t]);
+				ndo_sim_get(s, x[t], v[t]);
+				ndo_sim_energy_get(s, &e[t]);
+				CHECK(ndo_sim_check(s) == 0, "%s: the state diverged", ndo_method_names[m]);
+				ndo_sim_destroy(s);
+			}
+			for (int t = 1; t < 3; t++) {
+				CHECK(!memcmp(x[0], x[t], nn * sizeof *x[0]) && !memcmp(v[0], v[t], nn * sizeof *v[0]),
+				      "%s variant %d: %d threads differ from one", ndo_method_names[m], variant,
+				      t + 1);
+				CHECK(e[0].kinetic == e[t].kinetic && e[0].potential == e[t].potential,
+				      "%s variant %d: %d threads' energies differ from one", ndo_method_names[m],
+				      variant, t + 1);
+			}
+			for (int t = 0; t < 3; t++)
+				free(x[t]), free(v[t]);
+		}
+	}
+	/* A grid below the threshold runs on one thread. */
+	ndo_grid *small = shape("sphere", 4);
+	ndo_sim_params p;
+	ndo_sim_defaults(&p);
+	p.threads = 2;
+	ndo_sim *s = make(small, NULL, NULL, NULL, &p);
+	CHECK(ndo_sim_threads(s) == 1, "level 4 (%zu nodes): %d threads, expected 1", small->count,
+	      ndo_sim_threads(s));
+	ndo_sim_destroy(s);
+	p.threads = NDO_POOL_MAX + 1;
+	CHECK(ndo_sim_create(4, small->ch[0].data, NULL, NULL, NULL, &p, &s) == NDO_ERANGE,
+	      "%d threads accepted", p.threads);
+	ndo_grid_destroy(small);
+	free(x0), free(v0), free(pin), free(mask);
+	ndo_grid_destroy(g);
+}
+
 /* Projected pins never move; penalty pins move little, and the penalty
  * shrinks the stable step as 1/√α. */
 static void pins_stay_put(void)
@@ -877,6 +951,7 @@ int main(void)
 	RUN(fused_rk4_equals_the_tableau);
 	RUN(power_iteration_finds_lambda_max);
 	RUN(duplicates_agree_after_every_step);
+	RUN(threads_give_the_same_bits);
 	RUN(pins_stay_put);
 	RUN(energy_never_grows_without_input);
 	RUN(divergence_step_matches_prediction);

@@ -42,6 +42,7 @@
 #include <stdint.h>
 
 #include "ndo/grid.h"
+#include "ndo/pool.h"
 
 #ifdef __cplusplus
 extern "C" {
@@ -139,10 +140,20 @@ typedef struct ndo_sim_params {
 	                        blown-up bounding box are always tested) */
 	const ndo_force *forces;
 	int nforces;
+	int threads;         /* threads that share a step's loops, 0..NDO_POOL_MAX
+	                        (ndo/pool.h); 0 and 1 (default): the caller's
+	                        alone.  The result is the same, bit for bit, for
+	                        every count; grids of fewer than
+	                        NDO_SIM_THREAD_MIN integrated nodes use one */
 } ndo_sim_params;
 
+/* The smallest grid, in integrated nodes, whose steps are shared among
+ * threads: below it a step is too short to pay for waking a thread
+ * (docs/bench/simulate.md, "Threads"). */
+#define NDO_SIM_THREAD_MIN 8000
+
 /* σ = 1 N/m, ρ = 1 kg/m², b = 0, a = 0, rk4, tol 1e-6, no restiffening,
- * projected pins, energy bound 10, no forces. */
+ * projected pins, energy bound 10, no forces, one thread. */
 void ndo_sim_defaults(ndo_sim_params *p);
 
 typedef struct ndo_sim ndo_sim;
@@ -164,6 +175,10 @@ int ndo_sim_from_grid(ndo_grid *g, const ndo_sim_params *p, ndo_sim **out);
 
 /* Accepts NULL. */
 void ndo_sim_destroy(ndo_sim *s);
+
+/* The threads a step runs on: ndo_sim_params.threads, or 1 where the grid
+ * is below NDO_SIM_THREAD_MIN integrated nodes. */
+int ndo_sim_threads(const ndo_sim *s);
 
 /* Advance by one step of size h seconds with the chosen method.  rkf45
  * takes as many adaptive sub-steps as its tolerance needs to land exactly
