@@ -14,6 +14,10 @@ expect_error "unknown integrator" 2 "--integrator: 'verlet' is not euler" \
 	simulate-peer -i verlet s3.tgrid -o o.tgrid
 expect_error "steps not an integer" 2 "--steps: '1.5' is not an integer" \
 	simulate-peer -n 1.5 s3.tgrid -o o.tgrid
+expect_error "no threads" 2 "--threads 0: give 1\.\.[0-9]+ \(the processors" \
+	simulate-peer --threads 0 s3.tgrid -o o.tgrid
+expect_error "more threads than processors" 2 "--threads 100000: give 1\.\.[0-9]+" \
+	simulate-peer --threads 100000 s3.tgrid -o o.tgrid
 expect_error "dt negative" 2 '--dt: -1 is outside' simulate-peer --dt -1 s3.tgrid -o o.tgrid
 expect_error "bad force" 2 "--force: 'spring' is not face, point or pressure" \
 	simulate-peer --force 'spring faces=1' s3.tgrid -o o.tgrid

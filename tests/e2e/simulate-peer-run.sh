@@ -111,6 +111,22 @@ for m in backward-euler trapezoid; do
 	check "integrator $m at 10 x the rk4 limit" simulate-peer -q -i $m --dt 1 -n 20 -s scene.txt \
 		s3.tgrid -o m.tgrid
 done
+# Threads share a step's loops and change no bit (a level-6 grid: above
+# the 8,000 nodes from which steps are shared).
+remesh --shape wavy -l 6 -o w6.tgrid
+for m in rk4 midpoint; do
+	simulate-peer -q -i $m -n 8 -s scene.txt --threads 1 w6.tgrid -o one.tgrid
+	simulate-peer -s scene.txt -i $m -n 8 --threads 2 w6.tgrid -o two.tgrid 2>two.log
+	if /usr/bin/python3 -c "
+import sys; sys.path.insert(0, '$NDO_ROOT/tests/e2e'); import gridfile, numpy as np
+a, b = gridfile.read('one.tgrid')['channels'], gridfile.read('two.tgrid')['channels']
+sys.exit(0 if all(np.array_equal(a[k], b[k]) for k in a) and a.keys() == b.keys() else 1)" &&
+	   grep -q ' on 2 threads' two.log; then
+		pass "$m on 2 threads: the same grid as on 1, bit for bit"
+	else
+		fail "$m on 2 threads differs from 1 (or did not use 2)" "$(tail -1 two.log)"
+	fi
+done
 check "restiffen and a mesh output" simulate-peer -q --restiffen 2 -s scene.txt s3.tgrid -o m.obj
 
 # The sample scenes run (on a coarse grid, a few steps).

@@ -78,6 +78,9 @@ void setup(run *r)
 		memcpy(r->allpins, pin, g->count);
 	}
 	ndo_sim_params p = r->sc.sim;
+	/* Peers share the work between processes already: one thread each
+	 * unless asked. */
+	p.threads = r->threads ? r->threads : r->net.role ? 1 : ndo_cpu_count();
 	p.forces = r->forces;
 	p.nforces = r->sc.nforces;
 	ndo_channel *vc = ndo_grid_find(g, NDO_CH_VELOCITY);
