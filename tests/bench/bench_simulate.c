@@ -6,8 +6,12 @@
  *   bench_simulate limits       copy bandwidth at L2, L3 and DRAM sizes;
  *                               FMA throughput with SSE2, AVX2, AVX-512
  *   bench_simulate kernel L...  the RK4 kernel's GFLOP/s and GB/s
+ *   bench_simulate threads T L...  steps/s of rk4, symplectic Euler and
+ *                               midpoint on 1 and on T threads, in
+ *                               alternating runs, and their ratio
  *
- * Timings are medians of 7 runs of at least 0.1 s each, single thread.
+ * Timings are medians of 7 runs of at least 0.1 s each, single thread
+ * (threads: the ratio is the median of the 7 pairs' ratios).
  * Output: markdown table rows (tests/bench/simulate.sh assembles them). */
 #include "ndo/ndo.h"
 
@@ -40,7 +44,7 @@ static double median(double *v, int n)
 
 /* The thesis scene (figure 5.3): the wavy surface, k = 1 N/m, b = 0.1,
  * a sinusoidal 2.4 N force on the faces around (0, 0, 1). */
-static ndo_sim *thesis_scene(ndo_grid *g, ndo_method m, ndo_force **forces)
+static ndo_sim *thesis_scene_on(ndo_grid *g, ndo_method m, int threads, ndo_force **forces)
 {
 	ndo_scene sc;
 	ndo_scene_init(&sc);
@@ -52,6 +56,7 @@ static ndo_sim *thesis_scene(ndo_grid *g, ndo_method m, ndo_force **forces)
 	}
 	ndo_sim_params p = sc.sim;
 	p.method = m;
+	p.threads = threads;
 	p.forces = *forces;
 	p.nforces = sc.nforces;
 	ndo_sim *s;
@@ -62,6 +67,38 @@ static ndo_sim *thesis_scene(ndo_grid *g, ndo_method m, ndo_force **forces)
 	free(pin);
 	ndo_scene_free(&sc);
 	return s;
+}
+
+static ndo_sim *thesis_scene(ndo_grid *g, ndo_method m, ndo_force **forces)
+{
+	return thesis_scene_on(g, m, 1, forces);
+}
+
+/* Steps taking at least 0.1 s (at least one). */
+static long calibrate(ndo_sim *s, double h)
+{
+	long n = 1;
+	for (;;) {
+		double t0 = now();
+		for (long k = 0; k < n; k++)
+			ndo_sim_step(s, h);
+		double el = now() - t0;
+		if (el > 0.1)
+			return n;
+		n = el > 0.01 ? (long)(n * 0.12 / el) + 1 : n * 10;
+	}
+}
+
+/* Steps per second of n steps. */
+static double timed(ndo_sim *s, double h, long n)
+{
+	double t0 = now();
+	for (long q = 0; q < n; q++)
+		if (ndo_sim_step(s, h)) {
+			fprintf(stderr, "bench_simulate: %s\n", ndo_errdetail());
+			exit(1);
+		}
+	return (double)n / (now() - t0);
 }
 
 /* Median steps per second of `s` at step h. */
@@ -90,6 +127,45 @@ static double steps_per_second(ndo_sim *s, double h)
 		r[k] = (double)n / (now() - t0);
 	}
 	return median(r, REPS);
+}
+
+/* rk4, symplectic Euler and midpoint on one thread and on T, the same
+ * scene, timed in turn: each ratio within a pair of runs made together. */
+static void threads(int argc, char **argv)
+{
+	int T = atoi(argv[0]);
+	const ndo_method ms[] = {NDO_RK4, NDO_SYMPLECTIC_EULER, NDO_MIDPOINT};
+	printf("| integrator | level | nodes | 1 thread (steps/s) | %d threads (steps/s) | ratio |\n", T);
+	printf("|---|---:|---:|---:|---:|---:|\n");
+	for (int a = 1; a < argc; a++) {
+		int level = atoi(argv[a]);
+		ndo_grid *g;
+		ndo_shape_make("wavy", level, NULL, &g);
+		for (int k = 0; k < 3; k++) {
+			ndo_force *f1, *fT;
+			ndo_sim *s1 = thesis_scene_on(g, ms[k], 1, &f1);
+			ndo_sim *sT = thesis_scene_on(g, ms[k], T, &fT);
+			ndo_critical c;
+			ndo_sim_critical(s1, &c);
+			double h = 0.5 * c.h_crit;
+			long n = calibrate(s1, h);
+			calibrate(sT, h);
+			double r1[REPS], rT[REPS], q[REPS];
+			for (int r = 0; r < REPS; r++) {
+				r1[r] = timed(s1, h, n);
+				rT[r] = timed(sT, h, n);
+				q[r] = rT[r] / r1[r];
+			}
+			printf("| %s | %d | %zu | %.4g | %.4g | %.2f |\n", ndo_method_names[ms[k]], level,
+			       ndo_vertex_count(level), median(r1, REPS), median(rT, REPS), median(q, REPS));
+			fflush(stdout);
+			ndo_sim_destroy(s1);
+			ndo_sim_destroy(sT);
+			ndo_scene_forces_free(f1, 1);
+			ndo_scene_forces_free(fT, 1);
+		}
+		ndo_grid_destroy(g);
+	}
 }
 
 static void speed(int argc, char **argv)
@@ -279,8 +355,10 @@ int main(int argc, char **argv)
 		limits();
 	else if (argc >= 2 && strcmp(argv[1], "kernel") == 0)
 		kernel(argc - 2, argv + 2);
+	else if (argc >= 4 && strcmp(argv[1], "threads") == 0)
+		threads(argc - 2, argv + 2);
 	else {
-		fprintf(stderr, "usage: bench_simulate speed|kernel LEVEL... | limits\n");
+		fprintf(stderr, "usage: bench_simulate speed|kernel LEVEL... | threads T LEVEL... | limits\n");
 		return 2;
 	}
 	return 0;

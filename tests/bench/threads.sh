@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# tests/bench/threads.sh — simulate-peer's steps on 1 and 2 threads
+# (ndo_sim_params.threads, --threads): rk4, symplectic Euler and midpoint
+# at levels 4-10, timed in alternating runs in one process, with the
+# machine's load before and after.  Writes docs/bench/threads.md.
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+B=${NDO_TESTBIN:-build/tests}
+out=docs/bench/threads.md
+mkdir -p docs/bench build/bench
+t=build/bench/threads.md
+load0=$(cut -d' ' -f1-3 /proc/loadavg)
+"$B/bench_simulate" threads 2 ${LEVELS:-4 5 6 7 8 9 10} >"$t"
+load1=$(cut -d' ' -f1-3 /proc/loadavg)
+{
+	echo "# simulate-peer: threads"
+	echo
+	echo "Made by \`tests/bench/run threads\` (\`tests/bench/threads.sh\`, \`bench_simulate threads 2 4 5 6 7 8 9 10\`)" \
+		"on $(date -u +%Y-%m-%d), $(nproc) cores ($(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//'))," \
+		"load average $load0 before and $load1 after."
+	echo "The thesis scene (figure 5.3) on the wavy surface, each method at half its critical step."
+	echo "Each row: 7 pairs of runs of at least 0.1 s, one thread then two, in the same process;"
+	echo "steps/s are medians, the ratio is the median of the 7 pairs' ratios (a busy machine slows both"
+	echo "runs of a pair alike).  Grids under 8,000 integrated nodes (levels ≤ 5) run on one thread"
+	echo "whatever is asked, so their ratio measures only noise.  The results are the same bits on"
+	echo "any thread count (test_sim: threads_give_the_same_bits)."
+	echo
+	cat "$t"
+} >"$out"
+cat "$out"
