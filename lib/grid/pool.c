@@ -12,7 +12,6 @@
 #include "ndo/status.h"
 
 #include <pthread.h>
-#include <sched.h>
 #include <stdatomic.h>
 #include <stdint.h>
 #include <stdlib.h>
@@ -146,15 +145,4 @@ void ndo_pool_run(ndo_pool *p, int n, void (*fn)(void *ctx, int k), void *ctx)
 			pthread_cond_wait(&p->done, &p->lock);
 		pthread_mutex_unlock(&p->lock);
 	}
-}
-
-int ndo_cpu_count(void)
-{
-	cpu_set_t set;
-	if (sched_getaffinity(0, sizeof set, &set) == 0) {
-		int n = CPU_COUNT(&set);
-		if (n > 0)
-			return n;
-	}
-	return 1;
 }

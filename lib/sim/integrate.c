@@ -366,6 +366,21 @@ static int workspace(ndo_sim *s)
 	return NDO_OK;
 }
 
+size_t ndo_sim_memory(int level, const ndo_sim_params *p)
+{
+	const size_t n = (size_t)1 << level, cnt = (2 * n + 1) * (n + 1);
+	const tableau *tb = method_tableau(p->method);
+	const size_t stages = tb ? (size_t)tb->s : 1;
+	/* Planes of doubles (workspace()): X, u, v, us, vs, tmp, the forces,
+	 * 3 each; the stages' k (all but the first) and a, 3 each; mass, its
+	 * inverse, the damping rate and K's three edge weights, 1 each. */
+	const size_t planes = 7 * 3 + (2 * stages - 1) * 3 + 6;
+	/* Per node besides: the canonical index, pin and active flags, the
+	 * runs (at most one per two nodes, two lists of 8 bytes) and the
+	 * positions the setup reads the rest shape into. */
+	return cnt * (planes * sizeof(double) + sizeof(int32_t) + 2 + 8 + 3 * sizeof(double));
+}
+
 int ndo_sim_create(int level, const double *x, const double *v, const double *rest,
                    const uint8_t *pin, const ndo_sim_params *p, ndo_sim **out)
 {
@@ -376,6 +391,15 @@ int ndo_sim_create(int level, const double *x, const double *v, const double *re
 	int rc = check_params(p);
 	if (rc)
 		return rc;
+	if (p->max_memory) {
+		size_t need = ndo_sim_memory(level, p);
+		char a[16], b[16];
+		if (need > p->max_memory)
+			return ndo__fail(NDO_ENOMEM, "level %d with %s needs about %s; the limit is %s",
+			                 level, ndo_method_names[p->method],
+			                 ndo_bytes_text((double)need, a, sizeof a),
+			                 ndo_bytes_text((double)p->max_memory, b, sizeof b));
+	}
 	ndo_sim *s = calloc(1, sizeof *s);
 	if (!s)
 		return ndo__fail(NDO_ENOMEM, "out of memory for a simulation");

@@ -3,6 +3,7 @@
 #ifndef NDO_SIM_PRIVATE_H
 #define NDO_SIM_PRIVATE_H
 
+#include "ndo/machine.h"
 #include "ndo/membrane.h"
 #include "ndo/sim.h"
 

@@ -18,6 +18,13 @@ expect_error "no threads" 2 "--threads 0: give 1\.\.[0-9]+ \(the processors" \
 	simulate-peer --threads 0 s3.tgrid -o o.tgrid
 expect_error "more threads than processors" 2 "--threads 100000: give 1\.\.[0-9]+" \
 	simulate-peer --threads 100000 s3.tgrid -o o.tgrid
+remesh --shape sphere -l 6 -o s6.tgrid
+expect_error "memory limit, explicit" 1 "level 6 with rk4 needs about 3.[0-9]+ MB; the limit is 2 MB" \
+	simulate-peer --max-memory 2M s6.tgrid -o o.tgrid
+expect_error "memory limit, CHOLMOD's factor" 1 "step 1: level 6 with backward-euler needs about .* nonzeros in CHOLMOD's factor\); the limit is 3 MB" \
+	simulate-peer -q -i backward-euler --dt 0.01 --max-memory 3M s6.tgrid -o o.tgrid
+expect_error "memory limit too small to mean anything" 2 "--max-memory 5: give bytes from 1k" \
+	simulate-peer --max-memory 5 s4.tgrid -o o.tgrid
 expect_error "dt negative" 2 '--dt: -1 is outside' simulate-peer --dt -1 s3.tgrid -o o.tgrid
 expect_error "bad force" 2 "--force: 'spring' is not face, point or pressure" \
 	simulate-peer --force 'spring faces=1' s3.tgrid -o o.tgrid

@@ -115,8 +115,8 @@ done
 # the 8,000 nodes from which steps are shared).
 remesh --shape wavy -l 6 -o w6.tgrid
 for m in rk4 midpoint; do
-	simulate-peer -q -i $m -n 8 -s scene.txt --threads 1 w6.tgrid -o one.tgrid
-	simulate-peer -s scene.txt -i $m -n 8 --threads 2 w6.tgrid -o two.tgrid 2>two.log
+	simulate-peer -q -i $m -n 8 -s scene.txt --dt auto --threads 1 w6.tgrid -o one.tgrid
+	simulate-peer -s scene.txt -i $m -n 8 --dt auto --threads 2 w6.tgrid -o two.tgrid 2>two.log
 	if /usr/bin/python3 -c "
 import sys; sys.path.insert(0, '$NDO_ROOT/tests/e2e'); import gridfile, numpy as np
 a, b = gridfile.read('one.tgrid')['channels'], gridfile.read('two.tgrid')['channels']

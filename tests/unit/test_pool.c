@@ -3,6 +3,7 @@
  * loop after loop, with workers that wake late; a loop on no pool runs in
  * order; bad counts are refused. */
 #include "check.h"
+#include "ndo/machine.h"
 #include "ndo/pool.h"
 #include "ndo/status.h"
 

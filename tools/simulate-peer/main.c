@@ -79,6 +79,9 @@ static __attribute__((noreturn)) void usage(void)
 	    "      --seed S            seed for --perturb (default 0)\n"
 	    "      --energy-bound F    diverged when the energy exceeds F x (initial energy\n"
 	    "                          + input work), [0, 1e12] (default 10; 0: off)\n"
+	    "      --max-memory SIZE   refuse a run that needs more, before it allocates\n"
+	    "                          (bytes, or with k, M, G, T; default: the memory\n"
+	    "                          available now)\n"
 	    "      --threads N         threads a step runs on, 1..the processors this\n"
 	    "                          process may use (default: all of them alone, 1 as a\n"
 	    "                          peer); the same result for every N; grids under\n"
@@ -202,9 +205,13 @@ static void simulate(run *r)
 			ndo_close_stdout();
 			exit(EXIT_INTERRUPTED);
 		}
-		if (k > 0 && ndo_sim_step(r->sim, r->dt)) {
+		int rc = k > 0 ? ndo_sim_step(r->sim, r->dt) : NDO_OK;
+		if (rc) {
 			if (show)
 				fputc('\n', stderr);
+			if (rc != NDO_EDIVERGED) /* out of memory: not the physics */
+				ndo_die("step %lld: %s", (long long)ndo_sim_step_count(r->sim) + 1,
+				        ndo_errdetail());
 			diverged(r);
 		}
 		if (r->logging && (k % r->sc.log_every == 0 || k == r->steps))
@@ -261,7 +268,8 @@ static void finish(run *r)
 
 static void options(run *r, int argc, char **argv)
 {
-	enum { OPT_INFO = 256, OPT_VERSION, OPT_SETTING, OPT_PEER, OPT_PEER_FLAG, OPT_THREADS };
+	enum { OPT_INFO = 256, OPT_VERSION, OPT_SETTING, OPT_PEER, OPT_PEER_FLAG, OPT_THREADS,
+	       OPT_MEMORY };
 	static const struct option opts[] = {
 		{"scene", required_argument, 0, 's'},
 		{"integrator", required_argument, 0, 'i'},
@@ -310,6 +318,7 @@ static void options(run *r, int argc, char **argv)
 		{"reorder", required_argument, 0, OPT_PEER},
 		{"fault-seed", required_argument, 0, OPT_PEER},
 		{"threads", required_argument, 0, OPT_THREADS},
+		{"max-memory", required_argument, 0, OPT_MEMORY},
 		{"info", no_argument, 0, OPT_INFO},
 		{"quiet", no_argument, 0, 'q'},
 		{"help", no_argument, 0, 'h'},
@@ -343,6 +352,17 @@ static void options(run *r, int argc, char **argv)
 				ndo_usage_error("--threads %s: give 1..%d (the processors this process may "
 				                "run on)", optarg, most);
 			r->threads = (int)t;
+			break;
+		}
+		case OPT_MEMORY: {
+			char *end;
+			double b = strtod(optarg, &end);
+			double unit = !*end ? 1 : !strcmp(end, "k") ? 1e3 : !strcmp(end, "M") ? 1e6
+			            : !strcmp(end, "G") ? 1e9 : !strcmp(end, "T") ? 1e12 : 0;
+			if (end == optarg || !(b * unit >= 1e3) || !(b * unit <= 1e15))
+				ndo_usage_error("--max-memory %s: give bytes from 1k to 1000T (suffix k, M, G "
+				                "or T)", optarg);
+			r->max_memory = (size_t)(b * unit);
 			break;
 		}
 		case OPT_INFO: r->info = 1; break;

@@ -81,6 +81,7 @@ void setup(run *r)
 	/* Peers share the work between processes already: one thread each
 	 * unless asked. */
 	p.threads = r->threads ? r->threads : r->net.role ? 1 : ndo_cpu_count();
+	p.max_memory = r->max_memory ? r->max_memory : ndo_memory_available();
 	p.forces = r->forces;
 	p.nforces = r->sc.nforces;
 	ndo_channel *vc = ndo_grid_find(g, NDO_CH_VELOCITY);

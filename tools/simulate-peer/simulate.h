@@ -49,6 +49,7 @@ typedef struct run {
 	uint8_t *allpins;  /* peers' owner: every pinned node (grid and --pin) */
 	peer_cli net;      /* the peers' options (role 0: a single process) */
 	int threads;       /* --threads; 0: every processor alone, 1 as a peer */
+	size_t max_memory; /* --max-memory; 0: what the machine has available */
 } run;
 
 /* run.c: load the input, rest shape, pins and forces; create the

@@ -36,7 +36,4 @@ int ndo_pool_threads(const ndo_pool *p);
  * pool, and one thread at a time runs loops on a pool. */
 void ndo_pool_run(ndo_pool *p, int n, void (*fn)(void *ctx, int k), void *ctx);
 
-/* The processors this process may run on (sched_getaffinity), at least 1. */
-int ndo_cpu_count(void);
-
 #endif

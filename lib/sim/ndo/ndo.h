@@ -12,6 +12,8 @@
 #include "ndo/export.h"
 #include "ndo/subdivide.h"
 #include "ndo/cli.h"
+#include "ndo/machine.h"
+#include "ndo/pool.h"
 #include "ndo/membrane.h"
 #include "ndo/sim.h"
 #include "ndo/scene.h"

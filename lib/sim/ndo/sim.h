@@ -140,6 +140,11 @@ typedef struct ndo_sim_params {
 	                        blown-up bounding box are always tested) */
 	const ndo_force *forces;
 	int nforces;
+	size_t max_memory;   /* the most bytes the simulation may take (its
+	                        arrays, and the implicit methods' factor); 0
+	                        (default): no limit.  A larger run is refused
+	                        with NDO_ENOMEM and the estimate, before it
+	                        allocates (ndo_sim_memory) */
 	int threads;         /* threads that share a step's loops, 0..NDO_POOL_MAX
 	                        (ndo/pool.h); 0 and 1 (default): the caller's
 	                        alone.  The result is the same, bit for bit, for
@@ -175,6 +180,12 @@ int ndo_sim_from_grid(ndo_grid *g, const ndo_sim_params *p, ndo_sim **out);
 
 /* Accepts NULL. */
 void ndo_sim_destroy(ndo_sim *s);
+
+/* The bytes a simulation of a level-`level` grid with these parameters
+ * allocates for its state, workspace and stencil (the implicit methods'
+ * factor comes on top: its size is known after the symbolic analysis, and
+ * checked against max_memory then). */
+size_t ndo_sim_memory(int level, const ndo_sim_params *p);
 
 /* The threads a step runs on: ndo_sim_params.threads, or 1 where the grid
  * is below NDO_SIM_THREAD_MIN integrated nodes. */
