@@ -60,6 +60,7 @@ int main(int argc, char **argv)
 {
 	int level = 6, peers = 1;
 	double seconds = 5;
+	long long nsteps = 0;
 	const char *spec = "predict", *dump = NULL;
 	for (int a = 1; a + 1 < argc; a += 2) {
 		if (!strcmp(argv[a], "-l"))
@@ -72,6 +73,8 @@ int main(int argc, char **argv)
 			dump = argv[a + 1];
 		else if (!strcmp(argv[a], "-t"))
 			seconds = atof(argv[a + 1]);
+		else if (!strcmp(argv[a], "-n")) /* steps, at the auto step (instead of -t) */
+			nsteps = atoll(argv[a + 1]);
 		else if (!strcmp(argv[a], "-z")) { /* zstd's level (lib/net/codec_entropy.c) */
 			extern int ndo__codec_zstd_level;
 			ndo__codec_zstd_level = atoi(argv[a + 1]);
@@ -104,7 +107,10 @@ int main(int argc, char **argv)
 	ndo_sim_critical(sim, &crit);
 	double h = sc.dt_safety * crit.h_crit;
 	int64_t steps = (int64_t)ceil(seconds / h - 1e-9);
-	h = seconds / (double)steps;
+	if (nsteps > 0)
+		steps = nsteps;
+	else
+		h = seconds / (double)steps;
 	ndo_grid_add(g, NDO_CH_VELOCITY, NDO_F64, 3, NULL);
 	ndo_sim_store(sim, g);
 	x = ndo_grid_f64(g, NDO_CH_POSITION, 3);
