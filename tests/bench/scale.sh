@@ -45,14 +45,15 @@ remesh "$dir/data/meshes/bunny00.off" -l 7 -o "$dir/bunny7.tgrid" 2>/dev/null
 subdivide -l 1 "$dir/bunny7.tgrid" -o "$dir/scan.obj"
 scan_v=$(grep -c '^v ' "$dir/scan.obj")
 
-for L in $levels; do
+first=${levels%% *}
+for L in $((first - 1)) $levels; do
 	remesh --shape wavy -l "$L" -o "$dir/w$L.tgrid"
+done
+for L in $levels; do
 	if [ "$L" -ge 8 ] && [ "$L" -le 9 ]; then
 		run remesh "$L" remesh "$dir/scan.obj" -l "$L" -o "$dir/r$L.tgrid"
 	fi
-	run subdivide "$L" subdivide -l 1 "$dir/w$((L - 1)).tgrid" -o "$dir/s$L.tgrid" 2>/dev/null ||
-		{ remesh --shape wavy -l $((L - 1)) -o "$dir/w$((L - 1)).tgrid" &&
-		  run subdivide "$L" subdivide -l 1 "$dir/w$((L - 1)).tgrid" -o "$dir/s$L.tgrid"; }
+	run subdivide "$L" subdivide -l 1 "$dir/w$((L - 1)).tgrid" -o "$dir/s$L.tgrid"
 	# steps: about 2 s of rk4 on 2 threads, a few implicit steps
 	n=$((2 ** (2 * (11 - L)) / 2 + 3))
 	run simulate-peer-rk4 "$L" simulate-peer -s samples/thesis-fig5.3.scene -n "$n" \
