@@ -126,7 +126,7 @@ test: deps
 check-build: all $(TEST_PROGS)
 
 # The speed benchmarks; `make report` runs them and every study too.
-BENCH_SPEED := subdivide render simulate
+BENCH_SPEED := subdivide render simulate threads
 bench: deps
 	$(MAKE) all $(BENCH_PROGS)
 	tests/bench/run $(BENCH_SPEED)
