@@ -369,6 +369,21 @@ static void power_iteration_finds_lambda_max(void)
 
 /* A stored duplicate is a bitwise copy of its vertex after every step,
  * for every method, with forces, pins and a held region. */
+/* Method m with damping, one face force, and pins projected (variant 0)
+ * or as penalty springs (variant 1): every path of the step at once. */
+static ndo_sim_params busy_params(int m, int variant, const ndo_force *f)
+{
+	ndo_sim_params p;
+	ndo_sim_defaults(&p);
+	p.method = m;
+	p.material.damping = 1;
+	p.forces = f;
+	p.nforces = 1;
+	p.pin_mode = variant ? NDO_PINS_PENALTY : NDO_PINS_PROJECT;
+	p.penalty = 20;
+	return p;
+}
+
 static void duplicates_agree_after_every_step(void)
 {
 	ndo_grid *g = shape("wavy", 3);
@@ -387,14 +402,7 @@ static void duplicates_agree_after_every_step(void)
 	ndo_force f = {NDO_FORCE_FACE, 1.0, 2, 0, 1, {0}, 4, faces};
 	for (int m = 0; m < NDO_METHOD_COUNT; m++)
 		for (int variant = 0; variant < 2; variant++) {
-			ndo_sim_params p;
-			ndo_sim_defaults(&p);
-			p.method = m;
-			p.material.damping = 1;
-			p.forces = &f;
-			p.nforces = 1;
-			p.pin_mode = variant ? NDO_PINS_PENALTY : NDO_PINS_PROJECT;
-			p.penalty = 20;
+			ndo_sim_params p = busy_params(m, variant, &f);
 			ndo_sim *s = make(g, x0, v0, pin, &p);
 			if (variant)
 				ndo_sim_set_active(s, mask);
@@ -438,14 +446,7 @@ static void threads_give_the_same_bits(void)
 		for (int variant = 0; variant < 2; variant++) {
 			ndo_sim_energy e[3];
 			for (int t = 0; t < 3; t++) {
-				ndo_sim_params p;
-				ndo_sim_defaults(&p);
-				p.method = m;
-				p.material.damping = 1;
-				p.forces = &f;
-				p.nforces = 1;
-				p.pin_mode = variant ? NDO_PINS_PENALTY : NDO_PINS_PROJECT;
-				p.penalty = 20;
+				ndo_sim_params p = busy_params(m, variant, &f);
 				p.threads = t + 1;
 				ndo_sim *s = make(g, x0, v0, pin, &p);
 				CHECK(ndo_sim_threads(s) == t + 1, "%d threads asked, %d used", t + 1,
