@@ -22,6 +22,7 @@
 #include "ndo_msg/ndo_msg_description_t.h"
 #include "ndo_msg/ndo_msg_force_t.h"
 #include "ndo_msg/ndo_msg_header_t.h"
+#include "ndo_msg/ndo_msg_halo_t.h"
 #include "ndo_msg/ndo_msg_heartbeat_t.h"
 #include "ndo_msg/ndo_msg_hello_t.h"
 #include "ndo_msg/ndo_msg_leave_t.h"
@@ -62,6 +63,7 @@ typedef enum ndo_msg_type {
 	NDO_MSG_HEARTBEAT,
 	NDO_MSG_DESC_REQUEST,
 	NDO_MSG_FORCE,
+	NDO_MSG_HALO,
 	NDO_MSG_NTYPES
 } ndo_msg_type;
 
@@ -111,6 +113,7 @@ typedef struct ndo_msg {
 		ndo_msg_heartbeat_t heartbeat;
 		ndo_msg_desc_request_t desc_request;
 		ndo_msg_force_t force;
+		ndo_msg_halo_t halo;
 	} u;
 } ndo_msg;
 
@@ -138,9 +141,12 @@ int ndo_msg_encode(ndo_msg_type t, const void *msg, uint8_t **buf, size_t *len);
 /* The encoded size, in bytes, of such a message. */
 size_t ndo_msg_encoded_size(ndo_msg_type t, const void *msg);
 
-/* Tile channels (bits of tile_t.channels) and their values per node. */
+/* Tile channels (bits of tile_t.channels) and their values per node.
+ * DISPLACEMENT is the simulation's own state u = x − X (3 values, after
+ * the pin): lock-step peers exchange their halos with it, since
+ * (X + u) − X is not u in floating point (docs/peers.md). */
 enum { NDO_TILE_POSITION = 1, NDO_TILE_VELOCITY = 2, NDO_TILE_REST = 4,
-       NDO_TILE_PIN = 8, NDO_TILE_ALL = 15 };
+       NDO_TILE_PIN = 8, NDO_TILE_DISPLACEMENT = 16, NDO_TILE_ALL = 31 };
 int ndo_tile_values_per_node(int channels); /* 3 per vector bit, 1 for pin */
 
 /* Tile encodings (tile_t.encoding; ndo/codec.h).  RAW carries doubles in
