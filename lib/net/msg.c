@@ -234,8 +234,7 @@ size_t ndo_msg_encoded_size(ndo_msg_type t, const void *msg)
 int ndo_tile_values_per_node(int ch)
 {
 	return 3 * (!!(ch & NDO_TILE_POSITION) + !!(ch & NDO_TILE_VELOCITY) +
-	            !!(ch & NDO_TILE_REST) + !!(ch & NDO_TILE_DISPLACEMENT)) +
-	       !!(ch & NDO_TILE_PIN);
+	            !!(ch & NDO_TILE_REST)) + !!(ch & NDO_TILE_PIN);
 }
 
 int ndo_tile_depth(int level, int channels, const char *channel)
@@ -393,10 +392,6 @@ ndo_drop ndo_msg_validate(const ndo_msg *m, const ndo_msg_ctx *c)
 		if (ndo_quad_from_range(L, t->depth, t->i0, t->j0, t->i1, t->j1, &q) != 0)
 			return NDO_DROP_RANGE;
 		if (t->channels <= 0 || (t->channels & ~NDO_TILE_ALL))
-			return NDO_DROP_RANGE;
-		/* a peer's halo: displacement with velocity, never with rest or pins */
-		if ((t->channels & NDO_TILE_DISPLACEMENT) &&
-		    (t->channels & (NDO_TILE_REST | NDO_TILE_PIN)))
 			return NDO_DROP_RANGE;
 		if (t->encoding < NDO_ENC_RAW || t->encoding > NDO_ENC_PREDICT)
 			return NDO_DROP_ENCODING;

@@ -188,8 +188,6 @@ static void write_halo(ndo_peer *p, const ndo_msg_halo_t *h)
 
 static void write_tile(ndo_peer *p, const ndo_msg_tile_t *t, int fill)
 {
-	if (t->channels & NDO_TILE_DISPLACEMENT)
-		return; /* exact lock-step's halos travel as halo_t */
 	ndo_grid *g = ndo_session_grid(p->s);
 	double *x = ndo_grid_f64(g, NDO_CH_POSITION, 3), *v = ndo_grid_f64(g, NDO_CH_VELOCITY, 3);
 	const int32_t *own = owner_channel(p);

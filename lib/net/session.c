@@ -650,11 +650,6 @@ static void apply_tile(ndo_session *s, const ndo_msg_tile_t *t, int decoded)
 			return;
 		}
 		ndo_tile_apply(s->grid, t, NULL, 0);
-	} else if (t->channels & NDO_TILE_DISPLACEMENT) {
-		/* a peer's halo (ndo/peer.h): the caller's, never a snapshot */
-		if (s->o.tile_fn)
-			s->o.tile_fn(s->o.tile_user, t, 0);
-		return;
 	} else {
 		int fill = !s->ready && from == s->owner_id && !decoded;
 		if (s->o.tile_fn)
@@ -824,14 +819,6 @@ int ndo_session_send_halo(ndo_session *s, ndo_msg_halo_t *h)
 		return 0;
 	h->epoch = s->epoch;
 	return ndo_net_publish(s->net, NDO_MSG_HALO, h);
-}
-
-int ndo_session_send_tile(ndo_session *s, ndo_msg_tile_t *t)
-{
-	if (!s->grid || s->ended || (!s->ready && s->o.role != NDO_ROLE_OWNER))
-		return 0;
-	t->epoch = s->epoch;
-	return ndo_net_publish(s->net, NDO_MSG_TILE, t);
 }
 
 int ndo_session_publish_from(ndo_session *s, const ndo_grid *src, int64_t step, double time)

@@ -75,8 +75,6 @@ size_t ndo_tile_apply(ndo_grid *g, const ndo_msg_tile_t *t, const int32_t *owner
 					pv[node] = t->values[k] != 0;
 				k++;
 			}
-			if (t->channels & NDO_TILE_DISPLACEMENT)
-				k += 3; /* a peer's halo (ndo/peer.h): not a grid channel */
 		}
 	return written;
 }

@@ -79,8 +79,7 @@ static void tile_fields_checked(void)
 }
 
 /* A peer's halo (exact lock-step): runs inside the grid, increasing and
- * disjoint, six finite values a node; a displacement tile never carries
- * rest or pins. */
+ * disjoint, six finite values a node. */
 static void halos_checked(void)
 {
 	ndo_msg_ctx c = {42, 4, 1};
@@ -102,13 +101,6 @@ static void halos_checked(void)
 	v[7] = 0;
 	ndo_msg_ctx unknown = {0, -1, 1};
 	CHECK(roundtrip(NDO_MSG_HALO, &h, &unknown) == NDO_DROP_UNKNOWN, "before the description");
-	ndo_msg_tile_t t = make_tile(4, 3);
-	t.channels = NDO_TILE_DISPLACEMENT | NDO_TILE_PIN;
-	free(t.values);
-	t.nvalues = (int32_t)(ndo_quad_node_count(4, 3) * 4);
-	t.values = calloc((size_t)t.nvalues, sizeof(double));
-	CHECK(roundtrip(NDO_MSG_TILE, &t, &c) == NDO_DROP_RANGE, "displacement with pins");
-	free(t.values);
 }
 
 static void bytes_checked_before_decoding(void)

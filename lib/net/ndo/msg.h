@@ -141,12 +141,9 @@ int ndo_msg_encode(ndo_msg_type t, const void *msg, uint8_t **buf, size_t *len);
 /* The encoded size, in bytes, of such a message. */
 size_t ndo_msg_encoded_size(ndo_msg_type t, const void *msg);
 
-/* Tile channels (bits of tile_t.channels) and their values per node.
- * DISPLACEMENT is the simulation's own state u = x − X (3 values, after
- * the pin): lock-step peers exchange their halos with it, since
- * (X + u) − X is not u in floating point (docs/peers.md). */
+/* Tile channels (bits of tile_t.channels) and their values per node. */
 enum { NDO_TILE_POSITION = 1, NDO_TILE_VELOCITY = 2, NDO_TILE_REST = 4,
-       NDO_TILE_PIN = 8, NDO_TILE_DISPLACEMENT = 16, NDO_TILE_ALL = 31 };
+       NDO_TILE_PIN = 8, NDO_TILE_ALL = 15 };
 int ndo_tile_values_per_node(int channels); /* 3 per vector bit, 1 for pin */
 
 /* Tile encodings (tile_t.encoding; ndo/codec.h).  RAW carries doubles in

@@ -59,8 +59,7 @@ typedef struct ndo_session_opts {
 	 * by the tiles' steps (ndo/peer.h).  `flags`: NDO_TILE_FN_FILL, a tile
 	 * of the owner's snapshot before READY, whose values stand for every
 	 * node in its range (not only the owner's); NDO_TILE_FN_DECODED, a tile
-	 * that travelled encoded (its values may be lossy).  Tiles with
-	 * NDO_TILE_DISPLACEMENT (peers' halos) go only here.  The grid exists
+	 * that travelled encoded (its values may be lossy).  The grid exists
 	 * when it is called; the session makes stored duplicates agree after
 	 * each update. */
 	void (*tile_fn)(void *user, const ndo_msg_tile_t *t, int flags);
@@ -132,11 +131,6 @@ int ndo_session_publish_from(ndo_session *s, const ndo_grid *src, int64_t step, 
 /* Send a halo the caller filled (runs, values, step, time): the session
  * sets the epoch in force.  0 or a negative status. */
 int ndo_session_send_halo(ndo_session *s, ndo_msg_halo_t *h);
-
-/* Send a tile the caller filled (range, depth, channels, values, step,
- * time; raw): the session sets the epoch in force.  Lock-step peers send
- * their halos so (ndo/peer.h).  0 or a negative status. */
-int ndo_session_send_tile(ndo_session *s, ndo_msg_tile_t *t);
 
 /* Tiles of `step` carry every node this peer simulates at full precision
  * (the run's last step: what the owner gathers is exact); −1: none. */
