@@ -23,10 +23,14 @@ rm -rf "$work" && mkdir -p "$work"
 SCENE=samples/thesis-fig5.3.scene
 POIS=(0 3000 9000 14000 5000 11000 7000 1500)
 
+# PEERS_SECTIONS="4 5" runs only those sections (the others' tables are
+# then left out of the report)
+want() { [[ " ${PEERS_SECTIONS:-1 2 3 4 5} " == *" $1 "* ]]; }
 lag_cmd="build/tests/bench_peers lag -l 6"
-lag=$($lag_cmd)
 rt_cmd="build/tests/bench_peers realtime -l 5"
-rt=$($rt_cmd)
+lag="(not run)" rt="(not run)" loss="(not run)" speed="(not run)" lat="(not run)"
+want 1 && lag=$($lag_cmd)
+want 2 && rt=$($rt_cmd)
 
 remesh --shape wavy -l 6 -o "$work/wavy6.tgrid" 2>/dev/null
 
@@ -49,7 +53,7 @@ peers() {
 	while [ $# -gt 0 ] && [ "$1" != -- ]; do own+=("$1"); shift; done
 	[ $# -gt 0 ] && shift
 	all=("$@")
-	local pids=()
+	local pids=() k
 	simulate-peer --owner "$grid" -s "$SCENE" --peers "$n" -o "$outg" "${own[@]}" "${all[@]}" \
 		2>"$work/owner.err" &
 	pids+=($!)
@@ -70,6 +74,7 @@ peers() {
 field() { grep -o "$1" "$work/owner.err" | head -1 | grep -o '[0-9.e+-]*' | head -1; }
 
 # 3. loss
+if want 3; then
 simulate-peer -q "$work/wavy6.tgrid" -s "$SCENE" -t 2 -o "$work/solo6.tgrid"
 loss="| clock | loss | divergence | wall time (s) | steps waited | timed out | re-sends | mean boundary lag (steps) |
 |---|---|---|---|---|---|---|---|"
@@ -85,6 +90,7 @@ for clock in lockstep realtime; do
 		fi
 	done
 done
+fi
 
 # 4. speed of exact lock-step (no loss), rk4, levels 5-9, 1/2/4/8 peers,
 # against one single-threaded process; medians of 3 runs.  Steps per second
@@ -93,10 +99,11 @@ done
 # step's power iteration, the snapshot to joiners) is not counted.
 median() { tr ' ' '\n' | grep . | sort -g | awk '{v[NR] = $1} END {print v[int((NR + 1) / 2)]}'; }
 declare -A TL=([5]=10 [6]=5 [7]=2 [8]=1 [9]=0.5)
+load0=$(cut -d' ' -f1-3 /proc/loadavg)
+if want 4; then
 speed="| level | peers | steps | steps/s | × one process | computing per step (ms) | waiting per step (ms) | halo kB per step per peer | whole-region kB per step per peer |
 |---|---|---|---|---|---|---|---|---|"
-load0=$(cut -d' ' -f1-3 /proc/loadavg)
-for level in 5 6 7 8 9; do
+for level in ${PEERS_LEVELS:-5 6 7 8 9}; do
 	[ -e "$work/wavy$level.tgrid" ] || remesh --shape wavy -l "$level" -o "$work/wavy$level.tgrid" 2>/dev/null
 	t=${TL[$level]}
 	sps=""
@@ -127,13 +134,14 @@ for level in 5 6 7 8 9; do
 		echo "level $level, $n peers: $r steps/s (one process $solo_sps)" >&2
 	done
 done
-load1=$(cut -d' ' -f1-3 /proc/loadavg)
 /usr/bin/python3 tests/bench/peers_plot.py docs/bench/peers.svg <<<"$speed" || echo "no plot" >&2
+fi
 
 # 5. latency: one-way delay injected on every peer's receiving side, level 6,
 # 2 peers, rk4, 2 s (105 steps): steps per second against the delay and
 # the steps per halo exchange, against the thesis' scheme (--boundary hold:
 # one exchange of whole regions every step, what lock-step did before)
+if want 5; then
 lat="| delay (ms) | scheme | steps/s | × held boundary | bit for bit |
 |---|---|---|---|---|"
 simulate-peer -q "$work/wavy6.tgrid" -s "$SCENE" -t 2 -o "$work/solo2.tgrid"
@@ -142,18 +150,20 @@ for delay in 5 20 50; do
 	held=$(awk "BEGIN{print $(field '[0-9]* steps to step') / $(field 'in [0-9.e+-]* s (')}")
 	lat="$lat
 | $delay | held boundary (thesis) | $(printf %.0f "$held") | 1 | no ($(diff_rel "$work/lat.tgrid" "$work/solo2.tgrid")) |"
-	for k in 1 4 8 16 32; do
-		if peers 2 "$work/wavy6.tgrid" "$work/lat.tgrid" -t 2 --halo-steps "$k" -- --delay "$delay"; then
+	for hk in 1 4 8 16 32; do
+		if peers 2 "$work/wavy6.tgrid" "$work/lat.tgrid" -t 2 --halo-steps "$hk" -- --delay "$delay"; then
 			r=$(awk "BEGIN{print $(field '[0-9]* steps to step') / $(field 'in [0-9.e+-]* s (')}")
 			d=$(diff_rel "$work/lat.tgrid" "$work/solo2.tgrid")
 			lat="$lat
-| $delay | exact, $k steps per exchange | $(printf %.0f "$r") | $(awk "BEGIN{printf \"%.1f\", $r / $held}") | $([ "$d" = 0.00e+00 ] && echo yes || echo "no ($d)") |"
+| $delay | exact, $hk steps per exchange | $(printf %.0f "$r") | $(awk "BEGIN{printf \"%.1f\", $r / $held}") | $([ "$d" = 0.00e+00 ] && echo yes || echo "no ($d)") |"
 		else
 			lat="$lat
-| $delay | exact, $k steps per exchange | failed | | |"
+| $delay | exact, $hk steps per exchange | failed | | |"
 		fi
 	done
 done
+fi
+load1=$(cut -d' ' -f1-3 /proc/loadavg)
 
 {
 	echo "# Peers: what splitting the surface costs"
