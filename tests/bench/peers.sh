@@ -98,7 +98,7 @@ fi
 # the owner's "N steps to step S in X s"), so setup (remesh, the critical
 # step's power iteration, the snapshot to joiners) is not counted.
 median() { tr ' ' '\n' | grep . | sort -g | awk '{v[NR] = $1} END {print v[int((NR + 1) / 2)]}'; }
-declare -A TL=([5]=10 [6]=5 [7]=2 [8]=1 [9]=0.5)
+declare -A TL=([5]=10 [6]=5 [7]=2 [8]=0.5 [9]=0.1)
 load0=$(cut -d' ' -f1-3 /proc/loadavg)
 if want 4; then
 speed="| level | peers | steps | steps/s | × one process | computing per step (ms) | waiting per step (ms) | halo kB per step per peer | whole-region kB per step per peer |
@@ -145,12 +145,12 @@ if want 5; then
 lat="| delay (ms) | scheme | steps/s | × held boundary | bit for bit |
 |---|---|---|---|---|"
 simulate-peer -q "$work/wavy6.tgrid" -s "$SCENE" -t 2 -o "$work/solo2.tgrid"
-for delay in 5 20 50; do
+for delay in 0 5 20 50; do
 	peers 2 "$work/wavy6.tgrid" "$work/lat.tgrid" -t 2 --boundary hold -- --delay "$delay" || true
 	held=$(awk "BEGIN{print $(field '[0-9]* steps to step') / $(field 'in [0-9.e+-]* s (')}")
 	lat="$lat
 | $delay | held boundary (thesis) | $(printf %.0f "$held") | 1 | no ($(diff_rel "$work/lat.tgrid" "$work/solo2.tgrid")) |"
-	for hk in 1 4 8 16 32; do
+	for hk in 1 2 4 8 16 32; do
 		if peers 2 "$work/wavy6.tgrid" "$work/lat.tgrid" -t 2 --halo-steps "$hk" -- --delay "$delay"; then
 			r=$(awk "BEGIN{print $(field '[0-9]* steps to step') / $(field 'in [0-9.e+-]* s (')}")
 			d=$(diff_rel "$work/lat.tgrid" "$work/solo2.tgrid")
