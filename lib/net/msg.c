@@ -41,6 +41,7 @@ static const typeops types[NDO_MSG_NTYPES] = {
 	[NDO_MSG_HEARTBEAT] = OPS(heartbeat_t, "HEARTBEAT"),
 	[NDO_MSG_DESC_REQUEST] = OPS(desc_request_t, "DESC_REQUEST"),
 	[NDO_MSG_FORCE] = OPS(force_t, "FORCE"),
+	[NDO_MSG_HALO] = OPS(halo_t, "HALO"),
 };
 /* The one nested type. */
 static const typeops header_ops = OPS(header_t, "");
@@ -358,7 +359,7 @@ static ndo_drop check_header(const ndo_msg *m, const ndo_msg_ctx *c)
 static int needs_level(ndo_msg_type t)
 {
 	return t == NDO_MSG_TILE || t == NDO_MSG_POI || t == NDO_MSG_PARTITION ||
-	       t == NDO_MSG_PEERS || t == NDO_MSG_FORCE;
+	       t == NDO_MSG_PEERS || t == NDO_MSG_FORCE || t == NDO_MSG_HALO;
 }
 
 ndo_drop ndo_msg_validate(const ndo_msg *m, const ndo_msg_ctx *c)
@@ -457,6 +458,24 @@ ndo_drop ndo_msg_validate(const ndo_msg *m, const ndo_msg_ctx *c)
 	}
 	case NDO_MSG_DESC_REQUEST:
 		return NDO_DROP_NONE;
+	case NDO_MSG_HALO: {
+		const ndo_msg_halo_t *h = &m->u.halo;
+		if (h->step < 0 || !isfinite(h->time) || h->time < 0 || h->epoch < 0)
+			return h->time != h->time ? NDO_DROP_NONFINITE : NDO_DROP_RANGE;
+		const int64_t n = 1 << L, nodes = (2 * n + 1) * (n + 1);
+		if (h->nruns < 0 || h->nruns > nodes)
+			return NDO_DROP_RANGE;
+		int64_t next = 0, count = 0;
+		for (int k = 0; k < h->nruns; k++) {
+			if (h->start[k] < next || h->len[k] < 1 || h->len[k] > nodes - h->start[k])
+				return NDO_DROP_RANGE; /* increasing, disjoint, inside the grid */
+			next = (int64_t)h->start[k] + h->len[k];
+			count += h->len[k];
+		}
+		if (h->nvalues != 6 * count)
+			return NDO_DROP_LENGTH;
+		return finite_all(h->values, h->nvalues) ? NDO_DROP_NONE : NDO_DROP_NONFINITE;
+	}
 	case NDO_MSG_FORCE: {
 		const ndo_msg_force_t *f = &m->u.force;
 		if (f->step < 0 || f->nforces < 0 || f->nforces > NDO_MAX_FORCES)

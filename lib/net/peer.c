@@ -61,6 +61,25 @@ struct ndo_peer {
 	/* tiles for later */
 	ndo_msg_tile_t *stash;
 	size_t nstash, capstash;
+	/* exact lock-step (ndo/peer.h): halos of `W` rings exchanged every `K`
+	 * steps as displacement tiles, whole regions every `N` */
+	int exact, W, K, N;
+	int32_t *own;          /* stored nodes of the region (duplicates too) */
+	size_t nown;
+	int32_t *ownc;         /* canonical nodes of the region */
+	uint8_t *hmark;        /* per canonical node: in the halo (rings 1..W) */
+	uint8_t *act;          /* per stored node: integrated (region and halo) */
+	int32_t *dist;         /* BFS scratch */
+	int32_t *strip;        /* canonical nodes of the region a neighbour's halo holds */
+	size_t nstrip;
+	double *hu;            /* per stored node: the halo's received displacement */
+	double *sbuf[2];       /* per stored node: (v, u) of the strip at sstep[] */
+	int64_t sstep[2];
+	double stime[2];
+	int32_t sepoch[2];
+	int synced;            /* the grid holds the region's state at cur */
+	ndo_msg_halo_t *hstash; /* halos for later steps or partitions */
+	size_t nhstash, caphstash;
 	int failed;
 	double now;
 	char message[320];
@@ -132,6 +151,41 @@ static int arrays(ndo_peer *p)
 
 /* ---- tiles in ------------------------------------------------------------ */
 /* Write a tile's values into the nodes `take` accepts. */
+/* A halo (ndo_msg_halo_t) of exact lock-step: into the halo nodes the
+ * sender owns, when newer. */
+static void write_halo(ndo_peer *p, const ndo_msg_halo_t *h)
+{
+	if (!p->exact || !p->hmark)
+		return;
+	ndo_grid *g = ndo_session_grid(p->s);
+	double *x = ndo_grid_f64(g, NDO_CH_POSITION, 3), *v = ndo_grid_f64(g, NDO_CH_VELOCITY, 3);
+	const double *rest = ndo_grid_f64(g, NDO_CH_REST, 3);
+	const int32_t *own = owner_channel(p);
+	const int32_t from = h->hdr.sender_id;
+	size_t k = 0, taken = 0;
+	for (int r = 0; r < h->nruns; r++)
+		for (int32_t q = 0; q < h->len[r]; q++, k += 6) {
+			size_t c = (size_t)h->start[r] + (size_t)q;
+			if ((size_t)p->canon[c] != c || own[c] != from || !p->hmark[c] ||
+			    h->step < p->nstep[c])
+				continue;
+			const double *val = &h->values[k];
+			for (int d = 0; d < 3; d++) {
+				v[3 * c + d] = val[d];
+				p->hu[3 * c + d] = val[3 + d];
+				x[3 * c + d] = rest[3 * c + d] + val[3 + d];
+			}
+			p->nstep[c] = h->step;
+			taken++;
+		}
+	if (!taken) /* duplicates: the session syncs the grid after its update */
+		return;
+	if (h->step > p->max_seen)
+		p->max_seen = h->step;
+	p->times[h->step & 63].step = h->step;
+	p->times[h->step & 63].time = h->time;
+}
+
 static void write_tile(ndo_peer *p, const ndo_msg_tile_t *t, int fill)
 {
 	ndo_grid *g = ndo_session_grid(p->s);
@@ -149,6 +203,10 @@ static void write_tile(ndo_peer *p, const ndo_msg_tile_t *t, int fill)
 			 * not known otherwise (its other values are the owner's view:
 			 * of no known step) */
 			int take = mine ? t->step >= p->nstep[c] : fill && p->nstep[c] < 0;
+			/* exact lock-step: the halo takes displacements (write_halo),
+			 * positions only for the last step (the owner's gather) */
+			if (take && mine && p->exact && p->hmark && p->hmark[c] && t->step < p->final)
+				take = 0;
 			/* a decoded tile's NaN: a node it does not carry (ndo/codec.h) */
 			if (hasx && isnan(t->values[k]))
 				take = 0;
@@ -218,9 +276,10 @@ static int member(const ndo_peer *p, int32_t id)
 }
 
 /* The session's tile_fn: every position/velocity tile of another peer. */
-static void on_tile(void *user, const ndo_msg_tile_t *t, int fill)
+static void on_tile(void *user, const ndo_msg_tile_t *t, int flags)
 {
 	ndo_peer *p = user;
+	int fill = (flags & NDO_TILE_FN_FILL) != 0;
 	int rc = arrays(p);
 	if (rc) {
 		p->failed = rc;
@@ -247,6 +306,69 @@ static void on_tile(void *user, const ndo_msg_tile_t *t, int fill)
 	write_tile(p, t, 0);
 }
 
+static int halo_later(const ndo_peer *p, const ndo_msg_halo_t *h)
+{
+	if (h->epoch > ndo_session_epoch(p->s))
+		return 1;
+	return p->announced && p->simulating && h->step > p->cur;
+}
+
+static void halo_free(ndo_msg_halo_t *h)
+{
+	free(h->start), free(h->len), free(h->values);
+}
+
+/* The session's halo_fn: another peer's halo. */
+static void on_halo(void *user, const ndo_msg_halo_t *h)
+{
+	ndo_peer *p = user;
+	if (arrays(p)) {
+		p->failed = NDO_ENOMEM;
+		return;
+	}
+	if (h->epoch < ndo_session_epoch(p->s) ||
+	    (h->epoch == ndo_session_epoch(p->s) && !member(p, h->hdr.sender_id))) {
+		p->st.stale++;
+		return;
+	}
+	if (!halo_later(p, h)) {
+		write_halo(p, h);
+		return;
+	}
+	if (p->nhstash == STASH_MAX) { /* drop the oldest */
+		halo_free(&p->hstash[0]);
+		memmove(p->hstash, p->hstash + 1, (p->nhstash - 1) * sizeof *p->hstash);
+		p->nhstash--;
+		p->st.stale++;
+	}
+	if (p->nhstash == p->caphstash) {
+		size_t cap = p->caphstash ? 2 * p->caphstash : 16;
+		ndo_msg_halo_t *q = realloc(p->hstash, cap * sizeof *q);
+		if (!q) {
+			p->failed = NDO_ENOMEM;
+			return;
+		}
+		p->hstash = q;
+		p->caphstash = cap;
+	}
+	ndo_msg_halo_t *c = &p->hstash[p->nhstash];
+	*c = *h;
+	size_t nr = (size_t)(h->nruns > 0 ? h->nruns : 1), nv = (size_t)(h->nvalues > 0 ? h->nvalues : 1);
+	c->start = malloc(nr * sizeof *c->start);
+	c->len = malloc(nr * sizeof *c->len);
+	c->values = malloc(nv * sizeof *c->values);
+	if (!c->start || !c->len || !c->values) {
+		halo_free(c);
+		p->failed = NDO_ENOMEM;
+		return;
+	}
+	memcpy(c->start, h->start, (size_t)h->nruns * sizeof *c->start);
+	memcpy(c->len, h->len, (size_t)h->nruns * sizeof *c->len);
+	memcpy(c->values, h->values, (size_t)h->nvalues * sizeof *c->values);
+	p->nhstash++;
+	p->st.stashed++;
+}
+
 /* Use what the stash holds for now; drop what is too old. */
 static void unstash(ndo_peer *p)
 {
@@ -267,8 +389,234 @@ static void unstash(ndo_peer *p)
 		}
 	}
 	p->nstash = keep;
+	keep = 0;
+	for (size_t k = 0; k < p->nhstash; k++) {
+		ndo_msg_halo_t *h = &p->hstash[k];
+		if (h->epoch < epoch) {
+			p->st.stale++;
+			halo_free(h);
+		} else if (!halo_later(p, h)) {
+			write_halo(p, h);
+			halo_free(h);
+			wrote = 1;
+		} else {
+			p->hstash[keep++] = *h;
+		}
+	}
+	p->nhstash = keep;
 	if (wrote)
 		ndo_grid_sync(ndo_session_grid(p->s));
+}
+
+/* ---- exact lock-step: halos ---------------------------------------------- */
+int ndo_peer_halo_rings(ndo_method m)
+{
+	switch (m) {
+	case NDO_EULER:
+	case NDO_SYMPLECTIC_EULER:
+	case NDO_MIDPOINT: return 1;
+	case NDO_RK4: return 2;
+	default: return 0; /* rkf45's sub-steps vary; the implicit methods reach everywhere */
+	}
+}
+
+/* Rings (through the ghost map) from the canonical nodes with from[c]
+ * set, up to `max`: dist[c] = 0 on them, 1..max around, −1 further. */
+static void rings(ndo_peer *p, const uint8_t *from, int max)
+{
+	ndo_grid *g = ndo_session_grid(p->s);
+	int32_t *q = (int32_t *)p->xs; /* scratch: count ints fit 3·count doubles */
+	size_t head = 0, tail = 0;
+	for (size_t k = 0; k < p->count; k++)
+		p->dist[k] = -1;
+	for (size_t k = 0; k < p->ncanon; k++)
+		if (from[p->canons[k]]) {
+			p->dist[p->canons[k]] = 0;
+			q[tail++] = p->canons[k];
+		}
+	while (head < tail) {
+		size_t c = (size_t)q[head++];
+		if (p->dist[c] >= max)
+			continue;
+		size_t nb[6];
+		ndo_neighbors(p->level, (int)(c % (size_t)g->w), (int)(c / (size_t)g->w), nb);
+		for (int d = 0; d < 6; d++) {
+			size_t h = (size_t)p->canon[nb[d]];
+			if (p->dist[h] < 0) {
+				p->dist[h] = p->dist[c] + 1;
+				q[tail++] = (int32_t)h;
+			}
+		}
+	}
+}
+
+/* The exact region's sets: the halo (rings 1..W of the region: received
+ * every K steps and integrated along, the overlap both sides compute), the
+ * integrated set, and the strip (the region's nodes within W rings of
+ * another peer's region: what the neighbours' halos hold). */
+static int exact_region(ndo_peer *p)
+{
+	const int32_t *own = owner_channel(p);
+	int32_t self = ndo_session_self(p->s);
+	if (!p->hmark) {
+		p->own = malloc(p->count * sizeof *p->own);
+		p->ownc = malloc(p->count * sizeof *p->ownc);
+		p->hmark = calloc(p->count, 1);
+		p->act = calloc(p->count, 1);
+		p->dist = malloc(p->count * sizeof *p->dist);
+		p->strip = malloc(p->count * sizeof *p->strip);
+		p->hu = calloc(3 * p->count, sizeof *p->hu);
+		p->sbuf[0] = calloc(6 * p->count, sizeof(double));
+		p->sbuf[1] = calloc(6 * p->count, sizeof(double));
+		if (!p->own || !p->ownc || !p->hmark || !p->act || !p->dist || !p->strip || !p->hu ||
+		    !p->sbuf[0] || !p->sbuf[1])
+			return ndo__fail(NDO_ENOMEM, "out of memory");
+		p->sstep[0] = p->sstep[1] = -1;
+	}
+	uint8_t *from = calloc(p->count, 1);
+	if (!from)
+		return ndo__fail(NDO_ENOMEM, "out of memory");
+	/* the halo and the integrated set */
+	for (size_t k = 0; k < p->ncanon; k++)
+		from[p->canons[k]] = p->mask[p->canons[k]];
+	rings(p, from, p->W);
+	p->nhalo = p->nown = 0;
+	size_t nownc = 0;
+	for (size_t k = 0; k < p->count; k++) {
+		int32_t dk = p->dist[p->canon[k]];
+		p->act[k] = dk >= 0 && dk < p->W;
+		if (p->mask[k])
+			p->own[p->nown++] = (int32_t)k;
+		if ((size_t)p->canon[k] != k)
+			continue;
+		p->hmark[k] = dk > 0;
+		if (dk > 0)
+			p->halo[p->nhalo++] = (int32_t)k;
+		if (dk == 0)
+			p->ownc[nownc++] = (int32_t)k;
+	}
+	/* the strip: rings around the others' regions */
+	for (size_t k = 0; k < p->ncanon; k++)
+		from[p->canons[k]] = own[p->canons[k]] != self;
+	rings(p, from, p->W);
+	p->nstrip = 0;
+	for (size_t k = 0; k < nownc; k++)
+		if (p->dist[p->ownc[k]] >= 0)
+			p->strip[p->nstrip++] = p->ownc[k];
+	free(from);
+	p->sstep[0] = p->sstep[1] = -1; /* a new strip: the old snapshots are not its */
+	return 0;
+}
+
+/* The grid's region at cur, from the simulation (the steps between
+ * whole-region publications leave it behind). */
+static void sync_own(ndo_peer *p)
+{
+	if (!p->exact || p->synced || !p->sim || !p->nown)
+		return;
+	ndo_grid *g = ndo_session_grid(p->s);
+	double *x = ndo_grid_f64(g, NDO_CH_POSITION, 3), *v = ndo_grid_f64(g, NDO_CH_VELOCITY, 3);
+	ndo_sim_get_nodes(p->sim, p->nown, p->own, p->xs, NULL, p->vs);
+	for (size_t k = 0; k < p->nown; k++) {
+		size_t n = (size_t)p->own[k];
+		memcpy(x + 3 * n, p->xs + 3 * k, 3 * sizeof *x);
+		memcpy(v + 3 * n, p->vs + 3 * k, 3 * sizeof *v);
+	}
+	p->synced = 1;
+}
+
+/* Snapshot the strip at cur into slot b. */
+static void strip_snapshot(ndo_peer *p, int b)
+{
+	ndo_sim_get_nodes(p->sim, p->nstrip, p->strip, NULL, p->xs, p->vs);
+	double *sb = p->sbuf[b];
+	for (size_t k = 0; k < p->nstrip; k++) {
+		size_t c = (size_t)p->strip[k];
+		memcpy(sb + 6 * c, p->vs + 3 * k, 3 * sizeof *sb);
+		memcpy(sb + 6 * c + 3, p->xs + 3 * k, 3 * sizeof *sb);
+	}
+	p->sstep[b] = p->cur;
+	p->stime[b] = p->tcur;
+	p->sepoch[b] = ndo_session_epoch(p->s);
+}
+
+/* Send the strip of slot b as halo messages: runs of consecutive node
+ * indices, as many per datagram as fit. */
+static int strip_send(ndo_peer *p, int b)
+{
+	if (p->sstep[b] < 0 || p->sepoch[b] != ndo_session_epoch(p->s) || !p->nstrip)
+		return 0;
+	const ndo_net_stats *ns = ndo_net_stats_get(ndo_session_net(p->s));
+	uint64_t b0 = ns->bytes_out;
+	const double *sb = p->sbuf[b];
+	/* ~60 kB a message: one datagram with the header and channel name */
+	const size_t budget = 60000;
+	int32_t *start = (int32_t *)p->hx, *len = (int32_t *)p->hv; /* scratch */
+	size_t k = 0;
+	while (k < p->nstrip) {
+		size_t nr = 0, nn = 0, bytes = 64;
+		double *vals = p->xs;
+		while (k < p->nstrip && bytes + 56 <= budget) {
+			int32_t c = p->strip[k];
+			if (nr && start[nr - 1] + len[nr - 1] == c) {
+				len[nr - 1]++;
+				bytes += 48;
+			} else {
+				start[nr] = c;
+				len[nr++] = 1;
+				bytes += 56;
+			}
+			memcpy(vals + 6 * nn, sb + 6 * (size_t)c, 6 * sizeof *vals);
+			nn++;
+			k++;
+		}
+		ndo_msg_halo_t h;
+		memset(&h, 0, sizeof h);
+		h.step = p->sstep[b];
+		h.time = p->stime[b];
+		h.nruns = (int32_t)nr;
+		h.start = start;
+		h.len = len;
+		h.nvalues = (int32_t)(6 * nn);
+		h.values = vals;
+		int rc = ndo_session_send_halo(p->s, &h);
+		if (rc < 0)
+			return rc;
+		p->st.halo_tiles++;
+	}
+	p->st.halo_bytes += ns->bytes_out - b0;
+	return 0;
+}
+
+/* Whole-region tiles at cur (frames, the first and last steps). */
+static int frame_send(ndo_peer *p)
+{
+	sync_own(p);
+	const ndo_net_stats *ns = ndo_net_stats_get(ndo_session_net(p->s));
+	uint64_t b0 = ns->bytes_out;
+	int rc = ndo_session_publish(p->s, p->cur, p->tcur);
+	p->st.frame_bytes += ns->bytes_out - b0;
+	p->st.frames++;
+	return rc < 0 ? rc : 0;
+}
+
+/* What exact lock-step sends at cur: the strip at an exchange step, the
+ * whole region at a frame step, the first and the last. */
+static int exact_publish(ndo_peer *p)
+{
+	int rc;
+	int64_t rel = p->cur - p->first;
+	int last = p->cur >= p->final;
+	if (!last && rel % p->K == 0) {
+		int b = (int)((rel / p->K) & 1);
+		strip_snapshot(p, b);
+		if ((rc = strip_send(p, b)))
+			return rc;
+		p->st.exchanges++;
+	}
+	if (last || rel == 0 || (p->N > 0 && rel % p->N == 0))
+		return frame_send(p);
+	return 0;
 }
 
 /* ---- the region ---------------------------------------------------------- */
@@ -331,8 +679,25 @@ static int region(ndo_peer *p)
 		if (n)
 			ndo_sim_set(p->sim, n, nodes, p->xs, p->vs);
 		free(nodes);
-		ndo_sim_set_held_motion(p->sim, !p->hold);
-		int rc = ndo_sim_set_active(p->sim, p->mask);
+		p->exact = p->clock == NDO_CLOCK_LOCKSTEP && !p->hold &&
+		           ndo_peer_halo_rings(ndo_sim_method(p->sim)) > 0;
+		int rc = 0;
+		if (p->exact) {
+			/* K steps reach D·K rings; the outermost ring received is held
+			 * (it stands still at its values of the exchange step): right for
+			 * a one-stage method's first step, one ring short for a
+			 * multi-stage one, whose stages would move it */
+			ndo_method m = ndo_sim_method(p->sim);
+			p->W = ndo_peer_halo_rings(m) * p->K +
+			       (m != NDO_EULER && m != NDO_SYMPLECTIC_EULER);
+			rc = exact_region(p);
+			ndo_sim_set_held_motion(p->sim, 0);
+			if (!rc)
+				rc = ndo_sim_set_active(p->sim, p->act);
+		} else {
+			ndo_sim_set_held_motion(p->sim, !p->hold);
+			rc = ndo_sim_set_active(p->sim, p->mask);
+		}
 		if (rc) {
 			free(was);
 			return rc;
@@ -340,12 +705,15 @@ static int region(ndo_peer *p)
 	}
 	free(was);
 	p->simulating = p->nowned > 0;
+	p->synced = 0;
 	return 0;
 }
 
 /* ---- tiles out ----------------------------------------------------------- */
 static int publish(ndo_peer *p)
 {
+	if (p->exact)
+		return exact_publish(p);
 	int rc = ndo_session_publish(p->s, p->cur, p->tcur);
 	return rc < 0 ? rc : 0;
 }
@@ -355,6 +723,15 @@ static int publish(ndo_peer *p)
 static int resend(ndo_peer *p)
 {
 	int rc;
+	if (p->exact) {
+		/* the strips of the last two exchanges (a neighbour waits for one
+		 * of them), the whole region at the first and last steps */
+		p->st.resends++;
+		for (int b = 0; b < 2; b++)
+			if ((rc = strip_send(p, b)))
+				return rc;
+		return p->cur >= p->final || !p->started ? frame_send(p) : 0;
+	}
 	if (p->prev_valid && (rc = ndo_session_publish_from(p->s, p->prev, p->prev_step,
 	                                                    p->prev_time)) < 0)
 		return rc;
@@ -412,6 +789,10 @@ static int read_description(ndo_peer *p, ndo_scene *sc)
 			p->clock = val == NDO_CLOCK_REALTIME ? NDO_CLOCK_REALTIME : NDO_CLOCK_LOCKSTEP;
 		} else if (strcmp(key, "peer-hold-boundary") == 0) {
 			p->hold = val != 0;
+		} else if (strcmp(key, "peer-halo-steps") == 0 && val >= 1 && val <= 1000) {
+			p->K = (int)val;
+		} else if (strcmp(key, "peer-publish-every") == 0 && val >= -1 && val <= 1e9) {
+			p->N = (int)val;
 		} else if (strcmp(key, "peer-step-timeout") == 0 && val > 0) {
 			p->step_timeout = val;
 		} else if (strcmp(key, "peer-speed") == 0 && val > 0) {
@@ -534,9 +915,18 @@ static int announce(ndo_peer *p)
 	return p->simulating ? publish(p) : 0;
 }
 
-/* Every node holds the run's first step: the peers' clocks start. */
+/* Every node holds the run's first step: the peers' clocks start.  Exact
+ * lock-step needs only its halo (what its steps read): a peer that lost
+ * some other region's announcement starts all the same, and the strips
+ * its neighbours re-send while they wait are all it needs. */
 static int all_at(const ndo_peer *p, int64_t step)
 {
+	if (p->exact && p->hmark) {
+		for (size_t k = 0; k < p->nhalo; k++)
+			if (p->nstep[p->halo[k]] < step)
+				return 0;
+		return 1;
+	}
 	for (size_t q = 0; q < p->ncanon; q++)
 		if (p->nstep[p->canons[q]] < step)
 			return 0;
@@ -608,13 +998,71 @@ static double wall(void) { return ndo_now(); }
 static size_t missing(const ndo_peer *p)
 {
 	size_t n = 0;
+	if (p->exact && (p->cur - p->first) % p->K != 0)
+		return 0; /* between exchanges the halo is integrated here */
 	for (size_t k = 0; k < p->nhalo; k++)
 		n += p->nstep[p->halo[k]] < p->cur;
 	return n;
 }
 
+/* Exact lock-step: at an exchange step the halo takes the received
+ * displacements and velocities (of this very step: lockstep() waited for
+ * them); in between, the halo is integrated along with the region. */
+static int step_exact(ndo_peer *p)
+{
+	if ((p->cur - p->first) % p->K == 0) {
+		ndo_grid *g = ndo_session_grid(p->s);
+		const double *v = ndo_grid_f64(g, NDO_CH_VELOCITY, 3);
+		int64_t late = 0;
+		for (size_t k = 0; k < p->nhalo; k++) {
+			size_t c = (size_t)p->halo[k];
+			memcpy(p->xs + 3 * k, p->hu + 3 * c, 3 * sizeof *p->xs);
+			memcpy(p->vs + 3 * k, v + 3 * c, 3 * sizeof *p->vs);
+			if (p->nstep[c] != p->cur) {
+				late++;
+				double a = fabs((double)(p->cur - p->nstep[c]));
+				p->st.lag_sum += a / (double)p->nhalo;
+				if (a > p->st.lag_max)
+					p->st.lag_max = a;
+			}
+		}
+		p->st.missed += late;
+		if (p->nhalo) {
+			ndo_sim_set_displacements(p->sim, p->nhalo, p->halo, p->xs, p->vs);
+			/* the halo brings the energy its owners' forces put in: the
+			 * bound restarts from the state with it (a region at rest
+			 * would otherwise "diverge" when the first wave arrives) */
+			ndo_sim_restart_energy_bound(p->sim);
+		}
+	}
+	double t0 = wall();
+	int rc = ndo_sim_step(p->sim, p->dt);
+	p->st.compute_seconds += wall() - t0;
+	if (rc)
+		return rc;
+	p->cur++;
+	p->tcur = ndo_sim_time(p->sim);
+	p->synced = 0;
+	for (size_t q = 0; q < p->nown; q++) {
+		size_t c = (size_t)p->own[q];
+		if ((size_t)p->canon[c] == c)
+			p->nstep[c] = p->cur;
+	}
+	if (p->blocked)
+		p->st.wait_seconds += p->now - p->block_t0;
+	p->blocked = 0;
+	p->st.steps++;
+	p->st.end_time = p->now;
+	if ((rc = publish(p)))
+		return rc;
+	unstash(p);
+	return NDO_PEER_STEPPED;
+}
+
 static int step(ndo_peer *p)
 {
+	if (p->exact)
+		return step_exact(p);
 	ndo_grid *g = ndo_session_grid(p->s);
 	double *x = ndo_grid_f64(g, NDO_CH_POSITION, 3), *v = ndo_grid_f64(g, NDO_CH_VELOCITY, 3);
 	/* the held boundary: the others' values, as new as this peer has them;
@@ -920,6 +1368,8 @@ int ndo_peer_create(const ndo_peer_opts *o, ndo_net *net, ndo_grid *grid, ndo_si
 	p->clock = o->clock ? o->clock : NDO_CLOCK_LOCKSTEP;
 	p->step_timeout = p->o.step_timeout;
 	p->hold = o->hold_boundary != 0;
+	p->K = o->halo_steps > 0 ? o->halo_steps : 1;
+	p->N = o->publish_every > 0 ? o->publish_every : o->publish_every < 0 ? -1 : 10;
 	p->speed = p->o.speed;
 	p->peers_needed = o->peers > 1 ? o->peers : 1;
 	p->sim = sim;
@@ -931,6 +1381,7 @@ int ndo_peer_create(const ndo_peer_opts *o, ndo_net *net, ndo_grid *grid, ndo_si
 	if (!(so.retry > 0))
 		so.retry = 0.25; /* a joiner asks again soon: the snapshot is many tiles */
 	so.tile_fn = on_tile;
+	so.halo_fn = on_halo;
 	so.tile_user = p;
 	if (owner) {
 		p->dt = run->dt;
@@ -940,10 +1391,11 @@ int ndo_peer_create(const ndo_peer_opts *o, ndo_net *net, ndo_grid *grid, ndo_si
 		char peer_lines[320];
 		snprintf(peer_lines, sizeof peer_lines,
 		         "dt %.17g\nsteps %lld\npeer-clock %d\npeer-hold-boundary %d\n"
-		         "peer-step-timeout %.17g\n"
+		         "peer-halo-steps %d\npeer-publish-every %d\npeer-step-timeout %.17g\n"
 		         "peer-speed %.17g\npeer-peers %d\npeer-first-step %lld\n"
 		         "peer-final-step %lld\n",
-		         run->dt, (long long)run->steps, (int)p->clock, p->hold, p->step_timeout, p->speed,
+		         run->dt, (long long)run->steps, (int)p->clock, p->hold, p->K, p->N,
+		         p->step_timeout, p->speed,
 		         p->peers_needed, (long long)p->first, (long long)p->final);
 		size_t len = strlen(run->physics) + strlen(peer_lines) + 1;
 		if (len > NDO_MAX_SCENE + 1) {
@@ -999,10 +1451,20 @@ void ndo_peer_destroy(ndo_peer *p, const char *message)
 	free(p->scene);
 	free(p->canon), free(p->canons), free(p->nstep), free(p->mask), free(p->halo);
 	free(p->hx), free(p->hv), free(p->xs), free(p->vs);
+	free(p->own), free(p->ownc), free(p->hmark), free(p->act), free(p->dist), free(p->strip);
+	free(p->hu), free(p->sbuf[0]), free(p->sbuf[1]);
+	for (size_t k = 0; k < p->nhstash; k++)
+		halo_free(&p->hstash[k]);
+	free(p->hstash);
 	free(p);
 }
 
-ndo_grid *ndo_peer_grid(ndo_peer *p) { return ndo_session_grid(p->s); }
+ndo_grid *ndo_peer_grid(ndo_peer *p)
+{
+	if (p->exact)
+		sync_own(p);
+	return ndo_session_grid(p->s);
+}
 ndo_sim *ndo_peer_sim(ndo_peer *p) { return p->sim; }
 ndo_session *ndo_peer_session(ndo_peer *p) { return p->s; }
 int64_t ndo_peer_step(const ndo_peer *p) { return p->cur; }
@@ -1013,4 +1475,9 @@ ndo_clock ndo_peer_clock(const ndo_peer *p) { return p->clock; }
 const char *ndo_peer_message(const ndo_peer *p) { return p->message; }
 int ndo_peer_simulating(const ndo_peer *p) { return p->simulating; }
 int ndo_peer_started(const ndo_peer *p) { return p->started; }
-void ndo_peer_stats_get(const ndo_peer *p, ndo_peer_stats *st) { *st = p->st; }
+void ndo_peer_stats_get(const ndo_peer *p, ndo_peer_stats *st)
+{
+	*st = p->st;
+	st->exact = p->exact;
+	st->halo_rings = p->exact ? p->W : 1;
+}

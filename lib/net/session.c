@@ -602,6 +602,10 @@ static int handle(ndo_session *s, ndo_msg *m)
 	case NDO_MSG_DESCRIPTION: return on_description(s, &m->u.description);
 	case NDO_MSG_PARTITION: return on_partition(s, &m->u.partition);
 	case NDO_MSG_PEERS: on_peers(s, &m->u.peers); return 0;
+	case NDO_MSG_HALO:
+		if (s->grid && s->described && s->o.halo_fn)
+			s->o.halo_fn(s->o.tile_user, &m->u.halo);
+		return 0;
 	case NDO_MSG_TILE: /* with tile_fn: every tile, in arrival order */
 		if (s->grid && s->described)
 			apply_tile(s, &m->u.tile, m->decoded);
@@ -649,7 +653,8 @@ static void apply_tile(ndo_session *s, const ndo_msg_tile_t *t, int decoded)
 	} else {
 		int fill = !s->ready && from == s->owner_id && !decoded;
 		if (s->o.tile_fn)
-			s->o.tile_fn(s->o.tile_user, t, fill);
+			s->o.tile_fn(s->o.tile_user, t,
+			             (fill ? NDO_TILE_FN_FILL : 0) | (decoded ? NDO_TILE_FN_DECODED : 0));
 		else
 			ndo_tile_apply(s->grid, t, fill ? NULL : own, from);
 	}
@@ -806,6 +811,14 @@ int ndo_session_publish(ndo_session *s, int64_t step, double time)
 	s->grid->time = time;
 	return publish_tiles(s, s->tiles, s->ntiles, NDO_TILE_POSITION | NDO_TILE_VELOCITY, step,
 	                     time);
+}
+
+int ndo_session_send_halo(ndo_session *s, ndo_msg_halo_t *h)
+{
+	if (!s->grid || s->ended || (!s->ready && s->o.role != NDO_ROLE_OWNER))
+		return 0;
+	h->epoch = s->epoch;
+	return ndo_net_publish(s->net, NDO_MSG_HALO, h);
 }
 
 int ndo_session_publish_from(ndo_session *s, const ndo_grid *src, int64_t step, double time)

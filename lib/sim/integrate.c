@@ -609,6 +609,49 @@ void ndo_sim_set(ndo_sim *s, size_t n, const int32_t *nodes, const double *x,
 	ndo__sync_planes(s, s->v, 3);
 }
 
+void ndo_sim_get_nodes(const ndo_sim *s, size_t n, const int32_t *nodes, double *x, double *u,
+                       double *v)
+{
+	const size_t cnt = s->count;
+	for (size_t k = 0; k < n; k++) {
+		size_t p = (size_t)s->canon[nodes[k]];
+		for (int c = 0; c < 3; c++) {
+			size_t q = (size_t)c * cnt + p;
+			if (x)
+				x[3 * k + c] = s->X[q] + s->u[q];
+			if (u)
+				u[3 * k + c] = s->u[q];
+			if (v)
+				v[3 * k + c] = s->v[q];
+		}
+	}
+}
+
+void ndo_sim_set_displacements(ndo_sim *s, size_t n, const int32_t *nodes, const double *u,
+                               const double *v)
+{
+	const size_t cnt = s->count;
+	for (size_t k = 0; k < n; k++) {
+		if ((size_t)nodes[k] >= cnt)
+			continue;
+		size_t p = (size_t)s->canon[nodes[k]];
+		for (int c = 0; c < 3; c++) {
+			if (u)
+				s->u[(size_t)c * cnt + p] = u[3 * k + c];
+			if (v)
+				s->v[(size_t)c * cnt + p] = v[3 * k + c];
+		}
+	}
+	ndo__sync_planes(s, s->u, 3);
+	ndo__sync_planes(s, s->v, 3);
+}
+
+void ndo_sim_restart_energy_bound(ndo_sim *s)
+{
+	s->e0_set = 0;
+	s->work_abs_base = s->work_abs;
+}
+
 int ndo_sim_set_active(ndo_sim *s, const uint8_t *mask)
 {
 	ndo__clear_error();

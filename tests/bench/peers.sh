@@ -23,13 +23,16 @@ rm -rf "$work" && mkdir -p "$work"
 SCENE=samples/thesis-fig5.3.scene
 POIS=(0 3000 9000 14000 5000 11000 7000 1500)
 
+# PEERS_SECTIONS="4 5" runs only those sections (the others' tables are
+# then left out of the report)
+want() { [[ " ${PEERS_SECTIONS:-1 2 3 4 5} " == *" $1 "* ]]; }
 lag_cmd="build/tests/bench_peers lag -l 6"
-lag=$($lag_cmd)
 rt_cmd="build/tests/bench_peers realtime -l 5"
-rt=$($rt_cmd)
+lag="(not run)" rt="(not run)" loss="(not run)" speed="(not run)" lat="(not run)"
+want 1 && lag=$($lag_cmd)
+want 2 && rt=$($rt_cmd)
 
 remesh --shape wavy -l 6 -o "$work/wavy6.tgrid" 2>/dev/null
-remesh --shape wavy -l 7 -o "$work/wavy7.tgrid" 2>/dev/null
 
 # relative difference of A from B (over B's largest displacement)
 diff_rel() {
@@ -50,12 +53,16 @@ peers() {
 	while [ $# -gt 0 ] && [ "$1" != -- ]; do own+=("$1"); shift; done
 	[ $# -gt 0 ] && shift
 	all=("$@")
-	local pids=()
+	local pids=() k
 	simulate-peer --owner "$grid" -s "$SCENE" --peers "$n" -o "$outg" "${own[@]}" "${all[@]}" \
 		2>"$work/owner.err" &
 	pids+=($!)
+	# the points of interest, scaled from level 6's faces to the grid's
+	local lv
+	lv=$(/usr/bin/python3 tests/e2e/tgrid.py "$grid" level)
 	for ((k = 1; k < n; k++)); do
-		simulate-peer -q --join --poi "${POIS[$k]}" "${all[@]}" 2>"$work/j$k.err" &
+		simulate-peer -q --join --poi "$((POIS[k] * (4 << (2 * lv)) / 16384))" "${all[@]}" \
+			2>"$work/j$k.err" &
 		pids+=($!)
 	done
 	local bad=0
@@ -67,6 +74,7 @@ peers() {
 field() { grep -o "$1" "$work/owner.err" | head -1 | grep -o '[0-9.e+-]*' | head -1; }
 
 # 3. loss
+if want 3; then
 simulate-peer -q "$work/wavy6.tgrid" -s "$SCENE" -t 2 -o "$work/solo6.tgrid"
 loss="| clock | loss | divergence | wall time (s) | steps waited | timed out | re-sends | mean boundary lag (steps) |
 |---|---|---|---|---|---|---|---|"
@@ -82,42 +90,80 @@ for clock in lockstep realtime; do
 		fi
 	done
 done
+fi
 
-# 4. speed of lock-step (no loss), level 6 (2 s, 105 steps) and 7 (0.5 s):
-# the median of 3 runs of each (the machine is shared)
+# 4. speed of exact lock-step (no loss), rk4, levels 5-9, 1/2/4/8 peers,
+# against one single-threaded process; medians of 3 runs.  Steps per second
+# of the stepping alone (the single process's "N steps ... in X s" line,
+# the owner's "N steps to step S in X s"), so setup (remesh, the critical
+# step's power iteration, the snapshot to joiners) is not counted.
 median() { tr ' ' '\n' | grep . | sort -g | awk '{v[NR] = $1} END {print v[int((NR + 1) / 2)]}'; }
-speed="| level | peers | steps/s (wall) | vs one process | computing per step (ms) | waiting per step (ms) | messages per step per peer | kB per step per peer |
-|---|---|---|---|---|---|---|---|"
-for level in 6 7; do
-	t=$([ $level = 6 ] && echo 2 || echo 0.5)
-	walls=""
+declare -A TL=([5]=10 [6]=5 [7]=2 [8]=0.5 [9]=0.1)
+load0=$(cut -d' ' -f1-3 /proc/loadavg)
+if want 4; then
+speed="| level | peers | steps | steps/s | × one process | computing per step (ms) | waiting per step (ms) | halo kB per step per peer | whole-region kB per step per peer |
+|---|---|---|---|---|---|---|---|---|"
+for level in ${PEERS_LEVELS:-5 6 7 8 9}; do
+	[ -e "$work/wavy$level.tgrid" ] || remesh --shape wavy -l "$level" -o "$work/wavy$level.tgrid" 2>/dev/null
+	t=${TL[$level]}
+	sps=""
 	for rep in 1 2 3; do
-		t0=$EPOCHREALTIME
-		simulate-peer -q "$work/wavy$level.tgrid" -s "$SCENE" -t "$t" -o "$work/solo.tgrid"
-		walls="$walls $(awk "BEGIN{print $EPOCHREALTIME - $t0}")"
+		simulate-peer "$work/wavy$level.tgrid" -s "$SCENE" -t "$t" -o "$work/solo.tgrid" 2>"$work/solo.err"
+		sps="$sps $(grep -o 'in [0-9.e+-]* s: [0-9.e+-]* steps/s' "$work/solo.err" | awk '{print $4}')"
 	done
-	solo=$(echo "$walls" | median)
+	solo_sps=$(echo "$sps" | median)
 	steps=$(/usr/bin/python3 tests/e2e/tgrid.py "$work/solo.tgrid" step)
-	solo_sps=$(awk "BEGIN{printf \"%.0f\", $steps / $solo}")
 	speed="$speed
-| $level | 1 process | $solo_sps | 1 | | | | |"
+| $level | 1 process | $steps | $(printf %.0f "$solo_sps") | 1 | | | | |"
 	for n in 1 2 4 8; do
-		ws="" cs="" wt="" pb="" kbs=""
+		rs="" cs="" wt="" hb="" fb=""
 		for rep in 1 2 3; do
 			peers "$n" "$work/wavy$level.tgrid" "$work/speed.tgrid" -t "$t" -- || continue
-			ws="$ws $(field 'in [0-9.e+-]* s (')"
+			wall=$(field 'in [0-9.e+-]* s (')
+			rs="$rs $(awk "BEGIN{print $steps / $wall}")"
 			cs="$cs $(field 'computing [0-9.e+-]* s')"
 			wt="$wt $(field 'waiting [0-9.e+-]* s')"
-			pb="$pb $(grep -o 'published [0-9]*' "$work/owner.err" | head -1 | grep -o '[0-9]*$')"
-			kbs="$kbs $(field '([0-9.e+-]* kB a step)')"
+			hb="$hb $(grep -o 'exchanges, [0-9.e+-]* kB' "$work/owner.err" | awk '{print $2}')"
+			fb="$fb $(grep -o 'times, [0-9.e+-]* kB' "$work/owner.err" | awk '{print $2}')"
 		done
-		[ -n "$ws" ] || continue
-		wallt=$(echo "$ws" | median) comp=$(echo "$cs" | median) waitt=$(echo "$wt" | median)
-		pub=$(echo "$pb" | median) kb=$(echo "$kbs" | median)
+		[ -n "$rs" ] || { speed="$speed
+| $level | $n | failed | | | | | | |"; continue; }
+		r=$(echo "$rs" | median) comp=$(echo "$cs" | median) waitt=$(echo "$wt" | median)
 		speed="$speed
-| $level | $n | $(awk "BEGIN{printf \"%.0f\", $steps / $wallt}") | $(awk "BEGIN{printf \"%.2f\", ($steps / $wallt) / $solo_sps}") | $(awk "BEGIN{printf \"%.2f\", 1e3 * $comp / $steps}") | $(awk "BEGIN{printf \"%.2f\", 1e3 * $waitt / $steps}") | $(awk "BEGIN{printf \"%.1f\", $pub / $steps}") | $kb |"
+| $level | $n | $steps | $(printf %.0f "$r") | $(awk "BEGIN{printf \"%.2f\", $r / $solo_sps}") | $(awk "BEGIN{printf \"%.3f\", 1e3 * $comp / $steps}") | $(awk "BEGIN{printf \"%.3f\", 1e3 * $waitt / $steps}") | $(echo "$hb" | median) | $(echo "$fb" | median) |"
+		echo "level $level, $n peers: $r steps/s (one process $solo_sps)" >&2
 	done
 done
+/usr/bin/python3 tests/bench/peers_plot.py docs/bench/peers.svg <<<"$speed" || echo "no plot" >&2
+fi
+
+# 5. latency: one-way delay injected on every peer's receiving side, level 6,
+# 2 peers, rk4, 2 s (105 steps): steps per second against the delay and
+# the steps per halo exchange, against the thesis' scheme (--boundary hold:
+# one exchange of whole regions every step, what lock-step did before)
+if want 5; then
+lat="| delay (ms) | scheme | steps/s | × held boundary | bit for bit |
+|---|---|---|---|---|"
+simulate-peer -q "$work/wavy6.tgrid" -s "$SCENE" -t 2 -o "$work/solo2.tgrid"
+for delay in 0 5 20 50; do
+	peers 2 "$work/wavy6.tgrid" "$work/lat.tgrid" -t 2 --boundary hold -- --delay "$delay" || true
+	held=$(awk "BEGIN{print $(field '[0-9]* steps to step') / $(field 'in [0-9.e+-]* s (')}")
+	lat="$lat
+| $delay | held boundary (thesis) | $(printf %.0f "$held") | 1 | no ($(diff_rel "$work/lat.tgrid" "$work/solo2.tgrid")) |"
+	for hk in 1 2 4 8 16 32; do
+		if peers 2 "$work/wavy6.tgrid" "$work/lat.tgrid" -t 2 --halo-steps "$hk" -- --delay "$delay"; then
+			r=$(awk "BEGIN{print $(field '[0-9]* steps to step') / $(field 'in [0-9.e+-]* s (')}")
+			d=$(diff_rel "$work/lat.tgrid" "$work/solo2.tgrid")
+			lat="$lat
+| $delay | exact, $hk steps per exchange | $(printf %.0f "$r") | $(awk "BEGIN{printf \"%.1f\", $r / $held}") | $([ "$d" = 0.00e+00 ] && echo yes || echo "no ($d)") |"
+		else
+			lat="$lat
+| $delay | exact, $hk steps per exchange | failed | | |"
+		fi
+	done
+done
+fi
+load1=$(cut -d' ' -f1-3 /proc/loadavg)
 
 {
 	echo "# Peers: what splitting the surface costs"
@@ -150,14 +196,29 @@ done
 	echo
 	echo "$loss"
 	echo
-	echo "## 4. The speed of lock-step (LCM, no loss)"
+	echo "## 4. The speed of exact lock-step (LCM, no loss)"
 	echo
-	echo "Level 6: 2 s simulated (105 steps); level 7: 0.5 s; medians of 3 runs.  All"
-	echo "processes share the machine's $(nproc) cores (8 peers oversubscribe them), and"
-	echo "other work on it.  Computing and waiting are the owner's; messages and kB are"
-	echo "what the owner sent per step."
+	echo "rk4, the thesis scene; simulated time per level: ${TL[5]}, ${TL[6]}, ${TL[7]}, ${TL[8]}, ${TL[9]} s"
+	echo "for levels 5–9 (the steps column).  Steps per second of the stepping alone,"
+	echo "medians of 3 runs, measured against one single-threaded process in the same run"
+	echo "of the script.  Each peer is one process with one thread; the machine has"
+	echo "$(nproc) cores, so 4 and 8 peers oversubscribe them and must lose (they wait for"
+	echo "the scheduler as much as for the network).  Load average (1, 5, 15 min) before:"
+	echo "$load0, after: $load1 — other work shared the machine.  Computing and waiting"
+	echo "are the owner's; halo and whole-region kB are what the owner sent per step"
+	echo "(whole regions every 10 steps, the default \`--publish-every\`)."
 	echo
 	echo "$speed"
+	echo
+	echo "![speedup against level](peers.svg)"
+	echo
+	echo "## 5. Latency: steps per halo exchange (LCM, delay injected)"
+	echo
+	echo "Level 6, 2 peers, rk4, 2 s (105 steps); every peer delays what it receives by"
+	echo "the given time (\`--delay\`).  Bit for bit: the owner's output equals the"
+	echo "single process's."
+	echo
+	echo "$lat"
 	echo
 	echo "Made by \`tests/bench/peers.sh\` on $(date -u +%Y-%m-%d), $(nproc) cores,"
 	echo "$(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //')."

@@ -24,7 +24,7 @@ expect_error "--partition unknown" 2 "--partition: 'spiral' is not quadtree, tab
 	simulate-peer --owner s3.tgrid --partition spiral
 expect_error "--clock unknown" 2 "--clock: 'wall' is not lockstep or realtime" \
 	simulate-peer --owner s3.tgrid --clock wall
-expect_error "--boundary unknown" 2 "--boundary: 'fixed' is not extrapolate or hold" \
+expect_error "--boundary unknown" 2 "--boundary: 'fixed' is not exact, extrapolate or hold" \
 	simulate-peer --owner s3.tgrid --boundary fixed
 expect_error "--channel with a regex" 2 "--channel: 'A.B'" simulate-peer --owner s3.tgrid --channel A.B
 expect_error "--poi beyond the grid" 2 '--poi: face 256 is outside 0..255 for a level-3 grid' \

@@ -19,7 +19,12 @@ logger=$!
 render-frame --lcm "$URL" --every 5 -s 200x150 -o 'live/f%04d.png' -v 2>live.err &
 live=$!
 sleep 0.3 # both listening before the owner speaks
+# The thesis' reference mode (every step's whole regions): lcm-logger (LCM
+# 1.3.1, a subscription queue of 30 messages) loses tiles of an exact
+# lock-step run, whose halos come faster than it writes — two loggers side
+# by side lose different ones, while render-frame gets all (docs/peers.md).
 simulate-peer -q --lcm "$URL" --owner wavy4.tgrid -s "$SCENE" -t 2 --peers 2 -o run.tgrid \
+	--boundary hold \
 	2>owner.err &
 owner=$!
 simulate-peer -q --lcm "$URL" --join --poi 300 2>joiner.err &

@@ -78,6 +78,31 @@ static void tile_fields_checked(void)
 	free(t.values);
 }
 
+/* A peer's halo (exact lock-step): runs inside the grid, increasing and
+ * disjoint, six finite values a node. */
+static void halos_checked(void)
+{
+	ndo_msg_ctx c = {42, 4, 1};
+	int32_t start[2] = {10, 40}, len[2] = {3, 2};
+	double v[30] = {0};
+	ndo_msg_halo_t h = {.hdr = {NDO_PROTOCOL_VERSION, 42, 7, 0, 0}, .step = 5, .time = 0.1,
+	                    .nruns = 2, .start = start, .len = len, .nvalues = 30, .values = v};
+	CHECK(roundtrip(NDO_MSG_HALO, &h, &c) == NDO_DROP_NONE, "a good halo passes");
+	start[1] = 12;
+	CHECK(roundtrip(NDO_MSG_HALO, &h, &c) == NDO_DROP_RANGE, "overlapping runs");
+	start[1] = 40, len[0] = 0;
+	CHECK(roundtrip(NDO_MSG_HALO, &h, &c) == NDO_DROP_RANGE, "an empty run");
+	len[0] = 3, start[1] = 17 * 33 + 100; /* level 4: 33 × 17 nodes */
+	CHECK(roundtrip(NDO_MSG_HALO, &h, &c) == NDO_DROP_RANGE, "a run beyond the grid");
+	start[1] = 40, h.nvalues = 24;
+	CHECK(roundtrip(NDO_MSG_HALO, &h, &c) == NDO_DROP_LENGTH, "values for 4 nodes of 5");
+	h.nvalues = 30, v[7] = NAN;
+	CHECK(roundtrip(NDO_MSG_HALO, &h, &c) == NDO_DROP_NONFINITE, "NaN");
+	v[7] = 0;
+	ndo_msg_ctx unknown = {0, -1, 1};
+	CHECK(roundtrip(NDO_MSG_HALO, &h, &unknown) == NDO_DROP_UNKNOWN, "before the description");
+}
+
 static void bytes_checked_before_decoding(void)
 {
 	ndo_msg_tile_t t = make_tile(4, 2);
@@ -246,6 +271,7 @@ int main(void)
 {
 	ck_program = "test_msg";
 	RUN(tile_fields_checked);
+	RUN(halos_checked);
 	RUN(bytes_checked_before_decoding);
 	RUN(control_messages_checked);
 	RUN(stale_dropped_latest_kept);

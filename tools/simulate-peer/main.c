@@ -98,7 +98,14 @@ static __attribute__((noreturn)) void usage(void)
 	    "      --peers N           owner: start when N peers simulate, 1..8 (default 1)\n"
 	    "      --clock MODE        owner: lockstep (default) or realtime\n"
 	    "      --speed X           owner, realtime: simulated s per wall s (default 1)\n"
-	    "      --boundary MODE     owner: extrapolate (default) or hold (the thesis)\n"
+	    "      --boundary MODE     owner: exact (lockstep's default: halos exchanged,\n"
+	    "                          the single process's result), extrapolate\n"
+	    "                          (realtime's default) or hold (the thesis' lag)\n"
+	    "      --halo-steps K      owner, lockstep: steps per halo exchange, 1..1000\n"
+	    "                          (default 1; wider halos, fewer round trips)\n"
+	    "      --publish-every N   owner, lockstep: whole regions every N steps for\n"
+	    "                          observers and render-frame (default 10; 0: only\n"
+	    "                          the first and last step)\n"
 	    "      --partition M       owner: quadtree (default), table41 or metis\n"
 	    "      --encoding E        owner: state tiles raw (default), float32,\n"
 	    "                          fixed[:BITS] or predict[:BITS[:KEYFRAME]] (bits\n"
@@ -307,6 +314,8 @@ static void options(run *r, int argc, char **argv)
 		{"speed", required_argument, 0, OPT_PEER},
 		{"peers", required_argument, 0, OPT_PEER},
 		{"boundary", required_argument, 0, OPT_PEER},
+		{"halo-steps", required_argument, 0, OPT_PEER},
+		{"publish-every", required_argument, 0, OPT_PEER},
 		{"encoding", required_argument, 0, OPT_PEER},
 		{"step-timeout", required_argument, 0, OPT_PEER},
 		{"peer-timeout", required_argument, 0, OPT_PEER},

@@ -38,7 +38,8 @@ void peer_defaults(peer_cli *c)
 
 /* Options only the owner decides; a joiner takes them from it. */
 static const char *const owner_only[] = {"partition", "clock", "speed", "peers", "boundary",
-                                         "step-timeout", "gather-timeout", "encoding", NULL};
+                                         "step-timeout", "gather-timeout", "encoding",
+                                         "halo-steps", "publish-every", NULL};
 static uint32_t given; /* bit k: owner_only[k] was given */
 
 void peer_option(peer_cli *c, const char *name, const char *arg)
@@ -77,12 +78,19 @@ void peer_option(peer_cli *c, const char *name, const char *arg)
 	} else if (strcmp(name, "peers") == 0) {
 		c->peers = (int)ndo_opt_long(opt, arg, 1, NDO_MAX_PEERS);
 	} else if (strcmp(name, "boundary") == 0) {
+		/* exact (lock-step) and extrapolate (realtime) are each clock's
+		 * default: both mean "not held" */
 		if (strcmp(arg, "hold") == 0)
 			c->hold_boundary = 1;
-		else if (strcmp(arg, "extrapolate") == 0)
+		else if (strcmp(arg, "exact") == 0 || strcmp(arg, "extrapolate") == 0)
 			c->hold_boundary = 0;
 		else
-			ndo_usage_error("--boundary: '%s' is not extrapolate or hold", arg);
+			ndo_usage_error("--boundary: '%s' is not exact, extrapolate or hold", arg);
+	} else if (strcmp(name, "halo-steps") == 0) {
+		c->halo_steps = (int)ndo_opt_long(opt, arg, 1, 1000);
+	} else if (strcmp(name, "publish-every") == 0) {
+		c->publish_every = (int)ndo_opt_long(opt, arg, 0, 1000000000);
+		c->publish_every_set = 1;
 	} else if (strcmp(name, "encoding") == 0) {
 		if (ndo_codec_parse(arg, &c->codec))
 			ndo_usage_error("--encoding: %s", ndo_errdetail());
@@ -285,6 +293,13 @@ static void summary(peer_run *pr, const char *how)
 	if (st.behind)
 		fprintf(stderr, "%s: %lld steps were taken late: the simulation cannot keep up with "
 		        "--speed\n", ndo_progname, (long long)st.behind);
+	if (st.exact && st.steps)
+		fprintf(stderr, "%s: exact: a halo of %d rings in %lld exchanges, %.3g kB a step "
+		        "(%.3g tiles); whole regions %lld times, %.3g kB a step\n", ndo_progname,
+		        st.halo_rings, (long long)st.exchanges,
+		        (double)st.halo_bytes / 1e3 / (double)st.steps,
+		        (double)st.halo_tiles / (double)st.steps, (long long)st.frames,
+		        (double)st.frame_bytes / 1e3 / (double)st.steps);
 	const ndo_net_stats *ns = ndo_net_stats_get(ndo_session_net(ndo_peer_session(p)));
 	fprintf(stderr, "%s: network: %s; sent %.3g MB (%.3g kB a step)\n", ndo_progname, net,
 	        (double)ns->bytes_out / 1e6,
@@ -333,6 +348,8 @@ int peers_main(run *r)
 		            .timeout = c->peer_timeout, .codec = &c->codec},
 		.clock = c->clock, .step_timeout = c->step_timeout, .speed = c->speed,
 		.peers = c->peers, .hold_boundary = c->hold_boundary,
+		.halo_steps = c->halo_steps,
+		.publish_every = c->publish_every == 0 && c->publish_every_set ? -1 : c->publish_every,
 		.start_timeout = c->start_timeout, .gather_timeout = c->gather_timeout,
 		.note = on_note, .note_user = &pr};
 	ndo_peer_run run_ = {owner ? ndo_scene_physics(&r->sc) : NULL, r->dt, r->steps};

@@ -22,6 +22,7 @@
 #include "ndo_msg/ndo_msg_description_t.h"
 #include "ndo_msg/ndo_msg_force_t.h"
 #include "ndo_msg/ndo_msg_header_t.h"
+#include "ndo_msg/ndo_msg_halo_t.h"
 #include "ndo_msg/ndo_msg_heartbeat_t.h"
 #include "ndo_msg/ndo_msg_hello_t.h"
 #include "ndo_msg/ndo_msg_leave_t.h"
@@ -62,6 +63,7 @@ typedef enum ndo_msg_type {
 	NDO_MSG_HEARTBEAT,
 	NDO_MSG_DESC_REQUEST,
 	NDO_MSG_FORCE,
+	NDO_MSG_HALO,
 	NDO_MSG_NTYPES
 } ndo_msg_type;
 
@@ -111,6 +113,7 @@ typedef struct ndo_msg {
 		ndo_msg_heartbeat_t heartbeat;
 		ndo_msg_desc_request_t desc_request;
 		ndo_msg_force_t force;
+		ndo_msg_halo_t halo;
 	} u;
 } ndo_msg;
 

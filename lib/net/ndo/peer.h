@@ -56,6 +56,14 @@ extern "C" {
 
 typedef enum ndo_clock { NDO_CLOCK_LOCKSTEP = 1, NDO_CLOCK_REALTIME = 2 } ndo_clock;
 
+/* How far (in rings of the 7-point stencil, through the ghost map) one
+ * step of `m` reaches: a node's new state depends only on the states of
+ * nodes at most this many rings away — 1 for forward and symplectic Euler
+ * and midpoint, 2 for rk4 (a stage's displacement reads only its own
+ * node's velocity, so the reach grows every second stage), 3 for one
+ * rkf45 sub-step.  0 for the implicit methods (they reach everywhere). */
+int ndo_peer_halo_rings(ndo_method m);
+
 /* "lockstep", "realtime"; parse: −1 if unknown. */
 const char *ndo_clock_name(ndo_clock s);
 int ndo_clock_parse(const char *s);
@@ -72,6 +80,14 @@ typedef struct ndo_peer_opts {
 	                           second (0: 1) */
 	int peers;              /* start when this many peers simulate, the
 	                           owner included (≤ 1: at once) */
+	int halo_steps;         /* lock-step, exact: steps per halo exchange, k
+	                           (0: 1); the halo is k times as wide as one
+	                           step's stages reach (ndo_peer_halo_rings) and
+	                           its overlap is recomputed by both sides */
+	int publish_every;      /* lock-step, exact: whole-region tiles (for
+	                           observers, render-frame, the owner's gather)
+	                           every this many steps, and at the last step
+	                           (0: 10; < 0: only at the first and last) */
 	int hold_boundary;      /* 1: the others' nodes stand still during a
 	                           step, at the values received (the thesis);
 	                           0 (default): they move with their
@@ -181,6 +197,14 @@ typedef struct ndo_peer_stats {
 	                           the first */
 	int64_t ungathered;     /* owner: nodes not at the last step when the run
 	                           ended (after gather_timeout) */
+	int exact;              /* lock-step with exchanged halos: the single
+	                           process's result (0: the boundary lag) */
+	int halo_rings;         /* the halo's width (exact) */
+	int64_t exchanges;      /* halo exchanges sent */
+	int64_t halo_tiles;     /* ... their tiles */
+	uint64_t halo_bytes;    /* ... and bytes (LCM payloads) */
+	int64_t frames;         /* whole-region publications */
+	uint64_t frame_bytes;   /* ... their bytes */
 	double start_time;      /* caller's clock at the first step */
 	double end_time;        /* ... at the last */
 } ndo_peer_stats;

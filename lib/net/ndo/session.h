@@ -56,18 +56,25 @@ typedef struct ndo_session_opts {
 	/* Optional: position/velocity tiles of other peers go to tile_fn, every
 	 * one in arrival order (ndo_net_keep_all_tiles), instead of being
 	 * written into the grid by the session — for a caller that keeps time
-	 * by the tiles' steps (ndo/peer.h).  `fill`: a tile of the owner's
-	 * snapshot before READY, whose values stand for every node in its range
-	 * (not only the owner's).  The grid exists when it is called; the
-	 * session makes stored duplicates agree after each update. */
-	void (*tile_fn)(void *user, const ndo_msg_tile_t *t, int fill);
-	void *tile_user;
+	 * by the tiles' steps (ndo/peer.h).  `flags`: NDO_TILE_FN_FILL, a tile
+	 * of the owner's snapshot before READY, whose values stand for every
+	 * node in its range (not only the owner's); NDO_TILE_FN_DECODED, a tile
+	 * that travelled encoded (its values may be lossy).  The grid exists
+	 * when it is called; the session makes stored duplicates agree after
+	 * each update. */
+	void (*tile_fn)(void *user, const ndo_msg_tile_t *t, int flags);
+	/* Optional: other peers' halos (halo_t, exact lock-step: ndo/peer.h),
+	 * every one in arrival order, once the object is described. */
+	void (*halo_fn)(void *user, const ndo_msg_halo_t *h);
+	void *tile_user; /* for tile_fn and halo_fn */
 	/* Owner: the encoding of position/velocity tiles (ndo/codec.h; NULL:
 	 * raw).  A box with ext[0] == 0 is the grid's rest shape's (its
 	 * positions' without one).  The description carries it; a joiner and
 	 * an observer take it from there. */
 	const ndo_codec_params *codec;
 } ndo_session_opts;
+
+enum { NDO_TILE_FN_FILL = 1, NDO_TILE_FN_DECODED = 2 }; /* tile_fn's flags */
 
 typedef enum ndo_event_type {
 	NDO_EV_READY = 1,   /* the grid holds the whole object: simulate/render */
@@ -120,6 +127,10 @@ int ndo_session_publish(ndo_session *s, int64_t step, double time);
 /* The same from another grid of the object's level (f64 position and
  * velocity): to send the state of an earlier step again. */
 int ndo_session_publish_from(ndo_session *s, const ndo_grid *src, int64_t step, double time);
+
+/* Send a halo the caller filled (runs, values, step, time): the session
+ * sets the epoch in force.  0 or a negative status. */
+int ndo_session_send_halo(ndo_session *s, ndo_msg_halo_t *h);
 
 /* Tiles of `step` carry every node this peer simulates at full precision
  * (the run's last step: what the owner gathers is exact); −1: none. */

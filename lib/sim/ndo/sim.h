@@ -243,6 +243,26 @@ void ndo_sim_get(const ndo_sim *s, double *x, double *v);
 void ndo_sim_set(ndo_sim *s, size_t n, const int32_t *nodes, const double *x,
                  const double *v);
 
+/* The state of n nodes (stored indices in `nodes`), each of x
+ * (positions X + u), u (displacements) and v: n × 3 doubles, NULL to skip.
+ * The displacement is the integrated state: x − X does not give it back
+ * bit for bit, so peers that must reproduce the single process exactly
+ * exchange u (docs/peers.md). */
+void ndo_sim_get_nodes(const ndo_sim *s, size_t n, const int32_t *nodes, double *x, double *u,
+                       double *v);
+
+/* Overwrite the displacement u and velocity v (n × 3 doubles each, either
+ * NULL to keep it) of n nodes: ndo_sim_set for the integrated state
+ * itself, bit for bit. */
+void ndo_sim_set_displacements(ndo_sim *s, size_t n, const int32_t *nodes, const double *u,
+                               const double *v);
+
+/* Restart the energy bound of the divergence test, as
+ * ndo_sim_set_active() does: for a caller that overwrote part of the
+ * state (ndo_sim_set*) with energy the bound did not see come in as work
+ * — a peer's halo (ndo/peer.h).  The NaN and distance tests stay. */
+void ndo_sim_restart_energy_bound(ndo_sim *s);
+
 /* Integrate only the nodes whose mask byte is nonzero (H × W; a
  * duplicate follows its canonical node); hold all others (see the top of
  * this header).  NULL: all nodes.  Pinned nodes stay held in project mode.
