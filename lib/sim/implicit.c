@@ -162,13 +162,13 @@ static int factor(ndo_sim *s, ndo__implicit *im, double h)
 	/* The factor's size is known from the analysis: its nonzeros (a value
 	 * and, at most, an index each) on top of the simulation's arrays. */
 	if (s->p.max_memory) {
-		double need = (double)ndo_sim_memory(s->level, &s->p) + 12.0 * im->cm.lnz;
+		double need = (double)s->bytes + 12.0 * im->cm.lnz;
 		if (need > (double)s->p.max_memory) {
 			char a[16], b[16];
 			cholmod_free_sparse(&A, &im->cm);
 			return ndo__fail(NDO_ENOMEM, "level %d with %s needs about %s (%.3g million "
 			                 "nonzeros in CHOLMOD's factor); the limit is %s", s->level,
-			                 ndo_method_names[s->p.method], ndo_bytes_text(need, a, sizeof a),
+			                 trap ? "trapezoid" : "backward-euler", ndo_bytes_text(need, a, sizeof a),
 			                 im->cm.lnz / 1e6,
 			                 ndo_bytes_text((double)s->p.max_memory, b, sizeof b));
 		}

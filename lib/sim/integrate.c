@@ -411,6 +411,7 @@ int ndo_sim_create(int level, const double *x, const double *v, const double *re
 	s->p = *p;
 	s->p.forces = NULL;
 	s->p.nforces = 0;
+	s->bytes = ndo_sim_memory(level, p);
 	size_t cnt = s->count;
 	double *aos = malloc(3 * cnt * sizeof *aos);
 	s->canon = malloc(cnt * sizeof *s->canon);

@@ -114,6 +114,7 @@ struct ndo_sim {
 	 * go to cdiag[c] and are added in chunk order, so every thread count
 	 * gives the same bits. */
 	ndo_pool *pool;
+	size_t bytes;          /* ndo_sim_memory() of this simulation */
 	int32_t *ichunk, *echunk;
 	int nichunk, nechunk;
 	struct ndo__diag *cdiag;
