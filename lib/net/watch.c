@@ -127,6 +127,17 @@ static int attach(ndo_watch *w, const ndo_msg_description_t *d)
 	if (rc)
 		return rc;
 	ndo_net_skipped_tiles(w->net, 1);
+	{ /* the object's box: the bound on the state (none if the line is bad) */
+		char *copy = malloc((size_t)d->scene_len + 1); /* scene: NULL when empty */
+		if (copy && d->scene_len)
+			memcpy(copy, d->scene, (size_t)d->scene_len);
+		if (copy)
+			copy[d->scene_len] = 0;
+		if (!copy)
+			return ndo__fail(NDO_ENOMEM, "out of memory");
+		ndo_msg_box_take(copy, ndo_net_ctx(w->net));
+		free(copy);
+	}
 	rc = ndo_grid_create(d->level, &w->base);
 	if (rc)
 		return rc;

@@ -206,7 +206,7 @@ int main(int argc, char **argv)
 	if (rc != NDO_EEOF)
 		ndo_die("%s", ndo_errdetail());
 	if (o.use_lcm) {
-		char what[512];
+		char what[1024];
 		rf_source_lcm_report(src, what, sizeof what);
 		if (st.frames == 0)
 			ndo_die("%s: no complete frame: %s", o.lcm.url ? o.lcm.url : "LCM", what);

@@ -71,6 +71,8 @@ static __attribute__((noreturn)) void usage(void)
 	       "                        default), or from a log of lcm-logger, file://PATH;\n"
 	       "                        with a %%d in OUT the frame number is the step\n"
 	       "      --lcm-channel P   the peers' channel prefix (default NDO)\n"
+	       "      --key FILE        a keyed session's key (default: $NDO_KEY): only\n"
+	       "                        messages it authenticates are drawn\n"
 	       "      --every N         only the steps that are multiples of N, 1..1e9\n"
 	       "                        (default 1)\n"
 	       "      --lcm-timeout S   live: stop after S seconds without traffic, 0..1e6\n"
@@ -212,7 +214,7 @@ void rf_options_parse(int argc, char **argv, rf_options *o)
 	       OPT_DISTANCE, OPT_FOV, OPT_EYE, OPT_CENTER, OPT_UP, OPT_NO_CULL, OPT_REFIT, OPT_LIGHT,
 	       OPT_BACKGROUND, OPT_COLOR, OPT_MATERIAL, OPT_COLOR_BY, OPT_RANGE, OPT_NO_COLORBAR,
 	       OPT_FONT, OPT_FLAT, OPT_CLOTH, OPT_CLOTH_THREADS, OPT_WIREFRAME, OPT_WIRE_WIDTH, OPT_BACKEND,
-	       OPT_VERSION, OPT_LCM, OPT_LCM_CHANNEL, OPT_EVERY, OPT_LCM_TIMEOUT };
+	       OPT_VERSION, OPT_LCM, OPT_LCM_CHANNEL, OPT_EVERY, OPT_LCM_TIMEOUT, OPT_KEY };
 	static const struct option opts[] = {
 		{"output", required_argument, 0, 'o'},
 		{"start-number", required_argument, 0, OPT_START},
@@ -244,6 +246,7 @@ void rf_options_parse(int argc, char **argv, rf_options *o)
 		{"subdivide", required_argument, 0, 'k'},
 		{"backend", required_argument, 0, OPT_BACKEND},
 		{"lcm", required_argument, 0, OPT_LCM},
+		{"key", required_argument, 0, OPT_KEY},
 		{"lcm-channel", required_argument, 0, OPT_LCM_CHANNEL},
 		{"every", required_argument, 0, OPT_EVERY},
 		{"lcm-timeout", required_argument, 0, OPT_LCM_TIMEOUT},
@@ -335,6 +338,7 @@ void rf_options_parse(int argc, char **argv, rf_options *o)
 				                "operators", optarg);
 			o->lcm.prefix = optarg;
 			break;
+		case OPT_KEY: o->lcm.key = optarg; break;
 		case OPT_EVERY: o->lcm.every = ndo_opt_long("--every", optarg, 1, 1000000000); break;
 		case OPT_LCM_TIMEOUT: o->lcm.timeout = ndo_opt_double("--lcm-timeout", optarg, 0, 1e6); break;
 		case 'v': o->verbose = 1; break;
@@ -351,8 +355,8 @@ void rf_options_parse(int argc, char **argv, rf_options *o)
 	if (o->use_lcm && o->ninputs)
 		ndo_usage_error("'%s': --lcm draws the peers' state; no input files with it",
 		                o->inputs[0]);
-	if (!o->use_lcm && (o->lcm.prefix || o->lcm.every || o->lcm.timeout >= 0))
-		ndo_usage_error("--lcm-channel, --every and --lcm-timeout go with --lcm");
+	if (!o->use_lcm && (o->lcm.prefix || o->lcm.every || o->lcm.timeout >= 0 || o->lcm.key))
+		ndo_usage_error("--lcm-channel, --every, --lcm-timeout and --key go with --lcm");
 	if (!o->lcm.prefix)
 		o->lcm.prefix = "NDO";
 	if (o->lcm.timeout < 0)

@@ -102,6 +102,10 @@ void peer_option(peer_cli *c, const char *name, const char *arg)
 		c->faults.jitter_ms = ndo_opt_double(opt, arg, 0, 1e6);
 	} else if (strcmp(name, "reorder") == 0) {
 		c->faults.reorder = ndo_opt_double(opt, arg, 0, 1);
+	} else if (strcmp(name, "key") == 0) {
+		c->key_file = arg;
+	} else if (strcmp(name, "new-key") == 0) {
+		c->new_key = arg;
 	} else if (strcmp(name, "fault-seed") == 0) {
 		c->faults.seed = (uint64_t)ndo_opt_long(opt, arg, 0, LONG_MAX);
 		c->fault_seed_set = 1;
@@ -111,8 +115,22 @@ void peer_option(peer_cli *c, const char *name, const char *arg)
 void peer_check(const peer_cli *c, const char *scene, const char *in, int n,
                 const char *const *keys)
 {
+	if (c->key_file && c->new_key)
+		ndo_usage_error("--key and --new-key: one key or the other");
+	if (c->new_key && c->role == NDO_ROLE_JOINER)
+		ndo_usage_error("--new-key: a joiner uses the owner's key (--key FILE)");
+	if (!c->role && c->new_key) { /* write a key and exit */
+		ndo_key k;
+		char id[9];
+		if (ndo_key_generate(c->new_key, &k))
+			ndo_die("--new-key: %s", ndo_errdetail());
+		ndo_key_id_text(&k, id);
+		fprintf(stderr, "%s: a new session key (id %s) in %s\n", ndo_progname, id, c->new_key);
+		ndo_close_stdout();
+		exit(NDO_EXIT_OK);
+	}
 	if (!c->role) {
-		if (given || c->poi >= 0 || c->lcm || c->name || c->faults.drop > 0 ||
+		if (given || c->key_file || c->poi >= 0 || c->lcm || c->name || c->faults.drop > 0 ||
 		    c->faults.delay_ms > 0 || c->faults.jitter_ms > 0 || c->faults.reorder > 0 ||
 		    c->fault_seed_set || strcmp(c->prefix, "NDO") != 0)
 			ndo_usage_error("the peers' options need --owner or --join");
@@ -187,6 +205,30 @@ static ndo_net *open_net(peer_run *pr)
 	pr->link = l;
 	if (ndo_net_create(l, c->prefix, 1, &n))
 		ndo_die("%s", ndo_errdetail());
+	ndo_key k;
+	int keyed;
+	if (c->new_key) {
+		if ((keyed = ndo_key_generate(c->new_key, &k)) != 0)
+			ndo_die("--new-key: %s", ndo_errdetail());
+		keyed = 1;
+	} else if ((keyed = ndo_key_resolve(c->key_file, &k)) < 0) {
+		ndo_die("%s%s", c->key_file ? "--key: " : "", ndo_errdetail());
+	}
+	if (keyed && ndo_net_set_key(n, &k))
+		ndo_die("%s", ndo_errdetail());
+	char id[9] = "";
+	if (keyed)
+		ndo_key_id_text(&k, id);
+	ndo_key_wipe(&k);
+	if (pr->r->quiet)
+		return n;
+	if (keyed)
+		fprintf(stderr, "%s: keyed session (key id %s%s%s): only peers with the key take "
+		        "part\n", ndo_progname, id, c->new_key ? ", new, in " : "",
+		        c->new_key ? c->new_key : "");
+	else
+		fprintf(stderr, "%s: no session key (--key FILE or $%s): anyone on the network can "
+		        "join this session and write its state\n", ndo_progname, NDO_KEY_ENV);
 	return n;
 }
 
@@ -265,7 +307,7 @@ static void summary(peer_run *pr, const char *how)
 	ndo_peer *p = pr->p;
 	ndo_peer_stats st;
 	ndo_peer_stats_get(p, &st);
-	char net[512];
+	char net[1024];
 	ndo_net_stats_format(ndo_session_net(ndo_peer_session(p)), net, sizeof net);
 	double el = st.end_time - st.start_time;
 	int np = 0;
