@@ -54,6 +54,12 @@ static __attribute__((noreturn)) void usage(void)
 	       "                        else solid), solid, owner (one colour per peer),\n"
 	       "                        displacement (|position - rest|), CHANNEL (its\n"
 	       "                        magnitude), CHANNEL:x|y|z|w (one component)\n"
+	       "                        owner: each peer by its place in the partition (the\n"
+	       "                        order the grid meets the peers, row by row from node\n"
+	       "                        (0,0)), Okabe-Ito colours, safe for colour-blind\n"
+	       "                        eyes: 1 blue, 2 orange, 3 bluish green, 4 vermilion,\n"
+	       "                        5 sky blue, 6 reddish purple, 7 yellow, 8 light grey\n"
+	       "                        (then again); nodes nobody owns dark grey\n"
 	       "      --range LO,HI     scalar values at the colour map's ends (default: each\n"
 	       "                        grid's smallest and largest)\n"
 	       "      --no-colorbar     no colour bar when colouring by a scalar\n"
@@ -190,10 +196,14 @@ static void defaults(rf_options *o)
 		s->background[k] = 1;
 	s->color[0] = 0xd2 / 255.0f, s->color[1] = 0xaa / 255.0f, s->color[2] = 0x82 / 255.0f;
 	s->material[0] = 0.2f, s->material[1] = 0.75f, s->material[2] = 0.25f, s->material[3] = 40;
-	/* Tableau 10: ten colours told apart also in print. */
-	static const unsigned palette[10] = {0x4e79a7, 0xf28e2b, 0xe15759, 0x76b7b2, 0x59a14f,
-	                                     0xedc948, 0xb07aa1, 0xff9da7, 0x9c755f, 0xbab0ac};
-	for (int k = 0; k < 10; k++)
+	/* Okabe & Ito (2002), "Color Universal Design": eight colours told
+	 * apart with every common colour-vision deficiency; their black is a
+	 * light grey here (a shaded black surface shows nothing), lighter than
+	 * the unowned nodes' dark grey.  The most distinct pair comes first:
+	 * two peers are blue and orange. */
+	static const unsigned palette[RF_PALETTE] = {0x0072b2, 0xe69f00, 0x009e73, 0xd55e00,
+	                                             0x56b4e9, 0xcc79a7, 0xf0e442, 0x999999};
+	for (int k = 0; k < RF_PALETTE; k++)
 		for (int c = 0; c < 3; c++)
 			s->palette[k][c] = (float)((palette[k] >> (16 - 8 * c)) & 255) / 255.0f;
 	s->unowned[0] = s->unowned[1] = s->unowned[2] = 0.35f;
