@@ -467,8 +467,9 @@ int ndo_watch_update(ndo_watch *w, double now)
 		w->ended = 1;
 	if (!w->ended && ndo_link_ended(ndo_net_link(w->net))) { /* a log read to its end */
 		w->ended = 1;
+		const char *note = ndo_link_note(ndo_net_link(w->net));
 		if (!*w->why)
-			snprintf(w->why, sizeof w->why, "the end of the log");
+			snprintf(w->why, sizeof w->why, "the end of the log%s%s", *note ? ", " : "", note);
 	}
 	if (!w->ended && w->o.timeout > 0 && now - w->heard > w->o.timeout) {
 		w->ended = 1;
