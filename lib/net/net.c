@@ -320,6 +320,19 @@ static void on_message(ndo_net *n, int t, const uint8_t *data, size_t len, int s
 		n->parkbytes += len;
 		return;
 	}
+	if (r == NDO_DROP_FOREIGN && t == NDO_MSG_DESCRIPTION &&
+	    ndo_msg_validate(&m, &(ndo_msg_ctx){.level = -1, .self_id = n->ctx.self_id}) ==
+	        NDO_DROP_NONE) {
+		/* a well-formed description: another owner.  Elder when it has
+		 * published more descriptions than this peer (one a second, and
+		 * one per hello), the smaller object id on a tie */
+		int64_t mine = n->seq_out[NDO_MSG_DESCRIPTION];
+		if (m.hdr->seq + 1 > mine ||
+		    (m.hdr->seq + 1 == mine && m.hdr->object_id < n->ctx.object_id)) {
+			n->st.foreign_owner = m.hdr->sender_id;
+			n->st.foreign_object = m.hdr->object_id;
+		}
+	}
 	if (r != NDO_DROP_NONE) {
 		n->st.dropped[r]++;
 		ndo_msg_free(&m);

@@ -29,6 +29,7 @@ struct ndo_session {
 	ndo_net *net;
 	ndo_grid *grid;
 	int32_t self, owner_id;
+	int32_t gone_said; /* the last non-member whose leave was told (drop_member) */
 	int64_t object;
 	int level, ended, ready, described;
 	member m[NDO_MAX_MEMBERS]; /* owner: everyone but itself; joiner: from PEERS */
@@ -410,8 +411,12 @@ static int simulates(const ndo_session *s, int32_t id)
 static int drop_member(ndo_session *s, int32_t id, int reason, const char *why)
 {
 	member *m = find_member(s, id);
-	if (!m)
+	if (!m) { /* never took part, but says why it goes (a joiner refusing its --poi) */
+		if (why && *why && s->o.role == NDO_ROLE_OWNER && id != s->gone_said)
+			event(s, NDO_EV_LEFT, id, reason, why); /* once: a LEAVE comes twice */
+		s->gone_said = id;
 		return 0;
+	}
 	*m = s->m[--s->nm];
 	ndo_net_forget(s->net, id);
 	event(s, NDO_EV_LEFT, id, reason, why);

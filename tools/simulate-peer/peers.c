@@ -401,6 +401,23 @@ int peers_main(run *r)
 		if (interrupted)
 			leave(&pr, EXIT_INTERRUPTED, "interrupted at step %lld", (long long)ndo_peer_step(pr.p));
 		state = ndo_peer_update(pr.p, ndo_now());
+		if (owner && !started) {
+			/* an elder owner's description (every 1 s) before the run: it was
+			 * here first, and joiners' hellos would go to both */
+			const ndo_net_stats *ns = ndo_net_stats_get(ndo_session_net(ndo_peer_session(pr.p)));
+			if (ns->foreign_owner)
+				leave(&pr, EXIT_ENDED, "another owner (peer %d, object %llx) is already on %s, "
+				      "channels %s_*: use another --channel or --lcm", ns->foreign_owner,
+				      (unsigned long long)ns->foreign_object,
+				      c->lcm ? c->lcm : "LCM's default URL", c->prefix);
+		}
+		if (!owner && c->poi >= 0) { /* the face exists only once the object is known */
+			ndo_grid *og = ndo_session_grid(ndo_peer_session(pr.p));
+			if (og && (size_t)c->poi >= ndo_triangle_count(og->level))
+				leave(&pr, NDO_EXIT_USAGE, "--poi: face %d is outside 0..%zu: the object "
+				      "(level %d) has %zu faces", c->poi, ndo_triangle_count(og->level) - 1,
+				      og->level, ndo_triangle_count(og->level));
+		}
 		if (state == NDO_EDIVERGED)
 			leave(&pr, EXIT_DIVERGED, "diverged at step %lld (t = %.6g s): %s; %s",
 			      (long long)ndo_peer_step(pr.p),

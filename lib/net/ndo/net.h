@@ -37,6 +37,12 @@ typedef struct ndo_net_stats {
 	uint64_t superseded;           /* tiles replaced by a newer one before use */
 	uint64_t published, publish_failed;
 	uint64_t bytes_in, bytes_out;
+	/* the last description of another object heard (it passed every other
+	 * check) from an owner elder than this peer (it has published more
+	 * descriptions; on a tie, the smaller object id): another owner on
+	 * these channels, who was there first; 0 none */
+	int32_t foreign_owner;
+	int64_t foreign_object;
 } ndo_net_stats;
 
 /* Take ownership of `link`; channels are PREFIX_SUFFIX (ndo_msg_suffix).
