@@ -41,6 +41,7 @@ struct ndo_net {
 	int skipped;  /* and skipped steps' tiles are made (ndo_net_skipped_tiles) */
 	ndo_codec *codec;
 	ndo_auth *auth; /* keyed session (ndo_net_set_key), else NULL */
+	int32_t other_owner; /* the sender of another object's description */
 	ndo_net_stats st;
 	double now;
 	/* messages that arrived before the object was known (a description
@@ -322,11 +323,13 @@ static void on_message(ndo_net *n, int t, const uint8_t *data, size_t len, int s
 	}
 	if (r == NDO_DROP_FOREIGN && t == NDO_MSG_DESCRIPTION &&
 	    ndo_msg_validate(&m, &(ndo_msg_ctx){.level = -1, .self_id = n->ctx.self_id}) ==
-	        NDO_DROP_NONE) {
-		/* a well-formed description: another owner.  Elder when it has
-		 * published more descriptions than this peer (one a second, and
-		 * one per hello), the smaller object id on a tie */
-		int64_t mine = n->seq_out[NDO_MSG_DESCRIPTION];
+	        NDO_DROP_NONE) /* a well-formed description: another owner */
+		n->other_owner = m.hdr->sender_id;
+	if (r == NDO_DROP_FOREIGN && t == NDO_MSG_HEARTBEAT && m.hdr->sender_id == n->other_owner &&
+	    n->other_owner) {
+		/* its heartbeats (one each 0.2 s from its start) against ours:
+		 * elder when it has sent more, the smaller object id on a tie */
+		int64_t mine = n->seq_out[NDO_MSG_HEARTBEAT];
 		if (m.hdr->seq + 1 > mine ||
 		    (m.hdr->seq + 1 == mine && m.hdr->object_id < n->ctx.object_id)) {
 			n->st.foreign_owner = m.hdr->sender_id;

@@ -146,3 +146,31 @@ wait $first; rf=$?
 [ $rf = 0 ] && [ $rj = 0 ] && [ -s first.tgrid ] && [ ! -e second.tgrid ] &&
 	pass "the first owner runs with its joiner" ||
 	fail "the first owner after a second one" "first exit $rf, joiner exit $rj"
+
+# --- an observer writes every frame asked for (issue 16) -------------------------------
+simulate-peer -q --owner wavy4.tgrid -s "$SCENE" --dt 0.01 -t 0.5 --peers 2 --start-timeout 20 -o watched.tgrid &
+owner=$!
+mkdir -p obs
+simulate-peer --join --frames 'obs/f%03d.tgrid' --frame-every 10 -o observed.tgrid 2>obs.err &
+observer=$!
+sleep 0.5
+simulate-peer -q --join --poi 100 --start-timeout 20; rj=$?
+wait $owner; ro=$?
+wait $observer; rv=$?
+steps=$(for f in obs/f*.tgrid; do /usr/bin/python3 "$NDO_ROOT/tests/e2e/tgrid.py" "$f" step; done | tr '\n' ' ')
+same=$(/usr/bin/python3 - observed.tgrid watched.tgrid "$NDO_ROOT/tests/e2e" <<'PY'
+import sys
+sys.path.insert(0, sys.argv[3])
+import numpy as np, tgrid
+_, sa, _, a = tgrid.read(sys.argv[1])
+_, sb, _, b = tgrid.read(sys.argv[2])
+print(sa == sb == 50 and np.array_equal(a["position"], b["position"]))
+PY
+)
+if [ $ro = 0 ] && [ $rj = 0 ] && [ $rv = 0 ] && [ "$steps" = "0 10 20 30 40 50 " ] && [ "$same" = True ] &&
+	grep -q 'observed 51 whole steps, the last 50 (6 frames written), 0 skipped' obs.err &&
+	! grep -q ' in -' obs.err; then
+	pass "an observer writes its 6 frames (steps $steps) and the owner's result, and says so"
+else
+	fail "an observer's frames" "exits $ro $rj $rv, frame steps '$steps', output equal: $same; $(grep observed obs.err)"
+fi

@@ -37,10 +37,10 @@ typedef struct ndo_net_stats {
 	uint64_t superseded;           /* tiles replaced by a newer one before use */
 	uint64_t published, publish_failed;
 	uint64_t bytes_in, bytes_out;
-	/* the last description of another object heard (it passed every other
-	 * check) from an owner elder than this peer (it has published more
-	 * descriptions; on a tie, the smaller object id): another owner on
-	 * these channels, who was there first; 0 none */
+	/* another owner on these channels, who was there first: the sender of
+	 * a well-formed description of another object whose heartbeats (one
+	 * each 0.2 s since it started) outnumber this peer's (on a tie, the
+	 * smaller object id); 0 none */
 	int32_t foreign_owner;
 	int64_t foreign_object;
 } ndo_net_stats;
