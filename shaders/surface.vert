@@ -21,7 +21,7 @@ out vec2 v_grid;   // lattice coordinates (i, j): cloth and wireframe
 
 #if COLOR_MODE == 1
 uniform isampler2D u_owner;   // W × H R32I: owner channel
-uniform vec3 u_palette[10];
+uniform vec3 u_palette[8];         // a peer's place in the partition → colour
 uniform vec3 u_unowned;
 out vec3 v_color;             // blended across the triangles between two peers
 #elif COLOR_MODE == 2
@@ -44,7 +44,7 @@ void main()
 
 #if COLOR_MODE == 1
 	int owner = texelFetch(u_owner, ij, 0).r;
-	v_color = owner < 0 ? u_unowned : u_palette[owner % 10];
+	v_color = owner < 0 ? u_unowned : u_palette[owner % 8];
 #elif COLOR_MODE == 2
 	float s = texelFetch(u_scalar, ij, 0).r;
 	v_value = (s - u_range.x) / (u_range.y - u_range.x);

@@ -40,6 +40,11 @@ int ndo_link_ended(const ndo_link *l)
 	return l && l->ended ? l->ended(l) : 0;
 }
 
+const char *ndo_link_note(const ndo_link *l)
+{
+	return l ? l->note : "";
+}
+
 uint64_t ndo_link_injected_drops(const ndo_link *l)
 {
 	return l ? l->injected : 0;

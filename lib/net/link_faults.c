@@ -151,7 +151,7 @@ int ndo_link_faults(ndo_link *inner, const ndo_faults *f, ndo_link **out)
 		return ndo__fail(NDO_ENOMEM, "out of memory");
 	}
 	l->base = (ndo_link){fault_publish, fault_poll, fault_fileno, fault_destroy, 0,
-	                     fault_next_due, fault_ended};
+	                     fault_next_due, fault_ended, ""};
 	l->inner = inner;
 	l->f = *f;
 	l->rng = f->seed;

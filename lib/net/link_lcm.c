@@ -91,7 +91,7 @@ int ndo_link_open_lcm(const char *url, int recv_buf, const char *prefix, int que
 	lcm_link *l = calloc(1, sizeof *l);
 	if (!l)
 		return ndo__fail(NDO_ENOMEM, "out of memory");
-	l->base = (ndo_link){lcm_publish_, lcm_poll_, lcm_fileno_, lcm_destroy_, 0, NULL, NULL};
+	l->base = (ndo_link){lcm_publish_, lcm_poll_, lcm_fileno_, lcm_destroy_, 0, NULL, NULL, ""};
 	l->lcm = lcm_create(full);
 	if (!l->lcm) {
 		free(l);

@@ -44,18 +44,24 @@ static int peek(log_link *l)
 		return ndo__fail(NDO_EIO, "%s: %s", l->path, strerror(errno));
 	if (got == 0)
 		return 0;
-	if (got < sizeof h)
-		return ndo__fail(NDO_ETRUNC, "%s: the log ends inside an event header at byte %lld",
-		                 l->path, (long long)at);
+	if (got < sizeof h) { /* cut short: the events before it stand */
+		snprintf(l->base.note, sizeof l->base.note, "cut short at byte %lld, inside an "
+		         "event's header", (long long)at);
+		return 0;
+	}
 	int32_t clen = (int32_t)be32(h + 20), dlen = (int32_t)be32(h + 24);
 	if (be32(h) != LOG_SYNC)
 		return ndo__fail(NDO_EFORMAT, "%s: no LCM event at byte %lld (not an LCM log, or "
 		                 "corrupt)", l->path, (long long)at);
-	if (clen <= 0 || clen >= 1000 || dlen < 0 ||
-	    (off_t)clen + dlen > l->size - at - LOG_HEADER)
+	if (clen <= 0 || clen >= 1000 || dlen < 0)
 		return ndo__fail(NDO_EFORMAT, "%s: the event at byte %lld has a channel of %d and "
-		                 "data of %d bytes, beyond the file", l->path, (long long)at, clen,
-		                 dlen);
+		                 "data of %d bytes", l->path, (long long)at, clen, dlen);
+	if ((off_t)clen + dlen > l->size - at - LOG_HEADER) { /* cut short */
+		snprintf(l->base.note, sizeof l->base.note, "cut short at byte %lld: an event of "
+		         "%d bytes runs past the end (%lld bytes)", (long long)at,
+		         LOG_HEADER + clen + dlen, (long long)l->size);
+		return 0;
+	}
 	return 1;
 }
 
@@ -115,7 +121,7 @@ int ndo_link_open_log(const char *path, const char *prefix, int batch, ndo_link 
 	log_link *l = calloc(1, sizeof *l);
 	if (!l)
 		return ndo__fail(NDO_ENOMEM, "out of memory");
-	l->base = (ndo_link){log_publish, log_poll, NULL, log_destroy, 0, NULL, log_ended};
+	l->base = (ndo_link){log_publish, log_poll, NULL, log_destroy, 0, NULL, log_ended, ""};
 	snprintf(l->path, sizeof l->path, "%s", path);
 	snprintf(l->prefix, sizeof l->prefix, "%s_", prefix);
 	l->prefix_len = strlen(l->prefix);

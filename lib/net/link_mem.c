@@ -132,7 +132,7 @@ int ndo_link_open_mem(ndo_bus *b, ndo_link **out)
 		return ndo__fail(NDO_ENOMEM, "out of memory");
 	}
 	b->links = links;
-	l->base = (ndo_link){mem_publish, mem_poll, NULL, mem_destroy, 0, NULL, NULL};
+	l->base = (ndo_link){mem_publish, mem_poll, NULL, mem_destroy, 0, NULL, NULL, ""};
 	l->bus = b;
 	l->next = b->count; /* a new link hears only what comes after it */
 	b->links[b->nlinks++] = l;

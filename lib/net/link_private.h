@@ -13,6 +13,7 @@ struct ndo_link {
 	/* optional (NULL: nothing held, never ends) */
 	double (*next_due)(const ndo_link *);
 	int (*ended)(const ndo_link *);
+	char note[200]; /* why it ended early, "" if it did not (ndo_link_note) */
 };
 
 #endif

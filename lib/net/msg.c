@@ -5,6 +5,7 @@
 #include "ndo/status.h"
 
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -67,7 +68,7 @@ const char *ndo_drop_name(ndo_drop r)
 	static const char *names[NDO_DROP_N] = {
 		"none", "injected", "channel", "malformed", "version", "foreign", "unknown",
 		"range", "length", "nonfinite", "encoding", "stale", "authority", "corrupt",
-		"nobase"};
+		"nobase", "unsigned", "wrongkey", "forged", "replay", "keyed", "box"};
 	return (unsigned)r < NDO_DROP_N ? names[r] : "?";
 }
 
@@ -241,7 +242,7 @@ int ndo_tile_depth(int level, int channels, const char *channel)
 {
 	ndo_msg_tile_t t;
 	memset(&t, 0, sizeof t);
-	size_t max = ndo_msg_max_payload(channel);
+	size_t max = ndo_msg_max_payload(channel) - NDO_AUTH_TRAILER;
 	for (int d = 0; d <= level + 1; d++) {
 		t.nvalues = (int32_t)(ndo_quad_node_count(level, d) *
 		                      (size_t)ndo_tile_values_per_node(channels));
@@ -417,7 +418,7 @@ ndo_drop ndo_msg_validate(const ndo_msg *m, const ndo_msg_ctx *c)
 				if (t->values[k] != 0 && t->values[k] != 1)
 					return NDO_DROP_RANGE;
 		}
-		return NDO_DROP_NONE;
+		return ndo_msg_check_box(t, c);
 	}
 	case NDO_MSG_POI:
 		return m->u.poi.face >= -1 && m->u.poi.face < face_count(L) ? NDO_DROP_NONE
@@ -491,4 +492,94 @@ ndo_drop ndo_msg_validate(const ndo_msg *m, const ndo_msg_ctx *c)
 	default:
 		return NDO_DROP_MALFORMED;
 	}
+}
+
+/* ---- the object's box ---------------------------------------------------- */
+int ndo_msg_set_box(ndo_msg_ctx *ctx, const double lo[3], const double hi[3])
+{
+	double d2 = 0;
+	for (int c = 0; c < 3; c++) {
+		if (!isfinite(lo[c]) || !isfinite(hi[c]) || lo[c] > hi[c])
+			return ndo__fail(NDO_EINVAL, "object box: not a finite box");
+		d2 += (hi[c] - lo[c]) * (hi[c] - lo[c]);
+	}
+	double diag = sqrt(d2);
+	if (!(diag > 0) || !isfinite(diag))
+		return ndo__fail(NDO_EINVAL, "object box: empty");
+	for (int c = 0; c < 3; c++) {
+		ctx->lo[c] = lo[c] - NDO_BOX_SLACK * diag;
+		ctx->hi[c] = hi[c] + NDO_BOX_SLACK * diag;
+	}
+	ctx->vmax = NDO_SPEED_MAX * diag;
+	ctx->has_box = 1;
+	return 0;
+}
+
+int ndo_msg_box_text(const double *x, size_t count, char *buf, size_t size)
+{
+	double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
+	for (size_t k = 0; k < count; k++)
+		for (int c = 0; c < 3; c++) {
+			lo[c] = fmin(lo[c], x[3 * k + c]);
+			hi[c] = fmax(hi[c], x[3 * k + c]);
+		}
+	int n = snprintf(buf, size, "object-box %.17g %.17g %.17g %.17g %.17g %.17g\n", lo[0], lo[1],
+	                 lo[2], hi[0], hi[1], hi[2]);
+	if (n < 0 || (size_t)n >= size)
+		return ndo__fail(NDO_ERANGE, "object box: no room");
+	return n;
+}
+
+int ndo_msg_box_take(char *text, ndo_msg_ctx *ctx)
+{
+	int found = 0, rc = 0;
+	char *w = text;
+	for (char *line = text; *line;) {
+		char *end = strchr(line, '\n');
+		size_t len = end ? (size_t)(end - line) + 1 : strlen(line);
+		if (strncmp(line, "object-box", 10) != 0) {
+			memmove(w, line, len);
+			w += len;
+			line += len;
+			continue;
+		}
+		char l[256];
+		snprintf(l, sizeof l, "%.*s", (int)(end ? len - 1 : len), line);
+		line += len;
+		double lo[3], hi[3];
+		if (found || sscanf(l, "object-box %lf %lf %lf %lf %lf %lf", &lo[0], &lo[1], &lo[2],
+		                    &hi[0], &hi[1], &hi[2]) != 6 ||
+		    ndo_msg_set_box(ctx, lo, hi) != 0)
+			rc = ndo__fail(NDO_EINVAL, "the owner's description: bad line '%s'", l);
+		found = 1;
+	}
+	*w = 0;
+	return rc ? rc : found;
+}
+
+ndo_drop ndo_msg_check_box(const ndo_msg_tile_t *t, const ndo_msg_ctx *ctx)
+{
+	int vpn = ndo_tile_values_per_node(t->channels);
+	if (vpn <= 0 || t->nvalues % vpn)
+		return NDO_DROP_LENGTH;
+	for (int32_t k = 0; k < t->nvalues; k += vpn) {
+		const double *v = t->values + k;
+		for (int bit = 0; bit < 3; bit++) { /* position, velocity, rest */
+			if (!(t->channels & (1 << bit)))
+				continue;
+			if (!isnan(v[0])) {
+				for (int c = 0; c < 3; c++) {
+					if (!isfinite(v[c]))
+						return NDO_DROP_NONFINITE;
+					if (!ctx->has_box)
+						continue;
+					if (bit == 1 ? fabs(v[c]) > ctx->vmax
+					             : v[c] < ctx->lo[c] || v[c] > ctx->hi[c])
+						return NDO_DROP_BOX;
+				}
+			}
+			v += 3;
+		}
+	}
+	return NDO_DROP_NONE;
 }

@@ -1,5 +1,6 @@
 /* net.c — typed messages over a link (ndo/net.h). */
 #include "ndo/net.h"
+#include "ndo/auth.h"
 #include "ndo/quadtree.h"
 #include "ndo/status.h"
 
@@ -39,12 +40,18 @@ struct ndo_net {
 	int keep_all; /* tiles queue in arrival order too (ndo_net_keep_all_tiles) */
 	int skipped;  /* and skipped steps' tiles are made (ndo_net_skipped_tiles) */
 	ndo_codec *codec;
+	ndo_auth *auth; /* keyed session (ndo_net_set_key), else NULL */
+	int32_t other_owner; /* the sender of another object's description */
 	ndo_net_stats st;
 	double now;
 	/* messages that arrived before the object was known (a description
 	 * and the tiles right behind it come in one burst): kept as bytes and
 	 * looked at again by ndo_net_attach() */
-	struct parked { int type; uint8_t *data; size_t len; } *park;
+	struct parked {
+		int type;
+		uint8_t *data; /* authenticated and fresh in a keyed session: no trailer */
+		size_t len;
+	} *park;
 	size_t npark, parkcap, parkbytes;
 };
 
@@ -67,7 +74,7 @@ int ndo_net_create(ndo_link *link, const char *prefix, int32_t self_id, ndo_net 
 	for (int t = 0; t < NDO_MSG_NTYPES; t++)
 		snprintf(n->channel[t], sizeof n->channel[t], "%s_%s", prefix,
 		         ndo_msg_suffix((ndo_msg_type)t));
-	n->ctx = (ndo_msg_ctx){0, -1, self_id};
+	n->ctx = (ndo_msg_ctx){.object_id = 0, .level = -1, .self_id = self_id};
 	*out = n;
 	return 0;
 }
@@ -95,6 +102,7 @@ void ndo_net_destroy(ndo_net *n)
 		return;
 	unpark_all(n);
 	free(n->park);
+	ndo_auth_destroy(n->auth);
 	ndo_codec_destroy(n->codec);
 	clear_tiles(n);
 	free(n->slots);
@@ -119,6 +127,14 @@ int ndo_net_set_codec(ndo_net *n, const ndo_codec_params *p, int level)
 	return ndo_codec_create(p, level, &n->codec);
 }
 ndo_link *ndo_net_link(const ndo_net *n) { return n->link; }
+int ndo_net_keyed(const ndo_net *n) { return n->auth != NULL; }
+
+int ndo_net_set_key(ndo_net *n, const ndo_key *key)
+{
+	ndo_auth_destroy(n->auth);
+	n->auth = NULL;
+	return key ? ndo_auth_create(key, &n->auth) : 0;
+}
 const ndo_net_stats *ndo_net_stats_get(const ndo_net *n) { return &n->st; }
 const char *ndo_net_channel(const ndo_net *n, ndo_msg_type t) { return n->channel[t]; }
 
@@ -139,11 +155,25 @@ int ndo_net_publish(ndo_net *n, ndo_msg_type t, void *msg)
 	int rc = ndo_msg_encode(t, msg, &buf, &len);
 	if (rc)
 		return rc;
-	if (len > ndo_msg_max_payload(n->channel[t])) {
+	size_t wire = len + (n->auth ? NDO_AUTH_TRAILER : 0);
+	if (wire > ndo_msg_max_payload(n->channel[t])) {
 		free(buf);
 		n->st.publish_failed++;
 		return ndo__fail(NDO_ERANGE, "%s: %zu bytes do not fit one datagram (%zu)",
-		                 n->channel[t], len, ndo_msg_max_payload(n->channel[t]));
+		                 n->channel[t], wire, ndo_msg_max_payload(n->channel[t]));
+	}
+	if (n->auth) {
+		uint8_t *b = realloc(buf, wire);
+		if (!b) {
+			free(buf);
+			return ndo__fail(NDO_ENOMEM, "out of memory");
+		}
+		buf = b;
+		if ((rc = ndo_auth_seal(n->auth, n->channel[t], buf, len)) != 0) {
+			free(buf);
+			return rc;
+		}
+		len = wire;
 	}
 	rc = ndo_link_publish(n->link, n->channel[t], buf, len);
 	free(buf);
@@ -238,20 +268,29 @@ static int enqueue(ndo_net *n, ndo_msg *m)
 	return 0;
 }
 
-static void on_bytes(void *user, const char *channel, const void *data, size_t len)
+/* A message of type t whose bytes (`sealed`: authenticated, trailer
+ * removed; `from`: who sealed it) are in data[0..len). */
+static void on_message(ndo_net *n, int t, const uint8_t *data, size_t len, int sealed,
+                       const ndo_auth_from *from)
 {
-	ndo_net *n = user;
-	n->st.received++;
-	n->st.bytes_in += len;
-	int t = ndo_msg_type_of(n->prefix, channel);
-	if (t < 0) {
-		n->st.dropped[NDO_DROP_CHANNEL]++;
-		return;
-	}
 	ndo_msg m;
 	ndo_drop r = ndo_msg_decode((ndo_msg_type)t, data, len, &m);
 	if (r != NDO_DROP_NONE) {
+		/* without a key: a keyed session's message says so */
+		if (!n->auth && ndo_auth_looks_sealed(data, len) &&
+		    ndo_msg_decode((ndo_msg_type)t, data, len - NDO_AUTH_TRAILER, &m) == NDO_DROP_NONE) {
+			ndo_msg_free(&m);
+			r = NDO_DROP_KEYED;
+		}
 		n->st.dropped[r]++;
+		return;
+	}
+	/* a replay is one whatever else is wrong with it (a replayed copy of
+	 * our own message too); a parked message was checked here already
+	 * and comes back unsealed */
+	if (sealed && !ndo_auth_fresh(n->auth, m.hdr->sender_id, from)) {
+		n->st.dropped[NDO_DROP_REPLAY]++;
+		ndo_msg_free(&m);
 		return;
 	}
 	if (m.hdr->sender_id == n->ctx.self_id) {
@@ -280,9 +319,22 @@ static void on_bytes(void *user, const char *channel, const void *data, size_t l
 		memcpy(copy, data, len);
 		n->park[n->npark++] = (struct parked){t, copy, len};
 		n->parkbytes += len;
-		n->st.received--; /* counted again when looked at */
-		n->st.bytes_in -= len;
 		return;
+	}
+	if (r == NDO_DROP_FOREIGN && t == NDO_MSG_DESCRIPTION &&
+	    ndo_msg_validate(&m, &(ndo_msg_ctx){.level = -1, .self_id = n->ctx.self_id}) ==
+	        NDO_DROP_NONE) /* a well-formed description: another owner */
+		n->other_owner = m.hdr->sender_id;
+	if (r == NDO_DROP_FOREIGN && t == NDO_MSG_HEARTBEAT && m.hdr->sender_id == n->other_owner &&
+	    n->other_owner) {
+		/* its heartbeats (one each 0.2 s from its start) against ours:
+		 * elder when it has sent more, the smaller object id on a tie */
+		int64_t mine = n->seq_out[NDO_MSG_HEARTBEAT];
+		if (m.hdr->seq + 1 > mine ||
+		    (m.hdr->seq + 1 == mine && m.hdr->object_id < n->ctx.object_id)) {
+			n->st.foreign_owner = m.hdr->sender_id;
+			n->st.foreign_object = m.hdr->object_id;
+		}
 	}
 	if (r != NDO_DROP_NONE) {
 		n->st.dropped[r]++;
@@ -293,6 +345,8 @@ static void on_bytes(void *user, const char *channel, const void *data, size_t l
 		/* decoded here, in arrival order: each frame is a reference for
 		 * the next ones, whoever uses it */
 		r = n->codec ? ndo_codec_decode_tile(n->codec, &m.u.tile) : NDO_DROP_ENCODING;
+		if (r == NDO_DROP_NONE) /* the decoded state, against the box */
+			r = ndo_msg_check_box(&m.u.tile, &n->ctx);
 		if (r != NDO_DROP_NONE) {
 			n->st.dropped[r]++;
 			ndo_msg_free(&m);
@@ -379,6 +433,30 @@ static void on_bytes(void *user, const char *channel, const void *data, size_t l
 	n->st.accepted++;
 }
 
+static void on_bytes(void *user, const char *channel, const void *data, size_t len)
+{
+	ndo_net *n = user;
+	n->st.received++;
+	n->st.bytes_in += len;
+	int t = ndo_msg_type_of(n->prefix, channel);
+	if (t < 0) {
+		n->st.dropped[NDO_DROP_CHANNEL]++;
+		return;
+	}
+	if (!n->auth) {
+		on_message(n, t, data, len, 0, NULL);
+		return;
+	}
+	size_t mlen;
+	ndo_auth_from from;
+	ndo_drop r = ndo_auth_open(n->auth, channel, data, len, &mlen, &from);
+	if (r != NDO_DROP_NONE) {
+		n->st.dropped[r]++;
+		return;
+	}
+	on_message(n, t, data, mlen, 1, &from);
+}
+
 int ndo_net_poll(ndo_net *n, double now)
 {
 	n->now = now;
@@ -399,7 +477,7 @@ void ndo_net_attach(ndo_net *n, int64_t object_id, int level)
 	n->park = NULL;
 	n->npark = n->parkcap = n->parkbytes = 0;
 	for (size_t k = 0; k < np; k++) {
-		on_bytes(n, n->channel[p[k].type], p[k].data, p[k].len);
+		on_message(n, p[k].type, p[k].data, p[k].len, 0, NULL);
 		free(p[k].data);
 	}
 	free(p);

@@ -29,6 +29,7 @@ struct ndo_session {
 	ndo_net *net;
 	ndo_grid *grid;
 	int32_t self, owner_id;
+	int32_t gone_said; /* the last non-member whose leave was told (drop_member) */
 	int64_t object;
 	int level, ended, ready, described;
 	member m[NDO_MAX_MEMBERS]; /* owner: everyone but itself; joiner: from PEERS */
@@ -410,8 +411,12 @@ static int simulates(const ndo_session *s, int32_t id)
 static int drop_member(ndo_session *s, int32_t id, int reason, const char *why)
 {
 	member *m = find_member(s, id);
-	if (!m)
+	if (!m) { /* never took part, but says why it goes (a joiner refusing its --poi) */
+		if (why && *why && s->o.role == NDO_ROLE_OWNER && id != s->gone_said)
+			event(s, NDO_EV_LEFT, id, reason, why); /* once: a LEAVE comes twice */
+		s->gone_said = id;
 		return 0;
+	}
 	*m = s->m[--s->nm];
 	ndo_net_forget(s->net, id);
 	event(s, NDO_EV_LEFT, id, reason, why);
@@ -440,6 +445,17 @@ static int on_description(ndo_session *s, const ndo_msg_description_t *d)
 		int bad = ndo_codec_params_read(d->scene, (size_t)d->scene_len, &cp);
 		if (bad == NDO_ENOMEM)
 			return bad;
+		char *copy = malloc((size_t)d->scene_len + 1); /* scene: NULL when empty */
+		if (copy && d->scene_len)
+			memcpy(copy, d->scene, (size_t)d->scene_len);
+		if (copy)
+			copy[d->scene_len] = 0;
+		ndo_msg_ctx probe = {0};
+		if (!copy)
+			return NDO_ENOMEM;
+		if (!bad && ndo_msg_box_take(copy, &probe) < 0) /* a bad object box */
+			bad = NDO_EINVAL;
+		free(copy);
 		if (bad) {
 			((ndo_net_stats *)ndo_net_stats_get(s->net))->dropped[NDO_DROP_RANGE]++;
 			return 0;
@@ -462,6 +478,8 @@ static int on_description(ndo_session *s, const ndo_msg_description_t *d)
 	if (d->scene_len)
 		memcpy(s->scene, d->scene, (size_t)d->scene_len);
 	s->scene[d->scene_len] = 0;
+	/* the object's box: the bound on the state received (checked above) */
+	ndo_msg_box_take(s->scene, ndo_net_ctx(s->net));
 	/* the tile encoding: decoded by the net, encoded by this peer */
 	if ((rc = ndo_codec_params_take(s->scene, &s->codec)) ||
 	    (rc = ndo_net_set_codec(s->net, &s->codec, s->level)))
@@ -860,6 +878,38 @@ int ndo_session_send_forces(ndo_session *s, int64_t step, int n, const int32_t *
 }
 
 /* ---- life -------------------------------------------------------------- */
+/* The owner's box (its rest shape, or its positions when it has none):
+ * the bound on the state every peer receives (ndo_msg_set_box), in the
+ * description as an object-box line.  An object that is a point (a grid
+ * of zeros) has none: its state is only checked to be finite. */
+static int owner_box(ndo_session *s, ndo_msg_ctx *c)
+{
+	const double *x = ndo_grid_f64(s->grid, NDO_CH_REST, 3);
+	int have_rest = 0;
+	for (size_t k = 0; x && k < 3 * s->grid->count && !have_rest; k++)
+		have_rest = x[k] != 0;
+	if (!have_rest)
+		x = ndo_grid_f64(s->grid, NDO_CH_POSITION, 3);
+	char line[256];
+	int n = ndo_msg_box_text(x, s->grid->count, line, sizeof line);
+	if (n < 0)
+		return n;
+	if (ndo_msg_box_take(line, c) < 0) { /* a point, or not finite */
+		ndo__clear_error();
+		return 0; /* no bound but finiteness (a grid of zeros, in tests) */
+	}
+	n = ndo_msg_box_text(x, s->grid->count, line, sizeof line); /* take emptied it */
+	size_t have = strlen(s->scene);
+	if (have + (size_t)n > NDO_MAX_SCENE)
+		return ndo__fail(NDO_ERANGE, "the description takes more than %d bytes", NDO_MAX_SCENE);
+	char *sc = realloc(s->scene, have + (size_t)n + 1);
+	if (!sc)
+		return NDO_ENOMEM;
+	memcpy(sc + have, line, (size_t)n + 1);
+	s->scene = sc;
+	return 0;
+}
+
 /* The owner's encoding: the box, the encoder, the net's decoder and the
  * description's lines. */
 static int owner_codec(ndo_session *s, const ndo_codec_params *p)
@@ -948,6 +998,8 @@ int ndo_session_create(const ndo_session_opts *o, ndo_net *net, ndo_grid *grid,
 		c->object_id = s->object;
 		rc = prepare_grid(s);
 		c->level = s->level;
+		if (!rc)
+			rc = owner_box(s, c);
 		s->described = s->ready = 1;
 		if (!rc && o->codec && o->codec->encoding != NDO_ENC_RAW)
 			rc = owner_codec(s, o->codec);

@@ -127,6 +127,17 @@ static int attach(ndo_watch *w, const ndo_msg_description_t *d)
 	if (rc)
 		return rc;
 	ndo_net_skipped_tiles(w->net, 1);
+	{ /* the object's box: the bound on the state (none if the line is bad) */
+		char *copy = malloc((size_t)d->scene_len + 1); /* scene: NULL when empty */
+		if (copy && d->scene_len)
+			memcpy(copy, d->scene, (size_t)d->scene_len);
+		if (copy)
+			copy[d->scene_len] = 0;
+		if (!copy)
+			return ndo__fail(NDO_ENOMEM, "out of memory");
+		ndo_msg_box_take(copy, ndo_net_ctx(w->net));
+		free(copy);
+	}
 	rc = ndo_grid_create(d->level, &w->base);
 	if (rc)
 		return rc;
@@ -456,8 +467,9 @@ int ndo_watch_update(ndo_watch *w, double now)
 		w->ended = 1;
 	if (!w->ended && ndo_link_ended(ndo_net_link(w->net))) { /* a log read to its end */
 		w->ended = 1;
+		const char *note = ndo_link_note(ndo_net_link(w->net));
 		if (!*w->why)
-			snprintf(w->why, sizeof w->why, "the end of the log");
+			snprintf(w->why, sizeof w->why, "the end of the log%s%s", *note ? ", " : "", note);
 	}
 	if (!w->ended && w->o.timeout > 0 && now - w->heard > w->o.timeout) {
 		w->ended = 1;

@@ -2,37 +2,32 @@
 # The libFuzzer targets (tests/fuzz/), each for a bounded time, from seeds
 # made by the real tools: fuzz_gridfile (the grid file reader), fuzz_msg
 # (every LCM message decoder and validator, and the receive path with the
-# tile decoder, from recorded runs in each tile encoding).  A crash, a
+# tile decoder, from recorded runs in each tile encoding), fuzz_auth (the
+# same behind a session key: unsealed bytes never accepted, a sealed
+# message delivered twice dropped once as a replay).  A crash, a
 # sanitizer report or a round-trip mismatch fails the case and leaves the
 # input in the log.
 . "$(dirname "$0")/lib.sh"
 secs=${NDO_FUZZ_SECONDS:-20}
-for target in "$NDO_TESTBIN"/fuzz_*; do
-	[ -x "$target" ] || continue
-	name=$(basename "$target")
-	mkdir -p "corpus-$name"
-	case $name in
-	fuzz_gridfile)
-		remesh --shape tetra -l 0 -o corpus-$name/tetra0.tgrid
-		remesh --shape sphere -l 1 -o corpus-$name/sphere1.tgrid
-		remesh --shape wavy -l 2 | subdivide -l 0 -o corpus-$name/wavy2.tgrid
-		cat corpus-$name/tetra0.tgrid corpus-$name/sphere1.tgrid >corpus-$name/stream.tgrid
-		;;
-	fuzz_msg)
-		# every message of three short owner runs (written by LCM's file
-		# provider, no network), one per tile encoding, its first byte as
-		# fuzz_msg.c reads it: the type, and for a tile the receiver's
-		# level-3 decoder of that encoding
+# record_messages DIR [PREFIX]: every message of three short owner runs
+# (written by LCM's file provider, no network), one per tile encoding, as
+# seeds in DIR: PREFIX (hex, fuzz_auth's flags byte) then the first byte as
+# fuzz_msg.c reads it (the type, and for a tile the receiver's level-3
+# decoder of that encoding), then the message.
+record_messages() {
+	[ -f predict.lcmlog ] || {
 		remesh --shape wavy -l 3 -o w3.tgrid
 		for enc in float32 fixed predict; do
 			simulate-peer --lcm "file://$PWD/$enc.lcmlog?mode=w" --owner w3.tgrid \
 				-s "$NDO_ROOT/samples/thesis-fig5.3.scene" --dt 0.01 -n 40 --encoding $enc \
 				-q -o /dev/null
 		done
-		/usr/bin/python3 - corpus-$name <<'PY' || fail "$name seeds" "no recorded messages"
+	}
+	/usr/bin/python3 - "$1" "$2" <<'PY' || fail "$(basename "$1") seeds" "no recorded messages"
 import struct, sys
 suffixes = "DESC TILE POI PARTITION HELLO PEERS LEAVE HEARTBEAT DESC_REQUEST FORCE".split()
 tile_byte = {"float32": 171, "fixed": 211, "predict": 131}  # type 1, level 3, 1 + byte % 3
+prefix = bytes.fromhex(sys.argv[2])
 n = 0
 for enc, tb in tile_byte.items():
     b = open(f"{enc}.lcmlog", "rb").read()
@@ -44,11 +39,25 @@ for enc, tb in tile_byte.items():
         o += 28 + cl + dl
         t = suffixes.index(ch.split("_", 1)[1])
         with open(f"{sys.argv[1]}/{enc}-{n:03d}", "wb") as f:
-            f.write(bytes([tb if t == 1 else t]) + data)
+            f.write(prefix + bytes([tb if t == 1 else t]) + data)
         n += 1
 sys.exit(n < 3 * 40)
 PY
+}
+
+for target in "$NDO_TESTBIN"/fuzz_*; do
+	[ -x "$target" ] || continue
+	name=$(basename "$target")
+	mkdir -p "corpus-$name"
+	case $name in
+	fuzz_gridfile)
+		remesh --shape tetra -l 0 -o corpus-$name/tetra0.tgrid
+		remesh --shape sphere -l 1 -o corpus-$name/sphere1.tgrid
+		remesh --shape wavy -l 2 | subdivide -l 0 -o corpus-$name/wavy2.tgrid
+		cat corpus-$name/tetra0.tgrid corpus-$name/sphere1.tgrid >corpus-$name/stream.tgrid
 		;;
+	fuzz_msg) record_messages "corpus-$name" "" ;;
+	fuzz_auth) record_messages "corpus-$name" 03 ;;  # sealed, the receiver decodes tiles
 	esac
 	if "$target" -max_total_time="$secs" -max_len=8192 -rss_limit_mb=2048 \
 		-print_final_stats=1 "corpus-$name" >fuzz.log 2>&1; then

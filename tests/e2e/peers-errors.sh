@@ -2,7 +2,8 @@
 # The peers' options refused with one line and exit 2, before any network
 # traffic: a joiner does not take physics, input or the owner's choices;
 # values out of range; peer options without a role; render-frame's LCM
-# options.
+# options; session keys (made, refused, named), and a keyed recording
+# replayed with, without and with another key.
 . "$(dirname "$0")/lib.sh"
 
 remesh --shape sphere -l 3 -o s3.tgrid 2>/dev/null || fail "remesh"
@@ -37,3 +38,49 @@ expect_error "render-frame: --lcm and files" 2 "'s3.tgrid': --lcm draws the peer
 expect_error "render-frame: --every without --lcm" 2 'go with --lcm' \
 	render-frame --every 5 -o x.png s3.tgrid
 expect_error "render-frame: --every 0" 2 '--every' render-frame --lcm default --every 0 -o x.png
+
+# Session keys (issue 16): refused before any traffic, with the cause.
+rm -f new.key
+check "--new-key alone writes a key" simulate-peer --new-key new.key
+if [ "$(stat -c %a new.key)" = 600 ] && grep -Eqx '[0-9a-f]{64}' new.key; then
+	pass "the new key: 64 hex digits, mode 600"
+else
+	fail "the new key" "mode $(stat -c %a new.key), $(wc -c <new.key) bytes"
+fi
+expect_error "--new-key never overwrites" 1 'new.key: File exists' simulate-peer --new-key new.key
+expect_error "a joiner making a key" 2 "--new-key: a joiner uses the owner's key" \
+	simulate-peer --join --new-key other.key
+expect_error "--key without a role" 2 'the peers. options need --owner or --join' \
+	simulate-peer --key new.key s3.tgrid
+cp new.key open.key && chmod 644 open.key
+expect_error "a key others may read" 1 'open.key: others may read this key \(mode 644\): chmod 600' \
+	simulate-peer -q --owner s3.tgrid --key open.key -o x.tgrid
+printf 'not a key\n' >bad.key && chmod 600 bad.key
+expect_error "a key file without a key" 1 'bad.key: not a session key' \
+	simulate-peer -q --owner s3.tgrid --key bad.key -o x.tgrid
+expect_error "a bad \$NDO_KEY" 1 'NDO_KEY: not a session key' \
+	env NDO_KEY=1234 simulate-peer -q --owner s3.tgrid -o x.tgrid
+rm -f other.key; simulate-peer --new-key other.key 2>/dev/null
+expect_error "render-frame: --key without --lcm" 2 'go with --lcm' \
+	render-frame --key new.key -o x.png s3.tgrid
+
+# Open and keyed sessions, recorded by LCM's file provider (no network).
+simulate-peer --lcm "file://$PWD/open.lcmlog?mode=w" --owner s3.tgrid -n 3 -o x.tgrid 2>open.err
+if [ "$(grep -c 'no session key (--key FILE or \$NDO_KEY): anyone on the network can join' open.err)" = 1 ]; then
+	pass "an open session says once that anyone can join and write"
+else
+	fail "an open session's warning" "$(grep -c anyone open.err) times"
+fi
+simulate-peer --lcm "file://$PWD/keyed.lcmlog?mode=w" --owner s3.tgrid -n 3 --key new.key -o x.tgrid 2>keyed.err
+id=$(grep -o 'keyed session (key id [0-9a-f]*' keyed.err | grep -o '[0-9a-f]*$')
+if [ -n "$id" ] && ! grep -q anyone keyed.err && ! grep -qf new.key keyed.err; then
+	pass "a keyed session names its key id ($id), never the key"
+else
+	fail "a keyed session's note" "$(head -3 keyed.err)"
+fi
+expect_error "render-frame: a keyed log without the key" 1 'give its key \(--key FILE or \$NDO_KEY\)' \
+	render-frame --lcm "file://$PWD/keyed.lcmlog" -o 'k%d.png'
+check "render-frame: a keyed log with its key" render-frame --lcm "file://$PWD/keyed.lcmlog" --key new.key -o 'k%d.png'
+if ls k*.png >/dev/null 2>&1; then pass "the keyed log's frames drawn"; else fail "the keyed log's frames"; fi
+expect_error "render-frame: a keyed log with another key" 1 'failed authentication \(unsigned 0, wrong key [1-9]' \
+	render-frame --lcm "file://$PWD/keyed.lcmlog" --key other.key -o 'o%d.png'

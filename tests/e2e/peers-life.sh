@@ -119,3 +119,58 @@ expect_error "an owner whose peers do not come" 4 'only 1 of 2 peers came within
 	simulate-peer -q --owner wavy4.tgrid -s "$SCENE" -t 0.1 --peers 2 --start-timeout 0.5 -o x.tgrid
 expect_error "a joiner that finds no owner" 4 'no object was described within 0.5 s' \
 	simulate-peer -q --join --start-timeout 0.5
+
+# --- refusals that name their cause (issue 16) ---------------------------------------
+# a face beyond the object: the joiner says so and leaves; the owner hears why
+simulate-peer --owner wavy4.tgrid -s "$SCENE" -t 0.1 --peers 2 --start-timeout 2 -o x.tgrid 2>poi-owner.err &
+owner=$!
+expect_error "a joiner's --poi beyond the object" 2 \
+	'^simulate-peer: --poi: face 99999 is outside 0\.\.1023: the object \(level 4\) has 1024 faces' \
+	simulate-peer -q --join --poi 99999 --start-timeout 5
+wait $owner
+if [ "$(grep -c 'left: --poi: face 99999 is outside' poi-owner.err)" = 1 ]; then
+	pass "the owner hears once why the joiner left"
+else
+	fail "the owner's note of the refused --poi" "$(tail -2 poi-owner.err)"
+fi
+# a second owner on the same channels: refused, naming the first; the first
+# runs with its joiner as if nothing happened
+simulate-peer -q --owner wavy4.tgrid -s "$SCENE" -t 0.1 --peers 2 --start-timeout 20 -o first.tgrid 2>first.err &
+first=$!
+sleep 1
+expect_error "a second owner on the same channels" 4 \
+	'another owner \(peer [0-9]+, object [0-9a-f]+\) is already on .*channels NDO_\*: use another --channel or --lcm' \
+	simulate-peer -q --owner wavy4.tgrid -s "$SCENE" -t 0.1 --peers 2 --start-timeout 20 -o second.tgrid
+simulate-peer -q --join --poi 100 --start-timeout 20 2>/dev/null; rj=$?
+wait $first; rf=$?
+[ $rf = 0 ] && [ $rj = 0 ] && [ -s first.tgrid ] && [ ! -e second.tgrid ] &&
+	pass "the first owner runs with its joiner" ||
+	fail "the first owner after a second one" "first exit $rf, joiner exit $rj"
+
+# --- an observer writes every frame asked for (issue 16) -------------------------------
+simulate-peer -q --owner wavy4.tgrid -s "$SCENE" --dt 0.01 -t 0.5 --peers 2 --start-timeout 20 -o watched.tgrid &
+owner=$!
+mkdir -p obs
+simulate-peer --join --frames 'obs/f%03d.tgrid' --frame-every 10 -o observed.tgrid 2>obs.err &
+observer=$!
+sleep 0.5
+simulate-peer -q --join --poi 100 --start-timeout 20; rj=$?
+wait $owner; ro=$?
+wait $observer; rv=$?
+steps=$(for f in obs/f*.tgrid; do /usr/bin/python3 "$NDO_ROOT/tests/e2e/tgrid.py" "$f" step; done | tr '\n' ' ')
+same=$(/usr/bin/python3 - observed.tgrid watched.tgrid "$NDO_ROOT/tests/e2e" <<'PY'
+import sys
+sys.path.insert(0, sys.argv[3])
+import numpy as np, tgrid
+_, sa, _, a = tgrid.read(sys.argv[1])
+_, sb, _, b = tgrid.read(sys.argv[2])
+print(sa == sb == 50 and np.array_equal(a["position"], b["position"]))
+PY
+)
+if [ $ro = 0 ] && [ $rj = 0 ] && [ $rv = 0 ] && [ "$steps" = "0 10 20 30 40 50 " ] && [ "$same" = True ] &&
+	grep -q 'observed 51 whole steps, the last 50 (6 frames written), 0 skipped' obs.err &&
+	! grep -q ' in -' obs.err; then
+	pass "an observer writes its 6 frames (steps $steps) and the owner's result, and says so"
+else
+	fail "an observer's frames" "exits $ro $rj $rv, frame steps '$steps', output equal: $same; $(grep observed obs.err)"
+fi

@@ -2,8 +2,9 @@
 # Record and replay, in a private network namespace: lcm-logger records a
 # two-peer run while render-frame draws it live from the channel; then
 # render-frame draws the recorded log; the frames must be the same,
-# pixel for pixel, and coloured by owner.  A corrupt or foreign log is an
-# error of one line.
+# pixel for pixel, and coloured by owner.  The replay always reports what
+# it drew and skipped; a log cut short plays up to its last complete step;
+# a corrupt or foreign log is an error of one line.
 . "$(dirname "$0")/netns.bash"
 . "$(dirname "$0")/lib.sh"
 
@@ -64,9 +65,36 @@ if [ $((step % 5)) = 0 ]; then last=$step; else last=$((step / 5 * 5)); fi
 [ -e "live/f$(printf %04d "$last").png" ] && pass "frames up to step $last of $step" ||
 	fail "frames up to the last step" "no live/f$(printf %04d "$last").png"
 
+# the replay always says how many frames it drew and skipped, and why it ended
+mkdir -p again
+render-frame --lcm file://run.lcmlog --every 5 -s 200x150 -o 'again/f%04d.png' 2>again.err
+if grep -Eq "^render-frame: file://run.lcmlog: $n frames of object [0-9a-f]+, 0 skipped incomplete \(lost tiles\); the owner quit" again.err; then
+	pass "the replay reports its frames, those skipped and why it ended, without -v"
+else
+	fail "the replay's report" "$(cat again.err)"
+fi
+
+# a log cut short (lcm-logger killed, a copy interrupted) plays up to its
+# last complete step, the same frames as the whole log, and says where it
+# was cut
+size=$(stat -c %s run.lcmlog)
+head -c $((size * 6 / 10)) run.lcmlog >cut60.lcmlog
+mkdir -p cut
+render-frame --lcm file://cut60.lcmlog --every 5 -s 200x150 -o 'cut/f%04d.png' 2>cut.err; rc=$?
+k=0 same=0
+for f in cut/*.png; do
+	k=$((k + 1))
+	$CHECK compare "$f" "replay/$(basename "$f")" --mean 0 --p99 0 >/dev/null && same=$((same + 1))
+done
+if [ $rc = 0 ] && [ $k -ge 1 ] && [ $k -lt $n ] && [ $same = $k ] &&
+	grep -q "the end of the log, cut short at byte" cut.err; then
+	pass "a log cut at 60 %: $k of $n frames, each the whole log's, and where it was cut"
+else
+	fail "a log cut at 60 %" "exit $rc, $k frames ($same equal) of $n: $(tail -1 cut.err)"
+fi
 head -c 3000 run.lcmlog >cut.lcmlog
 printf 'garbage that is no LCM log at all' >bad.lcmlog
-expect_error "a truncated log" 1 'cut.lcmlog: .*(ends inside|beyond the file)' \
+expect_error "a log cut before its first frame" 1 'no complete frame: .*cut short at byte' \
 	render-frame --lcm file://cut.lcmlog -o x.png
 expect_error "not a log" 1 'bad.lcmlog: no LCM event at byte 0' \
 	render-frame --lcm file://bad.lcmlog -o x.png

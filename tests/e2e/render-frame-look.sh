@@ -35,11 +35,26 @@ for side in left:-60,0 right:60,0 top:0,60 bottom:0,-60; do
 done
 
 # Two peers: owner 0 where x < 0, 1 where x ≥ 0.  From +y (azimuth 90)
-# the camera's right is −x, from −y it is +x.
+# the camera's right is −x, from −y it is +x.  Colours go by the peers'
+# places, the order the grid meets them from node (0, 0), which is at
+# x ≥ 0 here: owner 1 is place 0 (blue), owner 0 place 1 (orange).
 check "owners, camera on +y" render-frame -s 240x180 --azimuth 90 --elevation 0 owned.tgrid -o own-a.png
-check "owner 1 left, 0 right" $py "$rc" owners own-a.png 1 0
+check "owner 1 (blue) left, 0 (orange) right" $py "$rc" owners own-a.png 0 1
 check "owners, camera on -y" render-frame -s 240x180 --azimuth -90 --elevation 0 owned.tgrid -o own-b.png
-check "owner 0 left, 1 right" $py "$rc" owners own-b.png 0 1
+check "owner 0 (orange) left, 1 (blue) right" $py "$rc" owners own-b.png 1 0
+# Ids do not matter, places do: owners 7 and 17 (7 ≡ 17 mod 10, the old
+# palette's collision) are blue and orange all the same.
+/usr/bin/python3 - owned.tgrid owned2.tgrid "$NDO_ROOT/tests/e2e" <<'PY'
+import sys
+sys.path.insert(0, sys.argv[3])
+import gridfile
+g = gridfile.read(sys.argv[1])
+ch = dict(g['channels'])
+ch['owner'] = (7 + 10 * ch['owner']).astype(ch['owner'].dtype)
+gridfile.write_grid(sys.argv[2], {**g, 'ch': ch})
+PY
+check "owners 7 and 17" render-frame -s 240x180 --azimuth 90 --elevation 0 owned2.tgrid -o own-c.png
+check "owner 17 (blue) left, 7 (orange) right" $py "$rc" owners own-c.png 0 1
 check "--color-by solid ignores owners" render-frame -s 160x120 --color-by solid owned.tgrid -o solid.png
 check "solid matches the grid without owners" render-frame -s 160x120 s4.tgrid -o plain.png
 check "solid == plain" $py "$rc" compare solid.png plain.png --mean 0 --p99 0

@@ -22,6 +22,8 @@ with "what was expected, what was found" when the check fails.
                                 object is the brighter
   owners IMG LEFT RIGHT         the left half of the object is mostly palette
                                 colour LEFT, the right half RIGHT
+  colors IMG N                  exactly N palette colours each cover ≥ 5 % of
+                                the object (N peers told apart)
   analytic IMG GRID ...         shading of the unit sphere against the exact
                                 Blinn–Phong of a perfect sphere, everywhere
                                 and near the grid's seams
@@ -41,11 +43,11 @@ from PIL import Image
 
 import gridfile
 
-# Tableau 10, render-frame's owner palette
-PALETTE = np.array([[0x4e, 0x79, 0xa7], [0xf2, 0x8e, 0x2b], [0xe1, 0x57, 0x59],
-                    [0x76, 0xb7, 0xb2], [0x59, 0xa1, 0x4f], [0xed, 0xc9, 0x48],
-                    [0xb0, 0x7a, 0xa1], [0xff, 0x9d, 0xa7], [0x9c, 0x75, 0x5f],
-                    [0xba, 0xb0, 0xac]], float)
+# Okabe-Ito, render-frame's owner palette (by the peer's place: the order
+# the grid meets the owners, row by row)
+PALETTE = np.array([[0x00, 0x72, 0xb2], [0xe6, 0x9f, 0x00], [0x00, 0x9e, 0x73],
+                    [0xd5, 0x5e, 0x00], [0x56, 0xb4, 0xe9], [0xcc, 0x79, 0xa7],
+                    [0xf0, 0xe4, 0x42], [0x99, 0x99, 0x99]], float)
 
 
 def fail(msg):
@@ -201,10 +203,25 @@ def cmd_owners(path, left, right):
         share = (near == want).mean()
         # the rest: the highlight, the dark limb, the blend at the border
         if share < 0.8:
-            counts = np.bincount(near, minlength=10)
+            counts = np.bincount(near, minlength=len(PALETTE))
             fail(f"{path}: {name} half: {share:.1%} of pixels nearest palette {want}, "
                  f"expected ≥ 80 % (counts {counts.tolist()})")
         print(f"ok: {path}: {name} half {share:.1%} palette colour {want}")
+
+
+def cmd_colors(path, n):
+    img = load_png(path)
+    m = object_mask(img)
+    px = img[m]
+    u = px / np.maximum(np.linalg.norm(px, axis=1, keepdims=True), 1)
+    p = PALETTE / np.linalg.norm(PALETTE, axis=1, keepdims=True)
+    share = np.bincount(np.argmax(u @ p.T, axis=1), minlength=len(PALETTE)) / max(len(px), 1)
+    seen = [k for k in range(len(PALETTE)) if share[k] >= 0.05]
+    if len(seen) != int(n):
+        fail(f"{path}: {len(seen)} palette colours cover ≥ 5 % of the object, expected {n} "
+             f"(shares {np.round(share, 3).tolist()})")
+    print(f"ok: {path}: {n} colours, palette {seen}, shares "
+          f"{[round(float(share[k]), 3) for k in seen]}")
 
 
 def cmd_compare(path, ref, mean_tol=2.0, p99_tol=40.0):
@@ -370,6 +387,8 @@ def main():
         cmd_lit(*args)
     elif cmd == 'owners':
         cmd_owners(*args)
+    elif cmd == 'colors':
+        cmd_colors(*args)
     elif cmd == 'analytic':
         cmd_analytic(*args)
     elif cmd == 'compare':

@@ -48,3 +48,14 @@ if LEVEL=3 OWNER_ARGS='-t 0.2' "$S/demo.sh" >demo.log 2>&1 && grep -q "in all" d
 else
 	fail "demo.sh" "$(tail -3 demo.log)"
 fi
+# Its pictures show the two peers in two colours, whatever their random
+# ids (issue 16: colour by id mod 10 merged them in 1 run of 5).
+pngs=("$OUT"/png/*.png) bad=0
+for f in "${pngs[@]}"; do
+	/usr/bin/python3 "$NDO_ROOT/tests/e2e/render_check.py" colors "$f" 2 >>colors.log 2>&1 || bad=$((bad + 1))
+done
+if [ -f "${pngs[0]}" ] && [ $bad -eq 0 ]; then
+	pass "demo.sh: every one of its ${#pngs[@]} pictures shows 2 peer colours"
+else
+	fail "demo.sh pictures" "$bad of ${#pngs[@]} do not show 2 colours: $(grep -m1 render_check colors.log)"
+fi

@@ -28,7 +28,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 	if (ndo_msg_decode(t, data + 1, size - 1, &m) == NDO_DROP_NONE) {
 		object = m.hdr->object_id;
 		for (int level = -1; level <= 10; level += 3) {
-			ndo_msg_ctx c = {m.hdr->object_id, level, 99};
+			ndo_msg_ctx c = {.object_id = m.hdr->object_id, .level = level, .self_id = 99};
 			ndo_msg_validate(&m, &c);
 		}
 		ndo_msg_free(&m);

@@ -45,12 +45,12 @@ static ndo_drop roundtrip(ndo_msg_type type, const void *msg, const ndo_msg_ctx 
 
 static void tile_fields_checked(void)
 {
-	ndo_msg_ctx c = {42, 4, 1};
+	ndo_msg_ctx c = {.object_id = 42, .level = 4, .self_id = 1};
 	ndo_msg_tile_t t = make_tile(4, 2);
 	CHECK(roundtrip(NDO_MSG_TILE, &t, &c) == NDO_DROP_NONE, "a good tile passes");
-	ndo_msg_ctx foreign = {43, 4, 1};
+	ndo_msg_ctx foreign = {.object_id = 43, .level = 4, .self_id = 1};
 	CHECK(roundtrip(NDO_MSG_TILE, &t, &foreign) == NDO_DROP_FOREIGN, "foreign object");
-	ndo_msg_ctx unknown = {0, -1, 1};
+	ndo_msg_ctx unknown = {.object_id = 0, .level = -1, .self_id = 1};
 	CHECK(roundtrip(NDO_MSG_TILE, &t, &unknown) == NDO_DROP_UNKNOWN, "before the description");
 	t.hdr.version = 2;
 	CHECK(roundtrip(NDO_MSG_TILE, &t, &c) == NDO_DROP_VERSION, "version");
@@ -58,7 +58,7 @@ static void tile_fields_checked(void)
 	t.i1++;
 	CHECK(roundtrip(NDO_MSG_TILE, &t, &c) == NDO_DROP_RANGE, "range not a tree node");
 	t.i1--;
-	ndo_msg_ctx higher = {42, 3, 1};
+	ndo_msg_ctx higher = {.object_id = 42, .level = 3, .self_id = 1};
 	CHECK(roundtrip(NDO_MSG_TILE, &t, &higher) != NDO_DROP_NONE, "range vs another level");
 	t.values[5] = NAN;
 	CHECK(roundtrip(NDO_MSG_TILE, &t, &c) == NDO_DROP_NONFINITE, "NaN");
@@ -146,7 +146,7 @@ static void bytes_checked_before_decoding(void)
 
 static void control_messages_checked(void)
 {
-	ndo_msg_ctx c = {42, 3, 1};
+	ndo_msg_ctx c = {.object_id = 42, .level = 3, .self_id = 1};
 	ndo_msg_header_t hd = {NDO_PROTOCOL_VERSION, 42, 7, 0, 0};
 	ndo_msg_poi_t p = {hd, 4 << 6};
 	CHECK(roundtrip(NDO_MSG_POI, &p, &c) == NDO_DROP_RANGE, "POI beyond the faces");

@@ -116,8 +116,12 @@ static void on_message(const lcm_recv_buf_t *rbuf, const char *channel, void *us
 	if (type == NDO_MSG_HEARTBEAT) {
 		kind = NB_HEARTBEAT;
 	} else if (type == NDO_MSG_TILE &&
-	           ndo_msg_decode(NDO_MSG_TILE, rbuf->data, (size_t)rbuf->data_size, &m) ==
-	               NDO_DROP_NONE) {
+	           (ndo_msg_decode(NDO_MSG_TILE, rbuf->data, (size_t)rbuf->data_size, &m) ==
+	                NDO_DROP_NONE ||
+	            /* keyed: the message without its trailer (only counted here) */
+	            (ndo_auth_looks_sealed(rbuf->data, (size_t)rbuf->data_size) &&
+	             ndo_msg_decode(NDO_MSG_TILE, rbuf->data,
+	                            (size_t)rbuf->data_size - NDO_AUTH_TRAILER, &m) == NDO_DROP_NONE))) {
 		const ndo_msg_tile_t *t = &m.u.tile;
 		if (t->step >= l->final_step) {
 			kind = NB_FINAL;
@@ -361,8 +365,10 @@ int nb_run(const nb_opts *o, int level, const ndo_codec_params *enc, double loss
 	for (int k = 0; k < np && !rc; k++) {
 		ndo_link *l = open_link(o, prefix, loss, seed + (uint64_t)k);
 		ndo_net *n = NULL;
-		if (!l || (rc = ndo_net_create(l, prefix, 1, &n))) {
+		if (!l || (rc = ndo_net_create(l, prefix, 1, &n)) ||
+		    (o->key && (rc = ndo_net_set_key(n, o->key)))) {
 			rc = rc ? rc : ndo__fail(NDO_EIO, "LCM: %s", ndo_errdetail());
+			ndo_net_destroy(n);
 			break;
 		}
 		ndo_peer_opts po = {
@@ -379,6 +385,7 @@ int nb_run(const nb_opts *o, int level, const ndo_codec_params *enc, double loss
 		ndo_link *l = open_link(o, prefix, 0, 0);
 		ndo_watch_opts wo = {.window = 32};
 		if (!l || (rc = ndo_net_create(l, prefix, 0x7ffffffe, &wnet)) ||
+		    (o->key && (rc = ndo_net_set_key(wnet, o->key))) ||
 		    (rc = ndo_watch_create(wnet, &wo, &w)))
 			rc = rc ? rc : ndo__fail(NDO_EIO, "LCM: %s", ndo_errdetail());
 	}

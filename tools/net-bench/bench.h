@@ -6,12 +6,15 @@
 #include "ndo/ndo.h"
 #include "ndo/codec.h"
 
+#include "ndo/auth.h"
+
 typedef struct nb_opts {
 	const char *url;   /* LCM URL; NULL: the default, in a private namespace */
 	double time;       /* simulated seconds of the scene (default 5) */
 	int peers;         /* simulating peers (default 2) */
 	double timeout;    /* wall seconds a row may take */
 	int quiet;
+	const ndo_key *key; /* --key: every peer's and the listener's messages sealed */
 } nb_opts;
 
 /* Traffic on the bus by kind of message, as a listener sees it: bytes on

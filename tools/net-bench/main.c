@@ -28,6 +28,8 @@ static __attribute__((noreturn)) void usage(void)
 	       "      --csv FILE      write the rows as CSV too ('-': standard output,\n"
 	       "                      instead of the table)\n"
 	       "      --lcm URL       use this LCM URL as it is, no private namespace\n"
+	       "      --key FILE      keyed sessions: every message sealed with this key\n"
+	       "                      (48 bytes more each; default: $NDO_KEY, else none)\n"
 	       "  -t, --time S        simulated seconds per run, 0.05..60 (default 5)\n"
 	       "      --peers N       simulating peers, 1..8 (default 2)\n"
 	       "      --loss LIST     drop rates for the loss sweep, each 0..0.9, comma-\n"
@@ -148,13 +150,15 @@ int main(int argc, char **argv)
 	ndo_codec_params one;
 	int have_enc = 0;
 	double losses[16];
-	enum { OPT_CSV = 256, OPT_LCM, OPT_PEERS, OPT_LOSS, OPT_TIMEOUT, OPT_VERSION };
+	enum { OPT_CSV = 256, OPT_LCM, OPT_PEERS, OPT_LOSS, OPT_TIMEOUT, OPT_VERSION, OPT_KEY };
+	const char *key_file = NULL;
 	static const struct option opts[] = {
 		{"level", required_argument, 0, 'l'},
 		{"encoding", required_argument, 0, 'e'},
 		{"output", required_argument, 0, 'o'},
 		{"csv", required_argument, 0, OPT_CSV},
 		{"lcm", required_argument, 0, OPT_LCM},
+		{"key", required_argument, 0, OPT_KEY},
 		{"time", required_argument, 0, 't'},
 		{"peers", required_argument, 0, OPT_PEERS},
 		{"loss", required_argument, 0, OPT_LOSS},
@@ -179,6 +183,7 @@ int main(int argc, char **argv)
 				ndo_usage_error("--lcm: an empty URL");
 			o.url = optarg;
 			break;
+		case OPT_KEY: key_file = optarg; break;
 		case 't': o.time = ndo_opt_double("--time", optarg, 0.05, 60); break;
 		case OPT_PEERS: o.peers = (int)ndo_opt_long("--peers", optarg, 1, 8); break;
 		case OPT_LOSS: nloss = parse_losses(optarg, losses, 16); break;
@@ -191,6 +196,11 @@ int main(int argc, char **argv)
 	}
 	if (optind < argc)
 		ndo_usage_error("unexpected argument '%s'", argv[optind]);
+	static ndo_key key;
+	int keyed = ndo_key_resolve(key_file, &key);
+	if (keyed < 0)
+		ndo_die("%s%s", key_file ? "--key: " : "", ndo_errdetail());
+	o.key = keyed ? &key : NULL;
 	int whole = level < 0 && !have_enc;
 	if (nloss < 0) { /* the default sweep with the whole table */
 		nloss = 0;

@@ -206,12 +206,12 @@ int main(int argc, char **argv)
 	if (rc != NDO_EEOF)
 		ndo_die("%s", ndo_errdetail());
 	if (o.use_lcm) {
-		char what[512];
+		char what[1024];
 		rf_source_lcm_report(src, what, sizeof what);
 		if (st.frames == 0)
 			ndo_die("%s: no complete frame: %s", o.lcm.url ? o.lcm.url : "LCM", what);
-		if (o.verbose)
-			fprintf(stderr, "%s: %s\n", ndo_progname, what);
+		/* always: a frame skipped or a log cut short is never silent */
+		fprintf(stderr, "%s: %s: %s\n", ndo_progname, o.lcm.url ? o.lcm.url : "LCM", what);
 	}
 	if (st.writer && rf_writer_finish(st.writer) != NDO_OK)
 		ndo_die("%s", ndo_errdetail());

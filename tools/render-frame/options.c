@@ -54,6 +54,12 @@ static __attribute__((noreturn)) void usage(void)
 	       "                        else solid), solid, owner (one colour per peer),\n"
 	       "                        displacement (|position - rest|), CHANNEL (its\n"
 	       "                        magnitude), CHANNEL:x|y|z|w (one component)\n"
+	       "                        owner: each peer by its place in the partition (the\n"
+	       "                        order the grid meets the peers, row by row from node\n"
+	       "                        (0,0)), Okabe-Ito colours, safe for colour-blind\n"
+	       "                        eyes: 1 blue, 2 orange, 3 bluish green, 4 vermilion,\n"
+	       "                        5 sky blue, 6 reddish purple, 7 yellow, 8 light grey\n"
+	       "                        (then again); nodes nobody owns dark grey\n"
 	       "      --range LO,HI     scalar values at the colour map's ends (default: each\n"
 	       "                        grid's smallest and largest)\n"
 	       "      --no-colorbar     no colour bar when colouring by a scalar\n"
@@ -71,6 +77,8 @@ static __attribute__((noreturn)) void usage(void)
 	       "                        default), or from a log of lcm-logger, file://PATH;\n"
 	       "                        with a %%d in OUT the frame number is the step\n"
 	       "      --lcm-channel P   the peers' channel prefix (default NDO)\n"
+	       "      --key FILE        a keyed session's key (default: $NDO_KEY): only\n"
+	       "                        messages it authenticates are drawn\n"
 	       "      --every N         only the steps that are multiples of N, 1..1e9\n"
 	       "                        (default 1)\n"
 	       "      --lcm-timeout S   live: stop after S seconds without traffic, 0..1e6\n"
@@ -188,10 +196,14 @@ static void defaults(rf_options *o)
 		s->background[k] = 1;
 	s->color[0] = 0xd2 / 255.0f, s->color[1] = 0xaa / 255.0f, s->color[2] = 0x82 / 255.0f;
 	s->material[0] = 0.2f, s->material[1] = 0.75f, s->material[2] = 0.25f, s->material[3] = 40;
-	/* Tableau 10: ten colours told apart also in print. */
-	static const unsigned palette[10] = {0x4e79a7, 0xf28e2b, 0xe15759, 0x76b7b2, 0x59a14f,
-	                                     0xedc948, 0xb07aa1, 0xff9da7, 0x9c755f, 0xbab0ac};
-	for (int k = 0; k < 10; k++)
+	/* Okabe & Ito (2002), "Color Universal Design": eight colours told
+	 * apart with every common colour-vision deficiency; their black is a
+	 * light grey here (a shaded black surface shows nothing), lighter than
+	 * the unowned nodes' dark grey.  The most distinct pair comes first:
+	 * two peers are blue and orange. */
+	static const unsigned palette[RF_PALETTE] = {0x0072b2, 0xe69f00, 0x009e73, 0xd55e00,
+	                                             0x56b4e9, 0xcc79a7, 0xf0e442, 0x999999};
+	for (int k = 0; k < RF_PALETTE; k++)
 		for (int c = 0; c < 3; c++)
 			s->palette[k][c] = (float)((palette[k] >> (16 - 8 * c)) & 255) / 255.0f;
 	s->unowned[0] = s->unowned[1] = s->unowned[2] = 0.35f;
@@ -212,7 +224,7 @@ void rf_options_parse(int argc, char **argv, rf_options *o)
 	       OPT_DISTANCE, OPT_FOV, OPT_EYE, OPT_CENTER, OPT_UP, OPT_NO_CULL, OPT_REFIT, OPT_LIGHT,
 	       OPT_BACKGROUND, OPT_COLOR, OPT_MATERIAL, OPT_COLOR_BY, OPT_RANGE, OPT_NO_COLORBAR,
 	       OPT_FONT, OPT_FLAT, OPT_CLOTH, OPT_CLOTH_THREADS, OPT_WIREFRAME, OPT_WIRE_WIDTH, OPT_BACKEND,
-	       OPT_VERSION, OPT_LCM, OPT_LCM_CHANNEL, OPT_EVERY, OPT_LCM_TIMEOUT };
+	       OPT_VERSION, OPT_LCM, OPT_LCM_CHANNEL, OPT_EVERY, OPT_LCM_TIMEOUT, OPT_KEY };
 	static const struct option opts[] = {
 		{"output", required_argument, 0, 'o'},
 		{"start-number", required_argument, 0, OPT_START},
@@ -244,6 +256,7 @@ void rf_options_parse(int argc, char **argv, rf_options *o)
 		{"subdivide", required_argument, 0, 'k'},
 		{"backend", required_argument, 0, OPT_BACKEND},
 		{"lcm", required_argument, 0, OPT_LCM},
+		{"key", required_argument, 0, OPT_KEY},
 		{"lcm-channel", required_argument, 0, OPT_LCM_CHANNEL},
 		{"every", required_argument, 0, OPT_EVERY},
 		{"lcm-timeout", required_argument, 0, OPT_LCM_TIMEOUT},
@@ -335,6 +348,7 @@ void rf_options_parse(int argc, char **argv, rf_options *o)
 				                "operators", optarg);
 			o->lcm.prefix = optarg;
 			break;
+		case OPT_KEY: o->lcm.key = optarg; break;
 		case OPT_EVERY: o->lcm.every = ndo_opt_long("--every", optarg, 1, 1000000000); break;
 		case OPT_LCM_TIMEOUT: o->lcm.timeout = ndo_opt_double("--lcm-timeout", optarg, 0, 1e6); break;
 		case 'v': o->verbose = 1; break;
@@ -351,8 +365,8 @@ void rf_options_parse(int argc, char **argv, rf_options *o)
 	if (o->use_lcm && o->ninputs)
 		ndo_usage_error("'%s': --lcm draws the peers' state; no input files with it",
 		                o->inputs[0]);
-	if (!o->use_lcm && (o->lcm.prefix || o->lcm.every || o->lcm.timeout >= 0))
-		ndo_usage_error("--lcm-channel, --every and --lcm-timeout go with --lcm");
+	if (!o->use_lcm && (o->lcm.prefix || o->lcm.every || o->lcm.timeout >= 0 || o->lcm.key))
+		ndo_usage_error("--lcm-channel, --every, --lcm-timeout and --key go with --lcm");
 	if (!o->lcm.prefix)
 		o->lcm.prefix = "NDO";
 	if (o->lcm.timeout < 0)

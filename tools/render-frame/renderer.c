@@ -253,7 +253,7 @@ int rf_renderer_create(const rf_style *style, const char *shader_dir, rf_rendere
 	gl.Uniform4f(r->u.material, style->material[0], style->material[1], style->material[2],
 	             style->material[3]);
 	gl.Uniform3f(r->u.color, style->color[0], style->color[1], style->color[2]);
-	for (int k = 0; k < 10; k++) {
+	for (int k = 0; k < RF_PALETTE; k++) {
 		char name[32];
 		snprintf(name, sizeof name, "u_palette[%d]", k);
 		GLint loc = gl.GetUniformLocation(r->program, name);

@@ -14,6 +14,9 @@ enum { RF_COLOR_SOLID = 0, RF_COLOR_OWNER = 1, RF_COLOR_SCALAR = 2 };
 
 /* How everything looks; fixed for the life of a renderer (the shaders are
  * compiled for it). */
+/* Colours for the peers: as many as peers may simulate (NDO_MAX_PEERS). */
+#define RF_PALETTE 8
+
 typedef struct rf_style {
 	int width, height;      /* pixels */
 	int msaa;               /* samples per pixel: 1 (off), 2, 4, ... */
@@ -21,7 +24,7 @@ typedef struct rf_style {
 	float background[3];    /* 0..1 */
 	float color[3];         /* solid colour */
 	float material[4];      /* ambient, diffuse, specular, shininess */
-	float palette[10][3];   /* owner id mod 10 → colour */
+	float palette[RF_PALETTE][3]; /* a peer's place (scene.c) mod RF_PALETTE → colour */
 	float unowned[3];       /* owner < 0 */
 	float colormap[256][3]; /* scalar 0..1 → colour */
 	int flat;               /* facets: each triangle's own normal */

@@ -127,6 +127,29 @@ static int prepare_scalar(rf_scene *s, const ndo_grid *g, const rf_coloring *c)
 	return NDO_OK;
 }
 
+
+/* Owner ids → palette places (issue 16): the peers in the order the grid
+ * meets them, row by row from node (0, 0) — their places in the
+ * partition — so that up to RF_PALETTE peers always get distinct colours
+ * whatever their (random) ids.  Negative ids (unowned) stay −1. */
+static void owner_ranks(const int32_t *id, size_t count, int32_t *rank)
+{
+	int32_t seen[64];
+	int nseen = 0;
+	for (size_t k = 0; k < count; k++) {
+		if (id[k] < 0) {
+			rank[k] = -1;
+			continue;
+		}
+		int r = 0;
+		while (r < nseen && seen[r] != id[k])
+			r++;
+		if (r == nseen && nseen < 64)
+			seen[nseen++] = id[k];
+		rank[k] = r < 64 ? r : 63; /* more than 64 peers: the colours repeat anyway */
+	}
+}
+
 int rf_scene_prepare(rf_scene *s, const ndo_grid *in, int subdivide, const rf_coloring *c)
 {
 	const ndo_grid *g = in;
@@ -173,7 +196,7 @@ int rf_scene_prepare(rf_scene *s, const ndo_grid *in, int subdivide, const rf_co
 			rc = ndo__fail(NDO_ENOTFOUND, "no owner channel (1 × i32): cannot colour by owner");
 		else if ((rc = reserve((void **)&s->owner, &s->owner_cap, g->count,
 		                       sizeof *s->owner)) == NDO_OK) {
-			memcpy(s->owner, ch->data, g->count * sizeof *s->owner);
+			owner_ranks(ch->data, g->count, s->owner);
 			s->frame.owner = s->owner;
 		}
 	} else if (c->mode == RF_COLOR_SCALAR) {

@@ -3,6 +3,7 @@
  * by step by a watch (ndo/watch.h), which sends nothing. */
 #include "source.h"
 
+#include "ndo/auth.h"
 #include "ndo/link.h"
 #include "ndo/net.h"
 #include "ndo/status.h"
@@ -18,6 +19,7 @@ typedef struct lcm_source {
 	rf_source base;
 	ndo_watch *watch;
 	ndo_link *link; /* owned by the watch's net */
+	ndo_net *net;   /* owned by the watch */
 	int log;        /* file:// : read as fast as frames are drawn */
 	char url[300];
 } lcm_source;
@@ -86,6 +88,19 @@ int rf_source_lcm(const rf_lcm_options *o, rf_source **out)
 		free(s);
 		return rc;
 	}
+	ndo_key key; /* a keyed session's messages are checked, as a peer does */
+	int keyed = ndo_key_resolve(o->key, &key);
+	if (keyed > 0)
+		rc = ndo_net_set_key(n, &key);
+	ndo_key_wipe(&key);
+	if (keyed < 0 || rc) {
+		if (keyed < 0 && o->key)
+			ndo__fail(keyed, "--key: %s", ndo_errdetail());
+		ndo_net_destroy(n);
+		free(s);
+		return keyed < 0 ? keyed : rc;
+	}
+	s->net = n;
 	ndo_watch_opts wo = {.object_id = o->object_id, .every = o->every,
 	                     .timeout = s->log ? 0 : o->timeout};
 	if ((rc = ndo_watch_create(n, &wo, &s->watch))) {
@@ -101,7 +116,25 @@ void rf_source_lcm_report(rf_source *base, char *buf, size_t size)
 	lcm_source *s = (lcm_source *)base;
 	ndo_watch_stats st;
 	ndo_watch_stats_get(s->watch, &st);
-	snprintf(buf, size, "%lld frames of object %llx, %lld skipped incomplete (lost tiles); %s",
-	         (long long)st.frames, (unsigned long long)st.object_id, (long long)st.incomplete,
-	         *ndo_watch_why(s->watch) ? ndo_watch_why(s->watch) : "");
+	int n = snprintf(buf, size, "%lld frames of object %llx, %lld skipped incomplete (lost "
+	                 "tiles); %s", (long long)st.frames, (unsigned long long)st.object_id,
+	                 (long long)st.incomplete,
+	                 *ndo_watch_why(s->watch) ? ndo_watch_why(s->watch) : "");
+	const ndo_net_stats *ns = ndo_net_stats_get(s->net);
+	if (n > 0 && (size_t)n < size && ns->dropped[NDO_DROP_KEYED])
+		snprintf(buf + n, size - (size_t)n, "; %llu messages of a keyed session ignored: "
+		         "give its key (--key FILE or $%s)",
+		         (unsigned long long)ns->dropped[NDO_DROP_KEYED], NDO_KEY_ENV);
+	else if (n > 0 && (size_t)n < size && ndo_net_keyed(s->net)) {
+		uint64_t bad = ns->dropped[NDO_DROP_UNSIGNED] + ns->dropped[NDO_DROP_WRONGKEY] +
+		               ns->dropped[NDO_DROP_FORGED] + ns->dropped[NDO_DROP_REPLAY];
+		if (bad)
+			snprintf(buf + n, size - (size_t)n, "; %llu messages failed authentication "
+			         "(unsigned %llu, wrong key %llu, forged %llu, replayed %llu)",
+			         (unsigned long long)bad,
+			         (unsigned long long)ns->dropped[NDO_DROP_UNSIGNED],
+			         (unsigned long long)ns->dropped[NDO_DROP_WRONGKEY],
+			         (unsigned long long)ns->dropped[NDO_DROP_FORGED],
+			         (unsigned long long)ns->dropped[NDO_DROP_REPLAY]);
+	}
 }

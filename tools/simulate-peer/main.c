@@ -121,6 +121,12 @@ static __attribute__((noreturn)) void usage(void)
 	    "      --lcm URL           LCM provider (default: LCM_DEFAULT_URL, LCM's own)\n"
 	    "      --channel PREFIX    channels PREFIX_* (default NDO)\n"
 	    "      --name NAME         shown to the other peers\n"
+	    "      --key FILE          the session key (64 hex digits, mode 600): every\n"
+	    "                          message is authenticated and only peers with the\n"
+	    "                          key take part (default: $NDO_KEY; none: anyone on\n"
+	    "                          the network can join and write the state)\n"
+	    "      --new-key FILE      write a new random key to FILE (never overwrites);\n"
+	    "                          with --owner, use it; alone, write it and exit\n"
 	    "      --drop P  --delay MS  --jitter MS  --reorder P  --fault-seed S\n"
 	    "                          inject loss, delay and reordering into what this\n"
 	    "                          peer receives\n"
@@ -326,6 +332,8 @@ static void options(run *r, int argc, char **argv)
 		{"jitter", required_argument, 0, OPT_PEER},
 		{"reorder", required_argument, 0, OPT_PEER},
 		{"fault-seed", required_argument, 0, OPT_PEER},
+		{"key", required_argument, 0, OPT_PEER},
+		{"new-key", required_argument, 0, OPT_PEER},
 		{"threads", required_argument, 0, OPT_THREADS},
 		{"max-memory", required_argument, 0, OPT_MEMORY},
 		{"info", no_argument, 0, OPT_INFO},

@@ -7,6 +7,7 @@
 #include "simulate.h"
 
 #include "ndo/partition.h"
+#include "ndo/watch.h"
 
 #include <getopt.h>
 #include <limits.h>
@@ -110,6 +111,10 @@ void peer_option(peer_cli *c, const char *name, const char *arg)
 		c->faults.jitter_ms = ndo_opt_double(opt, arg, 0, 1e6);
 	} else if (strcmp(name, "reorder") == 0) {
 		c->faults.reorder = ndo_opt_double(opt, arg, 0, 1);
+	} else if (strcmp(name, "key") == 0) {
+		c->key_file = arg;
+	} else if (strcmp(name, "new-key") == 0) {
+		c->new_key = arg;
 	} else if (strcmp(name, "fault-seed") == 0) {
 		c->faults.seed = (uint64_t)ndo_opt_long(opt, arg, 0, LONG_MAX);
 		c->fault_seed_set = 1;
@@ -119,8 +124,22 @@ void peer_option(peer_cli *c, const char *name, const char *arg)
 void peer_check(const peer_cli *c, const char *scene, const char *in, int n,
                 const char *const *keys)
 {
+	if (c->key_file && c->new_key)
+		ndo_usage_error("--key and --new-key: one key or the other");
+	if (c->new_key && c->role == NDO_ROLE_JOINER)
+		ndo_usage_error("--new-key: a joiner uses the owner's key (--key FILE)");
+	if (!c->role && c->new_key) { /* write a key and exit */
+		ndo_key k;
+		char id[9];
+		if (ndo_key_generate(c->new_key, &k))
+			ndo_die("--new-key: %s", ndo_errdetail());
+		ndo_key_id_text(&k, id);
+		fprintf(stderr, "%s: a new session key (id %s) in %s\n", ndo_progname, id, c->new_key);
+		ndo_close_stdout();
+		exit(NDO_EXIT_OK);
+	}
 	if (!c->role) {
-		if (given || c->poi >= 0 || c->lcm || c->name || c->faults.drop > 0 ||
+		if (given || c->key_file || c->poi >= 0 || c->lcm || c->name || c->faults.drop > 0 ||
 		    c->faults.delay_ms > 0 || c->faults.jitter_ms > 0 || c->faults.reorder > 0 ||
 		    c->fault_seed_set || strcmp(c->prefix, "NDO") != 0)
 			ndo_usage_error("the peers' options need --owner or --join");
@@ -157,6 +176,11 @@ typedef struct peer_run {
 	ndo_peer *p;
 	ndo_link *link;     /* the outermost link (faults), owned by the net */
 	int show;           /* progress on a terminal */
+	/* an observer's frames: a watch on a second link assembles each step
+	 * whole (ndo/watch.h), as render-frame --lcm does */
+	ndo_watch *watch;
+	ndo_grid *last;     /* its last frame: the observer's output */
+	int64_t frames;     /* frames written */
 	int progress_shown;
 	double shown;
 } peer_run;
@@ -195,7 +219,75 @@ static ndo_net *open_net(peer_run *pr)
 	pr->link = l;
 	if (ndo_net_create(l, c->prefix, 1, &n))
 		ndo_die("%s", ndo_errdetail());
+	ndo_key k;
+	int keyed;
+	if (c->new_key) {
+		if ((keyed = ndo_key_generate(c->new_key, &k)) != 0)
+			ndo_die("--new-key: %s", ndo_errdetail());
+		keyed = 1;
+	} else if ((keyed = ndo_key_resolve(c->key_file, &k)) < 0) {
+		ndo_die("%s%s", c->key_file ? "--key: " : "", ndo_errdetail());
+	}
+	if (keyed && ndo_net_set_key(n, &k))
+		ndo_die("%s", ndo_errdetail());
+	char id[9] = "";
+	if (keyed)
+		ndo_key_id_text(&k, id);
+	ndo_key_wipe(&k);
+	if (pr->r->quiet)
+		return n;
+	if (keyed)
+		fprintf(stderr, "%s: keyed session (key id %s%s%s): only peers with the key take "
+		        "part\n", ndo_progname, id, c->new_key ? ", new, in " : "",
+		        c->new_key ? c->new_key : "");
+	else
+		fprintf(stderr, "%s: no session key (--key FILE or $%s): anyone on the network can "
+		        "join this session and write its state\n", ndo_progname, NDO_KEY_ENV);
 	return n;
+}
+
+/* An observer's watch: its own LCM link on the same channels and key. */
+static void open_watch(peer_run *pr)
+{
+	peer_cli *c = &pr->r->net;
+	ndo_link *l;
+	ndo_net *n;
+	ndo_key k;
+	int keyed;
+	if (ndo_link_open_lcm(c->lcm, NDO_RECV_BUF_DEFAULT, c->prefix, 0, &l) ||
+	    ndo_net_create(l, c->prefix, 0x7ffffffe, &n))
+		ndo_die("LCM: %s", ndo_errdetail());
+	if ((keyed = ndo_key_resolve(c->key_file, &k)) < 0 || (keyed && ndo_net_set_key(n, &k)))
+		ndo_die("%s", ndo_errdetail());
+	ndo_key_wipe(&k);
+	ndo_watch_opts wo = {.every = 1, .window = 32};
+	if (ndo_watch_create(n, &wo, &pr->watch))
+		ndo_die("%s", ndo_errdetail());
+}
+
+/* An observer: write the frames asked for as the watch completes them,
+ * each with its own step and time; keep the last for the output. */
+static void observe(peer_run *pr, double now)
+{
+	run *r = pr->r;
+	if (ndo_watch_update(pr->watch, now))
+		ndo_die("%s", ndo_errdetail());
+	ndo_grid *f;
+	while (ndo_watch_next(pr->watch, &f) == 1) {
+		int64_t k = f->step - ndo_peer_first_step(pr->p);
+		if (r->sc.frames && k >= 0 && k % r->sc.frame_every == 0) {
+			char path[4096];
+			int len = snprintf(path, sizeof path, r->sc.frames, (int)(k / r->sc.frame_every));
+			if (len < 0 || (size_t)len >= sizeof path)
+				ndo_die("--frames: the path for frame %lld is too long",
+				        (long long)(k / r->sc.frame_every));
+			if (ndo_grid_export(path, f))
+				ndo_die("%s: %s", path, ndo_errdetail());
+			pr->frames++;
+		}
+		ndo_grid_destroy(pr->last);
+		pr->last = f;
+	}
 }
 
 /* The owner's object: the single process's setup, as a grid with every
@@ -237,7 +329,7 @@ static void stepped(peer_run *pr)
 	int64_t k = ndo_peer_step(pr->p) - ndo_peer_first_step(pr->p);
 	if (r->logging && (k % r->sc.log_every == 0 || ndo_peer_step(pr->p) == ndo_peer_final_step(pr->p)))
 		log_row(r, ndo_peer_sim(pr->p), ndo_peer_step(pr->p));
-	if (r->sc.frames && k % r->sc.frame_every == 0)
+	if (r->sc.frames && k % r->sc.frame_every == 0 && !pr->watch)
 		write_frame(pr, k / r->sc.frame_every);
 	if (pr->show && ndo_now() - pr->shown > 0.25) {
 		pr->shown = ndo_now();
@@ -273,9 +365,10 @@ static void summary(peer_run *pr, const char *how)
 	ndo_peer *p = pr->p;
 	ndo_peer_stats st;
 	ndo_peer_stats_get(p, &st);
-	char net[512];
+	char net[1024];
 	ndo_net_stats_format(ndo_session_net(ndo_peer_session(p)), net, sizeof net);
-	double el = st.end_time - st.start_time;
+	/* an observer takes no step: its time runs to now */
+	double el = (st.end_time > st.start_time ? st.end_time : ndo_now()) - st.start_time;
 	int np = 0;
 	ndo_session_cells(ndo_peer_session(p), &np, NULL);
 	clear_progress(pr);
@@ -284,7 +377,7 @@ static void summary(peer_run *pr, const char *how)
 	        "boundary lag %.3g steps on average, %.3g at most; %lld re-sends\n",
 	        ndo_progname, role_name(p, r->net.role), ndo_session_self(ndo_peer_session(p)), how,
 	        ndo_clock_name(ndo_peer_clock(p)), np, np == 1 ? "" : "s", (long long)st.steps,
-	        (long long)ndo_peer_step(p), el, st.compute_seconds, st.wait_seconds,
+	        (long long)(pr->last ? pr->last->step : ndo_peer_step(p)), el, st.compute_seconds, st.wait_seconds,
 	        (long long)st.waited, (long long)st.timeouts,
 	        st.steps ? st.lag_sum / (double)st.steps : 0.0, st.lag_max, (long long)st.resends);
 	if (st.ungathered)
@@ -300,6 +393,14 @@ static void summary(peer_run *pr, const char *how)
 		        (double)st.halo_bytes / 1e3 / (double)st.steps,
 		        (double)st.halo_tiles / (double)st.steps, (long long)st.frames,
 		        (double)st.frame_bytes / 1e3 / (double)st.steps);
+	if (pr->watch) {
+		ndo_watch_stats ws;
+		ndo_watch_stats_get(pr->watch, &ws);
+		fprintf(stderr, "%s: observed %lld whole steps, the last %lld (%lld frames written), "
+		        "%lld skipped incomplete (lost tiles)\n", ndo_progname, (long long)ws.frames,
+		        pr->last ? (long long)pr->last->step : -1LL, (long long)pr->frames,
+		        (long long)ws.incomplete);
+	}
 	const ndo_net_stats *ns = ndo_net_stats_get(ndo_session_net(ndo_peer_session(p)));
 	fprintf(stderr, "%s: network: %s; sent %.3g MB (%.3g kB a step)\n", ndo_progname, net,
 	        (double)ns->bytes_out / 1e6,
@@ -366,6 +467,8 @@ int peers_main(run *r)
 		        ndo_progname, ndo_session_self(ndo_peer_session(pr.p)),
 		        c->lcm ? c->lcm : "LCM's default URL", c->prefix);
 	log_open(r);
+	if (!owner && c->poi < 0 && (r->sc.frames || r->sc.output))
+		open_watch(&pr);
 	pr.show = !r->quiet && isatty(STDERR_FILENO);
 	struct sigaction sa = {0};
 	sa.sa_handler = on_signal;
@@ -376,6 +479,25 @@ int peers_main(run *r)
 		if (interrupted)
 			leave(&pr, EXIT_INTERRUPTED, "interrupted at step %lld", (long long)ndo_peer_step(pr.p));
 		state = ndo_peer_update(pr.p, ndo_now());
+		if (pr.watch)
+			observe(&pr, ndo_now());
+		if (owner && !started) {
+			/* an elder owner's description (every 1 s) before the run: it was
+			 * here first, and joiners' hellos would go to both */
+			const ndo_net_stats *ns = ndo_net_stats_get(ndo_session_net(ndo_peer_session(pr.p)));
+			if (ns->foreign_owner)
+				leave(&pr, EXIT_ENDED, "another owner (peer %d, object %llx) is already on %s, "
+				      "channels %s_*: use another --channel or --lcm", ns->foreign_owner,
+				      (unsigned long long)ns->foreign_object,
+				      c->lcm ? c->lcm : "LCM's default URL", c->prefix);
+		}
+		if (!owner && c->poi >= 0) { /* the face exists only once the object is known */
+			ndo_grid *og = ndo_session_grid(ndo_peer_session(pr.p));
+			if (og && (size_t)c->poi >= ndo_triangle_count(og->level))
+				leave(&pr, NDO_EXIT_USAGE, "--poi: face %d is outside 0..%zu: the object "
+				      "(level %d) has %zu faces", c->poi, ndo_triangle_count(og->level) - 1,
+				      og->level, ndo_triangle_count(og->level));
+		}
 		if (state == NDO_EDIVERGED)
 			leave(&pr, EXIT_DIVERGED, "diverged at step %lld (t = %.6g s): %s; %s",
 			      (long long)ndo_peer_step(pr.p),
@@ -402,9 +524,21 @@ int peers_main(run *r)
 	if (r->logging && ndo_out_commit(&r->log))
 		ndo_die("%s: %s", r->sc.log, ndo_errdetail());
 	r->logging = 0;
-	ndo_grid *out = ndo_peer_grid(pr.p);
+	if (pr.watch) { /* the frames still open when the owner ended (at most 1 s) */
+		double t0 = ndo_now();
+		while (!ndo_watch_ended(pr.watch) && ndo_now() - t0 < 1) {
+			observe(&pr, ndo_now());
+			struct pollfd pfd = {ndo_link_fileno(pr.link), POLLIN, 0};
+			poll(&pfd, pfd.fd >= 0 ? 1 : 0, 10);
+		}
+		observe(&pr, ndo_now());
+	}
+	ndo_grid *out = pr.watch ? pr.last : ndo_peer_grid(pr.p);
+	if (!out)
+		leave(&pr, NDO_EXIT_FAIL, "no complete step arrived to write");
 	if (owner || r->sc.output) {
-		out->step = ndo_peer_step(pr.p);
+		if (!pr.watch) /* a watch's frame carries its own step and time */
+			out->step = ndo_peer_step(pr.p);
 		if (ndo_peer_sim(pr.p))
 			out->time = ndo_sim_time(ndo_peer_sim(pr.p));
 		if (ndo_grid_add_history(out, ndo_cli_argc(), ndo_cli_argv()) ||
@@ -418,6 +552,8 @@ int peers_main(run *r)
 	if (!r->quiet)
 		summary(&pr, owner ? "run complete" : ndo_peer_message(pr.p));
 	ndo_peer_destroy(pr.p, NULL);
+	ndo_watch_destroy(pr.watch);
+	ndo_grid_destroy(pr.last);
 	ndo_scene_free(&r->sc);
 	free(r->pins);
 	free(r->allpins);

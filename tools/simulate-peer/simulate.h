@@ -25,6 +25,8 @@ typedef struct peer_cli {
 	ndo_codec_params codec; /* --encoding (raw by default) */
 	ndo_faults faults;     /* --drop --delay --jitter --reorder --fault-seed */
 	int fault_seed_set;
+	const char *key_file;  /* --key FILE (else $NDO_KEY, else none) */
+	const char *new_key;   /* --new-key FILE: a new key, written there */
 	const char *physics;   /* the first physics option given (a joiner's error) */
 } peer_cli;
 

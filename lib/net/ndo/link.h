@@ -79,9 +79,17 @@ int ndo_link_ended(const ndo_link *l);
  * (NDO_EINVAL): a log is read-only.  Before LCM reads an event its header
  * is checked against the file (sync word, channel length 1..999, data
  * length within what is left of the file), since LCM's reader would
- * allocate whatever a corrupt length says: a bad header ends the log with
- * an error from ndo_link_poll (NDO_EFORMAT, naming the byte offset). */
+ * allocate whatever a corrupt length says.  A log that ends inside its
+ * last event (cut short: lcm-logger killed, a copy interrupted) ends there
+ * like a whole one, every event before the cut handed over, and
+ * ndo_link_note() says where it was cut; a header without LCM's sync word
+ * ends it with an error from ndo_link_poll (NDO_EFORMAT, naming the byte
+ * offset). */
 int ndo_link_open_log(const char *path, const char *prefix, int batch, ndo_link **out);
+
+/* Why a link ended early ("" when it did not): a log cut short says where
+ * ("cut short at byte 500000: an event of 52366 bytes runs past the end"). */
+const char *ndo_link_note(const ndo_link *l);
 
 /* Messages the fault layer dropped, and delayed, so far (0 for other links). */
 uint64_t ndo_link_injected_drops(const ndo_link *l);

@@ -51,6 +51,9 @@ extern "C" {
 #define NDO_LCM_SHORT_MAX 65499
 /* Largest encoded message that goes out as one datagram on `channel`. */
 size_t ndo_msg_max_payload(const char *channel);
+/* Bytes a keyed session appends to every message (ndo/auth.h); tiles are
+ * sized with room for them, keyed or not. */
+#define NDO_AUTH_TRAILER 48
 
 typedef enum ndo_msg_type {
 	NDO_MSG_DESCRIPTION,
@@ -89,6 +92,12 @@ typedef enum ndo_drop {
 	NDO_DROP_AUTHORITY, /* owner-only message from a peer that is not the owner */
 	NDO_DROP_CORRUPT,   /* an encoded tile whose payload does not decode (ndo/codec.h) */
 	NDO_DROP_NOBASE,    /* a predicted tile whose reference frame this receiver lacks */
+	NDO_DROP_UNSIGNED,  /* keyed session: no authentication trailer (ndo/auth.h) */
+	NDO_DROP_WRONGKEY,  /* keyed session: sealed under another key */
+	NDO_DROP_FORGED,    /* keyed session: the tag does not verify (altered or forged) */
+	NDO_DROP_REPLAY,    /* keyed session: a counter already seen, or older than the window */
+	NDO_DROP_KEYED,     /* no key here: a sealed message of a keyed session */
+	NDO_DROP_BOX,       /* a position outside the object's box, or a wild velocity */
 	NDO_DROP_N
 } ndo_drop;
 const char *ndo_drop_name(ndo_drop r); /* "malformed" */
@@ -128,7 +137,34 @@ typedef struct ndo_msg_ctx {
 	int64_t object_id; /* 0: not attached to an object yet */
 	int level;         /* the object's level, −1 before its description */
 	int32_t self_id;   /* the receiver's own sender id */
+	/* The bound on state (has_box ≠ 0; ndo_msg_set_box): positions and
+	 * rest positions within lo..hi, velocity components within ±vmax. */
+	int has_box;
+	double lo[3], hi[3], vmax;
 } ndo_msg_ctx;
+
+/* The object's box (its rest shape's, as the owner's description says):
+ * state within NDO_BOX_SLACK box diagonals of it, velocities below
+ * NDO_SPEED_MAX diagonals per second.  The bound stops wild values — a
+ * flipped exponent bit, a coordinate of 1e300 — from reaching the
+ * simulation whoever sent them; small forgeries are the key's business
+ * (ndo/auth.h).  0, or NDO_EINVAL for a box that is not finite. */
+#define NDO_BOX_SLACK 4.0
+#define NDO_SPEED_MAX 1e9
+int ndo_msg_set_box(ndo_msg_ctx *ctx, const double lo[3], const double hi[3]);
+/* The box of `count` points (x: count × 3 doubles) as the owner's
+ * description line "object-box lo0 lo1 lo2 hi0 hi1 hi2\n" into buf.
+ * Returns the length, or NDO_ERANGE when it does not fit. */
+int ndo_msg_box_text(const double *x, size_t count, char *buf, size_t size);
+/* Remove the object-box line from a description's text (in place) and
+ * set ctx's box from it: 1 when there was one, 0 when none, NDO_EINVAL
+ * for a bad one (the text is left without it either way). */
+int ndo_msg_box_take(char *text, ndo_msg_ctx *ctx);
+/* A tile's state against ctx's box (validate does it for raw tiles; a
+ * decoded tile is checked after decoding): NDO_DROP_NONE, or
+ * NDO_DROP_BOX / NDO_DROP_NONFINITE.  A vector whose first component is
+ * NaN is one a decoded tile does not carry (ndo/tile.h): skipped. */
+ndo_drop ndo_msg_check_box(const ndo_msg_tile_t *t, const ndo_msg_ctx *ctx);
 
 /* Check every field of a decoded message (not its sequence number):
  * NDO_DROP_NONE or the reason to drop it.  Messages from self_id are the
@@ -152,7 +188,8 @@ int ndo_tile_values_per_node(int channels); /* 3 per vector bit, 1 for pin */
 enum { NDO_ENC_RAW = 0, NDO_ENC_FLOAT32 = 1, NDO_ENC_FIXED = 2, NDO_ENC_PREDICT = 3 };
 
 /* The shallowest quad-tree depth at which a raw tile carrying `channels`
- * fits one datagram on `channel`, for a level-`level` grid. */
+ * fits one datagram on `channel` with an authentication trailer, for a
+ * level-`level` grid. */
 int ndo_tile_depth(int level, int channels, const char *channel);
 
 /* Partition methods (partition_t.method, description_t.partition). */

@@ -16,6 +16,7 @@
 
 #include <stdint.h>
 
+#include "ndo/auth.h"
 #include "ndo/codec.h"
 #include "ndo/link.h"
 #include "ndo/msg.h"
@@ -36,12 +37,29 @@ typedef struct ndo_net_stats {
 	uint64_t superseded;           /* tiles replaced by a newer one before use */
 	uint64_t published, publish_failed;
 	uint64_t bytes_in, bytes_out;
+	/* another owner on these channels, who was there first: the sender of
+	 * a well-formed description of another object whose heartbeats (one
+	 * each 0.2 s since it started) outnumber this peer's (on a tie, the
+	 * smaller object id); 0 none */
+	int32_t foreign_owner;
+	int64_t foreign_object;
 } ndo_net_stats;
 
 /* Take ownership of `link`; channels are PREFIX_SUFFIX (ndo_msg_suffix).
  * self_id: this peer's nonzero sender id. */
 int ndo_net_create(ndo_link *link, const char *prefix, int32_t self_id, ndo_net **out);
 void ndo_net_destroy(ndo_net *n);
+
+/* A keyed session from now on (docs/protocol.md, "Keyed sessions"): every
+ * message published is sealed (ndo/auth.h), and every message received
+ * must carry a valid tag under `key` (else dropped as unsigned, wrongkey
+ * or forged) and a counter its sender has not used (else replay), before
+ * it is decoded.  key NULL: back to an open session, where a sealed
+ * message is dropped as `keyed`.  Call it before the first publish.  0,
+ * or NDO_ENOMEM/NDO_EIO. */
+int ndo_net_set_key(ndo_net *n, const ndo_key *key);
+/* 1 in a keyed session. */
+int ndo_net_keyed(const ndo_net *n);
 
 /* The validation context (object id, level, self id): the session updates
  * it once it knows the object. */
