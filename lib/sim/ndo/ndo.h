@@ -11,6 +11,7 @@
 #include "ndo/io.h"
 #include "ndo/export.h"
 #include "ndo/subdivide.h"
+#include "ndo/restrict.h"
 #include "ndo/cli.h"
 #include "ndo/membrane.h"
 #include "ndo/sim.h"
