@@ -16,5 +16,6 @@
 #include "ndo/membrane.h"
 #include "ndo/sim.h"
 #include "ndo/scene.h"
+#include "ndo/accuracy.h"
 
 #endif
