@@ -26,6 +26,8 @@ struct ndo_acc {
 	double t0;
 	int has_v;
 	level_data lv[NDO_MAX_LEVEL + 1];
+	double omega[NDO_MAX_LEVEL + 1], gamma[NDO_MAX_LEVEL + 1]; /* λ_max's mode per
+	                                        level (omega 0: not yet estimated) */
 	double umax;     /* ndo_acc_sample */
 	double *scratch; /* x at the input level */
 };
@@ -159,20 +161,27 @@ const double *ndo_acc_rest(ndo_acc *a, int level)
 	return ensure_level(a, level) ? NULL : a->lv[level].rest;
 }
 
+/* NDO_EINVAL when a force is selected by ids: no coarser level has it. */
+static int by_ids(const ndo_acc *a)
+{
+	for (int k = 0; k < a->sc->nforces; k++) {
+		int kind = a->sc->forces[k].sel.kind;
+		if (kind == NDO_SEL_FACES || kind == NDO_SEL_NODES)
+			return ndo__fail(NDO_EINVAL, "a force given by %s ids exists only at the input's "
+			                 "level (select it with at=X,Y,Z instead)",
+			                 kind == NDO_SEL_FACES ? "face" : "node");
+	}
+	return NDO_OK;
+}
+
 int ndo_acc_sim(ndo_acc *a, int level, ndo_method method, double tol, ndo_sim **out)
 {
 	*out = NULL;
 	int rc = ensure_level(a, level);
 	if (rc)
 		return rc;
-	if (level < a->level)
-		for (int k = 0; k < a->sc->nforces; k++) {
-			int kind = a->sc->forces[k].sel.kind;
-			if (kind == NDO_SEL_FACES || kind == NDO_SEL_NODES)
-				return ndo__fail(NDO_EINVAL, "a force given by %s ids exists only at the input's "
-				                 "level (select it with at=X,Y,Z instead)",
-				                 kind == NDO_SEL_FACES ? "face" : "node");
-		}
+	if (level < a->level && (rc = by_ids(a)))
+		return rc;
 	level_data *d = &a->lv[level];
 	/* The pins are the input's, restricted; resolve only the forces. */
 	ndo_scene s = *a->sc;
@@ -328,6 +337,26 @@ static void add_cost(ndo_acc_estimate *e, const ndo_acc_result *r)
 	e->node_evals += r->node_evals;
 }
 
+/* The critical step of `method` at `level` (0 on failure): the top mode
+ * (power iteration) is the same for every method, so it is estimated once
+ * per level, and each method's step follows from its stability polynomial
+ * (ndo_stable_step, what ndo_sim_critical does). */
+static double critical_at(ndo_acc *a, int level, ndo_method method)
+{
+	if (!(a->omega[level] > 0)) {
+		ndo_sim *s;
+		ndo_critical cr;
+		if (ndo_acc_sim(a, level, NDO_RK4, 0, &s))
+			return 0;
+		int rc = ndo_sim_critical(s, &cr);
+		ndo_sim_destroy(s);
+		if (rc)
+			return 0;
+		a->omega[level] = cr.omega_max, a->gamma[level] = cr.gamma;
+	}
+	return ndo_stable_step(method, a->omega[level], a->gamma[level], NULL);
+}
+
 int ndo_acc_estimate_run(ndo_acc *a, const ndo_acc_config *c, const double *u, double umax,
                          ndo_acc_estimate *e)
 {
@@ -336,7 +365,7 @@ int ndo_acc_estimate_run(ndo_acc *a, const ndo_acc_config *c, const double *u, d
 	e->umax = umax;
 	e->rate = NAN;
 	int m = c->level, p = ndo_method_order(c->method);
-	double T = c->h * (double)c->steps;
+	double T = c->h * (double)c->steps, started = cpu_now();
 	if (m < 1) {
 		snprintf(e->why, sizeof e->why, "level 0 has no coarser level");
 		return NDO_OK;
@@ -364,16 +393,8 @@ int ndo_acc_estimate_run(ndo_acc *a, const ndo_acc_config *c, const double *u, d
 		if (twice) {
 			c2.steps = (c->steps + 1) / 2;
 			c2.h = T / (double)c2.steps;
-			ndo_sim *s;
-			ndo_critical cr;
-			if (!ndo_method_is_implicit(c->method)) {
-				if (ndo_acc_sim(a, m - 1, c->method, c->tol, &s) == NDO_OK) {
-					twice = ndo_sim_critical(s, &cr) == NDO_OK && c2.h <= SAFETY * cr.h_crit;
-					ndo_sim_destroy(s);
-				} else {
-					twice = 0;
-				}
-			}
+			if (!ndo_method_is_implicit(c->method))
+				twice = c2.h <= SAFETY * critical_at(a, m - 1, c->method);
 		}
 		if (twice) {
 			double q = c2.h / c->h;
@@ -402,22 +423,11 @@ int ndo_acc_estimate_run(ndo_acc *a, const ndo_acc_config *c, const double *u, d
 	e->rate = r;
 	e->space_m = dm / (r - 1);
 	ndo_acc_result_free(&r1);
+	e->cpu = cpu_now() - started;
 	return NDO_OK;
 }
 
 /* ---- choosing ----------------------------------------------------------- */
-
-/* The critical step of `method` at `level` (0 on failure). */
-static double critical_at(ndo_acc *a, int level, ndo_method method)
-{
-	ndo_sim *s;
-	ndo_critical cr;
-	if (ndo_acc_sim(a, level, method, 0, &s))
-		return 0;
-	int rc = ndo_sim_critical(s, &cr);
-	ndo_sim_destroy(s);
-	return rc ? 0 : cr.h_crit;
-}
 
 static int64_t steps_for(double T, double h)
 {
@@ -435,9 +445,13 @@ int ndo_acc_choose(ndo_acc *a, double target, int metres, double T, ndo_acc_choi
 	int n = a->level, p0 = n - 2 < 2 ? (n - 2 > 0 ? n - 2 : 0) : 2;
 	if (n < 2)
 		return ndo__fail(NDO_EINVAL, "level %d: --accuracy needs level 2 or finer", n);
+	int rc = by_ids(a);
+	if (rc)
+		return rc;
 	double *pu[NDO_MAX_LEVEL + 1] = {0}, ph[NDO_MAX_LEVEL + 1] = {0}, D[NDO_MAX_LEVEL + 1] = {0};
 	double umax = 0, r = RATE, es_top = 0, target_m = 0;
-	int top = p0, rc = NDO_OK, qmin = -1;
+	int top = p0, qmin = -1;
+	double started = cpu_now();
 	/* es(q): the space error of level q predicted from D[top]. */
 #define ES(q) (D[top] / (r - 1) * pow(r, (double)(top - (q))))
 	for (int p = p0;; p++) {
@@ -451,7 +465,6 @@ int ndo_acc_choose(ndo_acc *a, double target, int metres, double T, ndo_acc_choi
 		ndo_acc_result res;
 		if ((rc = ndo_acc_run(a, &c, &res)))
 			goto out;
-		ch->pilot_cpu += res.cpu;
 		pu[p] = res.u, ph[p] = c.h, umax = res.umax, top = p;
 		if (p == p0)
 			continue;
@@ -473,7 +486,7 @@ int ndo_acc_choose(ndo_acc *a, double target, int metres, double T, ndo_acc_choi
 	if (qmin < 0 && es_top > target_m) {
 		ch->reachable = 0;
 		int need = n;
-		while (ES(need) > MARGIN * target_m && need < 30)
+		while (ES(need) > MARGIN * target_m && need <= NDO_MAX_LEVEL)
 			need++;
 		ch->level_needed = need;
 		goto out;
@@ -492,7 +505,6 @@ int ndo_acc_choose(ndo_acc *a, double target, int metres, double T, ndo_acc_choi
 			rc = rc ? rc : ndo__fail(NDO_EDIVERGED, "%s: no critical step", ndo_method_names[ms[k]]);
 			goto out;
 		}
-		ch->pilot_cpu += res.cpu;
 		int p = ndo_method_order(ms[k]);
 		double d = ndo_acc_distance(top, res.u, pu[top]);
 		double denom = pow(c.h, p) - (ms[k] == NDO_RK4 ? pow(ph[top], p) : 0);
@@ -534,6 +546,7 @@ int ndo_acc_choose(ndo_acc *a, double target, int metres, double T, ndo_acc_choi
 		rc = ndo__fail(NDO_EDIVERGED, "no stable configuration");
 out:
 #undef ES
+	ch->pilot_cpu = cpu_now() - started;
 	for (int l = 0; l <= NDO_MAX_LEVEL; l++)
 		free(pu[l]);
 	return rc;

@@ -64,12 +64,18 @@ void accuracy_plan(run *r)
 	if (rc)
 		ndo_die("--accuracy: %s", ndo_errdetail());
 	if (!ch.reachable) {
+		char need[64];
+		if (ch.level_needed > NDO_MAX_LEVEL)
+			snprintf(need, sizeof need, "a level finer than %d, the finest grid", NDO_MAX_LEVEL);
+		else
+			snprintf(need, sizeof need, "level %d", ch.level_needed);
 		fprintf(stderr, "%s: --accuracy %g%s: out of reach at level %d: its space error alone is "
 		        "about %.3g m (%.3g of the largest displacement, %.3g m; estimated from levels "
-		        "%d and %d); this input allows %.2g at best, and level %d would be needed\n",
+		        "%d and %d); this input allows %.2g%s at best, and %s would be needed\n",
 		        ndo_progname, r->accuracy, want, n, ch.best_m, ch.best_m / ch.umax, ch.umax,
 		        ch.pilot_top - 1, ch.pilot_top,
-		        r->accuracy_metres ? ch.best_m : ch.best_m / ch.umax, ch.level_needed);
+		        r->accuracy_metres ? ch.best_m : ch.best_m / ch.umax, r->accuracy_metres ? " m" : "",
+		        need);
 		ndo_close_stdout();
 		exit(NDO_EXIT_USAGE);
 	}

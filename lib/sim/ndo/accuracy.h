@@ -114,7 +114,8 @@ double ndo_acc_distance(int level, const double *a, const double *b);
 /* The errors of a run of configuration c whose final displacement is u
  * (at c->level) and largest displacement umax.  NaN parts were not
  * estimated (level 0, a companion diverged, forces by ids): `why` says
- * which.  cpu and node_evals: what the companion runs cost. */
+ * which.  cpu: what estimating cost (CPU s); node_evals: the companion
+ * runs' force evaluations × vertices. */
 typedef struct ndo_acc_estimate {
 	double time_m, space_m; /* m */
 	double umax;            /* the largest displacement, m */
@@ -159,7 +160,7 @@ typedef struct ndo_acc_choice {
 	double time_m, space_m; /* predicted errors, m */
 	double cpu;             /* predicted CPU seconds of the run */
 	double node_evals;      /* predicted force evaluations × vertices */
-	double pilot_cpu;       /* what choosing cost, s */
+	double pilot_cpu;       /* what choosing cost (pilots, critical steps), CPU s */
 	int pilot_top;          /* the finest pilot level */
 	double rate;            /* r per level (4) */
 	int reachable;
