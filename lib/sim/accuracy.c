@@ -28,6 +28,7 @@ struct ndo_acc {
 	level_data lv[NDO_MAX_LEVEL + 1];
 	double omega[NDO_MAX_LEVEL + 1], gamma[NDO_MAX_LEVEL + 1]; /* λ_max's mode per
 	                                        level (omega 0: not yet estimated) */
+	double crit[NDO_MAX_LEVEL + 1][NDO_METHOD_COUNT]; /* critical steps (0: not yet) */
 	double umax;     /* ndo_acc_sample */
 	double *scratch; /* x at the input level */
 };
@@ -354,7 +355,11 @@ static double critical_at(ndo_acc *a, int level, ndo_method method)
 			return 0;
 		a->omega[level] = cr.omega_max, a->gamma[level] = cr.gamma;
 	}
-	return ndo_stable_step(method, a->omega[level], a->gamma[level], NULL);
+	/* ndo_stable_step scans the modes (about 10 ms): once per level and
+	 * method. */
+	if (!(a->crit[level][method] > 0))
+		a->crit[level][method] = ndo_stable_step(method, a->omega[level], a->gamma[level], NULL);
+	return a->crit[level][method];
 }
 
 int ndo_acc_estimate_run(ndo_acc *a, const ndo_acc_config *c, const double *u, double umax,

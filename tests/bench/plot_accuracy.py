@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""plot_accuracy.py DATA_DIR OUT.png — the work-precision diagram of each
+"""plot_accuracy.py DATA_DIR LEVEL OUT.png — the work-precision diagram of each
 benchmark scene (tests/bench/accuracy.sh: the sweep's points, error against
 CPU time) with the configurations --accuracy chose for E = 0.1, 0.01,
 0.001 on it (stars; the dotted lines are the targets)."""
@@ -21,9 +21,9 @@ def rows(path):
         return list(csv.DictReader(f))
 
 
-def main(data, out):
-    sweep = rows(os.path.join(data, "sweep.csv"))
-    chosen = rows(os.path.join(data, "choose.csv"))
+def main(data, level, out):
+    sweep = rows(os.path.join(data, f"sweep-{level}.csv"))
+    chosen = rows(os.path.join(data, f"choose-{level}.csv"))
     scenes = list(dict.fromkeys(r["scene"] for r in sweep))
     fig, axes = plt.subplots(2, 3, figsize=(13, 8), squeeze=False)
     for ax, sc in zip(axes.flat, scenes):
@@ -48,9 +48,10 @@ def main(data, out):
         axes.flat[0].plot([], [], mk, color="gray", label=f"level {lv}")
     axes.flat[0].plot([], [], "*", color="k", ms=12, label="--accuracy's choice")
     axes.flat[0].legend(fontsize=7)
+    fig.suptitle(f"work-precision per scene, input level {level}: the sweep and --accuracy's choices")
     fig.tight_layout()
     fig.savefig(out, dpi=90)
 
 
 if __name__ == "__main__":
-    main(sys.argv[1], sys.argv[2])
+    main(sys.argv[1], sys.argv[2], sys.argv[3])
