@@ -4,7 +4,7 @@
 # thesis figures 5.3, 5.4, 5.7, the bunny, the ellipsoid free vibration, a
 # pinned sphere poked locally; inputs at levels 5 and 6.  Tables to
 # docs/bench/accuracy.md, figures to docs/simulate-peer/accuracy-N.png.
-# About five minutes of CPU (the level-8 references, the sweeps).  The
+# About ten minutes of CPU (the level-8 references, the sweeps).  The
 # summary: tests/bench/summarize_accuracy.py.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
