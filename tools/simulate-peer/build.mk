@@ -1,6 +1,6 @@
 TOOLS += simulate-peer
 simulate-peer_SRCS := tools/simulate-peer/main.c tools/simulate-peer/run.c \
-                      tools/simulate-peer/peers.c
+                      tools/simulate-peer/peers.c tools/simulate-peer/accuracy.c
 DEBS_TOOLS += libbullet-dev python3-matplotlib
 
 # Bullet's soft bodies, the reference the speed benchmark compares with

@@ -86,7 +86,15 @@ static __attribute__((noreturn)) void usage(void)
 	    "                          process may use (default: all of them alone, 1 as a\n"
 	    "                          peer); the same result for every N; grids under\n"
 	    "                          8,000 nodes run on one\n"
-	    "      --info              print the setup and the critical step, then exit\n"
+	    "      --accuracy E[m]     choose the level (up to the input's), integrator\n"
+	    "                          and step that meet the error E at the least\n"
+	    "                          predicted cost: E a share of the largest\n"
+	    "                          displacement, (0, 1), or with 'm' metres; prints\n"
+	    "                          the choice, refuses (exit 2) an E the input's level\n"
+	    "                          cannot reach.  Every run not --quiet ends with its\n"
+	    "                          estimated time and space errors (also in --log)\n"
+	    "      --info              print the setup and the critical step (with\n"
+	    "                          --accuracy: the choice), then exit\n"
 	    "  -q, --quiet             print nothing but errors\n"
 	    "Peers (several processes simulate one surface over LCM; docs/peers.md):\n"
 	    "      --owner             create the object from IN and own it; -o writes the\n"
@@ -179,7 +187,7 @@ static void write_frame(run *r, int64_t k)
 	int len = snprintf(path, sizeof path, r->sc.frames, (int)k);
 	if (len < 0 || (size_t)len >= sizeof path)
 		ndo_die("--frames: the path for frame %lld is too long", (long long)k);
-	if (ndo_sim_store(r->sim, r->frame) || ndo_grid_export(path, r->frame))
+	if (accuracy_store(r, r->frame) || ndo_grid_export(path, r->frame))
 		ndo_die("%s: %s", path, ndo_errdetail());
 }
 
@@ -227,6 +235,7 @@ static void simulate(run *r)
 				        ndo_errdetail());
 			diverged(r);
 		}
+		accuracy_sample(r, k);
 		if (r->logging && (k % r->sc.log_every == 0 || k == r->steps))
 			log_row(r, r->sim, ndo_sim_step_count(r->sim));
 		if (r->frame && k % r->sc.frame_every == 0)
@@ -241,6 +250,7 @@ static void simulate(run *r)
 		fprintf(stderr, "\r\033[K");
 	if (ndo_sim_check(r->sim))
 		diverged(r);
+	accuracy_report(r);
 	if (r->logging && ndo_out_commit(&r->log))
 		ndo_die("%s: %s", r->sc.log, ndo_errdetail());
 	r->logging = 0;
@@ -250,7 +260,7 @@ static void simulate(run *r)
 		double sps = el > 0 ? (double)r->steps / el : 0;
 		fprintf(stderr, "%s: %lld steps to t = %.6g s in %.3g s: %.4g steps/s, %.4g "
 		        "node-steps/s", ndo_progname, (long long)r->steps, ndo_sim_time(r->sim), el,
-		        sps, sps * (double)ndo_vertex_count(r->g->level));
+		        sps, sps * (double)ndo_vertex_count(ndo_sim_level(r->sim)));
 		if (ndo_sim_threads(r->sim) > 1)
 			fprintf(stderr, " on %d threads", ndo_sim_threads(r->sim));
 		if (ndo_sim_method(r->sim) == NDO_RKF45)
@@ -261,11 +271,12 @@ static void simulate(run *r)
 			        st.restiffen_seconds);
 		fputc('\n', stderr);
 	}
+	accuracy_print();
 }
 
 static void finish(run *r)
 {
-	if (ndo_sim_store(r->sim, r->g))
+	if (accuracy_store(r, r->g))
 		ndo_die("%s", ndo_errdetail());
 	if (r->pins) {
 		ndo_channel *c;
@@ -282,7 +293,7 @@ static void finish(run *r)
 static void options(run *r, int argc, char **argv)
 {
 	enum { OPT_INFO = 256, OPT_VERSION, OPT_SETTING, OPT_PEER, OPT_PEER_FLAG, OPT_THREADS,
-	       OPT_MEMORY };
+	       OPT_MEMORY, OPT_ACCURACY };
 	static const struct option opts[] = {
 		{"scene", required_argument, 0, 's'},
 		{"integrator", required_argument, 0, 'i'},
@@ -336,6 +347,7 @@ static void options(run *r, int argc, char **argv)
 		{"new-key", required_argument, 0, OPT_PEER},
 		{"threads", required_argument, 0, OPT_THREADS},
 		{"max-memory", required_argument, 0, OPT_MEMORY},
+		{"accuracy", required_argument, 0, OPT_ACCURACY},
 		{"info", no_argument, 0, OPT_INFO},
 		{"quiet", no_argument, 0, 'q'},
 		{"help", no_argument, 0, 'h'},
@@ -382,6 +394,7 @@ static void options(run *r, int argc, char **argv)
 			r->max_memory = (size_t)(b * unit);
 			break;
 		}
+		case OPT_ACCURACY: accuracy_option(r, optarg); break;
 		case OPT_INFO: r->info = 1; break;
 		case 'q': r->quiet = 1; break;
 		case 'h': usage();
@@ -389,6 +402,8 @@ static void options(run *r, int argc, char **argv)
 		default: ndo_bad_option(c);
 		}
 	}
+	if (r->accuracy && r->net.role)
+		ndo_usage_error("--accuracy: a single process only (not with --owner or --join)");
 	if (optind + 1 < argc)
 		ndo_usage_error("more than one input: '%s'", argv[optind + 1]);
 	r->in = optind < argc ? argv[optind] : NULL;
@@ -425,12 +440,14 @@ int main(int argc, char **argv)
 		return peers_main(&r);
 	setup(&r);
 	plan(&r);
+	accuracy_plan(&r);
 	if (r.info) {
 		ndo_close_stdout();
 		return NDO_EXIT_OK;
 	}
 	simulate(&r);
 	finish(&r);
+	accuracy_free(&r);
 	ndo_sim_destroy(r.sim);
 	ndo_grid_destroy(r.frame);
 	ndo_grid_destroy(r.g);

@@ -53,6 +53,12 @@ typedef struct run {
 	peer_cli net;      /* the peers' options (role 0: a single process) */
 	int threads;       /* --threads; 0: every processor alone, 1 as a peer */
 	size_t max_memory; /* --max-memory; 0: what the machine has available */
+	/* accuracy.c: --accuracy E (0: none; metres: E in metres) and the
+	 * scene at every level coarser than the input (error estimates). */
+	double accuracy;
+	int accuracy_metres;
+	ndo_acc *acc;
+	double *coarse;    /* a coarser run's output work array */
 } run;
 
 /* run.c: load the input, rest shape, pins and forces; create the
@@ -64,6 +70,19 @@ void plan(run *r);
  * of `sim`'s energies at `step`. */
 void log_open(run *r);
 void log_row(run *r, ndo_sim *sim, int64_t step);
+/* accuracy.c: --accuracy's argument; the choice (after plan: replaces the
+ * simulation by the chosen one, prints it, refuses with exit 2 what the
+ * input cannot reach); the largest displacement, sampled during the run;
+ * the error estimate, printed and appended to the log (before the log is
+ * committed); storing a run coarser than the input at the input's level
+ * (subdivided). */
+void accuracy_option(run *r, const char *arg);
+void accuracy_plan(run *r);
+void accuracy_sample(run *r, int64_t k);
+void accuracy_report(run *r);
+void accuracy_print(void);
+int accuracy_store(run *r, ndo_grid *g);
+void accuracy_free(run *r);
 /* peers.c: the peers' options: defaults, one option (a usage error when bad), and
  * the checks once all are read (scene: the -s file or NULL; in: the input
  * or NULL; the n settings keys given on the command line). */

@@ -11,11 +11,13 @@
 #include "ndo/io.h"
 #include "ndo/export.h"
 #include "ndo/subdivide.h"
+#include "ndo/restrict.h"
 #include "ndo/cli.h"
 #include "ndo/machine.h"
 #include "ndo/pool.h"
 #include "ndo/membrane.h"
 #include "ndo/sim.h"
 #include "ndo/scene.h"
+#include "ndo/accuracy.h"
 
 #endif

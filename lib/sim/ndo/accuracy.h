@@ -1,0 +1,175 @@
+/* ndo/accuracy.h — how far a simulation is from the truth, and the
+ * cheapest simulation that meets a stated error (issue 18;
+ * docs/simulate-peer.md, "How accurate a run is" and "Asking for an
+ * accuracy").
+ *
+ * Errors are the largest position error over the nodes at the end of the
+ * run, in metres, and relative to the run's *largest displacement*: the
+ * largest |x − X| over the nodes and over the run (sampled at least 64
+ * times and at the end).  Two parts:
+ *
+ *   time   the integrator's error at the run's step: Richardson's
+ *          estimate from the same scene one level coarser run at twice the
+ *          step (half the steps; at half the step when twice is beyond the
+ *          coarse level's critical step):  e(h) = |u_2h − u_h| / (2^p − 1),
+ *          p the method's order.  rkf45 compares with its tolerance / 100.
+ *          The motion a coarse level carries is the same smooth motion, so
+ *          its time error stands for the fine one at 1/8 of the cost.
+ *   space  the discretisation's error at the run's level n: the same scene
+ *          and the same integrator and step at level n−1 (inputs
+ *          restricted from level n: every other node, ndo/restrict.h),
+ *          compared after butterfly subdivision:  D_n = |u_n − S u_{n−1}|
+ *          and e_n = D_n / (r − 1), r = 4 (the error falls by r per level,
+ *          so u_{n−1} − u_n = e_{n−1} − e_n = (r − 1) e_n; linear elements
+ *          converge at second order in the mesh size, which halves per
+ *          level).  The ratio observed between coarse levels is
+ *          pre-asymptotic (2 to 2.4 from levels 3-5 on the thesis scenes)
+ *          and made worse estimates; the benchmark measures both.
+ *
+ * The estimates cost about 1/8 + 1/16 ≈ 20% of the run (level n−1 at
+ * two steps): every node count shrinks 4× per level,
+ * every critical step grows about 2×, and the companion runs use the
+ * run's step.
+ *
+ * A scene is ndo_scene settings over an input at some level; coarser
+ * levels restrict the input (positions, velocities, rest shape, pins) and
+ * resolve the forces anew (a total force spread by area, so the load is
+ * the same at every level).  Forces selected by face or node ids exist
+ * only at the input level: then nothing coarser is available
+ * (NDO_EINVAL). */
+#ifndef NDO_ACCURACY_H
+#define NDO_ACCURACY_H
+
+#include <stdint.h>
+
+#include "ndo/scene.h"
+#include "ndo/sim.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef struct ndo_acc ndo_acc;
+
+/* The scene `sc` (forces, material, integrator settings; its pins are
+ * taken from `pin`, already resolved) over a level-`level` input: x, v
+ * (NULL: at rest), rest, pin (NULL: none), H × W × 3 doubles and H × W
+ * bytes, copied; time starts at t0.  NDO_ENOMEM. */
+int ndo_acc_create(const ndo_scene *sc, int level, const double *x, const double *v,
+                   const double *rest, const uint8_t *pin, double t0, ndo_acc **out);
+void ndo_acc_destroy(ndo_acc *a);
+int ndo_acc_level(const ndo_acc *a);
+/* The rest shape at `level` (≤ the input's; restricted on first use),
+ * H × W × 3 doubles owned by a; NULL when out of memory or range. */
+const double *ndo_acc_rest(ndo_acc *a, int level);
+
+/* One configuration: level (≤ the input's), method, step h and steps
+ * (rkf45: the output interval; tol its tolerance). */
+typedef struct ndo_acc_config {
+	int level;
+	ndo_method method;
+	double h;
+	int64_t steps;
+	double tol;
+} ndo_acc_config;
+
+/* A simulation of the scene at `level` with `method` (and tol), at the
+ * input's time.  NDO_EINVAL when level is coarser than the input and the
+ * forces are given by ids; errors of ndo_sim_create. */
+int ndo_acc_sim(ndo_acc *a, int level, ndo_method method, double tol, ndo_sim **out);
+
+/* The largest displacement of a run, sampled: call ndo_acc_sample after
+ * steps (as often as wanted), read it with ndo_acc_sampled; reset with
+ * ndo_acc_sample_reset.  Uses the sim's level's rest shape. */
+void ndo_acc_sample_reset(ndo_acc *a);
+void ndo_acc_sample(ndo_acc *a, const ndo_sim *s);
+double ndo_acc_sampled(const ndo_acc *a);
+
+/* Run a configuration to its end.  u: the final displacement at the
+ * configuration's level (H × W × 3 doubles, owned by the result; free
+ * with ndo_acc_result_free); umax: the largest displacement (64 samples
+ * and the end); cpu: CPU seconds; node_evals: force evaluations × the
+ * level's vertices.  NDO_EDIVERGED when it diverged. */
+typedef struct ndo_acc_result {
+	double *u;
+	double umax;
+	double cpu;
+	double node_evals;
+} ndo_acc_result;
+int ndo_acc_run(ndo_acc *a, const ndo_acc_config *c, ndo_acc_result *r);
+void ndo_acc_result_free(ndo_acc_result *r);
+
+/* The final displacement of a simulation of this scene (sim's level;
+ * H × W × 3 doubles into u). */
+void ndo_acc_displacement(const ndo_acc *a, const ndo_sim *s, double *u);
+
+/* Subdivide a level-`from` displacement (or velocity) field u to level
+ * `to` ≥ from (butterfly, Zorin corners); *out: H × W × 3 doubles at
+ * `to`, malloc'd (the caller frees).  NDO_ENOMEM. */
+int ndo_acc_prolong(int from, int to, const double *u, double **out);
+
+/* The largest node distance between two level-`level` fields, m. */
+double ndo_acc_distance(int level, const double *a, const double *b);
+
+/* The errors of a run of configuration c whose final displacement is u
+ * (at c->level) and largest displacement umax.  NaN parts were not
+ * estimated (level 0, a companion diverged, forces by ids): `why` says
+ * which.  cpu: what estimating cost (CPU s); node_evals: the companion
+ * runs' force evaluations × vertices. */
+typedef struct ndo_acc_estimate {
+	double time_m, space_m; /* m */
+	double umax;            /* the largest displacement, m */
+	double rate;            /* r used for the space error (4) */
+	double cpu, node_evals;
+	char time_how[96];      /* how the time error was estimated */
+	char why[160];          /* what was not estimated, and why ("" if all was) */
+} ndo_acc_estimate;
+int ndo_acc_estimate_run(ndo_acc *a, const ndo_acc_config *c, const double *u, double umax,
+                         ndo_acc_estimate *e);
+
+/* The order of the method's error (rkf45: 5). */
+int ndo_method_order(ndo_method m);
+
+/* --accuracy: the configuration that meets `target` — relative to the
+ * largest displacement (metres = 0) or in metres — at the least predicted
+ * cost, for a run of `duration` seconds.  Candidates: every level from 2
+ * (or the input's, if lower) to the input's, and the two methods that
+ * dominate the work-precision diagram of the membrane (symplectic Euler
+ * for rough answers, RK4 otherwise), each at its largest stable step
+ * (0.9 × critical) or the step whose predicted time error fits.
+ *
+ * The prediction: pilots run the scene with RK4 at half its critical step
+ * at levels from 2 up, each one level finer, until a level one above the
+ * last pilot is predicted to suffice or the next pilot would be the input
+ * level itself; the last two pilots' difference gives the space error of
+ * every level as above (by r = 4 per level), the last one the largest
+ * displacement.  At the last pilot level, RK4 and symplectic Euler at
+ * 0.9 × their critical steps against the pilot give each method's error
+ * constant C in e = C h^p and its CPU time per node-evaluation.  A
+ * configuration meets the target when e_space + e_time ≤ margin × target
+ * (margin 0.5: what the estimates' spread on the benchmark's scenes
+ * needs for 90%).  When no level up to the input's meets it — the input
+ * level's predicted space error alone is above the target — *choice gets
+ * reachable = 0, the input level's predicted error (best_m) and the level
+ * that would meet it (level_needed, by r per level), and nothing runs.
+ * NDO_EINVAL: target ≤ 0, or relative target ≥ 1; errors of the pilots. */
+typedef struct ndo_acc_choice {
+	ndo_acc_config c;
+	double target_m;        /* the target in metres */
+	double umax;            /* predicted largest displacement, m */
+	double time_m, space_m; /* predicted errors, m */
+	double cpu;             /* predicted CPU seconds of the run */
+	double node_evals;      /* predicted force evaluations × vertices */
+	double pilot_cpu;       /* what choosing cost (pilots, critical steps), CPU s */
+	int pilot_top;          /* the finest pilot level */
+	double rate;            /* r per level (4) */
+	int reachable;
+	double best_m;          /* the input level's predicted space error, m */
+	int level_needed;
+} ndo_acc_choice;
+int ndo_acc_choose(ndo_acc *a, double target, int metres, double duration, ndo_acc_choice *ch);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

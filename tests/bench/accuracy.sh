@@ -1,0 +1,91 @@
+#!/usr/bin/env bash
+# tests/bench/accuracy.sh — simulate-peer's error estimates and --accuracy
+# (issue 18) against a reference two levels finer, on six scenes: the
+# thesis figures 5.3, 5.4, 5.7, the bunny, the ellipsoid free vibration, a
+# pinned sphere poked locally; inputs at levels 5 and 6.  Tables to
+# docs/bench/accuracy.md, figures to docs/simulate-peer/accuracy-N.png.
+# About ten minutes of CPU (the level-8 references, the sweeps).  The
+# summary: tests/bench/summarize_accuracy.py.
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+B=${NDO_TESTBIN:-build/tests}
+LEVELS=${ACCURACY_LEVELS:-5 6} # the inputs' levels; each reference is N + 2
+T=${ACCURACY_TIME:-1}    # simulated seconds
+d=build/bench/accuracy
+mkdir -p "$d" docs/bench docs/simulate-peer
+S=samples A=tests/bench/accuracy
+# ACCURACY_REPORT_ONLY=1: only rewrite the report from the CSV files of an
+# earlier run (build/bench/accuracy/).
+for N in $LEVELS; do
+	[ "${ACCURACY_REPORT_ONLY:-0}" = 1 ] && break
+	# The bunny at the reference level, remeshed once (libcgal-demo's bunny00.off).
+	bunny=$d/bunny$((N + 2)).tgrid
+	if [ ! -s "$bunny" ]; then
+		tar -xzf /usr/share/doc/libcgal-dev/data.tar.gz -C "$d" data/meshes/bunny00.off
+		${NDO_BIN:-bin}/remesh "$d/data/meshes/bunny00.off" -l $((N + 2)) -o "$bunny"
+	fi
+	scenes=(fig5.3=wavy:$S/thesis-fig5.3.scene fig5.4=tetra:$S/thesis-fig5.4.scene
+		fig5.7=sphere:$S/thesis-fig5.7.scene bunny=$bunny:$S/bunny.scene
+		ellipsoid=ellipsoid:$A/ellipsoid.scene:sphere poke=sphere:$A/poke.scene)
+	echo "bench_accuracy estimates $N $T ${scenes[*]}" >"$d/commands-$N"
+	echo "load average at the start: $(cut -d' ' -f1-3 /proc/loadavg)" >"$d/load-$N"
+	echo "bench_accuracy choose $N $T ${scenes[*]}" >>"$d/commands-$N"
+	"$B/bench_accuracy" estimates "$N" "$T" "${scenes[@]}" >"$d/estimates-$N.csv" 2>"$d/estimates-$N.log"
+	"$B/bench_accuracy" choose "$N" "$T" "${scenes[@]}" >"$d/choose-$N.csv" 2>"$d/choose-$N.log"
+	grep '^point,' "$d/choose-$N.log" | sed '1i point,scene,level,method,step_s,cpu_s,error' >"$d/sweep-$N.csv"
+	/usr/bin/python3 tests/bench/plot_accuracy.py "$d" "$N" docs/simulate-peer/accuracy-$N.png
+	echo "load average at the end: $(cut -d' ' -f1-3 /proc/loadavg)" >>"$d/load-$N"
+done
+
+table() { # CSV to a markdown table
+	awk -F, 'NR == 1 { h = "|"; s = "|"; for (i = 1; i <= NF; i++) { h = h " " $i " |"; s = s "---|" }
+		print h; print s; next } { r = "|"; for (i = 1; i <= NF; i++) r = r " " $i " |"; print r }' "$1"
+}
+out=docs/bench/accuracy.md
+{
+	echo "# simulate-peer: error estimates and --accuracy"
+	echo
+	echo "Made by \`tests/bench/run accuracy\` (\`tests/bench/accuracy.sh\`, program" \
+		"\`tests/bench/bench_accuracy.c\`, figures \`tests/bench/plot_accuracy.py\`) on $(date -u +%Y-%m-%d)," \
+		"$(nproc) cores ($(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//'));" \
+		"load averages below, per input level (a shared machine: CPU times are process CPU times," \
+		"medians of 3 runs).  Discussed in [docs/simulate-peer.md](../simulate-peer.md#asking-for-an-accuracy)."
+	echo
+	echo "Inputs at level N, restricted from level N + 2; reference: level N + 2, RK4 at 0.2 × its" \
+		"critical step, $T s simulated.  Errors: the largest node distance at the end, at level N," \
+		"relative to the reference's largest displacement over the run."
+	echo
+	echo "## Summary"
+	echo
+	/usr/bin/python3 tests/bench/summarize_accuracy.py "$d" $LEVELS
+	for N in $LEVELS; do
+		echo
+		echo "## Input level $N"
+		echo
+		echo '```'
+		cat "$d/commands-$N"
+		echo '```'
+		echo
+		[ -f "$d/load-$N" ] && sed 's/$/;/' "$d/load-$N" | tr '\n' ' ' && echo
+		echo
+		echo "### Estimates against the truth (a run at 0.9 × the critical step)"
+		echo
+		echo "time_true: against the same level at RK4, 0.1 × critical; space_true: that run against" \
+			"the reference; ratios estimated / true (the goal: within 3)."
+		echo
+		table "$d/estimates-$N.csv"
+		echo
+		echo "### --accuracy E against an exhaustive sweep"
+		echo
+		echo "The sweep: levels 2..$N, symplectic Euler and RK4 at 0.9 × the critical step and halvings" \
+			"(until the error stops falling).  cheapest: the sweep's cheapest configuration whose true" \
+			"error is ≤ E; ratio: the chosen run's CPU time over it; ratio_with_overhead: choosing" \
+			"(pilots, critical steps) and the estimate included.  reachable 0: refused before any run" \
+			"(level: the level that would be needed; predicted: the input level's predicted error)."
+		echo
+		table "$d/choose-$N.csv"
+		echo
+		echo "![accuracy, level $N](../simulate-peer/accuracy-$N.png)"
+	done
+} >"$out"
+cat "$out"

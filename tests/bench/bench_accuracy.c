@@ -1,0 +1,315 @@
+/* bench_accuracy — simulate-peer's error estimates and --accuracy against
+ * a fine reference (issue 18; docs/simulate-peer.md, "Asking for an
+ * accuracy").  CSV on stdout.
+ *
+ * T: simulated seconds (0: the scene file's time).
+ *
+ *   estimates N T SCENE...  every scene at input level N, run as simulate-peer
+ *                         runs it by default (rk4, and symplectic Euler, at
+ *                         0.9 × the critical step): the estimated time and
+ *                         space errors against the true ones
+ *   choose N T SCENE...   for E = 1e-1, 1e-2, 1e-3: the configuration
+ *                         ndo_acc_choose picks, its predicted and achieved
+ *                         error and its cost, and the cheapest configuration
+ *                         that meets E in an exhaustive sweep (levels 2..N,
+ *                         rk4 and symplectic Euler at 0.9 × the critical step
+ *                         and halvings)
+ *
+ * SCENE is NAME=INPUT:SCENEFILE[:REST], INPUT a shape name (remesh
+ * --shape) or a .tgrid at level N + 2, REST a shape name for the rest shape
+ * (the ellipsoid released to its sphere).  The reference: the scene at
+ * level N + 2, RK4 at 0.2 × its critical step; the inputs at level N are
+ * its restriction (every fourth node), so all levels are nested.  Errors:
+ * the largest node distance at the end, at level N (coarser results
+ * subdivided), relative to the reference's largest displacement over the
+ * run.  True time error: against the same level at RK4, 0.1 × critical;
+ * true space error: that run against the reference. */
+#include "ndo/ndo.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+static void die(const char *what)
+{
+	fprintf(stderr, "bench_accuracy: %s: %s\n", what, ndo_errdetail());
+	exit(1);
+}
+
+static double cpu(void)
+{
+	struct timespec t;
+	clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+	return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+static double T_override; /* the T argument: simulated seconds */
+
+typedef struct bscene {
+	char name[64];
+	ndo_scene sc;
+	double T;
+	ndo_acc *fine;   /* level N + 2 */
+	ndo_acc *in;     /* level N, restricted */
+	double *ref;     /* reference displacement at level N */
+	double umax;     /* the reference's largest displacement */
+	int n;
+} bscene;
+
+static ndo_grid *load(const char *what, int level)
+{
+	ndo_grid *g;
+	if (strstr(what, ".tgrid")) {
+		g = ndo_cli_load(what);
+		if (g->level != level) {
+			fprintf(stderr, "bench_accuracy: %s is level %d, want %d\n", what, g->level, level);
+			exit(1);
+		}
+		ndo_grid_f64(g, NDO_CH_POSITION, 3);
+		return g;
+	}
+	if (ndo_shape_make(what, level, NULL, &g))
+		die(what);
+	return g;
+}
+
+static void setup(bscene *b, const char *spec, int n)
+{
+	char buf[1024];
+	snprintf(buf, sizeof buf, "%s", spec);
+	char *eq = strchr(buf, '='), *c1 = eq ? strchr(eq + 1, ':') : NULL;
+	if (!eq || !c1) {
+		fprintf(stderr, "bench_accuracy: bad scene '%s'\n", spec);
+		exit(2);
+	}
+	*eq = *c1 = '\0';
+	char *c2 = strchr(c1 + 1, ':');
+	if (c2)
+		*c2 = '\0';
+	snprintf(b->name, sizeof b->name, "%.63s", buf);
+	b->n = n;
+	ndo_scene_init(&b->sc);
+	if (ndo_scene_load(&b->sc, c1 + 1))
+		die(c1 + 1);
+	b->T = T_override > 0 ? T_override : b->sc.duration > 0 ? b->sc.duration : 1;
+	int nf = n + 2;
+	ndo_grid *g = load(eq + 1, nf), *rest = c2 ? load(c2 + 1, nf) : NULL;
+	const double *X = rest ? rest->ch[0].data : g->ch[0].data;
+	uint8_t *pin = calloc(g->count, 1);
+	ndo_force *f;
+	if (ndo_scene_resolve(&b->sc, nf, X, &f, pin))
+		die("resolve");
+	ndo_scene_forces_free(f, b->sc.nforces);
+	if (ndo_acc_create(&b->sc, nf, g->ch[0].data, NULL, X, pin, 0, &b->fine))
+		die("create");
+	/* The level-N input: the fine one restricted twice. */
+	double *x = malloc(3 * g->count * sizeof *x), *xr = malloc(3 * g->count * sizeof *xr);
+	uint8_t *p1 = malloc(g->count), *p2 = malloc(g->count);
+	ndo_restrict_nodes(nf, 3 * sizeof(double), g->ch[0].data, xr);
+	ndo_restrict_nodes(nf - 1, 3 * sizeof(double), xr, x);
+	ndo_restrict_nodes(nf, 1, pin, p1);
+	ndo_restrict_nodes(nf - 1, 1, p1, p2);
+	if (ndo_acc_create(&b->sc, n, x, NULL, ndo_acc_rest(b->fine, n), p2, 0, &b->in))
+		die("create");
+	free(x), free(xr), free(p1), free(p2), free(pin);
+	ndo_grid_destroy(g);
+	ndo_grid_destroy(rest);
+	/* The reference. */
+	ndo_sim *s;
+	ndo_critical cr;
+	if (ndo_acc_sim(b->fine, nf, NDO_RK4, 0, &s) || ndo_sim_critical(s, &cr))
+		die("reference");
+	ndo_sim_destroy(s);
+	ndo_acc_config c = {nf, NDO_RK4, 0, (int64_t)ceil(b->T / (0.2 * cr.h_crit)), 0};
+	c.h = b->T / (double)c.steps;
+	ndo_acc_result r;
+	if (ndo_acc_run(b->fine, &c, &r))
+		die("reference run");
+	double *t1 = malloc(3 * sizeof(double) * (size_t)((2 << nf) + 1) * (size_t)((1 << nf) + 1));
+	b->ref = malloc(3 * sizeof(double) * (size_t)((2 << n) + 1) * (size_t)((1 << n) + 1));
+	ndo_restrict_nodes(nf, 3 * sizeof(double), r.u, t1);
+	ndo_restrict_nodes(nf - 1, 3 * sizeof(double), t1, b->ref);
+	b->umax = r.umax;
+	fprintf(stderr, "bench_accuracy: %s: reference level %d, %lld rk4 steps, %.3g s CPU, largest "
+	        "displacement %.4g m\n", b->name, nf, (long long)c.steps, r.cpu, r.umax);
+	free(t1);
+	ndo_acc_result_free(&r);
+}
+
+static void teardown(bscene *b)
+{
+	ndo_acc_destroy(b->in);
+	ndo_acc_destroy(b->fine);
+	free(b->ref);
+	ndo_scene_free(&b->sc);
+}
+
+/* The true error of a level-m result, at level N. */
+static double true_error(bscene *b, int m, const double *u)
+{
+	double *up;
+	if (ndo_acc_prolong(m, b->n, u, &up))
+		die("prolong");
+	double e = ndo_acc_distance(b->n, up, b->ref);
+	free(up);
+	return e;
+}
+
+static ndo_acc_config at_fraction(ndo_acc *a, int level, ndo_method m, double frac, double T)
+{
+	ndo_sim *s;
+	ndo_critical cr;
+	if (ndo_acc_sim(a, level, m, 0, &s) || ndo_sim_critical(s, &cr))
+		die("critical");
+	ndo_sim_destroy(s);
+	ndo_acc_config c = {level, m, 0, (int64_t)ceil(T / (frac * cr.h_crit) - 1e-9), 1e-6};
+	if (c.steps < 1)
+		c.steps = 1;
+	c.h = T / (double)c.steps;
+	return c;
+}
+
+static void estimates(int n, int argc, char **argv)
+{
+	printf("scene,level,method,step_s,largest_m,time_est,time_true,space_est,space_true,"
+	       "total_est,total_true,time_ratio,space_ratio,total_ratio,run_cpu_s,estimate_cpu_s,rate\n");
+	for (int k = 0; k < argc; k++) {
+		bscene b;
+		setup(&b, argv[k], n);
+		ndo_acc_config fine_t = at_fraction(b.in, n, NDO_RK4, 0.1, b.T);
+		ndo_acc_result rt;
+		if (ndo_acc_run(b.in, &fine_t, &rt))
+			die("time reference");
+		const ndo_method ms[2] = {NDO_RK4, NDO_SYMPLECTIC_EULER};
+		for (int q = 0; q < 2; q++) {
+			ndo_acc_config c = at_fraction(b.in, n, ms[q], 0.9, b.T);
+			ndo_acc_result r;
+			ndo_acc_estimate e;
+			if (ndo_acc_run(b.in, &c, &r) || ndo_acc_estimate_run(b.in, &c, r.u, r.umax, &e))
+				die("run");
+			double tt = ndo_acc_distance(n, r.u, rt.u), ts = ndo_acc_distance(n, rt.u, b.ref),
+			       tot = ndo_acc_distance(n, r.u, b.ref), U = b.umax;
+			double te = e.time_m + e.space_m;
+			printf("%s,%d,%s,%.5g,%.5g,%.3g,%.3g,%.3g,%.3g,%.3g,%.3g,%.3g,%.3g,%.3g,%.4g,%.4g,%.3g\n",
+			       b.name, n, ndo_method_names[ms[q]], c.h, U, e.time_m / U, tt / U, e.space_m / U,
+			       ts / U, te / U, tot / U, e.time_m / tt, e.space_m / ts, te / tot, r.cpu, e.cpu, e.rate);
+			fflush(stdout);
+			ndo_acc_result_free(&r);
+		}
+		ndo_acc_result_free(&rt);
+		teardown(&b);
+	}
+}
+
+static double median3(double a, double b, double c)
+{
+	return fmax(fmin(a, b), fmin(fmax(a, b), c));
+}
+
+/* A configuration's CPU time: the median of three runs. */
+static double timed(bscene *b, const ndo_acc_config *c, double *err)
+{
+	double t[3];
+	for (int k = 0; k < 3; k++) {
+		ndo_acc_result r;
+		if (ndo_acc_run(b->in, c, &r)) {
+			*err = INFINITY;
+			return INFINITY;
+		}
+		t[k] = r.cpu;
+		if (k == 0)
+			*err = true_error(b, c->level, r.u) / b->umax;
+		ndo_acc_result_free(&r);
+	}
+	return median3(t[0], t[1], t[2]);
+}
+
+static void choose(int n, int argc, char **argv)
+{
+	const double Es[3] = {1e-1, 1e-2, 1e-3};
+	printf("scene,E,reachable,level,method,step_s,steps,predicted,estimated,achieved,met,"
+	       "run_cpu_s,choose_cpu_s,estimate_cpu_s,cheapest_cpu_s,cheapest,ratio,"
+	       "ratio_with_overhead,best_possible\n");
+	for (int k = 0; k < argc; k++) {
+		bscene b;
+		setup(&b, argv[k], n);
+		/* The sweep. */
+		typedef struct pt { ndo_acc_config c; double err, cpu; } pt;
+		pt pts[256];
+		int np = 0;
+		const ndo_method ms[2] = {NDO_SYMPLECTIC_EULER, NDO_RK4};
+		for (int l = 2; l <= n; l++)
+			for (int q = 0; q < 2; q++)
+				for (int h = 0; h < 8 && np < 256; h++) {
+					ndo_acc_config c = at_fraction(b.in, l, ms[q], 0.9 / pow(2, h), b.T);
+					double err;
+					double t = timed(&b, &c, &err);
+					pts[np++] = (pt){c, err, t};
+					fprintf(stderr, "sweep %s level %d %s h %.4g: error %.3g, %.3g s\n", b.name, l,
+					        ndo_method_names[ms[q]], c.h, err, t);
+					if (h > 0 && err > 0.9 * pts[np - 2].err)
+						break; /* the time error is gone: smaller steps only cost */
+				}
+		double best = INFINITY;
+		for (int q = 0; q < np; q++)
+			best = fmin(best, pts[q].err);
+		for (int e = 0; e < 3; e++) {
+			double E = Es[e];
+			double cheapest = INFINITY;
+			int ci = -1;
+			for (int q = 0; q < np; q++)
+				if (pts[q].err <= E && pts[q].cpu < cheapest)
+					cheapest = pts[q].cpu, ci = q;
+			char cname[96] = "none";
+			if (ci >= 0)
+				snprintf(cname, sizeof cname, "level %d %s %.4g s", pts[ci].c.level,
+				         ndo_method_names[pts[ci].c.method], pts[ci].c.h);
+			ndo_acc_choice ch;
+			double t0 = cpu();
+			if (ndo_acc_choose(b.in, E, 0, b.T, &ch))
+				die("choose");
+			double tc = cpu() - t0;
+			if (!ch.reachable) {
+				printf("%s,%g,0,%d,,,,%.3g,,,,,%.4g,,%.4g,%s,,,%.3g\n", b.name, E, ch.level_needed,
+				       ch.best_m / ch.umax, tc, cheapest, cname, best);
+				fflush(stdout);
+				continue;
+			}
+			double err, t = timed(&b, &ch.c, &err);
+			ndo_acc_result r;
+			ndo_acc_estimate es;
+			if (ndo_acc_run(b.in, &ch.c, &r) || ndo_acc_estimate_run(b.in, &ch.c, r.u, r.umax, &es))
+				die("chosen run");
+			printf("%s,%g,1,%d,%s,%.4g,%lld,%.3g,%.3g,%.3g,%d,%.4g,%.4g,%.4g,%.4g,%s,%.3g,%.3g,"
+			       "%.3g\n",
+			       b.name, E, ch.c.level, ndo_method_names[ch.c.method], ch.c.h,
+			       (long long)ch.c.steps, (ch.time_m + ch.space_m) / ch.umax,
+			       (es.time_m + es.space_m) / r.umax, err, err <= E, t, tc, es.cpu, cheapest,
+			       cname, t / cheapest, (t + tc + es.cpu) / cheapest, best);
+			fflush(stdout);
+			ndo_acc_result_free(&r);
+		}
+		/* The sweep for the plot. */
+		for (int q = 0; q < np; q++)
+			fprintf(stderr, "point,%s,%d,%s,%.5g,%.5g,%.5g\n", b.name, pts[q].c.level,
+			        ndo_method_names[pts[q].c.method], pts[q].c.h, pts[q].cpu, pts[q].err);
+		teardown(&b);
+	}
+}
+
+int main(int argc, char **argv)
+{
+	if (argc >= 5)
+		T_override = atof(argv[3]);
+	if (argc >= 5 && strcmp(argv[1], "estimates") == 0)
+		estimates(atoi(argv[2]), argc - 4, argv + 4);
+	else if (argc >= 5 && strcmp(argv[1], "choose") == 0)
+		choose(atoi(argv[2]), argc - 4, argv + 4);
+	else {
+		fprintf(stderr, "usage: bench_accuracy estimates|choose N T NAME=INPUT:SCENE[:REST]...\n");
+		return 2;
+	}
+	return 0;
+}

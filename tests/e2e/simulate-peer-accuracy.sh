@@ -1,0 +1,96 @@
+#!/usr/bin/env bash
+# simulate-peer's error estimates and --accuracy (issue 18): the estimate
+# printed and logged, measured (it follows the step and the level), within
+# a factor 3 of a reference two levels finer; --accuracy meets its target
+# against that reference and writes the input's level; --info prints the
+# choice only; what cannot be met is refused before the run.
+. "$(dirname "$0")/lib.sh"
+TG="/usr/bin/python3 $NDO_ROOT/tests/e2e/tgrid.py"
+SC=$NDO_ROOT/samples/thesis-fig5.7.scene
+remesh --shape sphere -l 3 -o s3.tgrid
+remesh --shape sphere -l 4 -o s4.tgrid
+remesh --shape sphere -l 6 -o s6.tgrid
+
+# The reference: level 6, RK4 at a fifth of its critical step.
+simulate-peer -q -s "$SC" -t 0.5 --dt-safety 0.2 s6.tgrid -o ref.tgrid
+# disp(FILE, stride): the displacement at every stride-th node of FILE.
+err() { # err FILE STRIDE: largest distance to the reference at FILE's nodes
+	$TG "$1" "float(np.sqrt((((position - rest) - __import__('tgrid').read('ref.tgrid')[3]['position'][::$2, ::$2] + __import__('tgrid').read('ref.tgrid')[3]['rest'][::$2, ::$2])**2).sum(-1)).max())"
+}
+export PYTHONPATH=$NDO_ROOT/tests/e2e
+
+# Every run states its error, on stderr and as the log's last line.
+simulate-peer -s "$SC" -t 0.5 s4.tgrid --log l4.csv -o o4.tgrid 2>e4.log
+est4=$(sed -n 's/^# error_estimate .*total_m=\([^ ]*\) .*/\1/p' l4.csv)
+if grep -q '^simulate-peer: error estimate: .* m (.* of the largest displacement, .* m): time .* m (.*), space .* m (.*; against level 3' e4.log &&
+	awk -v e="$est4" 'BEGIN { exit !(e > 0) }'; then
+	pass "the run's error estimate is printed and logged ($est4 m)"
+else
+	fail "error estimate printed and logged" "$(tail -2 e4.log) / $(tail -1 l4.csv)"
+fi
+
+# It is within a factor 3 of the true error (the reference restricted).
+true4=$(err o4.tgrid 4)
+if awk -v e="$est4" -v t="$true4" 'BEGIN { exit !(e < 3 * t && t < 3 * e) }'; then
+	pass "level 4 estimate $est4 m within 3x of the true error $true4 m"
+else
+	fail "estimate against the reference" "estimated $est4 m, true $true4 m"
+fi
+
+# The estimates are measurements: the space error falls with the level
+# (by about 4, second order), the time error with the step (symplectic
+# Euler: first order, with a second-order phase error on an oscillation:
+# 2 to 4 per halving).
+simulate-peer -q -s "$SC" -t 0.5 s3.tgrid --log l3.csv -o o3.tgrid
+sp() { sed -n "s/^# error_estimate .*space_m=\([^ ]*\) .*/\1/p" "$1"; }
+tm() { sed -n "s/^# error_estimate time_m=\([^ ]*\) .*/\1/p" "$1"; }
+if awk -v a="$(sp l3.csv)" -v b="$(sp l4.csv)" 'BEGIN { r = a / b; exit !(r > 2 && r < 8) }'; then
+	pass "space estimate falls from level 3 to 4 ($(sp l3.csv) -> $(sp l4.csv) m)"
+else
+	fail "space estimate against the level" "level 3 $(sp l3.csv), level 4 $(sp l4.csv)"
+fi
+simulate-peer -q -s "$SC" -t 0.5 -i symplectic-euler --dt 0.02 s4.tgrid --log h1.csv -o /dev/null
+simulate-peer -q -s "$SC" -t 0.5 -i symplectic-euler --dt 0.01 s4.tgrid --log h2.csv -o /dev/null
+if awk -v a="$(tm h1.csv)" -v b="$(tm h2.csv)" 'BEGIN { r = a / b; exit !(r > 1.6 && r < 4.5) }'; then
+	pass "symplectic Euler's time estimate falls with the step ($(tm h1.csv) -> $(tm h2.csv) m)"
+else
+	fail "time estimate against the step" "$(tm h1.csv) -> $(tm h2.csv)"
+fi
+
+# --accuracy: the choice is printed, it runs, the output is at the input's
+# level, and the achieved error (against the reference) meets the target.
+simulate-peer -s "$SC" -t 0.5 --accuracy 0.1 s4.tgrid -o a.tgrid --log a.csv 2>a.log
+umax=$(sed -n 's/^# error_estimate .*largest_displacement_m=\([^ ]*\) .*/\1/p' a.csv)
+ach=$(err a.tgrid 4)
+if grep -q '^simulate-peer: --accuracy 0.1 of the largest displacement = .* m .*: level [234], ' a.log &&
+	[ "$($TG a.tgrid level)" = 4 ] && [ "$($TG a.tgrid 'int(abs(velocity).max() > 0)')" = 1 ] &&
+	awk -v e="$ach" -v u="$umax" 'BEGIN { exit !(e <= 0.1 * u) }'; then
+	pass "--accuracy 0.1: $(sed -n 's/^simulate-peer: --accuracy.*: \(level [0-9], [a-z4-]*\), .*/\1/p' a.log) achieved $ach m of $umax m"
+else
+	fail "--accuracy 0.1" "achieved $ach m of $umax m; $(grep accuracy a.log)"
+fi
+# In metres: a tighter target needs at least the same level.
+simulate-peer -s "$SC" -t 0.5 --accuracy 0.03m --info s4.tgrid -o never.tgrid 2>m.log
+if grep -q '^simulate-peer: --accuracy 0.03 m = 0.03 m .*: level [234], ' m.log && [ ! -e never.tgrid ] &&
+	! grep -q 'error estimate' m.log; then
+	pass "--info --accuracy 0.03m prints the choice and runs nothing"
+else
+	fail "--info --accuracy" "$(cat m.log)"
+fi
+
+# Refusals, before any run, one line, exit 2.
+expect_error "an accuracy level 4 cannot reach" 2 \
+	'^simulate-peer: --accuracy 0.0001 of the largest displacement: out of reach at level 4: .* this input allows .* at best, and level (5|6|7|8|9|10) would be needed$' \
+	simulate-peer -q -s "$SC" -t 0.5 --accuracy 1e-4 s4.tgrid -o never.tgrid
+[ ! -e never.tgrid ] || fail "refused run wrote its output"
+expect_error "accuracy 1 is out of range" 2 '^simulate-peer: --accuracy: 1 is outside \(0, 1\)' \
+	simulate-peer --accuracy 1 s4.tgrid -o never.tgrid
+expect_error "accuracy 0 metres is out of range" 2 '^simulate-peer: --accuracy: 0m is outside \(0, 1e6\] metres' \
+	simulate-peer --accuracy 0m s4.tgrid -o never.tgrid
+expect_error "accuracy not a number" 2 "^simulate-peer: --accuracy: '1%' is not a number" \
+	simulate-peer --accuracy 1% s4.tgrid -o never.tgrid
+expect_error "accuracy with peers" 2 '^simulate-peer: --accuracy: a single process only' \
+	simulate-peer --owner --accuracy 0.1 s4.tgrid -o never.tgrid
+expect_error "accuracy with forces by face ids" 2 \
+	'^simulate-peer: --accuracy: a force given by face ids exists only at the input' \
+	simulate-peer -q --force 'face faces=1,2 amplitude=1' -t 0.2 --accuracy 0.1 s4.tgrid -o never.tgrid

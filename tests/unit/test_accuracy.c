@@ -1,0 +1,182 @@
+/* test_accuracy.c — the error estimates and the choice (ndo/accuracy.h):
+ * a run at the input level is the simulation itself; motion every level
+ * represents exactly (a rigid translation, K's null space) has no space or
+ * time error; the time estimate follows each method's order; bad targets
+ * and forces that exist only at the input level are refused.  (Estimates
+ * against a finer reference: tests/e2e/simulate-peer-accuracy.sh and the
+ * benchmark.) */
+#include "check.h"
+#include "ndo/ndo.h"
+
+#include <stdlib.h>
+#include <string.h>
+
+typedef struct fixture {
+	ndo_grid *g;
+	ndo_scene sc;
+	double *x;
+	ndo_acc *a;
+} fixture;
+
+/* A sphere at `level` with scene lines (';'-separated), displaced by
+ * shift(X) per node. */
+static void make(fixture *fp, int level, const char *lines,
+                 void (*shift)(const double *X, double *x))
+{
+#define f (*fp)
+	ndo_shape_make("sphere", level, NULL, &f.g);
+	ndo_scene_init(&f.sc);
+	char *copy = strdup(lines), *save = NULL;
+	for (char *l = strtok_r(copy, ";", &save); l; l = strtok_r(NULL, ";", &save)) {
+		char *sp = strchr(l, ' ');
+		*sp = '\0';
+		CHECK(ndo_scene_set(&f.sc, l, sp + 1) == NDO_OK, "setting %s", l);
+	}
+	free(copy);
+	const double *X = f.g->ch[0].data;
+	f.x = malloc(3 * f.g->count * sizeof *f.x);
+	for (size_t p = 0; p < f.g->count; p++)
+		shift(X + 3 * p, f.x + 3 * p);
+	/* The scene must outlive the machinery: it lives in the caller's fixture. */
+	CHECK(ndo_acc_create(&f.sc, level, f.x, NULL, X, NULL, 0, &f.a) == NDO_OK, "create");
+#undef f
+}
+
+static void unmake(fixture *f)
+{
+	ndo_acc_destroy(f->a);
+	ndo_scene_free(&f->sc);
+	ndo_grid_destroy(f->g);
+	free(f->x);
+}
+
+static void translate(const double *X, double *x)
+{
+	x[0] = X[0] + 0.1, x[1] = X[1] - 0.05, x[2] = X[2] + 0.02;
+}
+
+/* An l = 2 displacement along z: every level carries it, with a space and
+ * time error. */
+static void bulge(const double *X, double *x)
+{
+	x[0] = X[0], x[1] = X[1], x[2] = X[2] + 0.05 * (3 * X[2] * X[2] - 1);
+}
+
+static void run_at_input_level_is_the_simulation(void)
+{
+	fixture f;
+	make(&f, 3, "damping 0.1;force face at=0,0,1 radius=0.3 amplitude=1 frequency=1", bulge);
+	ndo_acc_config c = {3, NDO_RK4, 0.05, 10, 0};
+	ndo_acc_result r;
+	int rc = ndo_acc_run(f.a, &c, &r);
+	CHECK(rc == NDO_OK, "run: %s", ndo_errdetail());
+	if (rc) {
+		unmake(&f);
+		return;
+	}
+	/* The same by hand. */
+	ndo_force *forces;
+	uint8_t *pin = calloc(f.g->count, 1);
+	ndo_scene_resolve(&f.sc, 3, f.g->ch[0].data, &forces, pin);
+	ndo_sim_params p = f.sc.sim;
+	p.forces = forces, p.nforces = f.sc.nforces, p.method = NDO_RK4;
+	ndo_sim *s;
+	ndo_sim_create(3, f.x, NULL, f.g->ch[0].data, pin, &p, &s);
+	for (int k = 0; k < 10; k++)
+		ndo_sim_step(s, 0.05);
+	double *u = malloc(3 * f.g->count * sizeof *u);
+	ndo_acc_displacement(f.a, s, u);
+	CHECK(memcmp(u, r.u, 3 * f.g->count * sizeof *u) == 0,
+	      "ndo_acc_run differs from stepping the simulation by hand");
+	/* 4 evaluations per RK4 step (and the first step's energy check). */
+	CHECK(r.umax > 0.05 && r.node_evals >= 40.0 * (double)ndo_vertex_count(3) &&
+	      r.node_evals <= 41.0 * (double)ndo_vertex_count(3),
+	      "largest displacement %g, node-evaluations %g", r.umax, r.node_evals);
+	ndo_sim_destroy(s);
+	ndo_scene_forces_free(forces, f.sc.nforces);
+	free(pin), free(u);
+	ndo_acc_result_free(&r);
+	unmake(&f);
+}
+
+static void rigid_motion_has_no_error(void)
+{
+	/* A translation is in K's null space: it stays, exactly, at every
+	 * level and step; restriction and subdivision reproduce it. */
+	fixture f;
+	make(&f, 4, "damping 0", translate);
+	ndo_acc_config c = {4, NDO_RK4, 0.05, 8, 0};
+	ndo_acc_result r;
+	ndo_acc_estimate e;
+	CHECK(ndo_acc_run(f.a, &c, &r) == NDO_OK, "run");
+	CHECK(ndo_acc_estimate_run(f.a, &c, r.u, r.umax, &e) == NDO_OK, "estimate");
+	CHECK(fabs(r.umax - sqrt(0.01 + 0.0025 + 0.0004)) < 1e-12, "largest displacement %g", r.umax);
+	CHECK(e.time_m < 1e-12 && e.space_m < 1e-12, "translation: time %g m, space %g m", e.time_m,
+	      e.space_m);
+	ndo_acc_result_free(&r);
+	unmake(&f);
+}
+
+static double time_estimate(fixture *f, ndo_method m, double h, int steps)
+{
+	ndo_acc_config c = {4, m, h, steps, 0};
+	ndo_acc_result r;
+	ndo_acc_estimate e;
+	CHECK(ndo_acc_run(f->a, &c, &r) == NDO_OK, "run");
+	CHECK(ndo_acc_estimate_run(f->a, &c, r.u, r.umax, &e) == NDO_OK && *e.why == '\0',
+	      "estimate: %s", e.why);
+	CHECK(e.space_m > 0, "an l = 2 bulge has a space error at level 4");
+	ndo_acc_result_free(&r);
+	return e.time_m;
+}
+
+static void time_estimate_follows_the_order(void)
+{
+	fixture f;
+	make(&f, 4, "damping 0.1", bulge);
+	/* l = 2: omega = sqrt(6); a second and a half, steps well inside the
+	 * stable range, where the error is in the asymptotic regime. */
+	double a = time_estimate(&f, NDO_RK4, 0.05, 30), b = time_estimate(&f, NDO_RK4, 0.025, 60);
+	CHECK(a / b > 10 && a / b < 24, "rk4: halving the step divides the estimate by %g, not ~16",
+	      a / b);
+	a = time_estimate(&f, NDO_MIDPOINT, 0.02, 75), b = time_estimate(&f, NDO_MIDPOINT, 0.01, 150);
+	CHECK(a / b > 3 && a / b < 5.5, "midpoint: halving the step divides the estimate by %g, not ~4",
+	      a / b);
+	unmake(&f);
+}
+
+static void bad_targets_are_refused(void)
+{
+	fixture f;
+	make(&f, 4, "damping 0.1;force face at=0,0,1 radius=0.3 amplitude=1 frequency=1", bulge);
+	ndo_acc_choice ch;
+	CHECK(ndo_acc_choose(f.a, 0, 0, 1, &ch) == NDO_EINVAL, "E = 0 accepted");
+	CHECK(ndo_acc_choose(f.a, 1, 0, 1, &ch) == NDO_EINVAL, "E = 1 (relative) accepted");
+	CHECK(ndo_acc_choose(f.a, NAN, 1, 1, &ch) == NDO_EINVAL, "E = NaN accepted");
+	/* Out of reach: the predicted space error of level 4 is far above
+	 * 1e-6 of the motion, and the level it would need is finer. */
+	CHECK(ndo_acc_choose(f.a, 1e-6, 0, 1, &ch) == NDO_OK && !ch.reachable &&
+	      ch.best_m > 1e-6 * ch.umax && ch.level_needed > 4,
+	      "1e-6: reachable %d, best %g m of %g m, level %d", ch.reachable, ch.best_m, ch.umax,
+	      ch.level_needed);
+	/* Reachable: a level at most the input's, a positive step. */
+	CHECK(ndo_acc_choose(f.a, 0.3, 0, 1, &ch) == NDO_OK && ch.reachable && ch.c.level <= 4 &&
+	      ch.c.h > 0 && ch.c.steps >= 1 && ch.time_m + ch.space_m <= 0.5 * 0.3 * ch.umax,
+	      "0.3: level %d, h %g, predicted %g of %g m", ch.c.level, ch.c.h, ch.time_m + ch.space_m,
+	      ch.umax);
+	unmake(&f);
+	fixture g;
+	make(&g, 4, "damping 0.1;force face faces=3,4 amplitude=1", bulge);
+	CHECK(ndo_acc_choose(g.a, 0.1, 0, 1, &ch) == NDO_EINVAL, "forces by face ids accepted");
+	unmake(&g);
+}
+
+int main(void)
+{
+	ck_program = "accuracy";
+	RUN(run_at_input_level_is_the_simulation);
+	RUN(rigid_motion_has_no_error);
+	RUN(time_estimate_follows_the_order);
+	RUN(bad_targets_are_refused);
+	return ck_failed_cases != 0;
+}

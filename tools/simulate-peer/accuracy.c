@@ -1,0 +1,209 @@
+/* accuracy.c — simulate-peer's error report and --accuracy (issue 18;
+ * docs/simulate-peer.md, "How accurate a run is", "Asking for an
+ * accuracy").  The estimates and the choice are the library's
+ * (ndo/accuracy.h); this file reads the option, prints, and stores a run
+ * made at a coarser level at the input's level. */
+#include "simulate.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+void accuracy_option(run *r, const char *arg)
+{
+	char *end;
+	errno = 0;
+	double e = strtod(arg, &end);
+	int metres = end != arg && strcmp(end, "m") == 0;
+	if (end == arg || (*end && !metres) || errno || !isfinite(e))
+		ndo_usage_error("--accuracy: '%s' is not a number (E, a share of the largest "
+		                "displacement in (0, 1), or Em, metres)", arg);
+	if (metres ? !(e > 0 && e <= 1e6) : !(e > 0 && e < 1))
+		ndo_usage_error("--accuracy: %s is outside %s", arg,
+		                metres ? "(0, 1e6] metres" : "(0, 1) (a share of the largest displacement)");
+	r->accuracy = e;
+	r->accuracy_metres = metres;
+}
+
+/* The run's initial state as the accuracy machinery's scene. */
+static void make_acc(run *r)
+{
+	ndo_grid *g;
+	if (ndo_grid_create(r->g->level, &g) || ndo_sim_store(r->sim, g))
+		ndo_die("%s", ndo_errdetail());
+	const uint8_t *pin = r->pins;
+	ndo_channel *pc = ndo_grid_find(r->g, NDO_CH_PIN);
+	if (!pin && pc && pc->type == NDO_U8 && pc->comps == 1)
+		pin = pc->data;
+	if (ndo_acc_create(&r->sc, g->level, ndo_grid_find(g, NDO_CH_POSITION)->data,
+	                   ndo_grid_find(g, NDO_CH_VELOCITY)->data,
+	                   ndo_grid_find(g, NDO_CH_REST)->data, pin, ndo_sim_time(r->sim), &r->acc))
+		ndo_die("%s", ndo_errdetail());
+	ndo_grid_destroy(g);
+}
+
+void accuracy_plan(run *r)
+{
+	/* Nobody reads an estimate of a quiet run without a log: skip its cost. */
+	if (!r->accuracy && (r->info || (r->quiet && !r->sc.log)))
+		return;
+	make_acc(r);
+	if (!r->accuracy)
+		return;
+	int n = r->g->level;
+	double T = r->dt * (double)r->steps;
+	ndo_acc_choice ch;
+	int rc = ndo_acc_choose(r->acc, r->accuracy, r->accuracy_metres, T, &ch);
+	const char *want = r->accuracy_metres ? " m" : " of the largest displacement";
+	if (rc == NDO_EINVAL) {
+		fprintf(stderr, "%s: --accuracy: %s\n", ndo_progname, ndo_errdetail());
+		exit(NDO_EXIT_USAGE);
+	}
+	if (rc)
+		ndo_die("--accuracy: %s", ndo_errdetail());
+	if (!ch.reachable) {
+		char need[64];
+		if (ch.level_needed > NDO_MAX_LEVEL)
+			snprintf(need, sizeof need, "a level finer than %d, the finest grid", NDO_MAX_LEVEL);
+		else
+			snprintf(need, sizeof need, "level %d", ch.level_needed);
+		fprintf(stderr, "%s: --accuracy %g%s: out of reach at level %d: its space error alone is "
+		        "about %.3g m (%.3g of the largest displacement, %.3g m; estimated from levels "
+		        "%d and %d); this input allows %.2g%s at best, and %s would be needed\n",
+		        ndo_progname, r->accuracy, want, n, ch.best_m, ch.best_m / ch.umax, ch.umax,
+		        ch.pilot_top - 1, ch.pilot_top,
+		        r->accuracy_metres ? ch.best_m : ch.best_m / ch.umax, r->accuracy_metres ? " m" : "",
+		        need);
+		ndo_close_stdout();
+		exit(NDO_EXIT_USAGE);
+	}
+	if (!r->quiet) {
+		double pred = ch.time_m + ch.space_m;
+		fprintf(stderr, "%s: --accuracy %g%s = %.3g m (largest displacement %.3g m, predicted): "
+		        "level %d, %s, step %.4g s, %lld steps; predicted error %.3g m (%.3g: time %.3g m, "
+		        "space %.3g m), cost %.3g node-evaluations, about %.3g s CPU; choosing took %.3g "
+		        "s (pilots at levels up to %d)\n",
+		        ndo_progname, r->accuracy, want, ch.target_m, ch.umax, ch.c.level,
+		        ndo_method_names[ch.c.method], ch.c.h, (long long)ch.c.steps, pred,
+		        pred / ch.umax, ch.time_m, ch.space_m, ch.node_evals, ch.cpu, ch.pilot_cpu,
+		        ch.pilot_top);
+		if (ch.c.level < n)
+			fprintf(stderr, "%s: level %d is subdivided to the input's level %d for the output "
+			        "and the frames\n", ndo_progname, ch.c.level, n);
+	}
+	if (r->info)
+		return;
+	ndo_sim *s;
+	if (ndo_acc_sim(r->acc, ch.c.level, ch.c.method, ch.c.tol, &s))
+		ndo_die("%s", ndo_errdetail());
+	ndo_sim_set_time(s, ndo_sim_time(r->sim), ndo_sim_step_count(r->sim));
+	ndo_sim_destroy(r->sim);
+	r->sim = s;
+	if (ndo_sim_critical(r->sim, &r->crit))
+		ndo_die("critical step: %s", ndo_errdetail());
+	r->dt = ch.c.h;
+	r->steps = ch.c.steps;
+}
+
+void accuracy_sample(run *r, int64_t k)
+{
+	int64_t every = r->steps / 64 > 1 ? r->steps / 64 : 1;
+	if (r->acc && (k % every == 0 || k == r->steps))
+		ndo_acc_sample(r->acc, r->sim);
+}
+
+/* The estimate's line, printed after the run's summary (accuracy_print). */
+static char report[1024];
+
+void accuracy_print(void)
+{
+	fputs(report, stderr);
+	report[0] = '\0';
+}
+
+void accuracy_report(run *r)
+{
+	if (!r->acc)
+		return;
+	int level = ndo_sim_level(r->sim);
+	ndo_acc_config c = {level, ndo_sim_method(r->sim), r->dt, r->steps, r->sc.sim.tol};
+	size_t bytes = 3 * sizeof(double) * (size_t)((2 << level) + 1) * (size_t)((1 << level) + 1);
+	double *u = r->coarse = malloc(bytes);
+	if (!u)
+		ndo_die("out of memory");
+	ndo_acc_displacement(r->acc, r->sim, u);
+	double umax = ndo_acc_sampled(r->acc);
+	ndo_acc_estimate e;
+	if (ndo_acc_estimate_run(r->acc, &c, u, umax, &e))
+		ndo_die("error estimate: %s", ndo_errdetail());
+	free(u);
+	r->coarse = NULL;
+	double rel = umax > 0 ? 1 / umax : NAN, tot = e.time_m + e.space_m;
+	if (!r->quiet) {
+		if (isnan(e.time_m) && isnan(e.space_m))
+			snprintf(report, sizeof report, "%s: error estimate: none (%s)\n", ndo_progname, e.why);
+		else
+			snprintf(report, sizeof report, "%s: error estimate: %.3g m (%.3g of the largest "
+			         "displacement, %.4g m): time %.3g m (%.3g; %s), space %.3g m (%.3g; against "
+			         "level %d, %g per level)%s%s; estimating took %.3g s CPU\n",
+			         ndo_progname, tot, tot * rel, umax, e.time_m, e.time_m * rel, e.time_how,
+			         e.space_m, e.space_m * rel, level - 1, e.rate,
+			         *e.why ? "; not estimated: " : "", e.why, e.cpu);
+	}
+	if (r->logging)
+		fprintf(r->log.f, "# error_estimate time_m=%.6g space_m=%.6g total_m=%.6g "
+		        "largest_displacement_m=%.6g time_relative=%.6g space_relative=%.6g "
+		        "total_relative=%.6g rate=%.4g\n",
+		        e.time_m, e.space_m, tot, umax, e.time_m * rel, e.space_m * rel, tot * rel,
+		        e.rate);
+}
+
+int accuracy_store(run *r, ndo_grid *g)
+{
+	int level = ndo_sim_level(r->sim);
+	if (level == g->level)
+		return ndo_sim_store(r->sim, g);
+	/* A coarser run: its displacements and velocities, subdivided, over
+	 * the input's rest shape (the input level's own geometry, not the
+	 * coarse shape's subdivision). */
+	ndo_grid *c;
+	int rc = ndo_grid_create(level, &c);
+	if (rc || (rc = ndo_sim_store(r->sim, c))) {
+		ndo_grid_destroy(c);
+		return rc;
+	}
+	double *x = ndo_grid_find(c, NDO_CH_POSITION)->data, *X = ndo_grid_find(c, NDO_CH_REST)->data,
+	       *v = ndo_grid_find(c, NDO_CH_VELOCITY)->data, *uf = NULL, *vf = NULL;
+	for (size_t q = 0; q < 3 * c->count; q++)
+		x[q] -= X[q];
+	ndo_channel *pc, *vc, *rc2;
+	if ((rc = ndo_acc_prolong(level, g->level, x, &uf)) ||
+	    (rc = ndo_acc_prolong(level, g->level, v, &vf)) ||
+	    (rc = ndo_grid_add(g, NDO_CH_VELOCITY, NDO_F64, 3, &vc)) ||
+	    (rc = ndo_grid_add(g, NDO_CH_REST, NDO_F64, 3, &rc2))) {
+		free(uf), free(vf);
+		ndo_grid_destroy(c);
+		return rc;
+	}
+	/* The input level's rest shape: the machinery keeps it. */
+	const double *rest = ndo_acc_rest(r->acc, g->level);
+	pc = ndo_grid_find(g, NDO_CH_POSITION);
+	memcpy(rc2->data, rest, 3 * g->count * sizeof *rest);
+	memcpy(vc->data, vf, 3 * g->count * sizeof *vf);
+	double *xf = pc->data;
+	for (size_t q = 0; q < 3 * g->count; q++)
+		xf[q] = rest[q] + uf[q];
+	g->time = ndo_sim_time(r->sim);
+	g->step = ndo_sim_step_count(r->sim);
+	free(uf), free(vf);
+	ndo_grid_destroy(c);
+	return NDO_OK;
+}
+
+void accuracy_free(run *r)
+{
+	ndo_acc_destroy(r->acc);
+	r->acc = NULL;
+}
