@@ -144,6 +144,9 @@ static void draw_one(state *st, rf_options *o, ndo_grid *g, const char *where, l
 	}
 	char out[PATH_MAX];
 	rf_output_name(o, number >= 0 ? number : o->start_number + st->frames, out, sizeof out);
+	/* a numbered sequence goes where its pattern says: make the directory */
+	if (o->numbered && ndo_mkdir_parents(out) != NDO_OK)
+		ndo_die("%s: %s", out, ndo_errdetail());
 	if (ndo_grid_add_history(g, ndo_cli_argc(), ndo_cli_argv()) != NDO_OK ||
 	    rf_writer_submit(st->writer, out, g->history) != NDO_OK)
 		ndo_die("%s", ndo_errdetail());
