@@ -56,16 +56,16 @@ remesh_ok() {
 }
 
 remesh_ok octahedron 3 octa.off
-remesh_ok icosahedron 4 "$M/icosahedron.off"
+remesh_ok icosahedron 3 "$M/icosahedron.off" --rotations 8
 # cow.off has coincident vertices that are distinct: merging by position
 # would break it; kept apart it is a closed genus-0 surface
-remesh_ok cow-coincident-vertices 4 "$M/cow.off"
+remesh_ok cow-coincident-vertices 2 "$M/cow.off" --rotations 4
 remesh_ok hand 5 "$M/hand.off"
-remesh_ok oblong-gnomonic 4 "$M/oblong.off" --map gnomonic
-remesh_ok part-spring-domain 4 "$M/part.off" --map spring
-remesh_ok blobby-no-rotation 4 "$M/blobby.off" --no-rotation
+remesh_ok oblong-gnomonic 3 "$M/oblong.off" --map gnomonic --rotations 8
+remesh_ok part-spring-domain 3 "$M/part.off" --map spring --rotations 8
+remesh_ok oblong-no-rotation 3 "$M/oblong.off" --no-rotation
 # the plain objective (L2 stretch alone, no importance) on the equal-area map
-remesh_ok cow-plain-stretch 4 "$M/cow.off" --map equal-area --conformal 0 --importance 0 --rotations 4
+remesh_ok icosahedron-plain-stretch 3 "$M/icosahedron.off" --map equal-area --conformal 0 --importance 0 --rotations 4
 ALLOW_FLIPS=1 remesh_ok octahedron-spring-embedder 3 octa.off --param spring --spring-steps 50
 
 # accuracy on a real mesh: hand (1197 vertices) at level 5 is within 3%
@@ -94,15 +94,13 @@ remesh_ok hand-level3 3 "$M/hand.off"
 h3=$(json hand-level3.json hausdorff_rel)
 if below "$h" "$h3"; then pass "hand-finer-is-closer"
 else fail "hand-finer-is-closer" "level 5 Hausdorff $h not below level 3's $h3"; fi
-# quality on a real mesh at level 6: hand below Praun-Hoppe's figures
-# (Hausdorff 1.082% of the diagonal, 10 fold-overs; we measure 0.60%, 2)
-remesh_ok hand-level6 6 "$M/hand.off"
-h6=$(json hand-level6.json hausdorff_rel); f6=$(json hand-level6.json flipped)
-if below "$h6" 0.01082 && [ "$f6" -le 10 ]; then pass "hand-level6-beats-praun-hoppe"
-else fail "hand-level6-beats-praun-hoppe" "Hausdorff $h6 (want < 0.01082), fold-overs $f6 (want <= 10)"; fi
+# (the comparison with Praun-Hoppe at levels 6 and 7 is the remesh
+# benchmark's, tests/bench/remesh.sh and docs/remesh.md: under the
+# sanitizers a level-6 quality measurement alone took a minute)
 # the rotation search: its estimate never above the unrotated domain's, and
-# within a factor 1.5 of the Hausdorff distance CGAL measures
-eb=$(json hand-level6.json estimated_hausdorff_rel_before); ea=$(json hand-level6.json estimated_hausdorff_rel)
+# within a factor 1.5 of the Hausdorff distance CGAL measures (level 5)
+h6=$h
+eb=$(json hand.json estimated_hausdorff_rel_before); ea=$(json hand.json estimated_hausdorff_rel)
 if ! below "$eb" "$ea" && below "$ea" "$(awk -v h="$h6" 'BEGIN { print 1.5 * h }')" \
 	&& below "$h6" "$(awk -v e="$ea" 'BEGIN { print 1.5 * e }')"; then pass "rotation-estimate"
 else fail "rotation-estimate" "estimated $eb -> $ea, measured $h6"; fi
