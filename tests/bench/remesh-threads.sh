@@ -23,7 +23,7 @@ in=build/bench/cgal-data/data/meshes/$MESH.off
 median() { sort -g | awk '{ a[NR] = $1 } END { print (NR % 2) ? a[(NR + 1) / 2] : (a[NR / 2] + a[NR / 2 + 1]) / 2 }'; }
 pids=()
 stop_load() { for p in "${pids[@]}"; do kill "$p" 2>/dev/null || true; done; pids=(); }
-trap stop_load EXIT
+trap 'stop_load; rm -f "$out.tmp"' EXIT
 {
 	echo "# remesh: 1 and 2 threads, quiet and loaded"
 	echo
