@@ -139,9 +139,14 @@ report: deps
 	tests/bench/run
 	docs/render-frame/figures.sh
 
+# The demo builds quietly (the compiler's lines go to build/demo-build.log,
+# shown only when the build fails) and then shows its own stages.
 demo: deps
-	$(MAKE) all
-	samples/demo.sh
+	@mkdir -p build
+	@echo "demo: building the tools (log: build/demo-build.log)"
+	@$(MAKE) -j$(shell nproc) all >build/demo-build.log 2>&1 || \
+	  { tail -n 20 build/demo-build.log; echo "demo: the build failed: build/demo-build.log"; exit 1; }
+	@samples/demo.sh
 
 install: all
 	install -d $(DESTDIR)$(PREFIX)/bin $(DESTDIR)$(PREFIX)/lib/pkgconfig \

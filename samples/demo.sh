@@ -42,7 +42,9 @@ stage "simulate bunny.scene on 2 peers over LCM" "$t"
 grep -h 'done (run complete)\|network:' "$out/peers/peer-0.log" | sed 's/^simulate-peer: /demo: owner: /'
 
 t=$(now)
-render-frame -k 1 --msaa 4 --up 0,1,0 --azimuth 60 --elevation 15 \
+# the bunny (y up) from its front left, face and ears in view (azimuth 60
+# showed its back)
+render-frame -k 1 --msaa 4 --up 0,1,0 --azimuth 240 --elevation 15 \
 	-o "$out/png/f%04d.png" "$out"/peers/frames/*.tgrid
 stage "render $(ls "$out/png" | wc -l) frames at level $((L + 2)), coloured by peer" "$t"
 

@@ -315,6 +315,25 @@ int ndo_grid_load(const char *path, ndo_grid **out)
 	int rc = ndo_grid_read(f, out);
 	if (rc == NDO_EEOF)
 		rc = ndo__fail(NDO_ETRUNC, "empty input: no grid");
+	if (rc == NDO_OK) {
+		/* One grid, and nothing after it: a second grid or trailing bytes
+		 * would otherwise be ignored without a word. */
+		unsigned char more[8];
+		size_t n = fread(more, 1, sizeof more, f);
+		if (n > 0) {
+			rc = n == sizeof more && memcmp(more, magic, 8) == 0
+			         ? ndo__fail(NDO_EFORMAT, "a second grid follows the first; this "
+			                                  "tool reads one")
+			         : ndo__fail(NDO_EFORMAT, "bytes follow the end of the grid "
+			                                  "(trailing garbage)");
+			ndo_grid_destroy(*out);
+			*out = NULL;
+		} else if (ferror(f)) {
+			rc = ndo__fail(NDO_EIO, "read error: %s", strerror(errno));
+			ndo_grid_destroy(*out);
+			*out = NULL;
+		}
+	}
 	if (f != stdin)
 		fclose(f);
 	return rc;

@@ -14,6 +14,71 @@ int ndo_is_stdio(const char *path)
 	return path == NULL || strcmp(path, "-") == 0;
 }
 
+/* Temporary files not yet committed or aborted.  A tool that exits on an
+ * error (ndo_die(), a divergence, a signal handled by exit()) before it
+ * commits must not leave "run.csv.tmp.XXXXXX" behind: the exit handler
+ * removes whatever is still pending.  A tool holds a few outputs at once. */
+enum { PENDING_MAX = 64 };
+static char *pending[PENDING_MAX];
+
+static void remove_pending(void)
+{
+	for (int k = 0; k < PENDING_MAX; k++)
+		if (pending[k]) {
+			unlink(pending[k]);
+			pending[k] = NULL;
+		}
+}
+
+static void track(const char *tmp, int on)
+{
+	static int registered;
+	if (on && !registered)
+		registered = atexit(remove_pending) == 0;
+	for (int k = 0; k < PENDING_MAX; k++)
+		if (on ? pending[k] == NULL : pending[k] == tmp) {
+			pending[k] = on ? (char *)tmp : NULL;
+			return;
+		}
+}
+
+int ndo_mkdir_parents(const char *path)
+{
+	const char *slash = strrchr(path, '/');
+	if (!slash || slash == path)
+		return NDO_OK;
+	size_t len = (size_t)(slash - path);
+	char *dir = malloc(len + 1);
+	if (!dir)
+		return ndo__fail(NDO_ENOMEM, "out of memory");
+	memcpy(dir, path, len);
+	dir[len] = '\0';
+	for (char *p = dir + 1;; p++) {
+		if (*p != '/' && *p != '\0')
+			continue;
+		char c = *p;
+		*p = '\0';
+		struct stat st;
+		if (mkdir(dir, 0777) != 0 && errno != EEXIST) {
+			int e = errno;
+			int rc = ndo__fail(NDO_EIO, "cannot create directory %s: %s", dir, strerror(e));
+			free(dir);
+			return rc;
+		}
+		if (stat(dir, &st) != 0 || !S_ISDIR(st.st_mode)) {
+			int rc = ndo__fail(NDO_EIO, "cannot create directory %s: %s", dir,
+			                   strerror(ENOTDIR));
+			free(dir);
+			return rc;
+		}
+		*p = c;
+		if (c == '\0')
+			break;
+	}
+	free(dir);
+	return NDO_OK;
+}
+
 int ndo_out_open(const char *path, ndo_outfile *o)
 {
 	memset(o, 0, sizeof *o);
@@ -64,6 +129,7 @@ int ndo_out_open(const char *path, ndo_outfile *o)
 		o->tmp = o->path = NULL;
 		return ndo__fail(NDO_ENOMEM, "out of memory");
 	}
+	track(o->tmp, 1);
 	return NDO_OK;
 }
 
@@ -77,6 +143,7 @@ int ndo_out_commit(ndo_outfile *o)
 		rc = ndo__fail(NDO_EIO, "write error on %s: %s", name, strerror(errno));
 	o->f = NULL;
 	if (o->tmp) {
+		track(o->tmp, 0);
 		if (rc == NDO_OK && rename(o->tmp, o->path) != 0)
 			rc = ndo__fail(NDO_EIO, "cannot rename onto %s: %s", o->path,
 			               strerror(errno));
@@ -93,8 +160,10 @@ void ndo_out_abort(ndo_outfile *o)
 {
 	if (o->f && o->f != stdout)
 		fclose(o->f);
-	if (o->tmp)
+	if (o->tmp) {
+		track(o->tmp, 0);
 		unlink(o->tmp);
+	}
 	free(o->tmp);
 	free(o->path);
 	memset(o, 0, sizeof *o);

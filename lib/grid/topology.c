@@ -2,6 +2,7 @@
  * triangles and distinct vertices (ndo/topology.h, DESIGN.md). */
 #include "ndo/topology.h"
 
+#include <stdlib.h>
 #include <string.h>
 
 const int ndo_dirs[6][2] = {{1, 0}, {0, 1}, {-1, 1}, {-1, 0}, {0, -1}, {1, -1}};
@@ -128,6 +129,34 @@ void ndo_sync(int level, void *data, size_t node_bytes)
 	for (int j = 1; j < n; j++)
 		COPY(ndo_node(w, 2 * n, j), ndo_node(w, 0, j));
 #undef COPY
+}
+
+size_t ndo_grid_unsynced(const ndo_grid *g, const char **channel, int *i, int *j)
+{
+	int n = 1 << g->level, w = 2 * n + 1;
+	size_t bad = 0;
+	size_t npairs = ndo_duplicate_count(g->level);
+	size_t *pairs = malloc(2 * npairs * sizeof *pairs);
+	if (!pairs)
+		return 0;
+	ndo_duplicates(g->level, pairs);
+	for (int c = 0; c < g->nchannels; c++) {
+		size_t nb = (size_t)g->ch[c].comps * ndo_type_size(g->ch[c].type);
+		const unsigned char *d = g->ch[c].data;
+		for (size_t k = 0; k < npairs; k++)
+			if (memcmp(d + pairs[2 * k] * nb, d + pairs[2 * k + 1] * nb, nb) != 0) {
+				if (!bad++) {
+					if (channel)
+						*channel = g->ch[c].name;
+					if (i)
+						*i = (int)(pairs[2 * k] % (size_t)w);
+					if (j)
+						*j = (int)(pairs[2 * k] / (size_t)w);
+				}
+			}
+	}
+	free(pairs);
+	return bad;
 }
 
 void ndo_grid_sync(ndo_grid *g)

@@ -50,6 +50,36 @@ void ndo__implicit_free(ndo_sim *s)
 	s->imp = NULL;
 }
 
+/* Keep rounding out of the rigid modes.  With every node integrated and
+ * no penalty springs, the rows of the system sum to the momentum equation
+ * without K (1ᵀK = 0, K symmetric): (1 + c h γ) P' = Σ rhs without its K
+ * terms, c = 1 (backward Euler) or ½ (trapezoid), γ the same at every
+ * node.  In floating point the K terms do not sum to zero: at σ = 1e12
+ * their rounding, ~ε σ |u| per node, moved the centre of mass of a
+ * trapezoid run 2.8 m in 500 steps of 1 s.  So the computed velocities
+ * take the uniform shift that gives P' its exact value (per axis). */
+static void rigid_exact(const ndo_sim *s, const ndo__implicit *im, double h, int trap,
+                        const double *df, double *xv)
+{
+	const size_t cnt = s->count;
+	double g = s->gam[im->nodes[0]], c = trap ? 0.5 : 1;
+	for (int k = 0; k < 3; k++) {
+		double want = 0, got = 0, msum = 0;
+		for (size_t r = 0; r < im->na; r++) {
+			size_t p = (size_t)im->nodes[r], q = (size_t)k * cnt + p;
+			double m = s->mass[p], v = s->v[q];
+			/* s->f holds f(t + h) when there are forces, df = f(t+h) − f(t) */
+			double f1 = s->f ? s->f[q] : 0, f0 = df ? f1 - df[q] : f1;
+			want += trap ? m * v - 0.5 * h * m * g * v + 0.5 * h * (f0 + f1) : m * v + h * f1;
+			got += m * xv[(size_t)k * im->na + r];
+			msum += m;
+		}
+		double shift = (want / (1 + c * h * g) - got) / msum;
+		for (size_t r = 0; r < im->na; r++)
+			xv[(size_t)k * im->na + r] += shift;
+	}
+}
+
 void ndo__implicit_invalidate(ndo_sim *s, int pattern)
 {
 	if (!s->imp)
@@ -268,7 +298,9 @@ int ndo__implicit_step(ndo_sim *s, double h)
 	cholmod_free_dense(&B, &im->cm);
 	if (!X)
 		return ndo__fail(NDO_ENOMEM, "CHOLMOD could not solve (status %d)", im->cm.status);
-	const double *xv = X->x;
+	double *xv = X->x;
+	if (!s->any_held && s->npen == 0)
+		rigid_exact(s, im, h, trap, df, xv);
 	for (size_t r = 0; r < im->na; r++) {
 		size_t p = (size_t)im->nodes[r];
 		for (int c = 0; c < 3; c++) {

@@ -443,6 +443,21 @@ int ndo_sim_create(int level, const double *x, const double *v, const double *re
 				                                                          : "velocity");
 				goto fail;
 			}
+			/* Areas, energies and K u square the coordinates and multiply
+			 * them by σ, ρ (≤ 1e12): beyond 1e100 they overflow, and a
+			 * run would end as "zero area" or "diverged at step 0". */
+			double big = fmax(fabs(xi), fmax(fabs(Xi), fabs(vi)));
+			if (big > NDO_SIM_MAX_COORD) {
+				rc = ndo__fail(NDO_ERANGE, "node (%d, %d): %s %.3g %s is beyond ±%g, where the "
+				               "membrane's areas and energies overflow",
+				               (int)(c % (size_t)s->w), (int)(c / (size_t)s->w),
+				               fabs(xi) == big ? "position" : fabs(Xi) == big ? "rest position"
+				                                                             : "velocity",
+				               fabs(xi) == big ? xi : fabs(Xi) == big ? Xi : vi,
+				               fabs(vi) == big && fabs(xi) != big && fabs(Xi) != big ? "m/s" : "m",
+				               NDO_SIM_MAX_COORD);
+				goto fail;
+			}
 			s->X[(size_t)d * cnt + q] = Xi;
 			s->u[(size_t)d * cnt + q] = xi - Xi;
 			s->v[(size_t)d * cnt + q] = vi;
@@ -1071,6 +1086,7 @@ static int step_rk4(ndo_sim *s, double h)
 /* Symplectic Euler: v' = v + h a(u, v), u' = u + h v'. */
 static int step_symplectic(ndo_sim *s, double h)
 {
+	s->h_mod = h; /* the divergence test bounds the modified energy (accel.c) */
 	int rc = first_stage(s, s->ka[0]);
 	if (rc)
 		return rc;

@@ -98,6 +98,8 @@ struct ndo_sim {
 
 	/* Divergence: the reference energy and the input work. */
 	int e0_set;
+	double h_mod;          /* symplectic Euler: the step of its modified energy
+	                        * (0 before the first step: the plain energy) */
 	double e0, work, work_abs; /* input work up to the last step's start */
 	double work_abs_base;      /* work_abs when the energy bound last restarted
 	                              (ndo_sim_set_active) */
@@ -126,6 +128,8 @@ typedef struct ndo__diag {
 	double ke2;   /* Σ m |v|² */
 	double power; /* Σ f·v */
 	double umax2; /* max |u|² */
+	double vku;   /* Σ v·Ku (symplectic Euler's modified energy; the explicit
+	               * kernels of accel.c fill it, rk4's pass leaves it 0) */
 } ndo__diag;
 
 /* The chunks' diagnostics (cdiag[0 .. nichunk]), added in chunk order. */

@@ -196,29 +196,53 @@ static uint64_t splitmix(uint64_t *x)
 	return z ^ (z >> 31);
 }
 
-/* y = M⁻¹(K + P) x on the active nodes, 0 on the held ones (the held
+/* The power iteration runs scale-free: with the masses divided by the
+ * largest, m̂ = m / m_ref, and every iterate scaled to a largest entry of
+ * 1 before its norm is taken, no product leaves the range of doubles at
+ * any density or stiffness the tools accept (ρ = 1e-160 made x ~ 1e81
+ * and its square overflow; σ = 1e-200 made |y|² ~ 1e-400 underflow).
+ * λ̂ = λ_max(M̂⁻¹K) = m_ref · λ_max(M⁻¹K), and ω_max = √λ̂ / √m_ref. */
+typedef struct scaled {
+	ndo_sim *s;
+	double *mhat; /* m / m_ref per stored node */
+} scaled;
+
+/* y = M̂⁻¹(K + P) x on the active nodes, 0 on the held ones (the held
  * nodes are fixed: Dirichlet conditions). */
-static void apply_mk(ndo_sim *s, const double *x, double *y)
+static void apply_mk(const scaled *sc, const double *x, double *y)
 {
+	ndo_sim *s = sc->s;
 	ndo_stencil_apply(&s->st, x, y);
 	for (size_t p = 0; p < s->count; p++)
-		y[p] = s->active[p] ? y[p] * s->minv[p] : 0;
+		y[p] = s->active[p] ? y[p] / sc->mhat[p] : 0;
 	for (size_t k = 0; k < s->npen; k++) {
 		size_t p = (size_t)s->pen[k];
 		if (s->active[p])
-			y[p] += s->alpha * s->minv[p] * x[p];
+			y[p] += s->alpha / sc->mhat[p] * x[p];
 	}
 	ndo_sync(s->level, y, sizeof *y);
 }
 
-/* ‖x‖²_M over the canonical nodes. */
-static double mnorm2(const ndo_sim *s, const double *x, const double *y)
+/* ‖x‖²_M̂ over the canonical nodes. */
+static double mnorm2(const scaled *sc, const double *x, const double *y)
 {
 	double sum = 0;
-	for (size_t p = 0; p < s->count; p++)
-		if (s->canon[p] == (int32_t)p)
-			sum += s->mass[p] * x[p] * y[p];
+	for (size_t p = 0; p < sc->s->count; p++)
+		if (sc->s->canon[p] == (int32_t)p)
+			sum += sc->mhat[p] * x[p] * y[p];
 	return sum;
+}
+
+/* Divide x by its largest magnitude (when it has one) and return that. */
+static double unit_max(double *x, size_t n)
+{
+	double m = 0;
+	for (size_t p = 0; p < n; p++)
+		m = fmax(m, fabs(x[p]));
+	if (m > 0 && isfinite(m))
+		for (size_t p = 0; p < n; p++)
+			x[p] /= m;
+	return m;
 }
 
 int ndo_sim_critical(ndo_sim *s, ndo_critical *c)
@@ -226,11 +250,18 @@ int ndo_sim_critical(ndo_sim *s, ndo_critical *c)
 	ndo__clear_error();
 	memset(c, 0, sizeof *c);
 	size_t cnt = s->count;
-	double *x = malloc(cnt * sizeof *x), *y = malloc(cnt * sizeof *y);
-	if (!x || !y) {
-		free(x), free(y);
+	double *x = malloc(cnt * sizeof *x), *y = malloc(cnt * sizeof *y),
+	       *mhat = malloc(cnt * sizeof *mhat);
+	if (!x || !y || !mhat) {
+		free(x), free(y), free(mhat);
 		return ndo__fail(NDO_ENOMEM, "out of memory for the critical step");
 	}
+	double mref = 0;
+	for (size_t p = 0; p < cnt; p++)
+		mref = fmax(mref, s->mass[p]);
+	for (size_t p = 0; p < cnt; p++)
+		mhat[p] = s->mass[p] / mref;
+	scaled sc = {s, mhat};
 	/* A seeded random start has a component along the top mode almost
 	 * surely; alternating signs favour the high frequencies from the
 	 * first iteration on. */
@@ -241,10 +272,10 @@ int ndo_sim_critical(ndo_sim *s, ndo_critical *c)
 		x[p] = s->active[p] ? (0.5 + r) * (((i + j) & 1) ? 1 : -1) : 0;
 	}
 	ndo_sync(s->level, x, sizeof *x);
-	double nx = sqrt(mnorm2(s, x, x));
+	double nx = sqrt(mnorm2(&sc, x, x));
 	if (!(nx > 0)) {
 		/* Nothing is integrated: no constraint on the step. */
-		free(x), free(y);
+		free(x), free(y), free(mhat);
 		c->h_crit = INFINITY;
 		c->bound = NDO_BOUND_NONE;
 		return NDO_OK;
@@ -255,11 +286,13 @@ int ndo_sim_critical(ndo_sim *s, ndo_critical *c)
 	int it;
 	const int max_it = 20000;
 	for (it = 1; it <= max_it; it++) {
-		apply_mk(s, x, y);
-		/* Rayleigh quotient in the M inner product (M⁻¹K is self-adjoint
-		 * there): xᵀK x / xᵀM x with ‖x‖_M = 1. */
-		lambda = mnorm2(s, x, y);
-		double ny = sqrt(mnorm2(s, y, y));
+		apply_mk(&sc, x, y);
+		/* Rayleigh quotient in the M̂ inner product (M̂⁻¹K is self-adjoint
+		 * there): xᵀK x / xᵀM̂ x with ‖x‖_M̂ = 1. */
+		lambda = mnorm2(&sc, x, y);
+		if (!(unit_max(y, cnt) > 0))
+			break;
+		double ny = sqrt(mnorm2(&sc, y, y));
 		if (!(ny > 0))
 			break;
 		for (size_t p = 0; p < cnt; p++)
@@ -277,12 +310,12 @@ int ndo_sim_critical(ndo_sim *s, ndo_critical *c)
 	double num = 0, den = 0;
 	for (size_t p = 0; p < cnt; p++)
 		if (s->canon[p] == (int32_t)p && s->active[p]) {
-			num += s->mass[p] * s->gam[p] * x[p] * x[p];
-			den += s->mass[p] * x[p] * x[p];
+			num += mhat[p] * s->gam[p] * x[p] * x[p];
+			den += mhat[p] * x[p] * x[p];
 		}
-	free(x), free(y);
-	c->lambda_max = lambda;
-	c->omega_max = sqrt(lambda);
+	free(x), free(y), free(mhat);
+	c->lambda_max = lambda / mref;
+	c->omega_max = sqrt(lambda) / sqrt(mref);
 	c->gamma = den > 0 ? num / den : 0;
 	c->c_imag = ndo_stability_interval(s->p.method, 1);
 	c->c_real = ndo_stability_interval(s->p.method, 0);

@@ -20,4 +20,11 @@ for bin in "$NDO_BIN"/*; do
 	else
 		fail "$t manual page" "tools/$t.1 missing or without EXIT STATUS"
 	fi
+	# the manual lists every option --help lists (man pages spell - as \-)
+	missing=
+	for o in $(grep -oE -- '--[a-z][a-z0-9-]*' help.txt | sort -u); do
+		grep -qE -- "$(sed 's/-/\\\\?-/g' <<<"$o")([^a-z0-9-]|$)" "$NDO_ROOT/tools/$t.1" 2>/dev/null || missing="$missing $o"
+	done
+	if [ -z "$missing" ]; then pass "$t manual page lists every option of --help"
+	else fail "$t manual page lists every option of --help" "missing:$missing"; fi
 done

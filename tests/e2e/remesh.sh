@@ -1,14 +1,20 @@
 #!/usr/bin/env bash
-# remesh: closed genus-0 meshes to a grid, the expected failures, and the
-# --shape grids the other tools start from.
+# remesh on real meshes: accuracy (Hausdorff, stretch, the anisotropy
+# guard, the rotation search, a split copy of a coarse input).  The option
+# paths, expected failures and shapes are in remesh-paths.sh.
 . "$(dirname "$0")/lib.sh"
 
 # The libcgal-demo meshes, extracted at test time (never committed).
+# remesh.sh and remesh-paths.sh run side by side: one extracts, under a lock.
 DATA=$NDO_TMP/cgal-data
-if [ ! -d "$DATA/data/meshes" ]; then
-	mkdir -p "$DATA"
-	tar -xzf /usr/share/doc/libcgal-dev/data.tar.gz -C "$DATA" data/meshes 2>/dev/null
-fi
+mkdir -p "$NDO_TMP"
+(
+	flock 9
+	if [ ! -f "$DATA/done" ]; then
+		mkdir -p "$DATA"
+		tar -xzf /usr/share/doc/libcgal-dev/data.tar.gz -C "$DATA" data/meshes 2>/dev/null && : >"$DATA/done"
+	fi
+) 9>"$NDO_TMP/cgal-data.lock"
 M=$DATA/data/meshes
 [ -f "$M/cow.off" ] || { fail "libcgal-demo data" "no $M/cow.off (install libcgal-demo)"; exit 1; }
 
@@ -55,18 +61,7 @@ remesh_ok() {
 	fi
 }
 
-remesh_ok octahedron 3 octa.off
-remesh_ok icosahedron 4 "$M/icosahedron.off"
-# cow.off has coincident vertices that are distinct: merging by position
-# would break it; kept apart it is a closed genus-0 surface
-remesh_ok cow-coincident-vertices 4 "$M/cow.off"
 remesh_ok hand 5 "$M/hand.off"
-remesh_ok oblong-gnomonic 4 "$M/oblong.off" --map gnomonic
-remesh_ok part-spring-domain 4 "$M/part.off" --map spring
-remesh_ok blobby-no-rotation 4 "$M/blobby.off" --no-rotation
-# the plain objective (L2 stretch alone, no importance) on the equal-area map
-remesh_ok cow-plain-stretch 4 "$M/cow.off" --map equal-area --conformal 0 --importance 0 --rotations 4
-ALLOW_FLIPS=1 remesh_ok octahedron-spring-embedder 3 octa.off --param spring --spring-steps 50
 
 # accuracy on a real mesh: hand (1197 vertices) at level 5 is within 3%
 # of the diagonal (Hausdorff; Praun-Hoppe's level 6 is 1.1%) and keeps
@@ -94,15 +89,13 @@ remesh_ok hand-level3 3 "$M/hand.off"
 h3=$(json hand-level3.json hausdorff_rel)
 if below "$h" "$h3"; then pass "hand-finer-is-closer"
 else fail "hand-finer-is-closer" "level 5 Hausdorff $h not below level 3's $h3"; fi
-# quality on a real mesh at level 6: hand below Praun-Hoppe's figures
-# (Hausdorff 1.082% of the diagonal, 10 fold-overs; we measure 0.60%, 2)
-remesh_ok hand-level6 6 "$M/hand.off"
-h6=$(json hand-level6.json hausdorff_rel); f6=$(json hand-level6.json flipped)
-if below "$h6" 0.01082 && [ "$f6" -le 10 ]; then pass "hand-level6-beats-praun-hoppe"
-else fail "hand-level6-beats-praun-hoppe" "Hausdorff $h6 (want < 0.01082), fold-overs $f6 (want <= 10)"; fi
+# (the comparison with Praun-Hoppe at levels 6 and 7 is the remesh
+# benchmark's, tests/bench/remesh.sh and docs/remesh.md: under the
+# sanitizers a level-6 quality measurement alone took a minute)
 # the rotation search: its estimate never above the unrotated domain's, and
-# within a factor 1.5 of the Hausdorff distance CGAL measures
-eb=$(json hand-level6.json estimated_hausdorff_rel_before); ea=$(json hand-level6.json estimated_hausdorff_rel)
+# within a factor 1.5 of the Hausdorff distance CGAL measures (level 5)
+h6=$h
+eb=$(json hand.json estimated_hausdorff_rel_before); ea=$(json hand.json estimated_hausdorff_rel)
 if ! below "$eb" "$ea" && below "$ea" "$(awk -v h="$h6" 'BEGIN { print 1.5 * h }')" \
 	&& below "$h6" "$(awk -v e="$ea" 'BEGIN { print 1.5 * e }')"; then pass "rotation-estimate"
 else fail "rotation-estimate" "estimated $eb -> $ea, measured $h6"; fi
@@ -115,60 +108,3 @@ if [ "$(json cactus-subdivided.json subdivided)" = 1 ] && [ "$(json cactus-subdi
 	&& below "$hc" 0.02; then pass "cactus-subdivided-close"
 else fail "cactus-subdivided-close" "subdivided $(json cactus-subdivided.json subdivided), Hausdorff $hc"; fi
 
-# inward orientation is fixed and said
-if remesh inward.off -l 2 -o inward.tgrid --json=inward.json 2>inward.err \
-	&& grep -q "oriented inward; reversed" inward.err && [ "$(json inward.json flips)" = 0 ]; then
-	pass "inward-orientation-fixed"
-else fail "inward-orientation-fixed" "$(head -2 inward.err)"; fi
-
-# polygons are triangulated
-remesh_ok quads-triangulated 3 "$M/cube_quad.off"
-grep -q "triangulated 6 polygons into 12 triangles" quads-triangulated.err \
-	&& pass "quads-triangulated-said" || fail "quads-triangulated-said" "$(head -1 quads-triangulated.err)"
-
-# stdin in, stdout out, export by extension, pipes into the next tool
-if remesh -l 2 <octa.off >stdin.tgrid 2>stdin.err && [ -s stdin.tgrid ] \
-	&& subdivide -l 1 stdin.tgrid >sub.tgrid 2>>stdin.err; then pass "stdin-stdout-pipe"
-else fail "stdin-stdout-pipe" "$(head -2 stdin.err)"; fi
-check export-obj remesh octa.off -l 2 -o octa.obj
-if [ "$(grep -c '^v ' octa.obj)" -ge 34 ]; then pass "export-obj-vertices"
-else fail "export-obj-vertices" "$(grep -c '^v ' octa.obj) vertices"; fi
-check report remesh "$M/icosahedron.off" -l 3 -o /dev/null --report
-grep -q "Hausdorff" err.log && grep -q "stretch efficiency" err.log \
-	&& pass "report-readable" || fail "report-readable" "$(head -3 err.log)"
-remesh octa.off -l 2 -o o.tgrid --json=- >json.out 2>/dev/null
-[ "$(json json.out flips)" = 0 ] && pass "json-to-stdout" || fail "json-to-stdout" "$(head -c 200 json.out)"
-
-# expected failures: one line, exit 1, naming the defect
-expect_error elephant-genus3 1 'elephant\.off: genus 3 \(Euler characteristic -4\); remesh needs genus 0$' \
-	remesh "$M/elephant.off" -o out.tgrid
-expect_error femur-genus2 1 'femur\.off: genus 2 \(Euler characteristic -2\); remesh needs genus 0$' \
-	remesh "$M/femur.off" -o out.tgrid
-expect_error head-open 1 'head\.off: open surface: 58 boundary edges' remesh "$M/head.off" -o out.tgrid
-expect_error bones-components 1 'bones\.off: 26 connected components; remesh needs one' \
-	remesh "$M/bones.off" -o out.tgrid
-expect_error non-manifold 1 'nonmanifold\.off: not manifold: 1 edge shared by more than two faces' \
-	remesh nonmanifold.off -o out.tgrid
-expect_error empty 1 'empty\.off: empty file' remesh empty.off -o out.tgrid
-expect_error truncated 1 'truncated\.off: ' remesh truncated.off -o out.tgrid
-expect_error missing 1 'nosuch\.off: No such file' remesh nosuch.off -o out.tgrid
-[ ! -e out.tgrid ] && pass "no-output-on-failure" || fail "no-output-on-failure" "out.tgrid written"
-expect_error bad-param 2 "--param: 'x' is not hierarchical or spring" remesh octa.off --param x
-expect_error bad-sweeps 2 '--sweeps' remesh octa.off --sweeps 1000
-expect_error two-inputs 2 'one input mesh at a time' remesh octa.off octa.off
-expect_error spring-shape 2 '--map: spring is for meshes' remesh --shape sphere --map spring
-expect_error blend-shape 2 '--map: blend is for meshes' remesh --shape sphere --map blend
-expect_error bad-map 2 "--map: 'x' is not" remesh octa.off --map x
-expect_error bad-blend 2 '--blend' remesh octa.off --blend 1.5
-expect_error bad-conformal 2 '--conformal' remesh octa.off --conformal -1
-expect_error bad-importance 2 '--importance' remesh octa.off --importance 11
-expect_error bad-guard 2 '--guard: 0.5 is below 1' remesh octa.off --guard 0.5
-expect_error big-guard 2 '--guard' remesh octa.off --guard 1001
-expect_error bad-rotations 2 '--rotations' remesh octa.off --rotations 100001
-
-# the procedural shapes keep working, every option
-check shape-sphere remesh --shape sphere -l 3 -o sphere.tgrid
-check shape-ellipsoid remesh --shape ellipsoid --axes 2,1,0.5 -l 2 --map gnomonic -o e.tgrid
-check shape-wavy remesh --shape wavy --amplitude 0.1 --frequency 3 -l 2 -o w.obj
-check shape-tetra remesh --shape tetra -l 1 -o t.tgrid
-expect_error shape-unknown 2 '--shape' remesh --shape cube

@@ -50,8 +50,10 @@ expect_error "missing scene" 1 'nothere.scene: No such file' \
 	simulate-peer -s nothere.scene s3.tgrid -o o.tgrid
 expect_error "bad scene line" 1 "bad.scene:2: integrator: 'leapfrog' is not euler" \
 	simulate-peer -s bad.scene s3.tgrid -o o.tgrid
-expect_error "unwritable frames" 1 'nodir/f0.tgrid: cannot write' \
-	simulate-peer -q --frames 'nodir/f%d.tgrid' s3.tgrid -o o.tgrid
+: >notadir
+expect_error "unwritable frames (a file where their directory goes)" 1 \
+	'notadir/f0.tgrid: cannot create directory notadir: Not a directory' \
+	simulate-peer -q --frames 'notadir/f%d.tgrid' s3.tgrid -o o.tgrid
 expect_error "diverged" 3 '^simulate-peer: diverged at step [0-9]+ ' \
 	simulate-peer -q --dt 0.5 --perturb 1e-3 -n 100 s3.tgrid -o o.tgrid
 if [ -e o.tgrid ]; then fail "nothing written" "o.tgrid exists"; else pass "nothing written"; fi

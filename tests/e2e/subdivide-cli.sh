@@ -78,3 +78,36 @@ expect_error "remesh: level 11" 2 "level 11 is outside" remesh --shape sphere -l
 expect_error "remesh: bad axes" 2 "--axes: '1,2' is not 3 comma-separated numbers" remesh --shape ellipsoid --axes 1,2
 expect_error "remesh: zero axis" 2 "--axes: 0 is outside" remesh --shape ellipsoid --axes 1,0,1
 expect_error "remesh: nothing on stdin" 1 "empty" remesh -l 3
+
+# One grid on standard input, and nothing after it: a second grid or
+# trailing bytes are refused, not ignored.
+expect_error "a second grid on stdin" 1 "standard input: a second grid follows the first" \
+	bash -c 'cat s5.tgrid s5.tgrid | subdivide -o never.tgrid'
+expect_error "trailing garbage on stdin" 1 "standard input: bytes follow the end of the grid" \
+	bash -c '{ cat s5.tgrid; echo junk; } | subdivide -o never.tgrid'
+{ cat s5.tgrid; printf 'x'; } >trailing.tgrid
+expect_error "trailing garbage in a file" 1 "trailing\.tgrid: bytes follow the end of the grid" \
+	subdivide trailing.tgrid -o never.tgrid
+[ ! -e never.tgrid ] && pass "nothing written for refused input" || fail "never.tgrid written"
+
+# Stored duplicates that disagree (a grid from other software): a warning
+# naming the first, and the canonical values used.
+PYTHONPATH=$NDO_ROOT/tests/e2e /usr/bin/python3 - <<'PYEOF'
+import gridfile
+g = gridfile.read("s5.tgrid")
+x = g["channels"]["position"].copy()
+n = x.shape[0] - 1
+x[3, 2 * n] += 0.5  # (2N, 3) repeats (0, 3): the column seam
+gridfile.write_grid("seam.tgrid", {"level": g["level"], "step": 0, "time": 0.0, "history": "",
+                                   "ch": {"position": x}})
+PYEOF
+if subdivide seam.tgrid -o seam6.tgrid 2>seam.err && [ "$(wc -l <seam.err)" -eq 1 ] &&
+	grep -q "seam\.tgrid: 1 stored duplicate disagrees .*first: position at (64, 3)" seam.err &&
+	PYTHONPATH=$NDO_ROOT/tests/e2e /usr/bin/python3 -c '
+import gridfile, numpy as np, sys
+a, b = (gridfile.read(f)["channels"]["position"] for f in ("seam6.tgrid", "s6.tgrid"))
+sys.exit(not np.array_equal(a, b))'; then
+	pass "disagreeing seam duplicates: warned, canonical values used"
+else fail "disagreeing seam duplicates" "$(head -2 seam.err)"; fi
+if subdivide s5.tgrid -o /dev/null 2>quiet.err && [ ! -s quiet.err ]; then pass "no warning for a grid ndo wrote"
+else fail "warning for a grid ndo wrote" "$(head -1 quiet.err)"; fi

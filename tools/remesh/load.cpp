@@ -8,7 +8,9 @@
 #include <CGAL/Polygon_mesh_processing/connected_components.h>
 #include <CGAL/Polygon_mesh_processing/orientation.h>
 #include <CGAL/Polygon_mesh_processing/polygon_soup_to_polygon_mesh.h>
+#include <CGAL/Polygon_mesh_processing/self_intersections.h>
 #include <CGAL/Polygon_mesh_processing/shape_predicates.h>
+#include <CGAL/Polygon_mesh_processing/stitch_borders.h>
 #include <CGAL/Polygon_mesh_processing/triangulate_hole.h>
 #include <CGAL/Surface_mesh.h>
 
@@ -16,8 +18,13 @@
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 
+#include <sys/stat.h>
+
 #include <algorithm>
 #include <cctype>
+#include <cmath>
+#include <cstdlib>
+#include <set>
 #include <cstring>
 #include <fstream>
 #include <iostream>
@@ -47,6 +54,17 @@ static std::string lower_ext(const std::string &path)
 /* Guess a format from the first bytes (stdin has no name). */
 static std::string sniff(const std::string &data)
 {
+	if (data.size() >= 12 && data.compare(0, 4, "glTF") == 0)
+		return "glb";
+	/* Binary STL: an 80-byte header, a triangle count, 50 bytes a
+	 * triangle.  Its header may well begin with "solid", so the size
+	 * decides first. */
+	if (data.size() >= 84) {
+		uint32_t n;
+		std::memcpy(&n, data.data() + 80, 4);
+		if (84 + 50 * (uint64_t)n == data.size())
+			return "stl";
+	}
 	size_t i = 0;
 	while (i < data.size() && (data[i] == ' ' || data[i] == '\n' || data[i] == '\r' || data[i] == '\t'))
 		i++;
@@ -57,8 +75,101 @@ static std::string sniff(const std::string &data)
 		return "off";
 	if (head.rfind("solid", 0) == 0)
 		return "stl";
-	if (head.rfind("v ", 0) == 0 || head.rfind("#", 0) == 0 || head.rfind("o ", 0) == 0)
+	if (head.rfind("v ", 0) == 0 || head.rfind("#", 0) == 0 || head.rfind("o ", 0) == 0 ||
+	    head.rfind("mtllib", 0) == 0 || head.rfind("g ", 0) == 0)
 		return "obj";
+	if (head.rfind("{", 0) == 0 && data.find("\"asset\"") != std::string::npos)
+		return "gltf";
+	return "";
+}
+
+/* CGAL's readers report a bad file on std::cerr ("Error: incorrect file
+ * format") besides returning false; remesh says it in its own words, so
+ * the library's text is held back while it reads. */
+struct QuietCerr {
+	std::ostringstream sink;
+	std::streambuf *old;
+	QuietCerr() : old(std::cerr.rdbuf(sink.rdbuf())) {}
+	~QuietCerr() { std::cerr.rdbuf(old); }
+};
+
+/* Why an ASCII OFF or OBJ file CGAL refused cannot be read: the first
+ * vertex whose coordinates are not finite numbers, or the vertices it
+ * lacks.  Only a diagnosis (the reading is CGAL's): "" when none found. */
+static std::string ascii_defect(const std::string &ext, const std::string &data)
+{
+	std::istringstream in(data);
+	std::string line;
+	long lineno = 0, vertex = ext == "obj" ? 1 : 0, declared = -1, seen = 0;
+	bool header = false;
+	while (std::getline(in, line)) {
+		lineno++;
+		size_t hash = line.find('#');
+		if (hash != std::string::npos)
+			line.erase(hash);
+		std::istringstream ls(line);
+		std::string tok;
+		if (!(ls >> tok))
+			continue;
+		std::vector<std::string> coords;
+		if (ext == "obj") {
+			if (tok != "v")
+				continue;
+		} else if (!header) {
+			header = true;
+			if (tok.size() >= 3 && tok.compare(tok.size() - 3, 3, "OFF") == 0 && !(ls >> tok))
+				continue; /* counts on the next line */
+			if (tok.size() >= 3 && tok.compare(tok.size() - 3, 3, "OFF") == 0)
+				continue;
+			declared = std::strtol(tok.c_str(), nullptr, 10);
+			continue;
+		} else if (declared < 0) {
+			declared = std::strtol(tok.c_str(), nullptr, 10);
+			continue;
+		} else if (seen >= declared) {
+			break;
+		} else {
+			coords.push_back(tok);
+		}
+		while (coords.size() < 3 && ls >> tok)
+			coords.push_back(tok);
+		seen++;
+		for (const std::string &c : coords) {
+			char *end;
+			double x = std::strtod(c.c_str(), &end);
+			if (*end != '\0' || !std::isfinite(x))
+				return "vertex " + std::to_string(vertex) + " (line " + std::to_string(lineno) +
+				       "): coordinate '" + c + "' is not a finite number";
+		}
+		if (coords.size() < 3)
+			return "vertex " + std::to_string(vertex) + " (line " + std::to_string(lineno) +
+			       "): " + std::to_string(coords.size()) + " coordinates, not 3";
+		vertex++;
+	}
+	if (ext == "off" && declared >= 0 && seen < declared)
+		return "truncated: " + std::to_string(seen) + " of the " + std::to_string(declared) +
+		       " vertices it declares";
+	return "";
+}
+
+/* Coordinates beyond this are refused: areas and distances square them,
+ * and simulate-peer accepts positions up to ±1e100 m (NDO_SIM_MAX_COORD). */
+static const double kMaxCoord = 1e100;
+
+/* The first coordinate that is not finite or too large: "" when all are
+ * fine.  `name` says how the file numbers the point. */
+static std::string bad_coordinate(double x, double y, double z)
+{
+	for (double c : {x, y, z}) {
+		char buf[64];
+		std::snprintf(buf, sizeof buf, "%.17g", c);
+		if (!std::isfinite(c))
+			return std::string("coordinate ") + (std::isnan(c) ? "NaN" : buf) + " is not finite";
+		if (std::fabs(c) > kMaxCoord) {
+			std::snprintf(buf, sizeof buf, "%.3g", c);
+			return std::string("coordinate ") + buf + " is beyond ±1e100";
+		}
+	}
 	return "";
 }
 
@@ -80,19 +191,24 @@ static bool read_cgal(const std::string &ext, std::istream &is,
 /* assimp: every mesh of the scene, transforms applied, exactly equal
  * positions merged (its loaders split a vertex wherever a normal or a
  * texture coordinate changes, which a closed surface must undo). */
-static bool read_assimp(const std::string &data, const std::string &ext,
-                        std::vector<Point> &pts,
+static bool read_assimp(const std::string &path, const std::string &data,
+                        const std::string &ext, bool weld, std::vector<Point> &pts,
                         std::vector<std::vector<std::size_t>> &polys,
-                        std::string &why)
+                        std::vector<std::string> &notes, std::string &why)
 {
 	Assimp::Importer imp;
-	const aiScene *sc = imp.ReadFileFromMemory(
-		data.data(), data.size(), aiProcess_PreTransformVertices, ext.c_str());
+	/* From a file, assimp opens what the file refers to (a .gltf's
+	 * external .bin beside it); from memory it cannot. */
+	const aiScene *sc =
+		path.empty() ? imp.ReadFileFromMemory(data.data(), data.size(),
+		                                      aiProcess_PreTransformVertices, ext.c_str())
+		             : imp.ReadFile(path, aiProcess_PreTransformVertices);
 	if (!sc) {
 		why = std::string("not a mesh assimp can read: ") + imp.GetErrorString();
 		return false;
 	}
 	std::map<std::array<double, 3>, std::size_t> index;
+	std::size_t given = 0;
 	for (unsigned mi = 0; mi < sc->mNumMeshes; mi++) {
 		const aiMesh *am = sc->mMeshes[mi];
 		if (!(am->mPrimitiveTypes & (aiPrimitiveType_TRIANGLE | aiPrimitiveType_POLYGON)))
@@ -101,6 +217,18 @@ static bool read_assimp(const std::string &data, const std::string &ext,
 		for (unsigned v = 0; v < am->mNumVertices; v++) {
 			std::array<double, 3> key = {am->mVertices[v].x, am->mVertices[v].y,
 			                             am->mVertices[v].z};
+			std::string bad = bad_coordinate(key[0], key[1], key[2]);
+			if (!bad.empty()) {
+				why = (sc->mNumMeshes > 1 ? "mesh " + std::to_string(mi) + ", " : std::string()) +
+				      "vertex " + std::to_string(v) + ": " + bad;
+				return false;
+			}
+			given++;
+			if (!weld) {
+				id[v] = pts.size();
+				pts.emplace_back(key[0], key[1], key[2]);
+				continue;
+			}
 			auto it = index.emplace(key, pts.size());
 			if (it.second)
 				pts.emplace_back(key[0], key[1], key[2]);
@@ -111,15 +239,97 @@ static bool read_assimp(const std::string &data, const std::string &ext,
 			if (af.mNumIndices < 3)
 				continue; /* points and lines are not surface */
 			std::vector<std::size_t> poly;
-			for (unsigned k = 0; k < af.mNumIndices; k++)
+			for (unsigned k = 0; k < af.mNumIndices; k++) {
+				/* a truncated file can leave assimp with indices
+				 * beyond its vertices */
+				if (af.mIndices[k] >= am->mNumVertices) {
+					why = "face " + std::to_string(fi) + " refers to vertex " +
+					      std::to_string(af.mIndices[k]) + " of " +
+					      std::to_string(am->mNumVertices) + " (truncated or corrupt)";
+					return false;
+				}
 				poly.push_back(id[af.mIndices[k]]);
+			}
 			polys.push_back(poly);
 		}
 	}
+	if (weld && given > pts.size())
+		notes.push_back("welded " + std::to_string(given - pts.size()) +
+		                " coincident vertices the format keeps apart (normal or texture "
+		                "seams); --no-weld keeps them apart");
 	return true;
 }
 
-bool load(const std::string &path, Mesh &m, std::vector<std::string> &notes,
+/* Triangulate the polygons with more than three corners.  CGAL's polygon
+ * triangulation (one face at a time, which keeps the indexing) picks the
+ * diagonals that are best for the polygon alone; a diagonal that is
+ * already an edge of the mesh (two quads of a non-planar band, suzanne's
+ * ears) would make that edge non-manifold, so such a polygon takes a fan
+ * whose diagonals are all new, from the first corner that has one. */
+static bool triangulate(const std::vector<Point> &pts,
+                        std::vector<std::vector<std::size_t>> &polys, std::string &why)
+{
+	auto key = [](std::size_t a, std::size_t b) {
+		return a < b ? std::make_pair(a, b) : std::make_pair(b, a);
+	};
+	std::set<std::pair<std::size_t, std::size_t>> edges;
+	for (auto &pg : polys)
+		for (size_t k = 0; k < pg.size(); k++)
+			edges.insert(key(pg[k], pg[(k + 1) % pg.size()]));
+	std::vector<std::vector<std::size_t>> tris;
+	for (auto &pg : polys) {
+		if (pg.size() == 3) {
+			tris.push_back(pg);
+			continue;
+		}
+		std::vector<Point> ring;
+		for (std::size_t v : pg)
+			ring.push_back(pts[v]);
+		std::vector<CGAL::Triple<int, int, int>> out;
+		PMP::triangulate_hole_polyline(ring, std::back_inserter(out));
+		if (out.size() != pg.size() - 2) {
+			why = "a polygon of " + std::to_string(pg.size()) +
+			      " vertices cannot be triangulated";
+			return false;
+		}
+		std::vector<std::array<std::size_t, 3>> cand;
+		for (auto &t : out)
+			cand.push_back({pg[t.first], pg[t.second], pg[t.third]});
+		auto fresh = [&](const std::vector<std::array<std::size_t, 3>> &ts) {
+			std::set<std::pair<std::size_t, std::size_t>> sides, seen;
+			for (size_t k = 0; k < pg.size(); k++)
+				sides.insert(key(pg[k], pg[(k + 1) % pg.size()]));
+			for (auto &t : ts)
+				for (int k = 0; k < 3; k++) {
+					auto e = key(t[k], t[(k + 1) % 3]);
+					if (!sides.count(e) && edges.count(e) && !seen.count(e))
+						return false;
+					seen.insert(e);
+				}
+			return true;
+		};
+		if (!fresh(cand)) {
+			for (size_t s = 0; s < pg.size(); s++) {
+				std::vector<std::array<std::size_t, 3>> fan;
+				for (size_t k = 1; k + 1 < pg.size(); k++)
+					fan.push_back({pg[s], pg[(s + k) % pg.size()], pg[(s + k + 1) % pg.size()]});
+				if (fresh(fan)) {
+					cand.swap(fan);
+					break;
+				}
+			}
+		}
+		for (auto &t : cand) {
+			for (int k = 0; k < 3; k++)
+				edges.insert(key(t[k], t[(k + 1) % 3]));
+			tris.push_back({t[0], t[1], t[2]});
+		}
+	}
+	polys.swap(tris);
+	return true;
+}
+
+bool load(const std::string &path, Mesh &m, bool weld, std::vector<std::string> &notes,
           std::string &why)
 {
 	std::string data;
@@ -129,14 +339,24 @@ bool load(const std::string &path, Mesh &m, std::vector<std::string> &notes,
 		ss << std::cin.rdbuf();
 		data = ss.str();
 	} else {
+		struct stat st;
+		if (stat(path.c_str(), &st) == 0 && S_ISDIR(st.st_mode)) {
+			why = "is a directory, not a mesh file";
+			return false;
+		}
 		std::ifstream f(path, std::ios::binary);
 		if (!f) {
 			why = std::strerror(errno);
 			return false;
 		}
-		data.assign(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
+		try {
+			data.assign(std::istreambuf_iterator<char>(f), std::istreambuf_iterator<char>());
+		} catch (const std::exception &) {
+			why = std::string("read error: ") + std::strerror(errno ? errno : EIO);
+			return false;
+		}
 		if (f.bad()) {
-			why = std::strerror(errno);
+			why = std::string("read error: ") + std::strerror(errno ? errno : EIO);
 			return false;
 		}
 	}
@@ -147,22 +367,59 @@ bool load(const std::string &path, Mesh &m, std::vector<std::string> &notes,
 	std::string ext = from_stdin ? sniff(data) : lower_ext(path);
 	std::vector<Point> pts;
 	std::vector<std::vector<std::size_t>> polys;
-	if (ext == "off" || ext == "obj" || ext == "ply" || ext == "stl") {
+	/* PLY triangle strips (a common scan format) are beyond CGAL's PLY
+	 * reader; assimp's reads them. */
+	bool strips = ext == "ply" && data.find("element tristrips") < data.find("end_header");
+	bool via_cgal = (ext == "off" || ext == "obj" || ext == "ply" || ext == "stl") && !strips;
+	if (via_cgal) {
 		std::istringstream is(data, std::ios::binary);
 		if (ext == "ply" || ext == "stl")
 			CGAL::IO::set_mode(is, CGAL::IO::BINARY);
-		if (!read_cgal(ext, is, pts, polys)) {
-			why = "not a readable " + ext + " file";
+		bool ok;
+		{
+			QuietCerr quiet;
+			ok = read_cgal(ext, is, pts, polys);
+		}
+		if (!ok) {
+			std::string d = ext == "off" || ext == "obj" ? ascii_defect(ext, data) : "";
+			std::string up = ext;
+			for (char &c : up)
+				c = (char)std::toupper((unsigned char)c);
+			why = d.empty() ? "not a readable " + up + " file (malformed or truncated)" : d;
 			return false;
 		}
-	} else if (!read_assimp(data, ext, pts, polys, why)) {
-		return false;
+		/* Coordinates: finite and in range, named as the file numbers
+		 * them (OBJ from 1, OFF and PLY from 0; STL has facets only). */
+		for (std::size_t v = 0; v < pts.size(); v++) {
+			std::string bad = bad_coordinate(pts[v].x(), pts[v].y(), pts[v].z());
+			if (bad.empty())
+				continue;
+			if (ext == "stl") {
+				for (std::size_t f = 0; f < polys.size(); f++)
+					for (std::size_t k = 0; k < polys[f].size(); k++)
+						if (polys[f][k] == v) {
+							why = "facet " + std::to_string(f) + ", corner " +
+							      std::to_string(k) + ": " + bad;
+							return false;
+						}
+			}
+			why = "vertex " + std::to_string(ext == "obj" ? v + 1 : v) + ": " + bad;
+			return false;
+		}
+	} else {
+		if (ext.empty() && from_stdin) {
+			why = "not a mesh format remesh recognizes on standard input (give a file "
+			      "with its extension)";
+			return false;
+		}
+		if (!read_assimp(from_stdin ? "" : path, data, ext, weld, pts, polys, notes, why))
+			return false;
 	}
 	if (polys.empty()) {
-		why = "no faces";
+		why = pts.empty() ? "no vertices and no faces" : "no faces (" + std::to_string(pts.size()) +
+		                                                 " vertices, a point cloud?)";
 		return false;
 	}
-	/* Triangulate polygons with more than three corners (CGAL). */
 	bool poly = false;
 	for (size_t i = 0; i < polys.size(); i++) {
 		if (polys[i].size() < 3) {
@@ -179,30 +436,11 @@ bool load(const std::string &path, Mesh &m, std::vector<std::string> &notes,
 		poly |= polys[i].size() > 3;
 	}
 	if (poly) {
-		std::vector<std::vector<std::size_t>> tris;
-		for (auto &pg : polys) {
-			if (pg.size() == 3) {
-				tris.push_back(pg);
-				continue;
-			}
-			/* CGAL's polygon triangulation of one face at a time keeps
-			 * the indexing (a face graph would need a manifold input) */
-			std::vector<Point> ring;
-			for (std::size_t v : pg)
-				ring.push_back(pts[v]);
-			std::vector<CGAL::Triple<int, int, int>> out;
-			PMP::triangulate_hole_polyline(ring, std::back_inserter(out));
-			if (out.size() != pg.size() - 2) {
-				why = "a polygon of " + std::to_string(pg.size()) +
-				      " vertices cannot be triangulated";
-				return false;
-			}
-			for (auto &t : out)
-				tris.push_back({pg[t.first], pg[t.second], pg[t.third]});
-		}
-		notes.push_back("triangulated " + std::to_string(polys.size()) +
-		                " polygons into " + std::to_string(tris.size()) + " triangles");
-		polys.swap(tris);
+		size_t np = polys.size();
+		if (!triangulate(pts, polys, why))
+			return false;
+		notes.push_back("triangulated " + std::to_string(np) + " polygons into " +
+		                std::to_string(polys.size()) + " triangles");
 	}
 	m.p.resize(pts.size());
 	for (size_t i = 0; i < pts.size(); i++)
@@ -218,7 +456,8 @@ static std::string plural(long n, const char *one, const char *many)
 	return std::to_string(n) + " " + (n == 1 ? one : many);
 }
 
-bool validate(Mesh &m, std::vector<std::string> &notes, std::string &why)
+bool validate(Mesh &m, bool weld, std::vector<std::string> &notes, std::string &why,
+              long *selfintersect)
 {
 	/* Repeated corners: a face that is not a triangle. */
 	for (size_t i = 0; i < m.f.size(); i++) {
@@ -305,12 +544,35 @@ bool validate(Mesh &m, std::vector<std::string> &notes, std::string &why)
 	}
 	SM sm;
 	PMP::polygon_soup_to_polygon_mesh(pts, polys, sm);
-	if (!CGAL::is_closed(sm)) {
+	auto border_edges = [&sm]() {
 		long b = 0;
 		for (auto h : sm.halfedges())
 			b += sm.is_border(h);
-		why = "open surface: " + plural(b, "boundary edge", "boundary edges") +
-		      "; remesh needs a closed surface";
+		return b;
+	};
+	long welded = 0, open_before = 0;
+	if (!CGAL::is_closed(sm) && weld) {
+		/* A mesh split along its UV or normal seams (how OBJ and glTF
+		 * exporters write textured models) is open only where the split
+		 * copies meet: CGAL stitches border edges whose ends coincide. */
+		open_before = border_edges();
+		welded = (long)PMP::stitch_borders(sm);
+		sm.collect_garbage();
+		if (welded)
+			notes.push_back("welded the surface's open seams: " +
+			                plural(welded, "pair of coincident border edges",
+			                       "pairs of coincident border edges") +
+			                " stitched (UV or normal seams); --no-weld keeps them apart");
+	}
+	if (!CGAL::is_closed(sm)) {
+		long b = border_edges();
+		why = "open surface: " + plural(b, "boundary edge", "boundary edges");
+		if (welded)
+			why += " left after welding " + std::to_string(open_before - b) +
+			       " coincident ones";
+		else if (!weld)
+			why += " (--no-weld: coincident vertices were kept apart)";
+		why += "; remesh needs a closed surface";
 		return false;
 	}
 	auto fcc = sm.add_property_map<SM::Face_index, std::size_t>("f:cc").first;
@@ -333,6 +595,19 @@ bool validate(Mesh &m, std::vector<std::string> &notes, std::string &why)
 	if (degenerate) {
 		why = plural(degenerate, "degenerate (zero-area) face", "degenerate (zero-area) faces");
 		return false;
+	}
+	/* A surface that passes through itself is still remeshed (the grid
+	 * follows it), but the user hears of it (CGAL's box-intersection
+	 * test on the triangles). */
+	if (selfintersect) {
+		std::vector<std::pair<SM::Face_index, SM::Face_index>> pairs;
+		PMP::self_intersections<CGAL::Parallel_if_available_tag>(faces(sm), sm,
+		                                                         std::back_inserter(pairs));
+		*selfintersect = (long)pairs.size();
+		if (!pairs.empty())
+			notes.push_back("warning: the input intersects itself: " +
+			                plural((long)pairs.size(), "pair of faces", "pairs of faces") +
+			                " cross (the grid follows the surface as it is)");
 	}
 	/* Back to the indexed mesh in CGAL's vertex order (the soup's). */
 	m.f.clear();

@@ -784,7 +784,9 @@ struct Optimizer {
 	void sweep(const std::vector<std::vector<int>> &cls, int iters)
 	{
 		for (const std::vector<int> &c : cls) {
-#pragma omp parallel for schedule(dynamic, 64)
+			/* a class too small to share is not worth a barrier (the
+			 * coarse levels' classes hold a few vertices each) */
+#pragma omp parallel for schedule(dynamic, 64) if (c.size() >= 256)
 			for (size_t i = 0; i < c.size(); i++)
 				relax(c[i], iters);
 		}

@@ -29,19 +29,29 @@ struct Mesh {
 /* Read `path` ("-" or empty: stdin).  OFF, OBJ, PLY and STL go through
  * CGAL's readers, which keep the file's own vertex indexing (STL has none:
  * its reader merges exactly equal points, the only sharing STL can say);
- * every other format goes through assimp, whose loaders split vertices
- * at attribute seams, so there exactly equal positions are merged.  Never
- * merges by proximity.  Polygons are triangulated (CGAL).  Returns false
+ * every other format goes through assimp (PLY triangle strips too; from a
+ * file, so a .gltf finds its .bin), whose loaders split vertices at
+ * attribute seams, so there exactly equal positions are merged when
+ * `weld`.  Never merges by proximity.  Every coordinate must be finite
+ * and within ±1e100 (else the vertex as the file numbers it is named).
+ * Polygons are triangulated (CGAL) without creating an edge the mesh
+ * already has.  On standard input the format is recognized from the
+ * bytes (OFF, OBJ, PLY, ASCII and binary STL, glTF, GLB).  Returns false
  * with a one-line reason in *why. */
-bool load(const std::string &path, Mesh &m, std::vector<std::string> &notes,
+bool load(const std::string &path, Mesh &m, bool weld, std::vector<std::string> &notes,
           std::string &why);
 
 /* CGAL validation: triangle mesh, no degenerate faces, manifold, closed,
  * one component, Euler characteristic 2, outward orientation.  Inward
  * orientation is fixed in place (and noted).  Unreferenced vertices are
- * dropped (and noted).  False with the defect in *why ("genus 2 (Euler
- * characteristic -2); remesh needs genus 0"). */
-bool validate(Mesh &m, std::vector<std::string> &notes, std::string &why);
+ * dropped (and noted).  An open surface whose border edges coincide in
+ * pairs (split along UV seams) is stitched when `weld` (CGAL
+ * stitch_borders; noted).  With `selfintersect`, the pairs of faces that
+ * intersect are counted there (and noted as a warning).  False with the
+ * defect in *why ("genus 2 (Euler characteristic -2); remesh needs
+ * genus 0"). */
+bool validate(Mesh &m, bool weld, std::vector<std::string> &notes, std::string &why,
+              long *selfintersect);
 
 /* Progress on stderr (a bar when stderr is a terminal, nothing otherwise). */
 void progress(const char *phase, double fraction);

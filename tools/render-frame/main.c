@@ -123,11 +123,21 @@ static void draw_one(state *st, rf_options *o, ndo_grid *g, const char *where, l
 	if (!st->renderer)
 		start(st, o, g);
 	rf_scene *scene = &st->scene;
-	if (rf_scene_prepare(scene, g, o->subdivide, &o->coloring) != NDO_OK)
+	int refit = st->frames == 0 || o->refit;
+	if (rf_scene_prepare(scene, g, o->subdivide, &o->coloring, refit) != NDO_OK)
 		ndo_die("%s: %s", where, ndo_errdetail());
-	if (st->frames == 0 || o->refit)
-		rf_camera_view(&o->camera, scene->center, scene->radius,
+	if (refit) {
+		/* the camera's points and distance, given in world units, in the
+		 * uploaded coordinates */
+		rf_camera cam = o->camera;
+		for (int k = 0; k < 3; k++) {
+			cam.eye[k] = (cam.eye[k] - scene->origin[k]) / scene->unit;
+			cam.center[k] = (cam.center[k] - scene->origin[k]) / scene->unit;
+		}
+		cam.distance /= scene->unit;
+		rf_camera_view(&cam, scene->center, scene->radius,
 		               (double)o->style.width / o->style.height, &st->view);
+	}
 	if (o->have_range)
 		scene->frame.range[0] = (float)o->range[0], scene->frame.range[1] = (float)o->range[1];
 	double t1 = now();
@@ -144,6 +154,9 @@ static void draw_one(state *st, rf_options *o, ndo_grid *g, const char *where, l
 	}
 	char out[PATH_MAX];
 	rf_output_name(o, number >= 0 ? number : o->start_number + st->frames, out, sizeof out);
+	/* a numbered sequence goes where its pattern says: make the directory */
+	if (o->numbered && ndo_mkdir_parents(out) != NDO_OK)
+		ndo_die("%s: %s", out, ndo_errdetail());
 	if (ndo_grid_add_history(g, ndo_cli_argc(), ndo_cli_argv()) != NDO_OK ||
 	    rf_writer_submit(st->writer, out, g->history) != NDO_OK)
 		ndo_die("%s", ndo_errdetail());

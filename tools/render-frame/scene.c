@@ -150,7 +150,8 @@ static void owner_ranks(const int32_t *id, size_t count, int32_t *rank)
 	}
 }
 
-int rf_scene_prepare(rf_scene *s, const ndo_grid *in, int subdivide, const rf_coloring *c)
+int rf_scene_prepare(rf_scene *s, const ndo_grid *in, int subdivide, const rf_coloring *c,
+                     int refit)
 {
 	const ndo_grid *g = in;
 	ndo_grid *fine = NULL;
@@ -172,13 +173,44 @@ int rf_scene_prepare(rf_scene *s, const ndo_grid *in, int subdivide, const rf_co
 		ndo_grid_destroy(fine);
 		return tmp ? rc : ndo__fail(NDO_ENOMEM, "out of memory");
 	}
+	double lo[3] = {INFINITY, INFINITY, INFINITY}, hi[3] = {-INFINITY, -INFINITY, -INFINITY};
 	for (size_t k = 0; k < g->count * 3; k++) {
-		tmp[k] = (float)value(pos, k / 3, (int)(k % 3));
-		if (!isfinite(tmp[k])) {
+		double v = value(pos, k / 3, (int)(k % 3));
+		if (!isfinite(v)) {
 			free(tmp);
 			ndo_grid_destroy(fine);
-			return ndo__fail(NDO_ERANGE, "position of node (%zu, %zu) is not finite (or "
-			                 "beyond single precision)", k / 3 % (size_t)g->w, k / 3 / (size_t)g->w);
+			return ndo__fail(NDO_ERANGE, "position of node (%zu, %zu) is not finite",
+			                 k / 3 % (size_t)g->w, k / 3 / (size_t)g->w);
+		}
+		lo[k % 3] = fmin(lo[k % 3], v);
+		hi[k % 3] = fmax(hi[k % 3], v);
+	}
+	if (refit || !(s->unit > 0)) {
+		/* half the box's diagonal, taken so that it cannot overflow */
+		double m = 0, r2 = 0;
+		for (int d = 0; d < 3; d++) {
+			s->origin[d] = 0.5 * lo[d] + 0.5 * hi[d];
+			m = fmax(m, 0.5 * hi[d] - 0.5 * lo[d]);
+		}
+		for (int d = 0; d < 3; d++)
+			if (m > 0)
+				r2 += pow((0.5 * hi[d] - 0.5 * lo[d]) / m, 2);
+		s->unit = m > 0 ? m * sqrt(r2) : fmax(1, fabs(s->origin[0]) + fabs(s->origin[1]) +
+		                                         fabs(s->origin[2]));
+		if (!(s->unit > 0) || !isfinite(s->unit))
+			s->unit = 1;
+	}
+	for (size_t k = 0; k < g->count * 3; k++) {
+		double v = (value(pos, k / 3, (int)(k % 3)) - s->origin[k % 3]) / s->unit;
+		tmp[k] = (float)v;
+		if (!isfinite(tmp[k])) {
+			/* only a later frame of a sequence can get here: it moved
+			 * beyond 1e38 times the first frame's size */
+			free(tmp);
+			ndo_grid_destroy(fine);
+			return ndo__fail(NDO_ERANGE, "node (%zu, %zu) is %.3g sizes of the first frame away "
+			                 "from it: cannot be drawn in one picture (use --refit)",
+			                 k / 3 % (size_t)g->w, k / 3 / (size_t)g->w, v);
 		}
 	}
 	ndo_pad(g->level, 1, tmp, 3 * sizeof *tmp, s->position);

@@ -69,7 +69,7 @@ static __attribute__((noreturn)) void usage(void)
 	    "  -o, --output OUT        the final grid (.tgrid, '-') or a mesh (.obj .ply\n"
 	    "                          .stl .glb .gltf)\n"
 	    "      --frames PATTERN    write frames, e.g. 'out/f%%05d.tgrid' (frame 0 is\n"
-	    "                          the initial state)\n"
+	    "                          the initial state; out/ is made when missing)\n"
 	    "      --frame-every N     a frame every N steps, 1..1e12 (default 1)\n"
 	    "      --log FILE          CSV log: step, time, step size, energies, input\n"
 	    "                          work, max displacement, rkf45 sub-steps\n"
@@ -187,7 +187,9 @@ static void write_frame(run *r, int64_t k)
 	int len = snprintf(path, sizeof path, r->sc.frames, (int)k);
 	if (len < 0 || (size_t)len >= sizeof path)
 		ndo_die("--frames: the path for frame %lld is too long", (long long)k);
-	if (accuracy_store(r, r->frame) || ndo_grid_export(path, r->frame))
+	/* the pattern's directory is made, as a user of 'out/f%04d.tgrid' expects */
+	if (ndo_mkdir_parents(path) || accuracy_store(r, r->frame) ||
+	    ndo_grid_export(path, r->frame))
 		ndo_die("%s: %s", path, ndo_errdetail());
 }
 

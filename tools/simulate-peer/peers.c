@@ -318,7 +318,7 @@ static void write_frame(peer_run *pr, int64_t k)
 	if (len < 0 || (size_t)len >= sizeof path)
 		ndo_die("--frames: the path for frame %lld is too long", (long long)k);
 	ndo_grid *g = ndo_peer_grid(pr->p);
-	if (ndo_grid_export(path, g))
+	if (ndo_mkdir_parents(path) || ndo_grid_export(path, g))
 		ndo_die("%s: %s", path, ndo_errdetail());
 }
 

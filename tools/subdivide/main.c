@@ -80,6 +80,20 @@ int main(int argc, char **argv)
 	ndo_cli_check_output(out);
 
 	ndo_grid *g = ndo_cli_load(in);
+	/* Stored duplicates are one vertex: subdivision reads the canonical
+	 * copy.  Copies that disagree (a grid written by other software) would
+	 * otherwise be overwritten without a word. */
+	const char *chn = "";
+	int di = 0, dj = 0;
+	size_t bad = ndo_grid_unsynced(g, &chn, &di, &dj);
+	if (bad) {
+		ndo_warn("warning: %s: %zu %s (first: %s at (%d, %d)); the canonical values are used",
+		         ndo_is_stdio(in) ? "standard input" : in, bad,
+		         bad == 1 ? "stored duplicate disagrees with the node it repeats"
+		                  : "stored duplicates disagree with the nodes they repeat",
+		         chn, di, dj);
+		ndo_grid_sync(g);
+	}
 	if (g->level + levels > NDO_MAX_LEVEL)
 		ndo_usage_error("--levels: level %d + %d exceeds the largest level, %d",
 		                g->level, levels, NDO_MAX_LEVEL);

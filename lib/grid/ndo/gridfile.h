@@ -56,7 +56,9 @@ int ndo_grid_read(FILE *f, ndo_grid **out);
 int ndo_grid_write(FILE *f, const ndo_grid *g);
 
 /* Read the grid file at `path` ("-" or NULL: standard input).  A file
- * holding nothing is an error here (NDO_ETRUNC), not NDO_EEOF. */
+ * holding nothing is an error here (NDO_ETRUNC), not NDO_EEOF; so is
+ * anything after the grid (NDO_EFORMAT: a second grid, or trailing
+ * bytes) — ndo_grid_read() reads a stream of grids one at a time. */
 int ndo_grid_load(const char *path, ndo_grid **out);
 
 /* Write a grid file to `path` ("-" or NULL: standard output) through a

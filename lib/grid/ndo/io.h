@@ -6,6 +6,8 @@
  * standard output, which is flushed and checked on commit.  A destination
  * that exists and is not a regular file (a FIFO, /dev/null, /dev/full) is
  * written in place: renaming over a device would replace the device.
+ * A temporary file still open when the process exits (an error path that
+ * calls exit() before commit) is removed by an exit handler.
  */
 #ifndef NDO_IO_H
 #define NDO_IO_H
@@ -28,6 +30,11 @@ int ndo_is_stdio(const char *path);
 int ndo_out_open(const char *path, ndo_outfile *o);
 int ndo_out_commit(ndo_outfile *o);
 void ndo_out_abort(ndo_outfile *o);
+
+/* Create the directories leading to `path` ("out/f%04d.png" → out/), as
+ * mkdir -p does; an existing directory is fine.  NDO_EIO naming the
+ * directory when one cannot be made (or a file stands in its place). */
+int ndo_mkdir_parents(const char *path);
 
 #ifdef __cplusplus
 }

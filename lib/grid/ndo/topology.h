@@ -78,6 +78,12 @@ void ndo_sync(int level, void *data, size_t node_bytes);
 /* ndo_sync() on every channel of a grid. */
 void ndo_grid_sync(ndo_grid *g);
 
+/* Stored duplicates whose bytes differ from their canonical node's, over
+ * every channel (0 for a grid every ndo tool wrote).  The first one found:
+ * its channel name and stored node (i, j), when those pointers are not
+ * NULL. */
+size_t ndo_grid_unsynced(const ndo_grid *g, const char **channel, int *i, int *j);
+
 /* Copy `src` (W*H nodes of node_bytes each) into `dst`, a
  * (W+2·pad) × (H+2·pad) array whose border of width `pad` holds the
  * ghost cells (node (i, j) of the grid at dst[(j+pad)*(W+2pad) + i+pad]). */

@@ -168,8 +168,10 @@ typedef struct ndo_sim ndo_sim;
  * x); pin: H × W bytes, nonzero = pinned (NULL: none).  A duplicate node
  * takes its canonical node's values.  K and M are assembled from the rest
  * shape.  Time and step count start at 0 (ndo_sim_set_time to change).
- * NDO_ERANGE for non-finite input, a degenerate rest triangle or a bad
- * parameter, NDO_EINVAL for a force item out of range. */
+ * NDO_ERANGE for non-finite input, a coordinate or velocity beyond
+ * ±NDO_SIM_MAX_COORD (naming the node), a degenerate rest triangle or a
+ * bad parameter, NDO_EINVAL for a force item out of range. */
+#define NDO_SIM_MAX_COORD 1e100
 int ndo_sim_create(int level, const double *x, const double *v, const double *rest,
                    const uint8_t *pin, const ndo_sim_params *p, ndo_sim **out);
 

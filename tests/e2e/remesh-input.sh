@@ -1,0 +1,136 @@
+#!/usr/bin/env bash
+# remesh and every input a user can throw at it: bad numbers named by the
+# vertex, formats on files and on standard input, seams welded, surfaces
+# that cross themselves warned about, junk refused in one line of its own.
+. "$(dirname "$0")/lib.sh"
+PY=/usr/bin/python3
+# json FILE KEY: the value of a flat key in remesh's --json output.
+json() { sed -n "s/.*\"$2\": \([^,}]*\).*/\1/p" "$1" | head -n 1; }
+ok() { # ok NAME LEVEL INPUT [OPTIONS]: succeeds with a closed grid
+	local name=$1 level=$2 in=$3; shift 3
+	if remesh "$in" -l "$level" --rotations 4 -o "$name.tgrid" --json="$name.json" "$@" 2>"$name.err" &&
+		[ "$(json "$name.json" closed_manifold)" = true ]; then pass "$name"
+	else fail "$name" "$(head -2 "$name.err")"; fi
+}
+
+# The octahedron in every format, with one vertex that can be spoiled.
+$PY - <<'PYEOF'
+import struct
+V = [(1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1)]
+F = [(0, 2, 4), (2, 1, 4), (1, 3, 4), (3, 0, 4), (2, 0, 5), (1, 2, 5), (3, 1, 5), (0, 3, 5)]
+def off(name, V, F):
+    with open(name, "w") as f:
+        f.write("OFF\n%d %d 0\n" % (len(V), len(F)))
+        f.writelines("%r %r %r\n" % v for v in V)
+        f.writelines("3 %d %d %d\n" % t for t in F)
+def obj(name, V, F):
+    with open(name, "w") as f:
+        f.writelines("v %r %r %r\n" % v for v in V)
+        f.writelines("f %d %d %d\n" % tuple(i + 1 for i in t) for t in F)
+def ply(name, V, F, strips=False):
+    head = "ply\nformat binary_little_endian 1.0\nelement vertex %d\n" % len(V)
+    head += "property double x\nproperty double y\nproperty double z\n"
+    if strips:
+        head += "element tristrips %d\nproperty list uchar int vertex_indices\n" % len(F)
+    else:
+        head += "element face %d\nproperty list uchar int vertex_indices\n" % len(F)
+    head += "end_header\n"
+    with open(name, "wb") as f:
+        f.write(head.encode())
+        for v in V: f.write(struct.pack("<3d", *v))
+        for t in F: f.write(struct.pack("<B3i", 3, *t))
+def stl(name, V, F):
+    with open(name, "wb") as f:
+        f.write(b"solid but binary".ljust(80, b" ") + struct.pack("<I", len(F)))
+        for t in F:
+            f.write(struct.pack("<3f", 0, 0, 0))
+            for i in t: f.write(struct.pack("<3f", *V[i]))
+            f.write(b"\0\0")
+for bad, tag in ((float("nan"), "nan"), (float("inf"), "inf"), (1e300, "big")):
+    W = list(V); W[3] = (0, bad, 0)
+    off("%s.off" % tag, W, F); obj("%s.obj" % tag, W, F); ply("%s.ply" % tag, W, F)
+    if tag != "big": stl("%s.stl" % tag, W, F)  # a float holds no 1e300
+off("octa.off", V, F); ply("strips.ply", V, F, strips=True); stl("octa.stl", V, F)
+# UV seams: vertex 0 split in two along the edges 4-0 and 0-5 (the faces
+# on vertex 3's side use the copy, 6), as exporters of textured models do
+obj("seams.obj", V + [V[0]], [tuple(6 if (i == 0 and 3 in t) else i for i in t) for t in F])
+# an octahedron whose top passed through its bottom: crosses itself
+off("crossed.off", [(-1.5, 0.5, 0.3)] + V[1:], F)
+# a tetrahedron written as two quads (a pillow): triangulating both by
+# the same diagonal would put four faces on it
+with open("pillow.off", "w") as f:
+    f.write("OFF\n4 2 0\n1 1 1\n1 -1 -1\n-1 1 -1\n-1 -1 1\n4 0 1 2 3\n4 3 2 1 0\n")
+PYEOF
+
+# Coordinates that are not finite or far out of range: exit 1, one line,
+# the vertex as the file numbers it (OBJ counts from 1)
+for f in nan.off inf.off big.off; do
+	expect_error "$f: bad coordinate named" 1 "^remesh: $f: vertex 3.*coordinate" remesh "$f" -o out.tgrid
+done
+for f in nan.obj inf.obj big.obj; do
+	expect_error "$f: bad coordinate named" 1 "^remesh: $f: vertex 4.*coordinate" remesh "$f" -o out.tgrid
+done
+for f in nan.ply inf.ply big.ply; do
+	expect_error "$f (binary): bad coordinate named" 1 "^remesh: $f: vertex 3: coordinate .* (not finite|beyond)" \
+		remesh "$f" -o out.tgrid --report
+done
+for f in nan.stl inf.stl; do
+	expect_error "$f (binary): bad coordinate named" 1 "^remesh: $f: facet [0-9]+, corner [0-9]: coordinate .* not finite" \
+		remesh "$f" -o out.tgrid --report
+done
+[ ! -e out.tgrid ] && pass "no grid written for bad coordinates" || fail "bad coordinates" "out.tgrid written"
+
+# Formats: PLY triangle strips; glTF with its .bin beside it (remesh's own
+# -o x.gltf); binary STL, GLB and glTF on standard input
+ok ply-triangle-strips 2 strips.ply
+remesh --shape sphere -l 2 -o ball.gltf 2>/dev/null
+[ -s ball.bin ] || fail "remesh -o ball.gltf" "no ball.bin beside it"
+ok gltf-external-bin 2 ball.gltf
+remesh --shape sphere -l 2 -o ball.glb 2>/dev/null
+for f in octa.stl ball.glb octa.off; do
+	if remesh -l 2 --rotations 4 <"$f" >"stdin-$f.tgrid" 2>stdin.err && [ -s "stdin-$f.tgrid" ]; then
+		pass "$f on standard input recognized"
+	else fail "$f on standard input" "$(head -1 stdin.err)"; fi
+done
+
+# A surface split along UV seams is welded, and says so; --no-weld keeps it open
+ok uv-seams-welded 2 seams.obj
+grep -q "welded" uv-seams-welded.err && pass "welding said" || fail "welding said" "$(cat uv-seams-welded.err)"
+expect_error "--no-weld: open, naming the option" 1 'seams\.obj: open surface: 4 boundary edges \(--no-weld' \
+	remesh seams.obj --no-weld -o out.tgrid
+
+# Self-intersections: counted, warned, in the report; none on a clean mesh
+ok crossed-accepted 2 crossed.off
+n=$(json crossed-accepted.json input_selfintersect)
+if [ "${n:-0}" -gt 0 ] && grep -q "intersects itself: $n pair" crossed-accepted.err; then
+	pass "self-intersections warned with their count ($n)"
+else fail "self-intersections" "count '$n': $(head -2 crossed-accepted.err)"; fi
+remesh octa.off -l 2 -o /dev/null --report 2>report.err
+if grep -q "input  *0 self-intersecting face pairs" report.err && ! grep -q "intersects itself" report.err; then
+	pass "a clean mesh: 0 self-intersecting pairs in the report"
+else fail "clean mesh self-intersections" "$(grep -i intersect report.err)"; fi
+
+# Quads triangulated without a non-manifold edge
+ok pillow-quads 2 pillow.off
+
+# --help and the report count rotations the same way; counts agree in number
+remesh --help >help.txt
+grep -q "rotations N .*(default 96)" help.txt && grep -q "96 random rotations screened" report.err &&
+	pass "--help and the report: 96 random rotations" || fail "rotations" "$(grep -i rotation report.err | head -2)"
+if grep -Eq '(^|[^0-9.])1 (fold-overs|self-intersecting face pairs|flipped spherical triangles)' report.err crossed-accepted.err; then
+	fail "singular counts" "$(grep -E '(^|[^0-9.])1 [a-z-]+s\b' report.err | head -1)"
+else pass "no '1 fold-overs'"; fi
+
+# Junk: one line of remesh's own naming the file and the problem
+mkdir adir
+head -c 3000 /dev/urandom >junk.off; cp junk.off junk.ply; cp junk.off junk.stl; cp junk.off junk.obj
+head -c 3000 /dev/urandom >junk.gltf; cp junk.off junk.xyz
+head -c 200 strips.ply >cut.ply; head -c 500 ball.glb >cut.glb
+expect_error "a directory" 1 '^remesh: adir: is a directory' remesh adir -o out.tgrid
+for f in junk.off junk.ply junk.stl junk.obj junk.gltf junk.xyz cut.ply cut.glb; do
+	expect_error "$f: one line of remesh's own" 1 "^remesh: $f: [a-z]" remesh "$f" -o out.tgrid
+done
+expect_error "junk on standard input" 1 '^remesh: stdin: ' bash -c 'remesh -o out.tgrid <junk.off'
+if grep -l -E 'basic_filebuf|Error: incorrect|terminate called' *.log *.err 2>/dev/null | grep -q .; then
+	fail "library text leaked" "$(grep -h -E 'basic_filebuf|Error: incorrect' *.log *.err | head -1)"
+else pass "no library text on standard error"; fi

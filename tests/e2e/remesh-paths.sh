@@ -1,0 +1,132 @@
+#!/usr/bin/env bash
+# remesh: the option paths on small meshes, the expected failures, stdin
+# and export, and the --shape grids the other tools start from (accuracy
+# on real meshes is remesh.sh; the two run side by side).
+. "$(dirname "$0")/lib.sh"
+
+# The libcgal-demo meshes, extracted at test time (never committed).
+# remesh.sh and remesh-paths.sh run side by side: one extracts, under a lock.
+DATA=$NDO_TMP/cgal-data
+mkdir -p "$NDO_TMP"
+(
+	flock 9
+	if [ ! -f "$DATA/done" ]; then
+		mkdir -p "$DATA"
+		tar -xzf /usr/share/doc/libcgal-dev/data.tar.gz -C "$DATA" data/meshes 2>/dev/null && : >"$DATA/done"
+	fi
+) 9>"$NDO_TMP/cgal-data.lock"
+M=$DATA/data/meshes
+[ -f "$M/cow.off" ] || { fail "libcgal-demo data" "no $M/cow.off (install libcgal-demo)"; exit 1; }
+
+# json FILE KEY: the value of a flat key in remesh's --json output.
+json() { sed -n "s/.*\"$2\": \([^,}]*\).*/\1/p" "$1" | head -n 1; }
+# below A B: A < B as numbers.
+below() { awk -v a="$1" -v b="$2" 'BEGIN { exit !(a + 0 < b + 0) }'; }
+
+# Small closed meshes written here.
+offfile() { # offfile NV NF "x y z ..." "a b c ...": one vertex, one face a line
+	echo OFF; echo "$1 $2 0"
+	echo "$3" | xargs -n 3; echo "$4" | xargs -n 3 | sed 's/^/3 /'
+}
+offfile 6 8 "1 0 0  -1 0 0  0 1 0  0 -1 0  0 0 1  0 0 -1" \
+	"0 2 4  2 1 4  1 3 4  3 0 4  2 0 5  1 2 5  3 1 5  0 3 5" >octa.off
+# the same, every face turned inward
+awk 'NR > 2 && NF == 4 { print $1, $2, $4, $3; next } { print }' octa.off >inward.off
+# two tetrahedra sharing one edge: four faces on edge 0–1
+offfile 6 8 "0 0 0  1 0 0  0 1 0  0 0 1  0 -1 0  0 0 -1" \
+	"0 2 1  0 1 3  0 3 2  1 2 3  0 1 4  0 5 1  0 4 5  1 5 4" >nonmanifold.off
+: >empty.off
+head -c 100 "$M/cow.off" >truncated.off
+
+# remesh_ok NAME LEVEL INPUT [OPTIONS...]: succeeds, reports 0 flips, a
+# closed manifold grid with Euler characteristic 2, and no degenerate
+# triangle; leaves NAME.json and NAME.tgrid.
+remesh_ok() {
+	local name=$1 level=$2 in=$3; shift 3
+	remesh "$in" -l "$level" -o "$name.tgrid" --json="$name.json" "$@" 2>"$name.err"
+	local rc=$?
+	if [ $rc -ne 0 ]; then
+		fail "$name" "exit $rc from remesh $in -l $level $*"; sed 's/^/    /' "$name.err" | head -5
+		return 1
+	fi
+	local flips closed euler degen
+	flips=$(json "$name.json" flips); closed=$(json "$name.json" closed_manifold)
+	euler=$(json "$name.json" euler); degen=$(json "$name.json" degenerate)
+	if [ "$closed" != true ] || [ "$euler" != 2 ] || [ "$degen" != 0 ]; then
+		fail "$name" "grid closed=$closed euler=$euler degenerate=$degen"
+	elif [ "$flips" != 0 ] && [ "${ALLOW_FLIPS:-0}" = 0 ]; then
+		fail "$name" "expected 0 flipped spherical triangles, got $flips"
+	else
+		pass "$name"
+	fi
+}
+
+remesh_ok octahedron 3 octa.off
+remesh_ok icosahedron 3 "$M/icosahedron.off" --rotations 8
+# cow.off has coincident vertices that are distinct: merging by position
+# would break it; kept apart it is a closed genus-0 surface
+remesh_ok cow-coincident-vertices 2 "$M/cow.off" --rotations 4
+remesh_ok oblong-gnomonic 3 "$M/oblong.off" --map gnomonic --rotations 8
+remesh_ok part-spring-domain 3 "$M/part.off" --map spring --rotations 8
+remesh_ok oblong-no-rotation 3 "$M/oblong.off" --no-rotation
+# the plain objective (L2 stretch alone, no importance) on the equal-area map
+remesh_ok icosahedron-plain-stretch 3 "$M/icosahedron.off" --map equal-area --conformal 0 --importance 0 --rotations 4
+ALLOW_FLIPS=1 remesh_ok octahedron-spring-embedder 3 octa.off --param spring --spring-steps 50
+
+# inward orientation is fixed and said
+if remesh inward.off -l 2 -o inward.tgrid --json=inward.json 2>inward.err \
+	&& grep -q "oriented inward; reversed" inward.err && [ "$(json inward.json flips)" = 0 ]; then
+	pass "inward-orientation-fixed"
+else fail "inward-orientation-fixed" "$(head -2 inward.err)"; fi
+
+# polygons are triangulated
+remesh_ok quads-triangulated 3 "$M/cube_quad.off"
+grep -q "triangulated 6 polygons into 12 triangles" quads-triangulated.err \
+	&& pass "quads-triangulated-said" || fail "quads-triangulated-said" "$(head -1 quads-triangulated.err)"
+
+# stdin in, stdout out, export by extension, pipes into the next tool
+if remesh -l 2 <octa.off >stdin.tgrid 2>stdin.err && [ -s stdin.tgrid ] \
+	&& subdivide -l 1 stdin.tgrid >sub.tgrid 2>>stdin.err; then pass "stdin-stdout-pipe"
+else fail "stdin-stdout-pipe" "$(head -2 stdin.err)"; fi
+check export-obj remesh octa.off -l 2 -o octa.obj
+if [ "$(grep -c '^v ' octa.obj)" -ge 34 ]; then pass "export-obj-vertices"
+else fail "export-obj-vertices" "$(grep -c '^v ' octa.obj) vertices"; fi
+check report remesh "$M/icosahedron.off" -l 3 -o /dev/null --report
+grep -q "Hausdorff" err.log && grep -q "stretch efficiency" err.log \
+	&& pass "report-readable" || fail "report-readable" "$(head -3 err.log)"
+remesh octa.off -l 2 -o o.tgrid --json=- >json.out 2>/dev/null
+[ "$(json json.out flips)" = 0 ] && pass "json-to-stdout" || fail "json-to-stdout" "$(head -c 200 json.out)"
+
+# expected failures: one line, exit 1, naming the defect
+expect_error elephant-genus3 1 'elephant\.off: genus 3 \(Euler characteristic -4\); remesh needs genus 0$' \
+	remesh "$M/elephant.off" -o out.tgrid
+expect_error femur-genus2 1 'femur\.off: genus 2 \(Euler characteristic -2\); remesh needs genus 0$' \
+	remesh "$M/femur.off" -o out.tgrid
+expect_error head-open 1 'head\.off: open surface: 58 boundary edges' remesh "$M/head.off" -o out.tgrid
+expect_error bones-components 1 'bones\.off: 26 connected components; remesh needs one' \
+	remesh "$M/bones.off" -o out.tgrid
+expect_error non-manifold 1 'nonmanifold\.off: not manifold: 1 edge shared by more than two faces' \
+	remesh nonmanifold.off -o out.tgrid
+expect_error empty 1 'empty\.off: empty file' remesh empty.off -o out.tgrid
+expect_error truncated 1 'truncated\.off: ' remesh truncated.off -o out.tgrid
+expect_error missing 1 'nosuch\.off: No such file' remesh nosuch.off -o out.tgrid
+[ ! -e out.tgrid ] && pass "no-output-on-failure" || fail "no-output-on-failure" "out.tgrid written"
+expect_error bad-param 2 "--param: 'x' is not hierarchical or spring" remesh octa.off --param x
+expect_error bad-sweeps 2 '--sweeps' remesh octa.off --sweeps 1000
+expect_error two-inputs 2 'one input mesh at a time' remesh octa.off octa.off
+expect_error spring-shape 2 '--map: spring is for meshes' remesh --shape sphere --map spring
+expect_error blend-shape 2 '--map: blend is for meshes' remesh --shape sphere --map blend
+expect_error bad-map 2 "--map: 'x' is not" remesh octa.off --map x
+expect_error bad-blend 2 '--blend' remesh octa.off --blend 1.5
+expect_error bad-conformal 2 '--conformal' remesh octa.off --conformal -1
+expect_error bad-importance 2 '--importance' remesh octa.off --importance 11
+expect_error bad-guard 2 '--guard: 0.5 is below 1' remesh octa.off --guard 0.5
+expect_error big-guard 2 '--guard' remesh octa.off --guard 1001
+expect_error bad-rotations 2 '--rotations' remesh octa.off --rotations 100001
+
+# the procedural shapes keep working, every option
+check shape-sphere remesh --shape sphere -l 3 -o sphere.tgrid
+check shape-ellipsoid remesh --shape ellipsoid --axes 2,1,0.5 -l 2 --map gnomonic -o e.tgrid
+check shape-wavy remesh --shape wavy --amplitude 0.1 --frequency 3 -l 2 -o w.obj
+check shape-tetra remesh --shape tetra -l 1 -o t.tgrid
+expect_error shape-unknown 2 '--shape' remesh --shape cube
