@@ -20,19 +20,20 @@ for target in "$NDO_TESTBIN"/fuzz_*; do
 		;;
 	fuzz_msg)
 		# every message of three short owner runs (written by LCM's file
-		# provider, no network), one per tile encoding, its first byte as
-		# fuzz_msg.c reads it: the type, and for a tile the receiver's
-		# level-3 decoder of that encoding
+		# provider, no network; whole regions every step), one per tile
+		# encoding, its first bytes as fuzz_msg.c reads them: the type, and
+		# for a tile the receiver's level-3 decoder of that encoding
 		remesh --shape wavy -l 3 -o w3.tgrid
 		for enc in float32 fixed predict; do
 			simulate-peer --lcm "file://$PWD/$enc.lcmlog?mode=w" --owner w3.tgrid \
 				-s "$NDO_ROOT/samples/thesis-fig5.3.scene" --dt 0.01 -n 40 --encoding $enc \
+				--publish-every 1 \
 				-q -o /dev/null
 		done
 		/usr/bin/python3 - corpus-$name <<'PY' || fail "$name seeds" "no recorded messages"
 import struct, sys
-suffixes = "DESC TILE POI PARTITION HELLO PEERS LEAVE HEARTBEAT DESC_REQUEST FORCE".split()
-tile_byte = {"float32": 171, "fixed": 211, "predict": 131}  # type 1, level 3, 1 + byte % 3
+suffixes = "DESC TILE POI PARTITION HELLO PEERS LEAVE HEARTBEAT DESC_REQUEST FORCE HALO".split()
+tile_byte = {"float32": 9, "fixed": 10, "predict": 11}  # level b / 3 = 3, encoding 1 + b % 3
 n = 0
 for enc, tb in tile_byte.items():
     b = open(f"{enc}.lcmlog", "rb").read()
@@ -44,7 +45,7 @@ for enc, tb in tile_byte.items():
         o += 28 + cl + dl
         t = suffixes.index(ch.split("_", 1)[1])
         with open(f"{sys.argv[1]}/{enc}-{n:03d}", "wb") as f:
-            f.write(bytes([tb if t == 1 else t]) + data)
+            f.write((bytes([129, tb]) if t == 1 else bytes([t])) + data)
         n += 1
 sys.exit(n < 3 * 40)
 PY
