@@ -9,27 +9,32 @@
 # input in the log.
 . "$(dirname "$0")/lib.sh"
 secs=${NDO_FUZZ_SECONDS:-20}
-# record_messages DIR [PREFIX]: every message of three short owner runs
-# (written by LCM's file provider, no network), one per tile encoding, as
-# seeds in DIR: PREFIX (hex, fuzz_auth's flags byte) then the first byte as
-# fuzz_msg.c reads it (the type, and for a tile the receiver's level-3
-# decoder of that encoding), then the message.
+# record_messages DIR PREFIX FORM: every message of three short owner runs
+# (written by LCM's file provider, no network; whole regions every step),
+# one per tile encoding, as seeds in DIR: PREFIX (hex, fuzz_auth's flags
+# byte), then the bytes that pick the type and, for a tile, the receiver's
+# level-3 decoder of that encoding — FORM msg: fuzz_msg.c's (129, then 9,
+# 10 or 11 for a tile), auth: fuzz_auth.c's one byte (171, 211 or 131) —
+# then the message.
 record_messages() {
 	[ -f predict.lcmlog ] || {
 		remesh --shape wavy -l 3 -o w3.tgrid
 		for enc in float32 fixed predict; do
 			simulate-peer --lcm "file://$PWD/$enc.lcmlog?mode=w" --owner w3.tgrid \
 				-s "$NDO_ROOT/samples/thesis-fig5.3.scene" --dt 0.01 -n 40 --encoding $enc \
-				-q -o /dev/null
+				--publish-every 1 -q -o /dev/null
 		done
 	}
-	/usr/bin/python3 - "$1" "$2" <<'PY' || fail "$(basename "$1") seeds" "no recorded messages"
+	/usr/bin/python3 - "$1" "$2" "$3" <<'PY' || fail "$(basename "$1") seeds" "no recorded messages"
 import struct, sys
-suffixes = "DESC TILE POI PARTITION HELLO PEERS LEAVE HEARTBEAT DESC_REQUEST FORCE".split()
-tile_byte = {"float32": 171, "fixed": 211, "predict": 131}  # type 1, level 3, 1 + byte % 3
+suffixes = "DESC TILE POI PARTITION HELLO PEERS LEAVE HEARTBEAT DESC_REQUEST FORCE HALO".split()
+if sys.argv[3] == "msg":  # 129 then b: level b / 3 = 3, encoding 1 + b % 3
+    tile = {"float32": bytes([129, 9]), "fixed": bytes([129, 10]), "predict": bytes([129, 11])}
+else:  # one byte: type 1, level 3, encoding 1 + byte % 3
+    tile = {"float32": bytes([171]), "fixed": bytes([211]), "predict": bytes([131])}
 prefix = bytes.fromhex(sys.argv[2])
 n = 0
-for enc, tb in tile_byte.items():
+for enc, tb in tile.items():
     b = open(f"{enc}.lcmlog", "rb").read()
     o = 0
     while o + 28 <= len(b):
@@ -39,7 +44,7 @@ for enc, tb in tile_byte.items():
         o += 28 + cl + dl
         t = suffixes.index(ch.split("_", 1)[1])
         with open(f"{sys.argv[1]}/{enc}-{n:03d}", "wb") as f:
-            f.write(prefix + bytes([tb if t == 1 else t]) + data)
+            f.write(prefix + (tb if t == 1 else bytes([t])) + data)
         n += 1
 sys.exit(n < 3 * 40)
 PY
@@ -56,8 +61,8 @@ for target in "$NDO_TESTBIN"/fuzz_*; do
 		remesh --shape wavy -l 2 | subdivide -l 0 -o corpus-$name/wavy2.tgrid
 		cat corpus-$name/tetra0.tgrid corpus-$name/sphere1.tgrid >corpus-$name/stream.tgrid
 		;;
-	fuzz_msg) record_messages "corpus-$name" "" ;;
-	fuzz_auth) record_messages "corpus-$name" 03 ;;  # sealed, the receiver decodes tiles
+	fuzz_msg) record_messages "corpus-$name" "" msg ;;
+	fuzz_auth) record_messages "corpus-$name" 03 auth ;;  # sealed, the receiver decodes tiles
 	esac
 	if "$target" -max_total_time="$secs" -max_len=8192 -rss_limit_mb=2048 \
 		-print_final_stats=1 "corpus-$name" >fuzz.log 2>&1; then

@@ -123,7 +123,7 @@ for enc in raw predict; do
 	rf=$!
 	sleep 0.5
 	simulate-peer --lcm "$URL" --owner w5.tgrid -s "$SCENE" --dt 0.01 -t 0.2 --encoding "$enc" \
-		-q -o /dev/null
+		--publish-every 1 -q -o /dev/null
 	wait $rf
 done
 nr=$(ls f-raw | wc -l); np=$(ls f-predict | wc -l)

@@ -1,11 +1,11 @@
 /* fuzz_msg — random bytes into every decoder and validator (ndo/msg.h)
  * and through ndo_net's receive path (sequence checks, tile store).
- * The first byte picks the message type (byte % NDO_MSG_NTYPES); with its
- * high bit set the receiver decodes tiles in encoding 1 + byte % 3 at
- * level byte % 8 and takes the message's object as its own, so a recorded
- * tile is accepted (tests/e2e/fuzz.sh seeds the corpus from recorded runs:
- * 171, 211 and 131 are a level-3 float32, fixed and predict tile).  The
- * rest is the message.
+ * The first byte picks the message type ((byte & 0x7f) % NDO_MSG_NTYPES);
+ * with its high bit set a second byte follows, and the receiver decodes
+ * tiles in encoding 1 + b % 3 at level (b / 3) % 8 and takes the message's
+ * object as its own, so a recorded tile is accepted (tests/e2e/fuzz.sh
+ * seeds the corpus from recorded runs: 129 then 9, 10 and 11 are a level-3
+ * float32, fixed and predict tile).  The rest is the message.
  *   build/asan/tests/fuzz_msg -max_total_time=60 */
 #include "ndo/msg.h"
 #include "ndo/net.h"
@@ -22,10 +22,13 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
 	if (size < 1)
 		return 0;
-	ndo_msg_type t = (ndo_msg_type)(data[0] % NDO_MSG_NTYPES);
+	ndo_msg_type t = (ndo_msg_type)((data[0] & 0x7f) % NDO_MSG_NTYPES);
+	const int coded = (data[0] & 0x80) && size >= 2;
+	const uint8_t how = coded ? data[1] : 0;
+	const size_t skip = coded ? 2 : 1;
 	ndo_msg m;
 	int64_t object = 42;
-	if (ndo_msg_decode(t, data + 1, size - 1, &m) == NDO_DROP_NONE) {
+	if (ndo_msg_decode(t, data + skip, size - skip, &m) == NDO_DROP_NONE) {
 		object = m.hdr->object_id;
 		for (int level = -1; level <= 10; level += 3) {
 			ndo_msg_ctx c = {.object_id = m.hdr->object_id, .level = level, .self_id = 99};
@@ -47,13 +50,13 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 	char ch[32];
 	strcpy(ch, "F_");
 	strcat(ch, ndo_msg_suffix(t));
-	ndo_link_publish(tx, ch, data + 1, size - 1);
-	if (data[0] & 0x80) {
+	ndo_link_publish(tx, ch, data + skip, size - skip);
+	if (coded) {
 		/* encoded tiles go through the decoder (ndo/codec.h) */
-		ndo_codec_params cp = {.encoding = 1 + data[0] % 3, .bits = 13, .keyframe = 32,
+		ndo_codec_params cp = {.encoding = 1 + how % 3, .bits = 13, .keyframe = 32,
 		                       .lo = {-1, -1, -1}, .ext = {2, 2, 2}};
-		ndo_net_set_codec(rx, &cp, data[0] % 8);
-		ndo_net_attach(rx, object, data[0] % 8);
+		ndo_net_set_codec(rx, &cp, (how / 3) % 8);
+		ndo_net_attach(rx, object, (how / 3) % 8);
 	}
 	ndo_net_poll(rx, 0);
 	ndo_link_poll(tx, 0, discard, NULL); /* lets the bus free what both read */

@@ -115,6 +115,8 @@ static void on_message(const lcm_recv_buf_t *rbuf, const char *channel, void *us
 	double payload = 0;
 	if (type == NDO_MSG_HEARTBEAT) {
 		kind = NB_HEARTBEAT;
+	} else if (type == NDO_MSG_HALO) {
+		kind = NB_HALO;
 	} else if (type == NDO_MSG_TILE &&
 	           (ndo_msg_decode(NDO_MSG_TILE, rbuf->data, (size_t)rbuf->data_size, &m) ==
 	                NDO_DROP_NONE ||
@@ -376,7 +378,9 @@ int nb_run(const nb_opts *o, int level, const ndo_codec_params *enc, double loss
 			            .poi = k ? (int32_t)(frac[k] * (double)faces) : -1,
 			            .codec = k ? NULL : enc, .seed = seed + 17 * (uint64_t)k + 1},
 			.clock = NDO_CLOCK_LOCKSTEP, .peers = np, .start_timeout = o->timeout,
-			.gather_timeout = 10, .resend = 0.25, .step_timeout = 2};
+			.gather_timeout = 10, .resend = 0.25, .step_timeout = 2,
+			/* what a viewer costs: the whole state every step */
+			.publish_every = 1};
 		rc = ndo_peer_create(&po, n, k ? NULL : g, k ? NULL : sim, k ? NULL : &run, &p[k]);
 		if (k == 0)
 			g = NULL, sim = NULL; /* taken over */
@@ -529,7 +533,7 @@ int nb_run(const nb_opts *o, int level, const ndo_codec_params *enc, double loss
 	double wsum = 0, ssum = 0, spay = 0;
 	for (int k = 0; k < NB_KINDS; k++) {
 		wsum += row->whole.bytes[k];
-		if (k != NB_FINAL)
+		if (k != NB_FINAL && k != NB_HALO)
 			ssum += row->steady.bytes[k], spay += row->steady.payload[k];
 	}
 	double nu = (double)row->nodes * (double)row->steady_steps;

@@ -28,6 +28,8 @@ enum {
 	NB_FINAL,     /* the last step's state tiles: exact, whatever the encoding */
 	NB_HEARTBEAT,
 	NB_CONTROL,   /* descriptions, partitions, hellos, peers, POIs, leaves, forces */
+	NB_HALO,      /* halos between simulating peers (exact lock-step): not what a
+	                 viewer receives, so not in bits per node per update */
 	NB_KINDS
 };
 typedef struct nb_traffic {
