@@ -14,7 +14,8 @@ secs=${NDO_FUZZ_SECONDS:-20}
 # one per tile encoding, as seeds in DIR: PREFIX (hex, fuzz_auth's flags
 # byte), then the bytes that pick the type and, for a tile, the receiver's
 # level-3 decoder of that encoding — FORM msg: fuzz_msg.c's (129, then 9,
-# 10 or 11 for a tile), auth: fuzz_auth.c's one byte (171, 211 or 131) —
+# 10 or 11 for a tile), auth: fuzz_auth.c's one byte (243, 67 or 155 with
+# 11 message types) —
 # then the message.
 record_messages() {
 	[ -f predict.lcmlog ] || {
@@ -30,8 +31,10 @@ import struct, sys
 suffixes = "DESC TILE POI PARTITION HELLO PEERS LEAVE HEARTBEAT DESC_REQUEST FORCE HALO".split()
 if sys.argv[3] == "msg":  # 129 then b: level b / 3 = 3, encoding 1 + b % 3
     tile = {"float32": bytes([129, 9]), "fixed": bytes([129, 10]), "predict": bytes([129, 11])}
-else:  # one byte: type 1, level 3, encoding 1 + byte % 3
-    tile = {"float32": bytes([171]), "fixed": bytes([211]), "predict": bytes([131])}
+else:  # one byte b: type b % (message types) = 1, level b % 8 = 3, encoding 1 + b % 3
+    one = lambda r: bytes([next(b for b in range(256)
+                                if b % len(suffixes) == 1 and b % 8 == 3 and b % 3 == r)])
+    tile = {"float32": one(0), "fixed": one(1), "predict": one(2)}
 prefix = bytes.fromhex(sys.argv[2])
 n = 0
 for enc, tb in tile.items():
