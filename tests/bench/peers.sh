@@ -108,7 +108,7 @@ for level in ${PEERS_LEVELS:-5 6 7 8 9}; do
 	t=${TL[$level]}
 	sps=""
 	for rep in 1 2 3; do
-		simulate-peer "$work/wavy$level.tgrid" -s "$SCENE" -t "$t" -o "$work/solo.tgrid" 2>"$work/solo.err"
+		simulate-peer --threads 1 "$work/wavy$level.tgrid" -s "$SCENE" -t "$t" -o "$work/solo.tgrid" 2>"$work/solo.err"
 		sps="$sps $(grep -o 'in [0-9.e+-]* s: [0-9.e+-]* steps/s' "$work/solo.err" | awk '{print $4}')"
 	done
 	solo_sps=$(echo "$sps" | median)
