@@ -82,7 +82,7 @@ static void tile_fields_checked(void)
  * disjoint, six finite values a node. */
 static void halos_checked(void)
 {
-	ndo_msg_ctx c = {42, 4, 1};
+	ndo_msg_ctx c = {.object_id = 42, .level = 4, .self_id = 1};
 	int32_t start[2] = {10, 40}, len[2] = {3, 2};
 	double v[30] = {0};
 	ndo_msg_halo_t h = {.hdr = {NDO_PROTOCOL_VERSION, 42, 7, 0, 0}, .step = 5, .time = 0.1,
@@ -99,7 +99,7 @@ static void halos_checked(void)
 	h.nvalues = 30, v[7] = NAN;
 	CHECK(roundtrip(NDO_MSG_HALO, &h, &c) == NDO_DROP_NONFINITE, "NaN");
 	v[7] = 0;
-	ndo_msg_ctx unknown = {0, -1, 1};
+	ndo_msg_ctx unknown = {.object_id = 0, .level = -1, .self_id = 1};
 	CHECK(roundtrip(NDO_MSG_HALO, &h, &unknown) == NDO_DROP_UNKNOWN, "before the description");
 }
 
