@@ -14,6 +14,10 @@
  *   replay    the message again, at once and 40 messages later        → replay
  *   random    random bytes on a random channel                        → unsigned
  *
+ * The owner publishes whole regions every step (--publish-every 1), so
+ * tiles to poison pass as often as the halo messages, which the kinds
+ * that copy any message (flip, foreign, replay) attack too.
+ *
  * It attacks from the first tile it hears after both peers have spoken
  * until a tile of step 75, while both peers are listening (every message
  * a peer receives is held 2 ms, --delay 2: lock-step then takes at least
@@ -222,7 +226,8 @@ static int session(const char *out, attacker *a, const char *tag)
 	char cmd[2048];
 	snprintf(cmd, sizeof cmd,
 	         "exec simulate-peer --owner %s/w4.tgrid -s %s/samples/thesis-fig5.3.scene --dt 0.01 "
-	         "-t 1 --peers 2 --key %s/k.key --start-timeout 30 --delay 2 -o %s 2>%s/%s-owner.err",
+	         "-t 1 --peers 2 --publish-every 1 --key %s/k.key --start-timeout 30 --delay 2 "
+	         "-o %s 2>%s/%s-owner.err",
 	         dir, getenv("NDO_ROOT"), dir, out, dir, tag);
 	pid_t owner = spawn(cmd);
 	snprintf(cmd, sizeof cmd,
