@@ -21,7 +21,7 @@ load1=$(cut -d' ' -f1-3 /proc/loadavg)
 	echo "The thesis scene (figure 5.3) on the wavy surface, each method at half its critical step."
 	echo "Each row: 7 pairs of runs of at least 0.1 s, one thread then two, in the same process;"
 	echo "steps/s are medians, the ratio is the median of the 7 pairs' ratios (a busy machine slows both"
-	echo "runs of a pair alike).  Grids under 8,000 integrated nodes (levels ≤ 5) run on one thread"
+	echo "runs of a pair alike).  Grids under 20,000 integrated nodes (levels ≤ 6) run on one thread"
 	echo "whatever is asked, so their ratio measures only noise.  The results are the same bits on"
 	echo "any thread count (test_sim: threads_give_the_same_bits)."
 	echo

@@ -111,12 +111,12 @@ for m in backward-euler trapezoid; do
 	check "integrator $m at 10 x the rk4 limit" simulate-peer -q -i $m --dt 1 -n 20 -s scene.txt \
 		s3.tgrid -o m.tgrid
 done
-# Threads share a step's loops and change no bit (a level-6 grid: above
-# the 8,000 nodes from which steps are shared).
-remesh --shape wavy -l 6 -o w6.tgrid
+# Threads share a step's loops and change no bit (a level-7 grid: above
+# the 20,000 nodes from which steps are shared).
+remesh --shape wavy -l 7 -o w7.tgrid
 for m in rk4 midpoint; do
-	simulate-peer -q -i $m -n 8 -s scene.txt --dt auto --threads 1 w6.tgrid -o one.tgrid
-	simulate-peer -s scene.txt -i $m -n 8 --dt auto --threads 2 w6.tgrid -o two.tgrid 2>two.log
+	simulate-peer -q -i $m -n 8 -s scene.txt --dt auto --threads 1 w7.tgrid -o one.tgrid
+	simulate-peer -s scene.txt -i $m -n 8 --dt auto --threads 2 w7.tgrid -o two.tgrid 2>two.log
 	if /usr/bin/python3 -c "
 import sys; sys.path.insert(0, '$NDO_ROOT/tests/e2e'); import gridfile, numpy as np
 a, b = gridfile.read('one.tgrid')['channels'], gridfile.read('two.tgrid')['channels']

@@ -429,7 +429,7 @@ static void duplicates_agree_after_every_step(void)
  * not the threads'), and so does the divergence test's energy. */
 static void threads_give_the_same_bits(void)
 {
-	ndo_grid *g = shape("wavy", 6); /* 8,194 vertices: above NDO_SIM_THREAD_MIN */
+	ndo_grid *g = shape("wavy", 7); /* 32,770 vertices: above NDO_SIM_THREAD_MIN */
 	size_t nn = 3 * g->count;
 	double *x0 = malloc(nn * sizeof *x0), *v0 = malloc(nn * sizeof *v0);
 	double *x[3], *v[3];

@@ -85,7 +85,7 @@ static __attribute__((noreturn)) void usage(void)
 	    "      --threads N         threads a step runs on, 1..the processors this\n"
 	    "                          process may use (default: all of them alone, 1 as a\n"
 	    "                          peer); the same result for every N; grids under\n"
-	    "                          8,000 nodes run on one\n"
+	    "                          20,000 nodes (level 6 and below) run on one\n"
 	    "      --accuracy E[m]     choose the level (up to the input's), integrator\n"
 	    "                          and step that meet the error E at the least\n"
 	    "                          predicted cost: E a share of the largest\n"

@@ -155,7 +155,7 @@ typedef struct ndo_sim_params {
 /* The smallest grid, in integrated nodes, whose steps are shared among
  * threads: below it a step is too short to pay for waking a thread
  * (docs/bench/simulate.md, "Threads"). */
-#define NDO_SIM_THREAD_MIN 8000
+#define NDO_SIM_THREAD_MIN 20000
 
 /* σ = 1 N/m, ρ = 1 kg/m², b = 0, a = 0, rk4, tol 1e-6, no restiffening,
  * projected pins, energy bound 10, no forces, one thread. */
