@@ -216,8 +216,15 @@ int main(int argc, char **argv)
 		draw_one(&st, &o, g, src->where, src->number);
 		ndo_grid_destroy(g);
 	}
-	if (rc != NDO_EEOF)
-		ndo_die("%s", ndo_errdetail());
+	if (rc != NDO_EEOF) {
+		/* The frames drawn before the bad grid are kept: the writer
+		 * commits them before the exit removes uncommitted files. */
+		char why[1024];
+		snprintf(why, sizeof why, "%s", ndo_errdetail());
+		if (st.writer)
+			rf_writer_finish(st.writer);
+		ndo_die("%s", why);
+	}
 	if (o.use_lcm) {
 		char what[1024];
 		rf_source_lcm_report(src, what, sizeof what);
