@@ -5,6 +5,7 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <stdlib.h>
+#include <stdio.h>
 #include <string.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -167,4 +168,29 @@ void ndo_out_abort(ndo_outfile *o)
 	free(o->tmp);
 	free(o->path);
 	memset(o, 0, sizeof *o);
+}
+
+int ndo_lines_take(char *text, const char *prefix, int (*fn)(void *ctx, const char *line),
+                   void *ctx)
+{
+	const size_t np = strlen(prefix);
+	int rc = 0;
+	char *w = text;
+	for (char *line = text; *line;) {
+		char *end = strchr(line, '\n');
+		size_t len = end ? (size_t)(end - line) + 1 : strlen(line);
+		if (strncmp(line, prefix, np) != 0) {
+			memmove(w, line, len);
+			w += len;
+			line += len;
+			continue;
+		}
+		char l[256];
+		snprintf(l, sizeof l, "%.*s", (int)(end ? len - 1 : len), line);
+		line += len;
+		if (!rc) /* after an error the lines are only taken out */
+			rc = fn(ctx, l);
+	}
+	*w = 0;
+	return rc;
 }

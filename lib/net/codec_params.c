@@ -2,6 +2,7 @@
  * and naming them, the object's box, error bounds, and their text form in a
  * session's description. */
 #include "codec_private.h"
+#include "ndo/io.h"
 #include "ndo/status.h"
 
 #include <math.h>
@@ -181,40 +182,39 @@ int ndo_codec_params_text(const ndo_codec_params *p, char *buf, size_t size)
 	return n;
 }
 
+typedef struct tile_lines {
+	ndo_codec_params *p;
+	int seen;
+} tile_lines;
+
+static int tile_line(void *arg, const char *l)
+{
+	tile_lines *t = arg;
+	ndo_codec_params *p = t->p;
+	int k;
+	if (sscanf(l, "tile-encoding %d", &k) == 1)
+		p->encoding = k, t->seen |= 1;
+	else if (sscanf(l, "tile-bits %d", &k) == 1)
+		p->bits = k, t->seen |= 2;
+	else if (sscanf(l, "tile-keyframe %d", &k) == 1)
+		p->keyframe = k, t->seen |= 4;
+	else if (sscanf(l, "tile-box %lf %lf %lf %lf %lf %lf", &p->lo[0], &p->lo[1], &p->lo[2],
+	                &p->ext[0], &p->ext[1], &p->ext[2]) == 6)
+		t->seen |= 8;
+	else if (sscanf(l, "tile-error %lf", &p->error) == 1 && p->error > 0)
+		t->seen |= 16; /* optional: the step from an error budget */
+	else
+		return ndo__fail(NDO_EINVAL, "the owner's description: bad line '%s'", l);
+	return 0;
+}
+
 int ndo_codec_params_take(char *text, ndo_codec_params *p)
 {
 	memset(p, 0, sizeof *p);
 	p->encoding = NDO_ENC_RAW;
-	int seen = 0, rc = 0;
-	char *w = text;
-	for (char *line = text; *line;) {
-		char *end = strchr(line, '\n');
-		size_t len = end ? (size_t)(end - line) + 1 : strlen(line);
-		if (strncmp(line, "tile-", 5) != 0) {
-			memmove(w, line, len);
-			w += len;
-			line += len;
-			continue;
-		}
-		char l[256];
-		snprintf(l, sizeof l, "%.*s", (int)(end ? len - 1 : len), line);
-		line += len;
-		int k;
-		if (sscanf(l, "tile-encoding %d", &k) == 1)
-			p->encoding = k, seen |= 1;
-		else if (sscanf(l, "tile-bits %d", &k) == 1)
-			p->bits = k, seen |= 2;
-		else if (sscanf(l, "tile-keyframe %d", &k) == 1)
-			p->keyframe = k, seen |= 4;
-		else if (sscanf(l, "tile-box %lf %lf %lf %lf %lf %lf", &p->lo[0], &p->lo[1], &p->lo[2],
-		                &p->ext[0], &p->ext[1], &p->ext[2]) == 6)
-			seen |= 8;
-		else if (sscanf(l, "tile-error %lf", &p->error) == 1 && p->error > 0)
-			seen |= 16; /* optional: the step from an error budget */
-		else if (!rc)
-			rc = ndo__fail(NDO_EINVAL, "the owner's description: bad line '%s'", l);
-	}
-	*w = 0;
+	tile_lines t = {p, 0};
+	int rc = ndo_lines_take(text, "tile-", tile_line, &t);
+	const int seen = t.seen;
 	if (rc)
 		return rc;
 	if (seen && (seen & 15) != 15)

@@ -2,6 +2,7 @@
  * messages (ndo/msg.h). */
 #include "ndo/msg.h"
 #include "ndo/quadtree.h"
+#include "ndo/io.h"
 #include "ndo/status.h"
 
 #include <math.h>
@@ -530,31 +531,27 @@ int ndo_msg_box_text(const double *x, size_t count, char *buf, size_t size)
 	return n;
 }
 
+typedef struct box_lines {
+	ndo_msg_ctx *ctx;
+	int found;
+} box_lines;
+
+static int box_line(void *arg, const char *l)
+{
+	box_lines *b = arg;
+	double lo[3], hi[3];
+	int bad = b->found || sscanf(l, "object-box %lf %lf %lf %lf %lf %lf", &lo[0], &lo[1],
+	                             &lo[2], &hi[0], &hi[1], &hi[2]) != 6 ||
+	          ndo_msg_set_box(b->ctx, lo, hi) != 0;
+	b->found = 1;
+	return bad ? ndo__fail(NDO_EINVAL, "the owner's description: bad line '%s'", l) : 0;
+}
+
 int ndo_msg_box_take(char *text, ndo_msg_ctx *ctx)
 {
-	int found = 0, rc = 0;
-	char *w = text;
-	for (char *line = text; *line;) {
-		char *end = strchr(line, '\n');
-		size_t len = end ? (size_t)(end - line) + 1 : strlen(line);
-		if (strncmp(line, "object-box", 10) != 0) {
-			memmove(w, line, len);
-			w += len;
-			line += len;
-			continue;
-		}
-		char l[256];
-		snprintf(l, sizeof l, "%.*s", (int)(end ? len - 1 : len), line);
-		line += len;
-		double lo[3], hi[3];
-		if (found || sscanf(l, "object-box %lf %lf %lf %lf %lf %lf", &lo[0], &lo[1], &lo[2],
-		                    &hi[0], &hi[1], &hi[2]) != 6 ||
-		    ndo_msg_set_box(ctx, lo, hi) != 0)
-			rc = ndo__fail(NDO_EINVAL, "the owner's description: bad line '%s'", l);
-		found = 1;
-	}
-	*w = 0;
-	return rc ? rc : found;
+	box_lines b = {ctx, 0};
+	int rc = ndo_lines_take(text, "object-box", box_line, &b);
+	return rc ? rc : b.found;
 }
 
 ndo_drop ndo_msg_check_box(const ndo_msg_tile_t *t, const ndo_msg_ctx *ctx)

@@ -36,6 +36,14 @@ void ndo_out_abort(ndo_outfile *o);
  * directory when one cannot be made (or a file stands in its place). */
 int ndo_mkdir_parents(const char *path);
 
+/* Take out of `text` (a string of lines) every line that starts with
+ * `prefix`: each is passed, without its newline (at most 255 bytes), to
+ * fn(ctx, line), and the other lines close up in place.  Returns 0, or the
+ * first nonzero value fn returned (after it fn is not called again; every
+ * matching line is still taken out). */
+int ndo_lines_take(char *text, const char *prefix, int (*fn)(void *ctx, const char *line),
+                   void *ctx);
+
 #ifdef __cplusplus
 }
 #endif
