@@ -245,24 +245,42 @@ static int build_held_edges(ndo_sim *s)
 		}
 		s->nhedge = n;
 	}
-	/* the held nodes that move with their velocities (not pins) */
-	free(s->hmove);
+	/* the held nodes the active ones read, and of them those that move
+	 * with their velocities (not pins) */
+	free(s->hmove), free(s->hread);
 	s->hmove = malloc((s->nhedge + 1) * sizeof *s->hmove);
+	s->hread = malloc((s->nhedge + 1) * sizeof *s->hread);
 	uint8_t *seen = calloc(s->count, 1);
-	if (!s->hmove || !seen) {
+	if (!s->hmove || !s->hread || !seen) {
 		free(seen);
 		return ndo__fail(NDO_ENOMEM, "out of memory for the active set");
 	}
-	s->nhmove = 0;
+	s->nhmove = s->nhread = 0;
 	for (size_t k = 0; k < s->nhedge; k++) {
 		int32_t q = s->hedge[k].q;
-		if (!seen[q] && !s->pin[q]) {
-			seen[q] = 1;
+		if (seen[q])
+			continue;
+		seen[q] = 1;
+		s->hread[s->nhread++] = q;
+		if (!s->pin[q])
 			s->hmove[s->nhmove++] = q;
-		}
 	}
 	free(seen);
 	return NDO_OK;
+}
+
+/* A stage buffer's held nodes at the state's displacement u: only those an
+ * active node reads (the others are never read), so a peer's step costs
+ * its region, not the whole grid (a full copy was 2·3·count doubles a step). */
+static void held_keep(ndo_sim *s, double *buf)
+{
+	const size_t cnt = s->count;
+	for (size_t k = 0; k < s->nhread; k++)
+		for (int c = 0; c < 3; c++) {
+			size_t q = (size_t)c * cnt + (size_t)s->hread[k];
+			buf[q] = s->u[q];
+		}
+	ndo__sync_planes(s, buf, 3);
 }
 
 /* Held nodes at the time τ after the state's: buf = u + τ v on them (the
@@ -586,7 +604,8 @@ void ndo_sim_destroy(ndo_sim *s)
 	planes_free(s->mass), planes_free(s->minv), planes_free(s->gam);
 	free(s->pin), free(s->active), free(s->canon);
 	ndo_pool_destroy(s->pool);
-	free(s->espan), free(s->ispan), free(s->bact), free(s->hedge), free(s->hmove);
+	free(s->espan), free(s->ispan), free(s->bact), free(s->hedge), free(s->hmove),
+	    free(s->hread);
 	free(s->ichunk), free(s->echunk), free(s->cdiag);
 	free(s->pen), free(s->pen_target);
 	if (s->forces)
@@ -835,7 +854,7 @@ static int rk_stages(ndo_sim *s, const tableau *tb, double h, int k0_ready)
 	if (!k0_ready && (rc = first_stage(s, s->ka[0])))
 		return rc;
 	if (tb->s > 1 && s->any_held)
-		memcpy(s->us, s->u, 3 * s->count * sizeof *s->us); /* held nodes keep u */
+		held_keep(s, s->us); /* held nodes keep u */
 	for (int i = 1; i < tb->s; i++) {
 		const double *su[6], *sv[6];
 		double coef[6];
@@ -1071,14 +1090,13 @@ static void rk4_pass_run(ndo_sim *s, rk4_pass *g, int mode, double t, ndo__diag 
 
 static int step_rk4(ndo_sim *s, double h)
 {
-	const size_t cnt = s->count;
 	/* Buffers: A = us and B = kv[1] for the stage displacements, vs for the
 	 * stage velocity, kv[2] and kv[3] for the running sums. */
 	double *A = s->us, *B = s->kv[1];
 	if (s->any_held) {
 		/* Held nodes keep u in both stage buffers. */
-		memcpy(A, s->u, 3 * cnt * sizeof *A);
-		memcpy(B, s->u, 3 * cnt * sizeof *B);
+		held_keep(s, A);
+		held_keep(s, B);
 		held_at(s, A, h / 2);
 		held_at(s, B, h / 2);
 	}

@@ -70,6 +70,10 @@ struct ndo_sim {
 	int32_t *hmove;
 	size_t nhmove;
 	int held_motion;
+	/* Every held node next to an active one, pins too (canonical): what a
+	 * stage of an active node reads from a held one. */
+	int32_t *hread;
+	size_t nhread;
 
 	/* Penalty pins: stored index, spring α, target displacement. */
 	size_t npen;
