@@ -599,6 +599,7 @@ void ndo_sim_destroy(ndo_sim *s)
 	if (!s)
 		return;
 	ndo__implicit_free(s);
+	ndo__sleep_free(s->sleep);
 	ndo_stencil_free(&s->st);
 	planes_free(s->X), planes_free(s->u), planes_free(s->v);
 	planes_free(s->mass), planes_free(s->minv), planes_free(s->gam);
@@ -714,6 +715,9 @@ void ndo_sim_restart_energy_bound(ndo_sim *s)
 int ndo_sim_set_active(ndo_sim *s, const uint8_t *mask)
 {
 	ndo__clear_error();
+	if (s->sleep)
+		return ndo__fail(NDO_EINVAL, "a region and sleeping tiles do not go together");
+	s->ext_active = mask != NULL;
 	int rc = set_active(s, mask);
 	ndo__implicit_invalidate(s, 1);
 	/* The energy bound is over the integrated nodes: a new region starts
@@ -722,6 +726,45 @@ int ndo_sim_set_active(ndo_sim *s, const uint8_t *mask)
 	s->e0_set = 0;
 	s->work_abs_base = s->work_abs;
 	return rc;
+}
+
+int ndo_sim_set_sleep(ndo_sim *s, double umax, double vmax)
+{
+	ndo__clear_error();
+	if (!(umax >= 0) || !(vmax >= 0) || !isfinite(umax) || !isfinite(vmax))
+		return ndo__fail(NDO_EINVAL, "sleep bounds %g m, %g m/s: must be finite and ≥ 0",
+		                 umax, vmax);
+	int reach;
+	switch (s->p.method) {
+	case NDO_EULER:
+	case NDO_SYMPLECTIC_EULER:
+	case NDO_MIDPOINT: reach = 1; break;
+	case NDO_RK4: reach = 2; break;
+	default:
+		return ndo__fail(NDO_EINVAL, "sleeping tiles: %s steps are not fixed stencil "
+		                 "passes (euler, symplectic-euler, midpoint and rk4 only)",
+		                 ndo_method_names[s->p.method]);
+	}
+	if (s->ext_active)
+		return ndo__fail(NDO_EINVAL, "a region and sleeping tiles do not go together");
+	ndo__sleep_free(s->sleep);
+	s->sleep = NULL;
+	s->node_steps = s->node_steps_all = 0;
+	int rc = 0;
+	if ((umax > 0 || vmax > 0) && (rc = ndo__sleep_create(s, umax, vmax, reach, &s->sleep)))
+		return rc;
+	return set_active(s, NULL);
+}
+
+void ndo_sim_sleep_stats_get(const ndo_sim *s, ndo_sim_sleep_stats *st)
+{
+	memset(st, 0, sizeof *st);
+	st->node_steps = s->node_steps;
+	st->node_steps_all = s->node_steps_all;
+	if (!s->sleep)
+		return;
+	st->on = 1;
+	ndo__sleep_counts(s->sleep, &st->checks, &st->wakes, &st->sleeps, &st->tiles, &st->awake);
 }
 
 void ndo_sim_set_held_motion(ndo_sim *s, int on)
@@ -1283,5 +1326,13 @@ int ndo_sim_step(ndo_sim *s, double h)
 		s->t = t0 + h;
 	s->step++;
 	s->stats.steps++;
+	if (s->sleep) {
+		size_t awake, all;
+		ndo__sleep_nodes(s->sleep, &awake, &all);
+		s->node_steps += (double)awake;
+		s->node_steps_all += (double)all;
+		if (ndo__sleep_check(s->sleep, s) && (rc = set_active(s, ndo__sleep_mask(s->sleep))))
+			return rc;
+	}
 	return NDO_OK;
 }

@@ -39,6 +39,7 @@ typedef struct ndo__edge {
 } ndo__edge;
 
 typedef struct ndo__implicit ndo__implicit;
+typedef struct ndo__sleep ndo__sleep;
 
 struct ndo_sim {
 	int level, n, w, h;
@@ -112,6 +113,12 @@ struct ndo_sim {
 
 	ndo__implicit *imp;
 
+	/* Sleeping tiles (sleep.c; NULL: every node stepped), and the
+	 * node-steps taken and those a run with every tile awake takes. */
+	ndo__sleep *sleep;
+	int ext_active;        /* ndo_sim_set_active gave a region (a peer) */
+	double node_steps, node_steps_all;
+
 	/* Threads (ndo_sim_params.threads; NULL: one).  The runs are cut into
 	 * chunks fixed by the grid and its active set, not by the thread
 	 * count: chunk c of the interior is ispan[ichunk[c] .. ichunk[c+1]),
@@ -125,6 +132,17 @@ struct ndo_sim {
 	int nichunk, nechunk;
 	struct ndo__diag *cdiag;
 };
+
+/* sleep.c: the tiles (reach: rings a step's stages reach), a look every
+ * few steps (1: the awake set changed; ndo__sleep_mask() holds it), the
+ * canonical nodes awake, the counts. */
+int ndo__sleep_create(const ndo_sim *s, double umax, double vmax, int reach, ndo__sleep **out);
+void ndo__sleep_free(ndo__sleep *z);
+int ndo__sleep_check(ndo__sleep *z, const ndo_sim *s);
+const uint8_t *ndo__sleep_mask(const ndo__sleep *z);
+void ndo__sleep_nodes(const ndo__sleep *z, size_t *awake, size_t *all);
+void ndo__sleep_counts(const ndo__sleep *z, int64_t *checks, int64_t *wakes, int64_t *sleeps,
+                       int *tiles, int *awake);
 
 /* Stage diagnostics accumulated by the force evaluation. */
 typedef struct ndo__diag {

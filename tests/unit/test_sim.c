@@ -942,6 +942,81 @@ static void grid_channels_round_trip(void)
 	ndo_grid_destroy(out), ndo_grid_destroy(g), ndo_grid_destroy(r);
 }
 
+/* Sleeping tiles (ndo_sim_set_sleep): a slack sphere pushed at one node.
+ * Far tiles sleep and wake before the motion reaches them, so the result
+ * is the every-node run's within the bound; the node-steps saved are
+ * counted; a state where everything moves costs no node-step and gives the
+ * same bits; methods and regions it does not serve are refused. */
+static void sleeping_tiles_skip_still_parts(void)
+{
+	ndo_grid *g = shape("sphere", 7);
+	size_t nn = 3 * g->count;
+	int32_t node = (int32_t)ndo_node(g->w, g->w / 4, g->h / 2);
+	ndo_force f = {.kind = NDO_FORCE_POINT, .amplitude = 0.01, .frequency = 1, .normal = 1,
+	               .count = 1, .items = &node};
+	ndo_sim_params p;
+	ndo_sim_defaults(&p);
+	p.method = NDO_RK4;
+	p.material.stiffness = 0.04;
+	p.material.damping = 0.1;
+	p.forces = &f;
+	p.nforces = 1;
+	ndo_sim *all = make(g, NULL, NULL, NULL, &p), *z = make(g, NULL, NULL, NULL, &p);
+	const double umax = 1e-7, h = 0.05;
+	CHECK(ndo_sim_set_sleep(z, umax, umax / (8 * h)) == 0, "set_sleep: %s", ndo_errdetail());
+	for (int k = 0; k < 200; k++) {
+		CHECK(ndo_sim_step(all, h) == 0, "every node: %s", ndo_errdetail());
+		CHECK(ndo_sim_step(z, h) == 0, "sleeping: %s", ndo_errdetail());
+	}
+	double *xa = malloc(nn * sizeof *xa), *xz = malloc(nn * sizeof *xz), *va = malloc(nn * sizeof *va);
+	ndo_sim_get(all, xa, va);
+	ndo_sim_get(z, xz, NULL);
+	double big = 0;
+	for (size_t q = 0; q < nn; q++)
+		big = fmax(big, fabs(xa[q] - ((const double *)g->ch[0].data)[q]));
+	ndo_sim_sleep_stats st;
+	ndo_sim_sleep_stats_get(z, &st);
+	CHECK(st.on && st.sleeps > 0 && st.node_steps < 0.9 * st.node_steps_all,
+	      "far tiles slept: %lld fell asleep, %g of %g node-steps", (long long)st.sleeps,
+	      st.node_steps, st.node_steps_all);
+	CHECK(st.wakes > 0, "the motion woke tiles (%lld; %g of %g node-steps)", (long long)st.wakes,
+	      st.node_steps, st.node_steps_all);
+	CHECK(big > 100 * umax, "the poke moved the surface (%g m)", big);
+	CHECK(max_diff(xa, xz, nn) <= umax, "sleeping tiles: %g m off the every-node run (bound %g)",
+	      max_diff(xa, xz, nn), umax);
+	/* everything moving: no tile sleeps, the same bits */
+	random_state(g, 1e-3, xa, va);
+	ndo_sim *m1 = make(g, xa, va, NULL, &p), *m2 = make(g, xa, va, NULL, &p);
+	CHECK(ndo_sim_set_sleep(m2, umax, umax / (8 * h)) == 0, "set_sleep: %s", ndo_errdetail());
+	for (int k = 0; k < 20; k++) {
+		ndo_sim_step(m1, h);
+		ndo_sim_step(m2, h);
+	}
+	ndo_sim_get(m1, xa, NULL);
+	ndo_sim_get(m2, xz, NULL);
+	ndo_sim_sleep_stats_get(m2, &st);
+	CHECK(st.sleeps == 0 && st.node_steps == st.node_steps_all,
+	      "a moving surface: %lld tiles slept", (long long)st.sleeps);
+	CHECK(memcmp(xa, xz, nn * sizeof *xa) == 0, "a moving surface: the same bits");
+	/* refusals */
+	CHECK(ndo_sim_set_sleep(m2, -1, 0) == NDO_EINVAL, "a negative bound is refused");
+	CHECK(ndo_sim_set_active(m2, NULL) == NDO_EINVAL, "a region with sleeping tiles is refused");
+	CHECK(ndo_sim_set_sleep(m2, 0, 0) == 0 && ndo_sim_set_active(m2, NULL) == 0,
+	      "off again, a region is fine");
+	uint8_t *half = calloc(g->count, 1);
+	memset(half, 1, g->count / 2);
+	CHECK(ndo_sim_set_active(m2, half) == 0 && ndo_sim_set_sleep(m2, umax, 1) == NDO_EINVAL,
+	      "sleeping tiles on a region are refused");
+	free(half);
+	p.method = NDO_RKF45;
+	ndo_sim *r = make(g, NULL, NULL, NULL, &p);
+	CHECK(ndo_sim_set_sleep(r, umax, 1) == NDO_EINVAL, "rkf45 is refused");
+	ndo_sim_destroy(r), ndo_sim_destroy(m1), ndo_sim_destroy(m2);
+	ndo_sim_destroy(all), ndo_sim_destroy(z);
+	free(xa), free(xz), free(va);
+	ndo_grid_destroy(g);
+}
+
 int main(void)
 {
 	ck_program = "test_sim";
@@ -962,5 +1037,6 @@ int main(void)
 	RUN(input_work_balances_energy);
 	RUN(implicit_factors_only_when_needed);
 	RUN(grid_channels_round_trip);
+	RUN(sleeping_tiles_skip_still_parts);
 	return ck_failed_cases != 0;
 }

@@ -236,6 +236,27 @@ typedef struct ndo_sim_stats {
 } ndo_sim_stats;
 void ndo_sim_stats_get(const ndo_sim *s, ndo_sim_stats *st);
 
+/* Sleeping tiles (docs/simulate-peer.md, "Sleeping tiles"): the grid is
+ * cut into tiles of 32 × 32 stored nodes; every few steps a tile on which
+ * no force acts and whose every node has |u| ≤ umax (m) and |v| ≤ vmax
+ * (m/s), with all its neighbour tiles as still, stops being stepped (its
+ * nodes hold their state), and a sleeping tile wakes as soon as a
+ * neighbour tile moves beyond those bounds.  The result then differs from
+ * the every-node run by about umax near the sleeping tiles.  umax = vmax = 0
+ * turns it off (every tile awake again).  For euler, symplectic-euler,
+ * midpoint and rk4 on a simulation without a region (ndo_sim_set_active):
+ * NDO_EINVAL otherwise, and for negative or non-finite bounds. */
+int ndo_sim_set_sleep(ndo_sim *s, double umax, double vmax);
+
+typedef struct ndo_sim_sleep_stats {
+	int on;                  /* sleeping tiles are on */
+	int tiles, awake;        /* tiles (with nodes), of them awake now */
+	int64_t checks, wakes, sleeps; /* looks, tiles woken, tiles fallen asleep */
+	double node_steps;       /* canonical node-steps taken since set_sleep */
+	double node_steps_all;   /* ... with every tile awake */
+} ndo_sim_sleep_stats;
+void ndo_sim_sleep_stats_get(const ndo_sim *s, ndo_sim_sleep_stats *st);
+
 /* The state.  x, v: H × W × 3 doubles (either may be NULL). */
 void ndo_sim_get(const ndo_sim *s, double *x, double *v);
 
