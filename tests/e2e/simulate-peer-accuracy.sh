@@ -94,3 +94,27 @@ expect_error "accuracy with peers" 2 '^simulate-peer: --accuracy: a single proce
 expect_error "accuracy with forces by face ids" 2 \
 	'^simulate-peer: --accuracy: a force given by face ids exists only at the input' \
 	simulate-peer -q --force 'face faces=1,2 amplitude=1' -t 0.2 --accuracy 0.1 s4.tgrid -o never.tgrid
+
+# --sleep: a slack sphere (level 7) poked at its pole for 2 s — the far tiles sleep,
+# the summary counts the node-steps saved, the result stays within the
+# bound of the every-node run; what sleeping cannot serve is refused.
+remesh --shape sphere -l 7 -o t7.tgrid
+TAP=(-s /dev/null --stiffness 0.02 --damping 0.1 --force 'face at=0,0,1 radius=0.1 amplitude=0.005 frequency=2' -t 2)
+simulate-peer "${TAP[@]}" t7.tgrid -o awake.tgrid 2>/dev/null
+simulate-peer "${TAP[@]}" --sleep 1e-7 t7.tgrid -o asleep.tgrid 2>sleep.log
+saved=$(sed -n 's/^simulate-peer: sleeping tiles (1e-07 m): .* node-steps taken (\([0-9.]*\)% saved).*/\1/p' sleep.log)
+off=$($TG asleep.tgrid "float(abs(position - __import__('tgrid').read('awake.tgrid')[3]['position']).max())")
+if awk -v s="$saved" -v d="$off" 'BEGIN { exit !(s > 20 && d <= 1e-7) }'; then
+	pass "--sleep 1e-7: ${saved}% of the node-steps saved, $off m off the every-node run"
+else
+	fail "--sleep 1e-7" "saved '$saved'%, $off m off; $(grep sleeping sleep.log)"
+fi
+expect_error "sleep negative" 2 '^simulate-peer: --sleep: -1 is outside \[0, 1e6\] metres' \
+	simulate-peer --sleep -1 s4.tgrid -o never.tgrid
+expect_error "sleep not a distance" 2 "^simulate-peer: --sleep: '1mm' is not a distance in metres" \
+	simulate-peer --sleep 1mm s4.tgrid -o never.tgrid
+expect_error "sleep with rkf45" 2 '^simulate-peer: --sleep: sleeping tiles: rkf45 steps are not fixed' \
+	simulate-peer -q -i rkf45 --sleep 1e-6 -t 0.1 s4.tgrid -o never.tgrid
+expect_error "sleep with peers" 2 '^simulate-peer: --sleep: a single process only' \
+	simulate-peer --owner --sleep 1e-6 s4.tgrid -o never.tgrid
+[ ! -e never.tgrid ] || fail "a refused --sleep run wrote its output"

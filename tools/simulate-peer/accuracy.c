@@ -105,6 +105,45 @@ void accuracy_plan(run *r)
 		ndo_die("critical step: %s", ndo_errdetail());
 	r->dt = ch.c.h;
 	r->steps = ch.c.steps;
+	/* a tenth of the target for the still tiles (docs/simulate-peer.md) */
+	if (!r->sleep_set && ch.c.method != NDO_RKF45 && !ndo_method_is_implicit(ch.c.method))
+		r->sleep = ch.target_m / 10;
+}
+
+void sleep_option(run *r, const char *arg)
+{
+	char *end;
+	errno = 0;
+	double d = strtod(arg, &end);
+	if (end == arg || (*end && strcmp(end, "m") != 0) || errno || !isfinite(d))
+		ndo_usage_error("--sleep: '%s' is not a distance in metres", arg);
+	if (!(d >= 0 && d <= 1e6))
+		ndo_usage_error("--sleep: %s is outside [0, 1e6] metres", arg);
+	r->sleep = d;
+	r->sleep_set = 1;
+}
+
+void sleep_apply(run *r)
+{
+	if (!(r->sleep > 0) || r->info)
+		return;
+	if (ndo_sim_set_sleep(r->sim, r->sleep, r->sleep / (8 * r->dt))) {
+		fprintf(stderr, "%s: --sleep: %s\n", ndo_progname, ndo_errdetail());
+		exit(NDO_EXIT_USAGE);
+	}
+}
+
+void sleep_report(const run *r)
+{
+	ndo_sim_sleep_stats st;
+	ndo_sim_sleep_stats_get(r->sim, &st);
+	if (!st.on)
+		return;
+	fprintf(stderr, "%s: sleeping tiles (%.3g m): %.4g of %.4g node-steps taken (%.1f%% saved); "
+	        "%d of %d tiles awake at the end, %lld fell asleep, %lld woke\n",
+	        ndo_progname, r->sleep, st.node_steps, st.node_steps_all,
+	        st.node_steps_all > 0 ? 100 * (1 - st.node_steps / st.node_steps_all) : 0, st.awake,
+	        st.tiles, (long long)st.sleeps, (long long)st.wakes);
 }
 
 void accuracy_sample(run *r, int64_t k)

@@ -93,6 +93,12 @@ static __attribute__((noreturn)) void usage(void)
 	    "                          the choice, refuses (exit 2) an E the input's level\n"
 	    "                          cannot reach.  Every run not --quiet ends with its\n"
 	    "                          estimated time and space errors (also in --log)\n"
+	    "      --sleep D[m]        tiles of 32x32 nodes with no force, whose nodes\n"
+	    "                          move less than D metres from rest (and |v| <\n"
+	    "                          D/(8 dt)) and whose neighbours are as still, are\n"
+	    "                          not stepped until a neighbour moves (euler,\n"
+	    "                          symplectic-euler, midpoint, rk4; a single process);\n"
+	    "                          0: off (default; with --accuracy E, E/10)\n"
 	    "      --info              print the setup and the critical step (with\n"
 	    "                          --accuracy: the choice), then exit\n"
 	    "  -q, --quiet             print nothing but errors\n"
@@ -272,6 +278,7 @@ static void simulate(run *r)
 			fprintf(stderr, "; K re-assembled %lld times (%.3g s)", (long long)st.restiffened,
 			        st.restiffen_seconds);
 		fputc('\n', stderr);
+		sleep_report(r);
 	}
 	accuracy_print();
 }
@@ -295,7 +302,7 @@ static void finish(run *r)
 static void options(run *r, int argc, char **argv)
 {
 	enum { OPT_INFO = 256, OPT_VERSION, OPT_SETTING, OPT_PEER, OPT_PEER_FLAG, OPT_THREADS,
-	       OPT_MEMORY, OPT_ACCURACY };
+	       OPT_MEMORY, OPT_ACCURACY, OPT_SLEEP };
 	static const struct option opts[] = {
 		{"scene", required_argument, 0, 's'},
 		{"integrator", required_argument, 0, 'i'},
@@ -350,6 +357,7 @@ static void options(run *r, int argc, char **argv)
 		{"threads", required_argument, 0, OPT_THREADS},
 		{"max-memory", required_argument, 0, OPT_MEMORY},
 		{"accuracy", required_argument, 0, OPT_ACCURACY},
+		{"sleep", required_argument, 0, OPT_SLEEP},
 		{"info", no_argument, 0, OPT_INFO},
 		{"quiet", no_argument, 0, 'q'},
 		{"help", no_argument, 0, 'h'},
@@ -397,6 +405,7 @@ static void options(run *r, int argc, char **argv)
 			break;
 		}
 		case OPT_ACCURACY: accuracy_option(r, optarg); break;
+		case OPT_SLEEP: sleep_option(r, optarg); break;
 		case OPT_INFO: r->info = 1; break;
 		case 'q': r->quiet = 1; break;
 		case 'h': usage();
@@ -406,6 +415,8 @@ static void options(run *r, int argc, char **argv)
 	}
 	if (r->accuracy && r->net.role)
 		ndo_usage_error("--accuracy: a single process only (not with --owner or --join)");
+	if (r->sleep > 0 && r->net.role)
+		ndo_usage_error("--sleep: a single process only (not with --owner or --join)");
 	if (optind + 1 < argc)
 		ndo_usage_error("more than one input: '%s'", argv[optind + 1]);
 	r->in = optind < argc ? argv[optind] : NULL;
@@ -443,6 +454,7 @@ int main(int argc, char **argv)
 	setup(&r);
 	plan(&r);
 	accuracy_plan(&r);
+	sleep_apply(&r);
 	if (r.info) {
 		ndo_close_stdout();
 		return NDO_EXIT_OK;

@@ -59,6 +59,9 @@ typedef struct run {
 	int accuracy_metres;
 	ndo_acc *acc;
 	double *coarse;    /* a coarser run's output work array */
+	/* --sleep D (metres; 0: off); sleep_set: given on the command line */
+	double sleep;
+	int sleep_set;
 } run;
 
 /* run.c: load the input, rest shape, pins and forces; create the
@@ -83,6 +86,11 @@ void accuracy_report(run *r);
 void accuracy_print(void);
 int accuracy_store(run *r, ndo_grid *g);
 void accuracy_free(run *r);
+/* accuracy.c: --sleep's argument; sleeping tiles on the simulation (with
+ * --accuracy and no --sleep: a tenth of the target); the summary line. */
+void sleep_option(run *r, const char *arg);
+void sleep_apply(run *r);
+void sleep_report(const run *r);
 /* peers.c: the peers' options: defaults, one option (a usage error when bad), and
  * the checks once all are read (scene: the -s file or NULL; in: the input
  * or NULL; the n settings keys given on the command line). */
