@@ -804,6 +804,8 @@ static int read_description(ndo_peer *p, ndo_scene *sc)
 		} else if (strcmp(key, "peer-final-step") == 0 && val >= 0 && val < 1e15) {
 			p->final = (int64_t)val;
 			have_final = 1;
+		} else if (strcmp(key, "peer-frames-every") == 0 && val >= 0 && val <= 1e9) {
+			/* for watches (ndo/watch.h) */
 		} else {
 			rc = ndo__fail(NDO_EINVAL, "the owner's description: unknown or bad '%s'", line);
 		}
@@ -1388,15 +1390,21 @@ int ndo_peer_create(const ndo_peer_opts *o, ndo_net *net, ndo_grid *grid, ndo_si
 		p->cur = p->first = grid->step;
 		p->tcur = grid->time;
 		p->final = grid->step + run->steps;
-		char peer_lines[320];
+		/* the steps whose whole regions go out, for watches that count
+		 * what they lost (ndo/watch.h): exact lock-step every N (0: the
+		 * first and last only), otherwise every step */
+		int exact = p->clock == NDO_CLOCK_LOCKSTEP && !p->hold &&
+		            ndo_peer_halo_rings(ndo_sim_method(sim)) > 0;
+		char peer_lines[360];
 		snprintf(peer_lines, sizeof peer_lines,
 		         "dt %.17g\nsteps %lld\npeer-clock %d\npeer-hold-boundary %d\n"
 		         "peer-halo-steps %d\npeer-publish-every %d\npeer-step-timeout %.17g\n"
 		         "peer-speed %.17g\npeer-peers %d\npeer-first-step %lld\n"
-		         "peer-final-step %lld\n",
+		         "peer-final-step %lld\npeer-frames-every %d\n",
 		         run->dt, (long long)run->steps, (int)p->clock, p->hold, p->K, p->N,
 		         p->step_timeout, p->speed,
-		         p->peers_needed, (long long)p->first, (long long)p->final);
+		         p->peers_needed, (long long)p->first, (long long)p->final,
+		         exact ? (p->N > 0 ? p->N : 0) : 1);
 		size_t len = strlen(run->physics) + strlen(peer_lines) + 1;
 		if (len > NDO_MAX_SCENE + 1) {
 			ndo_net_destroy(net);

@@ -46,10 +46,20 @@ struct ndo_watch {
 	pending *pend;
 	int npend;
 	int64_t done_step; /* the last step handed out or skipped */
+	int started;       /* a frame was handed out or skipped */
+	/* the steps whose whole regions the peers publish (the description's
+	 * peer-frames-every, peer-first-step, peer-final-step, dt): every
+	 * fevery-th from `first`, and first and final; fevery −1: not said */
+	int64_t fevery, first, final, max_step;
+	double dt, last_time;
+	int32_t last_top;  /* the partition of the last frame out (−1: none) */
 	ndo_msg_tile_t *held; /* tiles of a partition not received yet */
 	size_t nheld, capheld;
 	ndo_grid **ready;  /* complete frames, in step order */
+	double *ready_stale; /* ... the share of their nodes held (hold_lost) */
 	int nready, capready;
+	double *last;      /* hold_lost: the positions of the last frame out */
+	double stale;      /* the stale share of the frame ndo_watch_next gave */
 	double heard, now;
 	double close_at;   /* the owner quit: end at this time (−1: not yet) */
 	char why[300];
@@ -73,6 +83,9 @@ int ndo_watch_create(ndo_net *net, const ndo_watch_opts *o, ndo_watch **out)
 	w->level = -1;
 	w->st.level = -1;
 	w->done_step = -1;
+	w->fevery = -1;
+	w->max_step = -1;
+	w->last_top = -1;
 	w->heard = -1;
 	w->close_at = -1;
 	for (int k = 0; k < EPOCHS; k++)
@@ -108,6 +121,8 @@ void ndo_watch_destroy(ndo_watch *w)
 		free(w->held[k].values);
 	free(w->held);
 	free(w->ready);
+	free(w->ready_stale);
+	free(w->last);
 	free(w->canon);
 	free(w);
 }
@@ -136,6 +151,21 @@ static int attach(ndo_watch *w, const ndo_msg_description_t *d)
 		if (!copy)
 			return ndo__fail(NDO_ENOMEM, "out of memory");
 		ndo_msg_box_take(copy, ndo_net_ctx(w->net));
+		char *save = NULL;
+		for (char *line = strtok_r(copy, "\n", &save); line; line = strtok_r(NULL, "\n", &save)) {
+			char key[32];
+			double val;
+			if (sscanf(line, "%31s %lf", key, &val) != 2 || !isfinite(val) || val < 0 || val > 1e15)
+				continue;
+			if (strcmp(key, "peer-frames-every") == 0)
+				w->fevery = (int64_t)val;
+			else if (strcmp(key, "peer-first-step") == 0)
+				w->first = (int64_t)val;
+			else if (strcmp(key, "peer-final-step") == 0)
+				w->final = (int64_t)val;
+			else if (strcmp(key, "dt") == 0)
+				w->dt = val;
+		}
 		free(copy);
 	}
 	rc = ndo_grid_create(d->level, &w->base);
@@ -204,7 +234,7 @@ static int on_partition(ndo_watch *w, const ndo_msg_partition_t *p)
 }
 
 /* ---- frames -------------------------------------------------------------- */
-static int push_ready(ndo_watch *w, ndo_grid *g)
+static int push_ready(ndo_watch *w, ndo_grid *g, double stale)
 {
 	if (w->nready == w->capready) {
 		int cap = w->capready ? 2 * w->capready : 8;
@@ -212,15 +242,35 @@ static int push_ready(ndo_watch *w, ndo_grid *g)
 		if (!r)
 			return ndo__fail(NDO_ENOMEM, "out of memory");
 		w->ready = r;
+		double *st = realloc(w->ready_stale, (size_t)cap * sizeof *st);
+		if (!st)
+			return ndo__fail(NDO_ENOMEM, "out of memory");
+		w->ready_stale = st;
 		w->capready = cap;
 	}
+	w->ready_stale[w->nready] = stale;
 	w->ready[w->nready++] = g;
 	return 0;
 }
 
-/* Hand out frame p (complete). */
-static int emit(ndo_watch *w, pending *p)
+/* Hand out frame p: complete, or (hold_lost) with the nodes it lacks at
+ * the last frame's values. */
+static int emit_one(ndo_watch *w, pending *p)
 {
+	double stale = 0;
+	if (!p->complete) {
+		size_t lost = 0;
+		for (size_t k = 0; k < w->count; k++)
+			if (p->epoch[w->canon[k]] < 0) {
+				memcpy(p->x + 3 * k, w->last + 3 * k, 3 * sizeof *p->x);
+				lost += (size_t)w->canon[k] == k;
+			}
+		stale = (double)lost / (double)w->ncanon;
+		w->st.held++;
+		w->st.stale_sum += stale;
+		if (stale > w->st.stale_max)
+			w->st.stale_max = stale;
+	}
 	ndo_grid *g;
 	int rc = ndo_grid_create(w->level, &g);
 	if (rc)
@@ -231,8 +281,10 @@ static int emit(ndo_watch *w, pending *p)
 		return ndo__fail(NDO_ENOMEM, "out of memory");
 	}
 	memcpy(ndo_grid_f64(g, NDO_CH_POSITION, 3), p->x, 3 * w->count * sizeof *p->x);
-	epoch_map *m = find_epoch(w, p->top);
-	if (m)
+	/* a step lost whole is drawn under the partition of the frame before */
+	int32_t top = p->top >= 0 ? p->top : w->last_top;
+	epoch_map *m = top >= 0 ? find_epoch(w, top) : NULL;
+	if (m && m->owner)
 		memcpy(own->data, m->owner, w->count * sizeof *m->owner);
 	if (w->have_rest) {
 		ndo_channel *c;
@@ -247,12 +299,20 @@ static int emit(ndo_watch *w, pending *p)
 	g->step = p->step;
 	g->time = p->time;
 	ndo_grid_sync(g);
-	if ((rc = push_ready(w, g))) {
+	if ((rc = push_ready(w, g, stale))) {
 		ndo_grid_destroy(g);
 		return rc;
 	}
+	if (w->o.hold_lost) {
+		if (!w->last && !(w->last = malloc(3 * w->count * sizeof *w->last)))
+			return ndo__fail(NDO_ENOMEM, "out of memory");
+		memcpy(w->last, ndo_grid_f64(g, NDO_CH_POSITION, 3), 3 * w->count * sizeof *w->last);
+	}
 	w->st.frames++;
 	w->done_step = p->step;
+	w->started = 1;
+	w->last_time = p->time;
+	w->last_top = top;
 	free_pending(p);
 	return 0;
 }
@@ -266,6 +326,69 @@ static pending *oldest_open(ndo_watch *w)
 	return o;
 }
 
+/* Was step s published (and watched)? */
+static int expected(const ndo_watch *w, int64_t s)
+{
+	if (w->fevery < 0 || s % w->o.every != 0 || s < w->first || s > w->final)
+		return 0;
+	return s == w->first || s == w->final || (w->fevery > 0 && (s - w->first) % w->fevery == 0);
+}
+
+/* The published steps after the last one handed out or skipped and
+ * before `upto` of which no tile came at all: lost whole.  With hold_lost
+ * (and a frame out before) each is handed out with every node held;
+ * otherwise counted. */
+static int lost_whole(ndo_watch *w, int64_t upto)
+{
+	if (!w->started || w->fevery < 0)
+		return 0;
+	for (int64_t s = w->done_step + 1; s < upto; s++) {
+		if (!expected(w, s))
+			continue;
+		if (w->o.hold_lost && w->last) {
+			pending p = {.step = s, .time = w->last_time + (double)(s - w->done_step) * w->dt,
+			             .top = -1};
+			p.x = malloc(3 * w->count * sizeof *p.x);
+			p.epoch = malloc(w->count * sizeof *p.epoch);
+			if (!p.x || !p.epoch) {
+				free_pending(&p);
+				return ndo__fail(NDO_ENOMEM, "out of memory");
+			}
+			for (size_t k = 0; k < w->count; k++)
+				p.epoch[k] = -1;
+			int rc = emit_one(w, &p);
+			if (rc)
+				return rc;
+		} else {
+			w->st.incomplete++;
+			w->done_step = s;
+		}
+	}
+	return 0;
+}
+
+static int emit(ndo_watch *w, pending *p)
+{
+	int rc = lost_whole(w, p->step);
+	return rc ? rc : emit_one(w, p);
+}
+
+/* An open frame whose tiles are lost: handed out with the lost nodes held
+ * (hold_lost, once a frame has gone out), or skipped and counted. */
+static int give_up(ndo_watch *w, pending *p)
+{
+	if (w->o.hold_lost && w->last)
+		return emit(w, p);
+	int rc = lost_whole(w, p->step);
+	if (rc)
+		return rc;
+	w->done_step = p->step;
+	w->started = 1;
+	free_pending(p);
+	w->st.incomplete++;
+	return 0;
+}
+
 /* Hand out the complete frames that no open older frame holds back; with
  * `all` (the end), skip the incomplete ones instead of waiting. */
 static int flush(ndo_watch *w, int all)
@@ -277,14 +400,15 @@ static int flush(ndo_watch *w, int all)
 			if (rc)
 				return rc;
 		} else if (all) {
-			w->done_step = o->step;
-			free_pending(o);
-			w->st.incomplete++;
+			int rc = give_up(w, o);
+			if (rc)
+				return rc;
 		} else {
 			break;
 		}
 	}
-	return 0;
+	/* the end: published steps after the last one out of which nothing came */
+	return all ? lost_whole(w, w->max_step + 1) : 0;
 }
 
 /* The open frame of `step`, opened if need be (closing the oldest when
@@ -304,10 +428,9 @@ static pending *frame_of(ndo_watch *w, int64_t step, int *failed)
 	if (!free_slot) { /* give the oldest up: its tiles are lost */
 		if (oldest->step > step)
 			return NULL; /* older than every open frame: too late */
-		w->done_step = oldest->step;
-		free_pending(oldest);
-		w->st.incomplete++;
-		int rc = flush(w, 0);
+		int rc = give_up(w, oldest);
+		if (!rc)
+			rc = flush(w, 0);
 		if (rc) {
 			*failed = 1;
 			return NULL;
@@ -390,6 +513,8 @@ static int on_tile(ndo_watch *w, const ndo_msg_tile_t *t)
 		w->st.unused++;
 		return 0;
 	}
+	if (t->step > w->max_step)
+		w->max_step = t->step;
 	epoch_map *m = find_epoch(w, t->epoch);
 	if (!m) /* its partition may come later (reordered): keep it */
 		return hold(w, t);
@@ -483,10 +608,14 @@ int ndo_watch_next(ndo_watch *w, ndo_grid **frame)
 	if (!w->nready)
 		return 0;
 	*frame = w->ready[0];
+	w->stale = w->ready_stale[0];
 	memmove(w->ready, w->ready + 1, (size_t)(w->nready - 1) * sizeof *w->ready);
+	memmove(w->ready_stale, w->ready_stale + 1, (size_t)(w->nready - 1) * sizeof *w->ready_stale);
 	w->nready--;
 	return 1;
 }
+
+double ndo_watch_stale(const ndo_watch *w) { return w->stale; }
 
 int ndo_watch_ended(const ndo_watch *w)
 {

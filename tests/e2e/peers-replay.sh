@@ -74,6 +74,38 @@ else
 	fail "the replay's report" "$(cat again.err)"
 fi
 
+# a log that missed 20 state tiles in a row: by default those steps are
+# skipped and counted; --hold-lost draws them too, the lost nodes at the last
+# frame's values, and says for each what share was held
+/usr/bin/python3 - run.lcmlog lossy.lcmlog <<'PY'
+import struct, sys
+data = open(sys.argv[1], 'rb').read()
+out, pos, tiles = bytearray(), 0, 0
+while pos + 28 <= len(data):
+    sync, num, ts, clen, dlen = struct.unpack('>IqqII', data[pos:pos + 28])
+    end = pos + 28 + clen + dlen
+    chan = data[pos + 28:pos + 28 + clen]
+    if chan.endswith(b'_TILE'):
+        tiles += 1
+        if 20 <= tiles < 40:
+            pos = end
+            continue
+    out += data[pos:end]
+    pos = end
+open(sys.argv[2], 'wb').write(out)
+PY
+render-frame --lcm file://lossy.lcmlog --every 5 -s 200x150 -o 'lossy/f%04d.png' 2>lossy.err
+render-frame --lcm file://lossy.lcmlog --every 5 --hold-lost -s 200x150 -o 'held/f%04d.png' 2>held.err
+skipped=$(sed -n 's/.* \([0-9]*\) skipped incomplete.*/\1/p' lossy.err)
+drawn=$(ls lossy/*.png 2>/dev/null | wc -l) held=$(ls held/*.png 2>/dev/null | wc -l)
+lines=$(grep -c 'lost tiles: [0-9.]*% of the nodes held at an earlier frame' held.err)
+if [ "${skipped:-0}" -ge 1 ] && [ $((drawn + skipped)) = "$n" ] && [ "$held" = "$n" ] &&
+	[ "$lines" = "$skipped" ] && grep -q "drawn with lost tiles held" held.err; then
+	pass "lost tiles: $skipped of $n steps skipped and counted; --hold-lost draws all $n, the share held printed"
+else
+	fail "--hold-lost" "skipped '$skipped', drawn $drawn, held $held of $n, $lines lines: $(tail -1 held.err)"
+fi
+
 # a log cut short (lcm-logger killed, a copy interrupted) plays up to its
 # last complete step, the same frames as the whole log, and says where it
 # was cut

@@ -339,6 +339,81 @@ static void a_replayed_log_gives_the_live_frames(void)
 	world_free(w);
 }
 
+/* A log that missed 40 state tiles in a row (of about 570): by default a watch skips
+ * and counts a step whose tiles were lost; with hold_lost it hands the step
+ * out, the lost nodes at the last frame's values, with the share held. */
+static lcm_eventlog_t *lossy_log;
+static int64_t lossy_time, lossy_tiles;
+static void record_lossy(void *user, const char *channel, const void *data, size_t len)
+{
+	(void)user;
+	if (ndo_msg_type_of("T", channel) == NDO_MSG_TILE && lossy_tiles++ / 40 == 4)
+		return;
+	lcm_eventlog_event_t e = {0, lossy_time++, (int32_t)strlen(channel), (int32_t)len,
+	                          (char *)channel, (void *)data};
+	lcm_eventlog_write_event(lossy_log, &e);
+}
+
+static void lossy_tick(world *w) { ndo_link_poll(recorder, w->t, record_lossy, NULL); }
+
+static void lost_tiles_are_held_on_request(void)
+{
+	setup su = {.integrator = "rk4", .dt = 0.02, .steps = 30,
+	            .clock = NDO_CLOCK_LOCKSTEP, .peers = 3, .publish_every = 3};
+	world *w = world_new();
+	add_owner(w, &su);
+	add_joiner(w, &su, POIS[0]);
+	add_joiner(w, &su, POIS[3]);
+	const char *tmp = getenv("NDO_TMP");
+	char path[512];
+	snprintf(path, sizeof path, "%s/test_peer_lossy.lcmlog", tmp ? tmp : "/tmp");
+	lossy_log = lcm_eventlog_create(path, "w");
+	ndo_link_open_mem(w->bus, &recorder);
+	on_tick = lossy_tick;
+	CHECK(run(w, 60) == 0 && w->state[0] == NDO_PEER_DONE, "the run ends");
+	on_tick = NULL;
+	lcm_eventlog_destroy(lossy_log);
+	ndo_link_destroy(recorder);
+	ndo_watch *wa[2];
+	int nframes[2] = {0, 0}, reported = 0;
+	double worst = 0;
+	for (int hold = 0; hold < 2; hold++) {
+		ndo_link *l;
+		ndo_net *n;
+		ndo_watch_opts o = {.every = 3, .hold_lost = hold};
+		ndo_link_open_log(path, "T", 0, &l);
+		ndo_net_create(l, "T", 999, &n);
+		ndo_watch_create(n, &o, &wa[hold]);
+		for (int k = 0; k < 100000 && !ndo_watch_ended(wa[hold]); k++) {
+			ndo_grid *g;
+			ndo_watch_update(wa[hold], 0);
+			while (ndo_watch_next(wa[hold], &g)) {
+				nframes[hold]++;
+				double st = ndo_watch_stale(wa[hold]);
+				reported += st > 0;
+				worst = fmax(worst, st);
+				ndo_grid_destroy(g);
+			}
+		}
+	}
+	ndo_watch_stats a, b;
+	ndo_watch_stats_get(wa[0], &a);
+	ndo_watch_stats_get(wa[1], &b);
+	CHECK(a.incomplete > 0 && nframes[0] > 0 && a.held == 0 && nframes[0] + a.incomplete == 11,
+	      "without hold_lost: %d frames, %lld skipped incomplete (of steps 0, 3, .., 30); %lld tiles, %lld unused, %lld unknown",
+	      nframes[0], (long long)a.incomplete, (long long)a.tiles, (long long)a.unused, (long long)a.unknown);
+	printf("    %d frames, %lld skipped; with hold_lost %d, %lld held (stale at most %.3f)\n", nframes[0], (long long)a.incomplete, nframes[1], (long long)b.held, b.stale_max);
+	CHECK(b.held > 0 && nframes[1] + b.incomplete == 11 && nframes[1] == nframes[0] + b.held &&
+	      reported == b.held && worst > 0 && worst < 1 && worst == b.stale_max,
+	      "with hold_lost: %d frames, %lld held (stale at most %.3f, %d reported), %lld "
+	      "skipped", nframes[1], (long long)b.held, b.stale_max, reported,
+	      (long long)b.incomplete);
+	ndo_watch_destroy(wa[0]);
+	ndo_watch_destroy(wa[1]);
+	remove(path);
+	world_free(w);
+}
+
 int main(void)
 {
 	ck_program = "test_peer";
@@ -349,5 +424,6 @@ int main(void)
 	RUN(owner_quit_ends_the_others);
 	RUN(strangers_tiles_are_not_used);
 	RUN(a_replayed_log_gives_the_live_frames);
+	RUN(lost_tiles_are_held_on_request);
 	return ck_failed_cases != 0;
 }

@@ -4,6 +4,7 @@
 #include "source.h"
 
 #include "ndo/auth.h"
+#include "ndo/cli.h"
 #include "ndo/link.h"
 #include "ndo/net.h"
 #include "ndo/status.h"
@@ -37,6 +38,11 @@ static int next(rf_source *base, ndo_grid **out)
 			snprintf(s->base.where, sizeof s->base.where, "%s, step %lld", s->url,
 			         (long long)g->step);
 			s->base.number = (long)g->step;
+			double stale = ndo_watch_stale(s->watch);
+			if (stale > 0)
+				fprintf(stderr, "%s: %s, step %lld: lost tiles: %.1f%% of the nodes held at "
+				        "an earlier frame's values\n", ndo_progname, s->url,
+				        (long long)g->step, 100 * stale);
 			*out = g;
 			return NDO_OK;
 		}
@@ -102,7 +108,7 @@ int rf_source_lcm(const rf_lcm_options *o, rf_source **out)
 	}
 	s->net = n;
 	ndo_watch_opts wo = {.object_id = o->object_id, .every = o->every,
-	                     .timeout = s->log ? 0 : o->timeout};
+	                     .timeout = s->log ? 0 : o->timeout, .hold_lost = o->hold_lost};
 	if ((rc = ndo_watch_create(n, &wo, &s->watch))) {
 		free(s);
 		return rc;
@@ -116,8 +122,13 @@ void rf_source_lcm_report(rf_source *base, char *buf, size_t size)
 	lcm_source *s = (lcm_source *)base;
 	ndo_watch_stats st;
 	ndo_watch_stats_get(s->watch, &st);
-	int n = snprintf(buf, size, "%lld frames of object %llx, %lld skipped incomplete (lost "
-	                 "tiles); %s", (long long)st.frames, (unsigned long long)st.object_id,
+	char held[160] = "";
+	if (st.held)
+		snprintf(held, sizeof held, ", %lld drawn with lost tiles held (%.1f%% of the nodes "
+		         "on average, %.1f%% at most)", (long long)st.held,
+		         100 * st.stale_sum / (double)st.held, 100 * st.stale_max);
+	int n = snprintf(buf, size, "%lld frames of object %llx%s, %lld skipped incomplete (lost "
+	                 "tiles); %s", (long long)st.frames, (unsigned long long)st.object_id, held,
 	                 (long long)st.incomplete,
 	                 *ndo_watch_why(s->watch) ? ndo_watch_why(s->watch) : "");
 	const ndo_net_stats *ns = ndo_net_stats_get(s->net);

@@ -10,7 +10,10 @@
  * step s; frames are handed out in step order, a complete one once no
  * older frame is still open.  An open frame is given up (a tile was lost)
  * when `window` later frames are open too, or at the end; it is counted,
- * not shown.  With no loss the frames depend only on which tiles were
+ * and not shown — unless `hold_lost` is set: then it is handed out with
+ * every node it lacks at that node's value in the last frame handed out
+ * (ndo_watch_stale() says what share that was; a frame lost before any
+ * was handed out is still skipped).  With no loss the frames depend only on which tiles were
  * published, not on their timing or order: a recorded run
  * (ndo_link_open_log) gives the frames of the live one.
  *
@@ -37,6 +40,8 @@ typedef struct ndo_watch_opts {
 	int window;        /* steps assembled at once (0: 16) */
 	double timeout;    /* end when nothing is heard for this many seconds
 	                      (0: never) */
+	int hold_lost;     /* 1: hand out incomplete frames, the lost nodes held
+	                      at their last values */
 } ndo_watch_opts;
 
 typedef struct ndo_watch ndo_watch;
@@ -54,6 +59,10 @@ int ndo_watch_update(ndo_watch *w, double now);
  * it), or 0 when none is ready. */
 int ndo_watch_next(ndo_watch *w, ndo_grid **frame);
 
+/* The share of the canonical nodes of the frame ndo_watch_next() last
+ * handed out that hold an earlier frame's value (0: complete; hold_lost). */
+double ndo_watch_stale(const ndo_watch *w);
+
 /* 1 when no frame will come any more: the owner ended the session, the
  * link ended (the log was read), or the timeout passed; ndo_watch_why()
  * says which. */
@@ -62,7 +71,11 @@ const char *ndo_watch_why(const ndo_watch *w);
 
 typedef struct ndo_watch_stats {
 	int64_t frames;      /* handed out */
-	int64_t incomplete;  /* given up: a tile never came */
+	int64_t incomplete;  /* given up: a tile never came (with hold_lost: and
+	                        not handed out, no earlier frame to hold from) */
+	int64_t held;        /* hold_lost: handed out with lost nodes held */
+	double stale_sum;    /* ... the sum of their stale shares */
+	double stale_max;    /* ... and the largest */
 	int64_t tiles;       /* state tiles used */
 	int64_t unused;      /* state tiles of steps not watched, done, or too old */
 	int64_t unknown;     /* tiles whose partition never came (kept until it
