@@ -681,6 +681,7 @@ static int region(ndo_peer *p)
 		free(nodes);
 		p->exact = p->clock == NDO_CLOCK_LOCKSTEP && !p->hold &&
 		           ndo_peer_halo_rings(ndo_sim_method(p->sim)) > 0;
+		ndo_session_set_exact_halos(p->s, p->exact); /* tiles are frames only */
 		int rc = 0;
 		if (p->exact) {
 			/* K steps reach D·K rings; the outermost ring received is held
