@@ -81,6 +81,7 @@ struct ndo_session {
 	size_t nctiles;
 	int cdepth, cdepth_raw;
 	double *cview, *tilex;   /* coarse positions as receivers hold them; a tile's */
+	double *dview;           /* refined displacement + rest, at the object's level */
 	uint8_t *fmask;          /* this peer's nodes at the object's level */
 	ndo_refiner *refiner;
 	double diag;             /* the rest shape's box diagonal */
@@ -178,14 +179,16 @@ static int coarse_prepare(ndo_session *s)
 	size_t nc = level_nodes(L);
 	if ((rc = ndo_grid_create(L, &s->cgrid)) ||
 	    (rc = ndo_grid_add(s->cgrid, NDO_CH_VELOCITY, NDO_F64, 3, NULL)) ||
-	    (rc = ndo_grid_add(s->cgrid, NDO_CH_OWNER, NDO_I32, 1, NULL)))
+	    (rc = ndo_grid_add(s->cgrid, NDO_CH_OWNER, NDO_I32, 1, NULL)) ||
+	    (rc = ndo_grid_add(s->cgrid, NDO_CH_REST, NDO_F64, 3, NULL)))
 		return rc;
+	s->dview = malloc(3 * s->grid->count * sizeof *s->dview);
 	s->crecv = malloc(6 * nc * sizeof *s->crecv);
 	s->cstep = malloc(nc * sizeof *s->cstep);
 	s->ccls = calloc(nc, 1);
 	s->cview = malloc(3 * nc * sizeof *s->cview);
 	s->fmask = calloc(s->grid->count, 1);
-	if (!s->crecv || !s->cstep || !s->ccls || !s->cview || !s->fmask)
+	if (!s->crecv || !s->cstep || !s->ccls || !s->cview || !s->fmask || !s->dview)
 		return ndo__fail(NDO_ENOMEM, "out of memory");
 	for (size_t k = 0; k < nc; k++)
 		s->cstep[k] = -1;
@@ -548,6 +551,21 @@ static void coarse_error(ndo_session *s, const ndo_grid *src)
 	s->lst.sum_sq_error += sum2 / (d * d);
 	s->lst.error_nodes += count;
 	s->lst.frames++;
+	/* the same with the displacement refined onto the rest shape at the
+	 * object's level, for a receiver that holds it (not what the watch does) */
+	const double *rest = ndo_grid_f64((ndo_grid *)src, NDO_CH_REST, 3);
+	const double *crest = ndo_grid_f64(s->cgrid, NDO_CH_REST, 3);
+	if (!rest || !crest || !s->dview)
+		return;
+	for (size_t n = 0; n < 3 * s->cgrid->count; n++)
+		s->cview[n] -= crest[n];
+	f = ndo_refine(s->refiner, s->cview);
+	for (size_t n = 0; n < 3 * src->count; n++)
+		s->dview[n] = f[n] + rest[n];
+	ndo_level_error(s->level, s->dview, x, s->fmask, &max, &sum2, &count);
+	if (max / d > s->lst.max_error_disp)
+		s->lst.max_error_disp = max / d;
+	s->lst.sum_sq_error_disp += sum2 / (d * d);
 }
 
 /* This peer's region at the send level, from src (s->grid, or an earlier
@@ -559,6 +577,10 @@ static int publish_coarse(ndo_session *s, const ndo_grid *src, int64_t step, dou
 	                 ndo_grid_f64(s->cgrid, NDO_CH_POSITION, 3));
 	ndo_sample_nodes(s->level, k, 3 * sizeof(double), ndo_grid_f64((ndo_grid *)src, NDO_CH_VELOCITY, 3),
 	                 ndo_grid_f64(s->cgrid, NDO_CH_VELOCITY, 3));
+	const double *rest = ndo_grid_f64((ndo_grid *)src, NDO_CH_REST, 3);
+	if (rest)
+		ndo_sample_nodes(s->level, k, 3 * sizeof(double), rest,
+		                 ndo_grid_f64(s->cgrid, NDO_CH_REST, 3));
 	s->cgrid->step = step;
 	s->cgrid->time = time;
 	int standalone = src != s->grid, sent = 0;
@@ -1367,7 +1389,7 @@ void ndo_session_destroy(ndo_session *s, const char *message)
 	ndo_codec_destroy(s->enc);
 	ndo_grid_destroy(s->cgrid);
 	free(s->crecv), free(s->cstep), free(s->ccls), free(s->cview), free(s->tilex);
-	free(s->fmask), free(s->ctiles);
+	free(s->fmask), free(s->ctiles), free(s->dview);
 	ndo_codec_destroy(s->cenc);
 	ndo_refiner_destroy(s->refiner);
 	free(s);

@@ -156,11 +156,15 @@ int ndo_session_send_level(const ndo_session *s);
  * as received), refined by the butterfly, against this peer's exact
  * positions — over its own nodes of every such frame, relative to the
  * rest shape's box diagonal (largest; sum of squares and count for the
- * RMS); `enc` the coarse tiles' encoder statistics (zero when raw). */
+ * RMS); `_disp` the same for a receiver that refines the displacement
+ * (position − rest) and adds it to the rest shape at the object's level
+ * (which observers do not do); `enc` the coarse tiles' encoder statistics
+ * (zero when raw). */
 typedef struct ndo_session_level_stats {
 	int level, send_level;
 	int64_t frames;
 	double max_error, sum_sq_error;
+	double max_error_disp, sum_sq_error_disp;
 	uint64_t error_nodes;
 	ndo_codec_stats enc;
 } ndo_session_level_stats;
