@@ -405,7 +405,7 @@ static void summary(peer_run *pr, const char *how)
 		        (double)st.frame_bytes / 1e3 / (double)st.steps);
 	ndo_session_level_stats ls;
 	ndo_session_level_stats_get(ndo_peer_session(p), &ls);
-	if (ls.send_level >= 0 && ls.send_level < ls.level)
+	if (ls.send_level >= 0 && ls.send_level < ls.level && ls.frames > 0)
 		fprintf(stderr, "%s: send level %d of %d: %lld whole-region frames sent at level %d; the "
 		        "error at level %d of what receivers hold (refined), over this peer's nodes: "
 		        "max %.3g, RMS %.3g of the diagonal (refining the displacement onto the rest "
