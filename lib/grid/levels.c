@@ -81,7 +81,9 @@ void ndo_level_error(int level, const double *a, const double *b, const uint8_t 
 	for (int j = 0; j < h; j++)
 		for (int i = 0; i < w; i++) {
 			size_t k = ndo_node(w, i, j);
-			if (ndo_canonical(level, i, j) != k || (mask && !mask[k]))
+			/* inside the border every node is its own canonical one */
+			int inner = i > 0 && i < w - 1 && j > 0 && j < h - 1;
+			if ((mask && !mask[k]) || (!inner && ndo_canonical(level, i, j) != k))
 				continue;
 			double d0 = a[3 * k] - b[3 * k], d1 = a[3 * k + 1] - b[3 * k + 1],
 			       d2 = a[3 * k + 2] - b[3 * k + 2];

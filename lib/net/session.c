@@ -82,6 +82,7 @@ struct ndo_session {
 	int cdepth, cdepth_raw;
 	double *cview, *tilex;   /* coarse positions as receivers hold them; a tile's */
 	double *dview;           /* refined displacement + rest, at the object's level */
+	int measure_disp;        /* ndo_session_measure_displacement */
 	uint8_t *fmask;          /* this peer's nodes at the object's level */
 	ndo_refiner *refiner;
 	double diag;             /* the rest shape's box diagonal */
@@ -555,7 +556,7 @@ static void coarse_error(ndo_session *s, const ndo_grid *src)
 	 * object's level, for a receiver that holds it (not what the watch does) */
 	const double *rest = ndo_grid_f64((ndo_grid *)src, NDO_CH_REST, 3);
 	const double *crest = ndo_grid_f64(s->cgrid, NDO_CH_REST, 3);
-	if (!rest || !crest || !s->dview)
+	if (!s->measure_disp || !rest || !crest || !s->dview)
 		return;
 	for (size_t n = 0; n < 3 * s->cgrid->count; n++)
 		s->cview[n] -= crest[n];
@@ -1397,6 +1398,7 @@ void ndo_session_destroy(ndo_session *s, const char *message)
 
 void ndo_session_set_exact_step(ndo_session *s, int64_t step) { s->exact_step = step; }
 void ndo_session_set_exact_halos(ndo_session *s, int on) { s->exact_halos = on != 0; }
+void ndo_session_measure_displacement(ndo_session *s, int on) { s->measure_disp = on != 0; }
 int ndo_session_send_level(const ndo_session *s) { return s->level < 0 ? -1 : s->send_level; }
 
 void ndo_session_level_stats_get(const ndo_session *s, ndo_session_level_stats *st)

@@ -346,6 +346,7 @@ static void send_level_frames_and_error(void)
 		                      .scene = "", .heartbeat = 0.1, .codec = &cp, .coarse_levels = 2};
 		ndo_session *s = NULL;
 		CHECK(ndo_session_create(&o, n, g, &s) == 0, "owner: %s", ndo_errdetail());
+		ndo_session_measure_displacement(s, 1);
 		ndo_link_open_mem(bus, &lw);
 		ndo_net_create(lw, "T", 12, &nw);
 		ndo_watch *w;

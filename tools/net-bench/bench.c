@@ -385,6 +385,8 @@ int nb_run(const nb_opts *o, int level, const ndo_codec_params *enc, double loss
 			/* what a viewer costs: the whole state every step */
 			.publish_every = 1};
 		rc = ndo_peer_create(&po, n, k ? NULL : g, k ? NULL : sim, k ? NULL : &run, &p[k]);
+		if (!rc) /* the error of refining the displacement too (CSV) */
+			ndo_session_measure_displacement(ndo_peer_session(p[k]), 1);
 		if (k == 0)
 			g = NULL, sim = NULL; /* taken over */
 	}

@@ -408,12 +408,9 @@ static void summary(peer_run *pr, const char *how)
 	if (ls.send_level >= 0 && ls.send_level < ls.level && ls.frames > 0)
 		fprintf(stderr, "%s: send level %d of %d: %lld whole-region frames sent at level %d; the "
 		        "error at level %d of what receivers hold (refined), over this peer's nodes: "
-		        "max %.3g, RMS %.3g of the diagonal (refining the displacement onto the rest "
-		        "shape instead: max %.3g, RMS %.3g)\n", ndo_progname, ls.send_level, ls.level,
+		        "max %.3g, RMS %.3g of the diagonal\n", ndo_progname, ls.send_level, ls.level,
 		        (long long)ls.frames, ls.send_level, ls.level, ls.max_error,
-		        ls.error_nodes ? sqrt(ls.sum_sq_error / (double)ls.error_nodes) : 0.0,
-		        ls.max_error_disp,
-		        ls.error_nodes ? sqrt(ls.sum_sq_error_disp / (double)ls.error_nodes) : 0.0);
+		        ls.error_nodes ? sqrt(ls.sum_sq_error / (double)ls.error_nodes) : 0.0);
 	if (pr->watch) {
 		ndo_watch_stats ws;
 		ndo_watch_stats_get(pr->watch, &ws);
