@@ -27,7 +27,10 @@ struct ndo_refiner {
 	double *a, *b, *scratch;
 };
 
-static size_t nodes_of(int level) { return (size_t)((2 << level) + 1) * (size_t)((1 << level) + 1); }
+static size_t nodes_of(int level)
+{
+	return (size_t)((2 << level) + 1) * (size_t)((1 << level) + 1);
+}
 
 int ndo_refiner_create(int level, int k, int comps, ndo_refiner **out)
 {

@@ -413,9 +413,10 @@ static void on_message(ndo_net *n, int t, const uint8_t *data, size_t len, int s
 	}
 	if (t == NDO_MSG_TILE) {
 		ndo_quad q;
-		ndo_quad_from_range(n->ctx.level - ((m.u.tile.channels & NDO_TILE_COARSE) ? n->ctx.coarse : 0),
-		                    m.u.tile.depth, m.u.tile.i0, m.u.tile.j0,
-		                    m.u.tile.i1, m.u.tile.j1, &q);
+		/* a tile of the send level: a node of the coarser grid's tree */
+		int level = n->ctx.level - ((m.u.tile.channels & NDO_TILE_COARSE) ? n->ctx.coarse : 0);
+		ndo_quad_from_range(level, m.u.tile.depth, m.u.tile.i0, m.u.tile.j0, m.u.tile.i1,
+		                    m.u.tile.j1, &q);
 		tile_slot *slot = find_slot(n, m.hdr->sender_id, ndo_quad_code(q), m.u.tile.channels);
 		ndo_msg *keep = malloc(sizeof *keep);
 		if (!slot || !keep) {

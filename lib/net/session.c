@@ -574,14 +574,13 @@ static void coarse_error(ndo_session *s, const ndo_grid *src)
 static int publish_coarse(ndo_session *s, const ndo_grid *src, int64_t step, double time)
 {
 	const int k = s->level - s->send_level;
-	ndo_sample_nodes(s->level, k, 3 * sizeof(double), ndo_grid_f64((ndo_grid *)src, NDO_CH_POSITION, 3),
-	                 ndo_grid_f64(s->cgrid, NDO_CH_POSITION, 3));
-	ndo_sample_nodes(s->level, k, 3 * sizeof(double), ndo_grid_f64((ndo_grid *)src, NDO_CH_VELOCITY, 3),
-	                 ndo_grid_f64(s->cgrid, NDO_CH_VELOCITY, 3));
-	const double *rest = ndo_grid_f64((ndo_grid *)src, NDO_CH_REST, 3);
-	if (rest)
-		ndo_sample_nodes(s->level, k, 3 * sizeof(double), rest,
-		                 ndo_grid_f64(s->cgrid, NDO_CH_REST, 3));
+	const char *chans[3] = {NDO_CH_POSITION, NDO_CH_VELOCITY, NDO_CH_REST};
+	for (int c = 0; c < 3; c++) {
+		const double *from = ndo_grid_f64((ndo_grid *)src, chans[c], 3);
+		if (from)
+			ndo_sample_nodes(s->level, k, 3 * sizeof(double), from,
+			                 ndo_grid_f64(s->cgrid, chans[c], 3));
+	}
 	s->cgrid->step = step;
 	s->cgrid->time = time;
 	int standalone = src != s->grid, sent = 0;

@@ -115,7 +115,8 @@ static void coarse_tiles_checked(void)
 	CHECK(ndo_send_level_take(junk, 6, &L) == NDO_EINVAL, "a bad line");
 	CHECK(ndo_send_level_take(twice, 6, &L) == NDO_EINVAL, "two lines");
 	char line[32];
-	CHECK(ndo_send_level_text(6, 6, line, sizeof line) == 0 && !*line, "no line at the object's level");
+	CHECK(ndo_send_level_text(6, 6, line, sizeof line) == 0 && !*line,
+	      "no line at the object's level");
 	CHECK(ndo_send_level_text(4, 6, line, sizeof line) > 0 && strcmp(line, "send-level 4\n") == 0,
 	      "the line: '%s'", line);
 }
