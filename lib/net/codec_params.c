@@ -222,14 +222,27 @@ int ndo_codec_params_take(char *text, ndo_codec_params *p)
 	return seen ? ndo_codec_params_check(p) : 0;
 }
 
-int ndo_codec_params_read(const void *scene, size_t len, ndo_codec_params *p)
+/* A description's scene as it arrives (len bytes, not NUL-terminated, NULL
+ * when len is 0) as a string to take lines from (malloc'd; NULL: out of
+ * memory, said). */
+static char *scene_text(const void *scene, size_t len)
 {
 	char *text = malloc(len + 1);
-	if (!text)
-		return ndo__fail(NDO_ENOMEM, "out of memory");
+	if (!text) {
+		ndo__fail(NDO_ENOMEM, "out of memory");
+		return NULL;
+	}
 	if (len)
 		memcpy(text, scene, len);
 	text[len] = 0;
+	return text;
+}
+
+int ndo_codec_params_read(const void *scene, size_t len, ndo_codec_params *p)
+{
+	char *text = scene_text(scene, len);
+	if (!text)
+		return NDO_ENOMEM;
 	int rc = ndo_codec_params_take(text, p);
 	free(text);
 	return rc;
@@ -272,13 +285,10 @@ int ndo_send_level_take(char *text, int level, int *send_level)
 
 int ndo_send_level_read(const void *scene, size_t len, int level, int *send_level)
 {
-	char *text = malloc(len + 1);
+	char *text = scene_text(scene, len);
 	*send_level = level;
 	if (!text)
-		return ndo__fail(NDO_ENOMEM, "out of memory");
-	if (len)
-		memcpy(text, scene, len);
-	text[len] = 0;
+		return NDO_ENOMEM;
 	int rc = ndo_send_level_take(text, level, send_level);
 	free(text);
 	return rc;

@@ -216,16 +216,22 @@ static int coarse_prepare(ndo_session *s)
 	return 0;
 }
 
-/* The diagonal the errors are reported against: the rest shape's box (a
- * joiner has it once the snapshot came). */
-static double rest_diagonal(ndo_session *s)
+/* The rest shape's positions, or the positions when it is all zero (none
+ * given). */
+static const double *rest_or_positions(ndo_session *s)
 {
 	const double *x = ndo_grid_f64(s->grid, NDO_CH_REST, 3);
 	int have_rest = 0;
 	for (size_t k = 0; x && k < 3 * s->grid->count && !have_rest; k++)
 		have_rest = x[k] != 0;
-	if (!have_rest)
-		x = ndo_grid_f64(s->grid, NDO_CH_POSITION, 3);
+	return have_rest ? x : ndo_grid_f64(s->grid, NDO_CH_POSITION, 3);
+}
+
+/* The diagonal the errors are reported against: the rest shape's box (a
+ * joiner has it once the snapshot came). */
+static double rest_diagonal(ndo_session *s)
+{
+	const double *x = rest_or_positions(s);
 	double lo[3], ext[3];
 	ndo_codec_box(x, s->grid->count, lo, ext);
 	return sqrt(ext[0] * ext[0] + ext[1] * ext[1] + ext[2] * ext[2]);
@@ -401,6 +407,31 @@ static int publish_raw(ndo_session *s, const ndo_grid *src, ndo_quad q, int chan
 	return rc;
 }
 
+/* A position+velocity tile's header: quad-tree node q of a level-`level`
+ * grid at step, time and the epoch in force. */
+static void state_tile_head(const ndo_session *s, int level, ndo_quad q, int64_t step,
+                            double time, ndo_msg_tile_t *t)
+{
+	memset(t, 0, sizeof *t);
+	int i0, j0, i1, j1;
+	ndo_quad_range(level, q, &i0, &j0, &i1, &j1);
+	t->depth = (int8_t)q.depth;
+	t->i0 = i0, t->j0 = j0, t->i1 = i1, t->j1 = j1;
+	t->channels = NDO_TILE_POSITION | NDO_TILE_VELOCITY;
+	t->step = step;
+	t->time = time;
+	t->epoch = s->epoch;
+}
+
+/* Quad-tree node q's children: the root has two (the N x N squares), the
+ * others four. */
+static int quad_children(ndo_quad q) { return q.depth == 0 ? 2 : 4; }
+static ndo_quad quad_child(ndo_quad q, int c)
+{
+	return q.depth == 0 ? (ndo_quad){1, c, 0}
+	                    : (ndo_quad){q.depth + 1, 2 * q.qi + (c & 1), 2 * q.qj + (c >> 1)};
+}
+
 /* One position+velocity tile in the session's encoding: 1 sent, 0 not
  * sent (unchanged), or a negative status.  A tile that cannot be encoded
  * or does not fit one datagram goes raw (its children when it is
@@ -409,15 +440,7 @@ static int publish_encoded(ndo_session *s, const ndo_grid *src, ndo_quad q, int6
                            double time)
 {
 	ndo_msg_tile_t t;
-	memset(&t, 0, sizeof t);
-	int i0, j0, i1, j1;
-	ndo_quad_range(s->level, q, &i0, &j0, &i1, &j1);
-	t.depth = (int8_t)q.depth;
-	t.i0 = i0, t.j0 = j0, t.i1 = i1, t.j1 = j1;
-	t.channels = NDO_TILE_POSITION | NDO_TILE_VELOCITY;
-	t.step = step;
-	t.time = time;
-	t.epoch = s->epoch;
+	state_tile_head(s, s->level, q, step, time, &t);
 	const uint8_t *cls = step == s->exact_step ? s->cls_exact : s->cls;
 	int rc = ndo_codec_encode_tile(s->enc, s->self, src, cls, q, src != s->grid, &t);
 	if (rc == 1)
@@ -434,33 +457,14 @@ static int publish_encoded(ndo_session *s, const ndo_grid *src, ndo_quad q, int6
 	const int ch = NDO_TILE_POSITION | NDO_TILE_VELOCITY;
 	if (q.depth >= s->tdepth_state)
 		return (rc = publish_raw(s, src, q, ch, step, time)) ? rc : 1;
-	/* the children: the root has two (the N x N squares), the others four */
-	for (int c = 0; c < (q.depth == 0 ? 2 : 4); c++) {
-		ndo_quad k = q.depth == 0 ? (ndo_quad){1, c, 0}
-		                          : (ndo_quad){q.depth + 1, 2 * q.qi + (c & 1), 2 * q.qj + (c >> 1)};
-		if ((rc = publish_raw(s, src, k, ch, step, time)))
+	for (int c = 0; c < quad_children(q); c++)
+		if ((rc = publish_raw(s, src, quad_child(q, c), ch, step, time)))
 			return rc;
-	}
 	return 1;
 }
 
 /* ---- whole-region state at the send level ---- */
-/* One raw coarse tile. */
-static int publish_coarse_raw(ndo_session *s, ndo_quad q, int64_t step, double time)
-{
-	ndo_msg_tile_t t;
-	memset(&t, 0, sizeof t);
-	int rc = ndo_tile_pack(s->cgrid, q, NDO_TILE_POSITION | NDO_TILE_VELOCITY, &t);
-	if (rc)
-		return rc;
-	t.channels |= NDO_TILE_COARSE;
-	t.step = step;
-	t.time = time;
-	t.epoch = s->epoch;
-	rc = ndo_net_publish(s->net, NDO_MSG_TILE, &t);
-	free(t.values);
-	return rc;
-}
+#define COARSE_STATE (NDO_TILE_POSITION | NDO_TILE_VELOCITY | NDO_TILE_COARSE)
 
 /* What receivers hold of a coarse tile's nodes of this peer's, into cview:
  * the exact values (raw), or the encoder's reconstruction. */
@@ -489,15 +493,7 @@ static int publish_coarse_tile(ndo_session *s, ndo_quad q, int standalone, int64
 	int rc = NDO_ERANGE;
 	if (s->cenc) {
 		ndo_msg_tile_t t;
-		memset(&t, 0, sizeof t);
-		int i0, j0, i1, j1;
-		ndo_quad_range(s->send_level, q, &i0, &j0, &i1, &j1);
-		t.depth = (int8_t)q.depth;
-		t.i0 = i0, t.j0 = j0, t.i1 = i1, t.j1 = j1;
-		t.channels = NDO_TILE_POSITION | NDO_TILE_VELOCITY;
-		t.step = step;
-		t.time = time;
-		t.epoch = s->epoch;
+		state_tile_head(s, s->send_level, q, step, time, &t);
 		rc = ndo_codec_encode_tile(s->cenc, s->self, s->cgrid, s->ccls, q, standalone, &t);
 		if (rc == 1 || rc == 0)
 			coarse_view(s, q, 1);
@@ -516,13 +512,10 @@ static int publish_coarse_tile(ndo_session *s, ndo_quad q, int standalone, int64
 	}
 	coarse_view(s, q, 0);
 	if (q.depth >= s->cdepth_raw)
-		return (rc = publish_coarse_raw(s, q, step, time)) ? rc : 1;
-	for (int c = 0; c < (q.depth == 0 ? 2 : 4); c++) {
-		ndo_quad k = q.depth == 0 ? (ndo_quad){1, c, 0}
-		                          : (ndo_quad){q.depth + 1, 2 * q.qi + (c & 1), 2 * q.qj + (c >> 1)};
-		if ((rc = publish_coarse_raw(s, k, step, time)))
+		return (rc = publish_raw(s, s->cgrid, q, COARSE_STATE, step, time)) ? rc : 1;
+	for (int c = 0; c < quad_children(q); c++)
+		if ((rc = publish_raw(s, s->cgrid, quad_child(q, c), COARSE_STATE, step, time)))
 			return rc;
-	}
 	return 1;
 }
 
@@ -1189,18 +1182,28 @@ int ndo_session_send_forces(ndo_session *s, int64_t step, int n, const int32_t *
 }
 
 /* ---- life -------------------------------------------------------------- */
+/* The owner's description: n more bytes of lines. */
+static int scene_append(ndo_session *s, const char *lines, size_t n)
+{
+	size_t have = strlen(s->scene);
+	if (have + n > NDO_MAX_SCENE)
+		return ndo__fail(NDO_ERANGE, "the description takes more than %d bytes", NDO_MAX_SCENE);
+	char *sc = realloc(s->scene, have + n + 1);
+	if (!sc)
+		return NDO_ENOMEM;
+	memcpy(sc + have, lines, n);
+	sc[have + n] = 0;
+	s->scene = sc;
+	return 0;
+}
+
 /* The owner's box (its rest shape, or its positions when it has none):
  * the bound on the state every peer receives (ndo_msg_set_box), in the
  * description as an object-box line.  An object that is a point (a grid
  * of zeros) has none: its state is only checked to be finite. */
 static int owner_box(ndo_session *s, ndo_msg_ctx *c)
 {
-	const double *x = ndo_grid_f64(s->grid, NDO_CH_REST, 3);
-	int have_rest = 0;
-	for (size_t k = 0; x && k < 3 * s->grid->count && !have_rest; k++)
-		have_rest = x[k] != 0;
-	if (!have_rest)
-		x = ndo_grid_f64(s->grid, NDO_CH_POSITION, 3);
+	const double *x = rest_or_positions(s);
 	char line[256];
 	int n = ndo_msg_box_text(x, s->grid->count, line, sizeof line);
 	if (n < 0)
@@ -1210,15 +1213,7 @@ static int owner_box(ndo_session *s, ndo_msg_ctx *c)
 		return 0; /* no bound but finiteness (a grid of zeros, in tests) */
 	}
 	n = ndo_msg_box_text(x, s->grid->count, line, sizeof line); /* take emptied it */
-	size_t have = strlen(s->scene);
-	if (have + (size_t)n > NDO_MAX_SCENE)
-		return ndo__fail(NDO_ERANGE, "the description takes more than %d bytes", NDO_MAX_SCENE);
-	char *sc = realloc(s->scene, have + (size_t)n + 1);
-	if (!sc)
-		return NDO_ENOMEM;
-	memcpy(sc + have, line, (size_t)n + 1);
-	s->scene = sc;
-	return 0;
+	return scene_append(s, line, (size_t)n);
 }
 
 /* The owner's encoding: the box, the encoder, the net's decoder and the
@@ -1246,17 +1241,7 @@ static int owner_codec(ndo_session *s, const ndo_codec_params *p)
 	if ((rc = ndo_codec_create(&s->codec, s->level, &s->enc)) ||
 	    (rc = ndo_net_set_codec(s->net, &s->codec, s->level)))
 		return rc;
-	if (strlen(s->scene) + (size_t)n > NDO_MAX_SCENE)
-		return ndo__fail(NDO_ERANGE, "the description takes more than %d bytes", NDO_MAX_SCENE);
-	char *sc = malloc(strlen(s->scene) + (size_t)n + 1);
-	if (!sc)
-		return NDO_ENOMEM;
-	size_t have = strlen(s->scene);
-	memcpy(sc, s->scene, have);
-	memcpy(sc + have, lines, (size_t)n + 1);
-	free(s->scene);
-	s->scene = sc;
-	return 0;
+	return scene_append(s, lines, (size_t)n);
 }
 
 /* The owner's send level: the description's line, the net's decoder of
@@ -1271,15 +1256,8 @@ static int owner_send_level(ndo_session *s, int coarse_levels)
 	int n = ndo_send_level_text(s->send_level, s->level, line, sizeof line), rc;
 	if (n < 0)
 		return n;
-	size_t have = strlen(s->scene);
-	if (have + (size_t)n > NDO_MAX_SCENE)
-		return ndo__fail(NDO_ERANGE, "the description takes more than %d bytes", NDO_MAX_SCENE);
-	char *sc = realloc(s->scene, have + (size_t)n + 1);
-	if (!sc)
-		return NDO_ENOMEM;
-	memcpy(sc + have, line, (size_t)n + 1);
-	s->scene = sc;
-	if ((rc = ndo_net_set_send_level(s->net, s->send_level, s->level)))
+	if ((rc = scene_append(s, line, (size_t)n)) ||
+	    (rc = ndo_net_set_send_level(s->net, s->send_level, s->level)))
 		return rc;
 	return coarse_prepare(s);
 }

@@ -134,39 +134,24 @@ static void table_row(FILE *f, const nb_row *r)
 	fflush(f);
 }
 
-static int parse_losses(const char *arg, double *out, int max)
+/* A comma-separated list of drop rates (0..0.9) or of send levels (0..8). */
+static int parse_list(const char *arg, int levels, double *out, int max)
 {
-	if (strcmp(arg, "none") == 0)
-		return 0;
+	const char *opt = levels ? "--send-level" : "--loss";
 	int n = 0;
 	char *copy = strdup(arg), *save = NULL;
 	if (!copy)
 		ndo_die("out of memory");
 	for (char *tok = strtok_r(copy, ",", &save); tok; tok = strtok_r(NULL, ",", &save)) {
 		if (n == max)
-			ndo_usage_error("--loss: at most %d rates", max);
-		out[n++] = ndo_opt_double("--loss", tok, 0, 0.9);
+			ndo_usage_error("%s: at most %d %s", opt, max, levels ? "levels" : "rates");
+		out[n++] = levels ? (double)ndo_opt_long(opt, tok, 0, 8)
+		                  : ndo_opt_double(opt, tok, 0, 0.9);
 	}
 	free(copy);
 	if (!n)
-		ndo_usage_error("--loss: '%s': give rates like 0.05,0.2 or 'none'", arg);
-	return n;
-}
-
-static int parse_levels(const char *arg, int *out, int max)
-{
-	int n = 0;
-	char *copy = strdup(arg), *save = NULL;
-	if (!copy)
-		ndo_die("out of memory");
-	for (char *tok = strtok_r(copy, ",", &save); tok; tok = strtok_r(NULL, ",", &save)) {
-		if (n == max)
-			ndo_usage_error("--send-level: at most %d levels", max);
-		out[n++] = (int)ndo_opt_long("--send-level", tok, 0, 8);
-	}
-	free(copy);
-	if (!n)
-		ndo_usage_error("--send-level: '%s': give levels like 4,5,6", arg);
+		ndo_usage_error("%s: '%s': give %s", opt, arg,
+		                levels ? "levels like 4,5,6" : "rates like 0.05,0.2 or 'none'");
 	return n;
 }
 
@@ -174,7 +159,8 @@ int main(int argc, char **argv)
 {
 	ndo_cli_init(argc, argv);
 	nb_opts o = {.url = NULL, .time = 5, .peers = 2, .timeout = 300, .send_level = -1};
-	int level = -1, nloss = -1, sends[16], nsend = 0;
+	int level = -1, nloss = -1, nsend = 0;
+	double sends[16];
 	const char *csv = NULL, *output = NULL;
 	ndo_codec_params one;
 	int have_enc = 0;
@@ -216,8 +202,10 @@ int main(int argc, char **argv)
 		case OPT_KEY: key_file = optarg; break;
 		case 't': o.time = ndo_opt_double("--time", optarg, 0.05, 60); break;
 		case OPT_PEERS: o.peers = (int)ndo_opt_long("--peers", optarg, 1, 8); break;
-		case 's': nsend = parse_levels(optarg, sends, 16); break;
-		case OPT_LOSS: nloss = parse_losses(optarg, losses, 16); break;
+		case 's': nsend = parse_list(optarg, 1, sends, 16); break;
+		case OPT_LOSS:
+			nloss = strcmp(optarg, "none") == 0 ? 0 : parse_list(optarg, 0, losses, 16);
+			break;
 		case OPT_TIMEOUT: o.timeout = ndo_opt_double("--timeout", optarg, 1, 3600); break;
 		case 'q': o.quiet = 1; break;
 		case 'h': usage();
@@ -280,8 +268,8 @@ int main(int argc, char **argv)
 	if (level >= 0)
 		for (int k = 0; k < nsend; k++)
 			if (sends[k] > level)
-				ndo_usage_error("--send-level: %d is above the level %d (0..%d)", sends[k], level,
-				                level);
+				ndo_usage_error("--send-level: %d is above the level %d (0..%d)",
+				                (int)sends[k], level, level);
 	if (!nsend) /* the row's own level */
 		sends[nsend++] = -1;
 	for (int l = lo; l <= hi && !failed; l++)
@@ -290,12 +278,12 @@ int main(int argc, char **argv)
 				nb_row r;
 				if (sends[sl] > l)
 					continue; /* the whole table: levels above a row's are not its */
-				o.send_level = sends[sl];
+				o.send_level = (int)sends[sl];
 				if (!o.quiet) {
 					char name[32];
 					ndo_codec_name(&encs[e], name, sizeof name);
 					fprintf(stderr, "%s: level %d, %s, send level %d ...\n", ndo_progname, l, name,
-					        sends[sl] < 0 ? l : sends[sl]);
+					        sends[sl] < 0 ? l : (int)sends[sl]);
 				}
 				if (nb_run(&o, l, &encs[e], 0, &r)) {
 					ndo_warn("level %d: %s", l, ndo_errdetail());
