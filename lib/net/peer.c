@@ -659,8 +659,10 @@ static int region(ndo_peer *p)
 	}
 	free(inh);
 	/* nodes that came to this peer: the simulation takes their newest
-	 * values (it held them, perhaps at older ones) */
+	 * values (it held them, perhaps at older ones; with a send level, the
+	 * others' whole regions as they travelled, refined, when newer) */
 	if (p->sim) {
+		ndo_session_refine_others(p->s, p->nstep);
 		double *x = ndo_grid_f64(g, NDO_CH_POSITION, 3), *v = ndo_grid_f64(g, NDO_CH_VELOCITY, 3);
 		int32_t *nodes = malloc(p->ncanon * sizeof *nodes);
 		if (!nodes) {

@@ -77,6 +77,7 @@ struct ndo_session {
 	int64_t *cstep;          /* ... their step (−1: none) */
 	ndo_codec *cenc;         /* its encoder (NULL: raw) */
 	uint8_t *ccls;           /* per coarse node: LOSSY (this peer's) or SKIP */
+	uint8_t *cuse;           /* ndo_session_refine_others: taken as it travelled */
 	int32_t *ctiles;         /* coarse tiles with a node of this peer's */
 	size_t nctiles;
 	int cdepth, cdepth_raw;
@@ -187,9 +188,10 @@ static int coarse_prepare(ndo_session *s)
 	s->crecv = malloc(6 * nc * sizeof *s->crecv);
 	s->cstep = malloc(nc * sizeof *s->cstep);
 	s->ccls = calloc(nc, 1);
+	s->cuse = calloc(nc, 1);
 	s->cview = malloc(3 * nc * sizeof *s->cview);
 	s->fmask = calloc(s->grid->count, 1);
-	if (!s->crecv || !s->cstep || !s->ccls || !s->cview || !s->fmask || !s->dview)
+	if (!s->crecv || !s->cstep || !s->ccls || !s->cuse || !s->cview || !s->fmask || !s->dview)
 		return ndo__fail(NDO_ENOMEM, "out of memory");
 	for (size_t k = 0; k < nc; k++)
 		s->cstep[k] = -1;
@@ -1366,7 +1368,7 @@ void ndo_session_destroy(ndo_session *s, const char *message)
 	free(s->cls_exact);
 	ndo_codec_destroy(s->enc);
 	ndo_grid_destroy(s->cgrid);
-	free(s->crecv), free(s->cstep), free(s->ccls), free(s->cview), free(s->tilex);
+	free(s->crecv), free(s->cstep), free(s->ccls), free(s->cuse), free(s->cview), free(s->tilex);
 	free(s->fmask), free(s->ctiles), free(s->dview);
 	ndo_codec_destroy(s->cenc);
 	ndo_refiner_destroy(s->refiner);
@@ -1387,6 +1389,48 @@ void ndo_session_level_stats_get(const ndo_session *s, ndo_session_level_stats *
 		ndo_codec_stats_get(s->cenc, &st->enc);
 	else
 		memset(&st->enc, 0, sizeof st->enc);
+}
+
+int64_t ndo_session_refine_others(ndo_session *s, int64_t *nstep)
+{
+	if (!s->cgrid || !s->grid || !s->described)
+		return 0;
+	const int k = s->level - s->send_level, wc = s->cgrid->w;
+	const size_t nc = s->cgrid->count;
+	double *x = ndo_grid_f64(s->grid, NDO_CH_POSITION, 3);
+	double *v = ndo_grid_f64(s->grid, NDO_CH_VELOCITY, 3);
+	/* a coarse node is taken as it travelled when that is newer than what
+	 * the grid holds; the oldest of those is the refinement's step */
+	int64_t oldest = -1;
+	for (size_t n = 0; n < nc; n++) {
+		size_t f = ndo_canonical(s->level, (int)(n % (size_t)wc) << k, (int)(n / (size_t)wc) << k);
+		s->cuse[n] = s->cstep[n] >= 0 && nstep[f] < s->cstep[n];
+		if (s->cuse[n] && (oldest < 0 || s->cstep[n] < oldest))
+			oldest = s->cstep[n];
+	}
+	int64_t taken = 0;
+	for (int comp = 0; comp < 2 && oldest >= 0; comp++) { /* positions, then velocities */
+		double *f = comp ? v : x;
+		ndo_sample_nodes(s->level, k, 3 * sizeof(double), f, s->cview);
+		for (size_t n = 0; n < nc; n++)
+			if (s->cuse[n] && !isnan(s->crecv[6 * n + 3 * comp]))
+				memcpy(s->cview + 3 * n, s->crecv + 6 * n + 3 * comp, 3 * sizeof *f);
+		memcpy(s->dview, ndo_refine(s->refiner, s->cview), 3 * s->grid->count * sizeof *f);
+		for (int j = 0; j <= (1 << s->level); j++)
+			for (int i = 0; i <= (2 << s->level); i++) {
+				size_t n = ndo_node(s->grid->w, i, j);
+				if (nstep[n] >= oldest || ndo_canonical(s->level, i, j) != n)
+					continue;
+				memcpy(f + 3 * n, s->dview + 3 * n, 3 * sizeof *f);
+				if (comp) {
+					nstep[n] = oldest;
+					taken++;
+				}
+			}
+	}
+	if (taken)
+		ndo_grid_sync(s->grid);
+	return taken;
 }
 
 int ndo_session_frame(ndo_session *s, ndo_grid **out)

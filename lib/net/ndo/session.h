@@ -173,6 +173,16 @@ typedef struct ndo_session_level_stats {
 } ndo_session_level_stats;
 void ndo_session_level_stats_get(const ndo_session *s, ndo_session_level_stats *st);
 void ndo_session_measure_displacement(ndo_session *s, int on);
+/* With a send level below the object's: the send level's state — each
+ * coarse node as it last travelled when that is newer than the grid's
+ * value (nstep[node], the step of each canonical node's value, −1 none),
+ * else as the grid holds it — refined by the butterfly, position and
+ * velocity, into every node whose value is older than the oldest coarse
+ * node taken, whose nstep becomes that step.  What a peer taking over a
+ * region starts from when the others' whole regions travelled coarse (its
+ * own and its halo's nodes are newer and stay).  Returns the nodes taken
+ * (0 without a send level, or when no coarse node is newer). */
+int64_t ndo_session_refine_others(ndo_session *s, int64_t *nstep);
 /* The object at the send level (*out, the caller's): every channel of this
  * peer's grid sampled, the others' positions and velocities replaced by
  * their newest coarse tiles (frames of a run that sends a level).  0,
