@@ -9,6 +9,7 @@ import sys
 import matplotlib
 
 matplotlib.use("Agg")
+matplotlib.rcParams["svg.fonttype"] = "none"  # text as text: a small file
 import matplotlib.pyplot as plt
 
 rows = list(csv.DictReader(open(sys.argv[1])))
@@ -32,7 +33,7 @@ for ax, col, name in ((axes[0], "level_max_error_rel", "max"), (axes[1], "level_
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel(f"{name} error at the simulated level / diagonal")
-    ax.grid(True, which="both", alpha=0.3)
+    ax.grid(True, which="major", alpha=0.3)
 axes[0].set_ylabel("bits per vertex per update (wire)")
 axes[1].legend(fontsize=6, loc="upper left", bbox_to_anchor=(1.02, 1))
 fig.suptitle("thesis scene, 1 peer streaming to an observer: solid level 6, dashed level 7; "
