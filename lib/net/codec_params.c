@@ -222,15 +222,74 @@ int ndo_codec_params_take(char *text, ndo_codec_params *p)
 	return seen ? ndo_codec_params_check(p) : 0;
 }
 
-int ndo_codec_params_read(const void *scene, size_t len, ndo_codec_params *p)
+/* A description's scene as it arrives (len bytes, not NUL-terminated, NULL
+ * when len is 0) as a string to take lines from (malloc'd; NULL: out of
+ * memory, said). */
+static char *scene_text(const void *scene, size_t len)
 {
 	char *text = malloc(len + 1);
-	if (!text)
-		return ndo__fail(NDO_ENOMEM, "out of memory");
+	if (!text) {
+		ndo__fail(NDO_ENOMEM, "out of memory");
+		return NULL;
+	}
 	if (len)
 		memcpy(text, scene, len);
 	text[len] = 0;
+	return text;
+}
+
+int ndo_codec_params_read(const void *scene, size_t len, ndo_codec_params *p)
+{
+	char *text = scene_text(scene, len);
+	if (!text)
+		return NDO_ENOMEM;
 	int rc = ndo_codec_params_take(text, p);
+	free(text);
+	return rc;
+}
+
+/* ---- the send level ("send-level L") ----------------------------------- */
+int ndo_send_level_text(int send_level, int level, char *buf, size_t size)
+{
+	int n = send_level < level ? snprintf(buf, size, "send-level %d\n", send_level) : 0;
+	if (n == 0 && size)
+		*buf = 0;
+	if (n < 0 || (size_t)n >= size)
+		return ndo__fail(NDO_ERANGE, "send level: the description line does not fit");
+	return n;
+}
+
+typedef struct send_line {
+	int level, *out, seen;
+} send_line;
+
+static int send_level_line(void *arg, const char *l)
+{
+	send_line *t = arg;
+	int k, end = 0;
+	if (t->seen || sscanf(l, "send-level %d%n", &k, &end) != 1 || l[end] || k < 0 ||
+	    k > t->level)
+		return ndo__fail(NDO_EINVAL, "the owner's description: bad line '%s' (a send level "
+		                 "0..%d, once)", l, t->level);
+	*t->out = k;
+	t->seen = 1;
+	return 0;
+}
+
+int ndo_send_level_take(char *text, int level, int *send_level)
+{
+	*send_level = level;
+	send_line t = {level, send_level, 0};
+	return ndo_lines_take(text, "send-level", send_level_line, &t);
+}
+
+int ndo_send_level_read(const void *scene, size_t len, int level, int *send_level)
+{
+	char *text = scene_text(scene, len);
+	*send_level = level;
+	if (!text)
+		return NDO_ENOMEM;
+	int rc = ndo_send_level_take(text, level, send_level);
 	free(text);
 	return rc;
 }

@@ -47,6 +47,8 @@ struct ndo_codec {
 	size_t scap;
 	ndo_codec_frame fr; /* a frame, scratch */
 	int frnodes;
+	const ndo_codec_frame *last; /* the frame ndo_codec_encode_tile() last made */
+	int last_nodes;
 };
 
 size_t ndo_codec_classify(int level, const int32_t *own, int32_t self, uint8_t *cls)
@@ -230,6 +232,7 @@ int ndo_codec_encode_tile(ndo_codec *c, int32_t self, const ndo_grid *g, const u
                           ndo_quad q, int standalone, ndo_msg_tile_t *t)
 {
 	double t0 = mono();
+	c->last = NULL;
 	int i0, j0, i1, j1;
 	ndo_quad_range(g->level, q, &i0, &j0, &i1, &j1);
 	int cols = i1 - i0 + 1, rows = j1 - j0 + 1, nodes = rows * cols;
@@ -292,6 +295,7 @@ int ndo_codec_encode_tile(ndo_codec *c, int32_t self, const ndo_grid *g, const u
 		e->last_sent = t->step;
 		c->st.skipped++;
 		c->st.encode_seconds += mono() - t0;
+		c->last = &c->fr, c->last_nodes = nodes; /* what receivers imply */
 		return 1;
 	}
 	if (!standalone) {
@@ -307,6 +311,10 @@ int ndo_codec_encode_tile(ndo_codec *c, int32_t self, const ndo_grid *g, const u
 		memmove(&e->c[1], &e->c[0], (CACHED - 1) * sizeof e->c[0]);
 		e->c[0] = (cached){t->step, base, data, len};
 		rc = fill_tile(t, c->p.encoding, base, data, len);
+		c->last = ndo_codec_hist_find(&e->h, t->step);
+		if (!c->last) /* older than every frame held: not kept, still in fr */
+			c->last = &c->fr;
+		c->last_nodes = nodes;
 	} else {
 		rc = fill_tile(t, c->p.encoding, base, data, len);
 		free(data);
@@ -316,6 +324,15 @@ int ndo_codec_encode_tile(ndo_codec *c, int32_t self, const ndo_grid *g, const u
 	c->st.payload_bytes += len;
 	c->st.encode_seconds += mono() - t0;
 	return rc;
+}
+
+int ndo_codec_last_positions(const ndo_codec *c, double *x)
+{
+	if (!c->last)
+		return ndo__fail(NDO_EINVAL, "codec: no frame encoded");
+	for (int n = 0; n < c->last_nodes; n++)
+		ndo_codec_frame_position(&c->p, c->last, n, x + 3 * n);
+	return 0;
 }
 
 void ndo_codec_forget_tile(ndo_codec *c, int32_t self, ndo_quad q)

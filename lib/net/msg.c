@@ -391,14 +391,22 @@ ndo_drop ndo_msg_validate(const ndo_msg *m, const ndo_msg_ctx *c)
 		ndo_quad q;
 		if (t->step < 0 || !isfinite(t->time) || t->time < 0 || t->epoch < 0)
 			return t->time != t->time ? NDO_DROP_NONFINITE : NDO_DROP_RANGE;
+		if (t->channels & NDO_TILE_COARSE) { /* of the send level's grid */
+			if (c->coarse < 1 || c->coarse > L ||
+			    (t->channels & ~(NDO_TILE_POSITION | NDO_TILE_VELOCITY | NDO_TILE_COARSE)) ||
+			    !(t->channels & NDO_TILE_POSITION))
+				return NDO_DROP_RANGE;
+			L -= c->coarse;
+		}
 		if (ndo_quad_from_range(L, t->depth, t->i0, t->j0, t->i1, t->j1, &q) != 0)
 			return NDO_DROP_RANGE;
-		if (t->channels <= 0 || (t->channels & ~NDO_TILE_ALL))
+		if (t->channels <= 0 || (t->channels & ~(NDO_TILE_ALL | NDO_TILE_COARSE)))
 			return NDO_DROP_RANGE;
 		if (t->encoding < NDO_ENC_RAW || t->encoding > NDO_ENC_PREDICT)
 			return NDO_DROP_ENCODING;
 		if (t->encoding != NDO_ENC_RAW) { /* the payload is the codec's to check */
-			if (t->channels != (NDO_TILE_POSITION | NDO_TILE_VELOCITY) || t->base_step < -1 ||
+			if ((t->channels & ~NDO_TILE_COARSE) != (NDO_TILE_POSITION | NDO_TILE_VELOCITY) ||
+			    t->base_step < -1 ||
 			    t->base_step >= t->step)
 				return NDO_DROP_RANGE;
 			if (t->nvalues != 0 || t->nbytes < 1)

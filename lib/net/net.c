@@ -40,6 +40,8 @@ struct ndo_net {
 	int keep_all; /* tiles queue in arrival order too (ndo_net_keep_all_tiles) */
 	int skipped;  /* and skipped steps' tiles are made (ndo_net_skipped_tiles) */
 	ndo_codec *codec;
+	ndo_codec *ccodec; /* tiles of the send level (NDO_TILE_COARSE), or NULL */
+	ndo_codec_params cp;
 	ndo_auth *auth; /* keyed session (ndo_net_set_key), else NULL */
 	int32_t other_owner; /* the sender of another object's description */
 	ndo_net_stats st;
@@ -104,6 +106,7 @@ void ndo_net_destroy(ndo_net *n)
 	free(n->park);
 	ndo_auth_destroy(n->auth);
 	ndo_codec_destroy(n->codec);
+	ndo_codec_destroy(n->ccodec);
 	clear_tiles(n);
 	free(n->slots);
 	for (size_t k = 0; k < n->qcount; k++)
@@ -121,11 +124,29 @@ const ndo_codec *ndo_net_codec(const ndo_net *n) { return n->codec; }
 int ndo_net_set_codec(ndo_net *n, const ndo_codec_params *p, int level)
 {
 	ndo_codec_destroy(n->codec);
-	n->codec = NULL;
+	ndo_codec_destroy(n->ccodec);
+	n->codec = n->ccodec = NULL;
+	n->ctx.coarse = 0;
+	n->cp = *p;
 	if (p->encoding == NDO_ENC_RAW)
 		return 0;
 	return ndo_codec_create(p, level, &n->codec);
 }
+
+int ndo_net_set_send_level(ndo_net *n, int send_level, int level)
+{
+	ndo_codec_destroy(n->ccodec);
+	n->ccodec = NULL;
+	n->ctx.coarse = 0;
+	if (send_level < 0 || send_level > level)
+		return ndo__fail(NDO_EINVAL, "send level %d for a level-%d object", send_level, level);
+	n->ctx.coarse = level - send_level;
+	if (n->cp.encoding == NDO_ENC_RAW || send_level == level)
+		return 0;
+	return ndo_codec_create(&n->cp, send_level, &n->ccodec);
+}
+
+const ndo_codec *ndo_net_coarse_codec(const ndo_net *n) { return n->ccodec; }
 ndo_link *ndo_net_link(const ndo_net *n) { return n->link; }
 int ndo_net_keyed(const ndo_net *n) { return n->auth != NULL; }
 
@@ -344,7 +365,8 @@ static void on_message(ndo_net *n, int t, const uint8_t *data, size_t len, int s
 	if (t == NDO_MSG_TILE && m.u.tile.encoding != NDO_ENC_RAW) {
 		/* decoded here, in arrival order: each frame is a reference for
 		 * the next ones, whoever uses it */
-		r = n->codec ? ndo_codec_decode_tile(n->codec, &m.u.tile) : NDO_DROP_ENCODING;
+		ndo_codec *codec = (m.u.tile.channels & NDO_TILE_COARSE) ? n->ccodec : n->codec;
+		r = codec ? ndo_codec_decode_tile(codec, &m.u.tile) : NDO_DROP_ENCODING;
 		if (r == NDO_DROP_NONE) /* the decoded state, against the box */
 			r = ndo_msg_check_box(&m.u.tile, &n->ctx);
 		if (r != NDO_DROP_NONE) {
@@ -353,13 +375,13 @@ static void on_message(ndo_net *n, int t, const uint8_t *data, size_t len, int s
 			return;
 		}
 		m.decoded = 1;
-		int skipped = n->skipped && n->keep_all ? ndo_codec_skipped(n->codec, &m.u.tile) : 0;
+		int skipped = n->skipped && n->keep_all ? ndo_codec_skipped(codec, &m.u.tile) : 0;
 		for (int k = 0; k < skipped; k++) {
 			ndo_msg sk;
 			memset(&sk, 0, sizeof sk);
 			sk.type = NDO_MSG_TILE;
 			sk.decoded = 1;
-			if (ndo_codec_skipped_tile(n->codec, &m.u.tile, k, &sk.u.tile) != 0)
+			if (ndo_codec_skipped_tile(codec, &m.u.tile, k, &sk.u.tile) != 0)
 				break;
 			sk.hdr = (const ndo_msg_header_t *)&sk.u;
 			if (enqueue(n, &sk) != 0) {
@@ -391,8 +413,10 @@ static void on_message(ndo_net *n, int t, const uint8_t *data, size_t len, int s
 	}
 	if (t == NDO_MSG_TILE) {
 		ndo_quad q;
-		ndo_quad_from_range(n->ctx.level, m.u.tile.depth, m.u.tile.i0, m.u.tile.j0,
-		                    m.u.tile.i1, m.u.tile.j1, &q);
+		/* a tile of the send level: a node of the coarser grid's tree */
+		int level = n->ctx.level - ((m.u.tile.channels & NDO_TILE_COARSE) ? n->ctx.coarse : 0);
+		ndo_quad_from_range(level, m.u.tile.depth, m.u.tile.i0, m.u.tile.j0, m.u.tile.i1,
+		                    m.u.tile.j1, &q);
 		tile_slot *slot = find_slot(n, m.hdr->sender_id, ndo_quad_code(q), m.u.tile.channels);
 		ndo_msg *keep = malloc(sizeof *keep);
 		if (!slot || !keep) {

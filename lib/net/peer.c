@@ -659,8 +659,10 @@ static int region(ndo_peer *p)
 	}
 	free(inh);
 	/* nodes that came to this peer: the simulation takes their newest
-	 * values (it held them, perhaps at older ones) */
+	 * values (it held them, perhaps at older ones; with a send level, the
+	 * others' whole regions as they travelled, refined, when newer) */
 	if (p->sim) {
+		ndo_session_refine_others(p->s, p->nstep);
 		double *x = ndo_grid_f64(g, NDO_CH_POSITION, 3), *v = ndo_grid_f64(g, NDO_CH_VELOCITY, 3);
 		int32_t *nodes = malloc(p->ncanon * sizeof *nodes);
 		if (!nodes) {
@@ -681,6 +683,7 @@ static int region(ndo_peer *p)
 		free(nodes);
 		p->exact = p->clock == NDO_CLOCK_LOCKSTEP && !p->hold &&
 		           ndo_peer_halo_rings(ndo_sim_method(p->sim)) > 0;
+		ndo_session_set_exact_halos(p->s, p->exact); /* tiles are frames only */
 		int rc = 0;
 		if (p->exact) {
 			/* K steps reach D·K rings; the outermost ring received is held

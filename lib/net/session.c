@@ -1,12 +1,15 @@
 /* session.c — one peer of a shared object (ndo/session.h; thesis §4.4,
  * figure 4.14). */
 #include "ndo/session.h"
+#include "ndo/levels.h"
 #include "ndo/partition.h"
+#include "ndo/restrict.h"
 #include "ndo/quadtree.h"
 #include "ndo/status.h"
 #include "ndo/tile.h"
 #include "ndo/topology.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -65,6 +68,26 @@ struct ndo_session {
 	size_t nexact;
 	int tdepth_enc;
 	int64_t exact_step;
+	/* the send level (ndo/codec.h "send-level"): whole-region state as
+	 * tiles of the level-send_level grid, every 2^(level − send_level)-th node */
+	int send_level;          /* = level: none below the object's */
+	int exact_halos;         /* the simulating peers exchange exact halos */
+	ndo_grid *cgrid;         /* the send level: this peer's state sampled, owner */
+	double *crecv;           /* the others' coarse positions, velocities (6 a node) */
+	int64_t *cstep;          /* ... their step (−1: none) */
+	ndo_codec *cenc;         /* its encoder (NULL: raw) */
+	uint8_t *ccls;           /* per coarse node: LOSSY (this peer's) or SKIP */
+	uint8_t *cuse;           /* ndo_session_refine_others: taken as it travelled */
+	int32_t *ctiles;         /* coarse tiles with a node of this peer's */
+	size_t nctiles;
+	int cdepth, cdepth_raw;
+	double *cview, *tilex;   /* coarse positions as receivers hold them; a tile's */
+	double *dview;           /* refined displacement + rest, at the object's level */
+	int measure_disp;        /* ndo_session_measure_displacement */
+	uint8_t *fmask;          /* this peer's nodes at the object's level */
+	ndo_refiner *refiner;
+	double diag;             /* the rest shape's box diagonal */
+	ndo_session_level_stats lst;
 };
 
 static void push_event(ndo_session *s, ndo_event e)
@@ -142,6 +165,118 @@ static int32_t *owner_channel(ndo_session *s)
 	return ndo_grid_find(s->grid, NDO_CH_OWNER)->data;
 }
 
+/* ---- the send level ------------------------------------------------------ */
+static size_t level_nodes(int level)
+{
+	return (size_t)((2 << level) + 1) * (size_t)((1 << level) + 1);
+}
+
+/* The send level's grids, encoder and buffers, once the level and the
+ * encoding are known (owner: at creation; joiner: with the description). */
+static int coarse_prepare(ndo_session *s)
+{
+	if (s->send_level >= s->level)
+		return 0;
+	int L = s->send_level, rc;
+	size_t nc = level_nodes(L);
+	if ((rc = ndo_grid_create(L, &s->cgrid)) ||
+	    (rc = ndo_grid_add(s->cgrid, NDO_CH_VELOCITY, NDO_F64, 3, NULL)) ||
+	    (rc = ndo_grid_add(s->cgrid, NDO_CH_OWNER, NDO_I32, 1, NULL)) ||
+	    (rc = ndo_grid_add(s->cgrid, NDO_CH_REST, NDO_F64, 3, NULL)))
+		return rc;
+	s->dview = malloc(3 * s->grid->count * sizeof *s->dview);
+	s->crecv = malloc(6 * nc * sizeof *s->crecv);
+	s->cstep = malloc(nc * sizeof *s->cstep);
+	s->ccls = calloc(nc, 1);
+	s->cuse = calloc(nc, 1);
+	s->cview = malloc(3 * nc * sizeof *s->cview);
+	s->fmask = calloc(s->grid->count, 1);
+	if (!s->crecv || !s->cstep || !s->ccls || !s->cuse || !s->cview || !s->fmask || !s->dview)
+		return ndo__fail(NDO_ENOMEM, "out of memory");
+	for (size_t k = 0; k < nc; k++)
+		s->cstep[k] = -1;
+	if ((rc = ndo_refiner_create(L, s->level - L, 3, &s->refiner)))
+		return rc;
+	const char *ch = ndo_net_channel(s->net, NDO_MSG_TILE);
+	s->cdepth_raw = ndo_tile_depth(L, NDO_TILE_POSITION | NDO_TILE_VELOCITY, ch);
+	s->cdepth = s->cdepth_raw;
+	if (s->codec.encoding != NDO_ENC_RAW) {
+		if ((rc = ndo_codec_create(&s->codec, L, &s->cenc)))
+			return rc;
+		s->cdepth = s->cdepth_raw > 0 ? s->cdepth_raw - 1 : 0; /* as tdepth_enc */
+	}
+	int cols, rows;
+	ndo_quad_dims(s->cdepth, &cols, &rows);
+	int i0, j0, i1, j1;
+	ndo_quad_range(L, (ndo_quad){s->cdepth, 0, 0}, &i0, &j0, &i1, &j1);
+	s->tilex = malloc(3 * (size_t)(i1 - i0 + 1) * (size_t)(j1 - j0 + 1) * sizeof *s->tilex);
+	s->ctiles = malloc((size_t)cols * (size_t)rows * sizeof *s->ctiles);
+	if (!s->tilex || !s->ctiles)
+		return ndo__fail(NDO_ENOMEM, "out of memory");
+	s->lst.level = s->level;
+	s->lst.send_level = L;
+	return 0;
+}
+
+/* The rest shape's positions, or the positions when it is all zero (none
+ * given). */
+static const double *rest_or_positions(ndo_session *s)
+{
+	const double *x = ndo_grid_f64(s->grid, NDO_CH_REST, 3);
+	int have_rest = 0;
+	for (size_t k = 0; x && k < 3 * s->grid->count && !have_rest; k++)
+		have_rest = x[k] != 0;
+	return have_rest ? x : ndo_grid_f64(s->grid, NDO_CH_POSITION, 3);
+}
+
+/* The diagonal the errors are reported against: the rest shape's box (a
+ * joiner has it once the snapshot came). */
+static double rest_diagonal(ndo_session *s)
+{
+	const double *x = rest_or_positions(s);
+	double lo[3], ext[3];
+	ndo_codec_box(x, s->grid->count, lo, ext);
+	return sqrt(ext[0] * ext[0] + ext[1] * ext[1] + ext[2] * ext[2]);
+}
+
+/* The coarse nodes' owners (sampled), classes and this peer's coarse tiles:
+ * every tile at the depth that fits a datagram with a node of its own. */
+static int coarse_classify(ndo_session *s)
+{
+	int L = s->send_level, k = s->level - L;
+	int32_t *cown = ndo_grid_find(s->cgrid, NDO_CH_OWNER)->data;
+	const int32_t *own = owner_channel(s);
+	ndo_sample_nodes(s->level, k, sizeof *cown, own, cown);
+	size_t nc = s->cgrid->count;
+	for (size_t n = 0; n < nc; n++)
+		s->ccls[n] = cown[n] == s->self ? NDO_NODE_LOSSY : NDO_NODE_SKIP;
+	for (size_t n = 0; n < s->grid->count; n++)
+		s->fmask[n] = own[n] == s->self;
+	int cols, rows;
+	ndo_quad_dims(s->cdepth, &cols, &rows);
+	s->nctiles = 0;
+	for (int qj = 0; qj < rows; qj++)
+		for (int qi = 0; qi < cols; qi++) {
+			ndo_quad q = {s->cdepth, qi, qj};
+			int i0, j0, i1, j1, any = 0;
+			ndo_quad_range(L, q, &i0, &j0, &i1, &j1);
+			for (int j = j0; j <= j1 && !any; j++)
+				for (int i = i0; i <= i1 && !any; i++)
+					any = s->ccls[ndo_node(s->cgrid->w, i, j)] == NDO_NODE_LOSSY;
+			if (any)
+				s->ctiles[s->nctiles++] = ndo_quad_code(q);
+		}
+	return 0;
+}
+
+/* Whole-region state at the send level now?  Not at the exact step (the
+ * owner's gather), and not when the tiles are the boundary another
+ * simulating peer integrates with (no exact halos). */
+static int coarse_now(const ndo_session *s, int64_t step)
+{
+	return s->cgrid && step != s->exact_step && (s->npeers <= 1 || s->exact_halos);
+}
+
 /* Install a partition: cells (taken over), peers, pois, epoch. */
 static int install(ndo_session *s, int32_t *cells, int npeers, const int32_t *peers,
                    const int32_t *pois, int32_t epoch, ndo_part_method method)
@@ -173,6 +308,8 @@ static int install(ndo_session *s, int32_t *cells, int npeers, const int32_t *pe
 		return NDO_ENOMEM;
 	if (s->enc)
 		classify(s);
+	if (s->cgrid && coarse_classify(s))
+		return NDO_ENOMEM;
 	/* the leaves as the owner sends them: as coarse as they come */
 	free(s->leaf_codes);
 	free(s->leaf_slots);
@@ -272,6 +409,31 @@ static int publish_raw(ndo_session *s, const ndo_grid *src, ndo_quad q, int chan
 	return rc;
 }
 
+/* A position+velocity tile's header: quad-tree node q of a level-`level`
+ * grid at step, time and the epoch in force. */
+static void state_tile_head(const ndo_session *s, int level, ndo_quad q, int64_t step,
+                            double time, ndo_msg_tile_t *t)
+{
+	memset(t, 0, sizeof *t);
+	int i0, j0, i1, j1;
+	ndo_quad_range(level, q, &i0, &j0, &i1, &j1);
+	t->depth = (int8_t)q.depth;
+	t->i0 = i0, t->j0 = j0, t->i1 = i1, t->j1 = j1;
+	t->channels = NDO_TILE_POSITION | NDO_TILE_VELOCITY;
+	t->step = step;
+	t->time = time;
+	t->epoch = s->epoch;
+}
+
+/* Quad-tree node q's children: the root has two (the N x N squares), the
+ * others four. */
+static int quad_children(ndo_quad q) { return q.depth == 0 ? 2 : 4; }
+static ndo_quad quad_child(ndo_quad q, int c)
+{
+	return q.depth == 0 ? (ndo_quad){1, c, 0}
+	                    : (ndo_quad){q.depth + 1, 2 * q.qi + (c & 1), 2 * q.qj + (c >> 1)};
+}
+
 /* One position+velocity tile in the session's encoding: 1 sent, 0 not
  * sent (unchanged), or a negative status.  A tile that cannot be encoded
  * or does not fit one datagram goes raw (its children when it is
@@ -280,15 +442,7 @@ static int publish_encoded(ndo_session *s, const ndo_grid *src, ndo_quad q, int6
                            double time)
 {
 	ndo_msg_tile_t t;
-	memset(&t, 0, sizeof t);
-	int i0, j0, i1, j1;
-	ndo_quad_range(s->level, q, &i0, &j0, &i1, &j1);
-	t.depth = (int8_t)q.depth;
-	t.i0 = i0, t.j0 = j0, t.i1 = i1, t.j1 = j1;
-	t.channels = NDO_TILE_POSITION | NDO_TILE_VELOCITY;
-	t.step = step;
-	t.time = time;
-	t.epoch = s->epoch;
+	state_tile_head(s, s->level, q, step, time, &t);
 	const uint8_t *cls = step == s->exact_step ? s->cls_exact : s->cls;
 	int rc = ndo_codec_encode_tile(s->enc, s->self, src, cls, q, src != s->grid, &t);
 	if (rc == 1)
@@ -305,14 +459,137 @@ static int publish_encoded(ndo_session *s, const ndo_grid *src, ndo_quad q, int6
 	const int ch = NDO_TILE_POSITION | NDO_TILE_VELOCITY;
 	if (q.depth >= s->tdepth_state)
 		return (rc = publish_raw(s, src, q, ch, step, time)) ? rc : 1;
-	/* the children: the root has two (the N x N squares), the others four */
-	for (int c = 0; c < (q.depth == 0 ? 2 : 4); c++) {
-		ndo_quad k = q.depth == 0 ? (ndo_quad){1, c, 0}
-		                          : (ndo_quad){q.depth + 1, 2 * q.qi + (c & 1), 2 * q.qj + (c >> 1)};
-		if ((rc = publish_raw(s, src, k, ch, step, time)))
+	for (int c = 0; c < quad_children(q); c++)
+		if ((rc = publish_raw(s, src, quad_child(q, c), ch, step, time)))
 			return rc;
-	}
 	return 1;
+}
+
+/* ---- whole-region state at the send level ---- */
+#define COARSE_STATE (NDO_TILE_POSITION | NDO_TILE_VELOCITY | NDO_TILE_COARSE)
+
+/* What receivers hold of a coarse tile's nodes of this peer's, into cview:
+ * the exact values (raw), or the encoder's reconstruction. */
+static void coarse_view(ndo_session *s, ndo_quad q, int encoded)
+{
+	int i0, j0, i1, j1;
+	ndo_quad_range(s->send_level, q, &i0, &j0, &i1, &j1);
+	const double *x = ndo_grid_f64(s->cgrid, NDO_CH_POSITION, 3);
+	if (encoded && ndo_codec_last_positions(s->cenc, s->tilex) != 0)
+		encoded = 0;
+	size_t m = 0;
+	for (int j = j0; j <= j1; j++)
+		for (int i = i0; i <= i1; i++, m++) {
+			size_t n = ndo_node(s->cgrid->w, i, j);
+			if (s->ccls[n] == NDO_NODE_LOSSY)
+				memcpy(s->cview + 3 * n, encoded ? s->tilex + 3 * m : x + 3 * n, 3 * sizeof *x);
+		}
+}
+
+/* One coarse tile in the session's encoding: 1 sent, 0 not (unchanged),
+ * or a negative status; one that cannot be encoded or does not fit goes
+ * raw, as its children when it is shallower than a raw tile. */
+static int publish_coarse_tile(ndo_session *s, ndo_quad q, int standalone, int64_t step,
+                               double time)
+{
+	int rc = NDO_ERANGE;
+	if (s->cenc) {
+		ndo_msg_tile_t t;
+		state_tile_head(s, s->send_level, q, step, time, &t);
+		rc = ndo_codec_encode_tile(s->cenc, s->self, s->cgrid, s->ccls, q, standalone, &t);
+		if (rc == 1 || rc == 0)
+			coarse_view(s, q, 1);
+		if (rc == 1)
+			return 0;
+		if (rc == 0) {
+			t.channels |= NDO_TILE_COARSE;
+			rc = ndo_net_publish(s->net, NDO_MSG_TILE, &t);
+			free(t.data);
+			if (rc != NDO_ERANGE)
+				return rc ? rc : 1;
+			ndo_codec_forget_tile(s->cenc, s->self, q);
+		} else if (rc != NDO_ERANGE) {
+			return rc;
+		}
+	}
+	coarse_view(s, q, 0);
+	if (q.depth >= s->cdepth_raw)
+		return (rc = publish_raw(s, s->cgrid, q, COARSE_STATE, step, time)) ? rc : 1;
+	for (int c = 0; c < quad_children(q); c++)
+		if ((rc = publish_raw(s, s->cgrid, quad_child(q, c), COARSE_STATE, step, time)))
+			return rc;
+	return 1;
+}
+
+/* The error at the object's level of what receivers hold: the coarse
+ * state as they reconstruct it (this peer's nodes; the others' as
+ * received, or as this peer holds them), refined, against this peer's
+ * nodes' exact positions. */
+static void coarse_error(ndo_session *s, const ndo_grid *src)
+{
+	const double *x = ndo_grid_f64((ndo_grid *)src, NDO_CH_POSITION, 3);
+	const int32_t *cown = ndo_grid_find(s->cgrid, NDO_CH_OWNER)->data;
+	const double *cx = ndo_grid_f64(s->cgrid, NDO_CH_POSITION, 3);
+	for (size_t n = 0; n < s->cgrid->count; n++)
+		if (s->ccls[n] != NDO_NODE_LOSSY)
+			memcpy(s->cview + 3 * n, s->cstep[n] >= 0 && cown[n] != s->self ? s->crecv + 6 * n
+			                                                                  : cx + 3 * n,
+			       3 * sizeof *cx);
+	const double *f = ndo_refine(s->refiner, s->cview);
+	double max, sum2;
+	size_t count;
+	ndo_level_error(s->level, f, x, s->fmask, &max, &sum2, &count);
+	if (!(s->diag > 0))
+		s->diag = rest_diagonal(s);
+	double d = s->diag > 0 ? s->diag : 1;
+	if (max / d > s->lst.max_error)
+		s->lst.max_error = max / d;
+	s->lst.sum_sq_error += sum2 / (d * d);
+	s->lst.error_nodes += count;
+	s->lst.frames++;
+	/* the same with the displacement refined onto the rest shape at the
+	 * object's level, for a receiver that holds it (not what the watch does) */
+	const double *rest = ndo_grid_f64((ndo_grid *)src, NDO_CH_REST, 3);
+	const double *crest = ndo_grid_f64(s->cgrid, NDO_CH_REST, 3);
+	if (!s->measure_disp || !rest || !crest || !s->dview)
+		return;
+	for (size_t n = 0; n < 3 * s->cgrid->count; n++)
+		s->cview[n] -= crest[n];
+	f = ndo_refine(s->refiner, s->cview);
+	for (size_t n = 0; n < 3 * src->count; n++)
+		s->dview[n] = f[n] + rest[n];
+	ndo_level_error(s->level, s->dview, x, s->fmask, &max, &sum2, &count);
+	if (max / d > s->lst.max_error_disp)
+		s->lst.max_error_disp = max / d;
+	s->lst.sum_sq_error_disp += sum2 / (d * d);
+}
+
+/* This peer's region at the send level, from src (s->grid, or an earlier
+ * step's grid sent again: standalone frames, no error counted). */
+static int publish_coarse(ndo_session *s, const ndo_grid *src, int64_t step, double time)
+{
+	const int k = s->level - s->send_level;
+	const char *chans[3] = {NDO_CH_POSITION, NDO_CH_VELOCITY, NDO_CH_REST};
+	for (int c = 0; c < 3; c++) {
+		const double *from = ndo_grid_f64((ndo_grid *)src, chans[c], 3);
+		if (from)
+			ndo_sample_nodes(s->level, k, 3 * sizeof(double), from,
+			                 ndo_grid_f64(s->cgrid, chans[c], 3));
+	}
+	s->cgrid->step = step;
+	s->cgrid->time = time;
+	int standalone = src != s->grid, sent = 0;
+	for (size_t n = 0; n < s->nctiles; n++) {
+		ndo_quad q;
+		ndo_quad_decode(s->send_level, s->ctiles[n], &q);
+		int rc = publish_coarse_tile(s, q, standalone, step, time);
+		if (rc < 0)
+			return rc;
+		sent += rc;
+	}
+	if (!standalone)
+		coarse_error(s, src);
+	return sent;
 }
 
 static int publish_tiles_from(ndo_session *s, const ndo_grid *src, const int32_t *codes,
@@ -455,6 +732,10 @@ static int on_description(ndo_session *s, const ndo_msg_description_t *d)
 			return NDO_ENOMEM;
 		if (!bad && ndo_msg_box_take(copy, &probe) < 0) /* a bad object box */
 			bad = NDO_EINVAL;
+		int L;
+		if (!bad && d->level >= 0 && d->level <= NDO_MAX_LEVEL &&
+		    ndo_send_level_take(copy, d->level, &L)) /* a bad send level */
+			bad = NDO_EINVAL;
 		free(copy);
 		if (bad) {
 			((ndo_net_stats *)ndo_net_stats_get(s->net))->dropped[NDO_DROP_RANGE]++;
@@ -485,6 +766,9 @@ static int on_description(ndo_session *s, const ndo_msg_description_t *d)
 	    (rc = ndo_net_set_codec(s->net, &s->codec, s->level)))
 		return rc; /* checked above: only out of memory */
 	if (s->codec.encoding != NDO_ENC_RAW && (rc = ndo_codec_create(&s->codec, s->level, &s->enc)))
+		return rc;
+	if ((rc = ndo_send_level_take(s->scene, s->level, &s->send_level)) ||
+	    (rc = ndo_net_set_send_level(s->net, s->send_level, s->level)) || (rc = coarse_prepare(s)))
 		return rc;
 	s->method = (ndo_part_method)d->partition;
 	s->have = calloc(g->count, 1);
@@ -662,6 +946,24 @@ static void apply_tile(ndo_session *s, const ndo_msg_tile_t *t, int decoded)
 {
 	int32_t *own = owner_channel(s);
 	int32_t from = t->hdr.sender_id;
+	if (t->channels & NDO_TILE_COARSE) { /* the send level: kept apart (frames) */
+		if (!s->cgrid)
+			return;
+		const int32_t *cown = ndo_grid_find(s->cgrid, NDO_CH_OWNER)->data;
+		const int hasv = (t->channels & NDO_TILE_VELOCITY) != 0;
+		size_t k = 0;
+		for (int j = t->j0; j <= t->j1; j++)
+			for (int i = t->i0; i <= t->i1; i++, k += hasv ? 6 : 3) {
+				size_t n = ndo_node(s->cgrid->w, i, j);
+				if (cown[n] != from || t->step < s->cstep[n] || isnan(t->values[k]))
+					continue;
+				memcpy(s->crecv + 6 * n, &t->values[k], 3 * sizeof *s->crecv);
+				for (int d = 0; d < 3; d++)
+					s->crecv[6 * n + 3 + d] = hasv ? t->values[k + 3 + d] : NAN;
+				s->cstep[n] = t->step;
+			}
+		return;
+	}
 	if (t->channels & (NDO_TILE_REST | NDO_TILE_PIN)) {
 		if (from != s->owner_id || s->o.role == NDO_ROLE_OWNER) {
 			count_authority(s);
@@ -827,6 +1129,8 @@ int ndo_session_publish(ndo_session *s, int64_t step, double time)
 		return 0;
 	s->grid->step = step;
 	s->grid->time = time;
+	if (coarse_now(s, step))
+		return publish_coarse(s, s->grid, step, time);
 	return publish_tiles(s, s->tiles, s->ntiles, NDO_TILE_POSITION | NDO_TILE_VELOCITY, step,
 	                     time);
 }
@@ -846,6 +1150,8 @@ int ndo_session_publish_from(ndo_session *s, const ndo_grid *src, int64_t step, 
 	if (src->level != s->level)
 		return ndo__fail(NDO_EINVAL, "publish: a level-%d grid for a level-%d object",
 		                 src->level, s->level);
+	if (coarse_now(s, step))
+		return publish_coarse(s, src, step, time);
 	return publish_tiles_from(s, src, s->tiles, s->ntiles,
 	                          NDO_TILE_POSITION | NDO_TILE_VELOCITY, step, time);
 }
@@ -878,18 +1184,28 @@ int ndo_session_send_forces(ndo_session *s, int64_t step, int n, const int32_t *
 }
 
 /* ---- life -------------------------------------------------------------- */
+/* The owner's description: n more bytes of lines. */
+static int scene_append(ndo_session *s, const char *lines, size_t n)
+{
+	size_t have = strlen(s->scene);
+	if (have + n > NDO_MAX_SCENE)
+		return ndo__fail(NDO_ERANGE, "the description takes more than %d bytes", NDO_MAX_SCENE);
+	char *sc = realloc(s->scene, have + n + 1);
+	if (!sc)
+		return NDO_ENOMEM;
+	memcpy(sc + have, lines, n);
+	sc[have + n] = 0;
+	s->scene = sc;
+	return 0;
+}
+
 /* The owner's box (its rest shape, or its positions when it has none):
  * the bound on the state every peer receives (ndo_msg_set_box), in the
  * description as an object-box line.  An object that is a point (a grid
  * of zeros) has none: its state is only checked to be finite. */
 static int owner_box(ndo_session *s, ndo_msg_ctx *c)
 {
-	const double *x = ndo_grid_f64(s->grid, NDO_CH_REST, 3);
-	int have_rest = 0;
-	for (size_t k = 0; x && k < 3 * s->grid->count && !have_rest; k++)
-		have_rest = x[k] != 0;
-	if (!have_rest)
-		x = ndo_grid_f64(s->grid, NDO_CH_POSITION, 3);
+	const double *x = rest_or_positions(s);
 	char line[256];
 	int n = ndo_msg_box_text(x, s->grid->count, line, sizeof line);
 	if (n < 0)
@@ -899,15 +1215,7 @@ static int owner_box(ndo_session *s, ndo_msg_ctx *c)
 		return 0; /* no bound but finiteness (a grid of zeros, in tests) */
 	}
 	n = ndo_msg_box_text(x, s->grid->count, line, sizeof line); /* take emptied it */
-	size_t have = strlen(s->scene);
-	if (have + (size_t)n > NDO_MAX_SCENE)
-		return ndo__fail(NDO_ERANGE, "the description takes more than %d bytes", NDO_MAX_SCENE);
-	char *sc = realloc(s->scene, have + (size_t)n + 1);
-	if (!sc)
-		return NDO_ENOMEM;
-	memcpy(sc + have, line, (size_t)n + 1);
-	s->scene = sc;
-	return 0;
+	return scene_append(s, line, (size_t)n);
 }
 
 /* The owner's encoding: the box, the encoder, the net's decoder and the
@@ -935,17 +1243,25 @@ static int owner_codec(ndo_session *s, const ndo_codec_params *p)
 	if ((rc = ndo_codec_create(&s->codec, s->level, &s->enc)) ||
 	    (rc = ndo_net_set_codec(s->net, &s->codec, s->level)))
 		return rc;
-	if (strlen(s->scene) + (size_t)n > NDO_MAX_SCENE)
-		return ndo__fail(NDO_ERANGE, "the description takes more than %d bytes", NDO_MAX_SCENE);
-	char *sc = malloc(strlen(s->scene) + (size_t)n + 1);
-	if (!sc)
-		return NDO_ENOMEM;
-	size_t have = strlen(s->scene);
-	memcpy(sc, s->scene, have);
-	memcpy(sc + have, lines, (size_t)n + 1);
-	free(s->scene);
-	s->scene = sc;
-	return 0;
+	return scene_append(s, lines, (size_t)n);
+}
+
+/* The owner's send level: the description's line, the net's decoder of
+ * the others' coarse tiles, the coarse grids. */
+static int owner_send_level(ndo_session *s, int coarse_levels)
+{
+	if (coarse_levels < 0 || coarse_levels > s->level)
+		return ndo__fail(NDO_ERANGE, "a send level %d levels below a level-%d object",
+		                 coarse_levels, s->level);
+	s->send_level = s->level - coarse_levels;
+	char line[64];
+	int n = ndo_send_level_text(s->send_level, s->level, line, sizeof line), rc;
+	if (n < 0)
+		return n;
+	if ((rc = scene_append(s, line, (size_t)n)) ||
+	    (rc = ndo_net_set_send_level(s->net, s->send_level, s->level)))
+		return rc;
+	return coarse_prepare(s);
 }
 
 int ndo_session_create(const ndo_session_opts *o, ndo_net *net, ndo_grid *grid,
@@ -981,6 +1297,7 @@ int ndo_session_create(const ndo_session_opts *o, ndo_net *net, ndo_grid *grid,
 	if (o->tile_fn)
 		ndo_net_keep_all_tiles(net, 1);
 	s->level = -1;
+	s->send_level = NDO_MAX_LEVEL + 1; /* none below the object's until known */
 	s->epoch = 0;
 	s->exact_step = -1;
 	s->codec.encoding = NDO_ENC_RAW;
@@ -1003,6 +1320,8 @@ int ndo_session_create(const ndo_session_opts *o, ndo_net *net, ndo_grid *grid,
 		s->described = s->ready = 1;
 		if (!rc && o->codec && o->codec->encoding != NDO_ENC_RAW)
 			rc = owner_codec(s, o->codec);
+		if (!rc)
+			rc = owner_send_level(s, o->coarse_levels);
 		if (!rc)
 			rc = repartition(s);
 		s->evcount = 0; /* the owner's first partition is no news */
@@ -1048,10 +1367,90 @@ void ndo_session_destroy(ndo_session *s, const char *message)
 	free(s->cls);
 	free(s->cls_exact);
 	ndo_codec_destroy(s->enc);
+	ndo_grid_destroy(s->cgrid);
+	free(s->crecv), free(s->cstep), free(s->ccls), free(s->cuse), free(s->cview), free(s->tilex);
+	free(s->fmask), free(s->ctiles), free(s->dview);
+	ndo_codec_destroy(s->cenc);
+	ndo_refiner_destroy(s->refiner);
 	free(s);
 }
 
 void ndo_session_set_exact_step(ndo_session *s, int64_t step) { s->exact_step = step; }
+void ndo_session_set_exact_halos(ndo_session *s, int on) { s->exact_halos = on != 0; }
+void ndo_session_measure_displacement(ndo_session *s, int on) { s->measure_disp = on != 0; }
+int ndo_session_send_level(const ndo_session *s) { return s->level < 0 ? -1 : s->send_level; }
+
+void ndo_session_level_stats_get(const ndo_session *s, ndo_session_level_stats *st)
+{
+	*st = s->lst;
+	st->level = s->level;
+	st->send_level = s->level < 0 ? -1 : s->send_level;
+	if (s->cenc)
+		ndo_codec_stats_get(s->cenc, &st->enc);
+	else
+		memset(&st->enc, 0, sizeof st->enc);
+}
+
+int64_t ndo_session_refine_others(ndo_session *s, int64_t *nstep)
+{
+	if (!s->cgrid || !s->grid || !s->described)
+		return 0;
+	const int k = s->level - s->send_level, wc = s->cgrid->w;
+	const size_t nc = s->cgrid->count;
+	double *x = ndo_grid_f64(s->grid, NDO_CH_POSITION, 3);
+	double *v = ndo_grid_f64(s->grid, NDO_CH_VELOCITY, 3);
+	/* a coarse node is taken as it travelled when that is newer than what
+	 * the grid holds; the oldest of those is the refinement's step */
+	int64_t oldest = -1;
+	for (size_t n = 0; n < nc; n++) {
+		size_t f = ndo_canonical(s->level, (int)(n % (size_t)wc) << k, (int)(n / (size_t)wc) << k);
+		s->cuse[n] = s->cstep[n] >= 0 && nstep[f] < s->cstep[n];
+		if (s->cuse[n] && (oldest < 0 || s->cstep[n] < oldest))
+			oldest = s->cstep[n];
+	}
+	int64_t taken = 0;
+	for (int comp = 0; comp < 2 && oldest >= 0; comp++) { /* positions, then velocities */
+		double *f = comp ? v : x;
+		ndo_sample_nodes(s->level, k, 3 * sizeof(double), f, s->cview);
+		for (size_t n = 0; n < nc; n++)
+			if (s->cuse[n] && !isnan(s->crecv[6 * n + 3 * comp]))
+				memcpy(s->cview + 3 * n, s->crecv + 6 * n + 3 * comp, 3 * sizeof *f);
+		memcpy(s->dview, ndo_refine(s->refiner, s->cview), 3 * s->grid->count * sizeof *f);
+		for (int j = 0; j <= (1 << s->level); j++)
+			for (int i = 0; i <= (2 << s->level); i++) {
+				size_t n = ndo_node(s->grid->w, i, j);
+				if (nstep[n] >= oldest || ndo_canonical(s->level, i, j) != n)
+					continue;
+				memcpy(f + 3 * n, s->dview + 3 * n, 3 * sizeof *f);
+				if (comp) {
+					nstep[n] = oldest;
+					taken++;
+				}
+			}
+	}
+	if (taken)
+		ndo_grid_sync(s->grid);
+	return taken;
+}
+
+int ndo_session_frame(ndo_session *s, ndo_grid **out)
+{
+	*out = NULL;
+	if (!s->grid || !s->described)
+		return ndo__fail(NDO_EINVAL, "no object yet");
+	int rc = ndo_restrict(s->grid, s->level - s->send_level, out);
+	if (rc || !s->cgrid)
+		return rc;
+	double *x = ndo_grid_f64(*out, NDO_CH_POSITION, 3), *v = ndo_grid_f64(*out, NDO_CH_VELOCITY, 3);
+	const int32_t *cown = ndo_grid_find(*out, NDO_CH_OWNER)->data;
+	for (size_t n = 0; n < (*out)->count; n++)
+		if (cown[n] != s->self && s->cstep[n] >= 0) {
+			memcpy(x + 3 * n, s->crecv + 6 * n, 3 * sizeof *x);
+			if (v && !isnan(s->crecv[6 * n + 3]))
+				memcpy(v + 3 * n, s->crecv + 6 * n + 3, 3 * sizeof *v);
+		}
+	return 0;
+}
 const ndo_codec_params *ndo_session_codec(const ndo_session *s) { return &s->codec; }
 size_t ndo_session_exact_nodes(const ndo_session *s) { return s->enc ? s->nexact : 0; }
 

@@ -1,5 +1,6 @@
 /* watch.c — a passive observer of a peers' session (ndo/watch.h). */
 #include "ndo/watch.h"
+#include "ndo/levels.h"
 #include "ndo/partition.h"
 #include "ndo/quadtree.h"
 #include "ndo/session.h"
@@ -38,7 +39,9 @@ struct ndo_watch {
 	int64_t object;
 	int32_t owner_id;
 	int level;
-	size_t count, ncanon;
+	int flevel, fk;   /* the frames' level: the send level, level − fk */
+	int fw;           /* its grid's width */
+	size_t count, ncanon; /* at the frames' level */
 	int32_t *canon;
 	ndo_grid *base;   /* rest and pin as received */
 	int have_rest, have_pin;
@@ -82,6 +85,7 @@ int ndo_watch_create(ndo_net *net, const ndo_watch_opts *o, ndo_watch **out)
 	w->net = net;
 	w->level = -1;
 	w->st.level = -1;
+	w->st.send_level = -1;
 	w->done_step = -1;
 	w->fevery = -1;
 	w->max_step = -1;
@@ -135,8 +139,11 @@ static int attach(ndo_watch *w, const ndo_msg_description_t *d)
 	/* the owner's tile encoding (ndo/codec.h): decoded by the net */
 	ndo_codec_params cp;
 	int rc = ndo_codec_params_read(d->scene, (size_t)d->scene_len, &cp);
+	int L = d->level;
 	if (rc == 0)
 		rc = ndo_net_set_codec(w->net, &cp, d->level);
+	if (rc == 0 && (rc = ndo_send_level_read(d->scene, (size_t)d->scene_len, d->level, &L)) == 0)
+		rc = ndo_net_set_send_level(w->net, L, d->level);
 	if (rc == NDO_EINVAL)
 		return 0; /* a description this build cannot use: wait for another */
 	if (rc)
@@ -175,7 +182,10 @@ static int attach(ndo_watch *w, const ndo_msg_description_t *d)
 	    ndo_grid_add(w->base, NDO_CH_PIN, NDO_U8, 1, NULL))
 		return ndo__fail(NDO_ENOMEM, "out of memory");
 	w->level = d->level;
-	w->count = w->base->count;
+	w->flevel = L;
+	w->fk = d->level - L;
+	w->fw = (2 << L) + 1;
+	w->count = (size_t)w->fw * (size_t)((1 << L) + 1);
 	w->canon = malloc(w->count * sizeof *w->canon);
 	w->pend = calloc((size_t)w->o.window, sizeof *w->pend);
 	if (!w->canon || !w->pend)
@@ -185,8 +195,8 @@ static int attach(ndo_watch *w, const ndo_msg_description_t *d)
 		w->pend[k].step = -1;
 	w->ncanon = 0;
 	for (size_t k = 0; k < w->count; k++) {
-		w->canon[k] = (int32_t)ndo_canonical(w->level, (int)(k % (size_t)w->base->w),
-		                                     (int)(k / (size_t)w->base->w));
+		w->canon[k] = (int32_t)ndo_canonical(w->flevel, (int)(k % (size_t)w->fw),
+		                                     (int)(k / (size_t)w->fw));
 		w->ncanon += (size_t)w->canon[k] == k;
 	}
 	w->object = d->hdr.object_id;
@@ -194,6 +204,7 @@ static int attach(ndo_watch *w, const ndo_msg_description_t *d)
 	w->attached = 1;
 	w->st.object_id = w->object;
 	w->st.level = w->level;
+	w->st.send_level = w->flevel;
 	ndo_net_attach(w->net, w->object, w->level);
 	return 0;
 }
@@ -218,16 +229,19 @@ static int on_partition(ndo_watch *w, const ndo_msg_partition_t *p)
 			m = &w->maps[k];
 	size_t ncells = ndo_cell_count(w->level);
 	int32_t *cells = malloc(ncells * sizeof *cells);
+	int32_t *fine = malloc(w->base->count * sizeof *fine);
 	int32_t *owner = m->owner ? m->owner : malloc(w->count * sizeof *owner);
-	if (!cells || !owner) {
-		free(cells);
+	if (!cells || !owner || !fine) {
+		free(cells), free(fine);
 		if (!m->owner)
 			free(owner);
 		return ndo__fail(NDO_ENOMEM, "out of memory");
 	}
 	ndo_partition_cells(w->level, p, cells);
-	ndo_partition_node_owner(w->level, cells, p->peers, owner);
-	free(cells);
+	ndo_partition_node_owner(w->level, cells, p->peers, fine);
+	/* a node of the send level is its level-n node's */
+	ndo_sample_nodes(w->level, w->fk, sizeof *owner, fine, owner);
+	free(cells), free(fine);
 	m->owner = owner;
 	m->epoch = p->epoch;
 	return release(w, p->epoch);
@@ -272,7 +286,7 @@ static int emit_one(ndo_watch *w, pending *p)
 			w->st.stale_max = stale;
 	}
 	ndo_grid *g;
-	int rc = ndo_grid_create(w->level, &g);
+	int rc = ndo_grid_create(w->flevel, &g);
 	if (rc)
 		return rc;
 	ndo_channel *own;
@@ -289,12 +303,14 @@ static int emit_one(ndo_watch *w, pending *p)
 	if (w->have_rest) {
 		ndo_channel *c;
 		if (ndo_grid_add(g, NDO_CH_REST, NDO_F64, 3, &c) == 0)
-			memcpy(c->data, ndo_grid_find(w->base, NDO_CH_REST)->data, 3 * w->count * sizeof(double));
+			ndo_sample_nodes(w->level, w->fk, 3 * sizeof(double),
+			                 ndo_grid_find(w->base, NDO_CH_REST)->data, c->data);
 	}
 	if (w->have_pin) {
 		ndo_channel *c;
 		if (ndo_grid_add(g, NDO_CH_PIN, NDO_U8, 1, &c) == 0)
-			memcpy(c->data, ndo_grid_find(w->base, NDO_CH_PIN)->data, w->count);
+			ndo_sample_nodes(w->level, w->fk, 1, ndo_grid_find(w->base, NDO_CH_PIN)->data,
+			                 c->data);
 	}
 	g->step = p->step;
 	g->time = p->time;
@@ -528,10 +544,16 @@ static int on_tile(ndo_watch *w, const ndo_msg_tile_t *t)
 	}
 	p->time = t->time;
 	int per = ndo_tile_values_per_node(t->channels);
+	/* a tile of the object's level in a run that sends a coarser one (the
+	 * exact last step): its every 2^fk-th node */
+	const int fine = !(t->channels & NDO_TILE_COARSE), mask = fine ? (1 << w->fk) - 1 : 0,
+	          sh = fine ? w->fk : 0;
 	size_t k = 0;
 	for (int j = t->j0; j <= t->j1; j++)
 		for (int i = t->i0; i <= t->i1; i++, k += (size_t)per) {
-			size_t node = ndo_node(w->base->w, i, j), c = (size_t)w->canon[node];
+			if ((i & mask) || (j & mask))
+				continue;
+			size_t node = ndo_node(w->fw, i >> sh, j >> sh), c = (size_t)w->canon[node];
 			if (m->owner[c] != from || p->epoch[c] > t->epoch || isnan(t->values[k]))
 				continue; /* NaN: a node a decoded tile does not carry */
 			memcpy(p->x + 3 * node, &t->values[k], 3 * sizeof *p->x);

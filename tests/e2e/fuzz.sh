@@ -16,7 +16,8 @@ secs=${NDO_FUZZ_SECONDS:-20}
 # level-3 decoder of that encoding — FORM msg: fuzz_msg.c's (129, then 9,
 # 10 or 11 for a tile), auth: fuzz_auth.c's one byte (243, 67 or 155 with
 # 11 message types) —
-# then the message.
+# then the message.  For fuzz_msg a fourth run sends at level 2 (predict,
+# --send-level 2): its tiles go through the receiver's coarse decoder.
 record_messages() {
 	[ -f predict.lcmlog ] || {
 		remesh --shape wavy -l 3 -o w3.tgrid
@@ -25,12 +26,16 @@ record_messages() {
 				-s "$NDO_ROOT/samples/thesis-fig5.3.scene" --dt 0.01 -n 40 --encoding $enc \
 				--publish-every 1 -q -o /dev/null
 		done
+		simulate-peer --lcm "file://$PWD/coarse.lcmlog?mode=w" --owner w3.tgrid \
+			-s "$NDO_ROOT/samples/thesis-fig5.3.scene" --dt 0.01 -n 40 --encoding predict \
+			--send-level 2 --publish-every 1 -q -o /dev/null
 	}
 	/usr/bin/python3 - "$1" "$2" "$3" <<'PY' || fail "$(basename "$1") seeds" "no recorded messages"
 import struct, sys
 suffixes = "DESC TILE POI PARTITION HELLO PEERS LEAVE HEARTBEAT DESC_REQUEST FORCE HALO".split()
 if sys.argv[3] == "msg":  # 129 then b: level b / 3 = 3, encoding 1 + b % 3
-    tile = {"float32": bytes([129, 9]), "fixed": bytes([129, 10]), "predict": bytes([129, 11])}
+    tile = {"float32": bytes([129, 9]), "fixed": bytes([129, 10]), "predict": bytes([129, 11]),
+            "coarse": bytes([129, 11])}  # the receiver's send level is 2
 else:  # one byte b: type b % (message types) = 1, level b % 8 = 3, encoding 1 + b % 3
     one = lambda r: bytes([next(b for b in range(256)
                                 if b % len(suffixes) == 1 and b % 8 == 3 and b % 3 == r)])
@@ -49,7 +54,7 @@ for enc, tb in tile.items():
         with open(f"{sys.argv[1]}/{enc}-{n:03d}", "wb") as f:
             f.write(prefix + (tb if t == 1 else bytes([t])) + data)
         n += 1
-sys.exit(n < 3 * 40)
+sys.exit(n < len(tile) * 40)
 PY
 }
 

@@ -5,7 +5,9 @@
  * tiles in encoding 1 + b % 3 at level (b / 3) % 8 and takes the message's
  * object as its own, so a recorded tile is accepted (tests/e2e/fuzz.sh
  * seeds the corpus from recorded runs: 129 then 9, 10 and 11 are a level-3
- * float32, fixed and predict tile).  The rest is the message.
+ * float32, fixed and predict tile).  The receiver's send level is one
+ * level below the object's (tiles with NDO_TILE_COARSE go through its
+ * second decoder).  The rest is the message.
  *   build/asan/tests/fuzz_msg -max_total_time=60 */
 #include "ndo/msg.h"
 #include "ndo/net.h"
@@ -31,7 +33,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 	if (ndo_msg_decode(t, data + skip, size - skip, &m) == NDO_DROP_NONE) {
 		object = m.hdr->object_id;
 		for (int level = -1; level <= 10; level += 3) {
-			ndo_msg_ctx c = {.object_id = m.hdr->object_id, .level = level, .self_id = 99};
+			ndo_msg_ctx c = {.object_id = m.hdr->object_id, .level = level, .self_id = 99,
+			                 .coarse = level > 0 ? level % 3 : 0};
 			ndo_msg_validate(&m, &c);
 		}
 		ndo_msg_free(&m);
@@ -56,6 +59,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 		ndo_codec_params cp = {.encoding = 1 + how % 3, .bits = 13, .keyframe = 32,
 		                       .lo = {-1, -1, -1}, .ext = {2, 2, 2}};
 		ndo_net_set_codec(rx, &cp, (how / 3) % 8);
+		ndo_net_set_send_level(rx, (how / 3) % 8 > 0 ? (how / 3) % 8 - 1 : 0, (how / 3) % 8);
 		ndo_net_attach(rx, object, (how / 3) % 8);
 	}
 	ndo_net_poll(rx, 0);

@@ -3,9 +3,11 @@
  * dropped under their reason, never trusted (ndo/msg.h, ndo/net.h); tiles
  * fit one datagram at every level; the quad tree's codes round-trip. */
 #include "check.h"
+#include "ndo/codec.h"
 #include "ndo/msg.h"
 #include "ndo/net.h"
 #include "ndo/quadtree.h"
+#include "ndo/status.h"
 #include "ndo/tile.h"
 
 #include <math.h>
@@ -76,6 +78,47 @@ static void tile_fields_checked(void)
 	t.channels = 64;
 	CHECK(roundtrip(NDO_MSG_TILE, &t, &c) == NDO_DROP_RANGE, "unknown channel bits");
 	free(t.values);
+}
+
+/* A tile of the send level (NDO_TILE_COARSE): a tile of the coarser grid,
+ * only when the description gave a send level, position and velocity only. */
+static void coarse_tiles_checked(void)
+{
+	ndo_msg_ctx none = {.object_id = 42, .level = 6, .self_id = 1};
+	ndo_msg_ctx two = {.object_id = 42, .level = 6, .self_id = 1, .coarse = 2};
+	ndo_msg_tile_t t = make_tile(4, 2); /* a level-4 tile: 2 levels below 6 */
+	t.channels |= NDO_TILE_COARSE;
+	CHECK(roundtrip(NDO_MSG_TILE, &t, &two) == NDO_DROP_NONE, "a level-4 tile of a level-6 "
+	      "object sent at level 4 passes");
+	CHECK(roundtrip(NDO_MSG_TILE, &t, &none) == NDO_DROP_RANGE, "a coarse tile without a send level");
+	ndo_msg_ctx one = two;
+	one.coarse = 1;
+	CHECK(roundtrip(NDO_MSG_TILE, &t, &one) == NDO_DROP_LENGTH ||
+	      roundtrip(NDO_MSG_TILE, &t, &one) == NDO_DROP_RANGE, "a level-4 tile for send level 5");
+	ndo_msg_ctx below0 = two;
+	below0.coarse = 7;
+	CHECK(roundtrip(NDO_MSG_TILE, &t, &below0) == NDO_DROP_RANGE, "a send level below 0");
+	t.channels = NDO_TILE_REST | NDO_TILE_COARSE;
+	t.nvalues = (int32_t)(ndo_quad_node_count(4, 2) * 3);
+	CHECK(roundtrip(NDO_MSG_TILE, &t, &two) == NDO_DROP_RANGE, "the rest shape is not sent coarse");
+	t.channels = NDO_TILE_VELOCITY | NDO_TILE_COARSE;
+	CHECK(roundtrip(NDO_MSG_TILE, &t, &two) == NDO_DROP_RANGE, "a coarse tile carries positions");
+	free(t.values);
+	/* the description's line */
+	int L;
+	char good[] = "stiffness 1\nsend-level 4\n", bad[] = "send-level 7\n", junk[] = "send-level 4x\n",
+	     twice[] = "send-level 3\nsend-level 4\n", noline[] = "stiffness 1\n";
+	CHECK(ndo_send_level_take(good, 6, &L) == 0 && L == 4 && strcmp(good, "stiffness 1\n") == 0,
+	      "send-level 4 read and taken out: %d, '%s'", L, good);
+	CHECK(ndo_send_level_take(noline, 6, &L) == 0 && L == 6, "no line: the object's level");
+	CHECK(ndo_send_level_take(bad, 6, &L) == NDO_EINVAL, "a send level above the object's");
+	CHECK(ndo_send_level_take(junk, 6, &L) == NDO_EINVAL, "a bad line");
+	CHECK(ndo_send_level_take(twice, 6, &L) == NDO_EINVAL, "two lines");
+	char line[32];
+	CHECK(ndo_send_level_text(6, 6, line, sizeof line) == 0 && !*line,
+	      "no line at the object's level");
+	CHECK(ndo_send_level_text(4, 6, line, sizeof line) > 0 && strcmp(line, "send-level 4\n") == 0,
+	      "the line: '%s'", line);
 }
 
 /* A peer's halo (exact lock-step): runs inside the grid, increasing and
@@ -271,6 +314,7 @@ int main(void)
 {
 	ck_program = "test_msg";
 	RUN(tile_fields_checked);
+	RUN(coarse_tiles_checked);
 	RUN(halos_checked);
 	RUN(bytes_checked_before_decoding);
 	RUN(control_messages_checked);

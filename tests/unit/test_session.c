@@ -5,7 +5,9 @@
 #include "check.h"
 #include "ndo/ndo.h"
 #include "ndo/session.h"
+#include "ndo/watch.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -318,6 +320,100 @@ static void garbage_is_counted_not_trusted(void)
 	ndo_bus_destroy(bus);
 }
 
+/* A send level: an owner of a level-5 wavy surface sends its state at
+ * level 3; a watch's frames are level-3 grids, the owner's every 4th node
+ * (raw: exactly; predict: within the encoding's bound), and the error the
+ * owner reports at level 5 is that of the watch's frames refined by
+ * ndo_subdivide_levels against the owner's state, computed here apart. */
+static void send_level_frames_and_error(void)
+{
+	const char *specs[] = {"raw", "predict:1e-4"};
+	for (int e = 0; e < 2; e++) {
+		ndo_bus *bus;
+		ndo_bus_create(&bus);
+		ndo_codec_params cp;
+		ndo_codec_parse(specs[e], &cp);
+		ndo_link *l, *lw;
+		ndo_net *n, *nw;
+		ndo_grid *g;
+		ndo_link_open_mem(bus, &l);
+		ndo_net_create(l, "T", 11, &n);
+		ndo_shape_make("wavy", 5, NULL, &g);
+		ndo_channel *rest;
+		ndo_grid_add(g, NDO_CH_REST, NDO_F64, 3, &rest);
+		memcpy(rest->data, g->ch[0].data, 3 * g->count * sizeof(double));
+		ndo_session_opts o = {.role = NDO_ROLE_OWNER, .poi = -1, .self_id = 11, .object_id = 78,
+		                      .scene = "", .heartbeat = 0.1, .codec = &cp, .coarse_levels = 2};
+		ndo_session *s = NULL;
+		CHECK(ndo_session_create(&o, n, g, &s) == 0, "owner: %s", ndo_errdetail());
+		ndo_session_measure_displacement(s, 1);
+		ndo_link_open_mem(bus, &lw);
+		ndo_net_create(lw, "T", 12, &nw);
+		ndo_watch *w;
+		ndo_watch_opts wo = {0};
+		ndo_watch_create(nw, &wo, &w);
+		ndo_grid *og = ndo_session_grid(s);
+		double *x = ndo_grid_f64(og, NDO_CH_POSITION, 3);
+		const double *x0 = ndo_grid_f64(og, NDO_CH_REST, 3);
+		double lo[3], ext[3];
+		ndo_codec_box(x0, og->count, lo, ext);
+		const double diag = sqrt(ext[0] * ext[0] + ext[1] * ext[1] + ext[2] * ext[2]);
+		double t = 0, worst = 0;
+		int frames = 0, coarse_ok = 1, level_ok = 1;
+		ndo_session_update(s, t);
+		ndo_watch_update(w, t);
+		for (int64_t step = 0; step < 12; step++) {
+			for (size_t k = 0; k < og->count; k++) /* a smooth motion of every node */
+				for (int d = 0; d < 3; d++)
+					x[3 * k + d] = x0[3 * k + d] + 0.01 * (double)step * sin(3 * x0[3 * k + (d + 1) % 3]);
+			ndo_grid_sync(og);
+			ndo_session_publish(s, step, 0.01 * (double)step);
+			t += 0.01;
+			ndo_session_update(s, t);
+			ndo_watch_update(w, t);
+			ndo_grid *f;
+			while (ndo_watch_next(w, &f) == 1) {
+				frames++;
+				level_ok &= f->level == 3 && f->count == (size_t)17 * 9;
+				const double *fx = ndo_grid_f64(f, NDO_CH_POSITION, 3);
+				for (size_t k = 0; k < f->count && f->level == 3; k++) {
+					size_t node = ndo_node(og->w, (int)(k % 17) * 4, (int)(k / 17) * 4);
+					for (int d = 0; d < 3; d++) {
+						double err = fabs(fx[3 * k + d] - x[3 * node + d]);
+						coarse_ok &= e == 0 ? err == 0 : err <= 1e-4 * diag;
+					}
+				}
+				ndo_grid *up;
+				ndo_subdivide_levels(f, 2, NDO_CORNERS_ZORIN, &up);
+				const double *ux = ndo_grid_f64(up, NDO_CH_POSITION, 3);
+				for (size_t k = 0; k < og->count; k++) {
+					double d2 = 0;
+					for (int d = 0; d < 3; d++)
+						d2 += (ux[3 * k + d] - x[3 * k + d]) * (ux[3 * k + d] - x[3 * k + d]);
+					worst = fmax(worst, sqrt(d2) / diag);
+				}
+				ndo_grid_destroy(up);
+				ndo_grid_destroy(f);
+			}
+		}
+		ndo_session_level_stats ls;
+		ndo_session_level_stats_get(s, &ls);
+		CHECK(frames >= 10 && level_ok && coarse_ok, "%s: %d frames, level 3 %d, coarse nodes "
+		      "right %d", specs[e], frames, level_ok, coarse_ok);
+		CHECK(ls.send_level == 3 && ls.level == 5 && ls.frames == 12, "%s: stats send level %d, "
+		      "level %d, frames %lld", specs[e], ls.send_level, ls.level, (long long)ls.frames);
+		/* the watch saw the last frames the owner counted: the same largest error */
+		CHECK(worst > 1e-3 && fabs(worst - ls.max_error) <= 1e-12 * worst, "%s: the refined "
+		      "frames' error %.17g, the owner's %.17g", specs[e], worst, ls.max_error);
+		CHECK(ls.max_error_disp > 0 && ls.max_error_disp < ls.max_error, "%s: the displacement "
+		      "refined onto the rest shape: %g against %g", specs[e], ls.max_error_disp,
+		      ls.max_error);
+		ndo_session_destroy(s, NULL);
+		ndo_watch_destroy(w);
+		ndo_bus_destroy(bus);
+	}
+}
+
 int main(void)
 {
 	ck_program = "test_session";
@@ -326,5 +422,6 @@ int main(void)
 	RUN(late_joiner_over_lossy_link);
 	RUN(encoded_tiles_are_no_snapshot);
 	RUN(garbage_is_counted_not_trusted);
+	RUN(send_level_frames_and_error);
 	return ck_failed_cases != 0;
 }

@@ -334,6 +334,8 @@ int nb_run(const nb_opts *o, int level, const ndo_codec_params *enc, double loss
 	if (rc)
 		return rc;
 	row->nodes = g->count;
+	row->vertices = ((size_t)2 << (2 * level)) + 2;
+	row->send_level = o->send_level >= 0 && o->send_level < level ? o->send_level : level;
 	row->rest = malloc(3 * g->count * sizeof *row->rest);
 	if (!row->rest) {
 		ndo_grid_destroy(g), ndo_sim_destroy(sim), ndo_scene_free(&sc);
@@ -376,12 +378,15 @@ int nb_run(const nb_opts *o, int level, const ndo_codec_params *enc, double loss
 		ndo_peer_opts po = {
 			.session = {.role = k ? NDO_ROLE_JOINER : NDO_ROLE_OWNER, .name = "net-bench",
 			            .poi = k ? (int32_t)(frac[k] * (double)faces) : -1,
-			            .codec = k ? NULL : enc, .seed = seed + 17 * (uint64_t)k + 1},
+			            .codec = k ? NULL : enc, .seed = seed + 17 * (uint64_t)k + 1,
+			            .coarse_levels = k ? 0 : level - row->send_level},
 			.clock = NDO_CLOCK_LOCKSTEP, .peers = np, .start_timeout = o->timeout,
 			.gather_timeout = 10, .resend = 0.25, .step_timeout = 2,
 			/* what a viewer costs: the whole state every step */
 			.publish_every = 1};
 		rc = ndo_peer_create(&po, n, k ? NULL : g, k ? NULL : sim, k ? NULL : &run, &p[k]);
+		if (!rc) /* the error of refining the displacement too (CSV) */
+			ndo_session_measure_displacement(ndo_peer_session(p[k]), 1);
 		if (k == 0)
 			g = NULL, sim = NULL; /* taken over */
 	}
@@ -451,14 +456,27 @@ int nb_run(const nb_opts *o, int level, const ndo_codec_params *enc, double loss
 			double el = st.end_time - st.start_time;
 			row->steps_per_s = el > 0 ? (double)st.steps / el : 0;
 			uint64_t msgs = 0;
-			double enc_s = 0, sum_sq = 0, max_e = 0;
-			uint64_t err_n = 0;
+			double enc_s = 0, sum_sq = 0, max_e = 0, lsum = 0, lmax = 0, dsum = 0, dmax = 0;
+			uint64_t err_n = 0, lnodes = 0;
 			for (int k = 0; k < np; k++) {
 				ndo_session *s = ndo_peer_session(p[k]);
 				const ndo_net_stats *ns = ndo_net_stats_get(ndo_session_net(s));
 				msgs += ns->published - msgs0[k];
 				ndo_codec_stats es, ds;
 				ndo_session_codec_stats(s, &es, &ds);
+				ndo_session_level_stats ls;
+				ndo_session_level_stats_get(s, &ls);
+				if (ls.send_level < ls.level) { /* the coarse tiles' encoding */
+					es.encode_seconds += ls.enc.encode_seconds;
+					es.sum_sq_error += ls.enc.sum_sq_error;
+					es.error_nodes += ls.enc.error_nodes;
+					es.max_error = fmax(es.max_error, ls.enc.max_error);
+				}
+				lsum += ls.sum_sq_error;
+				lnodes += ls.error_nodes;
+				lmax = fmax(lmax, ls.max_error);
+				dsum += ls.sum_sq_error_disp;
+				dmax = fmax(dmax, ls.max_error_disp);
 				enc_s += es.encode_seconds;
 				sum_sq += es.sum_sq_error;
 				err_n += es.error_nodes;
@@ -473,6 +491,16 @@ int nb_run(const nb_opts *o, int level, const ndo_codec_params *enc, double loss
 			row->messages = msgs;
 			row->max_error_rel = max_e / diag;
 			row->rms_error_rel = err_n ? sqrt(sum_sq / (double)err_n) / diag : 0;
+			/* at the simulated level: the encoding's error alone without a send
+			 * level; the sessions' refined-coarse error with one */
+			row->level_max_rel = row->send_level < level ? lmax : row->max_error_rel;
+			row->level_rms_rel = row->send_level < level
+			                         ? (lnodes ? sqrt(lsum / (double)lnodes) : 0)
+			                         : row->rms_error_rel;
+			row->disp_max_rel = row->send_level < level ? dmax : row->max_error_rel;
+			row->disp_rms_rel = row->send_level < level
+			                        ? (lnodes ? sqrt(dsum / (double)lnodes) : 0)
+			                        : row->rms_error_rel;
 			row->encode_ms = row->steps ? 1e3 * enc_s / (double)row->steps : 0;
 			ndo_grid *og = ndo_peer_grid(p[0]);
 			row->final_x = malloc(3 * og->count * sizeof *row->final_x);
@@ -507,12 +535,13 @@ int nb_run(const nb_opts *o, int level, const ndo_codec_params *enc, double loss
 		row->frames = ws.frames;
 		row->incomplete = ws.incomplete;
 		/* decoding: the observer decodes the whole object every step */
-		const ndo_codec *c = ndo_net_codec(wnet);
-		if (c && row->steps) {
-			ndo_codec_stats ds;
-			ndo_codec_stats_get(c, &ds);
-			row->decode_ms = 1e3 * ds.decode_seconds / (double)row->steps;
-		}
+		const ndo_codec *cs[2] = {ndo_net_codec(wnet), ndo_net_coarse_codec(wnet)};
+		for (int k = 0; k < 2; k++)
+			if (cs[k] && row->steps) {
+				ndo_codec_stats ds;
+				ndo_codec_stats_get(cs[k], &ds);
+				row->decode_ms += 1e3 * ds.decode_seconds / (double)row->steps;
+			}
 	}
 	for (int k = 0; k < np; k++)
 		ndo_peer_destroy(p[k], NULL);
@@ -540,6 +569,8 @@ int nb_run(const nb_opts *o, int level, const ndo_codec_params *enc, double loss
 	row->total_bits = row->steps ? 8 * wsum / ((double)row->nodes * (double)row->steps) : NAN;
 	row->bits_per_node_update = nu > 0 ? 8 * ssum / nu : NAN;
 	row->payload_bits = nu > 0 ? 8 * spay / nu : NAN;
+	row->bits_per_vertex = nu > 0 ? 8 * ssum / ((double)row->vertices * (double)row->steady_steps)
+	                              : NAN;
 	row->mbit_s = row->steady_steps > 0 && row->steps_per_s > 0
 	                  ? 8 * ssum / ((double)row->steady_steps / row->steps_per_s) / 1e6
 	                  : NAN;

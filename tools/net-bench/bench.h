@@ -15,6 +15,7 @@ typedef struct nb_opts {
 	double timeout;    /* wall seconds a row may take */
 	int quiet;
 	const ndo_key *key; /* --key: every peer's and the listener's messages sealed */
+	int send_level;    /* whole-region state at this level (< 0 or ≥ the row's: the row's) */
 } nb_opts;
 
 /* Traffic on the bus by kind of message, as a listener sees it: bytes on
@@ -43,6 +44,8 @@ typedef struct nb_row {
 	double loss;
 	int64_t steps;
 	size_t nodes;              /* stored nodes, W × H (the thesis' count) */
+	size_t vertices;           /* distinct vertices of the level, 2·4^level + 2 */
+	int send_level;            /* the level the state travelled at */
 	size_t exact_nodes;        /* sent at full precision every step */
 	/* bits per node per update (over nodes × steps): */
 	double bits_per_node_update; /* every message on the wire, steady state (after
@@ -53,7 +56,12 @@ typedef struct nb_row {
 	nb_traffic whole, steady;    /* the whole run; the steady state */
 	int64_t steady_steps;
 	double mbit_s, steps_per_s;  /* Mbit/s: steady state, at the rate the run went */
-	double max_error_rel, rms_error_rel;
+	double max_error_rel, rms_error_rel; /* the encoding's, at the nodes it sent */
+	double bits_per_vertex;    /* bits_per_node_update over the distinct vertices */
+	double level_max_rel, level_rms_rel; /* at the simulated level: what receivers
+	                                        hold, refined, against the exact state */
+	double disp_max_rel, disp_rms_rel;   /* the same, the displacement refined onto
+	                                        the rest shape (ndo/session.h) */
 	double encode_ms, decode_ms; /* per step, the whole object */
 	double latency_p50_us, latency_p99_us;
 	long kernel_drops;

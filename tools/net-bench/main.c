@@ -32,6 +32,10 @@ static __attribute__((noreturn)) void usage(void)
 	       "                      (48 bytes more each; default: $NDO_KEY, else none)\n"
 	       "  -t, --time S        simulated seconds per run, 0.05..60 (default 5)\n"
 	       "      --peers N       simulating peers, 1..8 (default 2)\n"
+	       "  -s, --send-level LIST  whole-region state at these levels (the owner's\n"
+	       "                      --send-level), each 0..8, comma-separated; a row per\n"
+	       "                      level at or below the row's level (default: the\n"
+	       "                      row's level)\n"
 	       "      --loss LIST     drop rates for the loss sweep, each 0..0.9, comma-\n"
 	       "                      separated, or 'none' (default: 0.01,0.05,0.1,0.2,0.3\n"
 	       "                      for the whole table at level 5 with predict, none for\n"
@@ -49,7 +53,12 @@ static __attribute__((noreturn)) void usage(void)
 	       "joins and the last step; Mbit/s of the steady state at the rate the run\n"
 	       "went, the position error the encoding introduced (max and RMS over the\n"
 	       "bounding-box diagonal), encoding and decoding ms per step for the whole\n"
-	       "object, publish-to-receive latency (p50, p99), kernel drops (/proc/net/udp).\n"
+	       "object, publish-to-receive latency (p50, p99), kernel drops (/proc/net/udp);\n"
+	       "the send level, the wire bits over the level's distinct vertices (2·4^L + 2)\n"
+	       "instead of W x H, and the error at the simulated level of what an observer\n"
+	       "holds, refined by the butterfly (max and RMS over the diagonal; without a\n"
+	       "send level below the row's, the encoding's); the CSV adds that error for\n"
+	       "a receiver that refines the displacement onto the rest shape instead.\n"
 	       "\n"
 	       "Exit status: 0 success, 1 a run failed or the CSV could not be written, 2\n"
 	       "usage error.\n",
@@ -71,7 +80,8 @@ static const char *const header =
 	"rest_tile_bits,final_tile_bits,heartbeat_bits,control_bits,tiles_per_step,steady_steps,mbit_s,"
 	"steps_per_s,max_error_rel,rms_error_rel,encode_ms,decode_ms,latency_p50_us,"
 	"latency_p99_us,kernel_drops,messages,resends,nobase,corrupt,observer_frames,"
-	"observer_incomplete,divergence,thesis_mbit_s";
+	"observer_incomplete,divergence,thesis_mbit_s,send_level,vertices,bits_per_vertex_update,"
+	"level_max_error_rel,level_rms_error_rel,disp_max_error_rel,disp_rms_error_rel";
 
 static void csv_row(FILE *f, const nb_row *r)
 {
@@ -84,7 +94,7 @@ static void csv_row(FILE *f, const nb_row *r)
 	                                   : NAN;
 	fprintf(f, "%d,%s,%g,%d,%lld,%zu,%zu,%.4g,%.4g,%.4g,%.4g,%.4g,%.4g,%.4g,%.4g,%.4g,%.4g,%lld,"
 	        "%.4g,%.4g,%.3g,%.3g,%.4g,%.4g,%.4g,%.4g,%ld,"
-	        "%llu,%llu,%llu,%llu,%lld,%lld,%.3g,%.4g\n",
+	        "%llu,%llu,%llu,%llu,%lld,%lld,%.3g,%.4g,%d,%zu,%.4g,%.3g,%.3g,%.3g,%.3g\n",
 	        r->level, r->encoding, r->loss, r->peers, (long long)r->steps, r->nodes,
 	        r->exact_nodes, r->bits_per_node_update, r->payload_bits, r->total_bits,
 	        b[NB_ENCODED], b[NB_RAW_STATE], b[NB_REST], b[NB_FINAL], b[NB_HEARTBEAT],
@@ -94,17 +104,18 @@ static void csv_row(FILE *f, const nb_row *r)
 	        r->latency_p99_us, r->kernel_drops, (unsigned long long)r->messages,
 	        (unsigned long long)r->resends, (unsigned long long)r->nobase,
 	        (unsigned long long)r->corrupt, (long long)r->frames, (long long)r->incomplete,
-	        r->divergence, thesis_mbit(r->level));
+	        r->divergence, thesis_mbit(r->level), r->send_level, r->vertices, r->bits_per_vertex,
+	        r->level_max_rel, r->level_rms_rel, r->disp_max_rel, r->disp_rms_rel);
 }
 
 static void table_head(FILE *f)
 {
-	fprintf(f, "| level | nodes | encoding | peers | payload bits/node/update "
-	       "| wire bits/node/update | whole run incl. joins | Mbit/s | steps/s | thesis Mbit/s "
-	       "| max error | RMS error | encode ms | decode ms | latency p50 µs | p99 µs "
-	       "| kernel drops |\n"
-	       "|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
-	       "---:|\n");
+	fprintf(f, "| level | nodes | encoding | send level | peers | payload bits/node/update "
+	       "| wire bits/node/update | wire bits/vertex/update | whole run incl. joins | Mbit/s "
+	       "| steps/s | thesis Mbit/s | max error | RMS error | max error at level | RMS at level "
+	       "| encode ms | decode ms | latency p50 µs | p99 µs | kernel drops |\n"
+	       "|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"
+	       "---:|---:|---:|---:|\n");
 }
 
 static void table_row(FILE *f, const nb_row *r)
@@ -113,39 +124,43 @@ static void table_row(FILE *f, const nb_row *r)
 	char ths[32] = "–";
 	if (!isnan(th))
 		snprintf(ths, sizeof ths, "%.4g", th);
-	fprintf(f, "| %d | %zu | %s | %d | %.3g | %.3g | %.3g | %.3g | %.0f | %s | %.2g | %.2g | "
-	       "%.3g | %.3g | %.0f | %.0f | %ld |\n",
-	       r->level, r->nodes, r->encoding, r->peers, r->payload_bits, r->bits_per_node_update,
-	       r->total_bits, r->mbit_s, r->steps_per_s,
-	       ths, r->max_error_rel, r->rms_error_rel, r->encode_ms, r->decode_ms,
+	fprintf(f, "| %d | %zu | %s | %d | %d | %.3g | %.3g | %.3g | %.3g | %.3g | %.0f | %s | %.2g | "
+	       "%.2g | %.2g | %.2g | %.3g | %.3g | %.0f | %.0f | %ld |\n",
+	       r->level, r->nodes, r->encoding, r->send_level, r->peers, r->payload_bits,
+	       r->bits_per_node_update, r->bits_per_vertex, r->total_bits, r->mbit_s, r->steps_per_s,
+	       ths, r->max_error_rel, r->rms_error_rel, r->level_max_rel, r->level_rms_rel,
+	       r->encode_ms, r->decode_ms,
 	       r->latency_p50_us, r->latency_p99_us, r->kernel_drops);
 	fflush(f);
 }
 
-static int parse_losses(const char *arg, double *out, int max)
+/* A comma-separated list of drop rates (0..0.9) or of send levels (0..8). */
+static int parse_list(const char *arg, int levels, double *out, int max)
 {
-	if (strcmp(arg, "none") == 0)
-		return 0;
+	const char *opt = levels ? "--send-level" : "--loss";
 	int n = 0;
 	char *copy = strdup(arg), *save = NULL;
 	if (!copy)
 		ndo_die("out of memory");
 	for (char *tok = strtok_r(copy, ",", &save); tok; tok = strtok_r(NULL, ",", &save)) {
 		if (n == max)
-			ndo_usage_error("--loss: at most %d rates", max);
-		out[n++] = ndo_opt_double("--loss", tok, 0, 0.9);
+			ndo_usage_error("%s: at most %d %s", opt, max, levels ? "levels" : "rates");
+		out[n++] = levels ? (double)ndo_opt_long(opt, tok, 0, 8)
+		                  : ndo_opt_double(opt, tok, 0, 0.9);
 	}
 	free(copy);
 	if (!n)
-		ndo_usage_error("--loss: '%s': give rates like 0.05,0.2 or 'none'", arg);
+		ndo_usage_error("%s: '%s': give %s", opt, arg,
+		                levels ? "levels like 4,5,6" : "rates like 0.05,0.2 or 'none'");
 	return n;
 }
 
 int main(int argc, char **argv)
 {
 	ndo_cli_init(argc, argv);
-	nb_opts o = {.url = NULL, .time = 5, .peers = 2, .timeout = 300};
-	int level = -1, nloss = -1;
+	nb_opts o = {.url = NULL, .time = 5, .peers = 2, .timeout = 300, .send_level = -1};
+	int level = -1, nloss = -1, nsend = 0;
+	double sends[16];
 	const char *csv = NULL, *output = NULL;
 	ndo_codec_params one;
 	int have_enc = 0;
@@ -161,6 +176,7 @@ int main(int argc, char **argv)
 		{"key", required_argument, 0, OPT_KEY},
 		{"time", required_argument, 0, 't'},
 		{"peers", required_argument, 0, OPT_PEERS},
+		{"send-level", required_argument, 0, 's'},
 		{"loss", required_argument, 0, OPT_LOSS},
 		{"timeout", required_argument, 0, OPT_TIMEOUT},
 		{"quiet", no_argument, 0, 'q'},
@@ -168,7 +184,7 @@ int main(int argc, char **argv)
 		{"version", no_argument, 0, OPT_VERSION},
 		{0, 0, 0, 0}};
 	int c;
-	while ((c = getopt_long(argc, argv, ":l:e:o:t:qh", opts, NULL)) != -1) {
+	while ((c = getopt_long(argc, argv, ":l:e:o:t:s:qh", opts, NULL)) != -1) {
 		switch (c) {
 		case 'l': level = (int)ndo_opt_long("--level", optarg, 1, 8); break;
 		case 'e':
@@ -186,7 +202,10 @@ int main(int argc, char **argv)
 		case OPT_KEY: key_file = optarg; break;
 		case 't': o.time = ndo_opt_double("--time", optarg, 0.05, 60); break;
 		case OPT_PEERS: o.peers = (int)ndo_opt_long("--peers", optarg, 1, 8); break;
-		case OPT_LOSS: nloss = parse_losses(optarg, losses, 16); break;
+		case 's': nsend = parse_list(optarg, 1, sends, 16); break;
+		case OPT_LOSS:
+			nloss = strcmp(optarg, "none") == 0 ? 0 : parse_list(optarg, 0, losses, 16);
+			break;
 		case OPT_TIMEOUT: o.timeout = ndo_opt_double("--timeout", optarg, 1, 3600); break;
 		case 'q': o.quiet = 1; break;
 		case 'h': usage();
@@ -246,29 +265,42 @@ int main(int argc, char **argv)
 	if (tf)
 		table_head(tf);
 	int failed = 0;
+	if (level >= 0)
+		for (int k = 0; k < nsend; k++)
+			if (sends[k] > level)
+				ndo_usage_error("--send-level: %d is above the level %d (0..%d)",
+				                (int)sends[k], level, level);
+	if (!nsend) /* the row's own level */
+		sends[nsend++] = -1;
 	for (int l = lo; l <= hi && !failed; l++)
-		for (int e = 0; e < nenc && !failed; e++) {
-			nb_row r;
-			if (!o.quiet) {
-				char name[32];
-				ndo_codec_name(&encs[e], name, sizeof name);
-				fprintf(stderr, "%s: level %d, %s ...\n", ndo_progname, l, name);
+		for (int e = 0; e < nenc && !failed; e++)
+			for (int sl = 0; sl < nsend && !failed; sl++) {
+				nb_row r;
+				if (sends[sl] > l)
+					continue; /* the whole table: levels above a row's are not its */
+				o.send_level = (int)sends[sl];
+				if (!o.quiet) {
+					char name[32];
+					ndo_codec_name(&encs[e], name, sizeof name);
+					fprintf(stderr, "%s: level %d, %s, send level %d ...\n", ndo_progname, l, name,
+					        sends[sl] < 0 ? l : (int)sends[sl]);
+				}
+				if (nb_run(&o, l, &encs[e], 0, &r)) {
+					ndo_warn("level %d: %s", l, ndo_errdetail());
+					failed = 1;
+				} else {
+					if (tf)
+						table_row(tf, &r);
+					if (cf)
+						csv_row(cf, &r);
+				}
+				nb_row_free(&r);
 			}
-			if (nb_run(&o, l, &encs[e], 0, &r)) {
-				ndo_warn("level %d: %s", l, ndo_errdetail());
-				failed = 1;
-			} else {
-				if (tf)
-					table_row(tf, &r);
-				if (cf)
-					csv_row(cf, &r);
-			}
-			nb_row_free(&r);
-		}
 	if (nloss > 0 && !failed) {
 		/* the loss sweep: each lossy run against the same run with no loss */
 		int sl = level < 0 ? 5 : level;
 		ndo_codec_params se = encs[have_enc ? 0 : 3];
+		o.send_level = -1; /* the loss sweep: at the row's level */
 		nb_row ref;
 		if (!o.quiet)
 			fprintf(stderr, "%s: loss sweep, level %d ...\n", ndo_progname, sl);

@@ -120,6 +120,12 @@ static __attribute__((noreturn)) void usage(void)
 	    "      --publish-every N   owner, lockstep: whole regions every N steps for\n"
 	    "                          observers and render-frame (default 10; 0: only\n"
 	    "                          the first and last step)\n"
+	    "      --send-level L      owner: whole-region state (observers, render-frame,\n"
+	    "                          frames) travels at level L, 0..the simulated\n"
+	    "                          level (default: the simulated level), every\n"
+	    "                          2^k-th node, k levels below: frames are level L\n"
+	    "                          (refine: subdivide, render-frame -k); halos and\n"
+	    "                          the owner's -o stay exact\n"
 	    "      --partition M       owner: quadtree (default), table41 or metis\n"
 	    "      --encoding E        owner: state tiles raw (default), float32,\n"
 	    "                          fixed[:BITS] or predict[:BITS[:KEYFRAME]] (bits\n"
@@ -342,6 +348,7 @@ static void options(run *r, int argc, char **argv)
 		{"boundary", required_argument, 0, OPT_PEER},
 		{"halo-steps", required_argument, 0, OPT_PEER},
 		{"publish-every", required_argument, 0, OPT_PEER},
+		{"send-level", required_argument, 0, OPT_PEER},
 		{"encoding", required_argument, 0, OPT_PEER},
 		{"step-timeout", required_argument, 0, OPT_PEER},
 		{"peer-timeout", required_argument, 0, OPT_PEER},

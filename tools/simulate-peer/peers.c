@@ -35,12 +35,14 @@ void peer_defaults(peer_cli *c)
 	c->start_timeout = 60;
 	c->gather_timeout = 10;
 	c->peers = 1;
+	c->send_level = -1;
 }
 
 /* Options only the owner decides; a joiner takes them from it. */
 static const char *const owner_only[] = {"partition", "clock", "speed", "peers", "boundary",
                                          "step-timeout", "gather-timeout", "encoding",
-                                         "halo-steps", "publish-every", NULL};
+                                         "halo-steps", "publish-every", "send-level",
+                                         NULL};
 static uint32_t given; /* bit k: owner_only[k] was given */
 
 void peer_option(peer_cli *c, const char *name, const char *arg)
@@ -92,6 +94,8 @@ void peer_option(peer_cli *c, const char *name, const char *arg)
 	} else if (strcmp(name, "publish-every") == 0) {
 		c->publish_every = (int)ndo_opt_long(opt, arg, 0, 1000000000);
 		c->publish_every_set = 1;
+	} else if (strcmp(name, "send-level") == 0) {
+		c->send_level = (int)ndo_opt_long(opt, arg, 0, NDO_MAX_LEVEL);
 	} else if (strcmp(name, "encoding") == 0) {
 		if (ndo_codec_parse(arg, &c->codec))
 			ndo_usage_error("--encoding: %s", ndo_errdetail());
@@ -317,9 +321,15 @@ static void write_frame(peer_run *pr, int64_t k)
 	int len = snprintf(path, sizeof path, pr->r->sc.frames, (int)k);
 	if (len < 0 || (size_t)len >= sizeof path)
 		ndo_die("--frames: the path for frame %lld is too long", (long long)k);
-	ndo_grid *g = ndo_peer_grid(pr->p);
-	if (ndo_mkdir_parents(path) || ndo_grid_export(path, g))
+	ndo_session *s = ndo_peer_session(pr->p);
+	ndo_grid *g = ndo_peer_grid(pr->p), *coarse = NULL;
+	/* a run that sends a level: frames at that level, the others' nodes as
+	 * they travelled (the last step's -o stays exact at the simulated level) */
+	if (ndo_session_send_level(s) < g->level && ndo_session_frame(s, &coarse))
+		ndo_die("%s", ndo_errdetail());
+	if (ndo_mkdir_parents(path) || ndo_grid_export(path, coarse ? coarse : g))
 		ndo_die("%s: %s", path, ndo_errdetail());
+	ndo_grid_destroy(coarse);
 }
 
 /* After a step: the log row and the frame that are due. */
@@ -393,6 +403,14 @@ static void summary(peer_run *pr, const char *how)
 		        (double)st.halo_bytes / 1e3 / (double)st.steps,
 		        (double)st.halo_tiles / (double)st.steps, (long long)st.frames,
 		        (double)st.frame_bytes / 1e3 / (double)st.steps);
+	ndo_session_level_stats ls;
+	ndo_session_level_stats_get(ndo_peer_session(p), &ls);
+	if (ls.send_level >= 0 && ls.send_level < ls.level && ls.frames > 0)
+		fprintf(stderr, "%s: send level %d of %d: %lld whole-region frames sent at level %d; the "
+		        "error at level %d of what receivers hold (refined), over this peer's nodes: "
+		        "max %.3g, RMS %.3g of the diagonal\n", ndo_progname, ls.send_level, ls.level,
+		        (long long)ls.frames, ls.send_level, ls.level, ls.max_error,
+		        ls.error_nodes ? sqrt(ls.sum_sq_error / (double)ls.error_nodes) : 0.0);
 	if (pr->watch) {
 		ndo_watch_stats ws;
 		ndo_watch_stats_get(pr->watch, &ws);
@@ -439,6 +457,9 @@ int peers_main(run *r)
 			return NDO_EXIT_OK;
 		}
 		g = owner_object(r, &sim);
+		if (c->send_level > g->level)
+			ndo_usage_error("--send-level: %d is above the simulated level %d (0..%d)",
+			                c->send_level, g->level, g->level);
 		if (c->poi >= (int64_t)ndo_triangle_count(g->level))
 			ndo_usage_error("--poi: face %d is outside 0..%zu for a level-%d grid", c->poi,
 			                ndo_triangle_count(g->level) - 1, g->level);
@@ -446,7 +467,8 @@ int peers_main(run *r)
 	ndo_peer_opts o = {
 		.session = {.role = owner ? NDO_ROLE_OWNER : NDO_ROLE_JOINER, .name = c->name,
 		            .poi = c->poi, .partition = (ndo_part_method)c->partition,
-		            .timeout = c->peer_timeout, .codec = &c->codec},
+		            .timeout = c->peer_timeout, .codec = &c->codec,
+		            .coarse_levels = owner && c->send_level >= 0 ? g->level - c->send_level : 0},
 		.clock = c->clock, .step_timeout = c->step_timeout, .speed = c->speed,
 		.peers = c->peers, .hold_boundary = c->hold_boundary,
 		.halo_steps = c->halo_steps,

@@ -141,6 +141,18 @@ int ndo_codec_params_read(const void *scene, size_t len, ndo_codec_params *p);
 /* 0 when *p is a consistent set of parameters, else NDO_EINVAL. */
 int ndo_codec_params_check(const ndo_codec_params *p);
 
+/* The send level (docs/protocol.md, "Send level"): whole-region state
+ * travels at level L ≤ the object's (its every 2^k-th node, k = level −
+ * L), as tiles with NDO_TILE_COARSE; the owner's description says so in a
+ * line "send-level L" (none when L is the object's level).  _text writes
+ * the line (nothing when L = level): the length, or NDO_ERANGE.  _take
+ * reads and removes it from a description's text (*send_level = level
+ * when there is none); _read leaves the scene as it is.  0, NDO_EINVAL (a
+ * bad line, or L outside 0..level), NDO_ENOMEM. */
+int ndo_send_level_text(int send_level, int level, char *buf, size_t size);
+int ndo_send_level_take(char *text, int level, int *send_level);
+int ndo_send_level_read(const void *scene, size_t len, int level, int *send_level);
+
 /* ---- one tile's frames (pure functions) ------------------------------------ */
 
 /* A frame of a tile as every receiver reconstructs it. */
@@ -286,6 +298,12 @@ const ndo_codec_params *ndo_codec_params_of(const ndo_codec *c);
  * raw: its history is forgotten), NDO_ENOMEM. */
 int ndo_codec_encode_tile(ndo_codec *c, int32_t self, const ndo_grid *g, const uint8_t *cls,
                           ndo_quad q, int standalone, ndo_msg_tile_t *t);
+
+/* After ndo_codec_encode_tile() returned 0 or 1 (not a step sent again):
+ * the positions every receiver reconstructs for that tile's nodes (x:
+ * nodes × 3, row-major over the tile; NaN where the frame holds none).
+ * 0, or NDO_EINVAL when there is no such frame. */
+int ndo_codec_last_positions(const ndo_codec *c, double *x);
 
 /* Forget the history of (self, q): a tile that was encoded but not sent. */
 void ndo_codec_forget_tile(ndo_codec *c, int32_t self, ndo_quad q);

@@ -137,6 +137,10 @@ typedef struct ndo_msg_ctx {
 	int64_t object_id; /* 0: not attached to an object yet */
 	int level;         /* the object's level, −1 before its description */
 	int32_t self_id;   /* the receiver's own sender id */
+	/* The owner's send level (docs/protocol.md, "Send level"): a tile with
+	 * NDO_TILE_COARSE is of the level − coarse grid.  0: no send level
+	 * below the object's, and such a tile is out of range. */
+	int coarse;
 	/* The bound on state (has_box ≠ 0; ndo_msg_set_box): positions and
 	 * rest positions within lo..hi, velocity components within ±vmax. */
 	int has_box;
@@ -180,6 +184,10 @@ size_t ndo_msg_encoded_size(ndo_msg_type t, const void *msg);
 /* Tile channels (bits of tile_t.channels) and their values per node. */
 enum { NDO_TILE_POSITION = 1, NDO_TILE_VELOCITY = 2, NDO_TILE_REST = 4,
        NDO_TILE_PIN = 8, NDO_TILE_ALL = 15 };
+/* Not a channel: the tile is of the send level's grid (ndo_msg_ctx.coarse
+ * levels below the object's; its depth, range and values over that grid),
+ * position and velocity only. */
+enum { NDO_TILE_COARSE = 16 };
 int ndo_tile_values_per_node(int channels); /* 3 per vector bit, 1 for pin */
 
 /* Tile encodings (tile_t.encoding; ndo/codec.h).  RAW carries doubles in

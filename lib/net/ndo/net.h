@@ -106,6 +106,12 @@ void ndo_net_keep_all_tiles(ndo_net *n, int on);
 int ndo_net_set_codec(ndo_net *n, const ndo_codec_params *p, int level);
 /* The codec (NULL: none): its statistics. */
 const ndo_codec *ndo_net_codec(const ndo_net *n);
+/* The owner's send level (ndo/codec.h, "send-level"): tiles with
+ * NDO_TILE_COARSE are validated and decoded as tiles of a level-send_level
+ * grid (after ndo_net_set_codec, which resets it).  0, NDO_EINVAL (not
+ * 0..level), NDO_ENOMEM.  The decoder of those tiles (NULL when raw). */
+int ndo_net_set_send_level(ndo_net *n, int send_level, int level);
+const ndo_codec *ndo_net_coarse_codec(const ndo_net *n);
 /* With keep-all tiles on: a predicted tile that follows skipped steps of
  * its range (ndo/codec.h) is preceded by one tile per skipped step, its
  * prediction (a watch needs every step of every node). */

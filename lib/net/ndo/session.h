@@ -72,6 +72,13 @@ typedef struct ndo_session_opts {
 	 * positions' without one).  The description carries it; a joiner and
 	 * an observer take it from there. */
 	const ndo_codec_params *codec;
+	/* Owner: whole-region state travels this many levels below the
+	 * object's (0: at its level; docs/protocol.md "Send level"): the
+	 * description's send-level line, tiles with NDO_TILE_COARSE.  Raw
+	 * snapshots for joiners, the exact step (ndo_session_set_exact_step)
+	 * and tiles another simulating peer integrates with (no exact halos:
+	 * ndo_session_set_exact_halos) stay at the object's level. */
+	int coarse_levels;
 } ndo_session_opts;
 
 enum { NDO_TILE_FN_FILL = 1, NDO_TILE_FN_DECODED = 2 }; /* tile_fn's flags */
@@ -135,6 +142,52 @@ int ndo_session_send_halo(ndo_session *s, ndo_msg_halo_t *h);
 /* Tiles of `step` carry every node this peer simulates at full precision
  * (the run's last step: what the owner gathers is exact); −1: none. */
 void ndo_session_set_exact_step(ndo_session *s, int64_t step);
+
+/* The simulating peers exchange exact halos (ndo/peer.h): whole-region
+ * tiles are frames only, and go at the send level even with several
+ * simulating peers (without: only while this peer simulates alone). */
+void ndo_session_set_exact_halos(ndo_session *s, int on);
+/* The send level (the object's level when none below it; −1 before the
+ * description). */
+int ndo_session_send_level(const ndo_session *s);
+/* The send level's cost and error: `frames` whole-region publications at
+ * the send level; the error at the object's level of what receivers
+ * hold — this peer's coarse nodes as they reconstruct them (the others'
+ * as received), refined by the butterfly, against this peer's exact
+ * positions — over its own nodes of every such frame, relative to the
+ * rest shape's box diagonal (largest; sum of squares and count for the
+ * RMS); `_disp` the same for a receiver that refines the displacement
+ * (position − rest) and adds it to the rest shape at the object's level
+ * (which observers do not do), measured only after
+ * ndo_session_measure_displacement(s, 1) (0 otherwise); `enc` the coarse
+ * tiles' encoder statistics (zero when raw).  Measuring costs a
+ * refinement and a pass over the object's nodes per coarse frame (level 7
+ * from 5: ~0.2 ms here, ~0.35 ms with the displacement). */
+typedef struct ndo_session_level_stats {
+	int level, send_level;
+	int64_t frames;
+	double max_error, sum_sq_error;
+	double max_error_disp, sum_sq_error_disp;
+	uint64_t error_nodes;
+	ndo_codec_stats enc;
+} ndo_session_level_stats;
+void ndo_session_level_stats_get(const ndo_session *s, ndo_session_level_stats *st);
+void ndo_session_measure_displacement(ndo_session *s, int on);
+/* With a send level below the object's: the send level's state — each
+ * coarse node as it last travelled when that is newer than the grid's
+ * value (nstep[node], the step of each canonical node's value, −1 none),
+ * else as the grid holds it — refined by the butterfly, position and
+ * velocity, into every node whose value is older than the oldest coarse
+ * node taken, whose nstep becomes that step.  What a peer taking over a
+ * region starts from when the others' whole regions travelled coarse (its
+ * own and its halo's nodes are newer and stay).  Returns the nodes taken
+ * (0 without a send level, or when no coarse node is newer). */
+int64_t ndo_session_refine_others(ndo_session *s, int64_t *nstep);
+/* The object at the send level (*out, the caller's): every channel of this
+ * peer's grid sampled, the others' positions and velocities replaced by
+ * their newest coarse tiles (frames of a run that sends a level).  0,
+ * NDO_EINVAL (no object yet), NDO_ENOMEM. */
+int ndo_session_frame(ndo_session *s, ndo_grid **out);
 
 /* The tile encoding in force (raw until a joiner has the description),
  * and its statistics: `enc` this peer's encoder, `dec` the decoder of the

@@ -15,7 +15,9 @@ extern "C" {
 
 /* Fill t's range, depth, channels, encoding and values (malloc'd: free
  * t->values) from g for quad-tree node q.  The grid's channels must be
- * f64 (pin u8); a missing channel sends zeros.  0 or NDO_ENOMEM. */
+ * f64 (pin u8); a missing channel sends zeros; NDO_TILE_COARSE in
+ * `channels` is kept as given (g is then the send level's grid).  0 or
+ * NDO_ENOMEM. */
 int ndo_tile_pack(const ndo_grid *g, ndo_quad q, int channels, ndo_msg_tile_t *t);
 
 /* Write a validated tile into g: every node of its range where `owner` is

@@ -19,7 +19,11 @@
  *
  * Frames are grids with position, owner (the partition in force at that
  * step), and rest and pin when the owner has sent them (it does when a
- * peer joins), step and time.  One thread.
+ * peer joins), step and time.  They are at the level the state travels
+ * at: the owner's send level (ndo/codec.h "send-level"; the object's
+ * level when it sends none below it), every 2^k-th node of the object's;
+ * a caller that needs more refines them (ndo/levels.h, ndo/subdivide.h).
+ * One thread.
  */
 #ifndef NDO_WATCH_H
 #define NDO_WATCH_H
@@ -82,6 +86,7 @@ typedef struct ndo_watch_stats {
 	                        does, up to 4096) */
 	int64_t object_id;   /* the object watched (0: none yet) */
 	int level;           /* its level (−1: none yet) */
+	int send_level;      /* the level its state travels at, the frames' */
 } ndo_watch_stats;
 void ndo_watch_stats_get(const ndo_watch *w, ndo_watch_stats *st);
 

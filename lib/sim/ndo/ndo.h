@@ -12,6 +12,7 @@
 #include "ndo/export.h"
 #include "ndo/subdivide.h"
 #include "ndo/restrict.h"
+#include "ndo/levels.h"
 #include "ndo/cli.h"
 #include "ndo/machine.h"
 #include "ndo/pool.h"
