@@ -95,6 +95,11 @@ struct ndo_sim {
 	int64_t step;
 	ndo_sim_stats stats;
 	double h_sub;          /* rkf45's next sub-step */
+	/* rkf45's step under way (ndo_sim_rkf45_begin): its end, the next
+	 * sub-step, the sub-step attempted and whether it is the last, stage 0
+	 * ready, the last attempt rejected; the time and h_sub it began at */
+	double rk_t_end, rk_hs, rk_h, rk_t0, rk_hsub0;
+	int rk_last, rk_k0, rk_rejected;
 
 	/* Divergence: the reference energy and the input work. */
 	int e0_set;

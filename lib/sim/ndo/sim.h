@@ -212,6 +212,30 @@ int ndo_sim_threads(const ndo_sim *s);
  * positive definite or rkf45's sub-step underflows. */
 int ndo_sim_step(ndo_sim *s, double h);
 
+/* rkf45's step in parts, for peers that split the object (ndo/peer.h):
+ * ndo_sim_step(s, h) for rkf45 is
+ *     ndo_sim_rkf45_begin(s, h);
+ *     do { ndo_sim_rkf45_attempt(s, NULL, &err, NULL); }
+ *     while ((rc = ndo_sim_rkf45_decide(s, err)) == 0);
+ * Between the calls a caller may overwrite held nodes (a peer's halo, at
+ * the state an accepted sub-step ended in) and replace err by the largest
+ * err over every peer: the error is a maximum over nodes, so the peers'
+ * maximum is the single process's, bit for bit, and so are the sub-steps
+ * taken.  begin: NDO_EINVAL for another method or a bad h; it re-assembles
+ * K when due as ndo_sim_step does.  attempt: the stages of the next
+ * sub-step (size in *h, may be NULL) and its error relative to the
+ * tolerance over the active nodes whose byte in `rows` (H × W) is
+ * nonzero (NULL: every active node); a state that diverged returns
+ * NDO_EDIVERGED.  decide: accept (the state advances) or reject (a smaller
+ * sub-step next) by err; 1 when the step is complete (time and step count
+ * advanced), 0 when another attempt follows, NDO_EDIVERGED when the
+ * sub-step underflows.  abort: back to the time and sub-step size the
+ * step began with (the caller restores the state). */
+int ndo_sim_rkf45_begin(ndo_sim *s, double h);
+int ndo_sim_rkf45_attempt(ndo_sim *s, const uint8_t *rows, double *err, double *h);
+int ndo_sim_rkf45_decide(ndo_sim *s, double err);
+void ndo_sim_rkf45_abort(ndo_sim *s);
+
 /* The divergence test of ndo_sim_step on the current state, without
  * stepping: NDO_OK or NDO_EDIVERGED. */
 int ndo_sim_check(ndo_sim *s);
