@@ -1,6 +1,7 @@
 /* peer.c — a simulating peer: session + simulation + time keeping
  * (ndo/peer.h; docs/peers.md). */
 #include "ndo/peer.h"
+#include "peer_solve.h"
 #include "ndo/scene.h"
 #include "ndo/status.h"
 #include "ndo/tile.h"
@@ -67,6 +68,7 @@ struct ndo_peer {
 	int32_t *own;          /* stored nodes of the region (duplicates too) */
 	size_t nown;
 	int32_t *ownc;         /* canonical nodes of the region */
+	size_t nownc;
 	uint8_t *hmark;        /* per canonical node: in the halo (rings 1..W) */
 	uint8_t *act;          /* per stored node: integrated (region and halo) */
 	int32_t *dist;         /* BFS scratch */
@@ -80,6 +82,8 @@ struct ndo_peer {
 	int synced;            /* the grid holds the region's state at cur */
 	ndo_msg_halo_t *hstash; /* halos for later steps or partitions */
 	size_t nhstash, caphstash;
+	ndo__ps *ps;           /* rkf45 and the implicit methods: steps of several
+	                          exchanges (peer_solve.h), when exact */
 	int failed;
 	double now;
 	char message[320];
@@ -408,6 +412,14 @@ static void unstash(ndo_peer *p)
 		ndo_grid_sync(ndo_session_grid(p->s));
 }
 
+/* The session's solve_fn: another peer's part of a split step. */
+static void on_solve(void *user, const ndo_msg_solve_t *m)
+{
+	ndo_peer *p = user;
+	if (p->ps && (m->epoch > ndo_session_epoch(p->s) || member(p, m->hdr.sender_id)))
+		ndo__ps_receive(p->ps, m);
+}
+
 /* ---- exact lock-step: halos ---------------------------------------------- */
 int ndo_peer_halo_rings(ndo_method m)
 {
@@ -481,7 +493,7 @@ static int exact_region(ndo_peer *p)
 		from[p->canons[k]] = p->mask[p->canons[k]];
 	rings(p, from, p->W);
 	p->nhalo = p->nown = 0;
-	size_t nownc = 0;
+	size_t nownc = 0; /* p->nownc below */
 	for (size_t k = 0; k < p->count; k++) {
 		int32_t dk = p->dist[p->canon[k]];
 		p->act[k] = dk >= 0 && dk < p->W;
@@ -495,6 +507,7 @@ static int exact_region(ndo_peer *p)
 		if (dk == 0)
 			p->ownc[nownc++] = (int32_t)k;
 	}
+	p->nownc = nownc;
 	/* the strip: rings around the others' regions */
 	for (size_t k = 0; k < p->ncanon; k++)
 		from[p->canons[k]] = own[p->canons[k]] != self;
@@ -607,7 +620,7 @@ static int exact_publish(ndo_peer *p)
 	int rc;
 	int64_t rel = p->cur - p->first;
 	int last = p->cur >= p->final;
-	if (!last && rel % p->K == 0) {
+	if (!last && rel % p->K == 0 && !p->ps) {
 		int b = (int)((rel / p->K) & 1);
 		strip_snapshot(p, b);
 		if ((rc = strip_send(p, b)))
@@ -629,6 +642,8 @@ static int region(ndo_peer *p)
 	uint8_t *was = malloc(p->count);
 	if (!was)
 		return ndo__fail(NDO_ENOMEM, "out of memory");
+	if (p->ps)
+		ndo__ps_abort(p->ps); /* a split step under way starts again */
 	memcpy(was, p->mask, p->count);
 	p->nowned = 0;
 	for (size_t k = 0; k < p->count; k++) {
@@ -679,21 +694,34 @@ static int region(ndo_peer *p)
 		if (n)
 			ndo_sim_set(p->sim, n, nodes, p->xs, p->vs);
 		free(nodes);
+		ndo_method m = ndo_sim_method(p->sim);
+		int split = ndo__ps_method(m);
 		p->exact = p->clock == NDO_CLOCK_LOCKSTEP && !p->hold &&
-		           ndo_peer_halo_rings(ndo_sim_method(p->sim)) > 0;
+		           (ndo_peer_halo_rings(m) > 0 || split);
 		int rc = 0;
 		if (p->exact) {
 			/* K steps reach D·K rings; the outermost ring received is held
 			 * (it stands still at its values of the exchange step): right for
 			 * a one-stage method's first step, one ring short for a
-			 * multi-stage one, whose stages would move it */
-			ndo_method m = ndo_sim_method(p->sim);
-			p->W = ndo_peer_halo_rings(m) * p->K +
-			       (m != NDO_EULER && m != NDO_SYMPLECTIC_EULER);
+			 * multi-stage one, whose stages would move it.  A split step
+			 * (rkf45, the implicit methods) exchanges within the step:
+			 * one step per exchange round (peer_solve.h) */
+			if (split)
+				p->K = 1;
+			p->W = split ? ndo__ps_rings(m)
+			             : ndo_peer_halo_rings(m) * p->K +
+			                   (m != NDO_EULER && m != NDO_SYMPLECTIC_EULER);
 			rc = exact_region(p);
 			ndo_sim_set_held_motion(p->sim, 0);
 			if (!rc)
 				rc = ndo_sim_set_active(p->sim, p->act);
+			if (!rc && split && !p->ps)
+				rc = ndo__ps_create(p->s, p->sim, &p->ps);
+			if (!rc && split) {
+				ndo__ps_region r = {p->ownc, p->nownc, p->halo, p->nhalo, p->strip,
+				                    p->nstrip, p->mask};
+				ndo__ps_set_region(p->ps, &r);
+			}
 		} else {
 			ndo_sim_set_held_motion(p->sim, !p->hold);
 			rc = ndo_sim_set_active(p->sim, p->mask);
@@ -730,6 +758,8 @@ static int resend(ndo_peer *p)
 		for (int b = 0; b < 2; b++)
 			if ((rc = strip_send(p, b)))
 				return rc;
+		if (p->ps && (rc = ndo__ps_resend(p->ps)))
+			return rc;
 		return p->cur >= p->final || !p->started ? frame_send(p) : 0;
 	}
 	if (p->prev_valid && (rc = ndo_session_publish_from(p->s, p->prev, p->prev_step,
@@ -921,6 +951,8 @@ static int announce(ndo_peer *p)
  * its neighbours re-send while they wait are all it needs. */
 static int all_at(const ndo_peer *p, int64_t step)
 {
+	if (p->exact && p->ps)
+		return 1; /* a split step waits for what it needs itself */
 	if (p->exact && p->hmark) {
 		for (size_t k = 0; k < p->nhalo; k++)
 			if (p->nstep[p->halo[k]] < step)
@@ -1126,10 +1158,62 @@ static int step(ndo_peer *p)
 	return NDO_PEER_STEPPED;
 }
 
+/* Exact lock-step of rkf45 and the implicit methods: the step goes on
+ * as far as the others' messages allow (peer_solve.h); a peer that waits
+ * sends its last two phases again.  There is no going on without them:
+ * after step_timeout the peer says so (once a step) and keeps waiting — a
+ * dead peer is re-partitioned after the peer timeout, and the step starts
+ * again under the new partition. */
+static int step_split(ndo_peer *p)
+{
+	double t0 = wall();
+	int rc = ndo__ps_advance(p->ps, p->cur, p->dt);
+	p->st.compute_seconds += wall() - t0;
+	if (rc < 0)
+		return rc;
+	if (rc == 0) {
+		double now = p->now;
+		if (!p->blocked) {
+			p->blocked = 1;
+			p->block_t0 = now;
+			p->resend_gap = p->o.resend;
+			p->next_resend = now + p->resend_gap;
+			p->st.waited++;
+			p->notes_missed = 0;
+		}
+		if (now - p->block_t0 >= p->step_timeout && !p->notes_missed) {
+			p->notes_missed = 1;
+			p->st.timeouts++;
+			note(p, "step %lld: waiting %.2g s for the other peers' part of the step",
+			     (long long)p->cur, now - p->block_t0);
+		}
+		return resend_due(p);
+	}
+	p->cur++;
+	p->tcur = ndo_sim_time(p->sim);
+	p->synced = 0;
+	for (size_t q = 0; q < p->nown; q++) {
+		size_t c = (size_t)p->own[q];
+		if ((size_t)p->canon[c] == c)
+			p->nstep[c] = p->cur;
+	}
+	if (p->blocked)
+		p->st.wait_seconds += p->now - p->block_t0;
+	p->blocked = 0;
+	p->st.steps++;
+	p->st.end_time = p->now;
+	if ((rc = publish(p)))
+		return rc;
+	unstash(p);
+	return NDO_PEER_STEPPED;
+}
+
 /* Lock-step: step when the halo holds step `cur`; otherwise wait,
  * re-send, and after step_timeout go on. */
 static int lockstep(ndo_peer *p)
 {
+	if (p->exact && p->ps)
+		return step_split(p);
 	size_t miss = missing(p);
 	if (miss == 0)
 		return step(p);
@@ -1382,6 +1466,7 @@ int ndo_peer_create(const ndo_peer_opts *o, ndo_net *net, ndo_grid *grid, ndo_si
 		so.retry = 0.25; /* a joiner asks again soon: the snapshot is many tiles */
 	so.tile_fn = on_tile;
 	so.halo_fn = on_halo;
+	so.solve_fn = on_solve;
 	so.tile_user = p;
 	if (owner) {
 		p->dt = run->dt;
@@ -1456,6 +1541,7 @@ void ndo_peer_destroy(ndo_peer *p, const char *message)
 	for (size_t k = 0; k < p->nhstash; k++)
 		halo_free(&p->hstash[k]);
 	free(p->hstash);
+	ndo__ps_destroy(p->ps);
 	free(p);
 }
 
@@ -1480,4 +1566,15 @@ void ndo_peer_stats_get(const ndo_peer *p, ndo_peer_stats *st)
 	*st = p->st;
 	st->exact = p->exact;
 	st->halo_rings = p->exact ? p->W : 1;
+	if (p->ps) {
+		ndo__ps_stats ps;
+		ndo__ps_stats_get(p->ps, &ps);
+		st->exchanges += ps.phases;
+		st->halo_tiles += ps.messages;
+		st->halo_bytes += ps.bytes;
+		st->attempts = ps.attempts;
+		st->rejected = ps.rejected;
+		st->solves = ps.solves;
+		st->iterations = ps.iterations;
+	}
 }

@@ -112,6 +112,7 @@ struct ndo_sim {
 	double pend_h, pend_power; /* the last step: its size and start power */
 
 	ndo__implicit *imp;
+	int imp_df;            /* ndo_sim_implicit_begin left f(t+h) − f(t) in vs */
 
 	/* Threads (ndo_sim_params.threads; NULL: one).  The runs are cut into
 	 * chunks fixed by the grid and its active set, not by the thread

@@ -203,6 +203,11 @@ typedef struct ndo_peer_stats {
 	int64_t exchanges;      /* halo exchanges sent */
 	int64_t halo_tiles;     /* ... their tiles */
 	uint64_t halo_bytes;    /* ... and bytes (LCM payloads) */
+	int64_t attempts;       /* exact rkf45: sub-steps attempted (each one
+	                           reduction of the error over the peers) */
+	int64_t rejected;       /* ... of them rejected */
+	int64_t solves;         /* exact implicit methods: distributed solves */
+	int64_t iterations;     /* ... their conjugate-gradient iterations */
 	int64_t frames;         /* whole-region publications */
 	uint64_t frame_bytes;   /* ... their bytes */
 	double start_time;      /* caller's clock at the first step */

@@ -236,6 +236,44 @@ int ndo_sim_rkf45_attempt(ndo_sim *s, const uint8_t *rows, double *err, double *
 int ndo_sim_rkf45_decide(ndo_sim *s, double err);
 void ndo_sim_rkf45_abort(ndo_sim *s);
 
+/* The implicit system by rows, for a solver that is not this
+ * simulation's own — peers that solve it together (ndo/peer.h) — instead
+ * of ndo_sim_step's CHOLMOD factor.  Backward Euler and the trapezoid
+ * solve, each step, A v' = b for the new velocities of the unknowns (every
+ * node but the pins held in project mode; implicit.c has A and b).  A
+ * caller that holds the exact state of its rows and of their 1-ring (the
+ * others held: ndo_sim_set_active) calls
+ *   begin(s, h, rows, n, b, dinv)  the divergence test, then b and the
+ *                                  inverse diagonal of A (Jacobi) on the
+ *                                  rows (0 on rows that are no unknowns
+ *                                  or not active);
+ *   apply(s, h, rows, n, x, y)     y = A x on the rows, x given on the
+ *                                  rows and their 1-ring;
+ *   rigid(s, h, rows, n, x, sums, &gamma)
+ *                                  for an object without pins, where
+ *                                  ndo_sim_step corrects the momentum of
+ *                                  the solution: the rows' parts of the
+ *                                  sums it needs (sums[0..2] the wanted
+ *                                  momentum, [3..5] M x, [6] the mass);
+ *                                  the shift of axis k is then
+ *                                  (Σ[k] / (1 + c h γ) − Σ[3+k]) / Σ[6],
+ *                                  c = 1 (backward Euler) or ½ (trapezoid);
+ *                                  returns 0 when there is no correction;
+ *   end(s, h, x)                   the new velocities x on the active
+ *                                  nodes: the step ends (state, time,
+ *                                  step count).
+ * Vectors are 3 planes of W·H doubles (component c of stored node p at
+ * c·W·H + p), read and written at canonical nodes.  rows: canonical
+ * stored indices.  begin: NDO_EINVAL for an explicit method or a bad h,
+ * NDO_EDIVERGED as ndo_sim_step. */
+int ndo_sim_implicit_begin(ndo_sim *s, double h, const int32_t *rows, size_t n, double *b,
+                           double *dinv);
+void ndo_sim_implicit_apply(const ndo_sim *s, double h, const int32_t *rows, size_t n,
+                            const double *x, double *y);
+int ndo_sim_implicit_rigid(const ndo_sim *s, double h, const int32_t *rows, size_t n,
+                           const double *x, double sums[7], double *gamma);
+int ndo_sim_implicit_end(ndo_sim *s, double h, const double *x);
+
 /* The divergence test of ndo_sim_step on the current state, without
  * stepping: NDO_OK or NDO_EDIVERGED. */
 int ndo_sim_check(ndo_sim *s);
