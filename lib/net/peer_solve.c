@@ -21,7 +21,10 @@
  *           x += αp, r −= αq, z = D⁻¹r → [z, (r·z, r·r)] → ... until
  *           |r| ≤ 1e-13 |b|; then, for an object without pins, the
  *           momentum correction's sums → [(7 sums)] → the step ends.
- *           Jacobi-preconditioned; the result is the single process's
+ *           Preconditioned with each region's block of A, factored by
+ *           CHOLMOD (block Jacobi: the solve is exact within a region,
+ *           and only the coupling across the cut is iterated), or with
+ *           A's diagonal (Jacobi, for comparison); the result is the single process's
  *           CHOLMOD solution to the solve's tolerance, not bit for bit. */
 #include "peer_solve.h"
 #include "ndo/status.h"
@@ -90,6 +93,7 @@ struct ndo__ps {
 	/* implicit: conjugate gradients, 3 planes each */
 	double *x, *b, *rr, *z, *p, *q, *dinv, *tmp;
 	double rz, bb;
+	int jacobi;      /* precondition with the diagonal, not the region's block */
 	ndo__ps_stats st;
 };
 
@@ -128,7 +132,7 @@ void ndo__ps_destroy(ndo__ps *ps)
 	free(ps);
 }
 
-int ndo__ps_create(ndo_session *s, ndo_sim *sim, ndo__ps **out)
+int ndo__ps_create(ndo_session *s, ndo_sim *sim, int jacobi, ndo__ps **out)
 {
 	ndo__clear_error();
 	ndo__ps *ps = calloc(1, sizeof *ps);
@@ -139,6 +143,7 @@ int ndo__ps_create(ndo_session *s, ndo_sim *sim, ndo__ps **out)
 	ps->sim = sim;
 	ps->method = ndo_sim_method(sim);
 	ps->implicit = ndo_method_is_implicit(ps->method);
+	ps->jacobi = jacobi;
 	ps->count = g->count;
 	ps->step = -1;
 	ps->phase = -1;
@@ -560,8 +565,11 @@ static int send_z(ndo__ps *ps, int with_b)
 	for (size_t k = 0; k < ps->r.nown; k++) {
 		size_t p = (size_t)ps->r.own[k];
 		for (int c = 0; c < 3; c++)
-			ps->z[(size_t)c * n + p] = ps->dinv[p] * ps->rr[(size_t)c * n + p];
+			ps->z[(size_t)c * n + p] = ps->jacobi ? ps->dinv[p] * ps->rr[(size_t)c * n + p] : 0;
 	}
+	int rc;
+	if (!ps->jacobi && (rc = ndo_sim_implicit_precondition(ps->sim, ps->h, ps->rr, ps->z)))
+		return rc;
 	double sums[3] = {dot(ps, ps->rr, ps->z), dot(ps, ps->rr, ps->rr),
 	                  with_b ? dot(ps, ps->b, ps->b) : 0};
 	return next_phase(ps, 3, ps->z, sums, with_b ? 3 : 2);

@@ -41,7 +41,9 @@ typedef struct ndo__ps_region {
 	const uint8_t *mask;
 } ndo__ps_region;
 
-int ndo__ps_create(ndo_session *s, ndo_sim *sim, ndo__ps **out);
+/* jacobi: the implicit methods' solve preconditioned with A's diagonal
+ * instead of the region's block (ndo_sim_implicit_precondition). */
+int ndo__ps_create(ndo_session *s, ndo_sim *sim, int jacobi, ndo__ps **out);
 void ndo__ps_destroy(ndo__ps *ps);
 
 /* Before the region changes: a step under way is given up and the

@@ -216,7 +216,8 @@ static int factor(ndo_sim *s, ndo__implicit *im, double h)
 	return NDO_OK;
 }
 
-int ndo__implicit_step(ndo_sim *s, double h)
+/* The solver, created on first use, with the factor for step h. */
+static int ready(ndo_sim *s, double h)
 {
 	ndo__implicit *im = s->imp;
 	if (!im) {
@@ -229,6 +230,45 @@ int ndo__implicit_step(ndo_sim *s, double h)
 	int rc;
 	if ((!im->valid || im->h != h) && (rc = factor(s, im, h)))
 		return rc;
+	return NDO_OK;
+}
+
+int ndo_sim_implicit_precondition(ndo_sim *s, double h, const double *r, double *z)
+{
+	ndo__clear_error();
+	if (!ndo_method_is_implicit(s->p.method))
+		return ndo__fail(NDO_EINVAL, "ndo_sim_implicit_precondition: %s is not implicit",
+		                 ndo_method_names[s->p.method]);
+	int rc = ready(s, h);
+	if (rc)
+		return rc;
+	ndo__implicit *im = s->imp;
+	const size_t cnt = s->count;
+	cholmod_dense *B = cholmod_allocate_dense(im->na, 3, im->na, CHOLMOD_REAL, &im->cm);
+	if (!B)
+		return ndo__fail(NDO_ENOMEM, "out of memory for the implicit solver");
+	double *bx = B->x;
+	for (size_t r0 = 0; r0 < im->na; r0++)
+		for (int c = 0; c < 3; c++)
+			bx[(size_t)c * im->na + r0] = r[(size_t)c * cnt + (size_t)im->nodes[r0]];
+	cholmod_dense *X = cholmod_solve(CHOLMOD_A, im->L, B, &im->cm);
+	cholmod_free_dense(&B, &im->cm);
+	if (!X)
+		return ndo__fail(NDO_ENOMEM, "CHOLMOD could not solve (status %d)", im->cm.status);
+	const double *xv = X->x;
+	for (size_t r0 = 0; r0 < im->na; r0++)
+		for (int c = 0; c < 3; c++)
+			z[(size_t)c * cnt + (size_t)im->nodes[r0]] = xv[(size_t)c * im->na + r0];
+	cholmod_free_dense(&X, &im->cm);
+	return NDO_OK;
+}
+
+int ndo__implicit_step(ndo_sim *s, double h)
+{
+	int rc = ready(s, h);
+	if (rc)
+		return rc;
+	ndo__implicit *im = s->imp;
 	const size_t cnt = s->count;
 	const int trap = s->p.method == NDO_TRAPEZOID;
 	/* a = M⁻¹(f(t) − K u) − γ v (f holds the penalty springs), with the

@@ -93,6 +93,21 @@ static void split_steps_are_the_single_process(void)
 			       m ? "CG iterations (solves)" : "sub-steps attempted (rejected)",
 			       (long long)(m ? st.iterations : st.attempts),
 			       (long long)(m ? st.solves : st.rejected));
+			if (m && k < 2) {
+				/* the diagonal alone as the preconditioner: the same result,
+				 * more iterations */
+				ndo_peer_stats sj;
+				su.jacobi = 1;
+				double dj = split_run(&su, n, &sj, &ok);
+				CHECK(ok && dj <= 1e-10 && sj.iterations > st.iterations,
+				      "%s, %d peers, Jacobi: done %d, differs by %.3g, %lld iterations "
+				      "(the region's block: %lld)", methods[m], n, ok, dj,
+				      (long long)sj.iterations, (long long)st.iterations);
+				printf("    ... preconditioned with the diagonal (Jacobi): difference %.3g, "
+				       "%lld iterations in %lld solves, %lld exchanges\n", dj,
+				       (long long)sj.iterations, (long long)sj.solves,
+				       (long long)sj.exchanges);
+			}
 		}
 }
 

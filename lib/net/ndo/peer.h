@@ -95,6 +95,11 @@ typedef struct ndo_peer_opts {
 	                           lag's error O(h²) instead of O(h)), and a
 	                           value of another step is first carried
 	                           along its velocity, by one step at most */
+	int jacobi;             /* exact backward Euler and trapezoid: this peer
+	                           preconditions the distributed solve with the
+	                           system's diagonal (Jacobi) instead of its
+	                           region's block factored by CHOLMOD (the
+	                           default): for comparison (test_peer) */
 	/* Each peer's own: */
 	double start_timeout;   /* owner: end the session (NDO_PEER_ENDED) when
 	                           `peers` have not joined within this; joiner:

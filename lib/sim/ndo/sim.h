@@ -273,6 +273,13 @@ void ndo_sim_implicit_apply(const ndo_sim *s, double h, const int32_t *rows, siz
 int ndo_sim_implicit_rigid(const ndo_sim *s, double h, const int32_t *rows, size_t n,
                            const double *x, double sums[7], double *gamma);
 int ndo_sim_implicit_end(ndo_sim *s, double h, const double *x);
+/* z = A_AA⁻¹ r on the active unknowns, with the simulation's own CHOLMOD
+ * factor of the system restricted to them (factored when h, K or the
+ * active set changed): for a peer whose active nodes are its region, the
+ * block-Jacobi (additive Schwarz without overlap) preconditioner of the
+ * whole system.  z's other entries are left as they are.  NDO_ENOMEM,
+ * NDO_EDIVERGED (not positive definite). */
+int ndo_sim_implicit_precondition(ndo_sim *s, double h, const double *r, double *z);
 
 /* The divergence test of ndo_sim_step on the current state, without
  * stepping: NDO_OK or NDO_EDIVERGED. */
