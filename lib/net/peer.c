@@ -84,6 +84,8 @@ struct ndo_peer {
 	size_t nhstash, caphstash;
 	ndo__ps *ps;           /* rkf45 and the implicit methods: steps of several
 	                          exchanges (peer_solve.h), when exact */
+	double split_t0;       /* ... the last progress of the step waited for */
+	int64_t split_phases;  /* ... and the phases sent then */
 	int failed;
 	double now;
 	char message[320];
@@ -1160,10 +1162,9 @@ static int step(ndo_peer *p)
 
 /* Exact lock-step of rkf45 and the implicit methods: the step goes on
  * as far as the others' messages allow (peer_solve.h); a peer that waits
- * sends its last two phases again.  There is no going on without them:
- * after step_timeout the peer says so (once a step) and keeps waiting — a
- * dead peer is re-partitioned after the peer timeout, and the step starts
- * again under the new partition. */
+ * sends its last two phases again, and after step_timeout takes the step
+ * alone (ndo_sim_step, the others' nodes held at their older values) and
+ * counts the miss. */
 static int step_split(ndo_peer *p)
 {
 	double t0 = wall();
@@ -1173,21 +1174,40 @@ static int step_split(ndo_peer *p)
 		return rc;
 	if (rc == 0) {
 		double now = p->now;
+		ndo__ps_stats ps;
+		ndo__ps_stats_get(p->ps, &ps);
 		if (!p->blocked) {
 			p->blocked = 1;
 			p->block_t0 = now;
+			p->st.waited++;
+		}
+		if (p->split_t0 < p->block_t0 || ps.phases != p->split_phases) {
+			/* a new wait, or the step went on: the re-sends and the timeout
+			 * start again (a step of many phases may take longer than
+			 * step_timeout, and each phase may need a re-send) */
+			p->split_t0 = now;
+			p->split_phases = ps.phases;
 			p->resend_gap = p->o.resend;
 			p->next_resend = now + p->resend_gap;
-			p->st.waited++;
-			p->notes_missed = 0;
 		}
-		if (now - p->block_t0 >= p->step_timeout && !p->notes_missed) {
-			p->notes_missed = 1;
-			p->st.timeouts++;
-			note(p, "step %lld: waiting %.2g s for the other peers' part of the step",
-			     (long long)p->cur, now - p->block_t0);
-		}
-		return resend_due(p);
+		if (now - p->split_t0 < p->step_timeout)
+			return resend_due(p);
+		/* a neighbour that died, or peers that a new partition caught at
+		 * different steps: this step is taken alone, with the halo's
+		 * older values (the run is no longer exact), and the peers meet
+		 * again at the next one */
+		p->st.timeouts++;
+		p->st.missed += (int64_t)p->nhalo;
+		if (p->notes_missed++ < 5)
+			note(p, "step %lld: the other peers' part of the step did not come within %.2g s: "
+			     "this step is taken with older values%s", (long long)p->cur,
+			     now - p->split_t0, p->notes_missed == 5 ? " (no more such messages)" : "");
+		ndo__ps_abort(p->ps);
+		t0 = wall();
+		rc = ndo_sim_step(p->sim, p->dt);
+		p->st.compute_seconds += wall() - t0;
+		if (rc)
+			return rc;
 	}
 	p->cur++;
 	p->tcur = ndo_sim_time(p->sim);
@@ -1424,7 +1444,8 @@ double ndo_peer_deadline(const ndo_peer *p)
 		                                                     p->dt / p->speed);
 	if (!p->blocked)
 		return now; /* it may step: ask again at once */
-	return fmin(d, fmin(p->next_resend, p->block_t0 + p->step_timeout));
+	double t0 = p->exact && p->ps ? p->split_t0 : p->block_t0;
+	return fmin(d, fmin(p->next_resend, t0 + p->step_timeout));
 }
 
 int ndo_peer_create(const ndo_peer_opts *o, ndo_net *net, ndo_grid *grid, ndo_sim *sim,

@@ -226,7 +226,8 @@ static void take(ndo__ps *ps, const ndo_msg_solve_t *m)
 	if (ps->skey[i] != key) {
 		ps->skey[i] = key;
 		ps->nsums[i] = m->nsums;
-		memcpy(ps->sums[i], m->sums, (size_t)m->nsums * sizeof(double));
+		if (m->nsums)
+			memcpy(ps->sums[i], m->sums, (size_t)m->nsums * sizeof(double));
 	}
 	const int vpn = m->per_node;
 	if (!vpn)
@@ -263,10 +264,15 @@ static int stash(ndo__ps *ps, const ndo_msg_solve_t *m)
 		free_msg(c);
 		return NDO_ENOMEM;
 	}
-	memcpy(c->start, m->start, (size_t)m->nruns * sizeof *c->start);
-	memcpy(c->len, m->len, (size_t)m->nruns * sizeof *c->len);
-	memcpy(c->values, m->values, (size_t)m->nvalues * sizeof *c->values);
-	memcpy(c->sums, m->sums, (size_t)m->nsums * sizeof *c->sums);
+	/* (a decoded empty array is NULL) */
+	if (m->nruns) {
+		memcpy(c->start, m->start, (size_t)m->nruns * sizeof *c->start);
+		memcpy(c->len, m->len, (size_t)m->nruns * sizeof *c->len);
+	}
+	if (m->nvalues)
+		memcpy(c->values, m->values, (size_t)m->nvalues * sizeof *c->values);
+	if (m->nsums)
+		memcpy(c->sums, m->sums, (size_t)m->nsums * sizeof *c->sums);
 	ps->nstash++;
 	return 0;
 }
@@ -395,12 +401,14 @@ static int next_phase(ndo__ps *ps, int vpn, const double *planes, const double *
 		return ndo__fail(NDO_EDIVERGED, "step %lld takes more than %d exchanges",
 		                 (long long)ps->step, PHASE_MAX);
 	ps->phase++;
-	int b = ps->phase & 1;
+	int b = (int)(ps->st.phases & 1); /* the older of the two (not by phase: a step's
+	                                    last and the next step's first may share it) */
 	sent *sl = &ps->last[b];
 	sl->key = key_of(ps->step, ps->phase);
 	sl->per_node = vpn;
 	sl->nsums = nsums;
-	memcpy(sl->sums, sums, (size_t)nsums * sizeof *sums);
+	if (nsums)
+		memcpy(sl->sums, sums, (size_t)nsums * sizeof *sums);
 	if (vpn == 6) {
 		/* velocity, displacement */
 		ndo_sim_get_nodes(ps->sim, ps->r.nstrip, ps->r.strip, NULL, ps->tmp,
@@ -419,7 +427,8 @@ static int next_phase(ndo__ps *ps, int vpn, const double *planes, const double *
 	if (i >= 0) {
 		ps->skey[i] = sl->key;
 		ps->nsums[i] = nsums;
-		memcpy(ps->sums[i], sums, (size_t)nsums * sizeof *sums);
+		if (nsums)
+			memcpy(ps->sums[i], sums, (size_t)nsums * sizeof *sums);
 	}
 	ps->st.phases++;
 	int rc = send_slot(ps, b);
