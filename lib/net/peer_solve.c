@@ -11,9 +11,12 @@
  * peer's sums have come; it adds the sums in the order of the peers' ids
  * (or takes their maximum), so all get the same bits.
  *
- * rkf45:    state (4 rings) → error → accept: state → error ... a
- *           rejected attempt needs no new state (the step's state did not
- *           change).  The owned nodes' stage values are the single
+ * rkf45:    state (4 rings) → [error, the strip's state should the
+ *           attempt be accepted] → [error, state] ...: one exchange per
+ *           attempt (a rejected attempt's state is not used; the last
+ *           attempt of a step brings the next step's halo, so only the
+ *           run's first step, or one after a new partition, exchanges the
+ *           state alone).  The owned nodes' stage values are the single
  *           process's, and the error is a maximum: the sub-steps are the
  *           single process's, and so is the result, bit for bit.
  * implicit: state (1 ring) → b, x₀ = v, r₀ = b − A x₀, z₀ = D⁻¹r₀ →
@@ -94,6 +97,8 @@ struct ndo__ps {
 	double *x, *b, *rr, *z, *p, *q, *dinv, *tmp;
 	double rz, bb;
 	int jacobi;      /* precondition with the diagonal, not the region's block */
+	int peek;        /* rkf45: the state strip is the attempt's outcome */
+	int64_t ready;   /* rkf45: the step whose start the halo holds (−1: none) */
 	ndo__ps_stats st;
 };
 
@@ -148,6 +153,7 @@ int ndo__ps_create(ndo_session *s, ndo_sim *sim, int jacobi, ndo__ps **out)
 	ps->step = -1;
 	ps->phase = -1;
 	ps->state = IDLE;
+	ps->ready = -1;
 	size_t n = ps->count;
 	int ok = (ps->rkey = malloc(n * sizeof *ps->rkey)) && (ps->rval = malloc(6 * n * sizeof(double))) &&
 	         (ps->last[0].values = malloc(6 * n * sizeof(double))) &&
@@ -393,6 +399,19 @@ static int send_slot(ndo__ps *ps, int b)
 	return 0;
 }
 
+/* The strip's state if the sub-step just attempted is accepted (velocity,
+ * displacement per node), into slot values via next_phase's planes. */
+static void peek_strip(ndo__ps *ps, double *vals)
+{
+	size_t n = ps->r.nstrip;
+	double *u = ps->tmp, *v = ps->tmp + 3 * n;
+	ndo_sim_rkf45_peek(ps->sim, n, ps->r.strip, u, v);
+	for (size_t k = 0; k < n; k++) {
+		memcpy(vals + 6 * k, v + 3 * k, 3 * sizeof(double));
+		memcpy(vals + 6 * k + 3, u + 3 * k, 3 * sizeof(double));
+	}
+}
+
 /* The next phase: this peer's part (per node of the strip: `vpn` values
  * of `planes`/the state; `sums`) goes out and is taken as received. */
 static int next_phase(ndo__ps *ps, int vpn, const double *planes, const double *sums, int nsums)
@@ -409,7 +428,9 @@ static int next_phase(ndo__ps *ps, int vpn, const double *planes, const double *
 	sl->nsums = nsums;
 	if (nsums)
 		memcpy(sl->sums, sums, (size_t)nsums * sizeof *sums);
-	if (vpn == 6) {
+	if (vpn == 6 && ps->peek) {
+		peek_strip(ps, sl->values);
+	} else if (vpn == 6) {
 		/* velocity, displacement */
 		ndo_sim_get_nodes(ps->sim, ps->r.nstrip, ps->r.strip, NULL, ps->tmp,
 		                  ps->tmp + 3 * ps->r.nstrip);
@@ -456,6 +477,7 @@ void ndo__ps_abort(ndo__ps *ps)
 	ps->step = -1;
 	ps->phase = -1;
 	ps->snapped = 0;
+	ps->ready = -1;
 }
 
 void ndo__ps_set_region(ndo__ps *ps, const ndo__ps_region *r)
@@ -520,13 +542,19 @@ static int rkf45_advance(ndo__ps *ps)
 			 * controller treats all three alike (reject, a tenth) */
 			if (!isfinite(err))
 				err = DBL_MAX;
-			if ((rc = next_phase(ps, 0, NULL, &err, 1)))
+			/* with the error, the strip's state after the sub-step should
+			 * it be accepted: the next sub-step's halo, without another
+			 * exchange */
+			ps->peek = 1;
+			rc = next_phase(ps, 6, NULL, &err, 1);
+			ps->peek = 0;
+			if (rc)
 				return rc;
 			ps->state = WAIT_ERR;
 			break;
 		}
 		case WAIT_ERR: {
-			if (!sums_complete(ps))
+			if (!sums_complete(ps) || !halo_complete(ps))
 				return 0;
 			double err = 0;
 			for (int k = 0; k < ps->nids; k++)
@@ -537,17 +565,19 @@ static int rkf45_advance(ndo__ps *ps)
 			int rc = ndo_sim_rkf45_decide(ps->sim, err);
 			if (rc < 0)
 				return rc;
-			if (rc == 1) {
-				ps->state = IDLE;
-				return 1;
-			}
 			ndo_sim_stats_get(ps->sim, &b);
 			if (b.rejected > a.rejected) {
 				ps->st.rejected++;
 				ps->state = ATTEMPT; /* the same state, a smaller sub-step */
-			} else {
-				ps->state = SEND_STATE;
+				break;
 			}
+			halo_state(ps); /* the halo at the accepted sub-step's end */
+			if (rc == 1) {
+				ps->state = IDLE;
+				ps->ready = ps->step + 1; /* the next step's halo is here */
+				return 1;
+			}
+			ps->state = ATTEMPT;
 			break;
 		}
 		default: return ndo__fail(NDO_EINVAL, "peer solve: state %d", ps->state);
@@ -734,6 +764,10 @@ int ndo__ps_advance(ndo__ps *ps, int64_t step, double h)
 			int rc = ndo_sim_rkf45_begin(ps->sim, h);
 			if (rc)
 				return rc;
+			/* the last step's last attempt brought this step's halo */
+			if (ps->ready == step)
+				ps->state = ATTEMPT;
+			ps->ready = -1;
 		}
 	}
 	return ps->implicit ? implicit_advance(ps) : rkf45_advance(ps);

@@ -1341,6 +1341,34 @@ int ndo_sim_rkf45_decide(ndo_sim *s, double err)
 	return rc;
 }
 
+void ndo_sim_rkf45_peek(const ndo_sim *s, size_t n, const int32_t *nodes, double *u, double *v)
+{
+	/* rk_finish's arithmetic, node by node, in its order (no contraction
+	 * into fused multiply-adds under -std=c11: the same bits) */
+	const tableau *tb = &tb_rkf45;
+	const double h = s->rk_h;
+	const size_t cnt = s->count;
+	for (size_t k = 0; k < n; k++) {
+		size_t p = (size_t)s->canon[nodes[k]];
+		for (int c = 0; c < 3; c++) {
+			size_t q = (size_t)c * cnt + p;
+			double uu = s->u[q], vv = s->v[q];
+			if (s->active[p]) {
+				for (int j = 1; j < tb->s; j++)
+					if (tb->b[j] != 0)
+						uu += h * tb->b[j] * s->kv[j][q];
+				if (tb->b[0] != 0)
+					uu += h * tb->b[0] * s->v[q];
+				for (int j = 0; j < tb->s; j++)
+					if (tb->b[j] != 0)
+						vv += h * tb->b[j] * s->ka[j][q];
+			}
+			u[3 * k + c] = uu;
+			v[3 * k + c] = vv;
+		}
+	}
+}
+
 void ndo_sim_rkf45_abort(ndo_sim *s)
 {
 	s->t = s->rk_t0;

@@ -235,6 +235,11 @@ int ndo_sim_rkf45_begin(ndo_sim *s, double h);
 int ndo_sim_rkf45_attempt(ndo_sim *s, const uint8_t *rows, double *err, double *h);
 int ndo_sim_rkf45_decide(ndo_sim *s, double err);
 void ndo_sim_rkf45_abort(ndo_sim *s);
+/* The displacement and velocity (n × 3 doubles each) that n nodes (stored
+ * indices) will have if the sub-step just attempted is accepted, bit for
+ * bit: a peer sends its strip's with the error, so that one exchange per
+ * attempt serves both (ndo/peer.h). */
+void ndo_sim_rkf45_peek(const ndo_sim *s, size_t n, const int32_t *nodes, double *u, double *v);
 
 /* The implicit system by rows, for a solver that is not this
  * simulation's own — peers that solve it together (ndo/peer.h) — instead
