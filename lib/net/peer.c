@@ -430,7 +430,8 @@ int ndo_peer_halo_rings(ndo_method m)
 	case NDO_SYMPLECTIC_EULER:
 	case NDO_MIDPOINT: return 1;
 	case NDO_RK4: return 2;
-	default: return 0; /* rkf45's sub-steps vary; the implicit methods reach everywhere */
+	case NDO_RKF45: return 3; /* a sub-step's: its steps are split (peer_solve.h) */
+	default: return 0; /* the implicit methods reach everywhere */
 	}
 }
 

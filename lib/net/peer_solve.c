@@ -19,10 +19,11 @@
  *           state alone).  The owned nodes' stage values are the single
  *           process's, and the error is a maximum: the sub-steps are the
  *           single process's, and so is the result, bit for bit.
- * implicit: state (1 ring) → b, x₀ = v, r₀ = b − A x₀, z₀ = D⁻¹r₀ →
- *           [z, (b·b, r·z, r·r)] → p = z + βp, q = A p → [(p·q)] →
- *           x += αp, r −= αq, z = D⁻¹r → [z, (r·z, r·r)] → ... until
- *           |r| ≤ 1e-13 |b|; then, for an object without pins, the
+ * implicit: state (1 ring) → b, x₀ = v, r₀ = b − A x₀, u₀ = M⁻¹r₀ →
+ *           [u₀, (b·b, r·r)] → w = A u, m = M⁻¹w → [m, (r·u, w·u, r·r)]
+ *           → n = A m, the recurrences → [m, (r·u, w·u, r·r)] → ... until
+ *           |r| ≤ 1e-13 |b| (pipelined conjugate gradients: one exchange
+ *           per iteration); then, for an object without pins, the
  *           momentum correction's sums → [(7 sums)] → the step ends.
  *           Preconditioned with each region's block of A, factored by
  *           CHOLMOD (block Jacobi: the solve is exact within a region,
@@ -47,8 +48,8 @@ enum {
 	WAIT_STATE,
 	ATTEMPT,    /* rkf45: stages and error of the next sub-step */
 	WAIT_ERR,
-	WAIT_Z,     /* implicit: z on the halo and (r·z, r·r [, b·b]) */
-	WAIT_PQ,    /* implicit: (p·q) */
+	WAIT_U,     /* implicit: u₀ = M⁻¹r₀ on the halo and (b·b, r·r) */
+	WAIT_M,     /* implicit: m = M⁻¹w on the halo and (r·u, w·u, r·r) */
 	WAIT_RIGID  /* implicit: the momentum correction's sums */
 };
 
@@ -75,7 +76,6 @@ struct ndo__ps {
 	int32_t phase;   /* the phase last sent (−1: none yet) */
 	int state;
 	double h;
-	int first_z;
 	int64_t iter;
 	/* what came for the phase awaited */
 	int64_t *rkey;   /* per canonical node: the key of the value in rval */
@@ -94,8 +94,8 @@ struct ndo__ps {
 	int32_t *all;
 	int snapped;
 	/* implicit: conjugate gradients, 3 planes each */
-	double *x, *b, *rr, *z, *p, *q, *dinv, *tmp;
-	double rz, bb;
+	double *x, *b, *rr, *z, *p, *q, *u, *w, *m, *nv, *sv, *dinv, *tmp;
+	double gam, alpha, bb;
 	int jacobi;      /* precondition with the diagonal, not the region's block */
 	int peek;        /* rkf45: the state strip is the attempt's outcome */
 	int64_t ready;   /* rkf45: the step whose start the halo holds (−1: none) */
@@ -133,6 +133,7 @@ void ndo__ps_destroy(ndo__ps *ps)
 	free(ps->last[0].values), free(ps->last[1].values);
 	free(ps->snap_u), free(ps->snap_v), free(ps->all);
 	free(ps->x), free(ps->b), free(ps->rr), free(ps->z), free(ps->p), free(ps->q);
+	free(ps->u), free(ps->w), free(ps->m), free(ps->nv), free(ps->sv);
 	free(ps->dinv), free(ps->tmp);
 	free(ps);
 }
@@ -166,6 +167,9 @@ int ndo__ps_create(ndo_session *s, ndo_sim *sim, int jacobi, ndo__ps **out)
 		ok = (ps->x = calloc(3 * n, sizeof(double))) && (ps->b = calloc(3 * n, sizeof(double))) &&
 		     (ps->rr = calloc(3 * n, sizeof(double))) && (ps->z = calloc(3 * n, sizeof(double))) &&
 		     (ps->p = calloc(3 * n, sizeof(double))) && (ps->q = calloc(3 * n, sizeof(double))) &&
+		     (ps->u = calloc(3 * n, sizeof(double))) && (ps->w = calloc(3 * n, sizeof(double))) &&
+		     (ps->m = calloc(3 * n, sizeof(double))) && (ps->nv = calloc(3 * n, sizeof(double))) &&
+		     (ps->sv = calloc(3 * n, sizeof(double))) &&
 		     (ps->dinv = calloc(n, sizeof(double)));
 	if (!ok) {
 		ndo__ps_destroy(ps);
@@ -597,23 +601,60 @@ static double dot(const ndo__ps *ps, const double *a, const double *b)
 	return s;
 }
 
-/* z = D⁻¹ r on the rows; the partials (r·z, r·r[, b·b]) go out with z. */
-static int send_z(ndo__ps *ps, int with_b)
+/* out = M⁻¹ in on the rows: the region's block (CHOLMOD) or the diagonal. */
+static int precondition(ndo__ps *ps, const double *in, double *out)
 {
 	const size_t n = ps->count;
 	for (size_t k = 0; k < ps->r.nown; k++) {
 		size_t p = (size_t)ps->r.own[k];
 		for (int c = 0; c < 3; c++)
-			ps->z[(size_t)c * n + p] = ps->jacobi ? ps->dinv[p] * ps->rr[(size_t)c * n + p] : 0;
+			out[(size_t)c * n + p] = ps->jacobi ? ps->dinv[p] * in[(size_t)c * n + p] : 0;
 	}
-	int rc;
-	if (!ps->jacobi && (rc = ndo_sim_implicit_precondition(ps->sim, ps->h, ps->rr, ps->z)))
-		return rc;
-	double sums[3] = {dot(ps, ps->rr, ps->z), dot(ps, ps->rr, ps->rr),
-	                  with_b ? dot(ps, ps->b, ps->b) : 0};
-	return next_phase(ps, 3, ps->z, sums, with_b ? 3 : 2);
+	return ps->jacobi ? 0 : ndo_sim_implicit_precondition(ps->sim, ps->h, in, out);
 }
 
+/* y = A x on the rows (x on the rows and the halo). */
+static void apply(ndo__ps *ps, const double *x, double *y)
+{
+	ndo_sim_implicit_apply(ps->sim, ps->h, ps->r.own, ps->r.nown, x, y);
+}
+
+/* The solve is done: the momentum correction's sums when the single
+ * process makes one (a phase more), else the step's end. */
+static int solved(ndo__ps *ps)
+{
+	double sums[7], gamma;
+	if (ndo_sim_implicit_rigid(ps->sim, ps->h, ps->r.own, ps->r.nown, ps->x, sums, &gamma)) {
+		int rc = next_phase(ps, 0, NULL, sums, 7);
+		if (rc)
+			return rc;
+		ps->state = WAIT_RIGID;
+		return 0;
+	}
+	ndo_sim_implicit_end(ps->sim, ps->h, ps->x);
+	ps->state = IDLE;
+	return 1;
+}
+
+/* The next iteration's exchange: m = M⁻¹w on the strip, with the partial
+ * sums (r·u, w·u, r·r). */
+static int send_m(ndo__ps *ps)
+{
+	int rc = precondition(ps, ps->w, ps->m);
+	if (rc)
+		return rc;
+	double sums[3] = {dot(ps, ps->rr, ps->u), dot(ps, ps->w, ps->u), dot(ps, ps->rr, ps->rr)};
+	if ((rc = next_phase(ps, 3, ps->m, sums, 3)))
+		return rc;
+	ps->state = WAIT_M;
+	return 0;
+}
+
+/* Pipelined preconditioned conjugate gradients (Ghysels and Vanroose,
+ * 2014, algorithm 4): one exchange per iteration carries both the vector
+ * the next product needs (m = M⁻¹w, on the strip) and the partial sums of
+ * the iteration's dot products, where the textbook method needs a halo
+ * exchange and two reductions in turn. */
 static int implicit_advance(ndo__ps *ps)
 {
 	const size_t n = ps->count;
@@ -646,87 +687,87 @@ static int implicit_advance(ndo__ps *ps)
 				for (int c = 0; c < 3; c++)
 					ps->x[(size_t)c * n + h] = ps->rval[6 * h + (size_t)c];
 			}
-			ndo_sim_implicit_apply(ps->sim, ps->h, own, nown, ps->x, ps->q);
+			apply(ps, ps->x, ps->w);
 			for (size_t k = 0; k < nown; k++)
 				for (int c = 0; c < 3; c++) {
 					size_t q = (size_t)c * n + (size_t)own[k];
-					ps->rr[q] = ps->b[q] - ps->q[q];
+					ps->rr[q] = ps->b[q] - ps->w[q];
 				}
-			ps->first_z = 1;
+			if ((rc = precondition(ps, ps->rr, ps->u)))
+				return rc;
 			ps->iter = 0;
 			ps->st.solves++;
-			if ((rc = send_z(ps, 1)))
+			double sums[2] = {dot(ps, ps->b, ps->b), dot(ps, ps->rr, ps->rr)};
+			if ((rc = next_phase(ps, 3, ps->u, sums, 2)))
 				return rc;
-			ps->state = WAIT_Z;
+			ps->state = WAIT_U;
 			break;
 		}
-		case WAIT_Z: {
+		case WAIT_U: {
 			if (!halo_complete(ps) || !sums_complete(ps))
 				return 0;
-			double rz = total(ps, 0), rr = total(ps, 1);
-			if (ps->first_z)
-				ps->bb = total(ps, 2);
-			halo_vector(ps, ps->z);
-			int rc;
-			if (!(rr > CG_TOL * CG_TOL * ps->bb)) {
-				/* converged (or nothing to solve) */
-				double sums[7], gamma;
-				if (ndo_sim_implicit_rigid(ps->sim, ps->h, own, nown, ps->x, sums, &gamma)) {
-					if ((rc = next_phase(ps, 0, NULL, sums, 7)))
-						return rc;
-					ps->state = WAIT_RIGID;
-					break;
-				}
-				ndo_sim_implicit_end(ps->sim, ps->h, ps->x);
-				ps->state = IDLE;
-				return 1;
-			}
+			ps->bb = total(ps, 0);
+			if (!(total(ps, 1) > CG_TOL * CG_TOL * ps->bb))
+				return solved(ps); /* x₀ solves it (a body at rest) */
+			halo_vector(ps, ps->u);
+			apply(ps, ps->u, ps->w);
+			int rc = send_m(ps);
+			if (rc)
+				return rc;
+			break;
+		}
+		case WAIT_M: {
+			if (!halo_complete(ps) || !sums_complete(ps))
+				return 0;
+			double gam = total(ps, 0), del = total(ps, 1), rr = total(ps, 2);
+			if (!(rr > CG_TOL * CG_TOL * ps->bb))
+				return solved(ps);
 			if (++ps->iter > CG_MAX)
 				return ndo__fail(NDO_EDIVERGED, "the distributed solve of step %lld did not "
 				                 "converge in %d iterations (residual %.3g of the right-hand "
 				                 "side)", (long long)ps->step, CG_MAX, sqrt(rr / ps->bb));
 			ps->st.iterations++;
-			double beta = ps->first_z ? 0 : rz / ps->rz;
-			ps->first_z = 0;
-			ps->rz = rz;
-			/* p = z + βp on the rows and on the halo (both sides compute the
-			 * halo's, from the same values) */
-			for (int c = 0; c < 3; c++) {
-				double *P = ps->p + (size_t)c * n;
-				const double *Z = ps->z + (size_t)c * n;
-				for (size_t k = 0; k < nown; k++)
-					P[own[k]] = Z[own[k]] + beta * P[own[k]];
-				for (size_t k = 0; k < ps->r.nhalo; k++)
-					P[ps->r.halo[k]] = Z[ps->r.halo[k]] + beta * P[ps->r.halo[k]];
+			halo_vector(ps, ps->m);
+			apply(ps, ps->m, ps->nv);
+			double alpha, beta;
+			int first = ps->iter == 1;
+			if (first) {
+				beta = 0;
+				alpha = gam / del;
+			} else {
+				beta = gam / ps->gam;
+				alpha = gam / (del - beta * gam / ps->alpha);
 			}
-			ndo_sim_implicit_apply(ps->sim, ps->h, own, nown, ps->p, ps->q);
-			double pq = dot(ps, ps->p, ps->q);
-			if ((rc = next_phase(ps, 0, NULL, &pq, 1)))
-				return rc;
-			ps->state = WAIT_PQ;
-			break;
-		}
-		case WAIT_PQ: {
-			if (!sums_complete(ps))
-				return 0;
-			double pq = total(ps, 0);
-			if (!(pq > 0))
+			if (!(alpha > 0) || !isfinite(alpha))
 				return ndo__fail(NDO_EDIVERGED, "the implicit system is not positive definite "
-				                 "(pᵀAp = %g in the distributed solve of step %lld)", pq,
-				                 (long long)ps->step);
-			double alpha = ps->rz / pq;
+				                 "(step %lld of the distributed solve: α = %g)",
+				                 (long long)ps->step, alpha);
+			ps->gam = gam;
+			ps->alpha = alpha;
 			for (int c = 0; c < 3; c++) {
 				const size_t o = (size_t)c * n;
 				for (size_t k = 0; k < nown; k++) {
 					size_t q = o + (size_t)own[k];
+					if (first) {
+						ps->z[q] = ps->nv[q];
+						ps->q[q] = ps->m[q];
+						ps->sv[q] = ps->w[q];
+						ps->p[q] = ps->u[q];
+					} else {
+						ps->z[q] = ps->nv[q] + beta * ps->z[q];
+						ps->q[q] = ps->m[q] + beta * ps->q[q];
+						ps->sv[q] = ps->w[q] + beta * ps->sv[q];
+						ps->p[q] = ps->u[q] + beta * ps->p[q];
+					}
 					ps->x[q] += alpha * ps->p[q];
-					ps->rr[q] -= alpha * ps->q[q];
+					ps->rr[q] -= alpha * ps->sv[q];
+					ps->u[q] -= alpha * ps->q[q];
+					ps->w[q] -= alpha * ps->z[q];
 				}
 			}
-			int rc = send_z(ps, 0);
+			int rc = send_m(ps);
 			if (rc)
 				return rc;
-			ps->state = WAIT_Z;
 			break;
 		}
 		case WAIT_RIGID: {

@@ -11,10 +11,13 @@
  *                      next to its region (its halo), the value of step t
  *                      from that node's peer.  Tiles of later steps wait
  *                      in a stash until the peer gets there, so the result
- *                      does not depend on timing: with no loss it is the
- *                      single-process run to rounding for the one-stage
- *                      methods (forward and symplectic Euler), and with an
- *                      O(h) boundary-lag error for the multi-stage ones.
+ *                      does not depend on timing: with no loss, exact
+ *                      halos (hold_boundary 0) make it the single-process
+ *                      run — bit for bit for the explicit methods, rkf45
+ *                      included, and to the distributed solve's tolerance
+ *                      for the implicit ones (ndo_peer_halo_rings); the
+ *                      thesis' held boundary has an O(h) lag error for the
+ *                      multi-stage methods.
  *                      A peer that waits sends its own last two steps
  *                      again (after `resend`, doubling up to 0.2 s), which
  *                      recovers lost tiles; after `step_timeout` it goes
@@ -61,7 +64,13 @@ typedef enum ndo_clock { NDO_CLOCK_LOCKSTEP = 1, NDO_CLOCK_REALTIME = 2 } ndo_cl
  * nodes at most this many rings away — 1 for forward and symplectic Euler
  * and midpoint, 2 for rk4 (a stage's displacement reads only its own
  * node's velocity, so the reach grows every second stage), 3 for one
- * rkf45 sub-step.  0 for the implicit methods (they reach everywhere). */
+ * rkf45 sub-step.  0 for the implicit methods (they reach everywhere).
+ * Exact lock-step exchanges a halo this wide (and one ring more, held,
+ * for the multi-stage methods) every step; rkf45 and the implicit
+ * methods exchange within each step instead (lib/net/peer_solve.h): rkf45
+ * a 4-ring halo and its error at every attempted sub-step, the implicit
+ * methods a 1-ring halo and the vectors and sums of a conjugate-gradient
+ * solve over the peers. */
 int ndo_peer_halo_rings(ndo_method m);
 
 /* "lockstep", "realtime"; parse: −1 if unknown. */
