@@ -41,6 +41,7 @@
 #define CG_TOL 1e-13       /* |r| ≤ CG_TOL |b| (2-norms over every unknown) */
 #define CG_MAX 20000       /* iterations before the solve gives up */
 #define PHASE_MAX 16777215 /* phases in one step */
+#define STASH_MAX 4096     /* messages kept for later phases */
 
 enum {
 	IDLE,       /* no step under way */
@@ -256,6 +257,8 @@ static void take(ndo__ps *ps, const ndo_msg_solve_t *m)
 
 static int stash(ndo__ps *ps, const ndo_msg_solve_t *m)
 {
+	if (ps->nstash >= STASH_MAX)
+		return 0; /* a flood of future phases: a re-send brings what is needed */
 	if (ps->nstash == ps->capstash) {
 		size_t cap = ps->capstash ? 2 * ps->capstash : 32;
 		stashed *q = realloc(ps->stash, cap * sizeof *q);
