@@ -521,16 +521,23 @@ static void halo_vector(ndo__ps *ps, double *planes)
 	}
 }
 
+/* The step's state on the strip, alone: the first phase of a step whose
+ * halo did not come with the last one. */
+static int send_state(ndo__ps *ps)
+{
+	ps->state = WAIT_STATE;
+	return next_phase(ps, 6, NULL, NULL, 0);
+}
+
 /* ---- rkf45 ------------------------------------------------------------------ */
 static int rkf45_advance(ndo__ps *ps)
 {
 	for (;;) {
 		switch (ps->state) {
 		case SEND_STATE: {
-			int rc = next_phase(ps, 6, NULL, NULL, 0);
+			int rc = send_state(ps);
 			if (rc)
 				return rc;
-			ps->state = WAIT_STATE;
 			break;
 		}
 		case WAIT_STATE:
@@ -666,10 +673,9 @@ static int implicit_advance(ndo__ps *ps)
 	for (;;) {
 		switch (ps->state) {
 		case SEND_STATE: {
-			int rc = next_phase(ps, 6, NULL, NULL, 0);
+			int rc = send_state(ps);
 			if (rc)
 				return rc;
-			ps->state = WAIT_STATE;
 			break;
 		}
 		case WAIT_STATE: {

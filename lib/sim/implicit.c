@@ -263,21 +263,17 @@ int ndo_sim_implicit_precondition(ndo_sim *s, double h, const double *r, double 
 	return NDO_OK;
 }
 
-int ndo__implicit_step(ndo_sim *s, double h)
+int ndo__implicit_prepare(ndo_sim *s, double h, double **accel, double **dforce)
 {
-	int rc = ready(s, h);
-	if (rc)
-		return rc;
-	ndo__implicit *im = s->imp;
 	const size_t cnt = s->count;
-	const int trap = s->p.method == NDO_TRAPEZOID;
 	/* a = M⁻¹(f(t) − K u) − γ v (f holds the penalty springs), with the
 	 * divergence test. */
 	ndo__diag d;
 	double *a = s->ka[0];
 	ndo__accel(s, s->t, s->u, s->v, a, &d);
 	s->last_power = d.power;
-	if ((rc = ndo__diverged(s, &d, 1)))
+	int rc = ndo__diverged(s, &d, 1);
+	if (rc)
 		return rc;
 	/* f(t+h) − f(t), at the positions the step starts from. */
 	double *df = NULL;
@@ -300,6 +296,22 @@ int ndo__implicit_step(ndo_sim *s, double h)
 				df[q] += s->alpha * h * s->v[q];
 			}
 	}
+	*accel = a;
+	*dforce = df;
+	return NDO_OK;
+}
+
+int ndo__implicit_step(ndo_sim *s, double h)
+{
+	int rc = ready(s, h);
+	if (rc)
+		return rc;
+	ndo__implicit *im = s->imp;
+	const size_t cnt = s->count;
+	const int trap = s->p.method == NDO_TRAPEZOID;
+	double *a, *df;
+	if ((rc = ndo__implicit_prepare(s, h, &a, &df)))
+		return rc;
 	/* Trapezoid: K_AA v_A (held velocities do not enter: held positions
 	 * stay put during the step). */
 	double *kv = s->tmp;

@@ -70,37 +70,16 @@ int ndo_sim_implicit_begin(ndo_sim *s, double h, const int32_t *rows, size_t nro
 		                 ndo_method_names[s->p.method]);
 	if (!(h > 0) || !isfinite(h))
 		return ndo__fail(NDO_EINVAL, "step size %g: must be positive and finite", h);
-	int rc;
-	if (s->p.restiffen > 0 && s->stats.steps > 0 && s->stats.steps % s->p.restiffen == 0 &&
-	    (rc = ndo__restiffen(s)))
+	int rc = ndo__restiffen_due(s);
+	if (rc)
 		return rc;
 	const size_t cnt = s->count;
 	const int trap = s->p.method == NDO_TRAPEZOID;
 	double cb, ck;
 	coefs(s, h, &cb, &ck);
-	/* as implicit.c: a at the state, with the divergence test */
-	ndo__diag d;
-	double *a = s->ka[0];
-	ndo__accel(s, s->t, s->u, s->v, a, &d);
-	s->last_power = d.power;
-	if ((rc = ndo__diverged(s, &d, 1)))
+	double *a, *df;
+	if ((rc = ndo__implicit_prepare(s, h, &a, &df)))
 		return rc;
-	double *df = NULL;
-	if (s->f) {
-		df = s->vs;
-		double *up = s->us;
-		memcpy(df, s->f, 3 * cnt * sizeof *df);
-		for (size_t q = 0; q < 3 * cnt; q++)
-			up[q] = s->u[q] + h * s->v[q];
-		ndo__forces_prepare(s, s->t + h, up);
-		for (size_t q = 0; q < 3 * cnt; q++)
-			df[q] = s->f[q] - df[q];
-		for (size_t k = 0; k < s->npen; k++)
-			for (int c = 0; c < 3; c++) {
-				size_t q = (size_t)c * cnt + (size_t)s->pen[k];
-				df[q] += s->alpha * h * s->v[q];
-			}
-	}
 	s->imp_df = df != NULL;
 	for (size_t r = 0; r < nrows; r++) {
 		size_t p = (size_t)rows[r];

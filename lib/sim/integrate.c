@@ -1266,6 +1266,13 @@ int ndo__restiffen(ndo_sim *s)
 	return NDO_OK;
 }
 
+int ndo__restiffen_due(ndo_sim *s)
+{
+	if (s->p.restiffen > 0 && s->stats.steps > 0 && s->stats.steps % s->p.restiffen == 0)
+		return ndo__restiffen(s);
+	return NDO_OK;
+}
+
 int ndo__step_tableau(ndo_sim *s, double h)
 {
 	int rc = step_rk(s, method_tableau(s->p.method), h);
@@ -1282,9 +1289,8 @@ int ndo_sim_step(ndo_sim *s, double h)
 	ndo__clear_error();
 	if (!(h > 0) || !isfinite(h))
 		return ndo__fail(NDO_EINVAL, "step size %g: must be positive and finite", h);
-	int rc;
-	if (s->p.restiffen > 0 && s->stats.steps > 0 && s->stats.steps % s->p.restiffen == 0 &&
-	    (rc = ndo__restiffen(s)))
+	int rc = ndo__restiffen_due(s);
+	if (rc)
 		return rc;
 	double t0 = s->t;
 	switch (s->p.method) {
@@ -1313,9 +1319,8 @@ int ndo_sim_rkf45_begin(ndo_sim *s, double h)
 		                 ndo_method_names[s->p.method]);
 	if (!(h > 0) || !isfinite(h))
 		return ndo__fail(NDO_EINVAL, "step size %g: must be positive and finite", h);
-	int rc;
-	if (s->p.restiffen > 0 && s->stats.steps > 0 && s->stats.steps % s->p.restiffen == 0 &&
-	    (rc = ndo__restiffen(s)))
+	int rc = ndo__restiffen_due(s);
+	if (rc)
 		return rc;
 	rkf45_begin(s, h);
 	return NDO_OK;

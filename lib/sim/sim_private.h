@@ -189,13 +189,19 @@ void ndo__pending_work(const ndo_sim *s, double power, double *w, double *w_abs)
 int ndo__implicit_step(ndo_sim *s, double h);
 void ndo__implicit_free(ndo_sim *s);
 void ndo__implicit_invalidate(ndo_sim *s, int pattern);
+/* The start of an implicit step of size h: the acceleration a at the
+ * state (in ka[0]) with the divergence test, and f(t+h) − f(t) (in vs;
+ * NULL without forces), f then holding f(t+h) (implicit.c). */
+int ndo__implicit_prepare(ndo_sim *s, double h, double **a, double **df);
 
 /* Copy the canonical values of the stage planes to their duplicates
  * (accel.c). */
 void ndo__sync_planes(const ndo_sim *s, double *planes, int nplanes);
 
-/* K re-assembled from the deformed shape X + u (integrate.c). */
+/* K re-assembled from the deformed shape X + u (integrate.c); _due: when
+ * a step starts and the restiffen period says so. */
 int ndo__restiffen(ndo_sim *s);
+int ndo__restiffen_due(ndo_sim *s);
 
 /* R(z) = Σ r_k z^k of an explicit Runge–Kutta method; returns the
  * degree, or −1 for a method that is not one (integrate.c). */
