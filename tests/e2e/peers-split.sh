@@ -2,9 +2,9 @@
 # rkf45 and the implicit methods over real LCM in a private network
 # namespace (docs/peers.md, "rkf45 and the implicit methods"): their
 # lock-step steps take several exchanges (solve_t).  On the thesis' scene
-# (figure 5.3, level 4), the owner's result against a single process:
-#   rkf45, 2 and 3 peers: the same sub-steps, bit for bit (difference 0);
-#   backward Euler, 2 peers, and the trapezoid, 3 peers (conjugate
+# (figure 5.3, level 4, 10 s), the owner's result against a single process:
+#   rkf45, 2 and 4 peers: the same sub-steps, bit for bit (difference 0);
+#   backward Euler, 2 peers, and the trapezoid, 3 and 4 peers (conjugate
 #   gradients over the peers): within 1e-10 of the largest displacement;
 #   the trapezoid with --boundary hold (the thesis' reference mode): not.
 . "$(dirname "$0")/netns.bash"
@@ -33,8 +33,8 @@ PY
 # the implicit methods are stable at any step: both take one given)
 physics() {
 	case $1 in
-	rkf45) echo "-i rkf45 --dt 0.02 -t 2" ;;
-	*) echo "-i $1 --dt 0.05 -t 5" ;;
+	rkf45) echo "-i rkf45 --dt 0.02 -t 10" ;;
+	*) echo "-i $1 --dt 0.05 -t 10" ;;
 	esac
 }
 
@@ -87,10 +87,11 @@ split() {
 	fi
 }
 
-split "2 peers, rkf45, 2 s" 2 rkf45 0
-split "3 peers, rkf45, 2 s" 3 rkf45 0
-split "2 peers, backward Euler, 5 s" 2 backward-euler 1e-10
-split "3 peers, trapezoid, 5 s" 3 trapezoid 1e-10
+split "2 peers, rkf45, 10 s" 2 rkf45 0
+split "4 peers, rkf45, 10 s" 4 rkf45 0
+split "2 peers, backward Euler, 10 s" 2 backward-euler 1e-10
+split "3 peers, trapezoid, 10 s" 3 trapezoid 1e-10
+split "4 peers, trapezoid, 10 s" 4 trapezoid 1e-10
 
 if run_peers 2 trapezoid held.tgrid --boundary hold; then
 	read -r rel _ < <(compare held.tgrid solo-trapezoid.tgrid)
