@@ -707,8 +707,8 @@ static int region(ndo_peer *p)
 			 * (it stands still at its values of the exchange step): right for
 			 * a one-stage method's first step, one ring short for a
 			 * multi-stage one, whose stages would move it.  A split step
-			 * (rkf45, the implicit methods) exchanges within the step:
-			 * one step per exchange round (peer_solve.h) */
+			 * (rkf45, the implicit methods) exchanges several times within
+			 * each step (peer_solve.h): K is 1 */
 			if (split)
 				p->K = 1;
 			p->W = split ? ndo__ps_rings(m)
