@@ -491,6 +491,10 @@ void ndo__ps_set_region(ndo__ps *ps, const ndo__ps_region *r)
 {
 	ps->r = *r;
 	members(ps);
+	/* values of the old partition's phases are not this one's, whatever
+	 * their key (a step started again has the same keys) */
+	for (size_t k = 0; k < ps->count; k++)
+		ps->rkey[k] = -1;
 	ps->last[0].key = ps->last[1].key = -1; /* the old strip's */
 }
 
