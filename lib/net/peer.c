@@ -688,7 +688,9 @@ static int region(ndo_peer *p)
 		size_t n = 0;
 		for (size_t q = 0; q < p->ncanon; q++) {
 			size_t c = (size_t)p->canons[q];
-			if (p->mask[c] && !was[c]) {
+			/* a split step's halo is in the simulation, exchanged at this
+			 * step's start, not in the grid (whole regions every N steps) */
+			if (p->mask[c] && !was[c] && !(p->ps && p->hmark && p->hmark[c])) {
 				memcpy(p->xs + 3 * n, x + 3 * c, 3 * sizeof *x);
 				memcpy(p->vs + 3 * n, v + 3 * c, 3 * sizeof *v);
 				nodes[n++] = (int32_t)c;
@@ -1163,9 +1165,12 @@ static int step(ndo_peer *p)
 
 /* Exact lock-step of rkf45 and the implicit methods: the step goes on
  * as far as the others' messages allow (peer_solve.h); a peer that waits
- * sends its last two phases again, and after step_timeout takes the step
- * alone (ndo_sim_step, the others' nodes held at their older values) and
- * counts the miss. */
+ * sends its last two phases again, and after step_timeout without
+ * progress takes the step alone (ndo_sim_step, the others' nodes held at
+ * their older values) and counts the miss — unless another peer is
+ * behind (a new partition caught the peers at different steps): then the
+ * one behind gives up and catches up, and the peers meet at its next step
+ * instead of overtaking each other. */
 static int step_split(ndo_peer *p)
 {
 	double t0 = wall();
@@ -1191,8 +1196,8 @@ static int step_split(ndo_peer *p)
 			p->resend_gap = p->o.resend;
 			p->next_resend = now + p->resend_gap;
 		}
-		if (now - p->split_t0 < p->step_timeout)
-			return resend_due(p);
+		if (now - p->split_t0 < p->step_timeout || ndo__ps_behind(p->ps, p->cur))
+			return resend_due(p); /* a peer behind this one comes: it gives up, not this one */
 		/* a neighbour that died, or peers that a new partition caught at
 		 * different steps: this step is taken alone, with the halo's
 		 * older values (the run is no longer exact), and the peers meet

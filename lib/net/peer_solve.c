@@ -85,6 +85,7 @@ struct ndo__ps {
 	int32_t ids[NDO_MAX_PEERS];
 	int nids;
 	int64_t skey[NDO_MAX_PEERS];
+	int64_t seen[NDO_MAX_PEERS]; /* each peer's newest step heard of (this partition) */
 	double sums[NDO_MAX_PEERS][NDO_MAX_SUMS];
 	int nsums[NDO_MAX_PEERS];
 	stashed *stash;
@@ -295,6 +296,9 @@ void ndo__ps_receive(ndo__ps *ps, const ndo_msg_solve_t *m)
 	int32_t epoch = ndo_session_epoch(ps->s);
 	if (m->epoch < epoch)
 		return;
+	int i = m->epoch == epoch ? member_index(ps, m->hdr.sender_id) : -1;
+	if (i >= 0 && m->step > ps->seen[i])
+		ps->seen[i] = m->step;
 	int64_t key = key_of(m->step, m->phase), want = awaited(ps);
 	if (m->epoch == epoch && key == want) {
 		take(ps, m);
@@ -464,6 +468,15 @@ static int next_phase(ndo__ps *ps, int vpn, const double *planes, const double *
 	return rc;
 }
 
+int ndo__ps_behind(const ndo__ps *ps, int64_t step)
+{
+	int self = member_index(ps, ndo_session_self(ps->s));
+	for (int k = 0; k < ps->nids; k++)
+		if (k != self && ps->seen[k] >= 0 && ps->seen[k] < step)
+			return 1;
+	return 0;
+}
+
 int ndo__ps_resend(ndo__ps *ps)
 {
 	int rc;
@@ -491,6 +504,8 @@ void ndo__ps_set_region(ndo__ps *ps, const ndo__ps_region *r)
 {
 	ps->r = *r;
 	members(ps);
+	for (int k = 0; k < NDO_MAX_PEERS; k++)
+		ps->seen[k] = -1;
 	/* values of the old partition's phases are not this one's, whatever
 	 * their key (a step started again has the same keys) */
 	for (size_t k = 0; k < ps->count; k++)

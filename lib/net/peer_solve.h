@@ -60,6 +60,11 @@ void ndo__ps_receive(ndo__ps *ps, const ndo_msg_solve_t *m);
  * others, or a negative status (ndo_errdetail()). */
 int ndo__ps_advance(ndo__ps *ps, int64_t step, double h);
 
+/* 1 when another peer of this partition was last heard of at a step
+ * before `step`: it is behind, and will come (a peer that waits for it
+ * does not give up: the one behind does, and catches up). */
+int ndo__ps_behind(const ndo__ps *ps, int64_t step);
+
 /* Send the last two phases again (a neighbour may have lost one). */
 int ndo__ps_resend(ndo__ps *ps);
 
