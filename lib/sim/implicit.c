@@ -111,6 +111,31 @@ static int index_rows(ndo_sim *s, ndo__implicit *im)
 	return NDO_OK;
 }
 
+/* The stencil's 6 neighbours and coefficients of canonical node p. */
+void ndo__row_stencil(const ndo_sim *s, size_t p, int32_t nb[6], double cf[6])
+{
+	const size_t w = (size_t)s->w;
+	int i = (int)(p % w), j = (int)(p / w);
+	if (i >= 1 && i <= 2 * s->n - 1 && j >= 1 && j <= s->n - 1) {
+		const size_t q[6] = {p + 1, p + w, p + w - 1, p - 1, p - w, p - w + 1};
+		const double c[6] = {s->st.e[0][p], s->st.e[1][p], s->st.e[2][p],
+		                     s->st.e[0][p - 1], s->st.e[1][p - w], s->st.e[2][p - w + 1]};
+		for (int k = 0; k < 6; k++)
+			nb[k] = (int32_t)q[k], cf[k] = c[k];
+		return;
+	}
+	size_t lo = 0, hi = s->st.nborder;
+	while (lo < hi) { /* border is ascending */
+		size_t mid = (lo + hi) / 2;
+		if ((size_t)s->st.border[mid] < p)
+			lo = mid + 1;
+		else
+			hi = mid;
+	}
+	for (int k = 0; k < 6; k++)
+		nb[k] = s->st.bnb[6 * lo + k], cf[k] = s->st.bc[6 * lo + k];
+}
+
 /* A = M + cb·B + ck·(K_AA + P), upper triangle, as a CHOLMOD matrix. */
 static cholmod_sparse *assemble(ndo_sim *s, ndo__implicit *im, double cb, double ck)
 {
@@ -121,7 +146,6 @@ static cholmod_sparse *assemble(ndo_sim *s, ndo__implicit *im, double cb, double
 	int *Ti = T->i, *Tj = T->j;
 	double *Tx = T->x;
 	size_t n = 0;
-	const size_t w = (size_t)s->w;
 	double *pen = calloc(s->count, sizeof *pen);
 	if (!pen) {
 		cholmod_free_triplet(&T, &im->cm);
@@ -129,24 +153,11 @@ static cholmod_sparse *assemble(ndo_sim *s, ndo__implicit *im, double cb, double
 	}
 	for (size_t k = 0; k < s->npen; k++)
 		pen[s->pen[k]] = s->alpha;
-	size_t b = 0;
 	for (size_t r = 0; r < im->na; r++) {
 		size_t p = (size_t)im->nodes[r];
 		int32_t nb[6];
 		double cf[6];
-		int i = (int)(p % w), j = (int)(p / w);
-		if (i >= 1 && i <= 2 * s->n - 1 && j >= 1 && j <= s->n - 1) {
-			const size_t q[6] = {p + 1, p + w, p + w - 1, p - 1, p - w, p - w + 1};
-			const double c[6] = {s->st.e[0][p], s->st.e[1][p], s->st.e[2][p],
-			                     s->st.e[0][p - 1], s->st.e[1][p - w], s->st.e[2][p - w + 1]};
-			for (int k = 0; k < 6; k++)
-				nb[k] = (int32_t)q[k], cf[k] = c[k];
-		} else {
-			while (b < s->st.nborder && (size_t)s->st.border[b] < p)
-				b++;
-			for (int k = 0; k < 6; k++)
-				nb[k] = s->st.bnb[6 * b + k], cf[k] = s->st.bc[6 * b + k];
-		}
+		ndo__row_stencil(s, p, nb, cf);
 		double diag = s->mass[p] * (1 + cb * s->gam[p]) + ck * pen[p];
 		for (int k = 0; k < 6; k++) {
 			diag += ck * cf[k];

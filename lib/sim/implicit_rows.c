@@ -20,31 +20,6 @@ static int unknown(const ndo_sim *s, size_t q)
 	return !(s->pin[q] && s->p.pin_mode == NDO_PINS_PROJECT);
 }
 
-/* The stencil's 6 neighbours and coefficients of canonical node p. */
-static void row_stencil(const ndo_sim *s, size_t p, int32_t nb[6], double cf[6])
-{
-	const size_t w = (size_t)s->w;
-	int i = (int)(p % w), j = (int)(p / w);
-	if (i >= 1 && i <= 2 * s->n - 1 && j >= 1 && j <= s->n - 1) {
-		const size_t q[6] = {p + 1, p + w, p + w - 1, p - 1, p - w, p - w + 1};
-		const double c[6] = {s->st.e[0][p], s->st.e[1][p], s->st.e[2][p],
-		                     s->st.e[0][p - 1], s->st.e[1][p - w], s->st.e[2][p - w + 1]};
-		for (int k = 0; k < 6; k++)
-			nb[k] = (int32_t)q[k], cf[k] = c[k];
-		return;
-	}
-	size_t lo = 0, hi = s->st.nborder;
-	while (lo < hi) { /* border is ascending */
-		size_t mid = (lo + hi) / 2;
-		if ((size_t)s->st.border[mid] < p)
-			lo = mid + 1;
-		else
-			hi = mid;
-	}
-	for (int k = 0; k < 6; k++)
-		nb[k] = s->st.bnb[6 * lo + k], cf[k] = s->st.bc[6 * lo + k];
-}
-
 /* The penalty spring at p (0 if none). */
 static double penalty_at(const ndo_sim *s, size_t p)
 {
@@ -86,7 +61,7 @@ int ndo_sim_implicit_begin(ndo_sim *s, double h, const int32_t *rows, size_t nro
 		int row = s->active[p] && unknown(s, p);
 		int32_t nb[6];
 		double cf[6];
-		row_stencil(s, p, nb, cf);
+		ndo__row_stencil(s, p, nb, cf);
 		double pen = penalty_at(s, p), diag = s->mass[p] * (1 + cb * s->gam[p]) + ck * pen;
 		for (int k = 0; k < 6; k++)
 			diag += ck * cf[k];
@@ -132,7 +107,7 @@ void ndo_sim_implicit_apply(const ndo_sim *s, double h, const int32_t *rows, siz
 		}
 		int32_t nb[6];
 		double cf[6];
-		row_stencil(s, p, nb, cf);
+		ndo__row_stencil(s, p, nb, cf);
 		int un[6];
 		for (int k = 0; k < 6; k++)
 			un[k] = unknown(s, (size_t)nb[k]);

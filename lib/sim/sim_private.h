@@ -193,6 +193,9 @@ void ndo__implicit_invalidate(ndo_sim *s, int pattern);
  * state (in ka[0]) with the divergence test, and f(t+h) − f(t) (in vs;
  * NULL without forces), f then holding f(t+h) (implicit.c). */
 int ndo__implicit_prepare(ndo_sim *s, double h, double **a, double **df);
+/* The stencil's 6 neighbours (stored indices) and coefficients of
+ * canonical node p, as the implicit system's row p has them. */
+void ndo__row_stencil(const ndo_sim *s, size_t p, int32_t nb[6], double cf[6]);
 
 /* Copy the canonical values of the stage planes to their duplicates
  * (accel.c). */
