@@ -1174,11 +1174,13 @@ static int step(ndo_peer *p)
 static int step_split(ndo_peer *p)
 {
 	double t0 = wall();
-	int rc = ndo__ps_advance(p->ps, p->cur, p->dt);
+	/* alone, the peer's step is the single process's: no one to split with */
+	int alone = ndo__ps_alone(p->ps);
+	int rc = alone ? ndo_sim_step(p->sim, p->dt) : ndo__ps_advance(p->ps, p->cur, p->dt);
 	p->st.compute_seconds += wall() - t0;
 	if (rc < 0)
 		return rc;
-	if (rc == 0) {
+	if (rc == 0 && !alone) {
 		double now = p->now;
 		ndo__ps_stats ps;
 		ndo__ps_stats_get(p->ps, &ps);

@@ -468,6 +468,11 @@ static int next_phase(ndo__ps *ps, int vpn, const double *planes, const double *
 	return rc;
 }
 
+int ndo__ps_alone(const ndo__ps *ps)
+{
+	return ps->nids <= 1;
+}
+
 int ndo__ps_behind(const ndo__ps *ps, int64_t step)
 {
 	int self = member_index(ps, ndo_session_self(ps->s));

@@ -60,6 +60,10 @@ void ndo__ps_receive(ndo__ps *ps, const ndo_msg_solve_t *m);
  * others, or a negative status (ndo_errdetail()). */
 int ndo__ps_advance(ndo__ps *ps, int64_t step, double h);
 
+/* 1 when this peer is the partition's only one: its steps need nobody
+ * (the caller takes them with ndo_sim_step, the single process's). */
+int ndo__ps_alone(const ndo__ps *ps);
+
 /* 1 when another peer of this partition was last heard of at a step
  * before `step`: it is behind, and will come (a peer that waits for it
  * does not give up: the one behind does, and catches up). */
