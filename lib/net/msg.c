@@ -44,6 +44,7 @@ static const typeops types[NDO_MSG_NTYPES] = {
 	[NDO_MSG_DESC_REQUEST] = OPS(desc_request_t, "DESC_REQUEST"),
 	[NDO_MSG_FORCE] = OPS(force_t, "FORCE"),
 	[NDO_MSG_HALO] = OPS(halo_t, "HALO"),
+	[NDO_MSG_SOLVE] = OPS(solve_t, "SOLVE"),
 };
 /* The one nested type. */
 static const typeops header_ops = OPS(header_t, "");
@@ -361,7 +362,8 @@ static ndo_drop check_header(const ndo_msg *m, const ndo_msg_ctx *c)
 static int needs_level(ndo_msg_type t)
 {
 	return t == NDO_MSG_TILE || t == NDO_MSG_POI || t == NDO_MSG_PARTITION ||
-	       t == NDO_MSG_PEERS || t == NDO_MSG_FORCE || t == NDO_MSG_HALO;
+	       t == NDO_MSG_PEERS || t == NDO_MSG_FORCE || t == NDO_MSG_HALO ||
+	       t == NDO_MSG_SOLVE;
 }
 
 ndo_drop ndo_msg_validate(const ndo_msg *m, const ndo_msg_ctx *c)
@@ -485,6 +487,27 @@ ndo_drop ndo_msg_validate(const ndo_msg *m, const ndo_msg_ctx *c)
 		if (h->nvalues != 6 * count)
 			return NDO_DROP_LENGTH;
 		return finite_all(h->values, h->nvalues) ? NDO_DROP_NONE : NDO_DROP_NONFINITE;
+	}
+	case NDO_MSG_SOLVE: {
+		const ndo_msg_solve_t *h = &m->u.solve;
+		if (h->step < 0 || h->phase < 0 || h->epoch < 0 ||
+		    (h->per_node != 0 && h->per_node != 3 && h->per_node != 6))
+			return NDO_DROP_RANGE;
+		const int64_t n = 1 << L, nodes = (2 * n + 1) * (n + 1);
+		if (h->nruns < 0 || h->nruns > nodes || h->nsums < 0 || h->nsums > NDO_MAX_SUMS)
+			return NDO_DROP_RANGE;
+		int64_t next = 0, count = 0;
+		for (int k = 0; k < h->nruns; k++) {
+			if (h->start[k] < next || h->len[k] < 1 || h->len[k] > nodes - h->start[k])
+				return NDO_DROP_RANGE; /* increasing, disjoint, inside the grid */
+			next = (int64_t)h->start[k] + h->len[k];
+			count += h->len[k];
+		}
+		if (h->nvalues != h->per_node * count)
+			return NDO_DROP_LENGTH;
+		return finite_all(h->values, h->nvalues) && finite_all(h->sums, h->nsums)
+		               ? NDO_DROP_NONE
+		               : NDO_DROP_NONFINITE;
 	}
 	case NDO_MSG_FORCE: {
 		const ndo_msg_force_t *f = &m->u.force;

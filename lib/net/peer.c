@@ -1,6 +1,7 @@
 /* peer.c — a simulating peer: session + simulation + time keeping
  * (ndo/peer.h; docs/peers.md). */
 #include "ndo/peer.h"
+#include "peer_solve.h"
 #include "ndo/scene.h"
 #include "ndo/status.h"
 #include "ndo/tile.h"
@@ -67,6 +68,7 @@ struct ndo_peer {
 	int32_t *own;          /* stored nodes of the region (duplicates too) */
 	size_t nown;
 	int32_t *ownc;         /* canonical nodes of the region */
+	size_t nownc;
 	uint8_t *hmark;        /* per canonical node: in the halo (rings 1..W) */
 	uint8_t *act;          /* per stored node: integrated (region and halo) */
 	int32_t *dist;         /* BFS scratch */
@@ -80,6 +82,10 @@ struct ndo_peer {
 	int synced;            /* the grid holds the region's state at cur */
 	ndo_msg_halo_t *hstash; /* halos for later steps or partitions */
 	size_t nhstash, caphstash;
+	ndo__ps *ps;           /* rkf45 and the implicit methods: steps of several
+	                          exchanges (peer_solve.h), when exact */
+	double split_t0;       /* ... the last progress of the step waited for */
+	int64_t split_phases;  /* ... and the phases sent then */
 	int failed;
 	double now;
 	char message[320];
@@ -408,6 +414,14 @@ static void unstash(ndo_peer *p)
 		ndo_grid_sync(ndo_session_grid(p->s));
 }
 
+/* The session's solve_fn: another peer's part of a split step. */
+static void on_solve(void *user, const ndo_msg_solve_t *m)
+{
+	ndo_peer *p = user;
+	if (p->ps && (m->epoch > ndo_session_epoch(p->s) || member(p, m->hdr.sender_id)))
+		ndo__ps_receive(p->ps, m);
+}
+
 /* ---- exact lock-step: halos ---------------------------------------------- */
 int ndo_peer_halo_rings(ndo_method m)
 {
@@ -416,7 +430,8 @@ int ndo_peer_halo_rings(ndo_method m)
 	case NDO_SYMPLECTIC_EULER:
 	case NDO_MIDPOINT: return 1;
 	case NDO_RK4: return 2;
-	default: return 0; /* rkf45's sub-steps vary; the implicit methods reach everywhere */
+	case NDO_RKF45: return 3; /* a sub-step's: its steps are split (peer_solve.h) */
+	default: return 0; /* the implicit methods reach everywhere */
 	}
 }
 
@@ -481,7 +496,7 @@ static int exact_region(ndo_peer *p)
 		from[p->canons[k]] = p->mask[p->canons[k]];
 	rings(p, from, p->W);
 	p->nhalo = p->nown = 0;
-	size_t nownc = 0;
+	size_t nownc = 0; /* p->nownc below */
 	for (size_t k = 0; k < p->count; k++) {
 		int32_t dk = p->dist[p->canon[k]];
 		p->act[k] = dk >= 0 && dk < p->W;
@@ -495,6 +510,7 @@ static int exact_region(ndo_peer *p)
 		if (dk == 0)
 			p->ownc[nownc++] = (int32_t)k;
 	}
+	p->nownc = nownc;
 	/* the strip: rings around the others' regions */
 	for (size_t k = 0; k < p->ncanon; k++)
 		from[p->canons[k]] = own[p->canons[k]] != self;
@@ -607,7 +623,7 @@ static int exact_publish(ndo_peer *p)
 	int rc;
 	int64_t rel = p->cur - p->first;
 	int last = p->cur >= p->final;
-	if (!last && rel % p->K == 0) {
+	if (!last && rel % p->K == 0 && !p->ps) {
 		int b = (int)((rel / p->K) & 1);
 		strip_snapshot(p, b);
 		if ((rc = strip_send(p, b)))
@@ -629,6 +645,8 @@ static int region(ndo_peer *p)
 	uint8_t *was = malloc(p->count);
 	if (!was)
 		return ndo__fail(NDO_ENOMEM, "out of memory");
+	if (p->ps)
+		ndo__ps_abort(p->ps); /* a split step under way starts again */
 	memcpy(was, p->mask, p->count);
 	p->nowned = 0;
 	for (size_t k = 0; k < p->count; k++) {
@@ -672,7 +690,9 @@ static int region(ndo_peer *p)
 		size_t n = 0;
 		for (size_t q = 0; q < p->ncanon; q++) {
 			size_t c = (size_t)p->canons[q];
-			if (p->mask[c] && !was[c]) {
+			/* a split step's halo is in the simulation, exchanged at this
+			 * step's start, not in the grid (whole regions every N steps) */
+			if (p->mask[c] && !was[c] && !(p->ps && p->hmark && p->hmark[c])) {
 				memcpy(p->xs + 3 * n, x + 3 * c, 3 * sizeof *x);
 				memcpy(p->vs + 3 * n, v + 3 * c, 3 * sizeof *v);
 				nodes[n++] = (int32_t)c;
@@ -681,22 +701,35 @@ static int region(ndo_peer *p)
 		if (n)
 			ndo_sim_set(p->sim, n, nodes, p->xs, p->vs);
 		free(nodes);
+		ndo_method m = ndo_sim_method(p->sim);
+		int split = ndo__ps_method(m);
 		p->exact = p->clock == NDO_CLOCK_LOCKSTEP && !p->hold &&
-		           ndo_peer_halo_rings(ndo_sim_method(p->sim)) > 0;
+		           (ndo_peer_halo_rings(m) > 0 || split);
 		ndo_session_set_exact_halos(p->s, p->exact); /* tiles are frames only */
 		int rc = 0;
 		if (p->exact) {
 			/* K steps reach D·K rings; the outermost ring received is held
 			 * (it stands still at its values of the exchange step): right for
 			 * a one-stage method's first step, one ring short for a
-			 * multi-stage one, whose stages would move it */
-			ndo_method m = ndo_sim_method(p->sim);
-			p->W = ndo_peer_halo_rings(m) * p->K +
-			       (m != NDO_EULER && m != NDO_SYMPLECTIC_EULER);
+			 * multi-stage one, whose stages would move it.  A split step
+			 * (rkf45, the implicit methods) exchanges several times within
+			 * each step (peer_solve.h): K is 1 */
+			if (split)
+				p->K = 1;
+			p->W = split ? ndo__ps_rings(m)
+			             : ndo_peer_halo_rings(m) * p->K +
+			                   (m != NDO_EULER && m != NDO_SYMPLECTIC_EULER);
 			rc = exact_region(p);
 			ndo_sim_set_held_motion(p->sim, 0);
 			if (!rc)
 				rc = ndo_sim_set_active(p->sim, p->act);
+			if (!rc && split && !p->ps)
+				rc = ndo__ps_create(p->s, p->sim, p->o.jacobi, &p->ps);
+			if (!rc && split) {
+				ndo__ps_region r = {p->ownc, p->nownc, p->halo, p->nhalo, p->strip,
+				                    p->nstrip, p->mask};
+				ndo__ps_set_region(p->ps, &r);
+			}
 		} else {
 			ndo_sim_set_held_motion(p->sim, !p->hold);
 			rc = ndo_sim_set_active(p->sim, p->mask);
@@ -733,6 +766,8 @@ static int resend(ndo_peer *p)
 		for (int b = 0; b < 2; b++)
 			if ((rc = strip_send(p, b)))
 				return rc;
+		if (p->ps && (rc = ndo__ps_resend(p->ps)))
+			return rc;
 		return p->cur >= p->final || !p->started ? frame_send(p) : 0;
 	}
 	if (p->prev_valid && (rc = ndo_session_publish_from(p->s, p->prev, p->prev_step,
@@ -926,6 +961,8 @@ static int announce(ndo_peer *p)
  * its neighbours re-send while they wait are all it needs. */
 static int all_at(const ndo_peer *p, int64_t step)
 {
+	if (p->exact && p->ps)
+		return 1; /* a split step waits for what it needs itself */
 	if (p->exact && p->hmark) {
 		for (size_t k = 0; k < p->nhalo; k++)
 			if (p->nstep[p->halo[k]] < step)
@@ -1131,10 +1168,85 @@ static int step(ndo_peer *p)
 	return NDO_PEER_STEPPED;
 }
 
+/* Exact lock-step of rkf45 and the implicit methods: the step goes on
+ * as far as the others' messages allow (peer_solve.h); a peer that waits
+ * sends its last two phases again, and after step_timeout without
+ * progress takes the step alone (ndo_sim_step, the others' nodes held at
+ * their older values) and counts the miss — unless another peer is
+ * behind (a new partition caught the peers at different steps): then the
+ * one behind gives up and catches up, and the peers meet at its next step
+ * instead of overtaking each other. */
+static int step_split(ndo_peer *p)
+{
+	double t0 = wall();
+	/* alone, the peer's step is the single process's: no one to split with */
+	int alone = ndo__ps_alone(p->ps);
+	int rc = alone ? ndo_sim_step(p->sim, p->dt) : ndo__ps_advance(p->ps, p->cur, p->dt);
+	p->st.compute_seconds += wall() - t0;
+	if (rc < 0)
+		return rc;
+	if (rc == 0 && !alone) {
+		double now = p->now;
+		ndo__ps_stats ps;
+		ndo__ps_stats_get(p->ps, &ps);
+		if (!p->blocked) {
+			p->blocked = 1;
+			p->block_t0 = now;
+			p->st.waited++;
+		}
+		if (p->split_t0 < p->block_t0 || ps.phases != p->split_phases) {
+			/* a new wait, or the step went on: the re-sends and the timeout
+			 * start again (a step of many phases may take longer than
+			 * step_timeout, and each phase may need a re-send) */
+			p->split_t0 = now;
+			p->split_phases = ps.phases;
+			p->resend_gap = p->o.resend;
+			p->next_resend = now + p->resend_gap;
+		}
+		if (now - p->split_t0 < p->step_timeout || ndo__ps_behind(p->ps, p->cur))
+			return resend_due(p); /* a peer behind this one comes: it gives up, not this one */
+		/* a neighbour that died, or peers that a new partition caught at
+		 * different steps: this step is taken alone, with the halo's
+		 * older values (the run is no longer exact), and the peers meet
+		 * again at the next one */
+		p->st.timeouts++;
+		p->st.missed += (int64_t)p->nhalo;
+		if (p->notes_missed++ < 5)
+			note(p, "step %lld: the other peers' part of the step did not come within %.2g s: "
+			     "this step is taken with older values%s", (long long)p->cur,
+			     now - p->split_t0, p->notes_missed == 5 ? " (no more such messages)" : "");
+		ndo__ps_abort(p->ps);
+		t0 = wall();
+		rc = ndo_sim_step(p->sim, p->dt);
+		p->st.compute_seconds += wall() - t0;
+		if (rc)
+			return rc;
+	}
+	p->cur++;
+	p->tcur = ndo_sim_time(p->sim);
+	p->synced = 0;
+	for (size_t q = 0; q < p->nown; q++) {
+		size_t c = (size_t)p->own[q];
+		if ((size_t)p->canon[c] == c)
+			p->nstep[c] = p->cur;
+	}
+	if (p->blocked)
+		p->st.wait_seconds += p->now - p->block_t0;
+	p->blocked = 0;
+	p->st.steps++;
+	p->st.end_time = p->now;
+	if ((rc = publish(p)))
+		return rc;
+	unstash(p);
+	return NDO_PEER_STEPPED;
+}
+
 /* Lock-step: step when the halo holds step `cur`; otherwise wait,
  * re-send, and after step_timeout go on. */
 static int lockstep(ndo_peer *p)
 {
+	if (p->exact && p->ps)
+		return step_split(p);
 	size_t miss = missing(p);
 	if (miss == 0)
 		return step(p);
@@ -1345,7 +1457,8 @@ double ndo_peer_deadline(const ndo_peer *p)
 		                                                     p->dt / p->speed);
 	if (!p->blocked)
 		return now; /* it may step: ask again at once */
-	return fmin(d, fmin(p->next_resend, p->block_t0 + p->step_timeout));
+	double t0 = p->exact && p->ps ? p->split_t0 : p->block_t0;
+	return fmin(d, fmin(p->next_resend, t0 + p->step_timeout));
 }
 
 int ndo_peer_create(const ndo_peer_opts *o, ndo_net *net, ndo_grid *grid, ndo_sim *sim,
@@ -1387,6 +1500,7 @@ int ndo_peer_create(const ndo_peer_opts *o, ndo_net *net, ndo_grid *grid, ndo_si
 		so.retry = 0.25; /* a joiner asks again soon: the snapshot is many tiles */
 	so.tile_fn = on_tile;
 	so.halo_fn = on_halo;
+	so.solve_fn = on_solve;
 	so.tile_user = p;
 	if (owner) {
 		p->dt = run->dt;
@@ -1397,7 +1511,8 @@ int ndo_peer_create(const ndo_peer_opts *o, ndo_net *net, ndo_grid *grid, ndo_si
 		 * what they lost (ndo/watch.h): exact lock-step every N (0: the
 		 * first and last only), otherwise every step */
 		int exact = p->clock == NDO_CLOCK_LOCKSTEP && !p->hold &&
-		            ndo_peer_halo_rings(ndo_sim_method(sim)) > 0;
+		            (ndo_peer_halo_rings(ndo_sim_method(sim)) > 0 ||
+		             ndo__ps_method(ndo_sim_method(sim)));
 		char peer_lines[360];
 		snprintf(peer_lines, sizeof peer_lines,
 		         "dt %.17g\nsteps %lld\npeer-clock %d\npeer-hold-boundary %d\n"
@@ -1467,6 +1582,7 @@ void ndo_peer_destroy(ndo_peer *p, const char *message)
 	for (size_t k = 0; k < p->nhstash; k++)
 		halo_free(&p->hstash[k]);
 	free(p->hstash);
+	ndo__ps_destroy(p->ps);
 	free(p);
 }
 
@@ -1491,4 +1607,15 @@ void ndo_peer_stats_get(const ndo_peer *p, ndo_peer_stats *st)
 	*st = p->st;
 	st->exact = p->exact;
 	st->halo_rings = p->exact ? p->W : 1;
+	if (p->ps) {
+		ndo__ps_stats ps;
+		ndo__ps_stats_get(p->ps, &ps);
+		st->exchanges += ps.phases;
+		st->halo_tiles += ps.messages;
+		st->halo_bytes += ps.bytes;
+		st->attempts = ps.attempts;
+		st->rejected = ps.rejected;
+		st->solves = ps.solves;
+		st->iterations = ps.iterations;
+	}
 }

@@ -908,6 +908,10 @@ static int handle(ndo_session *s, ndo_msg *m)
 		if (s->grid && s->described && s->o.halo_fn)
 			s->o.halo_fn(s->o.tile_user, &m->u.halo);
 		return 0;
+	case NDO_MSG_SOLVE:
+		if (s->grid && s->described && s->o.solve_fn)
+			s->o.solve_fn(s->o.tile_user, &m->u.solve);
+		return 0;
 	case NDO_MSG_TILE: /* with tile_fn: every tile, in arrival order */
 		if (s->grid && s->described)
 			apply_tile(s, &m->u.tile, m->decoded);
@@ -1141,6 +1145,14 @@ int ndo_session_send_halo(ndo_session *s, ndo_msg_halo_t *h)
 		return 0;
 	h->epoch = s->epoch;
 	return ndo_net_publish(s->net, NDO_MSG_HALO, h);
+}
+
+int ndo_session_send_solve(ndo_session *s, ndo_msg_solve_t *m)
+{
+	if (!s->grid || s->ended || (!s->ready && s->o.role != NDO_ROLE_OWNER))
+		return 0;
+	m->epoch = s->epoch;
+	return ndo_net_publish(s->net, NDO_MSG_SOLVE, m);
 }
 
 int ndo_session_publish_from(ndo_session *s, const ndo_grid *src, int64_t step, double time)

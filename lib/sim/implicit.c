@@ -111,6 +111,31 @@ static int index_rows(ndo_sim *s, ndo__implicit *im)
 	return NDO_OK;
 }
 
+/* The stencil's 6 neighbours and coefficients of canonical node p. */
+void ndo__row_stencil(const ndo_sim *s, size_t p, int32_t nb[6], double cf[6])
+{
+	const size_t w = (size_t)s->w;
+	int i = (int)(p % w), j = (int)(p / w);
+	if (i >= 1 && i <= 2 * s->n - 1 && j >= 1 && j <= s->n - 1) {
+		const size_t q[6] = {p + 1, p + w, p + w - 1, p - 1, p - w, p - w + 1};
+		const double c[6] = {s->st.e[0][p], s->st.e[1][p], s->st.e[2][p],
+		                     s->st.e[0][p - 1], s->st.e[1][p - w], s->st.e[2][p - w + 1]};
+		for (int k = 0; k < 6; k++)
+			nb[k] = (int32_t)q[k], cf[k] = c[k];
+		return;
+	}
+	size_t lo = 0, hi = s->st.nborder;
+	while (lo < hi) { /* border is ascending */
+		size_t mid = (lo + hi) / 2;
+		if ((size_t)s->st.border[mid] < p)
+			lo = mid + 1;
+		else
+			hi = mid;
+	}
+	for (int k = 0; k < 6; k++)
+		nb[k] = s->st.bnb[6 * lo + k], cf[k] = s->st.bc[6 * lo + k];
+}
+
 /* A = M + cb·B + ck·(K_AA + P), upper triangle, as a CHOLMOD matrix. */
 static cholmod_sparse *assemble(ndo_sim *s, ndo__implicit *im, double cb, double ck)
 {
@@ -121,7 +146,6 @@ static cholmod_sparse *assemble(ndo_sim *s, ndo__implicit *im, double cb, double
 	int *Ti = T->i, *Tj = T->j;
 	double *Tx = T->x;
 	size_t n = 0;
-	const size_t w = (size_t)s->w;
 	double *pen = calloc(s->count, sizeof *pen);
 	if (!pen) {
 		cholmod_free_triplet(&T, &im->cm);
@@ -129,24 +153,11 @@ static cholmod_sparse *assemble(ndo_sim *s, ndo__implicit *im, double cb, double
 	}
 	for (size_t k = 0; k < s->npen; k++)
 		pen[s->pen[k]] = s->alpha;
-	size_t b = 0;
 	for (size_t r = 0; r < im->na; r++) {
 		size_t p = (size_t)im->nodes[r];
 		int32_t nb[6];
 		double cf[6];
-		int i = (int)(p % w), j = (int)(p / w);
-		if (i >= 1 && i <= 2 * s->n - 1 && j >= 1 && j <= s->n - 1) {
-			const size_t q[6] = {p + 1, p + w, p + w - 1, p - 1, p - w, p - w + 1};
-			const double c[6] = {s->st.e[0][p], s->st.e[1][p], s->st.e[2][p],
-			                     s->st.e[0][p - 1], s->st.e[1][p - w], s->st.e[2][p - w + 1]};
-			for (int k = 0; k < 6; k++)
-				nb[k] = (int32_t)q[k], cf[k] = c[k];
-		} else {
-			while (b < s->st.nborder && (size_t)s->st.border[b] < p)
-				b++;
-			for (int k = 0; k < 6; k++)
-				nb[k] = s->st.bnb[6 * b + k], cf[k] = s->st.bc[6 * b + k];
-		}
+		ndo__row_stencil(s, p, nb, cf);
 		double diag = s->mass[p] * (1 + cb * s->gam[p]) + ck * pen[p];
 		for (int k = 0; k < 6; k++) {
 			diag += ck * cf[k];
@@ -216,7 +227,8 @@ static int factor(ndo_sim *s, ndo__implicit *im, double h)
 	return NDO_OK;
 }
 
-int ndo__implicit_step(ndo_sim *s, double h)
+/* The solver, created on first use, with the factor for step h. */
+static int ready(ndo_sim *s, double h)
 {
 	ndo__implicit *im = s->imp;
 	if (!im) {
@@ -229,15 +241,50 @@ int ndo__implicit_step(ndo_sim *s, double h)
 	int rc;
 	if ((!im->valid || im->h != h) && (rc = factor(s, im, h)))
 		return rc;
+	return NDO_OK;
+}
+
+int ndo_sim_implicit_precondition(ndo_sim *s, double h, const double *r, double *z)
+{
+	ndo__clear_error();
+	if (s->p.method != NDO_BACKWARD_EULER && s->p.method != NDO_TRAPEZOID)
+		return ndo__fail(NDO_EINVAL, "ndo_sim_implicit_precondition: the method is not "
+		                 "implicit"); /* (integrate.c has the names: it calls this file) */
+	int rc = ready(s, h);
+	if (rc)
+		return rc;
+	ndo__implicit *im = s->imp;
 	const size_t cnt = s->count;
-	const int trap = s->p.method == NDO_TRAPEZOID;
+	cholmod_dense *B = cholmod_allocate_dense(im->na, 3, im->na, CHOLMOD_REAL, &im->cm);
+	if (!B)
+		return ndo__fail(NDO_ENOMEM, "out of memory for the implicit solver");
+	double *bx = B->x;
+	for (size_t r0 = 0; r0 < im->na; r0++)
+		for (int c = 0; c < 3; c++)
+			bx[(size_t)c * im->na + r0] = r[(size_t)c * cnt + (size_t)im->nodes[r0]];
+	cholmod_dense *X = cholmod_solve(CHOLMOD_A, im->L, B, &im->cm);
+	cholmod_free_dense(&B, &im->cm);
+	if (!X)
+		return ndo__fail(NDO_ENOMEM, "CHOLMOD could not solve (status %d)", im->cm.status);
+	const double *xv = X->x;
+	for (size_t r0 = 0; r0 < im->na; r0++)
+		for (int c = 0; c < 3; c++)
+			z[(size_t)c * cnt + (size_t)im->nodes[r0]] = xv[(size_t)c * im->na + r0];
+	cholmod_free_dense(&X, &im->cm);
+	return NDO_OK;
+}
+
+int ndo__implicit_prepare(ndo_sim *s, double h, double **accel, double **dforce)
+{
+	const size_t cnt = s->count;
 	/* a = M⁻¹(f(t) − K u) − γ v (f holds the penalty springs), with the
 	 * divergence test. */
 	ndo__diag d;
 	double *a = s->ka[0];
 	ndo__accel(s, s->t, s->u, s->v, a, &d);
 	s->last_power = d.power;
-	if ((rc = ndo__diverged(s, &d, 1)))
+	int rc = ndo__diverged(s, &d, 1);
+	if (rc)
 		return rc;
 	/* f(t+h) − f(t), at the positions the step starts from. */
 	double *df = NULL;
@@ -260,6 +307,22 @@ int ndo__implicit_step(ndo_sim *s, double h)
 				df[q] += s->alpha * h * s->v[q];
 			}
 	}
+	*accel = a;
+	*dforce = df;
+	return NDO_OK;
+}
+
+int ndo__implicit_step(ndo_sim *s, double h)
+{
+	int rc = ready(s, h);
+	if (rc)
+		return rc;
+	ndo__implicit *im = s->imp;
+	const size_t cnt = s->count;
+	const int trap = s->p.method == NDO_TRAPEZOID;
+	double *a, *df;
+	if ((rc = ndo__implicit_prepare(s, h, &a, &df)))
+		return rc;
 	/* Trapezoid: K_AA v_A (held velocities do not enter: held positions
 	 * stay put during the step). */
 	double *kv = s->tmp;

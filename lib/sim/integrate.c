@@ -1185,8 +1185,12 @@ static int step_symplectic(ndo_sim *s, double h)
 }
 
 /* The error of an rkf45 sub-step relative to the tolerance: max over the
- * active components of |e| / (tol (1 + max(|y|, |y'|))). */
-static double rkf45_error(ndo_sim *s, const tableau *tb, double h)
+ * active components (of the nodes in `rows` when not NULL: a peer's own)
+ * of |e| / (tol (1 + max(|y|, |y'|))).  A NaN stays (it is "too large"),
+ * so the maximum does not depend on the order the nodes are visited in:
+ * peers that each take the maximum over their own nodes and then over
+ * the peers get the single process's value, bit for bit. */
+static double rkf45_error(ndo_sim *s, const tableau *tb, double h, const uint8_t *rows)
 {
 	const size_t cnt = s->count;
 	double worst = 0, d[6];
@@ -1197,6 +1201,8 @@ static double rkf45_error(ndo_sim *s, const tableau *tb, double h)
 		for (size_t o = 0; o < 3 * cnt; o += cnt)
 			for (size_t k = 0; k < s->nespan; k++)
 				for (size_t p = o + (size_t)s->espan[k].a; p < o + (size_t)s->espan[k].b; p++) {
+					if (rows && !rows[p - o])
+						continue;
 					double e = 0, y1 = 0;
 					for (int j = 0; j < tb->s; j++) {
 						const double *kj = part ? s->ka[j] : (j == 0 ? s->v : s->kv[j]);
@@ -1205,59 +1211,89 @@ static double rkf45_error(ndo_sim *s, const tableau *tb, double h)
 					}
 					y1 = y[p] + h * y1;
 					double r = fabs(h * e) / (s->p.tol * (1 + fmax(fabs(y[p]), fabs(y1))));
-					if (!(r <= worst))
-						worst = r; /* NaN propagates as "too large" */
+					if (isnan(r) || r > worst)
+						worst = isnan(worst) ? worst : r;
 				}
 	}
 	return worst;
 }
 
-static int step_rkf45(ndo_sim *s, double H)
+/* rkf45's step in parts (ndo_sim_rkf45_begin/attempt/decide): the state
+ * of the step under way lives in the simulation. */
+static void rkf45_begin(ndo_sim *s, double H)
+{
+	s->rk_t_end = s->t + H;
+	s->rk_hs = s->h_sub > 0 ? fmin(s->h_sub, H) : H;
+	s->rk_k0 = 0;
+	s->rk_rejected = 0;
+	s->rk_t0 = s->t;
+	s->rk_hsub0 = s->h_sub;
+}
+
+static int rkf45_attempt(ndo_sim *s, const uint8_t *rows, double *err)
 {
 	const tableau *tb = &tb_rkf45;
-	double t_end = s->t + H;
-	double hs = s->h_sub > 0 ? fmin(s->h_sub, H) : H;
-	int k0_ready = 0, rejected_last = 0;
+	double rem = s->rk_t_end - s->t;
+	s->rk_last = s->rk_hs >= rem * (1 - 1e-12);
+	s->rk_h = s->rk_last ? rem : s->rk_hs;
+	int rc = rk_stages(s, tb, s->rk_h, s->rk_k0);
+	if (rc)
+		return rc;
+	*err = rkf45_error(s, tb, s->rk_h, rows);
+	return NDO_OK;
+}
+
+/* 1: the step is complete; 0: another sub-step; or a negative status. */
+static int rkf45_decide(ndo_sim *s, double err)
+{
+	const tableau *tb = &tb_rkf45;
+	const double h = s->rk_h, H = s->rk_t_end - s->rk_t0;
+	if (err <= 1) {
+		rk_finish(s, tb, h);
+		account(s, h);
+		s->stats.substeps++;
+		s->stats.last_substep = h;
+		/* The usual controller for a 4th-order error estimate: the
+		 * 0.9 safety factor, at most ×5 per step and never growing
+		 * right after a rejection. */
+		double fac = err > 0 ? 0.9 * pow(err, -0.2) : 5;
+		fac = fmin(s->rk_rejected ? 1 : 5, fmax(0.2, fac));
+		if (!s->rk_last || h >= s->rk_hs)
+			s->rk_hs = h * fac;
+		s->rk_rejected = 0;
+		s->rk_k0 = 0;
+		if (s->rk_last) {
+			s->t = s->rk_t_end;
+			s->h_sub = s->rk_hs;
+			return 1;
+		}
+		s->t += h;
+		return 0;
+	}
+	s->stats.rejected++;
+	double fac = isfinite(err) ? fmax(0.1, 0.9 * pow(err, -0.25)) : 0.1;
+	s->rk_hs = h * fac;
+	s->rk_rejected = 1;
+	s->rk_k0 = 1; /* the state did not change: stage 0 stands */
+	if (s->rk_hs < 1e-14 * fmax(fabs(s->t), H))
+		return ndo__fail(NDO_EDIVERGED, "rkf45's step size underflowed (%.3g s) "
+		                 "at t = %.9g s: the tolerance cannot be met", s->rk_hs, s->t);
+	return 0;
+}
+
+static int step_rkf45(ndo_sim *s, double H)
+{
+	rkf45_begin(s, H);
 	for (;;) {
-		double rem = t_end - s->t;
-		int last = hs >= rem * (1 - 1e-12);
-		double h = last ? rem : hs;
-		int rc = rk_stages(s, tb, h, k0_ready);
+		double err;
+		int rc = rkf45_attempt(s, NULL, &err);
 		if (rc)
 			return rc;
-		double err = rkf45_error(s, tb, h);
-		if (err <= 1) {
-			rk_finish(s, tb, h);
-			account(s, h);
-			s->stats.substeps++;
-			s->stats.last_substep = h;
-			/* The usual controller for a 4th-order error estimate: the
-			 * 0.9 safety factor, at most ×5 per step and never growing
-			 * right after a rejection. */
-			double fac = err > 0 ? 0.9 * pow(err, -0.2) : 5;
-			fac = fmin(rejected_last ? 1 : 5, fmax(0.2, fac));
-			if (!last || h >= hs)
-				hs = h * fac;
-			rejected_last = 0;
-			k0_ready = 0;
-			if (last) {
-				s->t = t_end;
-				break;
-			}
-			s->t += h;
-		} else {
-			s->stats.rejected++;
-			double fac = isfinite(err) ? fmax(0.1, 0.9 * pow(err, -0.25)) : 0.1;
-			hs = h * fac;
-			rejected_last = 1;
-			k0_ready = 1; /* the state did not change: stage 0 stands */
-			if (hs < 1e-14 * fmax(fabs(s->t), H))
-				return ndo__fail(NDO_EDIVERGED, "rkf45's step size underflowed (%.3g s) "
-				                 "at t = %.9g s: the tolerance cannot be met", hs, s->t);
-		}
+		if ((rc = rkf45_decide(s, err)) < 0)
+			return rc;
+		if (rc == 1)
+			return NDO_OK;
 	}
-	s->h_sub = hs;
-	return NDO_OK;
 }
 
 /* ---- stepping ------------------------------------------------------------------ */
@@ -1291,6 +1327,13 @@ int ndo__restiffen(ndo_sim *s)
 	return NDO_OK;
 }
 
+int ndo__restiffen_due(ndo_sim *s)
+{
+	if (s->p.restiffen > 0 && s->stats.steps > 0 && s->stats.steps % s->p.restiffen == 0)
+		return ndo__restiffen(s);
+	return NDO_OK;
+}
+
 int ndo__step_tableau(ndo_sim *s, double h)
 {
 	int rc = step_rk(s, method_tableau(s->p.method), h);
@@ -1307,9 +1350,8 @@ int ndo_sim_step(ndo_sim *s, double h)
 	ndo__clear_error();
 	if (!(h > 0) || !isfinite(h))
 		return ndo__fail(NDO_EINVAL, "step size %g: must be positive and finite", h);
-	int rc;
-	if (s->p.restiffen > 0 && s->stats.steps > 0 && s->stats.steps % s->p.restiffen == 0 &&
-	    (rc = ndo__restiffen(s)))
+	int rc = ndo__restiffen_due(s);
+	if (rc)
 		return rc;
 	double t0 = s->t;
 	switch (s->p.method) {
@@ -1335,4 +1377,74 @@ int ndo_sim_step(ndo_sim *s, double h)
 			return rc;
 	}
 	return NDO_OK;
+}
+
+/* ---- rkf45 in parts (ndo/sim.h) ---------------------------------------------- */
+int ndo_sim_rkf45_begin(ndo_sim *s, double h)
+{
+	ndo__clear_error();
+	if (s->p.method != NDO_RKF45)
+		return ndo__fail(NDO_EINVAL, "ndo_sim_rkf45_begin: the method is %s",
+		                 ndo_method_names[s->p.method]);
+	if (!(h > 0) || !isfinite(h))
+		return ndo__fail(NDO_EINVAL, "step size %g: must be positive and finite", h);
+	int rc = ndo__restiffen_due(s);
+	if (rc)
+		return rc;
+	rkf45_begin(s, h);
+	return NDO_OK;
+}
+
+int ndo_sim_rkf45_attempt(ndo_sim *s, const uint8_t *rows, double *err, double *h)
+{
+	ndo__clear_error();
+	int rc = rkf45_attempt(s, rows, err);
+	if (h)
+		*h = s->rk_h;
+	return rc;
+}
+
+int ndo_sim_rkf45_decide(ndo_sim *s, double err)
+{
+	ndo__clear_error();
+	int rc = rkf45_decide(s, err);
+	if (rc == 1) {
+		s->step++;
+		s->stats.steps++;
+	}
+	return rc;
+}
+
+void ndo_sim_rkf45_peek(const ndo_sim *s, size_t n, const int32_t *nodes, double *u, double *v)
+{
+	/* rk_finish's arithmetic, node by node, in its order (no contraction
+	 * into fused multiply-adds under -std=c11: the same bits) */
+	const tableau *tb = &tb_rkf45;
+	const double h = s->rk_h;
+	const size_t cnt = s->count;
+	for (size_t k = 0; k < n; k++) {
+		size_t p = (size_t)s->canon[nodes[k]];
+		for (int c = 0; c < 3; c++) {
+			size_t q = (size_t)c * cnt + p;
+			double uu = s->u[q], vv = s->v[q];
+			if (s->active[p]) {
+				for (int j = 1; j < tb->s; j++)
+					if (tb->b[j] != 0)
+						uu += h * tb->b[j] * s->kv[j][q];
+				if (tb->b[0] != 0)
+					uu += h * tb->b[0] * s->v[q];
+				for (int j = 0; j < tb->s; j++)
+					if (tb->b[j] != 0)
+						vv += h * tb->b[j] * s->ka[j][q];
+			}
+			u[3 * k + c] = uu;
+			v[3 * k + c] = vv;
+		}
+	}
+}
+
+void ndo_sim_rkf45_abort(ndo_sim *s)
+{
+	s->t = s->rk_t0;
+	s->h_sub = s->rk_hsub0;
 }

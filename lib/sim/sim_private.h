@@ -100,6 +100,11 @@ struct ndo_sim {
 	int64_t step;
 	ndo_sim_stats stats;
 	double h_sub;          /* rkf45's next sub-step */
+	/* rkf45's step under way (ndo_sim_rkf45_begin): its end, the next
+	 * sub-step, the sub-step attempted and whether it is the last, stage 0
+	 * ready, the last attempt rejected; the time and h_sub it began at */
+	double rk_t_end, rk_hs, rk_h, rk_t0, rk_hsub0;
+	int rk_last, rk_k0, rk_rejected;
 
 	/* Divergence: the reference energy and the input work. */
 	int e0_set;
@@ -112,6 +117,7 @@ struct ndo_sim {
 	double pend_h, pend_power; /* the last step: its size and start power */
 
 	ndo__implicit *imp;
+	int imp_df;            /* ndo_sim_implicit_begin left f(t+h) − f(t) in vs */
 
 	/* Sleeping tiles (sleep.c; NULL: every node stepped), and the
 	 * node-steps taken and those a run with every tile awake takes. */
@@ -205,13 +211,22 @@ void ndo__pending_work(const ndo_sim *s, double power, double *w, double *w_abs)
 int ndo__implicit_step(ndo_sim *s, double h);
 void ndo__implicit_free(ndo_sim *s);
 void ndo__implicit_invalidate(ndo_sim *s, int pattern);
+/* The start of an implicit step of size h: the acceleration a at the
+ * state (in ka[0]) with the divergence test, and f(t+h) − f(t) (in vs;
+ * NULL without forces), f then holding f(t+h) (implicit.c). */
+int ndo__implicit_prepare(ndo_sim *s, double h, double **a, double **df);
+/* The stencil's 6 neighbours (stored indices) and coefficients of
+ * canonical node p, as the implicit system's row p has them. */
+void ndo__row_stencil(const ndo_sim *s, size_t p, int32_t nb[6], double cf[6]);
 
 /* Copy the canonical values of the stage planes to their duplicates
  * (accel.c). */
 void ndo__sync_planes(const ndo_sim *s, double *planes, int nplanes);
 
-/* K re-assembled from the deformed shape X + u (integrate.c). */
+/* K re-assembled from the deformed shape X + u (integrate.c); _due: when
+ * a step starts and the restiffen period says so. */
 int ndo__restiffen(ndo_sim *s);
+int ndo__restiffen_due(ndo_sim *s);
 
 /* R(z) = Σ r_k z^k of an explicit Runge–Kutta method; returns the
  * degree, or −1 for a method that is not one (integrate.c). */

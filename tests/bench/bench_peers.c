@@ -8,6 +8,12 @@
  *                                    error by method, step, boundary (held as
  *                                    in the thesis, or extrapolated) and peers
  *   bench_peers realtime [-l LEVEL]  free-running peers: error by network delay
+ *   bench_peers split [-l LEVEL]     rkf45 and the implicit methods split
+ *                                    exactly (docs/peers.md): difference,
+ *                                    exchanges (rounds of messages) and bytes
+ *                                    a step, rkf45's attempts, the solve's
+ *                                    iterations with the region's block or
+ *                                    the diagonal as the preconditioner
  */
 #include "../unit/peer_world.h"
 
@@ -63,6 +69,33 @@ static void realtime(int level)
 		}
 }
 
+static void split(int level)
+{
+	printf("| method | h (s) | peers | preconditioner | difference | exchanges a step | "
+	       "halo kB a step (owner) | rkf45: attempts a step / solve: iterations a solve |\n");
+	printf("|---|---|---|---|---|---|---|---|\n");
+	static const char *methods[] = {"rkf45", "backward-euler", "trapezoid"};
+	static const double hs[] = {0.02, 0.1};
+	for (int m = 0; m < 3; m++)
+		for (int k = 0; k < 2; k++)
+			for (int n = 2; n <= 4; n += 2)
+				for (int jac = 0; jac <= (m > 0); jac++) {
+					setup su = {.integrator = methods[m], .dt = hs[k],
+					            .steps = (int64_t)(1.0 / hs[k] + 0.5),
+					            .clock = NDO_CLOCK_LOCKSTEP, .peers = n, .level = level,
+					            .jacobi = jac, .extra = m == 0 ? "tol 1e-6" : NULL};
+					ndo_peer_stats st;
+					double d = run_split(&su, n, &st);
+					double per = m ? (st.solves ? (double)st.iterations / (double)st.solves : 0)
+					               : (double)st.attempts / (double)st.steps;
+					printf("| %s | %g | %d | %s | %.2g | %.1f | %.1f | %.1f |\n", methods[m],
+					       hs[k], n, m == 0 ? "" : jac ? "diagonal" : "region's block", d,
+					       (double)st.exchanges / (double)st.steps,
+					       (double)st.halo_bytes / 1e3 / (double)st.steps, per);
+					fflush(stdout);
+				}
+}
+
 int main(int argc, char **argv)
 {
 	int level = argc > 3 && strcmp(argv[2], "-l") == 0 ? atoi(argv[3]) : 5;
@@ -70,8 +103,10 @@ int main(int argc, char **argv)
 		lag(level);
 	else if (argc > 1 && strcmp(argv[1], "realtime") == 0)
 		realtime(level);
+	else if (argc > 1 && strcmp(argv[1], "split") == 0)
+		split(level);
 	else {
-		fprintf(stderr, "usage: bench_peers lag|realtime [-l LEVEL]\n");
+		fprintf(stderr, "usage: bench_peers lag|realtime|split [-l LEVEL]\n");
 		return 2;
 	}
 	return 0;

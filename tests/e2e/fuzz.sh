@@ -14,8 +14,8 @@ secs=${NDO_FUZZ_SECONDS:-20}
 # one per tile encoding, as seeds in DIR: PREFIX (hex, fuzz_auth's flags
 # byte), then the bytes that pick the type and, for a tile, the receiver's
 # level-3 decoder of that encoding — FORM msg: fuzz_msg.c's (129, then 9,
-# 10 or 11 for a tile), auth: fuzz_auth.c's one byte (243, 67 or 155 with
-# 11 message types) —
+# 10 or 11 for a tile), auth: fuzz_auth.c's one byte (37, 133 or 229 with
+# 12 message types) —
 # then the message.  For fuzz_msg a fourth run sends at level 2 (predict,
 # --send-level 2): its tiles go through the receiver's coarse decoder.
 record_messages() {
@@ -32,13 +32,13 @@ record_messages() {
 	}
 	/usr/bin/python3 - "$1" "$2" "$3" <<'PY' || fail "$(basename "$1") seeds" "no recorded messages"
 import struct, sys
-suffixes = "DESC TILE POI PARTITION HELLO PEERS LEAVE HEARTBEAT DESC_REQUEST FORCE HALO".split()
+suffixes = "DESC TILE POI PARTITION HELLO PEERS LEAVE HEARTBEAT DESC_REQUEST FORCE HALO SOLVE".split()
 if sys.argv[3] == "msg":  # 129 then b: level b / 3 = 3, encoding 1 + b % 3
     tile = {"float32": bytes([129, 9]), "fixed": bytes([129, 10]), "predict": bytes([129, 11]),
             "coarse": bytes([129, 11])}  # the receiver's send level is 2
-else:  # one byte b: type b % (message types) = 1, level b % 8 = 3, encoding 1 + b % 3
-    one = lambda r: bytes([next(b for b in range(256)
-                                if b % len(suffixes) == 1 and b % 8 == 3 and b % 3 == r)])
+else:  # one byte b: type b % (message types) = 1; of b / (message types), the
+    # level (% 8) 3 and the encoding (1 + / 8 % 3) 1 + r
+    one = lambda r: bytes([1 + len(suffixes) * (3 + 8 * r)])
     tile = {"float32": one(0), "fixed": one(1), "predict": one(2)}
 prefix = bytes.fromhex(sys.argv[2])
 n = 0

@@ -5,8 +5,9 @@
  * gets past the tag to the decoder, the replay window, validation, the
  * codec and the object's box); bit 1 makes the receiver take the
  * message's object and decode tiles (as fuzz_msg's high bit).  Byte 1 is
- * fuzz_msg's first byte (the type; with the codec, the encoding and
- * level); the rest is the message.  Two properties trap:
+ * b: the type b % (message types) and, with the codec, of r = b / (message
+ * types) the level r % 8 and the encoding 1 + (r / 8) % 3; the rest is the
+ * message.  Two properties trap:
  *   - unsealed bytes are never accepted (nobody without the key writes);
  *   - a sealed message delivered twice is dropped the second time as a
  *     replay, exactly once more.
@@ -74,10 +75,12 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 			object = m.hdr->object_id;
 			ndo_msg_free(&m);
 		}
-		ndo_codec_params cp = {.encoding = 1 + b1 % 3, .bits = 13, .keyframe = 32,
+		/* the rest of the byte: level r % 8, encoding 1 + (r / 8) % 3 */
+		const int r = b1 / NDO_MSG_NTYPES, level = r % 8;
+		ndo_codec_params cp = {.encoding = 1 + (r / 8) % 3, .bits = 13, .keyframe = 32,
 		                       .lo = {-1, -1, -1}, .ext = {2, 2, 2}};
-		ndo_net_set_codec(rx, &cp, b1 % 8);
-		ndo_net_attach(rx, object, b1 % 8);
+		ndo_net_set_codec(rx, &cp, level);
+		ndo_net_attach(rx, object, level);
 		double lo[3] = {-1, -1, -1}, hi[3] = {1, 1, 1};
 		ndo_msg_set_box(ndo_net_ctx(rx), lo, hi);
 	}

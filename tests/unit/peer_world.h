@@ -40,6 +40,8 @@ typedef struct setup {
 	int halo_steps;    /* steps per halo exchange (0: 1) */
 	int publish_every; /* whole regions every N steps (0: the default) */
 	const char *extra; /* another scene line ("tol 1e-6"), or NULL */
+	int jacobi;        /* the implicit methods' solve preconditioned with the
+	                      diagonal (ndo_peer_opts.jacobi) */
 } setup;
 
 static int level_of(const setup *su) { return su->level ? su->level : 4; }
@@ -136,7 +138,7 @@ static ndo_peer_opts opts(ndo_role role, int32_t id, int32_t poi, const setup *s
 	                               .heartbeat = 0.1, .timeout = 1.0, .retry = 0.3},
 	                   .clock = su->clock, .peers = su->peers, .hold_boundary = su->hold,
 	                   .halo_steps = su->halo_steps, .publish_every = su->publish_every,
-	                   .step_timeout = su->step_timeout, .note = on_note,
+	                   .step_timeout = su->step_timeout, .jacobi = su->jacobi, .note = on_note,
 	                   .note_user = (void *)(intptr_t)index};
 	return o;
 }

@@ -146,6 +146,40 @@ static void halos_checked(void)
 	CHECK(roundtrip(NDO_MSG_HALO, &h, &unknown) == NDO_DROP_UNKNOWN, "before the description");
 }
 
+/* A split step's exchange (solve_t): runs as in a halo, 0, 3 or 6 finite
+ * values a node, at most NDO_MAX_SUMS finite partial sums. */
+static void solves_checked(void)
+{
+	ndo_msg_ctx c = {.object_id = 42, .level = 4, .self_id = 1};
+	int32_t start[2] = {10, 40}, len[2] = {3, 2};
+	double v[30] = {0}, sums[NDO_MAX_SUMS + 1] = {0.5, 1};
+	ndo_msg_solve_t h = {.hdr = {NDO_PROTOCOL_VERSION, 42, 7, 0, 0}, .step = 5, .phase = 3,
+	                     .per_node = 6, .nruns = 2, .start = start, .len = len, .nvalues = 30,
+	                     .values = v, .nsums = 2, .sums = sums};
+	CHECK(roundtrip(NDO_MSG_SOLVE, &h, &c) == NDO_DROP_NONE, "a good state strip passes");
+	h.per_node = 3, h.nvalues = 15;
+	CHECK(roundtrip(NDO_MSG_SOLVE, &h, &c) == NDO_DROP_NONE, "a good vector passes");
+	h.nvalues = 30;
+	CHECK(roundtrip(NDO_MSG_SOLVE, &h, &c) == NDO_DROP_LENGTH, "30 values for 5 nodes of 3");
+	h.per_node = 4, h.nvalues = 20;
+	CHECK(roundtrip(NDO_MSG_SOLVE, &h, &c) == NDO_DROP_RANGE, "4 values a node");
+	h.per_node = 0, h.nvalues = 0, h.nruns = 0;
+	CHECK(roundtrip(NDO_MSG_SOLVE, &h, &c) == NDO_DROP_NONE, "sums only");
+	h.phase = -1;
+	CHECK(roundtrip(NDO_MSG_SOLVE, &h, &c) == NDO_DROP_RANGE, "a negative phase");
+	h.phase = 3, h.nsums = NDO_MAX_SUMS + 1;
+	CHECK(roundtrip(NDO_MSG_SOLVE, &h, &c) == NDO_DROP_RANGE, "too many sums");
+	h.nsums = 2, sums[1] = INFINITY;
+	CHECK(roundtrip(NDO_MSG_SOLVE, &h, &c) == NDO_DROP_NONFINITE, "an infinite sum");
+	sums[1] = 1, h.per_node = 6, h.nruns = 2, h.nvalues = 30, start[1] = 12;
+	CHECK(roundtrip(NDO_MSG_SOLVE, &h, &c) == NDO_DROP_RANGE, "overlapping runs");
+	start[1] = 40, v[29] = NAN;
+	CHECK(roundtrip(NDO_MSG_SOLVE, &h, &c) == NDO_DROP_NONFINITE, "NaN");
+	v[29] = 0;
+	ndo_msg_ctx unknown = {.object_id = 0, .level = -1, .self_id = 1};
+	CHECK(roundtrip(NDO_MSG_SOLVE, &h, &unknown) == NDO_DROP_UNKNOWN, "before the description");
+}
+
 static void bytes_checked_before_decoding(void)
 {
 	ndo_msg_tile_t t = make_tile(4, 2);
@@ -316,6 +350,7 @@ int main(void)
 	RUN(tile_fields_checked);
 	RUN(coarse_tiles_checked);
 	RUN(halos_checked);
+	RUN(solves_checked);
 	RUN(bytes_checked_before_decoding);
 	RUN(control_messages_checked);
 	RUN(stale_dropped_latest_kept);

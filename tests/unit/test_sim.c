@@ -336,6 +336,83 @@ static void fused_rk4_equals_the_tableau(void)
 	ndo_grid_destroy(g);
 }
 
+/* rkf45 in parts (ndo/sim.h): begin/attempt/decide is ndo_sim_step bit for
+ * bit; the error over a subset of rows is at most the whole one, and the
+ * larger of two complementary subsets' is the whole one; peek gives the
+ * state an accepted attempt leaves, bit for bit. */
+static void rkf45_in_parts_is_the_step(void)
+{
+	ndo_grid *g = shape("wavy", 3);
+	size_t nn = 3 * g->count;
+	double *x0 = malloc(nn * sizeof *x0), *v0 = malloc(nn * sizeof *v0);
+	random_state(g, 0.01, x0, v0);
+	int32_t faces[] = {40, 41, 90};
+	ndo_force f = {NDO_FORCE_FACE, 2.4, 1, 0, 1, {0}, 3, faces};
+	ndo_sim_params p;
+	ndo_sim_defaults(&p);
+	p.method = NDO_RKF45;
+	p.material.damping = 0.1;
+	p.forces = &f;
+	p.nforces = 1;
+	p.tol = 1e-7;
+	ndo_sim *a = make(g, x0, v0, NULL, &p), *b = make(g, x0, v0, NULL, &p);
+	uint8_t *left = malloc(g->count), *right = malloc(g->count);
+	int32_t *all = malloc(g->count * sizeof *all);
+	for (size_t k = 0; k < g->count; k++) {
+		left[k] = k % (size_t)g->w < 9;
+		right[k] = !left[k];
+		all[k] = (int32_t)k;
+	}
+	double *pu = malloc(nn * sizeof *pu), *pv = malloc(nn * sizeof *pv);
+	double *u = malloc(nn * sizeof *u), *v = malloc(nn * sizeof *v);
+	int bad_err = 0, bad_peek = 0, attempts = 0;
+	for (int k = 0; k < 20; k++) {
+		CHECK(ndo_sim_step(a, 0.05) == 0, "step: %s", ndo_errdetail());
+		CHECK(ndo_sim_rkf45_begin(b, 0.05) == 0, "begin: %s", ndo_errdetail());
+		int rc;
+		do {
+			double err, el, er;
+			ndo_sim_rkf45_attempt(b, NULL, &err, NULL);
+			ndo_sim_rkf45_attempt(b, left, &el, NULL);
+			ndo_sim_rkf45_attempt(b, right, &er, NULL);
+			bad_err += !(el <= err && er <= err && fmax(el, er) == err);
+			ndo_sim_rkf45_peek(b, g->count, all, pu, pv);
+			ndo_sim_stats s0, s1;
+			ndo_sim_stats_get(b, &s0);
+			rc = ndo_sim_rkf45_decide(b, err);
+			ndo_sim_stats_get(b, &s1);
+			attempts++;
+			if (s1.rejected == s0.rejected) {
+				ndo_sim_get_nodes(b, g->count, all, NULL, u, v);
+				bad_peek += memcmp(u, pu, nn * sizeof *u) != 0 || memcmp(v, pv, nn * sizeof *v) != 0;
+			}
+		} while (rc == 0);
+		CHECK(rc == 1, "decide: %d (%s)", rc, ndo_errdetail());
+	}
+	double *xa = malloc(nn * sizeof *xa), *xb = malloc(nn * sizeof *xb);
+	ndo_sim_get(a, xa, NULL);
+	ndo_sim_get(b, xb, NULL);
+	ndo_sim_stats sa, sb;
+	ndo_sim_stats_get(a, &sa);
+	ndo_sim_stats_get(b, &sb);
+	CHECK(memcmp(xa, xb, nn * sizeof *xa) == 0 && sa.substeps == sb.substeps &&
+	      sa.rejected == sb.rejected && ndo_sim_time(a) == ndo_sim_time(b) &&
+	      ndo_sim_step_count(a) == ndo_sim_step_count(b),
+	      "in parts: differs by %g, %lld/%lld sub-steps, %lld/%lld rejected", max_diff(xa, xb, nn),
+	      (long long)sa.substeps, (long long)sb.substeps, (long long)sa.rejected,
+	      (long long)sb.rejected);
+	CHECK(bad_err == 0, "%d of %d attempts: the halves' errors are not the whole's", bad_err,
+	      attempts);
+	CHECK(bad_peek == 0, "%d of %d attempts: peek is not the accepted state", bad_peek, attempts);
+	CHECK(sb.rejected > 0 && sb.substeps > 20, "the run exercises the controller: %lld "
+	      "sub-steps, %lld rejected", (long long)sb.substeps, (long long)sb.rejected);
+	free(xa), free(xb), free(u), free(v), free(pu), free(pv), free(all), free(left), free(right);
+	free(x0), free(v0);
+	ndo_sim_destroy(a);
+	ndo_sim_destroy(b);
+	ndo_grid_destroy(g);
+}
+
 /* The power iteration's λ_max against the dense eigenvalues, with and
  * without pins (pinned nodes are Dirichlet conditions). */
 static void power_iteration_finds_lambda_max(void)
@@ -1025,6 +1102,7 @@ int main(void)
 	RUN(integrators_converge_to_the_exact_solution);
 	RUN(follower_forces_keep_the_order);
 	RUN(fused_rk4_equals_the_tableau);
+	RUN(rkf45_in_parts_is_the_step);
 	RUN(power_iteration_finds_lambda_max);
 	RUN(duplicates_agree_after_every_step);
 	RUN(threads_give_the_same_bits);

@@ -29,6 +29,7 @@
 #include "ndo_msg/ndo_msg_partition_t.h"
 #include "ndo_msg/ndo_msg_peers_t.h"
 #include "ndo_msg/ndo_msg_poi_t.h"
+#include "ndo_msg/ndo_msg_solve_t.h"
 #include "ndo_msg/ndo_msg_tile_t.h"
 
 #ifdef __cplusplus
@@ -42,6 +43,7 @@ extern "C" {
 #define NDO_MAX_SCENE 8192    /* bytes of scene text in a description */
 #define NDO_MAX_NAME 63       /* bytes of a hello's name */
 #define NDO_MAX_TEXT 255      /* bytes of a leave's message */
+#define NDO_MAX_SUMS 16       /* partial sums in one solve_t */
 
 /* LCM 1.3.1 sends a message as one datagram when channel + 1 (NUL) +
  * payload ≤ 65,499 bytes (plus its 8-byte header: 65,507, the largest
@@ -67,6 +69,7 @@ typedef enum ndo_msg_type {
 	NDO_MSG_DESC_REQUEST,
 	NDO_MSG_FORCE,
 	NDO_MSG_HALO,
+	NDO_MSG_SOLVE,
 	NDO_MSG_NTYPES
 } ndo_msg_type;
 
@@ -123,6 +126,7 @@ typedef struct ndo_msg {
 		ndo_msg_desc_request_t desc_request;
 		ndo_msg_force_t force;
 		ndo_msg_halo_t halo;
+		ndo_msg_solve_t solve;
 	} u;
 } ndo_msg;
 

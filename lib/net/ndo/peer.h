@@ -11,10 +11,13 @@
  *                      next to its region (its halo), the value of step t
  *                      from that node's peer.  Tiles of later steps wait
  *                      in a stash until the peer gets there, so the result
- *                      does not depend on timing: with no loss it is the
- *                      single-process run to rounding for the one-stage
- *                      methods (forward and symplectic Euler), and with an
- *                      O(h) boundary-lag error for the multi-stage ones.
+ *                      does not depend on timing: with no loss, exact
+ *                      halos (hold_boundary 0) make it the single-process
+ *                      run — bit for bit for the explicit methods, rkf45
+ *                      included, and to the distributed solve's tolerance
+ *                      for the implicit ones (ndo_peer_halo_rings); the
+ *                      thesis' held boundary has an O(h) lag error for the
+ *                      multi-stage methods.
  *                      A peer that waits sends its own last two steps
  *                      again (after `resend`, doubling up to 0.2 s), which
  *                      recovers lost tiles; after `step_timeout` it goes
@@ -61,7 +64,13 @@ typedef enum ndo_clock { NDO_CLOCK_LOCKSTEP = 1, NDO_CLOCK_REALTIME = 2 } ndo_cl
  * nodes at most this many rings away — 1 for forward and symplectic Euler
  * and midpoint, 2 for rk4 (a stage's displacement reads only its own
  * node's velocity, so the reach grows every second stage), 3 for one
- * rkf45 sub-step.  0 for the implicit methods (they reach everywhere). */
+ * rkf45 sub-step.  0 for the implicit methods (they reach everywhere).
+ * Exact lock-step exchanges a halo this wide (and one ring more, held,
+ * for the multi-stage methods) every step; rkf45 and the implicit
+ * methods exchange within each step instead (lib/net/peer_solve.h): rkf45
+ * a 4-ring halo and its error at every attempted sub-step, the implicit
+ * methods a 1-ring halo and the vectors and sums of a conjugate-gradient
+ * solve over the peers. */
 int ndo_peer_halo_rings(ndo_method m);
 
 /* "lockstep", "realtime"; parse: −1 if unknown. */
@@ -95,6 +104,11 @@ typedef struct ndo_peer_opts {
 	                           lag's error O(h²) instead of O(h)), and a
 	                           value of another step is first carried
 	                           along its velocity, by one step at most */
+	int jacobi;             /* exact backward Euler and trapezoid: this peer
+	                           preconditions the distributed solve with the
+	                           system's diagonal (Jacobi) instead of its
+	                           region's block factored by CHOLMOD (the
+	                           default): for comparison (test_peer) */
 	/* Each peer's own: */
 	double start_timeout;   /* owner: end the session (NDO_PEER_ENDED) when
 	                           `peers` have not joined within this; joiner:
@@ -203,6 +217,11 @@ typedef struct ndo_peer_stats {
 	int64_t exchanges;      /* halo exchanges sent */
 	int64_t halo_tiles;     /* ... their tiles */
 	uint64_t halo_bytes;    /* ... and bytes (LCM payloads) */
+	int64_t attempts;       /* exact rkf45: sub-steps attempted (each one
+	                           reduction of the error over the peers) */
+	int64_t rejected;       /* ... of them rejected */
+	int64_t solves;         /* exact implicit methods: distributed solves */
+	int64_t iterations;     /* ... their conjugate-gradient iterations */
 	int64_t frames;         /* whole-region publications */
 	uint64_t frame_bytes;   /* ... their bytes */
 	double start_time;      /* caller's clock at the first step */

@@ -66,7 +66,11 @@ typedef struct ndo_session_opts {
 	/* Optional: other peers' halos (halo_t, exact lock-step: ndo/peer.h),
 	 * every one in arrival order, once the object is described. */
 	void (*halo_fn)(void *user, const ndo_msg_halo_t *h);
-	void *tile_user; /* for tile_fn and halo_fn */
+	/* Optional: other peers' parts of a split step (solve_t: rkf45's
+	 * sub-steps, the implicit methods' distributed solve; ndo/peer.h),
+	 * every one in arrival order, once the object is described. */
+	void (*solve_fn)(void *user, const ndo_msg_solve_t *m);
+	void *tile_user; /* for tile_fn, halo_fn and solve_fn */
 	/* Owner: the encoding of position/velocity tiles (ndo/codec.h; NULL:
 	 * raw).  A box with ext[0] == 0 is the grid's rest shape's (its
 	 * positions' without one).  The description carries it; a joiner and
@@ -138,6 +142,9 @@ int ndo_session_publish_from(ndo_session *s, const ndo_grid *src, int64_t step, 
 /* Send a halo the caller filled (runs, values, step, time): the session
  * sets the epoch in force.  0 or a negative status. */
 int ndo_session_send_halo(ndo_session *s, ndo_msg_halo_t *h);
+
+/* The same for a solve_t (ndo_msg.h): the session sets the epoch. */
+int ndo_session_send_solve(ndo_session *s, ndo_msg_solve_t *m);
 
 /* Tiles of `step` carry every node this peer simulates at full precision
  * (the run's last step: what the owner gathers is exact); −1: none. */

@@ -212,6 +212,80 @@ int ndo_sim_threads(const ndo_sim *s);
  * positive definite or rkf45's sub-step underflows. */
 int ndo_sim_step(ndo_sim *s, double h);
 
+/* rkf45's step in parts, for peers that split the object (ndo/peer.h):
+ * ndo_sim_step(s, h) for rkf45 is
+ *     ndo_sim_rkf45_begin(s, h);
+ *     do { ndo_sim_rkf45_attempt(s, NULL, &err, NULL); }
+ *     while ((rc = ndo_sim_rkf45_decide(s, err)) == 0);
+ * Between the calls a caller may overwrite held nodes (a peer's halo, at
+ * the state an accepted sub-step ended in) and replace err by the largest
+ * err over every peer: the error is a maximum over nodes, so the peers'
+ * maximum is the single process's, bit for bit, and so are the sub-steps
+ * taken.  begin: NDO_EINVAL for another method or a bad h; it re-assembles
+ * K when due as ndo_sim_step does.  attempt: the stages of the next
+ * sub-step (size in *h, may be NULL) and its error relative to the
+ * tolerance over the active nodes whose byte in `rows` (H × W) is
+ * nonzero (NULL: every active node); a state that diverged returns
+ * NDO_EDIVERGED.  decide: accept (the state advances) or reject (a smaller
+ * sub-step next) by err; 1 when the step is complete (time and step count
+ * advanced), 0 when another attempt follows, NDO_EDIVERGED when the
+ * sub-step underflows.  abort: back to the time and sub-step size the
+ * step began with (the caller restores the state). */
+int ndo_sim_rkf45_begin(ndo_sim *s, double h);
+int ndo_sim_rkf45_attempt(ndo_sim *s, const uint8_t *rows, double *err, double *h);
+int ndo_sim_rkf45_decide(ndo_sim *s, double err);
+void ndo_sim_rkf45_abort(ndo_sim *s);
+/* The displacement and velocity (n × 3 doubles each) that n nodes (stored
+ * indices) will have if the sub-step just attempted is accepted, bit for
+ * bit: a peer sends its strip's with the error, so that one exchange per
+ * attempt serves both (ndo/peer.h). */
+void ndo_sim_rkf45_peek(const ndo_sim *s, size_t n, const int32_t *nodes, double *u, double *v);
+
+/* The implicit system by rows, for a solver that is not this
+ * simulation's own — peers that solve it together (ndo/peer.h) — instead
+ * of ndo_sim_step's CHOLMOD factor.  Backward Euler and the trapezoid
+ * solve, each step, A v' = b for the new velocities of the unknowns (every
+ * node but the pins held in project mode; implicit.c has A and b).  A
+ * caller that holds the exact state of its rows and of their 1-ring (the
+ * others held: ndo_sim_set_active) calls
+ *   begin(s, h, rows, n, b, dinv)  the divergence test, then b and the
+ *                                  inverse diagonal of A (Jacobi) on the
+ *                                  rows (0 on rows that are no unknowns
+ *                                  or not active);
+ *   apply(s, h, rows, n, x, y)     y = A x on the rows, x given on the
+ *                                  rows and their 1-ring;
+ *   rigid(s, h, rows, n, x, sums, &gamma)
+ *                                  for an object without pins, where
+ *                                  ndo_sim_step corrects the momentum of
+ *                                  the solution: the rows' parts of the
+ *                                  sums it needs (sums[0..2] the wanted
+ *                                  momentum, [3..5] M x, [6] the mass);
+ *                                  the shift of axis k is then
+ *                                  (Σ[k] / (1 + c h γ) − Σ[3+k]) / Σ[6],
+ *                                  c = 1 (backward Euler) or ½ (trapezoid);
+ *                                  returns 0 when there is no correction;
+ *   end(s, h, x)                   the new velocities x on the active
+ *                                  nodes: the step ends (state, time,
+ *                                  step count).
+ * Vectors are 3 planes of W·H doubles (component c of stored node p at
+ * c·W·H + p), read and written at canonical nodes.  rows: canonical
+ * stored indices.  begin: NDO_EINVAL for an explicit method or a bad h,
+ * NDO_EDIVERGED as ndo_sim_step. */
+int ndo_sim_implicit_begin(ndo_sim *s, double h, const int32_t *rows, size_t n, double *b,
+                           double *dinv);
+void ndo_sim_implicit_apply(const ndo_sim *s, double h, const int32_t *rows, size_t n,
+                            const double *x, double *y);
+int ndo_sim_implicit_rigid(const ndo_sim *s, double h, const int32_t *rows, size_t n,
+                           const double *x, double sums[7], double *gamma);
+int ndo_sim_implicit_end(ndo_sim *s, double h, const double *x);
+/* z = A_AA⁻¹ r on the active unknowns, with the simulation's own CHOLMOD
+ * factor of the system restricted to them (factored when h, K or the
+ * active set changed): for a peer whose active nodes are its region, the
+ * block-Jacobi (additive Schwarz without overlap) preconditioner of the
+ * whole system.  z's other entries are left as they are.  NDO_ENOMEM,
+ * NDO_EDIVERGED (not positive definite). */
+int ndo_sim_implicit_precondition(ndo_sim *s, double h, const double *r, double *z);
+
 /* The divergence test of ndo_sim_step on the current state, without
  * stepping: NDO_OK or NDO_EDIVERGED. */
 int ndo_sim_check(ndo_sim *s);

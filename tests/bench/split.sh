@@ -1,0 +1,118 @@
+#!/usr/bin/env bash
+# split — what rkf45 and the implicit methods cost when peers split them
+# exactly (docs/peers.md, "rkf45 and the implicit methods"):
+#   1. in one process on the in-memory link (fake clock: counts that do not
+#      depend on the machine): difference from the single process,
+#      exchanges and halo bytes a step, rkf45's attempts, the solve's
+#      iterations with each region's block or the diagonal as the
+#      preconditioner (bench_peers split -l 6);
+#   2. over real LCM in a private network namespace, 2 peers (each one
+#      thread) against one single-threaded process, thesis scene, level
+#      SPLIT_LEVELS (default "5 6"): the steps per second of the stepping,
+#      medians of SPLIT_RUNS (default 3) runs, and the difference.
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+if [ -z "${NDO_IN_NETNS:-}" ]; then
+	NDO_IN_NETNS=1 exec unshare -n "$BASH" "$(realpath "$0")" "$@"
+fi
+ip link set lo up
+ip route add 224.0.0.0/4 dev lo
+export PATH=$PWD/bin:$PATH
+out=docs/bench/split.md
+work=build/bench/split
+rm -rf "$work" && mkdir -p "$work"
+SCENE=samples/thesis-fig5.3.scene
+RUNS=${SPLIT_RUNS:-3}
+LEVELS=${SPLIT_LEVELS:-5 6}
+
+counts_cmd="build/tests/bench_peers split -l 6"
+counts=$($counts_cmd)
+
+physics() { # METHOD: rkf45 has no stable step to pick, the implicit ones any
+	case $1 in
+	rkf45) echo "-i rkf45 --dt 0.02 -t 2" ;;
+	*) echo "-i $1 --dt 0.05 -t 5" ;;
+	esac
+}
+
+diff_rel() {
+	/usr/bin/python3 - "$1" "$2" tests/e2e <<'PY'
+import sys
+sys.path.insert(0, sys.argv[3])
+import numpy as np, tgrid
+_, _, _, a = tgrid.read(sys.argv[1])
+_, _, _, b = tgrid.read(sys.argv[2])
+print(f"{np.abs(a['position'] - b['position']).max() / np.abs(b['position'] - b['rest']).max():.2g}")
+PY
+}
+
+median() { sort -g | awk '{ v[NR] = $1 } END { print v[int((NR + 1) / 2)] }'; }
+
+rows=""
+for level in $LEVELS; do
+	grid=$work/wavy$level.tgrid
+	remesh --shape wavy -l "$level" -o "$grid" 2>/dev/null
+	poi=$((3 * 4 ** (level + 1) / 4)) # a face on the far side of the owner's
+	for m in rkf45 backward-euler trapezoid; do
+		one=() two=() d=""
+		for ((r = 0; r < RUNS; r++)); do
+			# shellcheck disable=SC2046
+			simulate-peer "$grid" -s "$SCENE" $(physics "$m") -o "$work/one.tgrid" \
+				2>"$work/one.err"
+			one+=("$(grep -o '[0-9.]* steps/s' "$work/one.err" | head -1 | cut -d' ' -f1)")
+			# shellcheck disable=SC2046
+			simulate-peer --owner "$grid" -s "$SCENE" $(physics "$m") --peers 2 \
+				--step-timeout 30 -o "$work/two.tgrid" 2>"$work/owner.err" &
+			local_owner=$!
+			simulate-peer --join --poi "$poi" 2>"$work/joiner.err"
+			wait "$local_owner"
+			# "N steps to step S in T s"
+			read -r n t < <(sed -n 's/.* \([0-9]*\) steps to step [0-9]* in \([0-9.e-]*\) s.*/\1 \2/p' \
+				"$work/owner.err" | head -1)
+			two+=("$(awk "BEGIN{print $n / $t}")")
+			d=$(diff_rel "$work/two.tgrid" "$work/one.tgrid")
+		done
+		o=$(printf '%s\n' "${one[@]}" | median)
+		w=$(printf '%s\n' "${two[@]}" | median)
+		ex=$(grep -o 'in [0-9]* exchanges' "$work/owner.err" | head -1 | cut -d' ' -f2)
+		kb=$(grep -o '[0-9.]* kB a step' "$work/owner.err" | head -1 | cut -d' ' -f1)
+		steps=$(sed -n 's/.* \([0-9]*\) steps to step .*/\1/p' "$work/owner.err" | head -1)
+		rows+="| $level | $m | $(printf '%.0f' "$o") | $(printf '%.0f' "$w") | $(awk "BEGIN{printf \"%.2f\", $w / $o}") | $(awk "BEGIN{printf \"%.1f\", $ex / $steps}") | $kb | $d |"$'\n'
+		echo "level $level $m: one $o, two $w steps/s, difference $d" >&2
+	done
+done
+
+load=$(cut -d' ' -f1-3 /proc/loadavg)
+cat >"$out" <<EOF
+# rkf45 and the implicit methods split exactly: what it costs
+
+Made by \`tests/bench/run split\` (tests/bench/split.sh) on $(date -u +%Y-%m-%d), $(nproc) cores,
+load average at the end $load (other engineers' builds and benchmarks share the machine:
+ratios within one run mean more than absolute speeds).
+
+## 1. Counts (one process, in-memory link, fake clock)
+
+\`$counts_cmd\`: 1 s of the thesis scene (figure 5.3) at level 6; "exchanges a step" are
+rounds of messages every peer waits for; "difference" the largest position difference from
+the single process over its largest displacement.
+
+$counts
+
+## 2. Speed over LCM (2 peers in a private network namespace, one thread each)
+
+Steps per second of the stepping (the owner's report), against one single-threaded process
+in the same run, medians of $RUNS; rkf45 at --dt 0.02 for 2 s, the implicit methods at
+--dt 0.05 for 5 s; the difference is the last run's.
+
+| level | method | one process, steps/s | 2 peers, steps/s | × one process | exchanges a step | halo kB a step (owner) | difference |
+|---|---|---:|---:|---:|---:|---:|---:|
+$rows
+Reading: exactness costs these methods speed.  rkf45 pays one round of messages per attempted
+sub-step (2 a step here) and a 4-ring halo; the implicit methods replace the single
+process's one CHOLMOD solve a step by a conjugate-gradient solve over the peers: each of
+its iterations is a round of messages (every peer waits for the slowest) and a solve with
+the region's own factor, so a step costs 15–30 rounds and as many block solves.  Split
+exactly, they give the single process's result on several peers; they do not give its
+speed.
+EOF
+cat "$out"
