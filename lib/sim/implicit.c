@@ -1,5 +1,6 @@
 /* implicit.c — backward Euler and the trapezoidal rule, solved with CHOLMOD
- * (ndo/sim.h).
+ * or with multigrid-preconditioned conjugate gradients (ndo/sim.h,
+ * multigrid.h).
  *
  * With x' = v eliminated, each step is one symmetric positive definite
  * solve for the new velocities of the integrated nodes A:
@@ -11,13 +12,17 @@
  * do not move during the step.  Penalty springs add α to K's diagonal.
  * The matrix depends on h, the active set and K: it is factored once
  * (symbolic analysis once per active set) and again only when one of them
- * changes — re-assembling K (restiffening) refactors.  Forces that follow
+ * changes — re-assembling K (restiffening) refactors.  The multigrid
+ * solver likewise rebuilds its hierarchy only then, and starts each solve
+ * from the explicit prediction v + h a.  Forces that follow
  * the surface (normal directions, pressure) are evaluated at t + h at the
  * predicted positions u + h v (their dependence on the positions is not
  * in the matrix), which keeps the trapezoid second order.
  */
 #include "sim_private.h"
+#include "multigrid.h"
 #include "ndo/status.h"
+#include "ndo/topology.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -25,9 +30,44 @@
 
 #include <suitesparse/cholmod.h>
 
+const char *const ndo_solver_names[] = {"auto", "multigrid", "cholmod", NULL};
+
+int ndo_solver_parse(const char *name, ndo_solver *sv)
+{
+	for (int k = 0; ndo_solver_names[k]; k++)
+		if (strcmp(name, ndo_solver_names[k]) == 0) {
+			*sv = (ndo_solver)k;
+			return NDO_OK;
+		}
+	return ndo__fail(NDO_ENOTFOUND, "unknown solver '%s' (auto, multigrid, cholmod)", name);
+}
+
+ndo_solver ndo_solver_at(ndo_solver sv, int level)
+{
+	if (sv != NDO_SOLVER_AUTO)
+		return sv;
+	return level >= NDO_MULTIGRID_MIN_LEVEL ? NDO_SOLVER_MULTIGRID : NDO_SOLVER_CHOLMOD;
+}
+
+double ndo__implicit_mg_bytes(int level)
+{
+	size_t n = ndo_vertex_count(level);
+	/* The hierarchy and its vectors, the solve's b and x (n × 3 each), the
+	 * rows' mass, and the assembly: a triplet of 7 entries a row (two
+	 * indices, a value) turned into the matrix. */
+	return ndo__mg_bytes(n) + (double)n * (2 * 24 + 8 + 7 * 16);
+}
+
 struct ndo__implicit {
 	cholmod_common cm;
 	cholmod_factor *L;
+	/* Multigrid: the full matrix, its hierarchy, the rows' mass part of
+	 * the diagonal, and the solve's right-hand sides and solutions (rows ×
+	 * 3, row-major). */
+	int mg_on;
+	cholmod_sparse *A;
+	ndo__mg *mg;
+	double *mass, *b3, *x3;
 	int32_t *idx;    /* stored node → row of A, or −1 */
 	int32_t *nodes;  /* row → canonical stored node */
 	size_t na;
@@ -43,6 +83,11 @@ void ndo__implicit_free(ndo_sim *s)
 		return;
 	if (im->L)
 		cholmod_free_factor(&im->L, &im->cm);
+	ndo__mg_free(im->mg);
+	cholmod_free_sparse(&im->A, &im->cm);
+	free(im->mass);
+	free(im->b3);
+	free(im->x3);
 	cholmod_finish(&im->cm);
 	free(im->idx);
 	free(im->nodes);
@@ -80,6 +125,20 @@ static void rigid_exact(const ndo_sim *s, const ndo__implicit *im, double h, int
 	}
 }
 
+ndo_solver ndo_sim_solver_info(const ndo_sim *s, int *levels, int *direct)
+{
+	int l = 0, d = 0;
+	if (s->imp && s->imp->mg)
+		l = ndo__mg_levels(s->imp->mg, &d);
+	if (levels)
+		*levels = l;
+	if (direct)
+		*direct = d;
+	if (s->p.method != NDO_BACKWARD_EULER && s->p.method != NDO_TRAPEZOID)
+		return NDO_SOLVER_AUTO;
+	return ndo_solver_at(s->p.solver, s->level);
+}
+
 void ndo__implicit_invalidate(ndo_sim *s, int pattern)
 {
 	if (!s->imp)
@@ -111,11 +170,13 @@ static int index_rows(ndo_sim *s, ndo__implicit *im)
 	return NDO_OK;
 }
 
-/* A = M + cb·B + ck·(K_AA + P), upper triangle, as a CHOLMOD matrix. */
-static cholmod_sparse *assemble(ndo_sim *s, ndo__implicit *im, double cb, double ck)
+/* A = M + cb·B + ck·(K_AA + P) as a CHOLMOD matrix: the upper triangle
+ * (stype 1), or with full set both triangles (stype 0). */
+static cholmod_sparse *assemble(ndo_sim *s, ndo__implicit *im, double cb, double ck, int full)
 {
 	size_t nz = 7 * im->na + 1;
-	cholmod_triplet *T = cholmod_allocate_triplet(im->na, im->na, nz, 1, CHOLMOD_REAL, &im->cm);
+	cholmod_triplet *T = cholmod_allocate_triplet(im->na, im->na, nz, full ? 0 : 1,
+	                                              CHOLMOD_REAL, &im->cm);
 	if (!T)
 		return NULL;
 	int *Ti = T->i, *Tj = T->j;
@@ -153,13 +214,15 @@ static cholmod_sparse *assemble(ndo_sim *s, ndo__implicit *im, double cb, double
 			int32_t c = im->idx[nb[k]];
 			/* Each edge once, from its lower row (stype > 0 transposes
 			 * nothing we leave out); at a corner both half-weight copies. */
-			if (c > (int32_t)r) {
+			if (c > (int32_t)r || (full && c >= 0 && c != (int32_t)r)) {
 				Ti[n] = (int)r, Tj[n] = c, Tx[n] = -ck * cf[k];
 				n++;
 			}
 		}
 		Ti[n] = (int)r, Tj[n] = (int)r, Tx[n] = diag;
 		n++;
+		if (im->mass)
+			im->mass[r] = s->mass[p] * (1 + cb * s->gam[p]);
 	}
 	free(pen);
 	T->nnz = n;
@@ -168,9 +231,42 @@ static cholmod_sparse *assemble(ndo_sim *s, ndo__implicit *im, double cb, double
 	return A;
 }
 
+/* The multigrid solver for step h: the full matrix and its hierarchy. */
+static int mg_build(ndo_sim *s, ndo__implicit *im, double h)
+{
+	int rc;
+	if (!im->pattern_ok) {
+		if ((rc = index_rows(s, im)))
+			return rc;
+		free(im->mass), free(im->b3), free(im->x3);
+		im->mass = malloc((im->na + 1) * sizeof *im->mass);
+		im->b3 = malloc((3 * im->na + 1) * sizeof *im->b3);
+		im->x3 = malloc((3 * im->na + 1) * sizeof *im->x3);
+		if (!im->mass || !im->b3 || !im->x3)
+			return ndo__fail(NDO_ENOMEM, "out of memory for the implicit solver");
+		im->pattern_ok = 1;
+	}
+	ndo__mg_free(im->mg);
+	im->mg = NULL;
+	cholmod_free_sparse(&im->A, &im->cm);
+	int trap = s->p.method == NDO_TRAPEZOID;
+	im->A = assemble(s, im, trap ? h / 2 : h, trap ? h * h / 4 : h * h, 1);
+	if (!im->A)
+		return ndo__fail(NDO_ENOMEM, "out of memory assembling the implicit system");
+	if ((rc = ndo__mg_create(s->level, im->nodes, im->na, im->A, im->mass, &im->cm, s->pool,
+	                         &im->mg)))
+		return rc;
+	im->h = h;
+	im->valid = 1;
+	s->stats.factorizations++;
+	return NDO_OK;
+}
+
 static int factor(ndo_sim *s, ndo__implicit *im, double h)
 {
 	int rc;
+	if (im->mg_on)
+		return mg_build(s, im, h);
 	if (!im->pattern_ok) {
 		if ((rc = index_rows(s, im)))
 			return rc;
@@ -178,7 +274,7 @@ static int factor(ndo_sim *s, ndo__implicit *im, double h)
 			cholmod_free_factor(&im->L, &im->cm);
 	}
 	int trap = s->p.method == NDO_TRAPEZOID;
-	cholmod_sparse *A = assemble(s, im, trap ? h / 2 : h, trap ? h * h / 4 : h * h);
+	cholmod_sparse *A = assemble(s, im, trap ? h / 2 : h, trap ? h * h / 4 : h * h, 0);
 	if (!A)
 		return ndo__fail(NDO_ENOMEM, "out of memory assembling the implicit system");
 	if (!im->pattern_ok) {
@@ -225,6 +321,7 @@ int ndo__implicit_step(ndo_sim *s, double h)
 			return ndo__fail(NDO_ENOMEM, "out of memory for the implicit solver");
 		cholmod_start(&im->cm);
 		im->cm.print = 0; /* errors come back as status codes */
+		im->mg_on = ndo_solver_at(s->p.solver, s->level) == NDO_SOLVER_MULTIGRID;
 	}
 	int rc;
 	if ((!im->valid || im->h != h) && (rc = factor(s, im, h)))
@@ -275,10 +372,17 @@ int ndo__implicit_step(ndo_sim *s, double h)
 				kv[q] += s->alpha * vm[q];
 			}
 	}
-	cholmod_dense *B = cholmod_allocate_dense(im->na, 3, im->na, CHOLMOD_REAL, &im->cm);
-	if (!B)
-		return ndo__fail(NDO_ENOMEM, "out of memory for the implicit solver");
-	double *bx = B->x;
+	/* The right-hand side, column by column (CHOLMOD) or row by row
+	 * (multigrid). */
+	cholmod_dense *B = NULL, *X = NULL;
+	double *bx = im->b3;
+	if (!im->mg_on) {
+		B = cholmod_allocate_dense(im->na, 3, im->na, CHOLMOD_REAL, &im->cm);
+		if (!B)
+			return ndo__fail(NDO_ENOMEM, "out of memory for the implicit solver");
+		bx = B->x;
+	}
+	const size_t rs = im->mg_on ? 3 : 1, cs = im->mg_on ? 1 : im->na;
 	for (size_t r = 0; r < im->na; r++) {
 		size_t p = (size_t)im->nodes[r];
 		double m = s->mass[p], g = s->gam[p];
@@ -291,14 +395,45 @@ int ndo__implicit_step(ndo_sim *s, double h)
 				       (df ? 0.5 * h * df[q] : 0);
 			else if (df)
 				rhs += h * df[q];
-			bx[(size_t)c * im->na + r] = rhs;
+			bx[(size_t)c * cs + r * rs] = rhs;
 		}
 	}
-	cholmod_dense *X = cholmod_solve(CHOLMOD_A, im->L, B, &im->cm);
-	cholmod_free_dense(&B, &im->cm);
-	if (!X)
-		return ndo__fail(NDO_ENOMEM, "CHOLMOD could not solve (status %d)", im->cm.status);
-	double *xv = X->x;
+	double *xv;
+	if (im->mg_on) {
+		/* Start from the explicit prediction v + h a where the step is
+		 * near the explicit limit (the hierarchy is Jacobi alone), else
+		 * from v: far beyond it the prediction is huge, and CG's rounding
+		 * floor, ε ‖A‖ times the largest iterate, rose above the
+		 * tolerance (stalled at 4e-10 with h = 4000 × RK4's limit). */
+		const double ha = ndo__mg_levels(im->mg, NULL) == 1 ? h : 0;
+		for (size_t r = 0; r < im->na; r++) {
+			size_t p = (size_t)im->nodes[r];
+			for (int c = 0; c < 3; c++) {
+				size_t q = (size_t)c * cnt + p;
+				im->x3[3 * r + (size_t)c] = s->v[q] + ha * a[q];
+			}
+		}
+		int iters;
+		double res;
+		if ((rc = ndo__mg_solve(im->mg, im->b3, im->x3, NDO_SOLVER_TOL, 500, &iters, &res)))
+			return rc;
+		s->stats.iterations += iters;
+		s->stats.last_iterations = iters;
+		s->stats.last_residual = res;
+		/* Back to columns, in the right-hand side's buffer. */
+		xv = im->b3;
+		for (size_t r = 0; r < im->na; r++)
+			for (int c = 0; c < 3; c++)
+				xv[(size_t)c * im->na + r] = im->x3[3 * r + (size_t)c];
+	} else {
+		X = cholmod_solve(CHOLMOD_A, im->L, B, &im->cm);
+		cholmod_free_dense(&B, &im->cm);
+		if (!X)
+			return ndo__fail(NDO_ENOMEM, "CHOLMOD could not solve (status %d)",
+			                 im->cm.status);
+		xv = X->x;
+	}
+	s->stats.solves++;
 	if (!s->any_held && s->npen == 0)
 		rigid_exact(s, im, h, trap, df, xv);
 	for (size_t r = 0; r < im->na; r++) {
@@ -310,7 +445,8 @@ int ndo__implicit_step(ndo_sim *s, double h)
 			s->v[q] = vn;
 		}
 	}
-	cholmod_free_dense(&X, &im->cm);
+	if (X)
+		cholmod_free_dense(&X, &im->cm);
 	ndo__sync_planes(s, s->u, 3);
 	ndo__sync_planes(s, s->v, 3);
 	s->pend_h = h;

@@ -183,6 +183,8 @@ void ndo__pending_work(const ndo_sim *s, double power, double *w, double *w_abs)
 int ndo__implicit_step(ndo_sim *s, double h);
 void ndo__implicit_free(ndo_sim *s);
 void ndo__implicit_invalidate(ndo_sim *s, int pattern);
+/* The multigrid solver's bytes at a level: hierarchy, vectors, assembly. */
+double ndo__implicit_mg_bytes(int level);
 
 /* Copy the canonical values of the stage planes to their duplicates
  * (accel.c). */

@@ -1,0 +1,223 @@
+/* bench_multigrid — the implicit methods' two solvers side by side:
+ * conjugate gradients with the multigrid V-cycle against CHOLMOD.
+ *
+ *   bench_multigrid speed L...     steps/s of backward Euler and trapezoid
+ *                                  with each solver at levels L (the thesis
+ *                                  scene, half RK4's critical step), their
+ *                                  ratio, iterations per solve, and how far
+ *                                  the multigrid step is from CHOLMOD's
+ *   bench_multigrid iters H L...   iterations per solve of backward Euler at
+ *                                  levels L for a fixed step of H seconds and
+ *                                  at H·2^(8−L)... (see below)
+ *
+ * Timings are medians of 7 runs of at least 0.1 s each, one thread.
+ * Output: markdown table rows (tests/bench/multigrid.sh assembles them). */
+#include "ndo/ndo.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+static double now(void)
+{
+	struct timespec t;
+	clock_gettime(CLOCK_MONOTONIC, &t);
+	return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+static int cmp(const void *a, const void *b)
+{
+	double x = *(const double *)a, y = *(const double *)b;
+	return (x > y) - (x < y);
+}
+
+static double median(double *v, int n)
+{
+	qsort(v, (size_t)n, sizeof *v, cmp);
+	return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+#define REPS 7
+
+static void die(void)
+{
+	fprintf(stderr, "bench_multigrid: %s\n", ndo_errdetail());
+	exit(1);
+}
+
+/* The thesis scene (figure 5.3): the wavy surface, k = 1 N/m, b = 0.1, a
+ * sinusoidal 2.4 N force on the faces around (0, 0, 1). */
+static ndo_sim *scene(ndo_grid *g, ndo_method m, ndo_solver sv, ndo_force **forces)
+{
+	ndo_scene sc;
+	ndo_scene_init(&sc);
+	ndo_scene_set(&sc, "force", "face at=0,0,1 radius=0.2 amplitude=2.4 frequency=1");
+	uint8_t *pin = calloc(g->count, 1);
+	if (ndo_scene_resolve(&sc, g->level, g->ch[0].data, forces, pin))
+		die();
+	ndo_sim_params p = sc.sim;
+	p.method = m;
+	p.solver = sv;
+	p.forces = *forces;
+	p.nforces = sc.nforces;
+	ndo_sim *s;
+	if (ndo_sim_create(g->level, g->ch[0].data, NULL, NULL, NULL, &p, &s))
+		die();
+	free(pin);
+	ndo_scene_free(&sc);
+	return s;
+}
+
+static double h_rk4(ndo_grid *g)
+{
+	ndo_force *f;
+	ndo_sim *s = scene(g, NDO_RK4, NDO_SOLVER_AUTO, &f);
+	ndo_critical c;
+	ndo_sim_critical(s, &c);
+	ndo_sim_destroy(s);
+	ndo_scene_forces_free(f, 1);
+	return c.h_crit;
+}
+
+/* Median steps per second at step h (after 5 steps that build the factor
+ * or the hierarchy). */
+static double steps_per_second(ndo_sim *s, double h)
+{
+	for (int k = 0; k < 5; k++)
+		if (ndo_sim_step(s, h))
+			die();
+	long n = 1;
+	for (;;) {
+		double t0 = now();
+		for (long k = 0; k < n; k++)
+			if (ndo_sim_step(s, h))
+				die();
+		double el = now() - t0;
+		if (el > 0.1)
+			break;
+		n = el > 0.01 ? (long)(n * 0.12 / el) + 1 : n * 10;
+	}
+	double r[REPS];
+	for (int k = 0; k < REPS; k++) {
+		double t0 = now();
+		for (long q = 0; q < n; q++)
+			if (ndo_sim_step(s, h))
+				die();
+		r[k] = (double)n / (now() - t0);
+	}
+	return median(r, REPS);
+}
+
+/* The largest difference between the two solvers' velocities after
+ * `steps` steps from the same state, relative to the largest velocity. */
+static double difference(ndo_grid *g, ndo_method m, double h, int steps)
+{
+	ndo_force *f1, *f2;
+	ndo_sim *a = scene(g, m, NDO_SOLVER_MULTIGRID, &f1), *b = scene(g, m, NDO_SOLVER_CHOLMOD, &f2);
+	for (int k = 0; k < steps; k++)
+		if (ndo_sim_step(a, h) || ndo_sim_step(b, h))
+			die();
+	size_t n = 3 * g->count;
+	double *va = malloc(n * sizeof *va), *vb = malloc(n * sizeof *vb), d = 0, big = 0;
+	ndo_sim_get(a, NULL, va);
+	ndo_sim_get(b, NULL, vb);
+	for (size_t q = 0; q < n; q++) {
+		d = fmax(d, fabs(va[q] - vb[q]));
+		big = fmax(big, fabs(vb[q]));
+	}
+	free(va), free(vb);
+	ndo_sim_destroy(a), ndo_sim_destroy(b);
+	ndo_scene_forces_free(f1, 1), ndo_scene_forces_free(f2, 1);
+	return big > 0 ? d / big : d;
+}
+
+static void speed(int argc, char **argv)
+{
+	printf("| integrator | level | nodes | step (s) | CHOLMOD (steps/s) | multigrid (steps/s) "
+	       "| ratio | levels | iterations/solve | relative residual | step difference |\n");
+	printf("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+	for (int a = 0; a < argc; a++) {
+		int level = atoi(argv[a]);
+		ndo_grid *g;
+		if (ndo_shape_make("wavy", level, NULL, &g))
+			die();
+		double h = 0.5 * h_rk4(g);
+		const ndo_method ms[] = {NDO_BACKWARD_EULER, NDO_TRAPEZOID};
+		for (int k = 0; k < 2; k++) {
+			ndo_force *f1, *f2;
+			ndo_sim *c = scene(g, ms[k], NDO_SOLVER_CHOLMOD, &f1);
+			ndo_sim *m = scene(g, ms[k], NDO_SOLVER_MULTIGRID, &f2);
+			double sc = steps_per_second(c, h), sm = steps_per_second(m, h);
+			ndo_sim_stats st;
+			ndo_sim_stats_get(m, &st);
+			int levels = 0, direct = 0;
+			ndo_sim_solver_info(m, &levels, &direct);
+			printf("| %s | %d | %zu | %.3g | %.4g | %.4g | %.2f | %d%s | %.1f | %.2g | %.2g |\n",
+			       ndo_method_names[ms[k]], level, ndo_vertex_count(level), h, sc, sm, sm / sc,
+			       levels, direct ? "" : " (smoothed)",
+			       (double)st.iterations / (double)st.solves, st.last_residual,
+			       difference(g, ms[k], h, 20));
+			fflush(stdout);
+			ndo_sim_destroy(c), ndo_sim_destroy(m);
+			ndo_scene_forces_free(f1, 1), ndo_scene_forces_free(f2, 1);
+		}
+		ndo_grid_destroy(g);
+	}
+}
+
+/* Iterations per solve of backward Euler over 10 steps of each size. */
+static void iters(int argc, char **argv)
+{
+	int nh = 0;
+	double hs[8];
+	while (nh < 8 && nh < argc && strchr(argv[nh], '.'))
+		hs[nh] = atof(argv[nh]), nh++;
+	printf("| level | nodes |");
+	for (int k = 0; k < nh; k++)
+		printf(" h = %g s |", hs[k]);
+	printf(" h = ½ rk4's |\n|---:|---:|");
+	for (int k = 0; k <= nh; k++)
+		printf("---:|");
+	printf("\n");
+	for (int a = nh; a < argc; a++) {
+		int level = atoi(argv[a]);
+		ndo_grid *g;
+		if (ndo_shape_make("wavy", level, NULL, &g))
+			die();
+		printf("| %d | %zu |", level, ndo_vertex_count(level));
+		for (int k = 0; k <= nh; k++) {
+			double h = k < nh ? hs[k] : 0.5 * h_rk4(g);
+			ndo_force *f;
+			ndo_sim *s = scene(g, NDO_BACKWARD_EULER, NDO_SOLVER_MULTIGRID, &f);
+			for (int q = 0; q < 10; q++)
+				if (ndo_sim_step(s, h))
+					die();
+			ndo_sim_stats st;
+			ndo_sim_stats_get(s, &st);
+			int levels = 0, direct = 0;
+			ndo_sim_solver_info(s, &levels, &direct);
+			printf(" %.1f (%d%s) |", (double)st.iterations / (double)st.solves, levels,
+			       direct ? "" : "s");
+			fflush(stdout);
+			ndo_sim_destroy(s);
+			ndo_scene_forces_free(f, 1);
+		}
+		printf("\n");
+		ndo_grid_destroy(g);
+	}
+}
+
+int main(int argc, char **argv)
+{
+	if (argc >= 2 && strcmp(argv[1], "speed") == 0)
+		speed(argc - 2, argv + 2);
+	else if (argc >= 2 && strcmp(argv[1], "iters") == 0)
+		iters(argc - 2, argv + 2);
+	else {
+		fprintf(stderr, "usage: bench_multigrid speed L... | iters H... L...\n");
+		return 2;
+	}
+	return 0;
+}
