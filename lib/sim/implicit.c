@@ -68,6 +68,10 @@ struct ndo__implicit {
 	cholmod_sparse *A;
 	ndo__mg *mg;
 	double *mass, *b3, *x3;
+	/* The acceleration at the start of the last step (rows × 3), for the
+	 * extrapolated first guess; valid for the step im->h when aprev_ok. */
+	double *aprev;
+	int aprev_ok;
 	int32_t *idx;    /* stored node → row of A, or −1 */
 	int32_t *nodes;  /* row → canonical stored node */
 	size_t na;
@@ -88,6 +92,7 @@ void ndo__implicit_free(ndo_sim *s)
 	free(im->mass);
 	free(im->b3);
 	free(im->x3);
+	free(im->aprev);
 	cholmod_finish(&im->cm);
 	free(im->idx);
 	free(im->nodes);
@@ -238,16 +243,18 @@ static int mg_build(ndo_sim *s, ndo__implicit *im, double h)
 	if (!im->pattern_ok) {
 		if ((rc = index_rows(s, im)))
 			return rc;
-		free(im->mass), free(im->b3), free(im->x3);
+		free(im->mass), free(im->b3), free(im->x3), free(im->aprev);
 		im->mass = malloc((im->na + 1) * sizeof *im->mass);
 		im->b3 = malloc((3 * im->na + 1) * sizeof *im->b3);
 		im->x3 = malloc((3 * im->na + 1) * sizeof *im->x3);
-		if (!im->mass || !im->b3 || !im->x3)
+		im->aprev = malloc((3 * im->na + 1) * sizeof *im->aprev);
+		if (!im->mass || !im->b3 || !im->x3 || !im->aprev)
 			return ndo__fail(NDO_ENOMEM, "out of memory for the implicit solver");
 		im->pattern_ok = 1;
 	}
 	ndo__mg_free(im->mg);
 	im->mg = NULL;
+	im->aprev_ok = 0;
 	cholmod_free_sparse(&im->A, &im->cm);
 	int trap = s->p.method == NDO_TRAPEZOID;
 	im->A = assemble(s, im, trap ? h / 2 : h, trap ? h * h / 4 : h * h, 1);
@@ -400,19 +407,30 @@ int ndo__implicit_step(ndo_sim *s, double h)
 	}
 	double *xv;
 	if (im->mg_on) {
-		/* Start from the explicit prediction v + h a where the step is
-		 * near the explicit limit (the hierarchy is Jacobi alone), else
-		 * from v: far beyond it the prediction is huge, and CG's rounding
-		 * floor, ε ‖A‖ times the largest iterate, rose above the
-		 * tolerance (stalled at 4e-10 with h = 4000 × RK4's limit). */
-		const double ha = ndo__mg_levels(im->mg, NULL) == 1 ? h : 0;
+		/* The first guess, where the step is near the explicit limit (the
+		 * hierarchy is Jacobi alone): the new velocity with the
+		 * acceleration over the step extrapolated linearly from the last
+		 * step's start and this one's, a(t+h) ≈ 2a(t) − a(t−h) —
+		 * backward Euler v' = v + h a(t+h), trapezoid v' = v + h/2 (a(t) +
+		 * a(t+h)) — or v + h a(t) after a change.  Measured at level 8 on
+		 * the thesis scene: 7.2 iterations from v + h a(t), 4.x from the
+		 * extrapolation.  Far beyond the limit the guess is v: there the
+		 * prediction is huge, and CG's rounding floor, ε ‖A‖ times the
+		 * largest iterate, rose above the tolerance (stalled at 4e-10
+		 * with h = 4000 × RK4's limit). */
+		const int near = ndo__mg_levels(im->mg, NULL) == 1, ext = near && im->aprev_ok;
+		const double c0 = !near ? 0 : !ext ? h : trap ? 1.5 * h : 2 * h;
+		const double c1 = !ext ? 0 : trap ? -0.5 * h : -h;
 		for (size_t r = 0; r < im->na; r++) {
 			size_t p = (size_t)im->nodes[r];
 			for (int c = 0; c < 3; c++) {
-				size_t q = (size_t)c * cnt + p;
-				im->x3[3 * r + (size_t)c] = s->v[q] + ha * a[q];
+				size_t q = (size_t)c * cnt + p, k = 3 * r + (size_t)c;
+				double an = a[q];
+				im->x3[k] = s->v[q] + c0 * an + (ext ? c1 * im->aprev[k] : 0);
+				im->aprev[k] = an;
 			}
 		}
+		im->aprev_ok = 1;
 		int iters;
 		double res;
 		if ((rc = ndo__mg_solve(im->mg, im->b3, im->x3, NDO_SOLVER_TOL, 500, &iters, &res)))

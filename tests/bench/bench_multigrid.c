@@ -6,9 +6,12 @@
  *                                  scene, half RK4's critical step), their
  *                                  ratio, iterations per solve, and how far
  *                                  the multigrid step is from CHOLMOD's
- *   bench_multigrid iters H L...   iterations per solve of backward Euler at
- *                                  levels L for a fixed step of H seconds and
- *                                  at H·2^(8−L)... (see below)
+ *   bench_multigrid iters H... L...  iterations per solve of backward Euler
+ *                                  at levels L for fixed steps H (written with
+ *                                  a '.') and at half RK4's critical step
+ *   bench_multigrid memory L M S H  peak resident memory of three steps of
+ *                                  method M with solver S at level L, step H,
+ *                                  against the estimate --max-memory checks
  *
  * Timings are medians of 7 runs of at least 0.1 s each, one thread.
  * Output: markdown table rows (tests/bench/multigrid.sh assembles them). */
@@ -18,6 +21,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/resource.h>
 #include <time.h>
 
 static double now(void)
@@ -209,14 +213,63 @@ static void iters(int argc, char **argv)
 	}
 }
 
+/* One configuration per process (peak RSS only grows): level L, method,
+ * solver; three steps at h; the peak resident memory against
+ * ndo_sim_memory()'s estimate (for CHOLMOD plus the factor it states). */
+static void memory(int argc, char **argv)
+{
+	if (argc != 4) {
+		fprintf(stderr, "usage: bench_multigrid memory L METHOD SOLVER H\n");
+		exit(2);
+	}
+	int level = atoi(argv[0]);
+	ndo_method m;
+	ndo_solver sv;
+	if (ndo_method_parse(argv[1], &m) || ndo_solver_parse(argv[2], &sv))
+		die();
+	double h = atof(argv[3]);
+	struct rusage ru;
+	getrusage(RUSAGE_SELF, &ru);
+	long before = ru.ru_maxrss;
+	ndo_grid *g;
+	if (ndo_shape_make("wavy", level, NULL, &g))
+		die();
+	getrusage(RUSAGE_SELF, &ru);
+	long grid = ru.ru_maxrss - before;
+	ndo_force *f;
+	ndo_sim *s = scene(g, m, sv, &f);
+	ndo_sim_params p;
+	ndo_sim_defaults(&p);
+	p.method = m;
+	p.solver = sv;
+	double t0 = now();
+	for (int k = 0; k < 3; k++)
+		if (ndo_sim_step(s, h))
+			die();
+	double el = now() - t0;
+	getrusage(RUSAGE_SELF, &ru);
+	ndo_sim_stats st;
+	ndo_sim_stats_get(s, &st);
+	printf("| %d | %zu | %s | %s | %g | %.0f | %.0f | %.2f | %.1f |\n", level, ndo_vertex_count(level),
+	       argv[1], argv[2], h, (double)(ru.ru_maxrss - grid) / 1024,
+	       (double)ndo_sim_memory(level, &p) / 1048576, el / 3,
+	       st.solves ? (double)st.iterations / (double)st.solves : 0.0);
+	ndo_sim_destroy(s);
+	ndo_scene_forces_free(f, 1);
+	ndo_grid_destroy(g);
+}
+
 int main(int argc, char **argv)
 {
 	if (argc >= 2 && strcmp(argv[1], "speed") == 0)
 		speed(argc - 2, argv + 2);
 	else if (argc >= 2 && strcmp(argv[1], "iters") == 0)
 		iters(argc - 2, argv + 2);
+	else if (argc >= 2 && strcmp(argv[1], "memory") == 0)
+		memory(argc - 2, argv + 2);
 	else {
-		fprintf(stderr, "usage: bench_multigrid speed L... | iters H... L...\n");
+		fprintf(stderr, "usage: bench_multigrid speed L... | iters H... L... | memory L METHOD "
+		        "SOLVER H\n");
 		return 2;
 	}
 	return 0;
