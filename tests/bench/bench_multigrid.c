@@ -13,7 +13,8 @@
  *                                  method M with solver S at level L, step H,
  *                                  against the estimate --max-memory checks
  *
- * Timings are medians of 7 runs of at least 0.1 s each, one thread.
+ * Timings are medians of 7 runs of at least 0.1 s each, on one thread or,
+ * after -t T (first), on T.
  * Output: markdown table rows (tests/bench/multigrid.sh assembles them). */
 #include "ndo/ndo.h"
 
@@ -53,6 +54,8 @@ static void die(void)
 
 /* The thesis scene (figure 5.3): the wavy surface, k = 1 N/m, b = 0.1, a
  * sinusoidal 2.4 N force on the faces around (0, 0, 1). */
+static int threads = 1;
+
 static ndo_sim *scene(ndo_grid *g, ndo_method m, ndo_solver sv, ndo_force **forces)
 {
 	ndo_scene sc;
@@ -64,6 +67,7 @@ static ndo_sim *scene(ndo_grid *g, ndo_method m, ndo_solver sv, ndo_force **forc
 	ndo_sim_params p = sc.sim;
 	p.method = m;
 	p.solver = sv;
+	p.threads = threads;
 	p.forces = *forces;
 	p.nforces = sc.nforces;
 	ndo_sim *s;
@@ -171,7 +175,7 @@ static void speed(int argc, char **argv)
 	}
 }
 
-/* Iterations per solve of backward Euler over 10 steps of each size. */
+/* Iterations per solve of backward Euler over 5 steps of each size. */
 static void iters(int argc, char **argv)
 {
 	int nh = 0;
@@ -195,7 +199,7 @@ static void iters(int argc, char **argv)
 			double h = k < nh ? hs[k] : 0.5 * h_rk4(g);
 			ndo_force *f;
 			ndo_sim *s = scene(g, NDO_BACKWARD_EULER, NDO_SOLVER_MULTIGRID, &f);
-			for (int q = 0; q < 10; q++)
+			for (int q = 0; q < 5; q++)
 				if (ndo_sim_step(s, h))
 					die();
 			ndo_sim_stats st;
@@ -261,6 +265,11 @@ static void memory(int argc, char **argv)
 
 int main(int argc, char **argv)
 {
+	if (argc >= 3 && strcmp(argv[1], "-t") == 0) {
+		threads = atoi(argv[2]);
+		argv += 2;
+		argc -= 2;
+	}
 	if (argc >= 2 && strcmp(argv[1], "speed") == 0)
 		speed(argc - 2, argv + 2);
 	else if (argc >= 2 && strcmp(argv[1], "iters") == 0)
@@ -268,7 +277,7 @@ int main(int argc, char **argv)
 	else if (argc >= 2 && strcmp(argv[1], "memory") == 0)
 		memory(argc - 2, argv + 2);
 	else {
-		fprintf(stderr, "usage: bench_multigrid speed L... | iters H... L... | memory L METHOD "
+		fprintf(stderr, "usage: bench_multigrid [-t T] speed L... | iters H... L... | memory L METHOD "
 		        "SOLVER H\n");
 		return 2;
 	}
