@@ -413,8 +413,8 @@ int ndo__implicit_step(ndo_sim *s, double h)
 		 * step's start and this one's, a(t+h) ≈ 2a(t) − a(t−h) —
 		 * backward Euler v' = v + h a(t+h), trapezoid v' = v + h/2 (a(t) +
 		 * a(t+h)) — or v + h a(t) after a change.  Measured at level 8 on
-		 * the thesis scene: 7.2 iterations from v + h a(t), 4.x from the
-		 * extrapolation.  Far beyond the limit the guess is v: there the
+		 * the thesis scene, backward Euler: 7.2 iterations per solve from
+		 * v + h a(t), 6.4 from the extrapolation.  Far beyond the limit the guess is v: there the
 		 * prediction is huge, and CG's rounding floor, ε ‖A‖ times the
 		 * largest iterate, rose above the tolerance (stalled at 4e-10
 		 * with h = 4000 × RK4's limit). */

@@ -71,7 +71,8 @@ struct ndo__mg {
 /* ---- loops over chunks of rows ----------------------------------------- */
 
 enum op {
-	OP_RESID,    /* o1 = i2 − A i1 */
+	OP_RESID,    /* o1 = i2 − A i1; part: |o1|², |i2|² */
+	OP_START,    /* Jacobi: o1 (z) = o2 (p) = dinv∘i1 (r); part: r·z */
 	OP_AP,       /* o1 = A i1; part: i1·o1 */
 	OP_ABS,      /* part: |A||i1| squared */
 	OP_CHEB,     /* o1 (d) = c0·o1 + c1·dinv∘i1; o2 (x) += o1; c2 ≠ 0: x = d */
@@ -112,9 +113,21 @@ NDO_MG_HOT static void run_chunk(void *ctx, int k)
 				const double m = Mx[k2], *v = i1 + 3 * (size_t)Mi[k2];
 				y0 += m * v[0], y1 += m * v[1], y2 += m * v[2];
 			}
-			o1[3 * r] = i2[3 * r] - y0, o1[3 * r + 1] = i2[3 * r + 1] - y1;
-			o1[3 * r + 2] = i2[3 * r + 2] - y2;
+			const double *bb = i2 + 3 * r;
+			double *o = o1 + 3 * r;
+			o[0] = bb[0] - y0, o[1] = bb[1] - y1, o[2] = bb[2] - y2;
+			s[0] += o[0] * o[0], s[1] += o[1] * o[1], s[2] += o[2] * o[2];
+			s[3] += bb[0] * bb[0], s[4] += bb[1] * bb[1], s[5] += bb[2] * bb[2];
 		}
+		break;
+	case OP_START:
+		for (size_t r = a; r < e; r++)
+			for (int c = 0; c < 3; c++) {
+				size_t q = 3 * r + (size_t)c;
+				double zz = J->dinv[r] * i1[q];
+				o1[q] = o2[q] = zz;
+				s[c] += i1[q] * zz;
+			}
 		break;
 	case OP_AP:
 		for (size_t r = a; r < e; r++) {
@@ -559,23 +572,16 @@ static int precondition(ndo__mg *mg, double *r, double *z)
 	return vcycle(mg, 0);
 }
 
-/* The stopping bound of each column at x: max(tol‖b‖, 16 ε ‖|A||x|‖);
- * with floor 0 the rounding floor is left out (it matters only for very
- * stiff systems, and costs a pass over A). */
-static void bounds(ndo__mg *mg, const double *b, const double *x, double tol, int floor,
-                   double bnd[3], double bn[3])
+/* The stopping bound of each column at x: max(tol‖b‖, 16 ε ‖|A||x|‖),
+ * the second the rounding floor of the product A x, which a very stiff
+ * system reaches before the tolerance. */
+static void bounds(ndo__mg *mg, const double *x, double tol, const double bn[3], double bnd[3])
 {
-	double s[6] = {0, 0, 0, 0, 0, 0}, t[6];
-	job J = {.op = OP_DOT, .i1 = b, .i2 = b};
-	run(mg, &J, mg->lv[0].n, t);
-	if (floor) {
-		J = (job){.op = OP_ABS, .M = mg->lv[0].A, .i1 = x};
-		run(mg, &J, mg->lv[0].n, s);
-	}
-	for (int c = 0; c < 3; c++) {
-		bn[c] = sqrt(t[c]);
+	double s[6];
+	job J = {.op = OP_ABS, .M = mg->lv[0].A, .i1 = x};
+	run(mg, &J, mg->lv[0].n, s);
+	for (int c = 0; c < 3; c++)
 		bnd[c] = fmax(tol * bn[c], 16 * DBL_EPSILON * sqrt(s[c]));
-	}
 }
 
 /* The preconditioner is Jacobi alone (one level, smoothed): it fuses with
@@ -595,21 +601,25 @@ int ndo__mg_solve(ndo__mg *mg, const double *b, double *x, double tol, int max_i
 	double s[6], bnd[3], bn[3], rn[3], rz[3] = {0, 0, 0};
 	int done[3], it = 0, rc;
 	job J = {.op = OP_RESID, .M = A, .i1 = x, .i2 = b, .o1 = r};
-	run(mg, &J, n, NULL);
-	bounds(mg, b, x, tol, 0, bnd, bn);
-	J = (job){.op = OP_DOT, .i1 = r, .i2 = r};
 	run(mg, &J, n, s);
 	for (int c = 0; c < 3; c++) {
 		rn[c] = sqrt(s[c]);
+		bn[c] = sqrt(s[3 + c]);
+		bnd[c] = tol * bn[c];
 		done[c] = rn[c] <= bnd[c];
 	}
 	if (!(done[0] && done[1] && done[2])) {
-		if ((rc = precondition(mg, r, z)))
-			return rc;
-		J = (job){.op = OP_DOT, .i1 = r, .i2 = z};
-		run(mg, &J, n, s);
+		if (jac) {
+			J = (job){.op = OP_START, .dinv = mg->lv[0].dinv, .i1 = r, .o1 = z, .o2 = p};
+			run(mg, &J, n, s);
+		} else {
+			if ((rc = precondition(mg, r, z)))
+				return rc;
+			J = (job){.op = OP_DOT, .i1 = r, .i2 = z};
+			run(mg, &J, n, s);
+			memcpy(p, z, 3 * n * sizeof *p);
+		}
 		memcpy(rz, s, sizeof rz);
-		memcpy(p, z, 3 * n * sizeof *p);
 	}
 	while (!(done[0] && done[1] && done[2])) {
 		if (it == max_iter) {
@@ -622,7 +632,7 @@ int ndo__mg_solve(ndo__mg *mg, const double *b, double *x, double tol, int max_i
 		it++;
 		/* A very stiff system may stall at its rounding floor above tol. */
 		if (it % 25 == 0)
-			bounds(mg, b, x, tol, 1, bnd, bn);
+			bounds(mg, x, tol, bn, bnd);
 		J = (job){.op = OP_AP, .M = A, .i1 = p, .o1 = q};
 		run(mg, &J, n, s);
 		J = (job){.op = OP_UPDATE, .i1 = p, .i2 = q, .o1 = x, .o2 = r};
@@ -638,16 +648,20 @@ int ndo__mg_solve(ndo__mg *mg, const double *b, double *x, double tol, int max_i
 			all &= done[c] || rn[c] <= bnd[c];
 		}
 		if (all) {
-			/* The updated residual drifts from the true one: check it. */
+			/* The updated residual drifts from the true one: check it, and
+			 * where it is above the tolerance whether it has reached the
+			 * rounding floor. */
 			J = (job){.op = OP_RESID, .M = A, .i1 = x, .i2 = b, .o1 = r};
-			run(mg, &J, n, NULL);
-			bounds(mg, b, x, tol, 1, bnd, bn);
-			J = (job){.op = OP_DOT, .i1 = r, .i2 = r};
 			run(mg, &J, n, s);
+			int floor = 0;
 			for (int c = 0; c < 3; c++) {
 				rn[c] = sqrt(s[c]);
-				done[c] = rn[c] <= bnd[c];
+				floor |= rn[c] > tol * bn[c];
 			}
+			if (floor)
+				bounds(mg, x, tol, bn, bnd);
+			for (int c = 0; c < 3; c++)
+				done[c] = rn[c] <= bnd[c];
 			if (done[0] && done[1] && done[2])
 				break;
 		}
