@@ -109,7 +109,7 @@ void ndo__implicit_free(ndo_sim *s)
  * trapezoid run 2.8 m in 500 steps of 1 s.  So the computed velocities
  * take the uniform shift that gives P' its exact value (per axis). */
 static void rigid_exact(const ndo_sim *s, const ndo__implicit *im, double h, int trap,
-                        const double *df, double *xv)
+                        const double *df, double *xv, size_t rs, size_t cs)
 {
 	const size_t cnt = s->count;
 	double g = s->gam[im->nodes[0]], c = trap ? 0.5 : 1;
@@ -121,12 +121,12 @@ static void rigid_exact(const ndo_sim *s, const ndo__implicit *im, double h, int
 			/* s->f holds f(t + h) when there are forces, df = f(t+h) − f(t) */
 			double f1 = s->f ? s->f[q] : 0, f0 = df ? f1 - df[q] : f1;
 			want += trap ? m * v - 0.5 * h * m * g * v + 0.5 * h * (f0 + f1) : m * v + h * f1;
-			got += m * xv[(size_t)k * im->na + r];
+			got += m * xv[(size_t)k * cs + r * rs];
 			msum += m;
 		}
 		double shift = (want / (1 + c * h * g) - got) / msum;
 		for (size_t r = 0; r < im->na; r++)
-			xv[(size_t)k * im->na + r] += shift;
+			xv[(size_t)k * cs + r * rs] += shift;
 	}
 }
 
@@ -319,6 +319,164 @@ static int factor(ndo_sim *s, ndo__implicit *im, double h)
 	return NDO_OK;
 }
 
+/* The step with CHOLMOD's factor: the right-hand side column by column. */
+static int cholmod_step(ndo_sim *s, ndo__implicit *im, double h, const double *a,
+                        const double *df)
+{
+	const size_t cnt = s->count;
+	const int trap = s->p.method == NDO_TRAPEZOID;
+	/* Trapezoid: K_AA v_A (held velocities do not enter: held positions
+	 * stay put during the step). */
+	double *kv = s->tmp;
+	if (trap) {
+		double *vm = s->us;
+		for (size_t q = 0; q < 3 * cnt; q++)
+			vm[q] = s->active[q % cnt] ? s->v[q] : 0;
+		for (int c = 0; c < 3; c++)
+			ndo_stencil_apply(&s->st, vm + (size_t)c * cnt, kv + (size_t)c * cnt);
+		for (size_t k = 0; k < s->npen; k++)
+			for (int c = 0; c < 3; c++) {
+				size_t q = (size_t)c * cnt + (size_t)s->pen[k];
+				kv[q] += s->alpha * vm[q];
+			}
+	}
+	cholmod_dense *B = cholmod_allocate_dense(im->na, 3, im->na, CHOLMOD_REAL, &im->cm);
+	if (!B)
+		return ndo__fail(NDO_ENOMEM, "out of memory for the implicit solver");
+	double *bx = B->x;
+	for (size_t r = 0; r < im->na; r++) {
+		size_t p = (size_t)im->nodes[r];
+		double m = s->mass[p], g = s->gam[p];
+		for (int c = 0; c < 3; c++) {
+			size_t q = (size_t)c * cnt + p;
+			/* M(a + γv) = f(t) − K u − P(u − ū). */
+			double rhs = m * s->v[q] + h * m * (a[q] + g * s->v[q]);
+			if (trap)
+				rhs += -0.5 * h * m * g * s->v[q] - 0.25 * h * h * kv[q] +
+				       (df ? 0.5 * h * df[q] : 0);
+			else if (df)
+				rhs += h * df[q];
+			bx[(size_t)c * im->na + r] = rhs;
+		}
+	}
+	cholmod_dense *X = cholmod_solve(CHOLMOD_A, im->L, B, &im->cm);
+	cholmod_free_dense(&B, &im->cm);
+	if (!X)
+		return ndo__fail(NDO_ENOMEM, "CHOLMOD could not solve (status %d)", im->cm.status);
+	double *xv = X->x;
+	if (!s->any_held && s->npen == 0)
+		rigid_exact(s, im, h, trap, df, xv, 1, im->na);
+	for (size_t r = 0; r < im->na; r++) {
+		size_t p = (size_t)im->nodes[r];
+		for (int c = 0; c < 3; c++) {
+			size_t q = (size_t)c * cnt + p;
+			double vn = xv[(size_t)c * im->na + r];
+			s->u[q] += trap ? 0.5 * h * (s->v[q] + vn) : h * vn;
+			s->v[q] = vn;
+		}
+	}
+	cholmod_free_dense(&X, &im->cm);
+	return NDO_OK;
+}
+
+/* The multigrid step's elementwise passes over the rows, in chunks of
+ * MG_ROWS on the simulation's threads (each row on its own: any thread
+ * count gives the same bits). */
+#define MG_ROWS 4096
+typedef struct mg_pass {
+	ndo_sim *s;
+	ndo__implicit *im;
+	double h, c0, c1;
+	const double *a, *df, *av;
+	int phase; /* 0: v to rows; 1: the right-hand side and first guess; 2: the update */
+	int trap, ext;
+} mg_pass;
+
+static void mg_pass_chunk(void *ctx, int k)
+{
+	const mg_pass *P = ctx;
+	ndo_sim *s = P->s;
+	ndo__implicit *im = P->im;
+	const size_t cnt = s->count, a0 = (size_t)k * MG_ROWS;
+	const size_t e = a0 + MG_ROWS < im->na ? a0 + MG_ROWS : im->na;
+	const double h = P->h;
+	for (size_t r = a0; r < e; r++) {
+		size_t p = (size_t)im->nodes[r];
+		double m = s->mass[p], g = s->gam[p];
+		for (int c = 0; c < 3; c++) {
+			size_t q = (size_t)c * cnt + p, j = 3 * r + (size_t)c;
+			if (P->phase == 0) {
+				im->x3[j] = s->v[q];
+			} else if (P->phase == 1) {
+				/* M(a + γv) = f(t) − K u − P(u − ū).  Trapezoid: with
+				 * A v = M(1 + h/2 γ) v + h²/4 (K_AA + P) v the right-hand
+				 * side M v + h M(a + γv) − h/2 M γ v − h²/4 (K_AA + P) v
+				 * + h/2 Δf is 2 M v + h M (a + γ v) − A v + h/2 Δf (its
+				 * rounding, ε |M v|, is far below the tolerance). */
+				double v = s->v[q], an = P->a[q];
+				double rhs = P->trap ? 2 * m * v + h * m * (an + g * v) - P->av[j] +
+				                    (P->df ? 0.5 * h * P->df[q] : 0)
+				                  : m * v + h * m * (an + g * v) + (P->df ? h * P->df[q] : 0);
+				im->b3[j] = rhs;
+				im->x3[j] = v + P->c0 * an + (P->ext ? P->c1 * im->aprev[j] : 0);
+				im->aprev[j] = an;
+			} else {
+				double vn = im->x3[j];
+				s->u[q] += P->trap ? 0.5 * h * (s->v[q] + vn) : h * vn;
+				s->v[q] = vn;
+			}
+		}
+	}
+}
+
+static void mg_pass_run(mg_pass *P, int phase)
+{
+	P->phase = phase;
+	ndo__sim_run(P->s, (int)((P->im->na + MG_ROWS - 1) / MG_ROWS), mg_pass_chunk, P);
+}
+
+/* The step with the multigrid solver: the right-hand side row by row. */
+static int mg_step(ndo_sim *s, ndo__implicit *im, double h, const double *a, const double *df)
+{
+	const int trap = s->p.method == NDO_TRAPEZOID;
+	/* The first guess, where the step is near the explicit limit (the
+	 * hierarchy is Jacobi alone): the new velocity with the acceleration
+	 * over the step extrapolated linearly from the last step's start and
+	 * this one's, a(t+h) ≈ 2a(t) − a(t−h) — backward Euler
+	 * v' = v + h a(t+h), trapezoid v' = v + h/2 (a(t) + a(t+h)) — or
+	 * v + h a(t) after a change.  Measured at level 8 on the thesis scene,
+	 * backward Euler: 7.2 iterations per solve from v + h a(t), 6.4 from
+	 * the extrapolation.  Far beyond the limit the guess is v: there the
+	 * prediction is huge, and CG's rounding floor, ε ‖A‖ times the largest
+	 * iterate, rose above the tolerance (stalled at 4e-10 with
+	 * h = 4000 × RK4's limit). */
+	const int near = ndo__mg_levels(im->mg, NULL) == 1, ext = near && im->aprev_ok;
+	mg_pass P = {.s = s, .im = im, .h = h, .a = a, .df = df, .trap = trap, .ext = ext,
+	             .c0 = !near ? 0 : !ext ? h : trap ? 1.5 * h : 2 * h,
+	             .c1 = !ext ? 0 : trap ? -0.5 * h : -h};
+	if (trap) {
+		/* A v, the held velocities left out (held positions stay put). */
+		mg_pass_run(&P, 0);
+		ndo__mg_apply(im->mg, im->x3, im->b3);
+		memcpy(im->x3, im->b3, 3 * im->na * sizeof *im->x3);
+		P.av = im->x3;
+	}
+	/* av is read before x3 is written, row by row. */
+	mg_pass_run(&P, 1);
+	im->aprev_ok = 1;
+	int iters, rc;
+	double res;
+	if ((rc = ndo__mg_solve(im->mg, im->b3, im->x3, NDO_SOLVER_TOL, 500, &iters, &res)))
+		return rc;
+	s->stats.iterations += iters;
+	s->stats.last_iterations = iters;
+	s->stats.last_residual = res;
+	if (!s->any_held && s->npen == 0)
+		rigid_exact(s, im, h, trap, df, im->x3, 3, 1);
+	mg_pass_run(&P, 2);
+	return NDO_OK;
+}
+
 int ndo__implicit_step(ndo_sim *s, double h)
 {
 	ndo__implicit *im = s->imp;
@@ -334,7 +492,6 @@ int ndo__implicit_step(ndo_sim *s, double h)
 	if ((!im->valid || im->h != h) && (rc = factor(s, im, h)))
 		return rc;
 	const size_t cnt = s->count;
-	const int trap = s->p.method == NDO_TRAPEZOID;
 	/* a = M⁻¹(f(t) − K u) − γ v (f holds the penalty springs), with the
 	 * divergence test. */
 	ndo__diag d;
@@ -364,107 +521,13 @@ int ndo__implicit_step(ndo_sim *s, double h)
 				df[q] += s->alpha * h * s->v[q];
 			}
 	}
-	/* Trapezoid: K_AA v_A (held velocities do not enter: held positions
-	 * stay put during the step). */
-	double *kv = s->tmp;
-	if (trap) {
-		double *vm = s->us;
-		for (size_t q = 0; q < 3 * cnt; q++)
-			vm[q] = s->active[q % cnt] ? s->v[q] : 0;
-		for (int c = 0; c < 3; c++)
-			ndo_stencil_apply(&s->st, vm + (size_t)c * cnt, kv + (size_t)c * cnt);
-		for (size_t k = 0; k < s->npen; k++)
-			for (int c = 0; c < 3; c++) {
-				size_t q = (size_t)c * cnt + (size_t)s->pen[k];
-				kv[q] += s->alpha * vm[q];
-			}
-	}
-	/* The right-hand side, column by column (CHOLMOD) or row by row
-	 * (multigrid). */
-	cholmod_dense *B = NULL, *X = NULL;
-	double *bx = im->b3;
-	if (!im->mg_on) {
-		B = cholmod_allocate_dense(im->na, 3, im->na, CHOLMOD_REAL, &im->cm);
-		if (!B)
-			return ndo__fail(NDO_ENOMEM, "out of memory for the implicit solver");
-		bx = B->x;
-	}
-	const size_t rs = im->mg_on ? 3 : 1, cs = im->mg_on ? 1 : im->na;
-	for (size_t r = 0; r < im->na; r++) {
-		size_t p = (size_t)im->nodes[r];
-		double m = s->mass[p], g = s->gam[p];
-		for (int c = 0; c < 3; c++) {
-			size_t q = (size_t)c * cnt + p;
-			/* M(a + γv) = f(t) − K u − P(u − ū). */
-			double rhs = m * s->v[q] + h * m * (a[q] + g * s->v[q]);
-			if (trap)
-				rhs += -0.5 * h * m * g * s->v[q] - 0.25 * h * h * kv[q] +
-				       (df ? 0.5 * h * df[q] : 0);
-			else if (df)
-				rhs += h * df[q];
-			bx[(size_t)c * cs + r * rs] = rhs;
-		}
-	}
-	double *xv;
-	if (im->mg_on) {
-		/* The first guess, where the step is near the explicit limit (the
-		 * hierarchy is Jacobi alone): the new velocity with the
-		 * acceleration over the step extrapolated linearly from the last
-		 * step's start and this one's, a(t+h) ≈ 2a(t) − a(t−h) —
-		 * backward Euler v' = v + h a(t+h), trapezoid v' = v + h/2 (a(t) +
-		 * a(t+h)) — or v + h a(t) after a change.  Measured at level 8 on
-		 * the thesis scene, backward Euler: 7.2 iterations per solve from
-		 * v + h a(t), 6.4 from the extrapolation.  Far beyond the limit the guess is v: there the
-		 * prediction is huge, and CG's rounding floor, ε ‖A‖ times the
-		 * largest iterate, rose above the tolerance (stalled at 4e-10
-		 * with h = 4000 × RK4's limit). */
-		const int near = ndo__mg_levels(im->mg, NULL) == 1, ext = near && im->aprev_ok;
-		const double c0 = !near ? 0 : !ext ? h : trap ? 1.5 * h : 2 * h;
-		const double c1 = !ext ? 0 : trap ? -0.5 * h : -h;
-		for (size_t r = 0; r < im->na; r++) {
-			size_t p = (size_t)im->nodes[r];
-			for (int c = 0; c < 3; c++) {
-				size_t q = (size_t)c * cnt + p, k = 3 * r + (size_t)c;
-				double an = a[q];
-				im->x3[k] = s->v[q] + c0 * an + (ext ? c1 * im->aprev[k] : 0);
-				im->aprev[k] = an;
-			}
-		}
-		im->aprev_ok = 1;
-		int iters;
-		double res;
-		if ((rc = ndo__mg_solve(im->mg, im->b3, im->x3, NDO_SOLVER_TOL, 500, &iters, &res)))
-			return rc;
-		s->stats.iterations += iters;
-		s->stats.last_iterations = iters;
-		s->stats.last_residual = res;
-		/* Back to columns, in the right-hand side's buffer. */
-		xv = im->b3;
-		for (size_t r = 0; r < im->na; r++)
-			for (int c = 0; c < 3; c++)
-				xv[(size_t)c * im->na + r] = im->x3[3 * r + (size_t)c];
-	} else {
-		X = cholmod_solve(CHOLMOD_A, im->L, B, &im->cm);
-		cholmod_free_dense(&B, &im->cm);
-		if (!X)
-			return ndo__fail(NDO_ENOMEM, "CHOLMOD could not solve (status %d)",
-			                 im->cm.status);
-		xv = X->x;
-	}
+	if (im->mg_on)
+		rc = mg_step(s, im, h, a, df);
+	else
+		rc = cholmod_step(s, im, h, a, df);
+	if (rc)
+		return rc;
 	s->stats.solves++;
-	if (!s->any_held && s->npen == 0)
-		rigid_exact(s, im, h, trap, df, xv);
-	for (size_t r = 0; r < im->na; r++) {
-		size_t p = (size_t)im->nodes[r];
-		for (int c = 0; c < 3; c++) {
-			size_t q = (size_t)c * cnt + p;
-			double vn = xv[(size_t)c * im->na + r];
-			s->u[q] += trap ? 0.5 * h * (s->v[q] + vn) : h * vn;
-			s->v[q] = vn;
-		}
-	}
-	if (X)
-		cholmod_free_dense(&X, &im->cm);
 	ndo__sync_planes(s, s->u, 3);
 	ndo__sync_planes(s, s->v, 3);
 	s->pend_h = h;

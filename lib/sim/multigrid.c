@@ -81,7 +81,7 @@ enum op {
 	OP_DOT,      /* part: i1·i2 */
 	OP_DIR,      /* o1 (p) = i1 (z) + c·o1 */
 	OP_PROLONG,  /* o1 += P i1 (rows of the fine level: Pt's columns) */
-	OP_RESTRICT, /* o1 = Pᵀ i1 (rows of the coarse level: P's columns) */
+	OP_MUL,      /* o1 = M i1 (restriction: M = P's columns, Pᵀ's rows) */
 };
 
 typedef struct job {
@@ -140,7 +140,7 @@ NDO_MG_HOT static void run_chunk(void *ctx, int k)
 			s[0] += i1[3 * r] * y0, s[1] += i1[3 * r + 1] * y1, s[2] += i1[3 * r + 2] * y2;
 		}
 		break;
-	case OP_RESTRICT:
+	case OP_MUL:
 		for (size_t r = a; r < e; r++) {
 			double y0 = 0, y1 = 0, y2 = 0;
 			for (int k2 = Mp[r]; k2 < Mp[r + 1]; k2++) {
@@ -399,6 +399,12 @@ void ndo__mg_free(ndo__mg *mg)
 	free(mg);
 }
 
+void ndo__mg_apply(ndo__mg *mg, const double *x, double *y)
+{
+	job J = {.op = OP_MUL, .M = mg->lv[0].A, .i1 = x, .o1 = y};
+	run(mg, &J, mg->lv[0].n, NULL);
+}
+
 int ndo__mg_levels(const ndo__mg *mg, int *direct)
 {
 	if (direct)
@@ -553,7 +559,7 @@ static int vcycle(ndo__mg *mg, int l)
 	chebyshev(mg, L, SMOOTH_DEG, 1);
 	job J = {.op = OP_RESID, .M = L->A, .i1 = L->x, .i2 = L->b, .o1 = L->r};
 	run(mg, &J, L->n, NULL);
-	J = (job){.op = OP_RESTRICT, .M = L->P, .i1 = L->r, .o1 = C->b};
+	J = (job){.op = OP_MUL, .M = L->P, .i1 = L->r, .o1 = C->b};
 	run(mg, &J, C->n, NULL);
 	int rc = vcycle(mg, l + 1);
 	if (rc)

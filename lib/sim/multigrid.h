@@ -57,6 +57,9 @@ void ndo__mg_free(ndo__mg *mg);
 int ndo__mg_solve(ndo__mg *mg, const double *b, double *x, double tol, int max_iter,
                   int *iters, double *relres);
 
+/* y = A x on the finest level (n × 3 each, row-major; not aliased). */
+void ndo__mg_apply(ndo__mg *mg, const double *x, double *y);
+
 /* The levels of the hierarchy (1: smoothing alone) and whether the
  * coarsest is factored. */
 int ndo__mg_levels(const ndo__mg *mg, int *direct);
