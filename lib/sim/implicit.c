@@ -450,7 +450,8 @@ static int mg_step(ndo_sim *s, ndo__implicit *im, double h, const double *a, con
 	 * prediction is huge, and CG's rounding floor, ε ‖A‖ times the largest
 	 * iterate, rose above the tolerance (stalled at 4e-10 with
 	 * h = 4000 × RK4's limit). */
-	const int near = ndo__mg_levels(im->mg, NULL) == 1, ext = near && im->aprev_ok;
+	int direct;
+	const int near = ndo__mg_levels(im->mg, &direct) == 1 && !direct, ext = near && im->aprev_ok;
 	mg_pass P = {.s = s, .im = im, .h = h, .a = a, .df = df, .trap = trap, .ext = ext,
 	             .c0 = !near ? 0 : !ext ? h : trap ? 1.5 * h : 2 * h,
 	             .c1 = !ext ? 0 : trap ? -0.5 * h : -h};

@@ -13,11 +13,10 @@
  * fine edge).  A coarse node is a degree of freedom when its fine node is;
  * held fine nodes take no correction.  Smoothing: Chebyshev polynomials in
  * D⁻¹A (D the diagonal), the same before and after, so the V-cycle is a
- * symmetric preconditioner.  The coarsest level is factored by CHOLMOD — or,
- * when the mass dominates the stiffness there (M + c·K with c·K_ii ≤ m_i,
- * the usual case for steps near the explicit limit), smoothed: that
- * operator's condition number is below 4, and coarser levels would add
- * nothing.
+ * symmetric preconditioner.  CHOLMOD factors the coarsest level (level 4,
+ * at most 600 rows).  Where the mass dominates the stiffness on every row
+ * of the finest level (the usual case for steps near the explicit limit)
+ * there is no hierarchy: Jacobi alone preconditions (multigrid.c, THETA).
  *
  * Every loop runs over fixed chunks of rows and adds its partial sums in
  * chunk order: the same bits on any number of threads. */
@@ -38,8 +37,8 @@ typedef struct ndo__mg ndo__mg;
  * it (and nodes) alive while the hierarchy is used.  Row r is the canonical
  * stored node nodes[r] of a level-`level` grid (ascending).  mass: n
  * doubles, the mass part of A's diagonal (the rest is stiffness); where the
- * stiffness part is at most the mass part on every row of a level, the
- * hierarchy stops there (multigrid.c, THETA).  cm: the caller's CHOLMOD
+ * stiffness part is at most THETA × the mass part on every row, there is
+ * no hierarchy (multigrid.c).  cm: the caller's CHOLMOD
  * workspace; pool: the threads (NULL: one).  NDO_ENOMEM, or NDO_EDIVERGED
  * when the operator is not positive definite. */
 int ndo__mg_create(int level, const int32_t *nodes, size_t n, cholmod_sparse *A,

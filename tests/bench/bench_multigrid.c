@@ -164,7 +164,7 @@ static void speed(int argc, char **argv)
 			ndo_sim_solver_info(m, &levels, &direct);
 			printf("| %s | %d | %zu | %.3g | %.4g | %.4g | %.2f | %d%s | %.1f | %.2g | %.2g |\n",
 			       ndo_method_names[ms[k]], level, ndo_vertex_count(level), h, sc, sm, sm / sc,
-			       levels, direct ? "" : " (smoothed)",
+			       levels, direct ? "" : " (Jacobi)",
 			       (double)st.iterations / (double)st.solves, st.last_residual,
 			       difference(g, ms[k], h, 20));
 			fflush(stdout);
@@ -207,7 +207,7 @@ static void iters(int argc, char **argv)
 			int levels = 0, direct = 0;
 			ndo_sim_solver_info(s, &levels, &direct);
 			printf(" %.1f (%d%s) |", (double)st.iterations / (double)st.solves, levels,
-			       direct ? "" : "s");
+			       direct ? "" : "j");
 			fflush(stdout);
 			ndo_sim_destroy(s);
 			ndo_scene_forces_free(f, 1);

@@ -62,7 +62,7 @@ summary=$(awk -v be1="$(row "$t-speed.md" backward-euler 7)" -v tr1="$(row "$t-s
 	echo
 	echo "## Iterations per solve against the level"
 	echo
-	echo "Backward Euler on the thesis scene, 5 steps of each size from rest; in brackets the hierarchy's levels (s: Jacobi alone, the mass dominates).  At a fixed step the stiffness grows 4× a level relative to the mass; Jacobi's iterations would double a level."
+	echo "Backward Euler on the thesis scene, 5 steps of each size from rest; in brackets the hierarchy's levels (j: none, Jacobi alone: the mass dominates).  At a fixed step the stiffness grows 4× a level relative to the mass; Jacobi's iterations would double a level."
 	echo
 	cat "$t-iters.md"
 	echo
