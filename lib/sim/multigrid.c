@@ -96,6 +96,18 @@ typedef struct job {
 	size_t n;
 } job;
 
+/* y = row r of M times x (n × 3, row-major); inlined into each loop. */
+static inline void row_product(const int *Mp, const int *Mi, const double *Mx,
+                               const double *x, size_t r, double y[3])
+{
+	double y0 = 0, y1 = 0, y2 = 0;
+	for (int k = Mp[r]; k < Mp[r + 1]; k++) {
+		const double m = Mx[k], *v = x + 3 * (size_t)Mi[k];
+		y0 += m * v[0], y1 += m * v[1], y2 += m * v[2];
+	}
+	y[0] = y0, y[1] = y1, y[2] = y2;
+}
+
 NDO_MG_HOT static void run_chunk(void *ctx, int k)
 {
 	const job *J = ctx;
@@ -108,11 +120,9 @@ NDO_MG_HOT static void run_chunk(void *ctx, int k)
 	switch (J->op) {
 	case OP_RESID:
 		for (size_t r = a; r < e; r++) {
-			double y0 = 0, y1 = 0, y2 = 0;
-			for (int k2 = Mp[r]; k2 < Mp[r + 1]; k2++) {
-				const double m = Mx[k2], *v = i1 + 3 * (size_t)Mi[k2];
-				y0 += m * v[0], y1 += m * v[1], y2 += m * v[2];
-			}
+			double y[3];
+			row_product(Mp, Mi, Mx, i1, r, y);
+			const double y0 = y[0], y1 = y[1], y2 = y[2];
 			const double *bb = i2 + 3 * r;
 			double *o = o1 + 3 * r;
 			o[0] = bb[0] - y0, o[1] = bb[1] - y1, o[2] = bb[2] - y2;
@@ -131,22 +141,18 @@ NDO_MG_HOT static void run_chunk(void *ctx, int k)
 		break;
 	case OP_AP:
 		for (size_t r = a; r < e; r++) {
-			double y0 = 0, y1 = 0, y2 = 0;
-			for (int k2 = Mp[r]; k2 < Mp[r + 1]; k2++) {
-				const double m = Mx[k2], *v = i1 + 3 * (size_t)Mi[k2];
-				y0 += m * v[0], y1 += m * v[1], y2 += m * v[2];
-			}
+			double y[3];
+			row_product(Mp, Mi, Mx, i1, r, y);
+			const double y0 = y[0], y1 = y[1], y2 = y[2];
 			o1[3 * r] = y0, o1[3 * r + 1] = y1, o1[3 * r + 2] = y2;
 			s[0] += i1[3 * r] * y0, s[1] += i1[3 * r + 1] * y1, s[2] += i1[3 * r + 2] * y2;
 		}
 		break;
 	case OP_MUL:
 		for (size_t r = a; r < e; r++) {
-			double y0 = 0, y1 = 0, y2 = 0;
-			for (int k2 = Mp[r]; k2 < Mp[r + 1]; k2++) {
-				const double m = Mx[k2], *v = i1 + 3 * (size_t)Mi[k2];
-				y0 += m * v[0], y1 += m * v[1], y2 += m * v[2];
-			}
+			double y[3];
+			row_product(Mp, Mi, Mx, i1, r, y);
+			const double y0 = y[0], y1 = y[1], y2 = y[2];
 			o1[3 * r] = y0, o1[3 * r + 1] = y1, o1[3 * r + 2] = y2;
 		}
 		break;
@@ -162,11 +168,9 @@ NDO_MG_HOT static void run_chunk(void *ctx, int k)
 		break;
 	case OP_PROLONG:
 		for (size_t r = a; r < e; r++) {
-			double y0 = 0, y1 = 0, y2 = 0;
-			for (int k2 = Mp[r]; k2 < Mp[r + 1]; k2++) {
-				const double m = Mx[k2], *v = i1 + 3 * (size_t)Mi[k2];
-				y0 += m * v[0], y1 += m * v[1], y2 += m * v[2];
-			}
+			double y[3];
+			row_product(Mp, Mi, Mx, i1, r, y);
+			const double y0 = y[0], y1 = y[1], y2 = y[2];
 			o1[3 * r] += y0, o1[3 * r + 1] += y1, o1[3 * r + 2] += y2;
 		}
 		break;
