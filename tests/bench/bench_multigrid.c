@@ -14,7 +14,8 @@
  *                                  against the estimate --max-memory checks
  *
  * Timings are medians of 7 runs of at least 0.1 s each, on one thread or,
- * after -t T (first), on T.
+ * after -t T (first), on T; the two solvers' runs alternate, and the ratio
+ * is the median of the 7 pairs' ratios.
  * Output: markdown table rows (tests/bench/multigrid.sh assembles them). */
 #include "ndo/ndo.h"
 
@@ -89,9 +90,9 @@ static double h_rk4(ndo_grid *g)
 	return c.h_crit;
 }
 
-/* Median steps per second at step h (after 5 steps that build the factor
- * or the hierarchy). */
-static double steps_per_second(ndo_sim *s, double h)
+/* Steps taking at least 0.1 s (after 5 steps that build the factor or the
+ * hierarchy). */
+static long calibrate(ndo_sim *s, double h)
 {
 	for (int k = 0; k < 5; k++)
 		if (ndo_sim_step(s, h))
@@ -104,18 +105,19 @@ static double steps_per_second(ndo_sim *s, double h)
 				die();
 		double el = now() - t0;
 		if (el > 0.1)
-			break;
+			return n;
 		n = el > 0.01 ? (long)(n * 0.12 / el) + 1 : n * 10;
 	}
-	double r[REPS];
-	for (int k = 0; k < REPS; k++) {
-		double t0 = now();
-		for (long q = 0; q < n; q++)
-			if (ndo_sim_step(s, h))
-				die();
-		r[k] = (double)n / (now() - t0);
-	}
-	return median(r, REPS);
+}
+
+/* Steps per second of n steps. */
+static double timed(ndo_sim *s, double h, long n)
+{
+	double t0 = now();
+	for (long q = 0; q < n; q++)
+		if (ndo_sim_step(s, h))
+			die();
+	return (double)n / (now() - t0);
 }
 
 /* The largest difference between the two solvers' velocities after
@@ -157,13 +159,23 @@ static void speed(int argc, char **argv)
 			ndo_force *f1, *f2;
 			ndo_sim *c = scene(g, ms[k], NDO_SOLVER_CHOLMOD, &f1);
 			ndo_sim *m = scene(g, ms[k], NDO_SOLVER_MULTIGRID, &f2);
-			double sc = steps_per_second(c, h), sm = steps_per_second(m, h);
+			/* 7 pairs of runs, CHOLMOD then multigrid: a busy machine slows
+			 * both runs of a pair alike; the ratio is the median of the
+			 * pairs' ratios. */
+			long nc = calibrate(c, h), nm = calibrate(m, h);
+			double rc[REPS], rm[REPS], q[REPS];
+			for (int r = 0; r < REPS; r++) {
+				rc[r] = timed(c, h, nc);
+				rm[r] = timed(m, h, nm);
+				q[r] = rm[r] / rc[r];
+			}
+			double sc = median(rc, REPS), sm = median(rm, REPS), ratio = median(q, REPS);
 			ndo_sim_stats st;
 			ndo_sim_stats_get(m, &st);
 			int levels = 0, direct = 0;
 			ndo_sim_solver_info(m, &levels, &direct);
 			printf("| %s | %d | %zu | %.3g | %.4g | %.4g | %.2f | %d%s | %.1f | %.2g | %.2g |\n",
-			       ndo_method_names[ms[k]], level, ndo_vertex_count(level), h, sc, sm, sm / sc,
+			       ndo_method_names[ms[k]], level, ndo_vertex_count(level), h, sc, sm, ratio,
 			       levels, direct ? "" : " (Jacobi)",
 			       (double)st.iterations / (double)st.solves, st.last_residual,
 			       difference(g, ms[k], h, 20));
