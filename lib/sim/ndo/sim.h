@@ -257,7 +257,8 @@ typedef struct ndo_sim_stats {
 	int64_t rejected;      /* rkf45: rejected sub-steps */
 	int64_t evaluations;   /* force evaluations (stiffness products) */
 	int64_t restiffened;   /* re-assemblies of K */
-	int64_t factorizations;/* CHOLMOD numeric factorizations */
+	int64_t factorizations;/* CHOLMOD numeric factorizations, or multigrid
+	                          hierarchies built */
 	double restiffen_seconds; /* CPU time spent re-assembling (and
 	                             refactoring) */
 	double last_substep;   /* rkf45: the last accepted sub-step, s */
