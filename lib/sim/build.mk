@@ -4,7 +4,8 @@
 # tests check the membrane's spectrum with LAPACK's dense eigensolver.
 NDO_LIBS += -lcholmod -llapack -lblas
 DEBS_TOOLS += libsuitesparse-dev liblapack-dev
-# The stencil kernels (the acceleration, the explicit integrators): loops
+# The stencil kernels (the acceleration, the explicit integrators) and the
+# multigrid solver's loops: loops
 # vectorized (-O3), reductions in them too (#pragma omp simd, no OpenMP
 # runtime).
-$(OBJ)/lib/sim/integrate.c.o $(OBJ)/lib/sim/accel.c.o: CFLAGS += -O3 -fopenmp-simd
+$(OBJ)/lib/sim/integrate.c.o $(OBJ)/lib/sim/accel.c.o $(OBJ)/lib/sim/multigrid.c.o: CFLAGS += -O3 -fopenmp-simd

@@ -161,6 +161,8 @@ static int check_params(const ndo_sim_params *p)
 		return ndo__fail(NDO_ERANGE, "energy bound %g: must be ≥ 0 and finite", p->energy_bound);
 	if (p->nforces < 0 || (p->nforces > 0 && !p->forces))
 		return ndo__fail(NDO_EINVAL, "bad force list");
+	if ((int)p->solver < 0 || p->solver >= NDO_SOLVER_COUNT)
+		return ndo__fail(NDO_ERANGE, "unknown solver %d", (int)p->solver);
 	if (p->threads < 0 || p->threads > NDO_POOL_MAX)
 		return ndo__fail(NDO_ERANGE, "%d threads: must be 0..%d", p->threads, NDO_POOL_MAX);
 	return NDO_OK;
@@ -418,7 +420,13 @@ size_t ndo_sim_memory(int level, const ndo_sim_params *p)
 	/* Per node besides: the canonical index, pin and active flags, the
 	 * runs (at most one per two nodes, two lists of 8 bytes) and the
 	 * positions the setup reads the rest shape into. */
-	return cnt * (planes * sizeof(double) + sizeof(int32_t) + 2 + 8 + 3 * sizeof(double));
+	size_t bytes = cnt * (planes * sizeof(double) + sizeof(int32_t) + 2 + 8 + 3 * sizeof(double));
+	/* The multigrid solver's hierarchy and vectors are known in advance
+	 * (CHOLMOD's factor only after its analysis: implicit.c checks it). */
+	if (ndo_method_is_implicit(p->method) &&
+	    ndo_solver_at(p->solver, level) == NDO_SOLVER_MULTIGRID)
+		bytes += (size_t)ndo__implicit_mg_bytes(level);
+	return bytes;
 }
 
 int ndo_sim_create(int level, const double *x, const double *v, const double *rest,

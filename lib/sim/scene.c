@@ -297,7 +297,7 @@ const char *const ndo_scene_keys[] = {
 	"stiffness", "density", "damping", "mass-damping", "integrator", "dt", "dt-safety",
 	"steps", "time", "tol", "restiffen", "pins", "penalty", "pin", "force", "rest",
 	"output", "frames", "frame-every", "log", "log-every", "perturb", "seed",
-	"energy-bound", NULL};
+	"energy-bound", "solver", NULL};
 
 static int scene_set(ndo_scene *sc, const char *key, const char *v)
 {
@@ -318,6 +318,11 @@ static int scene_set(ndo_scene *sc, const char *key, const char *v)
 		if (ndo_method_parse(v, &sc->sim.method))
 			return ndo__fail(NDO_EINVAL, "integrator: '%s' is not euler, symplectic-euler, "
 			                 "midpoint, rk4, rkf45, backward-euler or trapezoid", v);
+		return NDO_OK;
+	}
+	if (strcmp(key, "solver") == 0) {
+		if (ndo_solver_parse(v, &sc->sim.solver))
+			return ndo__fail(NDO_EINVAL, "solver: '%s' is not auto, multigrid or cholmod", v);
 		return NDO_OK;
 	}
 	if (strcmp(key, "dt") == 0) {

@@ -22,7 +22,13 @@ remesh --shape sphere -l 6 -o s6.tgrid
 expect_error "memory limit, explicit" 1 "level 6 with rk4 needs about 3.[0-9]+ MB; the limit is 2 MB" \
 	simulate-peer --max-memory 2M s6.tgrid -o o.tgrid
 expect_error "memory limit, CHOLMOD's factor" 1 "step 1: level 6 with backward-euler needs about .* nonzeros in CHOLMOD's factor\); the limit is 3 MB" \
-	simulate-peer -q -i backward-euler --dt 0.01 --max-memory 3M s6.tgrid -o o.tgrid
+	simulate-peer -q -i backward-euler --solver cholmod --dt 0.01 --max-memory 3M s6.tgrid -o o.tgrid
+# The multigrid's hierarchy is sized before anything is allocated (auto
+# takes multigrid at level 6): 3.8 MB of arrays and about 5 MB more.
+expect_error "memory limit, the multigrid hierarchy" 1 "level 6 with backward-euler needs about [5-9].[0-9]+ MB; the limit is 5 MB" \
+	simulate-peer -q -i backward-euler --dt 0.01 --max-memory 5M s6.tgrid -o o.tgrid
+expect_error "unknown solver" 2 "--solver: 'lu' is not auto, multigrid or cholmod" \
+	simulate-peer -i trapezoid --solver lu s3.tgrid -o o.tgrid
 expect_error "memory limit too small to mean anything" 2 "--max-memory 5: give bytes from 1k" \
 	simulate-peer --max-memory 5 s4.tgrid -o o.tgrid
 expect_error "dt negative" 2 '--dt: -1 is outside' simulate-peer --dt -1 s3.tgrid -o o.tgrid

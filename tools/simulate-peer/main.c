@@ -45,6 +45,11 @@ static __attribute__((noreturn)) void usage(void)
 	    "                          of T/N\n"
 	    "      --tol TOL           rkf45 error tolerance per sub-step, [1e-14, 0.1]\n"
 	    "                          (default 1e-6; metres and m/s)\n"
+	    "      --solver S          the implicit methods' linear solver: multigrid\n"
+	    "                          (conjugate gradients with a V-cycle on the grid's\n"
+	    "                          levels, to a relative residual of 1e-10), cholmod\n"
+	    "                          (a sparse Cholesky factor) or auto (default:\n"
+	    "                          multigrid from level 6 up, cholmod below)\n"
 	    "  -k, --stiffness K       membrane tension sigma in N/m, (0, 1e12] (default 1)\n"
 	    "      --density RHO       areal density in kg/m^2, (0, 1e12] (default 1)\n"
 	    "  -b, --damping B         viscous damping per unit area in N s/m^3 (B_ii = B x\n"
@@ -323,6 +328,7 @@ static void options(run *r, int argc, char **argv)
 		{"dt", required_argument, 0, OPT_SETTING},
 		{"dt-safety", required_argument, 0, OPT_SETTING},
 		{"tol", required_argument, 0, OPT_SETTING},
+		{"solver", required_argument, 0, OPT_SETTING},
 		{"density", required_argument, 0, OPT_SETTING},
 		{"mass-damping", required_argument, 0, OPT_SETTING},
 		{"rest", required_argument, 0, OPT_SETTING},

@@ -72,6 +72,32 @@ extern const char *const ndo_method_names[];
 int ndo_method_parse(const char *name, ndo_method *m);
 int ndo_method_is_implicit(ndo_method m);
 
+/* How the implicit methods solve their symmetric positive definite
+ * systems.  CHOLMOD: a sparse Cholesky factor per step size (the
+ * reference; its fill grows faster than the nodes).  MULTIGRID: conjugate
+ * gradients preconditioned by a geometric multigrid V-cycle on the grid's
+ * own levels (lib/sim/multigrid.h), to a relative residual of
+ * NDO_SOLVER_TOL: O(n) work and memory per step.  AUTO (the default):
+ * multigrid from level NDO_MULTIGRID_MIN_LEVEL up, CHOLMOD below, where the
+ * factor is small and faster (docs/bench/multigrid.md). */
+typedef enum ndo_solver {
+	NDO_SOLVER_AUTO = 0,
+	NDO_SOLVER_MULTIGRID,
+	NDO_SOLVER_CHOLMOD,
+	NDO_SOLVER_COUNT
+} ndo_solver;
+#define NDO_SOLVER_TOL 1e-10
+#define NDO_MULTIGRID_MIN_LEVEL 6
+
+/* "auto", "multigrid", "cholmod" (index = ndo_solver), NULL-terminated. */
+extern const char *const ndo_solver_names[];
+
+/* NDO_ENOTFOUND for an unknown name. */
+int ndo_solver_parse(const char *name, ndo_solver *s);
+
+/* The solver `s` means at `level` (AUTO resolved). */
+ndo_solver ndo_solver_at(ndo_solver s, int level);
+
 typedef struct ndo_material {
 	double stiffness;    /* σ, N/m (> 0) */
 	double density;      /* ρ, kg/m² (> 0) */
@@ -145,6 +171,8 @@ typedef struct ndo_sim_params {
 	                        (default): no limit.  A larger run is refused
 	                        with NDO_ENOMEM and the estimate, before it
 	                        allocates (ndo_sim_memory) */
+	ndo_solver solver;   /* the implicit methods' linear solver (default
+	                        NDO_SOLVER_AUTO) */
 	int threads;         /* threads that share a step's loops, 0..NDO_POOL_MAX
 	                        (ndo/pool.h); 0 and 1 (default): the caller's
 	                        alone.  The result is the same, bit for bit, for
@@ -303,10 +331,17 @@ typedef struct ndo_sim_stats {
 	int64_t rejected;      /* rkf45: rejected sub-steps */
 	int64_t evaluations;   /* force evaluations (stiffness products) */
 	int64_t restiffened;   /* re-assemblies of K */
-	int64_t factorizations;/* CHOLMOD numeric factorizations */
+	int64_t factorizations;/* CHOLMOD numeric factorizations, or multigrid
+	                          hierarchies built */
 	double restiffen_seconds; /* CPU time spent re-assembling (and
 	                             refactoring) */
 	double last_substep;   /* rkf45: the last accepted sub-step, s */
+	int64_t solves;        /* implicit methods: linear solves */
+	int64_t iterations;    /* multigrid: conjugate-gradient iterations, all
+	                          solves */
+	int last_iterations;   /* multigrid: the last solve's iterations */
+	double last_residual;  /* multigrid: the last solve's relative residual
+	                          ‖b − A x‖ / ‖b‖ (worst coordinate) */
 } ndo_sim_stats;
 void ndo_sim_stats_get(const ndo_sim *s, ndo_sim_stats *st);
 
@@ -330,6 +365,13 @@ typedef struct ndo_sim_sleep_stats {
 	double node_steps_all;   /* ... with every tile awake */
 } ndo_sim_sleep_stats;
 void ndo_sim_sleep_stats_get(const ndo_sim *s, ndo_sim_sleep_stats *st);
+
+/* The implicit methods' solver as it runs: NDO_SOLVER_MULTIGRID or
+ * NDO_SOLVER_CHOLMOD (explicit methods: NDO_SOLVER_AUTO).  With multigrid
+ * and a hierarchy built (after the first step), *levels receives its
+ * levels (1: the smoother alone) and *direct whether CHOLMOD factors its
+ * coarsest level; otherwise both 0.  Either may be NULL. */
+ndo_solver ndo_sim_solver_info(const ndo_sim *s, int *levels, int *direct);
 
 /* The state.  x, v: H × W × 3 doubles (either may be NULL). */
 void ndo_sim_get(const ndo_sim *s, double *x, double *v);
