@@ -85,3 +85,46 @@ check "--flat tetrahedron" render-frame -s 160x120 --flat t0.tgrid -o flat.png
 check "flat: four colours cover the faces" $py "$rc" facets flat.png 4 yes
 check "smooth tetrahedron" render-frame -s 160x120 t0.tgrid -o smooth.png
 check "smooth: four colours do not" $py "$rc" facets smooth.png 4 no
+
+# The default view a person would choose: a grid remeshed from a mesh file
+# stands on +y (glTF's up, most scans') and is seen from its front and left;
+# ndo's own shapes keep +z; what the user gives stays.
+cat >box.off <<'MESH'
+OFF
+8 12 0
+-1 -0.5 -0.3
+1 -0.5 -0.3
+1 0.5 -0.3
+-1 0.5 -0.3
+-1 -0.5 0.3
+1 -0.5 0.3
+1 0.5 0.3
+-1 0.5 0.3
+3 0 2 1
+3 0 3 2
+3 4 5 6
+3 4 6 7
+3 0 1 5
+3 0 5 4
+3 2 3 7
+3 2 7 6
+3 1 2 6
+3 1 6 5
+3 0 4 7
+3 0 7 3
+MESH
+remesh box.off -l 3 -o box3.tgrid 2>/dev/null
+render-frame -s 160x120 box3.tgrid -o box-default.png
+render-frame -s 160x120 --up 0,1,0 --azimuth 240 box3.tgrid -o box-yup.png
+render-frame -s 160x120 --up 0,0,1 --azimuth 30 box3.tgrid -o box-zup.png
+render-frame -s 160x120 --up 0,0,1 box3.tgrid -o box-up-given.png
+render-frame -s 160x120 s4.tgrid -o s4-default.png
+render-frame -s 160x120 --up 0,0,1 --azimuth 30 s4.tgrid -o s4-zup.png
+if $py "$rc" compare box-default.png box-yup.png --mean 0 --p99 0 >/dev/null &&
+	! $py "$rc" compare box-default.png box-zup.png --mean 0 --p99 0 >/dev/null 2>&1 &&
+	$py "$rc" compare box-up-given.png box-zup.png --mean 0 --p99 0 >/dev/null &&
+	$py "$rc" compare s4-default.png s4-zup.png --mean 0 --p99 0 >/dev/null; then
+	pass "default view: a remeshed mesh stands on +y, seen from its front; shapes keep +z; --up stays"
+else
+	fail "default view" "a remeshed mesh's default is not the +y front view, or a shape's not +z"
+fi

@@ -3,6 +3,7 @@
 
 #include <float.h>
 #include <math.h>
+#include <string.h>
 
 #define DEG (M_PI / 180.0)
 
@@ -141,4 +142,19 @@ void rf_camera_view(const rf_camera *c, const double center[3], double radius, d
 	out->light[0] = (float)(cos(le) * sin(la));
 	out->light[1] = (float)sin(le);
 	out->light[2] = (float)(cos(le) * cos(la));
+}
+
+int rf_camera_for_grid(rf_camera *c, const char *history)
+{
+	if (c->have_up || !history || strncmp(history, "remesh ", 7) != 0)
+		return 0;
+	const char *end = strchr(history, '\n');
+	size_t len = end ? (size_t)(end - history) : strlen(history);
+	for (const char *q = history; q + 7 <= history + len; q++)
+		if (strncmp(q, "--shape", 7) == 0)
+			return 0;
+	c->up[0] = 0, c->up[1] = 1, c->up[2] = 0;
+	if (!c->have_azimuth)
+		c->azimuth = 240;
+	return 1;
 }

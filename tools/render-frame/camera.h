@@ -19,6 +19,7 @@ typedef struct rf_camera {
 	double fov;                 /* vertical field of view, degrees */
 	double margin;              /* fit: bounding sphere radius × margin fills the view */
 	int have_eye, have_center;  /* explicit look-at */
+	int have_up, have_azimuth;  /* given: the mesh's default view leaves them */
 	double eye[3], center[3], up[3];
 	double light_azimuth, light_elevation; /* degrees, relative to the camera */
 	int cull;                   /* skip back faces when the eye is outside the
@@ -28,6 +29,14 @@ typedef struct rf_camera {
 /* Defaults: azimuth 30, elevation 20, fitted distance, 30° field of view,
  * margin 1.1, up +z, light from the upper left (−30, 30), culling. */
 void rf_camera_defaults(rf_camera *c);
+
+/* The view a person would choose for a grid: one remeshed from a mesh file
+ * (its history's first command is remesh of a file, not --shape) stands on
+ * +y, the up of glTF and of most scans (the Stanford bunny, armadillo ...),
+ * and is seen from its front (+z) and a little to the left (azimuth 240);
+ * ndo's own shapes and the thesis scenes keep +z.  What the user gave
+ * (--up, --azimuth) stays.  1 if the view changed. */
+int rf_camera_for_grid(rf_camera *c, const char *history);
 
 /* The centre of the axis-aligned bounding box of n points (3 floats
  * each, stride `stride` floats) and the largest distance from it. */

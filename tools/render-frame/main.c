@@ -130,6 +130,9 @@ static void draw_one(state *st, rf_options *o, ndo_grid *g, const char *where, l
 		/* the camera's points and distance, given in world units, in the
 		 * uploaded coordinates */
 		rf_camera cam = o->camera;
+		if (rf_camera_for_grid(&cam, g->history) && o->verbose && st->frames == 0)
+			fprintf(stderr, "%s: %s was remeshed from a mesh file: up +y, seen from its "
+			        "front (+z) and the left (--up, --azimuth to change)\n", ndo_progname, where);
 		for (int k = 0; k < 3; k++) {
 			cam.eye[k] = (cam.eye[k] - scene->origin[k]) / scene->unit;
 			cam.center[k] = (cam.center[k] - scene->origin[k]) / scene->unit;

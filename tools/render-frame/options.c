@@ -32,14 +32,17 @@ static __attribute__((noreturn)) void usage(void)
 	       "                        4 for figures (llvmpipe has at most 4)\n"
 	       "      --compression N   PNG (zlib) level, 0..9 (default 1: fast)\n"
 	       "Camera (the object is fitted to the view by default):\n"
-	       "      --azimuth DEG     around the up axis, from +x towards +y (default 30)\n"
+	       "      --azimuth DEG     around the up axis, from +x towards +y (default 30;\n"
+	       "                        240 for a grid remeshed from a mesh file: below)\n"
 	       "      --elevation DEG   above the horizontal plane, -90..90 (default 20)\n"
 	       "      --distance D      from the centre (default: fit the bounding sphere)\n"
 	       "      --fov DEG         vertical field of view, 1..170 (default 30)\n"
 	       "      --eye X,Y,Z       look from this point (instead of azimuth, elevation\n"
 	       "                        and distance)\n"
 	       "      --center X,Y,Z    look at this point (default: the bounding box's centre)\n"
-	       "      --up X,Y,Z        the up direction (default 0,0,1)\n"
+	       "      --up X,Y,Z        the up direction (default 0,0,1; 0,1,0 for a grid\n"
+	       "                        remeshed from a mesh file, the up of glTF and of\n"
+	       "                        most scans, seen from its front, +z, and the left)\n"
 	       "      --no-cull         draw triangles facing away too (default: skip them\n"
 	       "                        when the eye is outside the object's bounding sphere)\n"
 	       "      --refit           fit every grid (default: fit the first, then keep the\n"
@@ -282,7 +285,10 @@ void rf_options_parse(int argc, char **argv, rf_options *o)
 				ndo_usage_error("--msaa: %d is not 1, 2, 4, 8 or 16", s->msaa);
 			break;
 		case OPT_COMPRESSION: o->compression = (int)ndo_opt_long("--compression", optarg, 0, 9); break;
-		case OPT_AZIMUTH: cam->azimuth = ndo_opt_double("--azimuth", optarg, -360, 360); have_angles = 1; break;
+		case OPT_AZIMUTH:
+			cam->azimuth = ndo_opt_double("--azimuth", optarg, -360, 360);
+			have_angles = cam->have_azimuth = 1;
+			break;
 		case OPT_ELEVATION: cam->elevation = ndo_opt_double("--elevation", optarg, -90, 90); have_angles = 1; break;
 		case OPT_DISTANCE: cam->distance = ndo_opt_double("--distance", optarg, 1e-9, 1e12); have_angles = 1; break;
 		case OPT_FOV: cam->fov = ndo_opt_double("--fov", optarg, 1, 170); break;
@@ -292,6 +298,7 @@ void rf_options_parse(int argc, char **argv, rf_options *o)
 			ndo_opt_doubles("--up", optarg, 3, cam->up, -1e12, 1e12);
 			if (cam->up[0] == 0 && cam->up[1] == 0 && cam->up[2] == 0)
 				ndo_usage_error("--up: the zero vector has no direction");
+			cam->have_up = 1;
 			break;
 		case OPT_NO_CULL: cam->cull = 0; break;
 		case OPT_REFIT: o->refit = 1; break;
