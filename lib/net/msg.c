@@ -366,6 +366,23 @@ static int needs_level(ndo_msg_type t)
 	       t == NDO_MSG_SOLVE;
 }
 
+/* The nodes in runs of node indices (halo_t, solve_t): −1 unless the runs
+ * are increasing, disjoint and inside a level-L grid. */
+static int64_t run_nodes(int L, int32_t nruns, const int32_t *start, const int32_t *len)
+{
+	const int64_t n = 1 << L, nodes = (2 * n + 1) * (n + 1);
+	if (nruns < 0 || nruns > nodes)
+		return -1;
+	int64_t next = 0, count = 0;
+	for (int k = 0; k < nruns; k++) {
+		if (start[k] < next || len[k] < 1 || len[k] > nodes - start[k])
+			return -1;
+		next = (int64_t)start[k] + len[k];
+		count += len[k];
+	}
+	return count;
+}
+
 ndo_drop ndo_msg_validate(const ndo_msg *m, const ndo_msg_ctx *c)
 {
 	if (!m || !m->hdr)
@@ -474,16 +491,9 @@ ndo_drop ndo_msg_validate(const ndo_msg *m, const ndo_msg_ctx *c)
 		const ndo_msg_halo_t *h = &m->u.halo;
 		if (h->step < 0 || !isfinite(h->time) || h->time < 0 || h->epoch < 0)
 			return h->time != h->time ? NDO_DROP_NONFINITE : NDO_DROP_RANGE;
-		const int64_t n = 1 << L, nodes = (2 * n + 1) * (n + 1);
-		if (h->nruns < 0 || h->nruns > nodes)
+		int64_t count = run_nodes(L, h->nruns, h->start, h->len);
+		if (count < 0)
 			return NDO_DROP_RANGE;
-		int64_t next = 0, count = 0;
-		for (int k = 0; k < h->nruns; k++) {
-			if (h->start[k] < next || h->len[k] < 1 || h->len[k] > nodes - h->start[k])
-				return NDO_DROP_RANGE; /* increasing, disjoint, inside the grid */
-			next = (int64_t)h->start[k] + h->len[k];
-			count += h->len[k];
-		}
 		if (h->nvalues != 6 * count)
 			return NDO_DROP_LENGTH;
 		return finite_all(h->values, h->nvalues) ? NDO_DROP_NONE : NDO_DROP_NONFINITE;
@@ -493,16 +503,11 @@ ndo_drop ndo_msg_validate(const ndo_msg *m, const ndo_msg_ctx *c)
 		if (h->step < 0 || h->phase < 0 || h->epoch < 0 ||
 		    (h->per_node != 0 && h->per_node != 3 && h->per_node != 6))
 			return NDO_DROP_RANGE;
-		const int64_t n = 1 << L, nodes = (2 * n + 1) * (n + 1);
-		if (h->nruns < 0 || h->nruns > nodes || h->nsums < 0 || h->nsums > NDO_MAX_SUMS)
+		if (h->nsums < 0 || h->nsums > NDO_MAX_SUMS)
 			return NDO_DROP_RANGE;
-		int64_t next = 0, count = 0;
-		for (int k = 0; k < h->nruns; k++) {
-			if (h->start[k] < next || h->len[k] < 1 || h->len[k] > nodes - h->start[k])
-				return NDO_DROP_RANGE; /* increasing, disjoint, inside the grid */
-			next = (int64_t)h->start[k] + h->len[k];
-			count += h->len[k];
-		}
+		int64_t count = run_nodes(L, h->nruns, h->start, h->len);
+		if (count < 0)
+			return NDO_DROP_RANGE;
 		if (h->nvalues != h->per_node * count)
 			return NDO_DROP_LENGTH;
 		return finite_all(h->values, h->nvalues) && finite_all(h->sums, h->nsums)

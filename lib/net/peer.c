@@ -1047,6 +1047,30 @@ static size_t missing(const ndo_peer *p)
 	return n;
 }
 
+/* An exact step taken (lock-step with halos, or split): the region is at
+ * cur + 1; publish what is due and take the tiles kept for it. */
+static int stepped(ndo_peer *p)
+{
+	p->cur++;
+	p->tcur = ndo_sim_time(p->sim);
+	p->synced = 0;
+	for (size_t q = 0; q < p->nown; q++) {
+		size_t c = (size_t)p->own[q];
+		if ((size_t)p->canon[c] == c)
+			p->nstep[c] = p->cur;
+	}
+	if (p->blocked)
+		p->st.wait_seconds += p->now - p->block_t0;
+	p->blocked = 0;
+	p->st.steps++;
+	p->st.end_time = p->now;
+	int rc = publish(p);
+	if (rc)
+		return rc;
+	unstash(p);
+	return NDO_PEER_STEPPED;
+}
+
 /* Exact lock-step: at an exchange step the halo takes the received
  * displacements and velocities (of this very step: lockstep() waited for
  * them); in between, the halo is integrated along with the region. */
@@ -1082,23 +1106,7 @@ static int step_exact(ndo_peer *p)
 	p->st.compute_seconds += wall() - t0;
 	if (rc)
 		return rc;
-	p->cur++;
-	p->tcur = ndo_sim_time(p->sim);
-	p->synced = 0;
-	for (size_t q = 0; q < p->nown; q++) {
-		size_t c = (size_t)p->own[q];
-		if ((size_t)p->canon[c] == c)
-			p->nstep[c] = p->cur;
-	}
-	if (p->blocked)
-		p->st.wait_seconds += p->now - p->block_t0;
-	p->blocked = 0;
-	p->st.steps++;
-	p->st.end_time = p->now;
-	if ((rc = publish(p)))
-		return rc;
-	unstash(p);
-	return NDO_PEER_STEPPED;
+	return stepped(p);
 }
 
 static int step(ndo_peer *p)
@@ -1222,23 +1230,7 @@ static int step_split(ndo_peer *p)
 		if (rc)
 			return rc;
 	}
-	p->cur++;
-	p->tcur = ndo_sim_time(p->sim);
-	p->synced = 0;
-	for (size_t q = 0; q < p->nown; q++) {
-		size_t c = (size_t)p->own[q];
-		if ((size_t)p->canon[c] == c)
-			p->nstep[c] = p->cur;
-	}
-	if (p->blocked)
-		p->st.wait_seconds += p->now - p->block_t0;
-	p->blocked = 0;
-	p->st.steps++;
-	p->st.end_time = p->now;
-	if ((rc = publish(p)))
-		return rc;
-	unstash(p);
-	return NDO_PEER_STEPPED;
+	return stepped(p);
 }
 
 /* Lock-step: step when the halo holds step `cur`; otherwise wait,
