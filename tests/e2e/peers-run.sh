@@ -10,25 +10,10 @@
 # completes, still bit for bit (lock-step re-sends recover every lost tile).
 . "$(dirname "$0")/netns.bash"
 . "$(dirname "$0")/lib.sh"
+. "$(dirname "$0")/peers.bash"
 
 SCENE=$NDO_ROOT/samples/thesis-fig5.3.scene
 remesh --shape wavy -l 4 -o wavy4.tgrid 2>/dev/null || fail "remesh"
-
-# The largest position difference of A from B over B's largest
-# displacement, the number of peers in A's owner channel, A's step.
-compare() {
-	/usr/bin/python3 - "$1" "$2" "$NDO_ROOT/tests/e2e" <<'PY'
-import sys
-sys.path.insert(0, sys.argv[3])
-import numpy as np, tgrid
-_, sa, _, a = tgrid.read(sys.argv[1])
-_, sb, _, b = tgrid.read(sys.argv[2])
-d = np.abs(a["position"] - b["position"]).max()
-m = np.abs(b["position"] - b["rest"]).max()
-owners = len(np.unique(a["owner"])) if "owner" in a else 0
-print(f"{d / m:.3g} {owners} {sa} {sb}")
-PY
-}
 
 # Forward Euler is stable on this scene only at a 0.085 ms step (damping
 # bound): 10 s would take 118549 steps, so it runs 0.1 s (1186 steps).
@@ -51,15 +36,7 @@ run_peers() {
 		simulate-peer --join --poi "${pois[$k]}" --start-timeout 30 "$@" 2>"joiner$k.err" &
 		pids+=($!)
 	done
-	local bad=0
-	for k in "${!pids[@]}"; do
-		wait "${pids[$k]}" || { bad=1; echo "    peer $k: exit $?"; }
-	done
-	if [ $bad -ne 0 ]; then
-		sed 's/^/    owner: /' owner.err | tail -3
-		for ((k = 1; k < n; k++)); do sed "s/^/    joiner $k: /" "joiner$k.err" | tail -3; done
-	fi
-	return $bad
+	wait_peers "$n" "${pids[@]}"
 }
 
 METHODS="euler symplectic-euler midpoint rk4"

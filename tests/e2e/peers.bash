@@ -1,0 +1,35 @@
+# tests/e2e/peers.bash — sourced by the scripts that compare a multi-peer
+# run over LCM with a single process (peers-run.sh, peers-split.sh).
+
+# compare A B: the largest position difference of A from B over B's largest
+# displacement, the number of peers in A's owner channel, A's and B's step.
+compare() {
+	/usr/bin/python3 - "$1" "$2" "$NDO_ROOT/tests/e2e" <<'PY'
+import sys
+sys.path.insert(0, sys.argv[3])
+import numpy as np, tgrid
+_, sa, _, a = tgrid.read(sys.argv[1])
+_, sb, _, b = tgrid.read(sys.argv[2])
+d = np.abs(a["position"] - b["position"]).max()
+m = np.abs(b["position"] - b["rest"]).max()
+owners = len(np.unique(a["owner"])) if "owner" in a else 0
+print(f"{d / m:.3g} {owners} {sa} {sb}")
+PY
+}
+
+# wait_peers N PID...: wait for the owner and its N-1 joiners (stderr in
+# owner.err, joinerK.err); 0 when every one exits 0, else 1 after showing
+# the last lines each wrote.
+wait_peers() {
+	local n=$1 bad=0 k
+	shift
+	local pids=("$@")
+	for k in "${!pids[@]}"; do
+		wait "${pids[$k]}" || { bad=1; echo "    peer $k: exit $?"; }
+	done
+	if [ $bad -ne 0 ]; then
+		sed 's/^/    owner: /' owner.err | tail -3
+		for ((k = 1; k < n; k++)); do sed "s/^/    joiner $k: /" "joiner$k.err" | tail -3; done
+	fi
+	return $bad
+}
