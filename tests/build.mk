@@ -28,7 +28,7 @@ endif
 # The generated code is compiled apart, without UBSan's nonnull check, for
 # the reason lib/lcmtypes/build.mk gives.
 FUZZ_CC := clang -std=c11 -D_GNU_SOURCE $(ALL_INC) $(if $(LCM_GEN_DIR),-I$(LCM_GEN_DIR)) -g -O1
-$(TBIN)/fuzz_%: tests/fuzz/fuzz_%.c $(LIB_SRCS) $(LCM_GEN_STAMP) $(wildcard lib/*/ndo/*.h lib/*/*.h)
+$(TBIN)/fuzz_%: tests/fuzz/fuzz_%.c $(LIB_SRCS) $(LCM_GEN_STAMP) $(wildcard lib/*/ndo/*.h lib/*/*.h tests/fuzz/*.h)
 	@mkdir -p $(@D)/fuzz-gen-$*
 	for s in $(LCM_GEN_SRCS); do \
 	  $(FUZZ_CC) -w -fsanitize=fuzzer-no-link,address,undefined -fno-sanitize=nonnull-attribute \

@@ -12,13 +12,10 @@
 #include "ndo/msg.h"
 #include "ndo/net.h"
 
+#include "drain.h"
+
 #include <stdlib.h>
 #include <string.h>
-
-static void discard(void *u, const char *c, const void *d, size_t n)
-{
-	(void)u, (void)c, (void)d, (void)n;
-}
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
@@ -62,17 +59,6 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 		ndo_net_set_send_level(rx, (how / 3) % 8 > 0 ? (how / 3) % 8 - 1 : 0, (how / 3) % 8);
 		ndo_net_attach(rx, object, (how / 3) % 8);
 	}
-	ndo_net_poll(rx, 0);
-	ndo_link_poll(tx, 0, discard, NULL); /* lets the bus free what both read */
-	ndo_msg q;
-	while (ndo_net_next(rx, &q))
-		ndo_msg_free(&q);
-	ndo_msg *tiles;
-	size_t n;
-	if (ndo_net_take_tiles(rx, &tiles, &n) == 0) {
-		for (size_t k = 0; k < n; k++)
-			ndo_msg_free(&tiles[k]);
-		free(tiles);
-	}
+	fuzz_drain(rx, tx);
 	return 0;
 }
