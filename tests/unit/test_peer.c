@@ -364,9 +364,8 @@ static int same_frames(const frames *a, const frames *b)
 	return 1;
 }
 
-/* A watch assembles the same frames live, with the traffic delayed and
- * reordered, and from a log of it; the last is the owner's result. */
-static void a_replayed_log_gives_the_live_frames(void)
+/* An owner and two joiners, rk4, 30 steps, whole regions every 3 steps. */
+static world *three_peers(void)
 {
 	setup su = {.integrator = "rk4", .dt = 0.02, .steps = 30,
 	            .clock = NDO_CLOCK_LOCKSTEP, .peers = 3, .publish_every = 3};
@@ -374,6 +373,14 @@ static void a_replayed_log_gives_the_live_frames(void)
 	add_owner(w, &su);
 	add_joiner(w, &su, POIS[0]);
 	add_joiner(w, &su, POIS[3]);
+	return w;
+}
+
+/* A watch assembles the same frames live, with the traffic delayed and
+ * reordered, and from a log of it; the last is the owner's result. */
+static void a_replayed_log_gives_the_live_frames(void)
+{
+	world *w = three_peers();
 	ndo_link *l;
 	ndo_link_open_mem(w->bus, &l);
 	live.w = watch_on(l, 3);
@@ -430,37 +437,28 @@ static void a_replayed_log_gives_the_live_frames(void)
 /* A log that missed 40 state tiles in a row (of about 570): by default a watch skips
  * and counts a step whose tiles were lost; with hold_lost it hands the step
  * out, the lost nodes at the last frame's values, with the share held. */
-static lcm_eventlog_t *lossy_log;
-static int64_t lossy_time, lossy_tiles;
+static int64_t lossy_tiles;
 static void record_lossy(void *user, const char *channel, const void *data, size_t len)
 {
-	(void)user;
 	if (ndo_msg_type_of("T", channel) == NDO_MSG_TILE && lossy_tiles++ / 40 == 4)
 		return;
-	lcm_eventlog_event_t e = {0, lossy_time++, (int32_t)strlen(channel), (int32_t)len,
-	                          (char *)channel, (void *)data};
-	lcm_eventlog_write_event(lossy_log, &e);
+	record(user, channel, data, len);
 }
 
 static void lossy_tick(world *w) { ndo_link_poll(recorder, w->t, record_lossy, NULL); }
 
 static void lost_tiles_are_held_on_request(void)
 {
-	setup su = {.integrator = "rk4", .dt = 0.02, .steps = 30,
-	            .clock = NDO_CLOCK_LOCKSTEP, .peers = 3, .publish_every = 3};
-	world *w = world_new();
-	add_owner(w, &su);
-	add_joiner(w, &su, POIS[0]);
-	add_joiner(w, &su, POIS[3]);
+	world *w = three_peers();
 	const char *tmp = getenv("NDO_TMP");
 	char path[512];
 	snprintf(path, sizeof path, "%s/test_peer_lossy.lcmlog", tmp ? tmp : "/tmp");
-	lossy_log = lcm_eventlog_create(path, "w");
+	logfile = lcm_eventlog_create(path, "w");
 	ndo_link_open_mem(w->bus, &recorder);
 	on_tick = lossy_tick;
 	CHECK(run(w, 60) == 0 && w->state[0] == NDO_PEER_DONE, "the run ends");
 	on_tick = NULL;
-	lcm_eventlog_destroy(lossy_log);
+	lcm_eventlog_destroy(logfile);
 	ndo_link_destroy(recorder);
 	ndo_watch *wa[2];
 	int nframes[2] = {0, 0}, reported = 0;
