@@ -9,7 +9,8 @@
  *                                    in the thesis, or extrapolated) and peers
  *   bench_peers realtime [-l LEVEL]  free-running peers: error by network delay
  *   bench_peers split [-l LEVEL]     rkf45 and the implicit methods split
- *                                    exactly (docs/peers.md): difference,
+ *                                    exactly (docs/peers.md): difference
+ *                                    (from a CHOLMOD single process),
  *                                    exchanges (rounds of messages) and bytes
  *                                    a step, rkf45's attempts, the solve's
  *                                    iterations with the region's block or
@@ -83,7 +84,8 @@ static void split(int level)
 					setup su = {.integrator = methods[m], .dt = hs[k],
 					            .steps = (int64_t)(1.0 / hs[k] + 0.5),
 					            .clock = NDO_CLOCK_LOCKSTEP, .peers = n, .level = level,
-					            .jacobi = jac, .extra = m == 0 ? "tol 1e-6" : NULL};
+					            .jacobi = jac,
+					            .extra = m == 0 ? "tol 1e-6" : "solver cholmod"};
 					ndo_peer_stats st;
 					double d = run_split(&su, n, &st);
 					double per = m ? (st.solves ? (double)st.iterations / (double)st.solves : 0)
