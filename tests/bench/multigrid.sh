@@ -33,7 +33,7 @@ summary=$(awk -v be1="$(row "$t-speed.md" backward-euler 7)" -v tr1="$(row "$t-s
 	-v beq="$(row "$t-speed.md" backward-euler 8)" -v trq="$(row "$t-speed.md" trapezoid 8)" \
 	-v be2="$(row "$t-speed2.md" backward-euler 7)" -v tr2="$(row "$t-speed2.md" trapezoid 7)" \
 	-v beq2="$(row "$t-speed2.md" backward-euler 8)" -v trq2="$(row "$t-speed2.md" trapezoid 8)" 'BEGIN {
-	printf "- Goal: backward Euler and trapezoid at level 8 at 10× the steps/s of CHOLMOD (docs/bench/simulate.md: 11.01 and 14.55).  Measured, one thread: **%.3g and %.3g steps/s, %.2f× and %.2f× CHOLMOD** run alternately with it in this run (%.1f× and %.1f× the recorded figures, measured on another day's load); two threads: %.3g and %.3g steps/s, %.2f× and %.2f× CHOLMOD (on one): %s.\n",
+	printf "- Goal: backward Euler and trapezoid at level 8 at 10× the steps/s of CHOLMOD (docs/bench/simulate.md: 11.01 and 14.55).  Measured, one thread: **%.3g and %.3g steps/s, %.2f× and %.2f× CHOLMOD** run alternately with it in this run (%.1f× and %.1f× the recorded figures, measured on another day, under another load); two threads: %.3g and %.3g steps/s, %.2f× and %.2f× CHOLMOD (on one): %s.\n",
 		be1, tr1, beq, trq, be1 / 11.01, tr1 / 14.55, be2, tr2, beq2, trq2,
 		(beq2 >= 10 && trq2 >= 10) ? "met" : "NOT met"
 }')
@@ -46,8 +46,12 @@ summary=$(awk -v be1="$(row "$t-speed.md" backward-euler 7)" -v tr1="$(row "$t-s
 	echo "## Summary"
 	echo
 	echo "$summary"
-	echo "- Why not 10×: near the explicit limit (the benchmark's step, half RK4's) the system is mass-dominated, its condition number about 3, and conjugate gradients with Jacobi need 4–7 iterations to 10⁻¹⁰ from an extrapolated first guess: 5–8 passes of a sparse product over 3 × 131,074 unknowns plus the vector updates: a step costs about 2.5 RK4 steps (rk4 at level 8: 105 steps/s in docs/bench/simulate.md), and the passes are bound by memory bandwidth; a coarse-grid correction does not pay there (measured: 3.8 V-cycle iterations cost 1.6× of 12.6 Jacobi ones).  CHOLMOD's solve is two triangular sweeps over a factor of 8.1 million nonzeros.  The multigrid pays most where CHOLMOD is weakest: large steps on fine levels (iterations below) and memory."
-	echo "- Iterations per solve at a fixed step, where the V-cycle runs, grow slowly with the level and level off (at 0.1 s: 7.0 at level 5, 10.4 at 8, 11.4 at 10; at 1 s: 8.6 to 12.4), where Jacobi alone would double a level; in the Jacobi regime they stay below about 16 (the hierarchy starts where the stiffness passes 12× the mass).  Nearly, not exactly, level-independent: each level adds a smoothing error the degree-2 smoother does not remove.  CHOLMOD's factor grows faster than the nodes (8.1 million nonzeros at level 8, 135 million at 10) and its factorization faster still."
+	# figures of this run for the two paragraphs below
+	it() { awk -F'|' -v l="$2" -v c="$3" '$2 == " "l" " { split($c, a, " "); print a[1] }' "$t-iters.md"; }
+	jac=$(awk -F'|' '$3 == " 8 " && $9 ~ /Jacobi/ { v = $10 + 0; if (lo == "" || v < lo) lo = v; if (v > hi) hi = v }
+		END { printf "%.1f–%.1f", lo, hi }' "$t-speed.md")
+	echo "- Why not 10×: near the explicit limit (the benchmark's step, half RK4's) the system is mass-dominated, its condition number about 3, and conjugate gradients with Jacobi need $jac iterations a solve (this run) to the relative residual of 10⁻¹² (\`NDO_SOLVER_TOL\`: the trapezoid damps no error, so a looser stop adds up over a run, docs/peers.md) from an extrapolated first guess: as many passes of a sparse product over 3 × 131,074 unknowns plus the vector updates, bound by memory bandwidth, while a step of rk4 is four such passes (rk4 at level 8: 105 steps/s in docs/bench/simulate.md); a coarse-grid correction does not pay there (measured: 3.8 V-cycle iterations cost 1.6× of 12.6 Jacobi ones).  CHOLMOD's solve is two triangular sweeps over a factor of 8.1 million nonzeros.  The multigrid pays most where CHOLMOD is weakest: large steps on fine levels (iterations below) and memory."
+	echo "- Iterations per solve at a fixed step, where the V-cycle runs, grow slowly with the level and level off (at 0.1 s: $(it x 5 5) at level 5, $(it x 8 5) at 8, $(it x 10 5) at 10; at 1 s: $(it x 5 6) to $(it x 10 6)), where Jacobi alone would double a level; in the Jacobi regime they stay below about 20 (the hierarchy starts where the stiffness passes 12× the mass).  Nearly, not exactly, level-independent: each level adds a smoothing error the degree-2 smoother does not remove.  CHOLMOD's factor grows faster than the nodes (8.1 million nonzeros at level 8, 135 million at 10) and its factorization faster still."
 	echo
 	echo "## Steps per second, one thread"
 	echo
