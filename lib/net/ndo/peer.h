@@ -224,6 +224,26 @@ typedef struct ndo_peer_stats {
 	int64_t iterations;     /* ... their conjugate-gradient iterations */
 	int64_t frames;         /* whole-region publications */
 	uint64_t frame_bytes;   /* ... their bytes */
+	/* realtime with exact halos (rollback, docs/peers.md "Realtime"): */
+	int rollback;           /* 1: this peer rolls back */
+	int64_t rollbacks;      /* times it went back to an earlier step */
+	int64_t recomputed;     /* steps taken again */
+	int64_t rollback_depth; /* the most steps one rollback went back */
+	int64_t predicted;      /* halo node-steps first taken with a prediction
+	                           (the true value had not come) */
+	int window;             /* steps kept for rolling back */
+	int confirmed;          /* the last step is confirmed: every input of the
+	                           run was its sender's confirmed value, and the
+	                           result is the lock-step one */
+	int64_t frontier;       /* the newest step up to which all are confirmed */
+	double shown_error;     /* the frames this peer sent against the confirmed
+	                           state of their steps, over its nodes: the
+	                           largest difference of a displacement component
+	                           (m; what viewers saw during the run) */
+	double shown_disp;      /* ... the largest displacement component of those
+	                           frames' confirmed states (m) */
+	int64_t shown_frames;   /* ... frames compared, */
+	int64_t shown_wrong;    /* ... and how many of them differed */
 	double start_time;      /* caller's clock at the first step */
 	double end_time;        /* ... at the last */
 } ndo_peer_stats;
