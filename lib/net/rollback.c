@@ -503,8 +503,10 @@ int ndo__rb_published(ndo__rb *rb)
 	if (!rb->w || !rb->exact)
 		return 0;
 	slot *S = &rb->w[rb->cur % rb->win];
-	if (S->cf)
-		return 0; /* shown confirmed: no error */
+	if (S->cf) {
+		rb->st.shown_frames++; /* shown confirmed: no error */
+		return 0;
+	}
 	if (!S->pu && !(S->pu = malloc(3 * (rb->r.nown ? rb->r.nown : 1) * sizeof *S->pu)))
 		return ndo__fail(NDO_ENOMEM, "out of memory");
 	for (size_t k = 0; k < rb->r.nown; k++)

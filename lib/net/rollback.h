@@ -114,8 +114,8 @@ typedef struct ndo__rb_stats {
 	/* The frames sent (ndo__rb_published) against the confirmed state of
 	 * their step, over this peer's nodes: the largest difference of a
 	 * displacement component (m), the largest displacement component of
-	 * those confirmed frames, and how many of them were compared and how
-	 * many differed. */
+	 * those confirmed frames, and how many frames were compared (those
+	 * sent confirmed count, with no difference) and how many differed. */
 	double shown_error, shown_disp;
 	int64_t shown_frames, shown_wrong;
 } ndo__rb_stats;
