@@ -1622,9 +1622,10 @@ int ndo_peer_create(const ndo_peer_opts *o, ndo_net *net, ndo_grid *grid, ndo_si
 		/* the steps whose whole regions go out, for watches that count
 		 * what they lost (ndo/watch.h): exact lock-step every N (0: the
 		 * first and last only), otherwise every step */
-		int exact = p->clock == NDO_CLOCK_LOCKSTEP && !p->hold &&
-		            (ndo_peer_halo_rings(ndo_sim_method(sim)) > 0 ||
-		             ndo__ps_method(ndo_sim_method(sim)));
+		ndo_method m = ndo_sim_method(sim);
+		int split = ndo__ps_method(m), rings = ndo_peer_halo_rings(m) > 0;
+		int exact = !p->hold && (p->clock == NDO_CLOCK_LOCKSTEP ? rings || split
+		                                                        : rings && !split);
 		char peer_lines[360];
 		snprintf(peer_lines, sizeof peer_lines,
 		         "dt %.17g\nsteps %lld\npeer-clock %d\npeer-hold-boundary %d\n"
