@@ -1736,6 +1736,9 @@ void ndo_peer_stats_get(const ndo_peer *p, ndo_peer_stats *st)
 		ndo__rb_stats rs;
 		ndo__rb_stats_get(p->rb, &rs);
 		st->rollback = 1;
+		st->exchanges += rs.strips;
+		st->halo_tiles += rs.messages;
+		st->halo_bytes += rs.bytes;
 		st->rollbacks = rs.rollbacks;
 		st->recomputed = rs.recomputed;
 		st->rollback_depth = rs.depth_max;

@@ -1,6 +1,7 @@
 /* rollback.c — a realtime peer that rolls back (rollback.h; docs/peers.md
  * "Realtime"). */
 #include "rollback.h"
+#include "ndo/net.h"
 #include "ndo/status.h"
 
 #include <math.h>
@@ -189,6 +190,8 @@ static int send_strip(ndo__rb *rb, int64_t step)
 	if (S->step != step || !S->have || !rb->r.nstrip)
 		return 0;
 	const size_t budget = 60000; /* one datagram, with the header */
+	const ndo_net_stats *ns = ndo_net_stats_get(ndo_session_net(rb->s));
+	uint64_t b0 = ns->bytes_out;
 	size_t k = 0;
 	while (k < rb->r.nstrip) {
 		size_t nr = 0, nn = 0, bytes = 64;
@@ -219,7 +222,10 @@ static int send_strip(ndo__rb *rb, int64_t step)
 		int rc = ndo_session_send_halo(rb->s, &h);
 		if (rc < 0)
 			return rc;
+		rb->st.messages++;
 	}
+	rb->st.strips++;
+	rb->st.bytes += ns->bytes_out - b0;
 	return 0;
 }
 

@@ -109,6 +109,9 @@ typedef struct ndo__rb_stats {
 	int64_t predicted;    /* halo node-steps first taken with a prediction */
 	int64_t dropped;      /* halo messages beyond the window (or before it) */
 	int64_t resends;      /* strips sent again */
+	int64_t strips;       /* strips sent (every one: new, recomputed, again) */
+	int64_t messages;     /* ... their halo messages */
+	uint64_t bytes;       /* ... and bytes (LCM payloads) */
 	int window;           /* steps the window holds */
 	int exact;            /* confirmation in force (ndo__rb_restart) */
 	/* The frames sent (ndo__rb_published) against the confirmed state of
