@@ -146,6 +146,26 @@ sys.exit(0 if d < 1e-9 and all(np.array_equal(a[k], b[k]) for k in a) else 1)");
 		fail "$m: multigrid against CHOLMOD (or 1 against 2 threads)" "difference $d"
 	fi
 done
+# The default solver's error does not pile up: the trapezoid keeps every
+# error it is given (no damping), so 500 steps of a multigrid stopping at
+# 1e-10 ended 4.9e-10 of the largest displacement from CHOLMOD's run; at
+# NDO_SOLVER_TOL (1e-12) a 10 s run stays within the 1e-10 that split peers
+# are held to (docs/peers.md: they reproduce CHOLMOD's solve).
+remesh --shape wavy -l 6 -o w6.tgrid 2>/dev/null
+simulate-peer -q -i trapezoid -t 10 --dt 0.02 -s "$NDO_ROOT/samples/thesis-fig5.3.scene" \
+	--solver cholmod w6.tgrid -o tc.tgrid
+simulate-peer -q -i trapezoid -t 10 --dt 0.02 -s "$NDO_ROOT/samples/thesis-fig5.3.scene" \
+	w6.tgrid -o tm.tgrid
+if d=$(/usr/bin/python3 -c "
+import sys; sys.path.insert(0, '$NDO_ROOT/tests/e2e'); import gridfile, numpy as np
+c, m = (gridfile.read(f)['channels'] for f in ('tc.tgrid', 'tm.tgrid'))
+d = abs(c['position'] - m['position']).max() / abs(c['position'] - c['rest']).max()
+print('%.3g' % d)
+sys.exit(0 if d <= 1e-10 else 1)"); then
+	pass "trapezoid, level 6, 10 s: the default solver within $d of CHOLMOD (goal 1e-10)"
+else
+	fail "trapezoid, level 6, 10 s: the default solver drifts from CHOLMOD" "difference $d"
+fi
 check "restiffen and a mesh output" simulate-peer -q --restiffen 2 -s scene.txt s3.tgrid -o m.obj
 
 # The sample scenes run (on a coarse grid, a few steps).

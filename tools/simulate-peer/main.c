@@ -47,7 +47,7 @@ static __attribute__((noreturn)) void usage(void)
 	    "                          (default 1e-6; metres and m/s)\n"
 	    "      --solver S          the implicit methods' linear solver: multigrid\n"
 	    "                          (conjugate gradients with a V-cycle on the grid's\n"
-	    "                          levels, to a relative residual of 1e-10), cholmod\n"
+	    "                          levels, to a relative residual of 1e-12), cholmod\n"
 	    "                          (a sparse Cholesky factor) or auto (default:\n"
 	    "                          multigrid from level 6 up, cholmod below)\n"
 	    "  -k, --stiffness K       membrane tension sigma in N/m, (0, 1e12] (default 1)\n"

@@ -86,7 +86,7 @@ typedef enum ndo_solver {
 	NDO_SOLVER_CHOLMOD,
 	NDO_SOLVER_COUNT
 } ndo_solver;
-#define NDO_SOLVER_TOL 1e-10
+#define NDO_SOLVER_TOL 1e-12
 #define NDO_MULTIGRID_MIN_LEVEL 6
 
 /* "auto", "multigrid", "cholmod" (index = ndo_solver), NULL-terminated. */
