@@ -181,6 +181,12 @@ static void write_halo(ndo_peer *p, const ndo_msg_halo_t *h)
 			if ((size_t)p->canon[c] != c || own[c] != from || !p->hmark[c] ||
 			    h->step < p->nstep[c])
 				continue;
+			taken++;
+			/* rollback keeps its halos itself: the grid's halo nodes come
+			 * from whole regions, which the owner gathers (a halo may be
+			 * tentative, and rest + u is not the position bit for bit) */
+			if (p->rb)
+				continue;
 			const double *val = &h->values[k];
 			for (int d = 0; d < 3; d++) {
 				v[3 * c + d] = val[d];
@@ -188,7 +194,6 @@ static void write_halo(ndo_peer *p, const ndo_msg_halo_t *h)
 				x[3 * c + d] = rest[3 * c + d] + val[3 + d];
 			}
 			p->nstep[c] = h->step;
-			taken++;
 		}
 	if (!taken) /* duplicates: the session syncs the grid after its update */
 		return;
@@ -750,7 +755,7 @@ static int region(ndo_peer *p)
 			 * multi-stage one, whose stages would move it.  A split step
 			 * (rkf45, the implicit methods) exchanges several times within
 			 * each step (peer_solve.h): K is 1 */
-			if (split || roll)
+			if (split)
 				p->K = 1;
 			p->W = split ? ndo__ps_rings(m)
 			             : ndo_peer_halo_rings(m) * p->K +
@@ -773,7 +778,7 @@ static int region(ndo_peer *p)
 				                    fmax(p->o.resend, 2 * p->dt / p->speed), &p->rb);
 			if (!rc && roll) {
 				ndo__rb_region r = {p->own, p->nown, p->halo, p->nhalo, p->strip, p->nstrip,
-				                    p->act, owner_channel(p), p->canon};
+				                    p->act, owner_channel(p), p->canon, p->K, p->first};
 				rc = ndo__rb_set_region(p->rb, &r);
 				if (!rc && p->announced)
 					rc = rb_restart(p);

@@ -47,6 +47,10 @@ typedef struct ndo__rb_region {
 	                         1..W−1); the halo's outermost ring is held */
 	const int32_t *owner; /* per stored node: the peer that owns it */
 	const int32_t *canon; /* per stored node: its canonical node */
+	int K;                /* steps per halo exchange (≥ 1): halos travel and
+	                         are taken at the steps first + j·K, and the
+	                         halo is wide enough for K steps */
+	int64_t first;        /* the run's first step */
 } ndo__rb_region;
 
 /* resend: the first re-send's delay (doubling up to 0.2 s); the arrays of
