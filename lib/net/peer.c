@@ -740,8 +740,8 @@ static int region(ndo_peer *p)
 		ndo_method m = ndo_sim_method(p->sim);
 		int split = ndo__ps_method(m);
 		/* realtime with exact halos rolls back (rollback.h): the explicit
-		 * methods of one exchange a step; rkf45 and the implicit methods
-		 * keep the extrapolated boundary */
+		 * methods of a fixed reach; rkf45 and the implicit methods (steps
+		 * of several exchanges) keep the extrapolated boundary */
 		int roll = p->clock == NDO_CLOCK_REALTIME && !p->hold && ndo_peer_halo_rings(m) > 0 &&
 		           !split;
 		p->exact = (p->clock == NDO_CLOCK_LOCKSTEP && !p->hold &&
@@ -1349,12 +1349,6 @@ static int lockstep(ndo_peer *p)
 	return resend_due(p);
 }
 
-/* Realtime: step k at wall0 + (k − sched0)·dt/speed with whatever values
- * are there.  A peer that started later (its first state announced later,
- * over a lossy link) or fell behind catches up: while another peer's
- * newest step is ahead of its own it steps at once, and its schedule
- * restarts from there — so the peers keep the earliest starter's pace
- * instead of a permanent offset. */
 /* Rollback: what arrived since the last call recomputed, the confirmed
  * strips a neighbour waits for sent again. */
 static int rb_catch_up(ndo_peer *p)
@@ -1369,6 +1363,12 @@ static int rb_catch_up(ndo_peer *p)
 	return ndo__rb_resend(p->rb, p->now, 0);
 }
 
+/* Realtime: step k at wall0 + (k − sched0)·dt/speed with whatever values
+ * are there.  A peer that started later (its first state announced later,
+ * over a lossy link) or fell behind catches up: while another peer's
+ * newest step is ahead of its own it steps at once, and its schedule
+ * restarts from there — so the peers keep the earliest starter's pace
+ * instead of a permanent offset. */
 static int realtime(ndo_peer *p)
 {
 	int rc;
