@@ -24,6 +24,7 @@ const char *ndo_strerror(int code)
 	case NDO_EEXPORT: return "mesh export failed";
 	case NDO_EEOF: return "end of input";
 	case NDO_EDIVERGED: return "simulation diverged";
+	case NDO_EPACE: return "cannot keep the pace";
 	}
 	return "unknown error";
 }

@@ -489,7 +489,8 @@ ndo_drop ndo_msg_validate(const ndo_msg *m, const ndo_msg_ctx *c)
 		return NDO_DROP_NONE;
 	case NDO_MSG_HALO: {
 		const ndo_msg_halo_t *h = &m->u.halo;
-		if (h->step < 0 || !isfinite(h->time) || h->time < 0 || h->epoch < 0)
+		if (h->step < 0 || !isfinite(h->time) || h->time < 0 || h->epoch < 0 ||
+		    (h->confirmed != 0 && h->confirmed != 1))
 			return h->time != h->time ? NDO_DROP_NONFINITE : NDO_DROP_RANGE;
 		int64_t count = run_nodes(L, h->nruns, h->start, h->len);
 		if (count < 0)

@@ -2,6 +2,7 @@
  * (ndo/peer.h; docs/peers.md). */
 #include "ndo/peer.h"
 #include "peer_solve.h"
+#include "rollback.h"
 #include "ndo/scene.h"
 #include "ndo/status.h"
 #include "ndo/tile.h"
@@ -86,6 +87,9 @@ struct ndo_peer {
 	                          exchanges (peer_solve.h), when exact */
 	double split_t0;       /* ... the last progress of the step waited for */
 	int64_t split_phases;  /* ... and the phases sent then */
+	ndo__rb *rb;           /* realtime with exact halos: rollback (rollback.h) */
+	int last_sent;         /* ... the last step's frame went out (confirmed,
+	                          or after gather_timeout unconfirmed) */
 	int failed;
 	double now;
 	char message[320];
@@ -163,6 +167,8 @@ static void write_halo(ndo_peer *p, const ndo_msg_halo_t *h)
 {
 	if (!p->exact || !p->hmark)
 		return;
+	if (p->rb)
+		ndo__rb_receive(p->rb, h, p->now);
 	ndo_grid *g = ndo_session_grid(p->s);
 	double *x = ndo_grid_f64(g, NDO_CH_POSITION, 3), *v = ndo_grid_f64(g, NDO_CH_VELOCITY, 3);
 	const double *rest = ndo_grid_f64(g, NDO_CH_REST, 3);
@@ -175,6 +181,12 @@ static void write_halo(ndo_peer *p, const ndo_msg_halo_t *h)
 			if ((size_t)p->canon[c] != c || own[c] != from || !p->hmark[c] ||
 			    h->step < p->nstep[c])
 				continue;
+			taken++;
+			/* rollback keeps its halos itself: the grid's halo nodes come
+			 * from whole regions, which the owner gathers (a halo may be
+			 * tentative, and rest + u is not the position bit for bit) */
+			if (p->rb)
+				continue;
 			const double *val = &h->values[k];
 			for (int d = 0; d < 3; d++) {
 				v[3 * c + d] = val[d];
@@ -182,7 +194,6 @@ static void write_halo(ndo_peer *p, const ndo_msg_halo_t *h)
 				x[3 * c + d] = rest[3 * c + d] + val[3 + d];
 			}
 			p->nstep[c] = h->step;
-			taken++;
 		}
 	if (!taken) /* duplicates: the session syncs the grid after its update */
 		return;
@@ -316,7 +327,8 @@ static int halo_later(const ndo_peer *p, const ndo_msg_halo_t *h)
 {
 	if (h->epoch > ndo_session_epoch(p->s))
 		return 1;
-	return p->announced && p->simulating && h->step > p->cur;
+	/* rollback keeps the halos of later steps itself */
+	return !p->rb && p->announced && p->simulating && h->step > p->cur;
 }
 
 static void halo_free(ndo_msg_halo_t *h)
@@ -589,6 +601,7 @@ static int strip_send(ndo_peer *p, int b)
 		ndo_msg_halo_t h;
 		memset(&h, 0, sizeof h);
 		h.step = p->sstep[b];
+		h.confirmed = 1; /* lock-step: every input was the true one */
 		h.time = p->stime[b];
 		h.nruns = (int32_t)nr;
 		h.start = start;
@@ -623,6 +636,15 @@ static int exact_publish(ndo_peer *p)
 	int rc;
 	int64_t rel = p->cur - p->first;
 	int last = p->cur >= p->final;
+	if (p->rb) {
+		/* rollback sends its strips itself; the last step's frame goes
+		 * once it is confirmed (finishing) */
+		if (last || !(rel == 0 || (p->N > 0 && rel % p->N == 0)))
+			return 0;
+		if ((rc = frame_send(p)))
+			return rc;
+		return ndo__rb_published(p->rb);
+	}
 	if (!last && rel % p->K == 0 && !p->ps) {
 		int b = (int)((rel / p->K) & 1);
 		strip_snapshot(p, b);
@@ -636,6 +658,20 @@ static int exact_publish(ndo_peer *p)
 }
 
 /* ---- the region ---------------------------------------------------------- */
+/* Rollback's window starts again at cur: confirmed when it is the run's
+ * first step, not yet under way (the run's own state); otherwise (a new
+ * partition during the run, a joiner that came late) the region was taken
+ * over from frames, and the run is no longer exact. */
+static int rb_restart(ndo_peer *p)
+{
+	int exact = !p->started && p->cur == p->first;
+	if (!exact)
+		note(p, "step %lld: a new partition: from now on realtime rolls back without "
+		     "waiting for confirmation (the run is no longer exact)", (long long)p->cur);
+	p->synced = 0;
+	return ndo__rb_restart(p->rb, p->cur, exact);
+}
+
 /* Mask, halo and owned count from the owner channel. */
 static int region(ndo_peer *p)
 {
@@ -703,8 +739,13 @@ static int region(ndo_peer *p)
 		free(nodes);
 		ndo_method m = ndo_sim_method(p->sim);
 		int split = ndo__ps_method(m);
-		p->exact = p->clock == NDO_CLOCK_LOCKSTEP && !p->hold &&
-		           (ndo_peer_halo_rings(m) > 0 || split);
+		/* realtime with exact halos rolls back (rollback.h): the explicit
+		 * methods of a fixed reach; rkf45 and the implicit methods (steps
+		 * of several exchanges) keep the extrapolated boundary */
+		int roll = p->clock == NDO_CLOCK_REALTIME && !p->hold && ndo_peer_halo_rings(m) > 0 &&
+		           !split;
+		p->exact = (p->clock == NDO_CLOCK_LOCKSTEP && !p->hold &&
+		            (ndo_peer_halo_rings(m) > 0 || split)) || roll;
 		ndo_session_set_exact_halos(p->s, p->exact); /* tiles are frames only */
 		int rc = 0;
 		if (p->exact) {
@@ -729,6 +770,18 @@ static int region(ndo_peer *p)
 				ndo__ps_region r = {p->ownc, p->nownc, p->halo, p->nhalo, p->strip,
 				                    p->nstrip, p->mask};
 				ndo__ps_set_region(p->ps, &r);
+			}
+			/* the first re-send waits two steps of the pace: a neighbour's
+			 * frontier moves once a step */
+			if (!rc && roll && !p->rb)
+				rc = ndo__rb_create(p->s, p->sim, p->count,
+				                    fmax(p->o.resend, 2 * p->dt / p->speed), &p->rb);
+			if (!rc && roll) {
+				ndo__rb_region r = {p->own, p->nown, p->halo, p->nhalo, p->strip, p->nstrip,
+				                    p->act, owner_channel(p), p->canon, p->K, p->first};
+				rc = ndo__rb_set_region(p->rb, &r);
+				if (!rc && p->announced)
+					rc = rb_restart(p);
 			}
 		} else {
 			ndo_sim_set_held_motion(p->sim, !p->hold);
@@ -759,6 +812,14 @@ static int publish(ndo_peer *p)
 static int resend(ndo_peer *p)
 {
 	int rc;
+	if (p->rb) {
+		/* the strips a neighbour may lack, the whole region at the first
+		 * step and the last (once it went out) */
+		p->st.resends++;
+		if ((rc = ndo__rb_resend(p->rb, p->now, 1)))
+			return rc;
+		return !p->started || (p->cur >= p->final && p->last_sent) ? frame_send(p) : 0;
+	}
 	if (p->exact) {
 		/* the strips of the last two exchanges (a neighbour waits for one
 		 * of them), the whole region at the first and last steps */
@@ -950,6 +1011,8 @@ static int announce(ndo_peer *p)
 	g->step = p->cur;
 	g->time = p->tcur;
 	p->announced = 1;
+	if (p->rb && (rc = rb_restart(p)))
+		return rc;
 	p->resend_gap = p->o.resend;
 	p->next_resend = p->now + p->resend_gap;
 	return p->simulating ? publish(p) : 0;
@@ -963,6 +1026,8 @@ static int all_at(const ndo_peer *p, int64_t step)
 {
 	if (p->exact && p->ps)
 		return 1; /* a split step waits for what it needs itself */
+	if (p->rb)
+		return ndo__rb_ready(p->rb);
 	if (p->exact && p->hmark) {
 		for (size_t k = 0; k < p->nhalo; k++)
 			if (p->nstep[p->halo[k]] < step)
@@ -1076,6 +1141,12 @@ static int stepped(ndo_peer *p)
  * them); in between, the halo is integrated along with the region. */
 static int step_exact(ndo_peer *p)
 {
+	if (p->rb) {
+		double t0 = wall();
+		int rc = ndo__rb_step(p->rb, p->dt);
+		p->st.compute_seconds += wall() - t0;
+		return rc ? rc : stepped(p);
+	}
 	if ((p->cur - p->first) % p->K == 0) {
 		ndo_grid *g = ndo_session_grid(p->s);
 		const double *v = ndo_grid_f64(g, NDO_CH_VELOCITY, 3);
@@ -1278,6 +1349,20 @@ static int lockstep(ndo_peer *p)
 	return resend_due(p);
 }
 
+/* Rollback: what arrived since the last call recomputed, the confirmed
+ * strips a neighbour waits for sent again. */
+static int rb_catch_up(ndo_peer *p)
+{
+	double t0 = wall();
+	int n = ndo__rb_catch_up(p->rb);
+	p->st.compute_seconds += wall() - t0;
+	if (n < 0)
+		return n;
+	if (n > 0)
+		p->synced = 0; /* the grid's region: from the recomputed state */
+	return ndo__rb_resend(p->rb, p->now, 0);
+}
+
 /* Realtime: step k at wall0 + (k − sched0)·dt/speed with whatever values
  * are there.  A peer that started later (its first state announced later,
  * over a lossy link) or fell behind catches up: while another peer's
@@ -1286,14 +1371,25 @@ static int lockstep(ndo_peer *p)
  * instead of a permanent offset. */
 static int realtime(ndo_peer *p)
 {
+	int rc;
+	if (p->rb && (rc = rb_catch_up(p)))
+		return rc;
 	double due = p->wall0 + (double)(p->cur + 1 - p->sched0) * p->dt / p->speed;
+	/* the pace: a peer that fell further behind the wall clock than
+	 * step_timeout cannot keep it (its steps, and rollback's
+	 * recomputations, take longer than the pace allows) */
+	if (p->now > due + p->step_timeout)
+		return ndo__fail(NDO_EPACE, "step %lld was due %.3g s ago (more than --step-timeout "
+		                 "%.3g s): this peer cannot keep the pace of %.3g s a step",
+		                 (long long)(p->cur + 1), p->now - due, p->step_timeout,
+		                 p->dt / p->speed);
 	if (p->now >= due) {
 		if (p->now > due + p->dt / p->speed)
 			p->st.behind++;
 		return step(p);
 	}
 	if (p->max_seen > p->cur) {
-		int rc = step(p);
+		rc = step(p);
 		p->wall0 = p->now;
 		p->sched0 = p->cur;
 		p->st.behind++;
@@ -1311,6 +1407,31 @@ static int finishing(ndo_peer *p)
 		p->gather_t0 = now;
 		p->resend_gap = p->o.resend;
 		p->next_resend = now + p->resend_gap;
+	}
+	if (p->rb && !p->last_sent) {
+		/* the last step's frame (what the owner gathers) once every input
+		 * of the run is confirmed: then it is the lock-step state */
+		int rc = rb_catch_up(p);
+		if (rc)
+			return rc;
+		ndo__rb_stats rs;
+		ndo__rb_stats_get(p->rb, &rs);
+		int ok = ndo__rb_confirmed(p->rb, p->final);
+		if (!ok && rs.exact && now - p->gather_t0 < p->o.gather_timeout)
+			return p->simulating ? resend_due(p) : NDO_PEER_WAITING;
+		if (!ok && rs.exact)
+			note(p, "step %lld: not confirmed within %.3g s (the frontier is step %lld): the "
+			     "result holds unconfirmed values", (long long)p->final, p->o.gather_timeout,
+			     (long long)ndo__rb_frontier(p->rb));
+		p->last_sent = 1;
+		p->gather_t0 = now; /* the owner gathers from now */
+		if ((rc = frame_send(p)))
+			return rc;
+	}
+	if (p->rb) {
+		int rc = ndo__rb_resend(p->rb, now, 0);
+		if (rc)
+			return rc;
 	}
 	if (p->owner) {
 		size_t behind = 0;
@@ -1345,6 +1466,8 @@ static int on_partition(ndo_peer *p)
 	int np = npeers(p);
 	if (p->announced && !was && p->simulating && !p->owner && p->cur < p->final) {
 		join_point(p);
+		if (p->rb && (rc = rb_restart(p)))
+			return rc;
 		note(p, "simulating from step %lld: %zu of %zu nodes (partition %d, %d peers)",
 		     (long long)p->cur, p->nowned, p->ncanon, ndo_session_epoch(p->s), np);
 		return publish(p);
@@ -1436,8 +1559,10 @@ double ndo_peer_deadline(const ndo_peer *p)
 	double now = p->now, d = now + IDLE_WAIT;
 	if (p->done || p->ended || !p->started)
 		return d;
+	if (p->rb)
+		d = fmin(d, ndo__rb_next_resend(p->rb));
 	if (p->cur >= p->final) {
-		if (p->owner)
+		if (p->owner || (p->rb && !p->last_sent))
 			d = fmin(d, p->gather_t0 + p->o.gather_timeout);
 		return p->simulating ? fmin(d, p->next_resend) : d;
 	}
@@ -1502,9 +1627,10 @@ int ndo_peer_create(const ndo_peer_opts *o, ndo_net *net, ndo_grid *grid, ndo_si
 		/* the steps whose whole regions go out, for watches that count
 		 * what they lost (ndo/watch.h): exact lock-step every N (0: the
 		 * first and last only), otherwise every step */
-		int exact = p->clock == NDO_CLOCK_LOCKSTEP && !p->hold &&
-		            (ndo_peer_halo_rings(ndo_sim_method(sim)) > 0 ||
-		             ndo__ps_method(ndo_sim_method(sim)));
+		ndo_method m = ndo_sim_method(sim);
+		int split = ndo__ps_method(m), rings = ndo_peer_halo_rings(m) > 0;
+		int exact = !p->hold && (p->clock == NDO_CLOCK_LOCKSTEP ? rings || split
+		                                                        : rings && !split);
 		char peer_lines[360];
 		snprintf(peer_lines, sizeof peer_lines,
 		         "dt %.17g\nsteps %lld\npeer-clock %d\npeer-hold-boundary %d\n"
@@ -1575,6 +1701,7 @@ void ndo_peer_destroy(ndo_peer *p, const char *message)
 		halo_free(&p->hstash[k]);
 	free(p->hstash);
 	ndo__ps_destroy(p->ps);
+	ndo__rb_destroy(p->rb);
 	free(p);
 }
 
@@ -1609,5 +1736,24 @@ void ndo_peer_stats_get(const ndo_peer *p, ndo_peer_stats *st)
 		st->rejected = ps.rejected;
 		st->solves = ps.solves;
 		st->iterations = ps.iterations;
+	}
+	if (p->rb) {
+		ndo__rb_stats rs;
+		ndo__rb_stats_get(p->rb, &rs);
+		st->rollback = 1;
+		st->exchanges += rs.strips;
+		st->halo_tiles += rs.messages;
+		st->halo_bytes += rs.bytes;
+		st->rollbacks = rs.rollbacks;
+		st->recomputed = rs.recomputed;
+		st->rollback_depth = rs.depth_max;
+		st->predicted = rs.predicted;
+		st->window = rs.window;
+		st->confirmed = rs.exact && ndo__rb_confirmed(p->rb, p->final);
+		st->frontier = ndo__rb_frontier(p->rb);
+		st->shown_error = rs.shown_error;
+		st->shown_disp = rs.shown_disp;
+		st->shown_frames = rs.shown_frames;
+		st->shown_wrong = rs.shown_wrong;
 	}
 }

@@ -2,11 +2,13 @@
 # peers — what a multi-peer run costs (issue 6; docs/peers.md):
 #   1. the one-step boundary lag in lock-step, by method, step and boundary
 #      (in one process: bench_peers lag);
-#   2. free-running (realtime) peers, error by network delay (bench_peers
-#      realtime);
+#   2. realtime peers that roll back, by loss and delay, in one process
+#      (bench_peers realtime);
 #   3. over real LCM, in a private network namespace, 3 peers in lock-step
-#      and in realtime under 0-30 % loss: divergence from the single
-#      process, wall time, waits, timeouts, re-sends;
+#      under 0-30 % loss (divergence from the single process, wall time,
+#      waits, timeouts, re-sends), and realtime with rollback by loss (0, 5,
+#      20 %) and delay (0, 10, 20 ms): divergence, pace, rollbacks,
+#      recomputed steps, the error of the frames shown during the run;
 #   4. the speed of lock-step with 1, 2, 4 and 8 peers at levels 6 and 7,
 #      against the single process, and the traffic per step.
 set -euo pipefail
@@ -27,8 +29,9 @@ POIS=(0 3000 9000 14000 5000 11000 7000 1500)
 # then left out of the report)
 want() { [[ " ${PEERS_SECTIONS:-1 2 3 4 5} " == *" $1 "* ]]; }
 lag_cmd="build/tests/bench_peers lag -l 6"
-rt_cmd="build/tests/bench_peers realtime -l 5"
-lag="(not run)" rt="(not run)" loss="(not run)" speed="(not run)" lat="(not run)"
+rt_cmd="build/tests/bench_peers realtime -l 6"
+lag="(not run)" rt="(not run)" loss="(not run)" speed="(not run)" lat="(not run)" rtl="(not run)"
+rtload0="" rtload1="" load3=""
 want 1 && lag=$($lag_cmd)
 want 2 && rt=$($rt_cmd)
 
@@ -61,7 +64,7 @@ peers() {
 	local lv
 	lv=$(/usr/bin/python3 tests/e2e/tgrid.py "$grid" level)
 	for ((k = 1; k < n; k++)); do
-		simulate-peer -q --join --poi "$((POIS[k] * (4 << (2 * lv)) / 16384))" "${all[@]}" \
+		simulate-peer ${JOINER_Q--q} --join --poi "$((POIS[k] * (4 << (2 * lv)) / 16384))" "${all[@]}" \
 			2>"$work/j$k.err" &
 		pids+=($!)
 	done
@@ -76,9 +79,10 @@ field() { grep -o "$1" "$work/owner.err" | head -1 | grep -o '[0-9.e+-]*' | head
 # 3. loss
 if want 3; then
 simulate-peer -q "$work/wavy6.tgrid" -s "$SCENE" -t 2 -o "$work/solo6.tgrid"
+load3=$(cut -d' ' -f1-3 /proc/loadavg)
 loss="| clock | loss | divergence | wall time (s) | steps waited | timed out | re-sends | mean boundary lag (steps) |
 |---|---|---|---|---|---|---|---|"
-for clock in lockstep realtime; do
+for clock in lockstep; do
 	for drop in 0 0.01 0.05 0.1 0.2 0.3; do
 		if peers 3 "$work/wavy6.tgrid" "$work/loss.tgrid" -t 2 --clock "$clock" -- --drop "$drop"; then
 			d=$(diff_rel "$work/loss.tgrid" "$work/solo6.tgrid")
@@ -90,6 +94,37 @@ for clock in lockstep realtime; do
 		fi
 	done
 done
+fi
+# realtime with rollback over LCM: every peer's report (joiners not quiet)
+if want 3; then
+rtl="| loss | delay (ms) | steps per exchange | divergence | exit statuses | wall time (s) | every step confirmed | rollbacks (owner) | recomputed steps per step (owner) | deepest rollback (steps, any peer) | frames shown wrong (all peers) | shown error (of the largest displacement) | computing (owner, s) |
+|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+rtload0=$(cut -d' ' -f1-3 /proc/loadavg)
+for drop in 0 0.05 0.2; do
+	for dk in 0:1 10:1 20:1 20:2; do
+		delay=${dk%:*} hk=${dk#*:}
+		codes="all 0"
+		JOINER_Q="" peers 3 "$work/wavy6.tgrid" "$work/rt.tgrid" -t 2 --clock realtime \
+			--halo-steps "$hk" -- --drop "$drop" --delay "$delay" || codes="not all 0"
+		errs=("$work/owner.err" "$work/j1.err" "$work/j2.err")
+		d=$( [ -e "$work/rt.tgrid" ] && [ "$codes" = "all 0" ] && diff_rel "$work/rt.tgrid" "$work/solo6.tgrid" || echo -)
+		rm -f "$work/rt.tgrid"
+		conf=$(cat "${errs[@]}" | grep -c 'rollback: every step confirmed' || true)
+		conf=${conf:-0}
+		deep=$(cat "${errs[@]}" | grep -o 'the deepest [0-9]*' | awk '{if ($3 > m) m = $3} END {print m + 0}')
+		shown=$(cat "${errs[@]}" | grep -o 'frames shown during the run: [0-9]* of [0-9]*' | awk '{w += $6; f += $8} END {print w + 0 " of " f + 0}')
+		serr=$(cat "${errs[@]}" | grep -o 'by up to [0-9.e+-]* m ([0-9.e+-]* of the largest displacement, [0-9.e+-]* m)' |
+			awk '{e = $4 + 0; if (e > me) me = e; if ($11 + 0 > md) md = $11 + 0} END {if (me == 0) print 0; else printf "%.2e", me / md}')
+		wall=$(field 'in [0-9.e+-]* s (' || true) rolls=$(field '[0-9]* rollbacks' || true)
+		rec=$(field '[0-9]* steps recomputed' || true) tak=$(field 'for [0-9]* taken' || true)
+		comp=$(field 'computing [0-9.e+-]* s' || true)
+		per=$(awk -v r="$rec" -v t="$tak" 'BEGIN{if (t > 0) printf "%.2f", r / t; else print "-"}')
+		rtl="$rtl
+| $drop | $delay | $hk | $d | $codes | $wall | $conf of 3 | $rolls | $per | $deep | $shown | $serr | $comp |"
+		echo "realtime, loss $drop, delay $delay, $hk steps per exchange: $d" >&2
+	done
+done
+rtload1=$(cut -d' ' -f1-3 /proc/loadavg)
 fi
 
 # 4. speed of exact lock-step (no loss), rk4, levels 5-9, 1/2/4/8 peers,
@@ -180,21 +215,40 @@ load1=$(cut -d' ' -f1-3 /proc/loadavg)
 	echo
 	echo "$lag"
 	echo
-	echo "## 2. Free-running peers (realtime, speed 1) by network delay"
+	echo "## 2. Realtime peers that roll back, by loss and delay (in one process)"
 	echo
-	echo "Level 5, rk4, h = 0.01 s, 1 s, in one process with the delay injected:"
-	echo "\`$rt_cmd\`"
+	echo "Level 6, 3 peers, rk4 at h = 0.019 s (0.9 of its critical step), 2 s (105"
+	echo "steps), in one process with a fake clock and the loss and delay injected"
+	echo "on every peer's receiving side, one halo exchange a step and, at 20 ms,"
+	echo "also one every 2 steps: \`$rt_cmd\`.  Difference: the owner's"
+	echo "output against the single process, over its largest displacement."
+	echo "Rollbacks: all three peers'; recomputed steps per step taken and the"
+	echo "deepest rollback over the peers.  Frames shown: the whole regions sent"
+	echo "every 10 steps (what observers and render-frame drew) against the"
+	echo "confirmed state of their step; the error is the largest difference of"
+	echo "a displacement component over the largest displacement component of"
+	echo "those frames.  Held boundary: the thesis' scheme (\`--boundary hold\`,"
+	echo "no rollback) under the same faults."
 	echo
 	echo "$rt"
 	echo
 	echo "## 3. Loss, over LCM (3 peers, level 6, rk4 at 0.9 of its critical step, 2 s)"
 	echo
 	echo "Each peer drops each message it receives with the given probability"
-	echo "(\`--drop\`); \`peers 3 wavy6.tgrid -t 2 --clock CLOCK -- --drop P\` in"
+	echo "(\`--drop\`); \`peers 3 wavy6.tgrid -t 2 --clock lockstep -- --drop P\` in"
 	echo "tests/bench/peers.sh.  Wall time, waits, timeouts, re-sends and lag are the"
-	echo "owner's."
+	echo "owner's.  Load average before the lock-step runs: $load3."
 	echo
 	echo "$loss"
+	echo
+	echo "Realtime with rollback over LCM: the same 3 peers and 2 s,"
+	echo "\`peers 3 wavy6.tgrid -t 2 --clock realtime --halo-steps K -- --drop P --delay MS\`; the"
+	echo "wall time is the owner's from its first step to its last (the pace held:"
+	echo "2 s); divergence, rollbacks and the frames' error as in §2, from every"
+	echo "peer's report.  Load average (1, 5, 15 min) before: $rtload0, after:"
+	echo "$rtload1."
+	echo
+	echo "$rtl"
 	echo
 	echo "## 4. The speed of exact lock-step (LCM, no loss)"
 	echo

@@ -23,8 +23,9 @@ wait_for() {
 
 # --- a killed peer ----------------------------------------------------------
 # Lock-step, realtime pacing of the owner would not matter: the run is long
-# enough (2000 steps) to be under way when the peer dies.
-simulate-peer --owner wavy4.tgrid -s "$SCENE" --dt 0.002 -t 4 --peers 3 --peer-timeout 1 \
+# enough (10000 steps, about 3 s here) to be under way when the peer dies
+# (2000 took 0.5-0.8 s, and sometimes ended before the kill 0.5 s in).
+simulate-peer --owner wavy4.tgrid -s "$SCENE" --dt 0.002 -t 20 --peers 3 --peer-timeout 1 \
 	--step-timeout 0.2 -o killed.tgrid 2>owner.err &
 owner=$!
 simulate-peer --join --poi 300 --peer-timeout 1 2>j1.err &

@@ -28,15 +28,11 @@ solo() { # solo NAME INTEGRATOR
 # options, $RUN_TIME the simulated seconds (10).
 run_peers() {
 	local n=$1 integ=$2 out=$3; shift 3
-	local pois=(0 250 600 900) pids=() k
+	local pids=()
 	simulate-peer --owner wavy4.tgrid -s "$SCENE" -i "$integ" -t "$(dur "$integ")" --peers "$n" \
 		--start-timeout 30 -o "$out" ${OWNER_OPTS:-} "$@" 2>owner.err &
 	pids+=($!)
-	for ((k = 1; k < n; k++)); do
-		simulate-peer --join --poi "${pois[$k]}" --start-timeout 30 "$@" 2>"joiner$k.err" &
-		pids+=($!)
-	done
-	wait_peers "$n" "${pids[@]}"
+	joiners "$n" "$@"
 }
 
 METHODS="euler symplectic-euler midpoint rk4"

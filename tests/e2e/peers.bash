@@ -1,5 +1,6 @@
 # tests/e2e/peers.bash — sourced by the scripts that compare a multi-peer
-# run over LCM with a single process (peers-run.sh, peers-split.sh).
+# run over LCM with a single process (peers-run.sh, peers-split.sh,
+# peers-realtime.sh).
 
 # compare A B: the largest position difference of A from B over B's largest
 # displacement, the number of peers in A's owner channel, A's and B's step.
@@ -15,6 +16,19 @@ m = np.abs(b["position"] - b["rest"]).max()
 owners = len(np.unique(a["owner"])) if "owner" in a else 0
 print(f"{d / m:.3g} {owners} {sa} {sb}")
 PY
+}
+
+# joiners N [options for every peer...]: after an owner started in the
+# background (its pid the first of the array pids), N-1 joiners at faces 250,
+# 600 and 900 (stderr in joinerK.err); then wait_peers N.
+joiners() {
+	local n=$1 k pois=(0 250 600 900)
+	shift
+	for ((k = 1; k < n; k++)); do
+		simulate-peer --join --poi "${pois[$k]}" --start-timeout 30 "$@" 2>"joiner$k.err" &
+		pids+=($!)
+	done
+	wait_peers "$n" "${pids[@]}"
 }
 
 # wait_peers N PID...: wait for the owner and its N-1 joiners (stderr in

@@ -141,7 +141,11 @@ static void halos_checked(void)
 	CHECK(roundtrip(NDO_MSG_HALO, &h, &c) == NDO_DROP_LENGTH, "values for 4 nodes of 5");
 	h.nvalues = 30, v[7] = NAN;
 	CHECK(roundtrip(NDO_MSG_HALO, &h, &c) == NDO_DROP_NONFINITE, "NaN");
-	v[7] = 0;
+	v[7] = 0, h.confirmed = 1;
+	CHECK(roundtrip(NDO_MSG_HALO, &h, &c) == NDO_DROP_NONE, "a confirmed halo passes");
+	h.confirmed = 2;
+	CHECK(roundtrip(NDO_MSG_HALO, &h, &c) == NDO_DROP_RANGE, "confirmed neither 0 nor 1");
+	h.confirmed = 0;
 	ndo_msg_ctx unknown = {.object_id = 0, .level = -1, .self_id = 1};
 	CHECK(roundtrip(NDO_MSG_HALO, &h, &unknown) == NDO_DROP_UNKNOWN, "before the description");
 }

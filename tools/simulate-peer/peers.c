@@ -403,6 +403,18 @@ static void summary(peer_run *pr, const char *how)
 		        (double)st.halo_bytes / 1e3 / (double)st.steps,
 		        (double)st.halo_tiles / (double)st.steps, (long long)st.frames,
 		        (double)st.frame_bytes / 1e3 / (double)st.steps);
+	if (st.rollback && st.steps)
+		fprintf(stderr, "%s: rollback: %s; %lld rollbacks (the deepest %lld steps), %lld steps "
+		        "recomputed for %lld taken; %lld halo node-steps first predicted; frames shown "
+		        "during the run: %lld of %lld differed from their confirmed steps, by up to "
+		        "%.3g m (%.3g of the largest displacement, %.3g m); window %d steps\n",
+		        ndo_progname, st.confirmed ? "every step confirmed (the lock-step result)"
+		                                   : "NOT confirmed (the result is not exact)",
+		        (long long)st.rollbacks, (long long)st.rollback_depth,
+		        (long long)st.recomputed, (long long)st.steps, (long long)st.predicted,
+		        (long long)st.shown_wrong, (long long)st.shown_frames, st.shown_error,
+		        st.shown_disp > 0 ? st.shown_error / st.shown_disp : 0.0, st.shown_disp,
+		        st.window);
 	ndo_session_level_stats ls;
 	ndo_session_level_stats_get(ndo_peer_session(p), &ls);
 	if (ls.send_level >= 0 && ls.send_level < ls.level && ls.frames > 0)
@@ -520,6 +532,10 @@ int peers_main(run *r)
 				      "(level %d) has %zu faces", c->poi, ndo_triangle_count(og->level) - 1,
 				      og->level, ndo_triangle_count(og->level));
 		}
+		if (state == NDO_EPACE)
+			leave(&pr, EXIT_PACE, "cannot keep the pace at step %lld: %s; %s",
+			      (long long)ndo_peer_step(pr.p), ndo_errdetail(),
+			      r->sc.output ? "the output was not written" : "no output");
 		if (state == NDO_EDIVERGED)
 			leave(&pr, EXIT_DIVERGED, "diverged at step %lld (t = %.6g s): %s; %s",
 			      (long long)ndo_peer_step(pr.p),

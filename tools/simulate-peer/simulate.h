@@ -8,7 +8,7 @@
 #include "ndo/link.h"
 #include "ndo/peer.h"
 
-enum { EXIT_DIVERGED = 3, EXIT_ENDED = 4, EXIT_INTERRUPTED = 130 };
+enum { EXIT_DIVERGED = 3, EXIT_ENDED = 4, EXIT_PACE = 5, EXIT_INTERRUPTED = 130 };
 
 /* The peers' command line (docs/peers.md). */
 typedef struct peer_cli {

@@ -26,7 +26,8 @@ enum {
 	NDO_ENOTFOUND = -9, /* a named thing (channel, format) does not exist */
 	NDO_EEXPORT = -10,  /* the mesh exporter (assimp) failed */
 	NDO_EEOF = -11,     /* clean end of a stream: no more grids */
-	NDO_EDIVERGED = -12 /* a simulation lost stability (NaN, energy, size) */
+	NDO_EDIVERGED = -12,/* a simulation lost stability (NaN, energy, size) */
+	NDO_EPACE = -13     /* a realtime peer cannot keep the wall clock's pace */
 };
 
 /* A short, static name for a status code ("truncated input"). */
