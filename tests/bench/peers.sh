@@ -138,36 +138,51 @@ load0=$(cut -d' ' -f1-3 /proc/loadavg)
 if want 4; then
 speed="| level | peers | steps | steps/s | × one process | computing per step (ms) | waiting per step (ms) | halo kB per step per peer | whole-region kB per step per peer |
 |---|---|---|---|---|---|---|---|---|"
+# one single-threaded process: its steps/s (the stepping alone)
+solo() {
+	simulate-peer --threads 1 "$work/wavy$1.tgrid" -s "$SCENE" -t "$2" -o "$work/solo.tgrid" 2>"$work/solo.err"
+	grep -o 'in [0-9.e+-]* s: [0-9.e+-]* steps/s' "$work/solo.err" | awk '{print $4}'
+}
+# Each peer run is paired with a single-process run just before it: the
+# ratio is the median of the pairs' ratios (a busy machine slows both runs
+# of a pair alike; load that comes and goes between pairs cancels out).
+# "2 (no frames)": whole regions only at the first and the last step
+# (--publish-every 0), what the single process does not pay either.
 for level in ${PEERS_LEVELS:-5 6 7 8 9}; do
 	[ -e "$work/wavy$level.tgrid" ] || remesh --shape wavy -l "$level" -o "$work/wavy$level.tgrid" 2>/dev/null
 	t=${TL[$level]}
 	sps=""
-	for rep in 1 2 3; do
-		simulate-peer --threads 1 "$work/wavy$level.tgrid" -s "$SCENE" -t "$t" -o "$work/solo.tgrid" 2>"$work/solo.err"
-		sps="$sps $(grep -o 'in [0-9.e+-]* s: [0-9.e+-]* steps/s' "$work/solo.err" | awk '{print $4}')"
-	done
-	solo_sps=$(echo "$sps" | median)
-	steps=$(/usr/bin/python3 tests/e2e/tgrid.py "$work/solo.tgrid" step)
-	speed="$speed
-| $level | 1 process | $steps | $(printf %.0f "$solo_sps") | 1 | | | | |"
-	for n in 1 2 4 8; do
-		rs="" cs="" wt="" hb="" fb=""
-		for rep in 1 2 3; do
-			peers "$n" "$work/wavy$level.tgrid" "$work/speed.tgrid" -t "$t" -- || continue
+	steps=""
+	for n in ${PEERS_COUNTS:-1 2 2nf 4 8}; do
+		rs="" ratios="" cs="" wt="" hb="" fb=""
+		np=${n%nf} own=()
+		[ "$n" != "$np" ] && own=(--publish-every 0)
+		for rep in $(seq "${PEERS_REPS:-3}"); do
+			one=$(solo "$level" "$t")
+			sps="$sps $one"
+			[ -n "$steps" ] || steps=$(/usr/bin/python3 tests/e2e/tgrid.py "$work/solo.tgrid" step)
+			peers "$np" "$work/wavy$level.tgrid" "$work/speed.tgrid" -t "$t" "${own[@]}" -- || continue
 			wall=$(field 'in [0-9.e+-]* s (')
-			rs="$rs $(awk "BEGIN{print $steps / $wall}")"
+			r=$(awk "BEGIN{print $steps / $wall}")
+			rs="$rs $r"
+			ratios="$ratios $(awk "BEGIN{print $r / $one}")"
 			cs="$cs $(field 'computing [0-9.e+-]* s')"
 			wt="$wt $(field 'waiting [0-9.e+-]* s')"
 			hb="$hb $(grep -o 'exchanges, [0-9.e+-]* kB' "$work/owner.err" | awk '{print $2}')"
 			fb="$fb $(grep -o 'times, [0-9.e+-]* kB' "$work/owner.err" | awk '{print $2}')"
 		done
+		label=$np
+		[ "$n" != "$np" ] && label="$np (no frames)"
 		[ -n "$rs" ] || { speed="$speed
-| $level | $n | failed | | | | | | |"; continue; }
-		r=$(echo "$rs" | median) comp=$(echo "$cs" | median) waitt=$(echo "$wt" | median)
+| $level | $label | failed | | | | | | |"; continue; }
+		r=$(echo "$rs" | median) ratio=$(echo "$ratios" | median)
+		comp=$(echo "$cs" | median) waitt=$(echo "$wt" | median)
 		speed="$speed
-| $level | $n | $steps | $(printf %.0f "$r") | $(awk "BEGIN{printf \"%.2f\", $r / $solo_sps}") | $(awk "BEGIN{printf \"%.3f\", 1e3 * $comp / $steps}") | $(awk "BEGIN{printf \"%.3f\", 1e3 * $waitt / $steps}") | $(echo "$hb" | median) | $(echo "$fb" | median) |"
-		echo "level $level, $n peers: $r steps/s (one process $solo_sps)" >&2
+| $level | $label | $steps | $(printf %.0f "$r") | $(printf %.2f "$ratio") | $(awk "BEGIN{printf \"%.3f\", 1e3 * $comp / $steps}") | $(awk "BEGIN{printf \"%.3f\", 1e3 * $waitt / $steps}") | $(echo "$hb" | median) | $(echo "$fb" | median) |"
+		echo "level $level, $label peers: $r steps/s, $ratio x one process" >&2
 	done
+	speed="$speed
+| $level | 1 process | $steps | $(printf %.0f "$(echo "$sps" | median)") | 1 | | | | |"
 done
 /usr/bin/python3 tests/bench/peers_plot.py docs/bench/peers.svg <<<"$speed" || echo "no plot" >&2
 fi
@@ -254,8 +269,10 @@ load1=$(cut -d' ' -f1-3 /proc/loadavg)
 	echo
 	echo "rk4, the thesis scene; simulated time per level: ${TL[5]}, ${TL[6]}, ${TL[7]}, ${TL[8]}, ${TL[9]} s"
 	echo "for levels 5–9 (the steps column).  Steps per second of the stepping alone,"
-	echo "medians of 3 runs, measured against one single-threaded process in the same run"
-	echo "of the script.  Each peer is one process with one thread; the machine has"
+	echo "medians of ${PEERS_REPS:-3} runs; each peer run follows a run of one single-threaded"
+	echo "process, and *× one process* is the median of these pairs' ratios (the"
+	echo "*1 process* row: the median of all its runs).  *2 (no frames)*: whole regions only"
+	echo "at the first and the last step (\`--publish-every 0\`).  Each peer is one process with one thread; the machine has"
 	echo "$(nproc) cores, so 4 and 8 peers oversubscribe them and must lose (they wait for"
 	echo "the scheduler as much as for the network).  Load average (1, 5, 15 min) before:"
 	echo "$load0, after: $load1 — other work shared the machine.  Computing and waiting"
@@ -276,5 +293,25 @@ load1=$(cut -d' ' -f1-3 /proc/loadavg)
 	echo
 	echo "Made by \`tests/bench/peers.sh\` on $(date -u +%Y-%m-%d), $(nproc) cores,"
 	echo "$(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //')."
-} >"$out"
+} >"$work/report.md"
+# A section not run keeps what the report had (PEERS_SECTIONS runs a part).
+/usr/bin/python3 - "$work/report.md" "$out" "${PEERS_SECTIONS:-1 2 3 4 5}" <<'PY'
+import re, sys
+new, old, ran = open(sys.argv[1]).read(), sys.argv[2], sys.argv[3].split()
+try:
+    prev = open(old).read()
+except OSError:
+    prev = ""
+def sections(text):
+    parts = re.split(r"(?m)^(?=## \d+\. )", text)
+    return parts[0], {p.split(".", 1)[0][3:]: p for p in parts[1:]}
+head, secs = sections(new)
+_, olds = sections(prev)
+for k in secs:
+    if k not in ran and k in olds:
+        tail = "" if k != max(secs) else secs[k][secs[k].index("Made by"):] if "Made by" in secs[k] else ""
+        keep = olds[k].split("Made by")[0].rstrip() + "\n\n"
+        secs[k] = keep + tail
+open(old, "w").write(head + "".join(secs[k] for k in sorted(secs, key=int)))
+PY
 cat "$out"
