@@ -11,10 +11,16 @@ out=docs/bench/multigrid.md
 mkdir -p docs/bench build/bench
 t=build/bench/multigrid
 load0=$(cut -d' ' -f1-3 /proc/loadavg)
-"$B/bench_multigrid" speed 5 6 7 8 >"$t-speed.md"
-"$B/bench_multigrid" -t 2 speed 8 >"$t-speed2.md"
-"$B/bench_multigrid" iters 0.01 0.1 1.0 4 5 6 7 8 9 10 >"$t-iters.md"
-{
+# MG_PARTS="speed" measures only the speed tables (the iterations and the
+# memory, which the load does not change, are taken from the last run's
+# files under build/bench/ when present)
+want() { [[ " ${MG_PARTS:-speed iters memory} " == *" $1 "* ]] || [ ! -s "$t-$1.md" ]; }
+if want speed || [ ! -s "$t-speed2.md" ]; then
+	"$B/bench_multigrid" speed 5 6 7 8 >"$t-speed.md"
+	"$B/bench_multigrid" -t 2 speed 8 >"$t-speed2.md"
+fi
+want iters && "$B/bench_multigrid" iters 0.01 0.1 1.0 4 5 6 7 8 9 10 >"$t-iters.md"
+want memory && {
 	echo "| level | nodes | method | solver | step (s) | peak RSS (MiB) | estimate (MiB) | s/step | iterations/solve |"
 	echo "|---:|---:|---|---|---:|---:|---:|---:|---:|"
 	for l in 8 9 10; do
@@ -22,7 +28,7 @@ load0=$(cut -d' ' -f1-3 /proc/loadavg)
 			"$B/bench_multigrid" memory $l backward-euler $s 0.01
 		done
 	done
-} >"$t-memory.md"
+} >"$t-memory.md.new" && mv "$t-memory.md.new" "$t-memory.md"
 load1=$(cut -d' ' -f1-3 /proc/loadavg)
 
 # The goal: backward Euler and trapezoid at level 8 ≥ 10× the CHOLMOD
