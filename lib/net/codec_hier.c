@@ -283,6 +283,10 @@ static inline void choose(hier *h, size_t n, const int64_t p[3])
 			k[d] = alt[d];
 }
 
+/* Set by tests: every node through the general stencil (bounds and
+ * classes checked), the interior's reference. */
+int ndo__codec_hier_general;
+
 static inline int64_t tpred(const hier *h, size_t n, int d)
 {
 	return h->t ? h->t[3 * n + (size_t)d] : 0;
@@ -297,7 +301,7 @@ static inline int spatial(const hier *h, int i, int j, int s, int64_t pred[3], l
 	const int type = a && !b ? 0 : !a && b ? 1 : 2;
 	const int bi = a ? i - s : i, bj = b ? j - s : j, st = 2 * s;
 	const int64_t *D = h->dv;
-	if (h->allheld && bi >= st && bi + 2 * st < h->cols && bj >= st && bj + 2 * st < h->rows) {
+	if (h->allheld && !ndo__codec_hier_general && bi >= st && bi + 2 * st < h->cols && bj >= st && bj + 2 * st < h->rows) {
 		const long base = (long)bj * h->cols + bi, cs = (long)st * h->cols;
 		long o[8];
 		for (int q = 0; q < 8; q++)
@@ -451,9 +455,11 @@ static void hier_init(hier *h, const hcodes *c, int32_t *k, int64_t *t, uint8_t 
 	h->allheld = 1;
 	for (int n = 0; n < nodes; n++) {
 		h->allheld &= c->cls[n] != NDO_NODE_SKIP;
-		if (c->cls[n] == NDO_NODE_EXACT)
-			for (int d = 0; d < 3; d++)
+		for (int d = 0; d < 3; d++) {
+			mag[3 * n + d] = 0; /* an EXACT node's: no residual */
+			if (c->cls[n] == NDO_NODE_EXACT)
 				h->dv[3 * n + d] = (int64_t)k[3 * n + d] - tpred(h, (size_t)n, d);
+		}
 	}
 	model_init(&h->m);
 }
