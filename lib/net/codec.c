@@ -59,7 +59,7 @@ static int work_nodes(ndo_codec_work *w, size_t nodes)
 	if (!er)
 		return -1;
 	w->erow = er;
-	int64_t *ht = realloc(w->ht, 6 * nodes * sizeof *ht);
+	int64_t *ht = realloc(w->ht, HIER_SCRATCH * nodes * sizeof *ht);
 	if (!ht)
 		return -1;
 	w->ht = ht;
@@ -697,7 +697,7 @@ int ndo_codec_implied(const ndo_codec_params *p, const ndo_codec_hist *h, int ro
 	for (int n = 0; n < nodes; n++)
 		cls[n] = r[0]->have[n] ? NDO_NODE_LOSSY : NDO_NODE_SKIP;
 	if (p->encoding == NDO_ENC_HIER) {
-		int64_t *t = malloc(6 * (size_t)nodes * sizeof *t);
+		int64_t *t = malloc(HIER_SCRATCH * (size_t)nodes * sizeof *t);
 		uint8_t *mag = malloc(3 * (size_t)nodes);
 		hcodes hc = {rows, cols, cls, {r[0], r[1], r[2]}, step};
 		int rc = !t || !mag ? ndo__fail(NDO_ENOMEM, "out of memory")

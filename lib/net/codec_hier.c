@@ -221,16 +221,17 @@ static const signed char stencil[3][8][2] = {
 	{{0, 0}, {0, 1}, {1, 0}, {-1, 1}, {1, -1}, {1, 1}, {-1, 0}, {-1, 2}},  /* vertical */
 	{{1, 0}, {0, 1}, {0, 0}, {1, 1}, {1, -1}, {-1, 1}, {2, 0}, {0, 2}},    /* diagonal */
 };
-static const int weight[8] = {8, 8, 2, 2, -1, -1, -1, -1}; /* / 16 */
+
+enum { BETA_MAX = 4, BETA_IMPLIED = 4 }; /* the slope's share, in quarters */
 
 typedef struct hier {
-	int rows, cols, top;
+	int rows, cols, top, allheld, intra;
 	const uint8_t *cls;
 	int32_t *k;          /* this frame's codes, 3 a node */
-	const int64_t *t;    /* time predictions, 3 a node (NULL: none) */
+	int64_t *k1, *v;     /* the reference's codes and the slope (0 in a keyframe) */
+	int64_t *dk;         /* k − k1 of the nodes coded so far */
+	int64_t *base, *w;   /* encoder: a level's 16 P(β = 0) and 16 × its slope part */
 	uint8_t *mag;        /* |residual| (saturated), 3 a node */
-	int64_t *dv;         /* k − T of the nodes coded so far, 3 a node */
-	int allheld;         /* no SKIP node in the tile */
 	const double *x;     /* encoder: the positions, 3 a node */
 	const quant *z;
 	double m2;           /* encoder: the largest error, squared */
@@ -238,136 +239,151 @@ typedef struct hier {
 } hier;
 
 /* The encoder's choice of node n's codes given their predictions p,
- * within the error bound (the nearest codes' distance at least): per
- * axis the nearest code or its neighbour on the coordinate's other side,
- * whichever is nearer the prediction; when the three together are too
- * far, the fewest axes back to the nearest code (those that gain the
- * least residual first). */
+ * within the error bound (the nearest codes' distance at least): each
+ * code the one nearest its prediction within the bound's box on its
+ * axis; when those three are too far, each within the box inscribed in
+ * the bound's ball (always near enough), then axis by axis back to the
+ * first choice while they stay near enough. */
 static inline void choose(hier *h, size_t n, const int64_t p[3])
 {
 	int32_t *k = h->k + 3 * n;
 	if (k[0] == p[0] && k[1] == p[1] && k[2] == p[2])
 		return; /* the nearest codes, predicted */
-	double e0[3], e1[3], w[3], lim = 0;
-	int32_t alt[3];
-	int gain[3], want = 0;
+	double t[3], w[3], lim = 0;
+	int64_t a[3], b[3];
 	for (int d = 0; d < 3; d++) {
-		const double t = (h->x[3 * n + d] - h->z->lo[d]) / h->z->q[d];
+		t[d] = (h->x[3 * n + d] - h->z->lo[d]) / h->z->q[d];
 		w[d] = h->z->q[d] * h->z->q[d];
-		e0[d] = t - (double)k[d];
-		alt[d] = k[d] + (e0[d] >= 0 ? 1 : -1);
-		e1[d] = t - (double)alt[d];
-		lim += e0[d] * e0[d] * w[d];
-		/* the other code is nearer the prediction */
-		const int64_t r0 = p[d] - k[d], r1 = p[d] - alt[d];
-		gain[d] = (r0 < 0 ? -r0 : r0) > (r1 < 0 ? -r1 : r1);
-		want |= gain[d] << d;
+		const double e = t[d] - (double)k[d];
+		lim += e * e * w[d];
 	}
-	if (!want)
-		return;
 	const double m = h->m2 * (1 - 1e-9);
 	lim = lim > m ? lim : m;
-	int best = 0, bestn = 0;
-	for (int c = want; c; c = (c - 1) & want) { /* subsets of want, from the largest */
-		const int cnt = (c & 1) + (c >> 1 & 1) + (c >> 2 & 1);
-		if (cnt <= bestn)
-			continue;
-		double d2 = 0;
+	double ea = 0;
+	for (int d = 0; d < 3; d++) {
+		const double R = sqrt(lim / w[d]), r = R / sqrt(3.0);
+		int64_t lo = (int64_t)ceil(t[d] - R), hi = (int64_t)floor(t[d] + R);
+		lo = lo > k[d] ? k[d] : lo, hi = hi < k[d] ? k[d] : hi;
+		a[d] = p[d] < lo ? lo : p[d] > hi ? hi : p[d];
+		ea += (t[d] - (double)a[d]) * (t[d] - (double)a[d]) * w[d];
+		lo = (int64_t)ceil(t[d] - r), hi = (int64_t)floor(t[d] + r);
+		lo = lo > k[d] ? k[d] : lo, hi = hi < k[d] ? k[d] : hi;
+		b[d] = p[d] < lo ? lo : p[d] > hi ? hi : p[d];
+	}
+	if (ea > lim) {
+		double eb = 0;
 		for (int d = 0; d < 3; d++)
-			d2 += ((c >> d) & 1 ? e1[d] * e1[d] : e0[d] * e0[d]) * w[d];
-		if (d2 <= lim)
-			best = c, bestn = cnt;
+			eb += (t[d] - (double)b[d]) * (t[d] - (double)b[d]) * w[d];
+		if (!(eb <= lim)) /* cannot be: the inscribed box's corner is on the ball */
+			return;
+		for (int d = 0; d < 3; d++) {
+			const double e2 = eb - (t[d] - (double)b[d]) * (t[d] - (double)b[d]) * w[d] +
+			                  (t[d] - (double)a[d]) * (t[d] - (double)a[d]) * w[d];
+			if (e2 <= lim)
+				b[d] = a[d], eb = e2;
+		}
+		a[0] = b[0], a[1] = b[1], a[2] = b[2];
 	}
 	for (int d = 0; d < 3; d++)
-		if ((best >> d) & 1 && alt[d] > -CODE_MAX && alt[d] < CODE_MAX)
-			k[d] = alt[d];
+		if (a[d] > -CODE_MAX && a[d] < CODE_MAX)
+			k[d] = (int32_t)a[d];
 }
 
 /* Set by tests: every node through the general stencil (bounds and
  * classes checked), the interior's reference. */
 int ndo__codec_hier_general;
 
-static inline int64_t tpred(const hier *h, size_t n, int d)
+/* Node n = (i, j) of level s (0: the top): 16 × its prediction with no
+ * slope (base: 16 k1 + the butterfly of the coarser nodes' k − k1) and
+ * 16 × the slope's detail (w: 16 v − the butterfly of their v), per
+ * component; its edge's ends (−1: none).  Returns the stencil nodes used:
+ * 8, 2 (the ends' mean), 1 (the one end held) or 0. */
+static inline int pred16(const hier *h, int i, int j, int s, int64_t base[3], int64_t w[3],
+                         long ends[2])
 {
-	return h->t ? h->t[3 * n + (size_t)d] : 0;
-}
-
-/* Node (i, j)'s spatial prediction of the time-prediction errors, 3
- * components (pred[], the count of stencil nodes used: 8, 2, 1 or 0), and
- * its edge's ends (−1: none). */
-static inline int spatial(const hier *h, int i, int j, int s, int64_t pred[3], long ends[2])
-{
+	const long n = (long)j * h->cols + i;
+	const int64_t *K1 = h->k1 + 3 * n, *V = h->v + 3 * n, *D = h->dk, *VV = h->v;
+	ends[0] = ends[1] = -1;
+	if (!s) {
+		for (int d = 0; d < 3; d++)
+			base[d] = 16 * K1[d], w[d] = 16 * V[d];
+		return 0;
+	}
 	const int a = (i / s) & 1, b = (j / s) & 1;
 	const int type = a && !b ? 0 : !a && b ? 1 : 2;
 	const int bi = a ? i - s : i, bj = b ? j - s : j, st = 2 * s;
-	const int64_t *D = h->dv;
-	if (h->allheld && !ndo__codec_hier_general && bi >= st && bi + 2 * st < h->cols && bj >= st && bj + 2 * st < h->rows) {
-		const long base = (long)bj * h->cols + bi, cs = (long)st * h->cols;
-		long o[8];
-		for (int q = 0; q < 8; q++)
-			o[q] = 3 * (base + stencil[type][q][0] * st + stencil[type][q][1] * cs);
-		for (int d = 0; d < 3; d++) {
-			const int64_t sum = 8 * (D[o[0] + d] + D[o[1] + d]) + 2 * (D[o[2] + d] + D[o[3] + d]) -
-			                    (D[o[4] + d] + D[o[5] + d] + D[o[6] + d] + D[o[7] + d]);
-			pred[d] = rdiv(sum, 16);
-		}
-		ends[0] = o[0] / 3, ends[1] = o[1] / 3;
-		return 8;
-	}
-	long idx[8];
+	long o[8];
 	int held = 0;
-	for (int q = 0; q < 8; q++) {
-		const int ii = bi + stencil[type][q][0] * st, jj = bj + stencil[type][q][1] * st;
-		idx[q] = ii >= 0 && ii < h->cols && jj >= 0 && jj < h->rows &&
-		                 h->cls[(size_t)jj * (size_t)h->cols + (size_t)ii] != NDO_NODE_SKIP
-		             ? (long)jj * h->cols + ii
-		             : -1;
-		held += idx[q] >= 0;
+	if (h->allheld && !ndo__codec_hier_general && bi >= st && bi + 2 * st < h->cols &&
+	    bj >= st && bj + 2 * st < h->rows) {
+		const long bn = (long)bj * h->cols + bi, cs = (long)st * h->cols;
+		for (int q = 0; q < 8; q++)
+			o[q] = 3 * (bn + stencil[type][q][0] * st + stencil[type][q][1] * cs);
+		held = 8;
+	} else {
+		for (int q = 0; q < 8; q++) {
+			const int ii = bi + stencil[type][q][0] * st, jj = bj + stencil[type][q][1] * st;
+			o[q] = ii >= 0 && ii < h->cols && jj >= 0 && jj < h->rows &&
+			               h->cls[(size_t)jj * (size_t)h->cols + (size_t)ii] != NDO_NODE_SKIP
+			           ? 3 * ((long)jj * h->cols + ii)
+			           : -1;
+			held += o[q] >= 0;
+		}
 	}
-	ends[0] = idx[0], ends[1] = idx[1];
-	for (int d = 0; d < 3; d++)
-		pred[d] = 0;
 	if (held == 8) {
+		ends[0] = o[0] / 3, ends[1] = o[1] / 3;
 		for (int d = 0; d < 3; d++) {
-			int64_t sum = 0;
-			for (int q = 0; q < 8; q++)
-				sum += weight[q] * D[3 * idx[q] + d];
-			pred[d] = rdiv(sum, 16);
+			base[d] = 16 * K1[d] + 8 * (D[o[0] + d] + D[o[1] + d]) + 2 * (D[o[2] + d] + D[o[3] + d]) -
+			          (D[o[4] + d] + D[o[5] + d] + D[o[6] + d] + D[o[7] + d]);
+			w[d] = 16 * V[d] - 8 * (VV[o[0] + d] + VV[o[1] + d]) - 2 * (VV[o[2] + d] + VV[o[3] + d]) +
+			       (VV[o[4] + d] + VV[o[5] + d] + VV[o[6] + d] + VV[o[7] + d]);
 		}
 		return 8;
 	}
-	if (idx[0] >= 0 && idx[1] >= 0) {
-		for (int d = 0; d < 3; d++)
-			pred[d] = rdiv(D[3 * idx[0] + d] + D[3 * idx[1] + d], 2);
+	if (o[0] >= 0 && o[1] >= 0) {
+		ends[0] = o[0] / 3, ends[1] = o[1] / 3;
+		for (int d = 0; d < 3; d++) {
+			base[d] = 16 * K1[d] + 8 * (D[o[0] + d] + D[o[1] + d]);
+			w[d] = 16 * V[d] - 8 * (VV[o[0] + d] + VV[o[1] + d]);
+		}
 		return 2;
 	}
-	const long e = idx[0] >= 0 ? idx[0] : idx[1];
+	const long e = o[0] >= 0 ? o[0] : o[1];
+	for (int d = 0; d < 3; d++) {
+		base[d] = 16 * K1[d] + (e >= 0 ? 16 * D[e + d] : 0);
+		w[d] = 16 * V[d] - (e >= 0 ? 16 * VV[e + d] : 0);
+	}
 	if (e < 0)
 		return 0;
-	for (int d = 0; d < 3; d++)
-		pred[d] = D[3 * e + d];
+	ends[0] = e / 3;
 	return 1;
 }
 
 static inline int group_of(int s) { return s == 1 ? 0 : s == 2 ? 1 : s == 4 ? 2 : 3; }
 
-/* One node: mode 0 encode its codes' residuals, 1 decode them (−1: a code
- * out of range or a bad symbol), 2 its codes the predictions (a skipped
- * step's frame). */
-static inline int node(hier *h, int mode, rcenc *e, rcdec *dc, int i, int j, int s,
+/* the prediction: (4 base + β w) / 64, rounded half away from zero */
+static inline int64_t pred_of(int64_t base, int64_t w, int beta)
+{
+	return rdiv(4 * base + beta * w, 64);
+}
+
+/* One node of level s: mode 0 encode its residuals (base and w given:
+ * pass 1), 1 decode them (−1: a code out of range or a bad symbol), 2
+ * its codes the predictions (a skipped step's frame). */
+static inline int node(hier *h, int mode, rcenc *e, rcdec *dc, int i, int j, int s, int beta,
                        int64_t last[3], uint64_t *any)
 {
 	const size_t n = (size_t)j * (size_t)h->cols + (size_t)i;
 	if (h->cls[n] != NDO_NODE_LOSSY)
 		return 0;
-	int64_t sp[3];
-	long ends[2] = {-1, -1};
-	const int used = s ? spatial(h, i, j, s, sp, ends) : 0;
+	int64_t base[3], w[3];
+	long ends[2];
+	const int used = pred16(h, i, j, s, base, w, ends);
 	const int g = used ? group_of(s) : H_TOP;
 	int64_t pp[3];
 	for (int d = 0; d < 3; d++)
-		pp[d] = used ? tpred(h, n, d) + sp[d] : h->t ? tpred(h, n, d) : last[d];
-	if (mode == 0 && h->x)
+		pp[d] = used || !h->intra ? pred_of(base[d], w[d], beta) : last[d];
+	if (mode == 0)
 		choose(h, n, pp);
 	for (int d = 0; d < 3; d++) {
 		const int64_t p = pp[d];
@@ -390,67 +406,113 @@ static inline int node(hier *h, int mode, rcenc *e, rcdec *dc, int i, int j, int
 		}
 		const uint64_t a = r < 0 ? -(uint64_t)r : (uint64_t)r;
 		h->mag[3 * n + (size_t)d] = (uint8_t)(a > 255 ? 255 : a);
-		if (!used)
-			last[d] = h->k[3 * n + (size_t)d];
-		h->dv[3 * n + (size_t)d] = (int64_t)h->k[3 * n + (size_t)d] - tpred(h, n, d);
+		last[d] = used ? last[d] : h->k[3 * n + (size_t)d];
+		h->dk[3 * n + (size_t)d] = (int64_t)h->k[3 * n + (size_t)d] - h->k1[3 * n + (size_t)d];
 	}
 	return 0;
 }
 
-/* Every LOSSY node of the frame, the top level first. */
+/* The nodes of level s (0: the top), in raster order. */
+#define FOR_LEVEL(h, s, i, j)                                                           \
+	for (int j = 0; j < (h)->rows; j += (s) ? (s) : (h)->top)                           \
+		for (int i = (s) && !((j / ((s) ? (s) : 1)) & 1) ? (s) : 0; i < (h)->cols;       \
+		     i += (s) ? ((j / ((s) ? (s) : 1)) & 1 ? (s) : 2 * (s)) : (h)->top)
+
+/* The encoder's slope share for level s: of β = 0..4 quarters, the one
+ * whose residuals from the nearest codes cost least (a nonzero residual:
+ * 2 + twice its bits), ties to BETA_IMPLIED. */
+static int beta_of(hier *h, int s)
+{
+	uint64_t cost[BETA_MAX + 1] = {0};
+	FOR_LEVEL(h, s, i, j) {
+		const size_t n = (size_t)j * (size_t)h->cols + (size_t)i;
+		if (h->cls[n] != NDO_NODE_LOSSY)
+			continue;
+		long ends[2];
+		int64_t base[3], w[3];
+		pred16(h, i, j, s, base, w, ends);
+		for (int d = 0; d < 3; d++)
+			for (int b = 0; b <= BETA_MAX; b++) {
+				const int64_t r = h->k[3 * n + (size_t)d] - pred_of(base[d], w[d], b);
+				const uint64_t a = r < 0 ? -(uint64_t)r : (uint64_t)r;
+				cost[b] += a ? 2 + 2 * (uint64_t)(64 - __builtin_clzll(a)) : 0;
+			}
+	}
+	int best = BETA_IMPLIED;
+	for (int b = BETA_MAX; b >= 0; b--)
+		if (cost[b] < cost[best])
+			best = b;
+	return best;
+}
+
+/* Every LOSSY node of the frame, the top level first; each level's slope
+ * share first (3 direct bits) unless the frame is a keyframe. */
 static int levels(hier *h, int mode, rcenc *e, rcdec *dc, uint64_t *any)
 {
 	int64_t last[3] = {0, 0, 0};
-	const int S = h->top;
-	for (int j = 0; j < h->rows; j += S)
-		for (int i = 0; i < h->cols; i += S)
-			if (node(h, mode, e, dc, i, j, 0, last, any))
+	for (int s = h->top; s >= 1; s /= 2) {
+		const int ls = s == h->top ? 0 : s; /* the top level: no stencil */
+		int beta = BETA_IMPLIED;
+		if (!h->intra && mode == 0) {
+			beta = beta_of(h, ls);
+			for (int b = 2; b >= 0; b--)
+				rc_direct(e, beta >> b & 1);
+			*any |= (uint64_t)(beta != BETA_IMPLIED);
+		} else if (!h->intra && mode == 1) {
+			beta = 0;
+			for (int b = 2; b >= 0; b--)
+				beta = beta << 1 | rd_direct(dc);
+			if (beta > BETA_MAX)
 				return -1;
-	for (int s = S / 2; s >= 1; s /= 2)
-		for (int j = 0; j < h->rows; j += s)
-			for (int i = (j / s) & 1 ? 0 : s; i < h->cols; i += (j / s) & 1 ? s : 2 * s)
-				if (node(h, mode, e, dc, i, j, s, last, any))
-					return -1;
+		}
+		FOR_LEVEL(h, ls, i, j)
+		if (node(h, mode, e, dc, i, j, ls, beta, last, any))
+			return -1;
+		if (h->top == 1)
+			break;
+	}
 	return 0;
 }
 
-/* The time predictions of every node the frame holds, or none (a
- * reference lacks one of them, or there is none). */
-static const int64_t *time_pred(const hcodes *c, int64_t *t)
+/* The references' codes and slope for every node the frame holds; none
+ * (a keyframe's zeros) when the newest lacks one of them or there is
+ * none, no slope when the second lacks one. */
+static void time_refs(hier *h, const hcodes *c)
 {
 	const ndo_codec_frame *r0 = c->r[0], *r1 = c->r[1];
-	if (!r0)
-		return NULL;
 	const int nodes = c->rows * c->cols;
-	for (int n = 0; n < nodes; n++)
+	for (int n = 0; n < nodes && r0; n++)
 		if (c->cls[n] != NDO_NODE_SKIP) {
 			if (!r0->have[n])
-				return NULL;
-			if (r1 && !r1->have[n])
+				r0 = NULL;
+			else if (r1 && !r1->have[n])
 				r1 = NULL;
 		}
-	const int64_t g0 = r1 ? c->step - r0->step : 0, g1 = r1 ? r0->step - r1->step : 1;
-	for (int n = 0; n < nodes; n++) {
-		if (c->cls[n] == NDO_NODE_SKIP)
-			continue;
+	h->intra = !r0;
+	const int64_t g0 = r0 && r1 ? c->step - r0->step : 0, g1 = r0 && r1 ? r0->step - r1->step : 1;
+	for (int n = 0; n < nodes; n++)
 		for (size_t v = 3 * (size_t)n; v < 3 * (size_t)n + 3; v++) {
+			if (!r0 || c->cls[n] == NDO_NODE_SKIP) {
+				h->k1[v] = h->v[v] = 0;
+				continue;
+			}
 			const int64_t k1 = r0->k[v];
-			t[v] = !r1 ? k1 : g0 == g1 ? 2 * k1 - r1->k[v] : k1 + rdiv((k1 - r1->k[v]) * g0, g1);
+			h->k1[v] = k1;
+			h->v[v] = !r1 ? 0 : g0 == g1 ? k1 - r1->k[v] : rdiv((k1 - r1->k[v]) * g0, g1);
 		}
-	}
-	return t;
 }
 
 static void hier_init(hier *h, const hcodes *c, int32_t *k, int64_t *t, uint8_t *mag)
 {
+	const int nodes = c->rows * c->cols;
+	const size_t N = 3 * (size_t)nodes;
 	h->rows = c->rows, h->cols = c->cols, h->cls = c->cls, h->k = k, h->mag = mag;
 	int top = 1;
 	while (2 * top < (c->rows > c->cols ? c->rows : c->cols))
 		top *= 2;
 	h->top = top;
-	const int nodes = c->rows * c->cols;
-	h->t = time_pred(c, t);
-	h->dv = t + 3 * (size_t)nodes;
+	h->k1 = t, h->v = t + N, h->dk = t + 2 * N, h->base = t + 3 * N, h->w = t + 4 * N;
+	time_refs(h, c);
 	h->x = NULL;
 	h->allheld = 1;
 	for (int n = 0; n < nodes; n++) {
@@ -458,7 +520,7 @@ static void hier_init(hier *h, const hcodes *c, int32_t *k, int64_t *t, uint8_t 
 		for (int d = 0; d < 3; d++) {
 			mag[3 * n + d] = 0; /* an EXACT node's: no residual */
 			if (c->cls[n] == NDO_NODE_EXACT)
-				h->dv[3 * n + d] = (int64_t)k[3 * n + d] - tpred(h, (size_t)n, d);
+				h->dk[3 * n + d] = (int64_t)k[3 * n + d] - h->k1[3 * n + d];
 		}
 	}
 	model_init(&h->m);

@@ -51,7 +51,7 @@ struct ndo_codec_work {
 	double err_max2, err_sum2; /* the last frame encoded: its LOSSY errors */
 	size_t err_n;
 	size_t ecap;
-	int64_t *ht;     /* hier: 6 x nodes time predictions and errors */
+	int64_t *ht;     /* hier: HIER_SCRATCH x nodes */
 	uint8_t *hmag;   /* hier: 3 x nodes residual magnitudes */
 };
 
@@ -368,6 +368,7 @@ int ndo__rc_dec_direct(rcdec *d);
 
 /* A frame for the hierarchical coder: the tile, its classes, the
  * references (newest first, NULL: absent) and the step. */
+#define HIER_SCRATCH 15
 typedef struct hcodes {
 	int rows, cols;
 	const uint8_t *cls;
@@ -375,8 +376,8 @@ typedef struct hcodes {
 	int64_t step;
 } hcodes;
 /* k: the frame's codes (3 a node; encoder: every carried node's; decoder:
- * the EXACT nodes', the LOSSY ones' filled); t (6 a node) and mag (3 a
- * node) scratch.  Encode: 0 or −1 (out of memory); *any: a nonzero
+ * the EXACT nodes', the LOSSY ones' filled); t (HIER_SCRATCH a node) and
+ * mag (3 a node) scratch.  Encode: 0 or −1 (out of memory); *any: a nonzero
  * residual.  Decode: 0, or −1 (corrupt: bad symbols, a code out of range,
  * bytes missing or left over).  Implied: the LOSSY codes predicted, no
  * residual (0, or −1: a code out of range). */
