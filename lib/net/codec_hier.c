@@ -227,14 +227,17 @@ enum { BETA_MAX = 4, BETA_IMPLIED = 4 }; /* the slope's share, in quarters */
 typedef struct hier {
 	int rows, cols, top, allheld, intra;
 	const uint8_t *cls;
-	int32_t *k;          /* this frame's codes, 3 a node */
-	int64_t *k1, *v;     /* the reference's codes and the slope (0 in a keyframe) */
-	int64_t *dk;         /* k − k1 of the nodes coded so far */
-	int64_t *base, *w;   /* encoder: a level's 16 P(β = 0) and 16 × its slope part */
-	uint8_t *mag;        /* |residual| (saturated), 3 a node */
-	const double *x;     /* encoder: the positions, 3 a node */
+	int32_t *k;           /* this frame's codes, 3 a node */
+	const int32_t *k1;    /* the reference's codes (a keyframe: zeros) */
+	int32_t *v, *dk;      /* the slope (0 without), k − k1 of the nodes coded so far */
+	int64_t *pb, *pw;     /* encoder: a level's 16 P(β = 0) and 16 × its slope part */
+	uint8_t *ctx;         /* encoder: a level's contexts, 3 a node (g × H_NB + nb) */
+	uint8_t *mag;         /* |residual| (saturated), 3 a node */
+	const double *x;      /* encoder: the positions, 3 a node */
 	const quant *z;
-	double m2;           /* encoder: the largest error, squared */
+	double m2, w2[3], R[3], r[3]; /* encoder: the bound squared; per axis q², its
+	                                 ball's and inscribed box's half-widths in codes */
+	int rel[3][8];        /* a level's stencils: node offsets from the node */
 	hmodel m;
 } hier;
 
@@ -249,36 +252,37 @@ static inline void choose(hier *h, size_t n, const int64_t p[3])
 	int32_t *k = h->k + 3 * n;
 	if (k[0] == p[0] && k[1] == p[1] && k[2] == p[2])
 		return; /* the nearest codes, predicted */
-	double t[3], w[3], lim = 0;
+	double t[3], lim = 0, R[3], r[3];
 	int64_t a[3], b[3];
 	for (int d = 0; d < 3; d++) {
 		t[d] = (h->x[3 * n + d] - h->z->lo[d]) / h->z->q[d];
-		w[d] = h->z->q[d] * h->z->q[d];
 		const double e = t[d] - (double)k[d];
-		lim += e * e * w[d];
+		lim += e * e * h->w2[d];
 	}
-	const double m = h->m2 * (1 - 1e-9);
-	lim = lim > m ? lim : m;
-	double ea = 0;
+	if (lim > h->m2) /* the nearest codes at the bound's edge (rounding) */
+		for (int d = 0; d < 3; d++)
+			R[d] = sqrt(lim / h->w2[d]), r[d] = R[d] / sqrt(3.0);
+	else
+		for (int d = 0; d < 3; d++)
+			R[d] = h->R[d], r[d] = h->r[d];
+	lim = lim > h->m2 ? lim : h->m2;
+	double ea = 0, eb = 0;
 	for (int d = 0; d < 3; d++) {
-		const double R = sqrt(lim / w[d]), r = R / sqrt(3.0);
-		int64_t lo = (int64_t)ceil(t[d] - R), hi = (int64_t)floor(t[d] + R);
+		int64_t lo = (int64_t)ceil(t[d] - R[d]), hi = (int64_t)floor(t[d] + R[d]);
 		lo = lo > k[d] ? k[d] : lo, hi = hi < k[d] ? k[d] : hi;
 		a[d] = p[d] < lo ? lo : p[d] > hi ? hi : p[d];
-		ea += (t[d] - (double)a[d]) * (t[d] - (double)a[d]) * w[d];
-		lo = (int64_t)ceil(t[d] - r), hi = (int64_t)floor(t[d] + r);
+		ea += (t[d] - (double)a[d]) * (t[d] - (double)a[d]) * h->w2[d];
+		lo = (int64_t)ceil(t[d] - r[d]), hi = (int64_t)floor(t[d] + r[d]);
 		lo = lo > k[d] ? k[d] : lo, hi = hi < k[d] ? k[d] : hi;
 		b[d] = p[d] < lo ? lo : p[d] > hi ? hi : p[d];
+		eb += (t[d] - (double)b[d]) * (t[d] - (double)b[d]) * h->w2[d];
 	}
 	if (ea > lim) {
-		double eb = 0;
-		for (int d = 0; d < 3; d++)
-			eb += (t[d] - (double)b[d]) * (t[d] - (double)b[d]) * w[d];
 		if (!(eb <= lim)) /* cannot be: the inscribed box's corner is on the ball */
 			return;
 		for (int d = 0; d < 3; d++) {
-			const double e2 = eb - (t[d] - (double)b[d]) * (t[d] - (double)b[d]) * w[d] +
-			                  (t[d] - (double)a[d]) * (t[d] - (double)a[d]) * w[d];
+			const double e2 = eb - (t[d] - (double)b[d]) * (t[d] - (double)b[d]) * h->w2[d] +
+			                  (t[d] - (double)a[d]) * (t[d] - (double)a[d]) * h->w2[d];
 			if (e2 <= lim)
 				b[d] = a[d], eb = e2;
 		}
@@ -293,194 +297,234 @@ static inline void choose(hier *h, size_t n, const int64_t p[3])
  * classes checked), the interior's reference. */
 int ndo__codec_hier_general;
 
-/* Node n = (i, j) of level s (0: the top): 16 × its prediction with no
- * slope (base: 16 k1 + the butterfly of the coarser nodes' k − k1) and
- * 16 × the slope's detail (w: 16 v − the butterfly of their v), per
- * component; its edge's ends (−1: none).  Returns the stencil nodes used:
- * 8, 2 (the ends' mean), 1 (the one end held) or 0. */
-static inline int pred16(const hier *h, int i, int j, int s, int64_t base[3], int64_t w[3],
-                         long ends[2])
+/* Node n = (i, j), of type `type` (0 horizontal, 1 vertical, 2 diagonal)
+ * in level s (0: the top): 16 × its prediction with no slope (base: 16 k1
+ * + the butterfly of the coarser nodes' k − k1) and 16 × the slope's
+ * detail (w: 16 v − the butterfly of their v), per component, and its
+ * context per component (the group g × H_NB + nb).  Returns the stencil
+ * nodes used: 8, 2 (the ends' mean), 1 (the one end held) or 0. */
+static inline __attribute__((always_inline)) int
+pred16(const hier *h, int i, int j, int s, int type, int64_t base[3], int64_t w[3], int ctx[3])
 {
 	const long n = (long)j * h->cols + i;
-	const int64_t *K1 = h->k1 + 3 * n, *V = h->v + 3 * n, *D = h->dk, *VV = h->v;
-	ends[0] = ends[1] = -1;
+	const int32_t *K1 = h->k1 + 3 * n, *V = h->v + 3 * n, *D = h->dk, *VV = h->v;
 	if (!s) {
 		for (int d = 0; d < 3; d++)
-			base[d] = 16 * K1[d], w[d] = 16 * V[d];
+			base[d] = 16 * (int64_t)K1[d], w[d] = 16 * (int64_t)V[d], ctx[d] = H_TOP * H_NB;
 		return 0;
 	}
-	const int a = (i / s) & 1, b = (j / s) & 1;
-	const int type = a && !b ? 0 : !a && b ? 1 : 2;
-	const int bi = a ? i - s : i, bj = b ? j - s : j, st = 2 * s;
+	const int g = (s == 1 ? 0 : s == 2 ? 1 : s == 4 ? 2 : 3) * H_NB;
+	const int bi = type != 1 ? i - s : i, bj = type != 0 ? j - s : j, st = 2 * s;
 	long o[8];
 	int held = 0;
-	if (h->allheld && !ndo__codec_hier_general && bi >= st && bi + 2 * st < h->cols &&
-	    bj >= st && bj + 2 * st < h->rows) {
-		const long bn = (long)bj * h->cols + bi, cs = (long)st * h->cols;
+	if (h->allheld && bi >= st && bi + 2 * st < h->cols && bj >= st && bj + 2 * st < h->rows &&
+	    !ndo__codec_hier_general) {
 		for (int q = 0; q < 8; q++)
-			o[q] = 3 * (bn + stencil[type][q][0] * st + stencil[type][q][1] * cs);
-		held = 8;
-	} else {
-		for (int q = 0; q < 8; q++) {
-			const int ii = bi + stencil[type][q][0] * st, jj = bj + stencil[type][q][1] * st;
-			o[q] = ii >= 0 && ii < h->cols && jj >= 0 && jj < h->rows &&
-			               h->cls[(size_t)jj * (size_t)h->cols + (size_t)ii] != NDO_NODE_SKIP
-			           ? 3 * ((long)jj * h->cols + ii)
-			           : -1;
-			held += o[q] >= 0;
+			o[q] = 3 * (n + h->rel[type][q]);
+		const uint8_t *ma = h->mag + o[0], *mb = h->mag + o[1];
+		for (int d = 0; d < 3; d++) {
+			base[d] = 16 * (int64_t)K1[d] +
+			          8 * ((int64_t)D[o[0] + d] + D[o[1] + d]) +
+			          2 * ((int64_t)D[o[2] + d] + D[o[3] + d]) -
+			          ((int64_t)D[o[4] + d] + D[o[5] + d] + D[o[6] + d] + D[o[7] + d]);
+			w[d] = 16 * (int64_t)V[d] - 8 * ((int64_t)VV[o[0] + d] + VV[o[1] + d]) -
+			       2 * ((int64_t)VV[o[2] + d] + VV[o[3] + d]) +
+			       ((int64_t)VV[o[4] + d] + VV[o[5] + d] + VV[o[6] + d] + VV[o[7] + d]);
+			ctx[d] = g + nb_of((unsigned)ma[d] + mb[d]);
 		}
+		return 8;
+	}
+	for (int q = 0; q < 8; q++) {
+		const int ii = bi + stencil[type][q][0] * st, jj = bj + stencil[type][q][1] * st;
+		o[q] = ii >= 0 && ii < h->cols && jj >= 0 && jj < h->rows &&
+		               h->cls[(size_t)jj * (size_t)h->cols + (size_t)ii] != NDO_NODE_SKIP
+		           ? 3 * ((long)jj * h->cols + ii)
+		           : -1;
+		held += o[q] >= 0;
 	}
 	if (held == 8) {
-		ends[0] = o[0] / 3, ends[1] = o[1] / 3;
 		for (int d = 0; d < 3; d++) {
-			base[d] = 16 * K1[d] + 8 * (D[o[0] + d] + D[o[1] + d]) + 2 * (D[o[2] + d] + D[o[3] + d]) -
-			          (D[o[4] + d] + D[o[5] + d] + D[o[6] + d] + D[o[7] + d]);
-			w[d] = 16 * V[d] - 8 * (VV[o[0] + d] + VV[o[1] + d]) - 2 * (VV[o[2] + d] + VV[o[3] + d]) +
-			       (VV[o[4] + d] + VV[o[5] + d] + VV[o[6] + d] + VV[o[7] + d]);
+			base[d] = 16 * (int64_t)K1[d];
+			w[d] = 16 * (int64_t)V[d];
+			for (int q = 0; q < 8; q++) {
+				const int wq = q < 2 ? 8 : q < 4 ? 2 : -1;
+				base[d] += wq * (int64_t)D[o[q] + d];
+				w[d] -= wq * (int64_t)VV[o[q] + d];
+			}
+			ctx[d] = g + nb_of((unsigned)h->mag[o[0] + d] + h->mag[o[1] + d]);
 		}
 		return 8;
 	}
 	if (o[0] >= 0 && o[1] >= 0) {
-		ends[0] = o[0] / 3, ends[1] = o[1] / 3;
 		for (int d = 0; d < 3; d++) {
-			base[d] = 16 * K1[d] + 8 * (D[o[0] + d] + D[o[1] + d]);
-			w[d] = 16 * V[d] - 8 * (VV[o[0] + d] + VV[o[1] + d]);
+			base[d] = 16 * (int64_t)K1[d] + 8 * ((int64_t)D[o[0] + d] + D[o[1] + d]);
+			w[d] = 16 * (int64_t)V[d] - 8 * ((int64_t)VV[o[0] + d] + VV[o[1] + d]);
+			ctx[d] = g + nb_of((unsigned)h->mag[o[0] + d] + h->mag[o[1] + d]);
 		}
 		return 2;
 	}
 	const long e = o[0] >= 0 ? o[0] : o[1];
 	for (int d = 0; d < 3; d++) {
-		base[d] = 16 * K1[d] + (e >= 0 ? 16 * D[e + d] : 0);
-		w[d] = 16 * V[d] - (e >= 0 ? 16 * VV[e + d] : 0);
+		base[d] = 16 * (int64_t)K1[d] + (e >= 0 ? 16 * (int64_t)D[e + d] : 0);
+		w[d] = 16 * (int64_t)V[d] - (e >= 0 ? 16 * (int64_t)VV[e + d] : 0);
+		ctx[d] = e >= 0 ? g + nb_of(h->mag[e + d]) : H_TOP * H_NB;
 	}
-	if (e < 0)
-		return 0;
-	ends[0] = e / 3;
-	return 1;
+	return e >= 0;
 }
 
-static inline int group_of(int s) { return s == 1 ? 0 : s == 2 ? 1 : s == 4 ? 2 : 3; }
-
-/* the prediction: (4 base + β w) / 64, rounded half away from zero */
+/* the prediction: (4 base + β w) / 64, rounded half up */
 static inline int64_t pred_of(int64_t base, int64_t w, int beta)
 {
-	return rdiv(4 * base + beta * w, 64);
+	return (4 * base + beta * w + 32) >> 6; /* an arithmetic shift (GCC, Clang) */
 }
 
-/* One node of level s: mode 0 encode its residuals (base and w given:
- * pass 1), 1 decode them (−1: a code out of range or a bad symbol), 2
- * its codes the predictions (a skipped step's frame). */
-static inline int node(hier *h, int mode, rcenc *e, rcdec *dc, int i, int j, int s, int beta,
-                       int64_t last[3], uint64_t *any)
+enum { P_COLLECT, P_ENCODE, P_ENCODE1, P_DECODE, P_IMPLIED };
+
+typedef struct pass {
+	int beta[3];          /* this level's slope shares (one for now: all equal) */
+	int64_t last[3];      /* a keyframe's top level: the last node's codes */
+	uint64_t cost[BETA_MAX + 1];
+	uint64_t any;
+	int bad;
+	rcenc *e;
+	rcdec *dc;
+} pass;
+
+/* One node of a level, in pass `mode`: P_COLLECT the encoder's
+ * predictions and contexts (and the cost of each β), P_ENCODE the codes
+ * chosen and their residuals from them, P_ENCODE1 both at once (a
+ * keyframe), P_DECODE the residuals read and the codes made, P_IMPLIED the
+ * codes the predictions. */
+static inline __attribute__((always_inline)) void node(hier *h, const int mode, pass *ps, int i,
+                                                       int j, int s, int type)
 {
 	const size_t n = (size_t)j * (size_t)h->cols + (size_t)i;
 	if (h->cls[n] != NDO_NODE_LOSSY)
-		return 0;
-	int64_t base[3], w[3];
-	long ends[2];
-	const int used = pred16(h, i, j, s, base, w, ends);
-	const int g = used ? group_of(s) : H_TOP;
-	int64_t pp[3];
+		return;
+	int64_t base[3], w[3], pp[3];
+	int ctx[3], used = 1;
+	if (mode == P_ENCODE) {
+		for (int d = 0; d < 3; d++)
+			base[d] = h->pb[3 * n + d], w[d] = h->pw[3 * n + d], ctx[d] = h->ctx[3 * n + d];
+	} else {
+		used = pred16(h, i, j, s, type, base, w, ctx);
+	}
+	if (mode == P_COLLECT) {
+		for (int d = 0; d < 3; d++) {
+			h->pb[3 * n + d] = base[d], h->pw[3 * n + d] = w[d], h->ctx[3 * n + d] = (uint8_t)ctx[d];
+			for (int b = 0; b <= BETA_MAX; b++) {
+				const int64_t r = h->k[3 * n + d] - pred_of(base[d], w[d], b);
+				const uint64_t a = r < 0 ? -(uint64_t)r : (uint64_t)r;
+				ps->cost[b] += a ? 2 + 2 * (uint64_t)(64 - __builtin_clzll(a)) : 0;
+			}
+		}
+		return;
+	}
+	const int dpcm = h->intra && !used; /* a keyframe's node without a stencil */
 	for (int d = 0; d < 3; d++)
-		pp[d] = used || !h->intra ? pred_of(base[d], w[d], beta) : last[d];
-	if (mode == 0)
+		pp[d] = dpcm ? ps->last[d] : pred_of(base[d], w[d], ps->beta[d]);
+	if (mode == P_ENCODE || mode == P_ENCODE1)
 		choose(h, n, pp);
 	for (int d = 0; d < 3; d++) {
-		const int64_t p = pp[d];
-		unsigned t = (ends[0] >= 0 ? h->mag[3 * ends[0] + d] : 0) +
-		             (ends[1] >= 0 ? h->mag[3 * ends[1] + d] : 0);
-		const int nb = nb_of(t);
+		const size_t v = 3 * n + (size_t)d;
+		const int g = ctx[d] / H_NB, nb = ctx[d] % H_NB;
 		int64_t r = 0;
-		if (mode == 0) {
-			r = (int64_t)h->k[3 * n + (size_t)d] - p;
-			put_res(e, &h->m, g, d, nb, r);
-			*any |= (uint64_t)r;
+		if (mode == P_ENCODE || mode == P_ENCODE1) {
+			r = (int64_t)h->k[v] - pp[d];
+			put_res(ps->e, &h->m, g, d, nb, r);
+			ps->any |= (uint64_t)r;
 		} else {
-			int bad = 0;
-			if (mode == 1)
-				r = get_res(dc, &h->m, g, d, nb, &bad);
-			const int64_t k = p + r;
-			if (bad || k <= -CODE_MAX || k >= CODE_MAX)
-				return -1;
-			h->k[3 * n + (size_t)d] = (int32_t)k;
+			if (mode == P_DECODE)
+				r = get_res(ps->dc, &h->m, g, d, nb, &ps->bad);
+			const int64_t k = pp[d] + r;
+			if (k <= -CODE_MAX || k >= CODE_MAX) {
+				ps->bad = 1;
+				return;
+			}
+			h->k[v] = (int32_t)k;
 		}
 		const uint64_t a = r < 0 ? -(uint64_t)r : (uint64_t)r;
-		h->mag[3 * n + (size_t)d] = (uint8_t)(a > 255 ? 255 : a);
-		last[d] = used ? last[d] : h->k[3 * n + (size_t)d];
-		h->dk[3 * n + (size_t)d] = (int64_t)h->k[3 * n + (size_t)d] - h->k1[3 * n + (size_t)d];
+		h->mag[v] = (uint8_t)(a > 255 ? 255 : a);
+		ps->last[d] = dpcm ? h->k[v] : ps->last[d];
+		h->dk[v] = h->k[v] - h->k1[v];
 	}
-	return 0;
 }
 
-/* The nodes of level s (0: the top), in raster order. */
-#define FOR_LEVEL(h, s, i, j)                                                           \
-	for (int j = 0; j < (h)->rows; j += (s) ? (s) : (h)->top)                           \
-		for (int i = (s) && !((j / ((s) ? (s) : 1)) & 1) ? (s) : 0; i < (h)->cols;       \
-		     i += (s) ? ((j / ((s) ? (s) : 1)) & 1 ? (s) : 2 * (s)) : (h)->top)
-
-/* The encoder's slope share for level s: of β = 0..4 quarters, the one
- * whose residuals from the nearest codes cost least (a nonzero residual:
- * 2 + twice its bits), ties to BETA_IMPLIED. */
-static int beta_of(hier *h, int s)
+/* Every node of level s (0: the top) in raster order, in pass `mode`. */
+static inline __attribute__((always_inline)) void level(hier *h, const int mode, pass *ps, int s)
 {
-	uint64_t cost[BETA_MAX + 1] = {0};
-	FOR_LEVEL(h, s, i, j) {
-		const size_t n = (size_t)j * (size_t)h->cols + (size_t)i;
-		if (h->cls[n] != NDO_NODE_LOSSY)
-			continue;
-		long ends[2];
-		int64_t base[3], w[3];
-		pred16(h, i, j, s, base, w, ends);
-		for (int d = 0; d < 3; d++)
-			for (int b = 0; b <= BETA_MAX; b++) {
-				const int64_t r = h->k[3 * n + (size_t)d] - pred_of(base[d], w[d], b);
-				const uint64_t a = r < 0 ? -(uint64_t)r : (uint64_t)r;
-				cost[b] += a ? 2 + 2 * (uint64_t)(64 - __builtin_clzll(a)) : 0;
-			}
+	if (!s) {
+		for (int j = 0; j < h->rows && !ps->bad; j += h->top)
+			for (int i = 0; i < h->cols; i += h->top)
+				node(h, mode, ps, i, j, 0, 0);
+		return;
 	}
-	int best = BETA_IMPLIED;
-	for (int b = BETA_MAX; b >= 0; b--)
-		if (cost[b] < cost[best])
-			best = b;
-	return best;
+	for (int j = 0; j < h->rows && !ps->bad; j += s) {
+		if (!(j & s)) /* an even row of the level: horizontal edges */
+			for (int i = s; i < h->cols; i += 2 * s)
+				node(h, mode, ps, i, j, s, 0);
+		else
+			for (int i = 0; i < h->cols; i += s)
+				node(h, mode, ps, i, j, s, i & s ? 2 : 1);
+	}
 }
 
 /* Every LOSSY node of the frame, the top level first; each level's slope
  * share first (3 direct bits) unless the frame is a keyframe. */
 static int levels(hier *h, int mode, rcenc *e, rcdec *dc, uint64_t *any)
 {
-	int64_t last[3] = {0, 0, 0};
+	pass ps = {{BETA_IMPLIED, BETA_IMPLIED, BETA_IMPLIED}, {0, 0, 0}, {0}, 0, 0, e, dc};
 	for (int s = h->top; s >= 1; s /= 2) {
 		const int ls = s == h->top ? 0 : s; /* the top level: no stencil */
+		const int st = 2 * s, C = h->cols;
+		const int shift[3] = {-s, -s * C, -s - s * C}; /* the base node, from the node */
+		for (int t = 0; t < 3; t++)
+			for (int q = 0; q < 8; q++)
+				h->rel[t][q] = shift[t] + stencil[t][q][0] * st + stencil[t][q][1] * st * C;
 		int beta = BETA_IMPLIED;
-		if (!h->intra && mode == 0) {
-			beta = beta_of(h, ls);
+		if (mode == P_ENCODE && !h->intra) {
+			memset(ps.cost, 0, sizeof ps.cost);
+			level(h, P_COLLECT, &ps, ls);
+			for (int b = BETA_MAX; b >= 0; b--) /* ties: the implied frames' */
+				if (ps.cost[b] < ps.cost[beta])
+					beta = b;
 			for (int b = 2; b >= 0; b--)
 				rc_direct(e, beta >> b & 1);
-			*any |= (uint64_t)(beta != BETA_IMPLIED);
-		} else if (!h->intra && mode == 1) {
+			ps.any |= (uint64_t)(beta != BETA_IMPLIED);
+		} else if (mode == P_DECODE && !h->intra) {
 			beta = 0;
 			for (int b = 2; b >= 0; b--)
 				beta = beta << 1 | rd_direct(dc);
 			if (beta > BETA_MAX)
 				return -1;
 		}
-		FOR_LEVEL(h, ls, i, j)
-		if (node(h, mode, e, dc, i, j, ls, beta, last, any))
+		ps.beta[0] = ps.beta[1] = ps.beta[2] = beta;
+		if (mode == P_ENCODE && !h->intra)
+			level(h, P_ENCODE, &ps, ls);
+		else if (mode == P_ENCODE)
+			level(h, P_ENCODE1, &ps, ls);
+		else if (mode == P_DECODE)
+			level(h, P_DECODE, &ps, ls);
+		else
+			level(h, P_IMPLIED, &ps, ls);
+		if (ps.bad)
 			return -1;
 		if (h->top == 1)
 			break;
 	}
+	if (any)
+		*any = ps.any;
 	return 0;
 }
 
 /* The references' codes and slope for every node the frame holds; none
  * (a keyframe's zeros) when the newest lacks one of them or there is
  * none, no slope when the second lacks one. */
-static void time_refs(hier *h, const hcodes *c)
+static void time_refs(hier *h, const hcodes *c, int32_t *zeros)
 {
 	const ndo_codec_frame *r0 = c->r[0], *r1 = c->r[1];
 	const int nodes = c->rows * c->cols;
+	const size_t N = 3 * (size_t)nodes;
 	for (int n = 0; n < nodes && r0; n++)
 		if (c->cls[n] != NDO_NODE_SKIP) {
 			if (!r0->have[n])
@@ -489,17 +533,28 @@ static void time_refs(hier *h, const hcodes *c)
 				r1 = NULL;
 		}
 	h->intra = !r0;
-	const int64_t g0 = r0 && r1 ? c->step - r0->step : 0, g1 = r0 && r1 ? r0->step - r1->step : 1;
-	for (int n = 0; n < nodes; n++)
-		for (size_t v = 3 * (size_t)n; v < 3 * (size_t)n + 3; v++) {
-			if (!r0 || c->cls[n] == NDO_NODE_SKIP) {
-				h->k1[v] = h->v[v] = 0;
-				continue;
-			}
-			const int64_t k1 = r0->k[v];
-			h->k1[v] = k1;
-			h->v[v] = !r1 ? 0 : g0 == g1 ? k1 - r1->k[v] : rdiv((k1 - r1->k[v]) * g0, g1);
-		}
+	if (!r0) {
+		memset(zeros, 0, N * sizeof *zeros);
+		memset(h->v, 0, N * sizeof *h->v);
+		h->k1 = zeros;
+		return;
+	}
+	h->k1 = r0->k;
+	if (!r1) {
+		memset(h->v, 0, N * sizeof *h->v);
+		return;
+	}
+	const int64_t g0 = c->step - r0->step, g1 = r0->step - r1->step;
+	const int32_t *k1 = r0->k, *k2 = r1->k;
+	if (g0 == g1) { /* consecutive: within ±2^31 */
+		for (size_t v = 0; v < N; v++)
+			h->v[v] = (int32_t)((int64_t)k1[v] - k2[v]);
+		return;
+	}
+	for (size_t v = 0; v < N; v++) {
+		int64_t s = rdiv(((int64_t)k1[v] - k2[v]) * g0, g1);
+		h->v[v] = (int32_t)(s > CODE_MAX ? CODE_MAX : s < -CODE_MAX ? -CODE_MAX : s);
+	}
 }
 
 static void hier_init(hier *h, const hcodes *c, int32_t *k, int64_t *t, uint8_t *mag)
@@ -511,8 +566,12 @@ static void hier_init(hier *h, const hcodes *c, int32_t *k, int64_t *t, uint8_t 
 	while (2 * top < (c->rows > c->cols ? c->rows : c->cols))
 		top *= 2;
 	h->top = top;
-	h->k1 = t, h->v = t + N, h->dk = t + 2 * N, h->base = t + 3 * N, h->w = t + 4 * N;
-	time_refs(h, c);
+	/* the scratch (HIER_SCRATCH int64 a node): pb, pw; v, dk, zeros; ctx */
+	h->pb = t, h->pw = t + N;
+	int32_t *t32 = (int32_t *)(t + 2 * N);
+	h->v = t32, h->dk = t32 + N;
+	h->ctx = (uint8_t *)(t32 + 3 * N);
+	time_refs(h, c, t32 + 2 * N);
 	h->x = NULL;
 	h->allheld = 1;
 	for (int n = 0; n < nodes; n++) {
@@ -520,7 +579,7 @@ static void hier_init(hier *h, const hcodes *c, int32_t *k, int64_t *t, uint8_t 
 		for (int d = 0; d < 3; d++) {
 			mag[3 * n + d] = 0; /* an EXACT node's: no residual */
 			if (c->cls[n] == NDO_NODE_EXACT)
-				h->dk[3 * n + d] = (int64_t)k[3 * n + d] - h->k1[3 * n + d];
+				h->dk[3 * n + d] = (int32_t)((int64_t)k[3 * n + d] - h->k1[3 * n + d]);
 		}
 	}
 	model_init(&h->m);
@@ -531,11 +590,14 @@ int ndo__codec_hier_encode(const hcodes *c, const quant *z, double maxerr, const
 {
 	hier h;
 	hier_init(&h, c, k, t, mag);
-	h.x = x, h.z = z, h.m2 = maxerr * maxerr;
+	h.x = x, h.z = z, h.m2 = maxerr * maxerr * (1 - 1e-9);
+	for (int d = 0; d < 3; d++) {
+		h.w2[d] = z->q[d] * z->q[d];
+		h.R[d] = sqrt(h.m2 / h.w2[d]), h.r[d] = h.R[d] / sqrt(3.0);
+	}
 	rcenc e;
 	ndo__rc_enc_init(&e, b);
-	*any = 0;
-	levels(&h, 0, &e, NULL, any);
+	levels(&h, P_ENCODE, &e, NULL, any);
 	ndo__rc_enc_flush(&e);
 	return b->fail ? -1 : 0;
 }
@@ -547,7 +609,7 @@ int ndo__codec_hier_decode(const hcodes *c, int32_t *k, int64_t *t, uint8_t *mag
 	hier_init(&h, c, k, t, mag);
 	rcdec d;
 	ndo__rc_dec_init(&d, p, n);
-	if (levels(&h, 1, NULL, &d, NULL))
+	if (levels(&h, P_DECODE, NULL, &d, NULL))
 		return -1;
 	return d.over || d.pos != d.n ? -1 : 0;
 }
@@ -556,5 +618,5 @@ int ndo__codec_hier_implied(const hcodes *c, int32_t *k, int64_t *t, uint8_t *ma
 {
 	hier h;
 	hier_init(&h, c, k, t, mag);
-	return levels(&h, 2, NULL, NULL, NULL);
+	return levels(&h, P_IMPLIED, NULL, NULL, NULL);
 }

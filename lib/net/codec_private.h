@@ -368,7 +368,7 @@ int ndo__rc_dec_direct(rcdec *d);
 
 /* A frame for the hierarchical coder: the tile, its classes, the
  * references (newest first, NULL: absent) and the step. */
-#define HIER_SCRATCH 15
+#define HIER_SCRATCH 11
 typedef struct hcodes {
 	int rows, cols;
 	const uint8_t *cls;
