@@ -164,6 +164,7 @@ int ndo__rc_dec_direct(rcdec *d) { return rd_direct(d); }
 enum { H_GROUPS = 5, H_TOP = 4, H_NB = 3, H_EXP = 40 };
 
 typedef struct hmodel {
+	uint16_t node[H_GROUPS][H_NB];  /* every residual of the node 0 */
 	uint16_t zero[H_GROUPS][3][H_NB];
 	uint16_t sign[H_GROUPS][3];
 	uint16_t ex[H_GROUPS][H_NB][H_EXP];
@@ -179,11 +180,9 @@ static void model_init(hmodel *m)
 /* the neighbours' context: the sum of the edge ends' magnitudes */
 static inline int nb_of(unsigned t) { return t == 0 ? 0 : t <= 2 ? 1 : 2; }
 
-static inline void put_res(rcenc *e, hmodel *m, int g, int d, int nb, int64_t r)
+/* a nonzero residual's sign and magnitude */
+static inline void put_nz(rcenc *e, hmodel *m, int g, int d, int nb, int64_t r)
 {
-	rc_bit(e, &m->zero[g][d][nb], r != 0);
-	if (!r)
-		return;
 	rc_bit(e, &m->sign[g][d], r < 0);
 	const uint64_t a = r < 0 ? -(uint64_t)r : (uint64_t)r;
 	const int k = 63 - __builtin_clzll(a);
@@ -195,10 +194,8 @@ static inline void put_res(rcenc *e, hmodel *m, int g, int d, int nb, int64_t r)
 }
 
 /* −1 and *bad: an exponent past H_EXP − 1 */
-static inline int64_t get_res(rcdec *dc, hmodel *m, int g, int d, int nb, int *bad)
+static inline int64_t get_nz(rcdec *dc, hmodel *m, int g, int d, int nb, int *bad)
 {
-	if (!rd_bit(dc, &m->zero[g][d][nb]))
-		return 0;
 	const int neg = rd_bit(dc, &m->sign[g][d]);
 	int k = 0;
 	while (k < H_EXP - 1 && rd_bit(dc, &m->ex[g][nb][k]))
@@ -247,7 +244,7 @@ typedef struct hier {
  * axis; when those three are too far, each within the box inscribed in
  * the bound's ball (always near enough), then axis by axis back to the
  * first choice while they stay near enough. */
-static inline void choose(hier *h, size_t n, const int64_t p[3])
+static inline __attribute__((always_inline)) void choose(hier *h, size_t n, const int64_t p[3])
 {
 	int32_t *k = h->k + 3 * n;
 	if (k[0] == p[0] && k[1] == p[1] && k[2] == p[2])
@@ -425,17 +422,35 @@ static inline __attribute__((always_inline)) void node(hier *h, const int mode, 
 		pp[d] = dpcm ? ps->last[d] : pred_of(base[d], w[d], ps->beta[d]);
 	if (mode == P_ENCODE || mode == P_ENCODE1)
 		choose(h, n, pp);
+	/* the node's flag (context: the group, the ends' magnitudes over the
+	 * components), then each component's (the last implied when the others
+	 * are 0), then each nonzero one's sign and magnitude */
+	const int g = ctx[0] / H_NB;
+	const int nbs = ctx[0] % H_NB + ctx[1] % H_NB + ctx[2] % H_NB, nn = nbs == 0 ? 0 : nbs <= 2 ? 1 : 2;
+	int64_t res[3] = {0, 0, 0};
+	if (mode == P_ENCODE || mode == P_ENCODE1) {
+		for (int d = 0; d < 3; d++)
+			res[d] = (int64_t)h->k[3 * n + (size_t)d] - pp[d];
+		const int nz = (res[0] | res[1] | res[2]) != 0;
+		rc_bit(ps->e, &h->m.node[g][nn], nz);
+		if (nz) {
+			for (int d = 0; d < 3; d++) {
+				if (d < 2 || res[0] | res[1])
+					rc_bit(ps->e, &h->m.zero[g][d][ctx[d] % H_NB], res[d] != 0);
+				if (res[d])
+					put_nz(ps->e, &h->m, g, d, ctx[d] % H_NB, res[d]);
+			}
+			ps->any = 1;
+		}
+	} else if (mode == P_DECODE && rd_bit(ps->dc, &h->m.node[g][nn])) {
+		for (int d = 0; d < 3; d++)
+			if ((d == 2 && !(res[0] | res[1])) || rd_bit(ps->dc, &h->m.zero[g][d][ctx[d] % H_NB]))
+				res[d] = get_nz(ps->dc, &h->m, g, d, ctx[d] % H_NB, &ps->bad);
+	}
 	for (int d = 0; d < 3; d++) {
 		const size_t v = 3 * n + (size_t)d;
-		const int g = ctx[d] / H_NB, nb = ctx[d] % H_NB;
-		int64_t r = 0;
-		if (mode == P_ENCODE || mode == P_ENCODE1) {
-			r = (int64_t)h->k[v] - pp[d];
-			put_res(ps->e, &h->m, g, d, nb, r);
-			ps->any |= (uint64_t)r;
-		} else {
-			if (mode == P_DECODE)
-				r = get_res(ps->dc, &h->m, g, d, nb, &ps->bad);
+		const int64_t r = res[d];
+		if (mode != P_ENCODE && mode != P_ENCODE1) {
 			const int64_t k = pp[d] + r;
 			if (k <= -CODE_MAX || k >= CODE_MAX) {
 				ps->bad = 1;
@@ -471,7 +486,7 @@ static inline __attribute__((always_inline)) void level(hier *h, const int mode,
 
 /* Every LOSSY node of the frame, the top level first; each level's slope
  * share first (3 direct bits) unless the frame is a keyframe. */
-static int levels(hier *h, int mode, rcenc *e, rcdec *dc, uint64_t *any)
+NDO_HOT static int levels(hier *h, int mode, rcenc *e, rcdec *dc, uint64_t *any)
 {
 	pass ps = {{BETA_IMPLIED, BETA_IMPLIED, BETA_IMPLIED}, {0, 0, 0}, {0}, 0, 0, e, dc};
 	for (int s = h->top; s >= 1; s /= 2) {
