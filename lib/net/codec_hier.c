@@ -41,6 +41,11 @@
 #include <math.h>
 #include <string.h>
 
+hier_stats *ndo__codec_hier_stats;
+
+/* the ideal cost of a bit under probability p (P(0) in 1/2048) */
+static double pcost(uint16_t p, int bit) { return -log2((bit ? 2048.0 - p : (double)p) / 2048.0); }
+
 /* ---- the range coder ------------------------------------------------------------ */
 enum { RC_BITS = 11, RC_ONE = 1 << RC_BITS, RC_MOVE = 5 };
 #define RC_TOP (1u << 24)
@@ -191,6 +196,17 @@ static inline void put_nz(rcenc *e, hmodel *m, int g, int d, int nb, int64_t r)
 	rc_bit(e, &m->ex[g][nb][k], 0); /* k < H_EXP: |r| < 2^36 (P's bound) */
 	for (int i = k - 1; i >= 0; i--)
 		rc_direct(e, (int)(a >> i) & 1);
+}
+
+/* put_nz()'s ideal cost, in the model's state before it */
+static double nz_cost(const hmodel *m, int g, int d, int nb, int64_t r)
+{
+	const uint64_t a = r < 0 ? -(uint64_t)r : (uint64_t)r;
+	const int k = 63 - __builtin_clzll(a);
+	double c = pcost(m->sign[g][d], r < 0) + k + pcost(m->ex[g][nb][k], 0);
+	for (int i = 0; i < k; i++)
+		c += pcost(m->ex[g][nb][i], 1);
+	return c;
 }
 
 /* −1 and *bad: an exponent past H_EXP − 1 */
@@ -432,13 +448,26 @@ static inline __attribute__((always_inline)) void node(hier *h, const int mode, 
 		for (int d = 0; d < 3; d++)
 			res[d] = (int64_t)h->k[3 * n + (size_t)d] - pp[d];
 		const int nz = (res[0] | res[1] | res[2]) != 0;
+		hier_stats *st = ndo__codec_hier_stats;
+		if (st) {
+			st->nodes[g]++, st->zero_nodes[g] += !nz, st->values[g] += 3;
+			st->node_bits[g] += pcost(h->m.node[g][nn], nz);
+			st->zeros[g] += (res[0] == 0) + (res[1] == 0) + (res[2] == 0);
+		}
 		rc_bit(ps->e, &h->m.node[g][nn], nz);
 		if (nz) {
 			for (int d = 0; d < 3; d++) {
-				if (d < 2 || res[0] | res[1])
-					rc_bit(ps->e, &h->m.zero[g][d][ctx[d] % H_NB], res[d] != 0);
-				if (res[d])
-					put_nz(ps->e, &h->m, g, d, ctx[d] % H_NB, res[d]);
+				const int nb = ctx[d] % H_NB;
+				if (d < 2 || res[0] | res[1]) {
+					if (st)
+						st->zero_bits[g] += pcost(h->m.zero[g][d][nb], res[d] != 0);
+					rc_bit(ps->e, &h->m.zero[g][d][nb], res[d] != 0);
+				}
+				if (res[d]) {
+					if (st)
+						st->value_bits[g] += nz_cost(&h->m, g, d, nb, res[d]);
+					put_nz(ps->e, &h->m, g, d, nb, res[d]);
+				}
 			}
 			ps->any = 1;
 		}
@@ -505,6 +534,8 @@ NDO_HOT static int levels(hier *h, int mode, rcenc *e, rcdec *dc, uint64_t *any)
 					beta = b;
 			for (int b = 2; b >= 0; b--)
 				rc_direct(e, beta >> b & 1);
+			if (ndo__codec_hier_stats)
+				ndo__codec_hier_stats->beta_bits += 3;
 			ps.any |= (uint64_t)(beta != BETA_IMPLIED);
 		} else if (mode == P_DECODE && !h->intra) {
 			beta = 0;
@@ -612,8 +643,11 @@ int ndo__codec_hier_encode(const hcodes *c, const quant *z, double maxerr, const
 	}
 	rcenc e;
 	ndo__rc_enc_init(&e, b);
+	const size_t n0 = b->n;
 	levels(&h, P_ENCODE, &e, NULL, any);
 	ndo__rc_enc_flush(&e);
+	if (ndo__codec_hier_stats)
+		ndo__codec_hier_stats->rc_bytes += (double)(b->n - n0), ndo__codec_hier_stats->frames++;
 	return b->fail ? -1 : 0;
 }
 

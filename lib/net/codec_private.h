@@ -387,4 +387,17 @@ int ndo__codec_hier_decode(const hcodes *c, int32_t *k, int64_t *t, uint8_t *mag
                            const uint8_t *p, size_t n);
 int ndo__codec_hier_implied(const hcodes *c, int32_t *k, int64_t *t, uint8_t *mag);
 
+/* Where hier's bits go (tests/bench/bench_codec.c -v): when set, every
+ * frame encoded adds to it, per group (levels 1, 2, 4, 8 and coarser, the
+ * top and stencil-less nodes), the nodes, those all 0, the values, those
+ * 0, and the ideal bits (the model's probabilities) of the node flags,
+ * the values' zero flags and the nonzero values' signs and magnitudes;
+ * the levels' slope shares (3 bits each) and the range coder's bytes. */
+typedef struct hier_stats {
+	double nodes[5], zero_nodes[5], values[5], zeros[5];
+	double node_bits[5], zero_bits[5], value_bits[5];
+	double beta_bits, rc_bytes, frames;
+} hier_stats;
+extern hier_stats *ndo__codec_hier_stats;
+
 #endif
