@@ -287,9 +287,11 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 		/* the LOSSY codes are the coder's choice within the bound */
 		hcodes hc = {in->rows, in->cols, in->cls, {r[0], r[1], r[2]}, in->step};
 		uint64_t any;
-		if (ndo__codec_hier_encode(&hc, &z, ndo_codec_max_error(p), X, recon->k, w->ht, w->hmag,
-		                           &any, &rcs)) {
-			rc = ndo__fail(NDO_ENOMEM, "out of memory");
+		int he = ndo__codec_hier_encode(&hc, &z, ndo_codec_max_error(p), X, recon->k, w->ht,
+		                                w->hmag, &any, &rcs);
+		if (he) {
+			rc = he == -2 ? ndo__fail(NDO_ERANGE, "a position out of the codes' range")
+			              : ndo__fail(NDO_ENOMEM, "out of memory");
 			goto done;
 		}
 		allzero = any == 0;

@@ -254,56 +254,66 @@ typedef struct hier {
 	hmodel m;
 } hier;
 
-/* The encoder's choice of node n's codes given their predictions p,
- * within the error bound (the nearest codes' distance at least): each
- * code the one nearest its prediction within the bound's box on its
- * axis; when those three are too far, each within the box inscribed in
- * the bound's ball (always near enough), then axis by axis back to the
- * first choice while they stay near enough. */
-static inline __attribute__((always_inline)) void choose(hier *h, size_t n, const int64_t p[3])
+/* The encoder's choice of node n's residuals r (steps of q, HIER_FINE
+ * codes) given its predictions p: its codes p + HIER_FINE r, within the
+ * error bound (the nearest residuals' distance at least).  Each residual
+ * the one nearest 0 within the bound's box on its axis; when those three
+ * are too far, each within the box inscribed in the bound's ball (always
+ * near enough), then axis by axis back to the first choice while they
+ * stay near enough.  −1: a code out of range. */
+static inline int choose(hier *h, size_t n, const int64_t p[3], int64_t r[3])
 {
-	int32_t *k = h->k + 3 * n;
-	if (k[0] == p[0] && k[1] == p[1] && k[2] == p[2])
-		return; /* the nearest codes, predicted */
-	double t[3], lim = 0, R[3], r[3];
-	int64_t a[3], b[3];
+	const double F = HIER_FINE;
+	double t[3], u[3], lim = 0;
+	int64_t rn[3], a[3], b[3];
 	for (int d = 0; d < 3; d++) {
 		t[d] = (h->x[3 * n + d] - h->z->lo[d]) / h->z->q[d];
-		const double e = t[d] - (double)k[d];
+		u[d] = t[d] - (double)p[d]; /* in codes, from the prediction */
+		rn[d] = (int64_t)floor(u[d] / F + 0.5);
+		const double e = u[d] - F * (double)rn[d];
 		lim += e * e * h->w2[d];
 	}
-	if (lim > h->m2) /* the nearest codes at the bound's edge (rounding) */
-		for (int d = 0; d < 3; d++)
-			R[d] = sqrt(lim / h->w2[d]), r[d] = R[d] / sqrt(3.0);
-	else
-		for (int d = 0; d < 3; d++)
-			R[d] = h->R[d], r[d] = h->r[d];
-	lim = lim > h->m2 ? lim : h->m2;
-	double ea = 0, eb = 0;
-	for (int d = 0; d < 3; d++) {
-		int64_t lo = (int64_t)ceil(t[d] - R[d]), hi = (int64_t)floor(t[d] + R[d]);
-		lo = lo > k[d] ? k[d] : lo, hi = hi < k[d] ? k[d] : hi;
-		a[d] = p[d] < lo ? lo : p[d] > hi ? hi : p[d];
-		ea += (t[d] - (double)a[d]) * (t[d] - (double)a[d]) * h->w2[d];
-		lo = (int64_t)ceil(t[d] - r[d]), hi = (int64_t)floor(t[d] + r[d]);
-		lo = lo > k[d] ? k[d] : lo, hi = hi < k[d] ? k[d] : hi;
-		b[d] = p[d] < lo ? lo : p[d] > hi ? hi : p[d];
-		eb += (t[d] - (double)b[d]) * (t[d] - (double)b[d]) * h->w2[d];
-	}
-	if (ea > lim) {
-		if (!(eb <= lim)) /* cannot be: the inscribed box's corner is on the ball */
-			return;
+	if (rn[0] | rn[1] | rn[2]) {
+		double R[3], rr[3];
 		for (int d = 0; d < 3; d++) {
-			const double e2 = eb - (t[d] - (double)b[d]) * (t[d] - (double)b[d]) * h->w2[d] +
-			                  (t[d] - (double)a[d]) * (t[d] - (double)a[d]) * h->w2[d];
-			if (e2 <= lim)
-				b[d] = a[d], eb = e2;
+			R[d] = lim > h->m2 ? sqrt(lim / h->w2[d]) : h->R[d];
+			rr[d] = R[d] / sqrt(3.0);
 		}
-		a[0] = b[0], a[1] = b[1], a[2] = b[2];
+		lim = lim > h->m2 ? lim : h->m2;
+		double ea = 0, eb = 0;
+		for (int d = 0; d < 3; d++) {
+			int64_t lo = (int64_t)ceil((u[d] - R[d]) / F), hi = (int64_t)floor((u[d] + R[d]) / F);
+			lo = lo > rn[d] ? rn[d] : lo, hi = hi < rn[d] ? rn[d] : hi;
+			a[d] = 0 < lo ? lo : 0 > hi ? hi : 0;
+			ea += (u[d] - F * (double)a[d]) * (u[d] - F * (double)a[d]) * h->w2[d];
+			lo = (int64_t)ceil((u[d] - rr[d]) / F), hi = (int64_t)floor((u[d] + rr[d]) / F);
+			lo = lo > rn[d] ? rn[d] : lo, hi = hi < rn[d] ? rn[d] : hi;
+			b[d] = 0 < lo ? lo : 0 > hi ? hi : 0;
+			eb += (u[d] - F * (double)b[d]) * (u[d] - F * (double)b[d]) * h->w2[d];
+		}
+		if (ea > lim) {
+			if (!(eb <= lim)) /* cannot be: the inscribed box's corner is on the ball */
+				b[0] = rn[0], b[1] = rn[1], b[2] = rn[2];
+			else
+				for (int d = 0; d < 3; d++) {
+					const double e2 = eb -
+					                  (u[d] - F * (double)b[d]) * (u[d] - F * (double)b[d]) * h->w2[d] +
+					                  (u[d] - F * (double)a[d]) * (u[d] - F * (double)a[d]) * h->w2[d];
+					if (e2 <= lim)
+						b[d] = a[d], eb = e2;
+				}
+			a[0] = b[0], a[1] = b[1], a[2] = b[2];
+		}
+		rn[0] = a[0], rn[1] = a[1], rn[2] = a[2];
 	}
-	for (int d = 0; d < 3; d++)
-		if (a[d] > -CODE_MAX && a[d] < CODE_MAX)
-			k[d] = (int32_t)a[d];
+	for (int d = 0; d < 3; d++) {
+		const int64_t k = p[d] + HIER_FINE * rn[d];
+		if (k <= -CODE_MAX || k >= CODE_MAX)
+			return -1;
+		h->k[3 * n + d] = (int32_t)k;
+		r[d] = rn[d];
+	}
+	return 0;
 }
 
 /* Set by tests: every node through the general stencil (bounds and
@@ -426,8 +436,8 @@ static inline __attribute__((always_inline)) void node(hier *h, const int mode, 
 		for (int d = 0; d < 3; d++) {
 			h->pb[3 * n + d] = base[d], h->pw[3 * n + d] = w[d], h->ctx[3 * n + d] = (uint8_t)ctx[d];
 			for (int b = 0; b <= BETA_MAX; b++) {
-				const int64_t r = h->k[3 * n + d] - pred_of(base[d], w[d], b);
-				const uint64_t a = r < 0 ? -(uint64_t)r : (uint64_t)r;
+				const int64_t e = h->k[3 * n + d] - pred_of(base[d], w[d], b);
+				const uint64_t a = ((e < 0 ? -(uint64_t)e : (uint64_t)e) + HIER_FINE / 2) / HIER_FINE;
 				ps->cost[b] += a ? 2 + 2 * (uint64_t)(64 - __builtin_clzll(a)) : 0;
 			}
 		}
@@ -436,17 +446,17 @@ static inline __attribute__((always_inline)) void node(hier *h, const int mode, 
 	const int dpcm = h->intra && !used; /* a keyframe's node without a stencil */
 	for (int d = 0; d < 3; d++)
 		pp[d] = dpcm ? ps->last[d] : pred_of(base[d], w[d], ps->beta[d]);
-	if (mode == P_ENCODE || mode == P_ENCODE1)
-		choose(h, n, pp);
+	int64_t res[3] = {0, 0, 0};
+	if ((mode == P_ENCODE || mode == P_ENCODE1) && choose(h, n, pp, res)) {
+		ps->bad = 1;
+		return;
+	}
 	/* the node's flag (context: the group, the ends' magnitudes over the
 	 * components), then each component's (the last implied when the others
 	 * are 0), then each nonzero one's sign and magnitude */
 	const int g = ctx[0] / H_NB;
 	const int nbs = ctx[0] % H_NB + ctx[1] % H_NB + ctx[2] % H_NB, nn = nbs == 0 ? 0 : nbs <= 2 ? 1 : 2;
-	int64_t res[3] = {0, 0, 0};
 	if (mode == P_ENCODE || mode == P_ENCODE1) {
-		for (int d = 0; d < 3; d++)
-			res[d] = (int64_t)h->k[3 * n + (size_t)d] - pp[d];
 		const int nz = (res[0] | res[1] | res[2]) != 0;
 		hier_stats *st = ndo__codec_hier_stats;
 		if (st) {
@@ -480,7 +490,7 @@ static inline __attribute__((always_inline)) void node(hier *h, const int mode, 
 		const size_t v = 3 * n + (size_t)d;
 		const int64_t r = res[d];
 		if (mode != P_ENCODE && mode != P_ENCODE1) {
-			const int64_t k = pp[d] + r;
+			const int64_t k = pp[d] + HIER_FINE * r;
 			if (k <= -CODE_MAX || k >= CODE_MAX) {
 				ps->bad = 1;
 				return;
@@ -644,7 +654,8 @@ int ndo__codec_hier_encode(const hcodes *c, const quant *z, double maxerr, const
 	rcenc e;
 	ndo__rc_enc_init(&e, b);
 	const size_t n0 = b->n;
-	levels(&h, P_ENCODE, &e, NULL, any);
+	if (levels(&h, P_ENCODE, &e, NULL, any))
+		return -2;
 	ndo__rc_enc_flush(&e);
 	if (ndo__codec_hier_stats)
 		ndo__codec_hier_stats->rc_bytes += (double)(b->n - n0), ndo__codec_hier_stats->frames++;

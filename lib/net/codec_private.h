@@ -369,6 +369,7 @@ int ndo__rc_dec_direct(rcdec *d);
 /* A frame for the hierarchical coder: the tile, its classes, the
  * references (newest first, NULL: absent) and the step. */
 #define HIER_SCRATCH 11
+#define HIER_FINE 16 /* hier's codes: steps of q / 16; its residuals: steps of q */
 typedef struct hcodes {
 	int rows, cols;
 	const uint8_t *cls;
@@ -377,7 +378,8 @@ typedef struct hcodes {
 } hcodes;
 /* k: the frame's codes (3 a node; encoder: every carried node's; decoder:
  * the EXACT nodes', the LOSSY ones' filled); t (HIER_SCRATCH a node) and
- * mag (3 a node) scratch.  Encode: 0 or −1 (out of memory); *any: a nonzero
+ * mag (3 a node) scratch.  Encode: 0, −1 (out of memory) or −2 (a code out
+ * of range); *any: a nonzero
  * residual.  Decode: 0, or −1 (corrupt: bad symbols, a code out of range,
  * bytes missing or left over).  Implied: the LOSSY codes predicted, no
  * residual (0, or −1: a code out of range). */
