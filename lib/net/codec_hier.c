@@ -248,6 +248,7 @@ typedef struct hier {
 	uint8_t *mag;         /* |residual| (saturated), 3 a node */
 	const double *x;      /* encoder: the positions, 3 a node */
 	const quant *z;
+	double iq[3];         /* encoder: 1 / q (the bound has a margin of 1e-9) */
 	double m2, w2[3], R[3], r[3]; /* encoder: the bound squared; per axis q², its
 	                                 ball's and inscribed box's half-widths in codes */
 	int rel[3][8];        /* a level's stencils: node offsets from the node */
@@ -261,13 +262,14 @@ typedef struct hier {
  * are too far, each within the box inscribed in the bound's ball (always
  * near enough), then axis by axis back to the first choice while they
  * stay near enough.  −1: a code out of range. */
-static inline int choose(hier *h, size_t n, const int64_t p[3], int64_t r[3])
+static inline __attribute__((always_inline)) int choose(hier *h, size_t n, const int64_t p[3],
+                                                      int64_t r[3])
 {
 	const double F = HIER_FINE;
 	double t[3], u[3], lim = 0;
 	int64_t rn[3], a[3], b[3];
 	for (int d = 0; d < 3; d++) {
-		t[d] = (h->x[3 * n + d] - h->z->lo[d]) / h->z->q[d];
+		t[d] = (h->x[3 * n + d] - h->z->lo[d]) * h->iq[d];
 		u[d] = t[d] - (double)p[d]; /* in codes, from the prediction */
 		rn[d] = (int64_t)floor(u[d] / F + 0.5);
 		const double e = u[d] - F * (double)rn[d];
@@ -327,13 +329,14 @@ int ndo__codec_hier_general;
  * context per component (the group g × H_NB + nb).  Returns the stencil
  * nodes used: 8, 2 (the ends' mean), 1 (the one end held) or 0. */
 static inline __attribute__((always_inline)) int
-pred16(const hier *h, int i, int j, int s, int type, int64_t base[3], int64_t w[3], int ctx[3])
+pred16(const hier *h, int i, int j, int s, int type, const int slope, int64_t base[3], int64_t w[3],
+       int ctx[3])
 {
 	const long n = (long)j * h->cols + i;
 	const int32_t *K1 = h->k1 + 3 * n, *V = h->v + 3 * n, *D = h->dk, *VV = h->v;
 	if (!s) {
 		for (int d = 0; d < 3; d++)
-			base[d] = 16 * (int64_t)K1[d], w[d] = 16 * (int64_t)V[d], ctx[d] = H_TOP * H_NB;
+			base[d] = 16 * (int64_t)K1[d], w[d] = slope ? 16 * (int64_t)V[d] : 0, ctx[d] = H_TOP * H_NB;
 		return 0;
 	}
 	const int g = (s == 1 ? 0 : s == 2 ? 1 : s == 4 ? 2 : 3) * H_NB;
@@ -350,9 +353,10 @@ pred16(const hier *h, int i, int j, int s, int type, int64_t base[3], int64_t w[
 			          8 * ((int64_t)D[o[0] + d] + D[o[1] + d]) +
 			          2 * ((int64_t)D[o[2] + d] + D[o[3] + d]) -
 			          ((int64_t)D[o[4] + d] + D[o[5] + d] + D[o[6] + d] + D[o[7] + d]);
-			w[d] = 16 * (int64_t)V[d] - 8 * ((int64_t)VV[o[0] + d] + VV[o[1] + d]) -
-			       2 * ((int64_t)VV[o[2] + d] + VV[o[3] + d]) +
-			       ((int64_t)VV[o[4] + d] + VV[o[5] + d] + VV[o[6] + d] + VV[o[7] + d]);
+			w[d] = !slope ? 0
+			       : 16 * (int64_t)V[d] - 8 * ((int64_t)VV[o[0] + d] + VV[o[1] + d]) -
+			             2 * ((int64_t)VV[o[2] + d] + VV[o[3] + d]) +
+			             ((int64_t)VV[o[4] + d] + VV[o[5] + d] + VV[o[6] + d] + VV[o[7] + d]);
 			ctx[d] = g + nb_of((unsigned)ma[d] + mb[d]);
 		}
 		return 8;
@@ -374,6 +378,7 @@ pred16(const hier *h, int i, int j, int s, int type, int64_t base[3], int64_t w[
 				base[d] += wq * (int64_t)D[o[q] + d];
 				w[d] -= wq * (int64_t)VV[o[q] + d];
 			}
+			w[d] = slope ? w[d] : 0;
 			ctx[d] = g + nb_of((unsigned)h->mag[o[0] + d] + h->mag[o[1] + d]);
 		}
 		return 8;
@@ -381,7 +386,7 @@ pred16(const hier *h, int i, int j, int s, int type, int64_t base[3], int64_t w[
 	if (o[0] >= 0 && o[1] >= 0) {
 		for (int d = 0; d < 3; d++) {
 			base[d] = 16 * (int64_t)K1[d] + 8 * ((int64_t)D[o[0] + d] + D[o[1] + d]);
-			w[d] = 16 * (int64_t)V[d] - 8 * ((int64_t)VV[o[0] + d] + VV[o[1] + d]);
+			w[d] = slope ? 16 * (int64_t)V[d] - 8 * ((int64_t)VV[o[0] + d] + VV[o[1] + d]) : 0;
 			ctx[d] = g + nb_of((unsigned)h->mag[o[0] + d] + h->mag[o[1] + d]);
 		}
 		return 2;
@@ -389,7 +394,7 @@ pred16(const hier *h, int i, int j, int s, int type, int64_t base[3], int64_t w[
 	const long e = o[0] >= 0 ? o[0] : o[1];
 	for (int d = 0; d < 3; d++) {
 		base[d] = 16 * (int64_t)K1[d] + (e >= 0 ? 16 * (int64_t)D[e + d] : 0);
-		w[d] = 16 * (int64_t)V[d] - (e >= 0 ? 16 * (int64_t)VV[e + d] : 0);
+		w[d] = slope ? 16 * (int64_t)V[d] - (e >= 0 ? 16 * (int64_t)VV[e + d] : 0) : 0;
 		ctx[d] = e >= 0 ? g + nb_of(h->mag[e + d]) : H_TOP * H_NB;
 	}
 	return e >= 0;
@@ -407,7 +412,7 @@ typedef struct pass {
 	int beta[3];          /* this level's slope shares (one for now: all equal) */
 	int64_t last[3];      /* a keyframe's top level: the last node's codes */
 	uint64_t cost[BETA_MAX + 1];
-	uint64_t any;
+	uint64_t any, sample;
 	int bad;
 	rcenc *e;
 	rcdec *dc;
@@ -430,11 +435,13 @@ static inline __attribute__((always_inline)) void node(hier *h, const int mode, 
 		for (int d = 0; d < 3; d++)
 			base[d] = h->pb[3 * n + d], w[d] = h->pw[3 * n + d], ctx[d] = h->ctx[3 * n + d];
 	} else {
-		used = pred16(h, i, j, s, type, base, w, ctx);
+		used = pred16(h, i, j, s, type, mode == P_COLLECT || ps->beta[0] != 0, base, w, ctx);
 	}
 	if (mode == P_COLLECT) {
 		for (int d = 0; d < 3; d++) {
 			h->pb[3 * n + d] = base[d], h->pw[3 * n + d] = w[d], h->ctx[3 * n + d] = (uint8_t)ctx[d];
+			if (ps->sample++ & 3) /* the costs of every fourth value */
+				continue;
 			for (int b = 0; b <= BETA_MAX; b++) {
 				const int64_t e = h->k[3 * n + d] - pred_of(base[d], w[d], b);
 				const uint64_t a = ((e < 0 ? -(uint64_t)e : (uint64_t)e) + HIER_FINE / 2) / HIER_FINE;
@@ -527,7 +534,7 @@ static inline __attribute__((always_inline)) void level(hier *h, const int mode,
  * share first (3 direct bits) unless the frame is a keyframe. */
 NDO_HOT static int levels(hier *h, int mode, rcenc *e, rcdec *dc, uint64_t *any)
 {
-	pass ps = {{BETA_IMPLIED, BETA_IMPLIED, BETA_IMPLIED}, {0, 0, 0}, {0}, 0, 0, e, dc};
+	pass ps = {{BETA_IMPLIED, BETA_IMPLIED, BETA_IMPLIED}, {0, 0, 0}, {0}, 0, 0, 0, e, dc};
 	for (int s = h->top; s >= 1; s /= 2) {
 		const int ls = s == h->top ? 0 : s; /* the top level: no stencil */
 		const int st = 2 * s, C = h->cols;
@@ -648,7 +655,7 @@ int ndo__codec_hier_encode(const hcodes *c, const quant *z, double maxerr, const
 	hier_init(&h, c, k, t, mag);
 	h.x = x, h.z = z, h.m2 = maxerr * maxerr * (1 - 1e-9);
 	for (int d = 0; d < 3; d++) {
-		h.w2[d] = z->q[d] * z->q[d];
+		h.w2[d] = z->q[d] * z->q[d], h.iq[d] = 1 / z->q[d];
 		h.R[d] = sqrt(h.m2 / h.w2[d]), h.r[d] = h.R[d] / sqrt(3.0);
 	}
 	rcenc e;
