@@ -628,14 +628,13 @@ static void hier_init(hier *h, const hcodes *c, int32_t *k, int64_t *t, uint8_t 
 	h->ctx = (uint8_t *)(t32 + 3 * N);
 	time_refs(h, c, t32 + 2 * N);
 	h->x = NULL;
-	h->allheld = 1;
-	for (int n = 0; n < nodes; n++) {
-		h->allheld &= c->cls[n] != NDO_NODE_SKIP;
-		for (int d = 0; d < 3; d++) {
-			mag[3 * n + d] = 0; /* an EXACT node's: no residual */
-			if (c->cls[n] == NDO_NODE_EXACT)
-				h->dk[3 * n + d] = (int32_t)((int64_t)k[3 * n + d] - h->k1[3 * n + d]);
-		}
+	h->allheld = !memchr(c->cls, NDO_NODE_SKIP, (size_t)nodes);
+	memset(mag, 0, N); /* an EXACT node's: no residual */
+	for (const uint8_t *e = c->cls; (e = memchr(e, NDO_NODE_EXACT, (size_t)(c->cls + nodes - e)));
+	     e++) {
+		const size_t n = (size_t)(e - c->cls);
+		for (int d = 0; d < 3; d++)
+			h->dk[3 * n + d] = (int32_t)((int64_t)k[3 * n + d] - h->k1[3 * n + d]);
 	}
 	model_init(&h->m);
 }
