@@ -34,6 +34,7 @@ void ndo_codec_work_destroy(ndo_codec_work *w)
 	ZSTD_freeCCtx(w->cc);
 	ZSTD_freeDCtx(w->dc);
 	free(w->buf), free(w->buf2), free(w->cur), free(w->u), free(w->erow), free(w->row), free(w->xg);
+	free(w->ht), free(w->hmag);
 	free(w);
 }
 
@@ -58,6 +59,14 @@ static int work_nodes(ndo_codec_work *w, size_t nodes)
 	if (!er)
 		return -1;
 	w->erow = er;
+	int64_t *ht = realloc(w->ht, HIER_SCRATCH * nodes * sizeof *ht);
+	if (!ht)
+		return -1;
+	w->ht = ht;
+	uint8_t *hm = realloc(w->hmag, 3 * nodes);
+	if (!hm)
+		return -1;
+	w->hmag = hm;
 	w->ecap = nodes;
 	return 0;
 }
@@ -138,10 +147,10 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 	*len = 0;
 	*unchanged = 0;
 	*base_step = -1;
-	wbuf body = {0}, out = {0};
+	wbuf body = {0}, out = {0}, rcs = {0}, part = {0};
 	/* references */
 	const ndo_codec_frame *r[3] = {0};
-	if (enc == NDO_ENC_PREDICT && !intra && h)
+	if (enc >= NDO_ENC_PREDICT && !intra && h)
 		for (int k = 0, m = 0; k < NDO_CODEC_HISTORY && m < 3; k++)
 			if (h->f[k].step >= 0 && h->f[k].step < in->step && h->f[k].epoch == in->epoch &&
 			    in->step - h->f[k].step <= NDO_CODEC_MAX_GAP)
@@ -202,7 +211,7 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 				ok = 0;
 			recon->x[3 * n + d] = xn[d];
 		}
-		if (enc == NDO_ENC_PREDICT) {
+		if (enc >= NDO_ENC_PREDICT) {
 			for (int d = 0; d < 3; d++)
 				w->u[nw++] = bits_of(xn[d]) ^
 				             bits_of(pred_position(&z, r[0], r[1], n, d, in->time));
@@ -273,6 +282,23 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 	if (!ok) {
 		rc = ndo__fail(NDO_ERANGE, "a position out of the codes' range");
 		goto done;
+	}
+	if (enc == NDO_ENC_HIER) {
+		/* the LOSSY codes are the coder's choice within the bound */
+		hcodes hc = {in->rows, in->cols, in->cls, {r[0], r[1], r[2]}, in->step};
+		uint64_t any;
+		int he = ndo__codec_hier_encode(&hc, &z, ndo_codec_max_error(p), X, recon->k, w->ht,
+		                                w->hmag, &any, &rcs);
+		if (he) {
+			rc = he == -2 ? ndo__fail(NDO_ERANGE, "a position out of the codes' range")
+			              : ndo__fail(NDO_ENOMEM, "out of memory");
+			goto done;
+		}
+		allzero = any == 0;
+		for (int n = 0; n < nodes; n++)
+			if (in->cls[n] == NDO_NODE_LOSSY)
+				for (int d = 0; d < 3; d++)
+					recon->x[3 * n + d] = value_of(&z, d, recon->k[3 * n + d]);
 	}
 	if (!errors_known) { /* the error this frame introduces */
 		double max2 = 0, sum2 = 0;
@@ -356,7 +382,19 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 		put_varint(&out, r[1] && r[2] ? (uint64_t)(r[1]->step - r[2]->step) : 0);
 		*base_step = r[0]->step;
 	}
-	if (enc == NDO_ENC_PREDICT) {
+	if (enc == NDO_ENC_HIER) {
+		/* the classes and EXACT nodes (zstd when shorter) after their
+		 * length, then the range coder's bytes */
+		put_byte(&part, 0);
+		if (ndo__codec_zstd_put(w, &part, &body)) {
+			rc = ndo__fail(NDO_ENOMEM, "out of memory");
+			goto done;
+		}
+		out.p[0] |= part.p[0] & F_ZSTD;
+		put_varint(&out, (uint64_t)(part.n - 1));
+		put(&out, part.p + 1, part.n - 1);
+		put(&out, rcs.p, rcs.n);
+	} else if (enc == NDO_ENC_PREDICT) {
 		if (ndo__codec_zstd_put(w, &out, &body)) {
 			rc = ndo__fail(NDO_ENOMEM, "out of memory");
 			goto done;
@@ -375,6 +413,7 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 done:
 	free(body.p);
 	free(out.p);
+	free(rcs.p), free(part.p);
 	if (own_w)
 		ndo_codec_work_destroy(w);
 	return rc;
@@ -487,7 +526,7 @@ ndo_drop ndo_codec_decode_strided(const ndo_codec_params *p, ndo_codec_work *w,
 	const size_t S = (size_t)stride;
 	const int nodes = rows * cols, enc = p->encoding;
 	const quant z = ndo__codec_quant_of(p);
-	if (enc <= NDO_ENC_RAW || enc > NDO_ENC_PREDICT || nodes <= 0)
+	if (enc <= NDO_ENC_RAW || enc > NDO_ENC_HIER || nodes <= 0)
 		return NDO_DROP_ENCODING;
 	if (!data || len < 1)
 		return NDO_DROP_CORRUPT;
@@ -500,9 +539,9 @@ ndo_drop ndo_codec_decode_strided(const ndo_codec_params *p, ndo_codec_work *w,
 	flags = data[r.pos++];
 	int kind = flags & 3;
 	const ndo_codec_frame *ref[3] = {0};
-	if ((flags & 0xe0) || kind > KIND_PRED || ((flags & F_ZSTD) && enc != NDO_ENC_PREDICT) ||
+	if ((flags & 0xe0) || kind > KIND_PRED || ((flags & F_ZSTD) && enc < NDO_ENC_PREDICT) ||
 	    ((flags & F_WIDE) && enc != NDO_ENC_FIXED) || (kind == KIND_PRED) != (base_step >= 0) ||
-	    (kind == KIND_PRED && enc != NDO_ENC_PREDICT) || base_step >= step ||
+	    (kind == KIND_PRED && enc < NDO_ENC_PREDICT) || base_step >= step ||
 	    (base_step >= 0 && step - base_step > NDO_CODEC_MAX_GAP)) {
 		res = NDO_DROP_CORRUPT;
 		goto done;
@@ -532,6 +571,17 @@ ndo_drop ndo_codec_decode_strided(const ndo_codec_params *p, ndo_codec_work *w,
 		goto done;
 	}
 	rbuf b = {data + r.pos, len - r.pos, 0, 0};
+	const uint8_t *rcp = NULL; /* hier: the range coder's bytes */
+	size_t rcn = 0;
+	if (enc == NDO_ENC_HIER) {
+		uint64_t n1 = get_varint(&r);
+		if (r.bad || n1 > len - r.pos) {
+			res = NDO_DROP_CORRUPT;
+			goto done;
+		}
+		b = (rbuf){data + r.pos, (size_t)n1, 0, 0};
+		rcp = data + r.pos + n1, rcn = len - r.pos - (size_t)n1;
+	}
 	if ((flags & F_ZSTD) && (res = ndo__codec_zstd_get(w, &b, body_bound(nodes))) != NDO_DROP_NONE)
 		goto done;
 	recon->step = step;
@@ -545,14 +595,14 @@ ndo_drop ndo_codec_decode_strided(const ndo_codec_params *p, ndo_codec_work *w,
 	size_t nw = 0, cnt[3];
 	class_pass(cls, nodes, enc, recon->have, cnt);
 	const size_t nexact = cnt[2];
-	if (enc == NDO_ENC_PREDICT && nexact && ndo__codec_get_planes(&b, w->u, 3 * nexact)) {
+	if (enc >= NDO_ENC_PREDICT && nexact && ndo__codec_get_planes(&b, w->u, 3 * nexact)) {
 		res = NDO_DROP_CORRUPT;
 		goto done;
 	}
 	for (int n = 0; n < nodes && nexact; n++) {
 		if (cls[n] != NDO_NODE_EXACT)
 			continue;
-		if (enc == NDO_ENC_PREDICT) {
+		if (enc >= NDO_ENC_PREDICT) {
 			for (int d = 0; d < 3; d++)
 				x[S * n + d] = recon->x[3 * n + d] =
 				    double_of(w->u[nw++] ^ bits_of(pred_position(&z, ref[0], ref[1], n, d, time)));
@@ -580,7 +630,17 @@ ndo_drop ndo_codec_decode_strided(const ndo_codec_params *p, ndo_codec_work *w,
 	const ndo_codec_frame *prev = ndo__codec_before(h, step, epoch);
 	double dtp = prev ? time - prev->time : 0, inv = dtp > 0 ? 1 / dtp : 0;
 	outs o = {x, v, S, prev, inv, 0};
-	int dl = decode_lossy(p, w, &b, flags, cls, cnt[1], rows, cols, ref, step, recon, &o);
+	int dl;
+	if (enc == NDO_ENC_HIER) {
+		hcodes hc = {rows, cols, cls, {ref[0], ref[1], ref[2]}, step};
+		dl = ndo__codec_hier_decode(&hc, recon->k, w->ht, w->hmag, rcp, rcn);
+		for (int n = 0; n < nodes && !dl; n++)
+			if (cls[n] == NDO_NODE_LOSSY)
+				for (int d = 0; d < 3; d++)
+					recon->x[3 * n + d] = value_of(&z, d, recon->k[3 * n + d]);
+	} else {
+		dl = decode_lossy(p, w, &b, flags, cls, cnt[1], rows, cols, ref, step, recon, &o);
+	}
 	if (dl == -2) {
 		res = NDO_DROP_RANGE;
 		goto done;
@@ -628,7 +688,7 @@ int ndo_codec_implied(const ndo_codec_params *p, const ndo_codec_hist *h, int ro
 	for (int k = 0, m = 0; h && k < NDO_CODEC_HISTORY && m < 3; k++)
 		if (h->f[k].step >= 0 && h->f[k].step < step && step - h->f[k].step <= NDO_CODEC_MAX_GAP)
 			r[m++] = &h->f[k];
-	if (!r[0] || p->encoding != NDO_ENC_PREDICT)
+	if (!r[0] || p->encoding < NDO_ENC_PREDICT)
 		return ndo__fail(NDO_EINVAL, "no frame to predict step %lld from", (long long)step);
 	uint8_t *cls = malloc((size_t)nodes);
 	int32_t *cur = malloc((size_t)nodes * sizeof *cur);
@@ -638,6 +698,26 @@ int ndo_codec_implied(const ndo_codec_params *p, const ndo_codec_hist *h, int ro
 	}
 	for (int n = 0; n < nodes; n++)
 		cls[n] = r[0]->have[n] ? NDO_NODE_LOSSY : NDO_NODE_SKIP;
+	if (p->encoding == NDO_ENC_HIER) {
+		int64_t *t = malloc(HIER_SCRATCH * (size_t)nodes * sizeof *t);
+		uint8_t *mag = malloc(3 * (size_t)nodes);
+		hcodes hc = {rows, cols, cls, {r[0], r[1], r[2]}, step};
+		int rc = !t || !mag ? ndo__fail(NDO_ENOMEM, "out of memory")
+		         : ndo__codec_hier_implied(&hc, recon->k, t, mag)
+		             ? ndo__fail(NDO_ERANGE, "step %lld: a code out of range", (long long)step)
+		             : 0;
+		recon->step = step;
+		recon->time = time;
+		recon->epoch = r[0]->epoch;
+		for (int n = 0; n < nodes; n++) {
+			recon->have[n] = cls[n] != NDO_NODE_SKIP;
+			for (int d = 0; d < 3; d++)
+				x[3 * n + d] = recon->x[3 * n + d] =
+				    !rc && recon->have[n] ? value_of(&z, d, recon->k[3 * n + d]) : NAN;
+		}
+		free(t), free(mag), free(cls), free(cur);
+		return rc;
+	}
 	pctx c = {.cols = cols, .nodes = nodes, .cls = cls, .cur = cur};
 	ndo__codec_pctx_init(&c, r[0], r[1], r[2], step);
 	recon->step = step;

@@ -11,7 +11,7 @@
 #include <string.h>
 
 /* ---- parameters ----------------------------------------------------------- */
-static const char *const enc_names[] = {"raw", "float32", "fixed", "predict"};
+static const char *const enc_names[] = {"raw", "float32", "fixed", "predict", "hier"};
 
 int ndo_codec_parse(const char *spec, ndo_codec_params *p)
 {
@@ -21,16 +21,17 @@ int ndo_codec_parse(const char *spec, ndo_codec_params *p)
 	const char *colon = strchr(spec, ':');
 	size_t n = colon ? (size_t)(colon - spec) : strlen(spec);
 	if (n == 0 || n >= sizeof name)
-		return ndo__fail(NDO_EINVAL, "'%s': not raw, float32, fixed[:BITS] or "
-		                 "predict[:BITS[:KEYFRAME]]", spec);
+		return ndo__fail(NDO_EINVAL, "'%s': not raw, float32, fixed[:BITS], "
+		                 "predict[:BITS[:KEYFRAME]] or hier[:BITS[:KEYFRAME]]", spec);
 	memcpy(name, spec, n);
 	name[n] = 0;
 	int e = -1;
-	for (int k = 0; k < 4; k++)
+	for (int k = 0; k < 5; k++)
 		if (strcmp(name, enc_names[k]) == 0)
 			e = k;
 	if (e < 0)
-		return ndo__fail(NDO_EINVAL, "'%s': unknown encoding (raw, float32, fixed, predict)",
+		return ndo__fail(NDO_EINVAL, "'%s': unknown encoding (raw, float32, fixed, predict, "
+		                 "hier)",
 		                 name);
 	if (colon) {
 		if (e < NDO_ENC_FIXED)
@@ -55,9 +56,9 @@ int ndo_codec_parse(const char *spec, ndo_codec_params *p)
 		if (*end == ':') {
 			const char *ks = end + 1;
 			long kk = strtol(ks, &end, 10);
-			if (e != NDO_ENC_PREDICT || end == ks || *end || kk < 1 || kk > 4096)
+			if (e < NDO_ENC_PREDICT || end == ks || *end || kk < 1 || kk > 4096)
 				return ndo__fail(NDO_EINVAL, "'%s': the keyframe period must be 1..4096 "
-				                 "(predict only)", spec);
+				                 "(predict and hier only)", spec);
 			key = (int)kk;
 		}
 	}
@@ -71,7 +72,7 @@ int ndo_codec_parse(const char *spec, ndo_codec_params *p)
 
 void ndo_codec_name(const ndo_codec_params *p, char *buf, size_t size)
 {
-	int e = p->encoding >= 0 && p->encoding < 4 ? p->encoding : 0;
+	int e = p->encoding >= 0 && p->encoding < 5 ? p->encoding : 0;
 	char depth[32];
 	if (p->error > 0)
 		snprintf(depth, sizeof depth, "%.3g", p->error);
@@ -81,8 +82,8 @@ void ndo_codec_name(const ndo_codec_params *p, char *buf, size_t size)
 		snprintf(depth, sizeof depth, "%.1f", p->error);
 	if (e == NDO_ENC_FIXED)
 		snprintf(buf, size, "fixed:%s", depth);
-	else if (e == NDO_ENC_PREDICT)
-		snprintf(buf, size, "predict:%s:%d", depth, p->keyframe);
+	else if (e >= NDO_ENC_PREDICT)
+		snprintf(buf, size, "%s:%s:%d", enc_names[e], depth, p->keyframe);
 	else
 		snprintf(buf, size, "%s", enc_names[e]);
 }
@@ -122,6 +123,7 @@ double ndo_codec_max_error(const ndo_codec_params *p)
 	switch (p->encoding) {
 	case NDO_ENC_FIXED:
 	case NDO_ENC_PREDICT:
+	case NDO_ENC_HIER:
 		if (p->error > 0)
 			return p->error * ndo_codec_diagonal(p);
 		return ldexp(ndo_codec_diagonal(p), -(p->bits + 1));
@@ -145,7 +147,7 @@ double ndo_codec_max_error(const ndo_codec_params *p)
 
 int ndo_codec_params_check(const ndo_codec_params *p)
 {
-	if (p->encoding < NDO_ENC_RAW || p->encoding > NDO_ENC_PREDICT)
+	if (p->encoding < NDO_ENC_RAW || p->encoding > NDO_ENC_HIER)
 		return ndo__fail(NDO_EINVAL, "tile encoding %d unknown", p->encoding);
 	if (p->encoding == NDO_ENC_RAW)
 		return 0;

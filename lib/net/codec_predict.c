@@ -137,6 +137,9 @@ quant ndo__codec_quant_of(const ndo_codec_params *p)
 	double q = p->error > 0 ? 2 * p->error * ndo_codec_diagonal(p) / sqrt(3) : 0;
 	for (int c = 0; c < 3; c++)
 		z.lo[c] = p->lo[c], z.q[c] = p->error > 0 ? q : ldexp(p->ext[c], -p->bits);
+	if (p->encoding == NDO_ENC_HIER) /* its codes: steps of q / HIER_FINE */
+		for (int c = 0; c < 3; c++)
+			z.q[c] /= HIER_FINE;
 	return z;
 }
 

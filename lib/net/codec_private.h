@@ -51,6 +51,8 @@ struct ndo_codec_work {
 	double err_max2, err_sum2; /* the last frame encoded: its LOSSY errors */
 	size_t err_n;
 	size_t ecap;
+	int64_t *ht;     /* hier: HIER_SCRATCH x nodes */
+	uint8_t *hmag;   /* hier: 3 x nodes residual magnitudes */
 };
 
 /* The row loops' scratch for rows of `cols` nodes (L = 3 cols values):
@@ -340,5 +342,64 @@ int ndo__codec_zstd_put(ndo_codec_work *w, wbuf *out, const wbuf *body);
 /* A compressed body (F_ZSTD) of at most `bound` bytes into w's buffer, and
  * *b reading it: NDO_DROP_NONE, or why not. */
 ndo_drop ndo__codec_zstd_get(ndo_codec_work *w, rbuf *b, size_t bound);
+
+/* codec_hier.c: the hierarchical coder ("hier") and its range coder.  An
+ * encoder writes to a wbuf; a decoder reads p[0, n), counting in `over`
+ * the bytes it wanted past the end (0 for a whole stream). */
+typedef struct rcenc {
+	uint64_t low;
+	uint32_t range;
+	uint8_t cache;
+	uint64_t pending;
+	wbuf *b;
+} rcenc;
+typedef struct rcdec {
+	const uint8_t *p;
+	size_t n, pos, over;
+	uint32_t range, code;
+} rcdec;
+void ndo__rc_enc_init(rcenc *e, wbuf *b);
+void ndo__rc_enc_bit(rcenc *e, uint16_t *p, int bit); /* p: P(0) in 1/2048, adapted */
+void ndo__rc_enc_direct(rcenc *e, int bit);           /* probability 1/2 */
+void ndo__rc_enc_flush(rcenc *e);
+void ndo__rc_dec_init(rcdec *d, const uint8_t *p, size_t n);
+int ndo__rc_dec_bit(rcdec *d, uint16_t *p);
+int ndo__rc_dec_direct(rcdec *d);
+
+/* A frame for the hierarchical coder: the tile, its classes, the
+ * references (newest first, NULL: absent) and the step. */
+#define HIER_SCRATCH 11
+#define HIER_FINE 16 /* hier's codes: steps of q / 16; its residuals: steps of q */
+typedef struct hcodes {
+	int rows, cols;
+	const uint8_t *cls;
+	const ndo_codec_frame *r[3];
+	int64_t step;
+} hcodes;
+/* k: the frame's codes (3 a node; encoder: every carried node's; decoder:
+ * the EXACT nodes', the LOSSY ones' filled); t (HIER_SCRATCH a node) and
+ * mag (3 a node) scratch.  Encode: 0, −1 (out of memory) or −2 (a code out
+ * of range); *any: a nonzero
+ * residual.  Decode: 0, or −1 (corrupt: bad symbols, a code out of range,
+ * bytes missing or left over).  Implied: the LOSSY codes predicted, no
+ * residual (0, or −1: a code out of range). */
+int ndo__codec_hier_encode(const hcodes *c, const quant *z, double maxerr, const double *x,
+                           int32_t *k, int64_t *t, uint8_t *mag, uint64_t *any, wbuf *b);
+int ndo__codec_hier_decode(const hcodes *c, int32_t *k, int64_t *t, uint8_t *mag,
+                           const uint8_t *p, size_t n);
+int ndo__codec_hier_implied(const hcodes *c, int32_t *k, int64_t *t, uint8_t *mag);
+
+/* Where hier's bits go (tests/bench/bench_codec.c -v): when set, every
+ * frame encoded adds to it, per group (levels 1, 2, 4, 8 and coarser, the
+ * top and stencil-less nodes), the nodes, those all 0, the values, those
+ * 0, and the ideal bits (the model's probabilities) of the node flags,
+ * the values' zero flags and the nonzero values' signs and magnitudes;
+ * the levels' slope shares (3 bits each) and the range coder's bytes. */
+typedef struct hier_stats {
+	double nodes[5], zero_nodes[5], values[5], zeros[5];
+	double node_bits[5], zero_bits[5], value_bits[5];
+	double beta_bits, rc_bytes, frames;
+} hier_stats;
+extern hier_stats *ndo__codec_hier_stats;
 
 #endif

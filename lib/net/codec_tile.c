@@ -423,7 +423,7 @@ static entry *entry_of(const ndo_codec *c, const ndo_msg_tile_t *t)
 int ndo_codec_skipped(const ndo_codec *c, const ndo_msg_tile_t *t)
 {
 	entry *e = entry_of(c, t);
-	if (!e || e->dec_step != t->step || e->dec_base < 0 || c->p.encoding != NDO_ENC_PREDICT)
+	if (!e || e->dec_step != t->step || e->dec_base < 0 || (c->p.encoding != NDO_ENC_PREDICT && c->p.encoding != NDO_ENC_HIER))
 		return 0;
 	int64_t gap = t->step - e->dec_base - 1;
 	return gap > 0 && gap <= NDO_CODEC_MAX_SKIP ? (int)gap : 0;

@@ -421,7 +421,7 @@ ndo_drop ndo_msg_validate(const ndo_msg *m, const ndo_msg_ctx *c)
 			return NDO_DROP_RANGE;
 		if (t->channels <= 0 || (t->channels & ~(NDO_TILE_ALL | NDO_TILE_COARSE)))
 			return NDO_DROP_RANGE;
-		if (t->encoding < NDO_ENC_RAW || t->encoding > NDO_ENC_PREDICT)
+		if (t->encoding < NDO_ENC_RAW || t->encoding > NDO_ENC_HIER)
 			return NDO_DROP_ENCODING;
 		if (t->encoding != NDO_ENC_RAW) { /* the payload is the codec's to check */
 			if ((t->channels & ~NDO_TILE_COARSE) != (NDO_TILE_POSITION | NDO_TILE_VELOCITY) ||

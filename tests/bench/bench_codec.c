@@ -6,16 +6,24 @@
  * tile, its region's cover) and decoded by a receiver, which must
  * reconstruct exactly what the encoder says it will.
  *
- *   bench_codec [-l LEVEL] [-e ENCODING] [-p PEERS] [-t SECONDS] [-z ZSTD_LEVEL]
+ *   bench_codec [-l LEVEL] [-e ENCODING] [-p PEERS] [-t SECONDS] [-z ZSTD_LEVEL] [-v 1]
  *
  * Prints one line: payload bits per node per update (over W x H nodes,
  * the thesis' count; without message headers), the share of the EXACT
  * nodes' bytes, median encode and decode ms per step (the sender's whole
- * region), the largest position error over the box's diagonal. */
+ * region), the largest position error over the box's diagonal.  Times:
+ * the codec's workspace warm (kept from step to step, as in a session);
+ * the decoder mallocs each tile's values (ndo_codec_decode_tile()).
+ * With -v 1 and hier, where the bits go: per level group, the nodes, the
+ * share of them with every residual 0, the values' zero share and the
+ * ideal bits (the range coder's model) of the node flags, zero flags and
+ * nonzero values, then the slope shares' bits and the rest (headers,
+ * classes, the coder's own overhead). */
 #include "ndo/ndo.h"
 #include "ndo/codec.h"
 #include "ndo/partition.h"
 #include "ndo/quadtree.h"
+#include "codec_private.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -71,7 +79,10 @@ int main(int argc, char **argv)
 			peers = atoi(argv[a + 1]);
 		else if (!strcmp(argv[a], "-d")) /* every step's positions, f64, to a file */
 			dump = argv[a + 1];
-		else if (!strcmp(argv[a], "-t"))
+		else if (!strcmp(argv[a], "-v") && atoi(argv[a + 1]) > 0) {
+			static hier_stats hs;
+			ndo__codec_hier_stats = &hs;
+		} else if (!strcmp(argv[a], "-t"))
 			seconds = atof(argv[a + 1]);
 		else if (!strcmp(argv[a], "-n")) /* steps, at the auto step (instead of -t) */
 			nsteps = atoll(argv[a + 1]);
@@ -228,6 +239,29 @@ int main(int argc, char **argv)
 	       1e3 * median(cd, (size_t)steps), maxerr / diag, ndo_codec_max_error(&p) / diag,
 	       (unsigned long long)es.keyframes, (unsigned long long)es.skipped, crc,
 	       bad == 1 ? " DECODE FAILED" : bad == 2 ? " EXACT NODE CHANGED" : "");
+	if (ndo__codec_hier_stats && ndo__codec_hier_stats->frames > 0) {
+		const hier_stats *hs = ndo__codec_hier_stats;
+		const char *name[5] = {"level 1", "level 2", "level 4", "level 8+", "top/none"};
+		const double total = 8.0 * (double)bytes, upd = (double)g->count * (double)steps;
+		double coded = hs->beta_bits, all = 0;
+		for (int k = 0; k < 5; k++)
+			all += hs->nodes[k];
+		printf("where the bits go (bits per node per update over W x H; share of the payload):\n");
+		for (int k = 0; k < 5; k++) {
+			const double b = hs->node_bits[k] + hs->zero_bits[k] + hs->value_bits[k];
+			coded += b;
+			if (hs->nodes[k] == 0)
+				continue;
+			printf("  %-8s %5.1f%% of the nodes, %5.1f%% all 0, values %5.1f%% 0; node flags "
+			       "%.3f, zero flags %.3f, nonzero values %.3f = %.3f (%.1f%%)\n",
+			       name[k], 100 * hs->nodes[k] / all,
+			       100 * hs->zero_nodes[k] / hs->nodes[k], 100 * hs->zeros[k] / hs->values[k],
+			       hs->node_bits[k] / upd, hs->zero_bits[k] / upd, hs->value_bits[k] / upd,
+			       b / upd, 100 * b / total);
+		}
+		printf("  slope shares %.4f; headers, classes and the coder's overhead %.3f (%.1f%%)\n",
+		       hs->beta_bits / upd, (total - coded) / upd, 100 * (total - coded) / total);
+	}
 	ndo_codec_destroy(enc);
 	ndo_codec_destroy(dec);
 	ndo_sim_destroy(sim);

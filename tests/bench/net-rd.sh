@@ -2,7 +2,7 @@
 # net-rd — rate against distortion over real LCM (issue 20): bits per
 # vertex per update on the wire (steady state, every header) against the
 # error at the simulated level (max and RMS over the rest shape's box
-# diagonal) for every encoding — float32, fixed and predict at error
+# diagonal) for every encoding — float32, fixed, predict and hier at error
 # budgets 1e-3 ... 1e-6 — and send level (the simulated level and one and
 # two below), the thesis' scene for 5 s, levels 6 and 7, one simulating
 # peer streaming to an observer (Table 5.2's setting).  Writes
@@ -17,7 +17,8 @@ work=build/bench/net-rd
 rm -rf "$work" && mkdir -p "$work"
 make -s bin/net-bench >/dev/null
 N="nice -n 5"
-encs="float32 fixed:1e-3 fixed:1e-4 fixed:1e-5 fixed:1e-6 predict:1e-3 predict:1e-4 predict:1e-5 predict:1e-6"
+encs="float32 fixed:1e-3 fixed:1e-4 fixed:1e-5 fixed:1e-6 predict:1e-3 predict:1e-4 predict:1e-5
+predict:1e-6 hier:1e-3 hier:1e-4 hier:1e-5 hier:1e-6"
 : >"$work/rows.csv"
 : >"$work/commands.txt"
 for l in 6 7; do

@@ -21,7 +21,7 @@ for r in rows:
 
 fig, axes = plt.subplots(1, 2, figsize=(13, 4.8), sharey=True)
 colors = {0: "tab:blue", 1: "tab:orange", 2: "tab:green"}
-markers = {"float32": "s", "fixed": "^", "predict": "o"}
+markers = {"float32": "s", "fixed": "^", "predict": "o", "hier": "D"}
 for ax, col, name in ((axes[0], "level_max_error_rel", "max"), (axes[1], "level_rms_error_rel", "RMS")):
     for (level, enc, send), pts in sorted(lines.items()):
         pts = sorted(pts, key=lambda r: float(r[col]))
@@ -46,6 +46,6 @@ print("| level | encoding | send level | bits/vertex/update | bits/node/update (
 print("|---:|---|---:|---:|---:|---:|---:|---:|---:|")
 for r in rows:
     print(f"| {r['level']} | {r['encoding']} | {r['send_level']} | {float(r['bits_per_vertex_update']):.3g} "
-          f"| {float(r['bits_per_node_update']):.3g} | {float(r['level_max_error_rel']):.3g} "
+          f"| {float(r['bits_per_node_update']):.3g} | {float(r['level_max_error_rel']):.4g} "
           f"| {float(r['level_rms_error_rel']):.3g} | {float(r['disp_max_error_rel']):.3g} "
           f"| {float(r['disp_rms_error_rel']):.3g} |")

@@ -9,19 +9,19 @@
 # input in the log.
 . "$(dirname "$0")/lib.sh"
 secs=${NDO_FUZZ_SECONDS:-20}
-# record_messages DIR PREFIX FORM: every message of three short owner runs
+# record_messages DIR PREFIX FORM: every message of four short owner runs
 # (written by LCM's file provider, no network; whole regions every step),
 # one per tile encoding, as seeds in DIR: PREFIX (hex, fuzz_auth's flags
 # byte), then the bytes that pick the type and, for a tile, the receiver's
-# level-3 decoder of that encoding — FORM msg: fuzz_msg.c's (129, then 9,
-# 10 or 11 for a tile), auth: fuzz_auth.c's one byte (37, 133 or 229 with
-# 12 message types) —
-# then the message.  For fuzz_msg a fourth run sends at level 2 (predict,
+# level-3 decoder of that encoding — FORM msg: fuzz_msg.c's (129, then 12,
+# 13, 14 or 15 for a tile), auth: fuzz_auth.c's one byte (37, 133 or 229 with
+# 12 message types; fuzz_auth decodes float32, fixed and predict, not hier) —
+# then the message.  For fuzz_msg a fifth run sends at level 2 (predict,
 # --send-level 2): its tiles go through the receiver's coarse decoder.
 record_messages() {
-	[ -f predict.lcmlog ] || {
+	[ -f hier.lcmlog ] || {
 		remesh --shape wavy -l 3 -o w3.tgrid
-		for enc in float32 fixed predict; do
+		for enc in float32 fixed predict hier; do
 			simulate-peer --lcm "file://$PWD/$enc.lcmlog?mode=w" --owner w3.tgrid \
 				-s "$NDO_ROOT/samples/thesis-fig5.3.scene" --dt 0.01 -n 40 --encoding $enc \
 				--publish-every 1 -q -o /dev/null
@@ -33,9 +33,9 @@ record_messages() {
 	/usr/bin/python3 - "$1" "$2" "$3" <<'PY' || fail "$(basename "$1") seeds" "no recorded messages"
 import struct, sys
 suffixes = "DESC TILE POI PARTITION HELLO PEERS LEAVE HEARTBEAT DESC_REQUEST FORCE HALO SOLVE".split()
-if sys.argv[3] == "msg":  # 129 then b: level b / 3 = 3, encoding 1 + b % 3
-    tile = {"float32": bytes([129, 9]), "fixed": bytes([129, 10]), "predict": bytes([129, 11]),
-            "coarse": bytes([129, 11])}  # the receiver's send level is 2
+if sys.argv[3] == "msg":  # 129 then b: level b / 4 = 3, encoding 1 + b % 4
+    tile = {"float32": bytes([129, 12]), "fixed": bytes([129, 13]), "predict": bytes([129, 14]),
+            "hier": bytes([129, 15]), "coarse": bytes([129, 14])}  # the receiver's send level is 2
 else:  # one byte b: type b % (message types) = 1; of b / (message types), the
     # level (% 8) 3 and the encoding (1 + / 8 % 3) 1 + r
     one = lambda r: bytes([1 + len(suffixes) * (3 + 8 * r)])

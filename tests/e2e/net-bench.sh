@@ -89,7 +89,7 @@ if simulate-peer --owner w5.tgrid -s "$SCENE" --dt 0.01 -t 0.6 -q -o one.tgrid &
 	else
 		fail "2 peers, raw" "differs from the 1-peer run by $d"
 	fi
-	for enc in float32 fixed:13 predict; do
+	for enc in float32 fixed:13 predict hier:1e-4; do
 		outs=() failed=
 		for ((r = 1; r <= RUNS; r++)); do
 			if run2 "$enc" "two-$enc-$r.tgrid"; then
@@ -115,9 +115,10 @@ else
 	fail "2 peers, raw" "a run failed: $(tail -1 owner.err)"
 fi
 
-# 4. the observer decodes: render-frame --lcm draws predict tiles as it draws raw ones
+# 4. the observer decodes: render-frame --lcm draws predict and hier tiles as it
+# draws raw ones
 URL='udpm://239.255.76.67:7667?ttl=0&recv_buf_size=4194304'
-for enc in raw predict; do
+for enc in raw predict hier; do
 	mkdir -p "f-$enc"
 	render-frame --lcm "$URL" --lcm-timeout 3 -s 96x72 -o "f-$enc/f%04d.png" 2>"rf-$enc.err" &
 	rf=$!
@@ -126,9 +127,12 @@ for enc in raw predict; do
 		--publish-every 1 -q -o /dev/null
 	wait $rf
 done
-nr=$(ls f-raw | wc -l); np=$(ls f-predict | wc -l)
-if [ "$nr" -gt 15 ] && [ "$np" = "$nr" ]; then
-	pass "render-frame --lcm draws $np frames of predict tiles (raw: $nr)"
-else
-	fail "render-frame --lcm" "frames: raw $nr, predict $np; $(tail -1 rf-predict.err)"
-fi
+nr=$(ls f-raw | wc -l)
+for enc in predict hier; do
+	np=$(ls f-$enc | wc -l)
+	if [ "$nr" -gt 15 ] && [ "$np" = "$nr" ]; then
+		pass "render-frame --lcm draws $np frames of $enc tiles (raw: $nr)"
+	else
+		fail "render-frame --lcm, $enc" "frames: raw $nr, $enc $np; $(tail -1 rf-$enc.err)"
+	fi
+done

@@ -16,7 +16,7 @@ remesh --shape wavy -l 6 -o wavy6.tgrid 2>/dev/null || fail "remesh"
 simulate-peer -q wavy6.tgrid -s "$SCENE" --dt 0.004 -t 0.4 --frames 'ref/f%03d.tgrid' \
 	--frame-every 10 -o ref.tgrid || fail "the single process"
 
-for enc in raw predict:1e-4; do
+for enc in raw predict:1e-4 hier:1e-4; do
 	rm -rf obs own
 	mkdir -p obs
 	simulate-peer --join --frames 'obs/f%03d.tgrid' --frame-every 10 -o observed.tgrid 2>obs.err &

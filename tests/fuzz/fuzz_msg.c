@@ -2,10 +2,10 @@
  * and through ndo_net's receive path (sequence checks, tile store).
  * The first byte picks the message type ((byte & 0x7f) % NDO_MSG_NTYPES);
  * with its high bit set a second byte follows, and the receiver decodes
- * tiles in encoding 1 + b % 3 at level (b / 3) % 8 and takes the message's
+ * tiles in encoding 1 + b % 4 at level (b / 4) % 8 and takes the message's
  * object as its own, so a recorded tile is accepted (tests/e2e/fuzz.sh
- * seeds the corpus from recorded runs: 129 then 9, 10 and 11 are a level-3
- * float32, fixed and predict tile).  The receiver's send level is one
+ * seeds the corpus from recorded runs: 129 then 12, 13, 14 and 15 are a
+ * level-3 float32, fixed, predict and hier tile).  The receiver's send level is one
  * level below the object's (tiles with NDO_TILE_COARSE go through its
  * second decoder).  The rest is the message.
  *   build/asan/tests/fuzz_msg -max_total_time=60 */
@@ -53,11 +53,12 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 	ndo_link_publish(tx, ch, data + skip, size - skip);
 	if (coded) {
 		/* encoded tiles go through the decoder (ndo/codec.h) */
-		ndo_codec_params cp = {.encoding = 1 + how % 3, .bits = 13, .keyframe = 32,
+		const int level = (how / 4) % 8;
+		ndo_codec_params cp = {.encoding = 1 + how % 4, .bits = 13, .keyframe = 32,
 		                       .lo = {-1, -1, -1}, .ext = {2, 2, 2}};
-		ndo_net_set_codec(rx, &cp, (how / 3) % 8);
-		ndo_net_set_send_level(rx, (how / 3) % 8 > 0 ? (how / 3) % 8 - 1 : 0, (how / 3) % 8);
-		ndo_net_attach(rx, object, (how / 3) % 8);
+		ndo_net_set_codec(rx, &cp, level);
+		ndo_net_set_send_level(rx, level > 0 ? level - 1 : 0, level);
+		ndo_net_attach(rx, object, level);
 	}
 	fuzz_drain(rx, tx);
 	return 0;

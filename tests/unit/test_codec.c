@@ -143,7 +143,8 @@ static void round_trips_within_the_stated_error(void)
 {
 	const char *specs[] = {"float32",    "fixed:13",     "fixed:8",     "predict:13",
 	                       "predict:6:4", "predict:20:1", "predict:1e-4", "fixed:3e-3",
-	                       "predict:0.004:5"};
+	                       "predict:0.004:5", "hier:13", "hier:6:4", "hier:20:1", "hier:1e-4",
+	                       "hier:0.004:5"};
 	for (size_t k = 0; k < sizeof specs / sizeof *specs; k++) {
 		ndo_codec_params p = params(specs[k]);
 		double bound = ndo_codec_max_error(&p), worst = 0;
@@ -187,7 +188,8 @@ static void prediction_is_compact(void)
 
 static void keyframe_recovers_after_loss(void)
 {
-	ndo_codec_params p = params("predict:13:8");
+	for (int e = 0; e < 2; e++) {
+	ndo_codec_params p = params(e ? "hier:13:8" : "predict:13:8");
 	side tx, rx;
 	side_init(&tx), side_init(&rx);
 	double err;
@@ -203,14 +205,17 @@ static void keyframe_recovers_after_loss(void)
 			CHECK(r == NDO_DROP_NONE && err <= ndo_codec_max_error(&p) * (1 + 1e-9),
 			      "after recovery, step %lld decodes within the bound", (long long)s);
 	}
-	CHECK(nobase == 5, "steps 11-15 need the lost frame: %d nobase", nobase);
+	CHECK(nobase == 5, "%s: steps 11-15 need the lost frame: %d nobase",
+	      e ? "hier" : "predict", nobase);
 	CHECK(recovered == 16, "the keyframe at step 16 recovers: %d", recovered);
 	side_free(&tx), side_free(&rx);
+	}
 }
 
 static void unchanged_frames_and_their_prediction(void)
 {
-	ndo_codec_params p = params("predict:13");
+	for (int enc = 0; enc < 2; enc++) {
+	ndo_codec_params p = params(enc ? "hier:13" : "predict:13");
 	double x[3 * NODES], v[3 * NODES], xo[3 * NODES];
 	uint8_t cls[NODES];
 	for (int n = 0; n < NODES; n++)
@@ -235,8 +240,10 @@ static void unchanged_frames_and_their_prediction(void)
 	double e = 0;
 	for (int k = 0; k < 3 * NODES; k++)
 		e = fmax(e, fabs(xo[k] - x[k]));
-	CHECK(e <= ndo_codec_max_error(&p), "implied frame within the bound: %.3g", e);
+	CHECK(e <= ndo_codec_max_error(&p), "%s: implied frame within the bound: %.3g",
+	      enc ? "hier" : "predict", e);
 	side_free(&tx);
+	}
 }
 
 /* Hostile payloads: every one a counted drop, none a crash (the sanitizer
@@ -550,6 +557,14 @@ static void specs_and_description_lines(void)
 	CHECK(ndo_codec_parse("predict:12:5000", &p) == NDO_EINVAL, "keyframe 5000");
 	CHECK(ndo_codec_parse("predict:11:64", &p) == 0 && p.bits == 11 && p.keyframe == 64,
 	      "predict:11:64");
+	CHECK(ndo_codec_parse("hier:1e-4:16", &p) == 0 && p.encoding == NDO_ENC_HIER &&
+	          p.error == 1e-4 && p.keyframe == 16,
+	      "hier:1e-4:16");
+	char hn[64];
+	ndo_codec_name(&p, hn, sizeof hn);
+	CHECK(strcmp(hn, "hier:0.0001:16") == 0, "its name: %s", hn);
+	CHECK(ndo_codec_parse("hier:0.5", &p) == NDO_EINVAL, "hier: a budget of half the diagonal");
+	CHECK(ndo_codec_parse("hier:11:64", &p) == 0 && p.bits == 11, "hier:11:64");
 	p.lo[0] = -1.5, p.lo[1] = 0.25, p.lo[2] = 1e-3, p.ext[0] = 3, p.ext[1] = 0.1, p.ext[2] = 7;
 	char text[600] = "stiffness 1\n";
 	size_t n = strlen(text);

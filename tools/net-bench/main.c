@@ -16,14 +16,15 @@ static __attribute__((noreturn)) void usage(void)
 	       "k = 1 N/m, b = 0.1, 2.4 N at 1 Hz, rk4) through real LCM: an owner and\n"
 	       "joiners in lock-step and a passive observer, in this process, in a private\n"
 	       "network namespace (or on --lcm URL).  With no -l and no -e, the whole table\n"
-	       "(levels 4-8 x raw, float32, fixed, predict) and a loss sweep; otherwise the\n"
-	       "rows asked for.  Prints a Markdown table beside the thesis' Table 5.2.\n"
+	       "(levels 4-8 x raw, float32, fixed, predict, hier) and a loss sweep; otherwise\n"
+	       "the rows asked for.  Prints a Markdown table beside the thesis' Table 5.2.\n"
 	       "\n"
 	       "  -l, --level L       the grid level, 1..8 (default: 4 to 8)\n"
-	       "  -e, --encoding E    raw, float32, fixed[:BITS] or predict[:BITS[:KEYFRAME]]\n"
-	       "                      (default: all four; bits 1..24, default 13; or\n"
-	       "                      instead of bits an error budget over the box's\n"
-	       "                      diagonal, 1e-7..0.01, e.g. predict:1e-4)\n"
+	       "  -e, --encoding E    raw, float32, fixed[:BITS], predict[:BITS[:KEYFRAME]]\n"
+	       "                      or hier[:BITS[:KEYFRAME]] (default: all five; bits\n"
+	       "                      1..24, default 13; or instead of bits an error\n"
+	       "                      budget over the box's diagonal, 1e-7..0.01, e.g.\n"
+	       "                      predict:1e-4)\n"
 	       "  -o, --output FILE   write the table to FILE (default: standard output)\n"
 	       "      --csv FILE      write the rows as CSV too ('-': standard output,\n"
 	       "                      instead of the table)\n"
@@ -251,13 +252,13 @@ int main(int argc, char **argv)
 			ndo_die("%s", why);
 	}
 	int lo = level < 0 ? 4 : level, hi = level < 0 ? 8 : level;
-	ndo_codec_params encs[4];
+	ndo_codec_params encs[5];
 	int nenc = 0;
 	if (have_enc) {
 		encs[nenc++] = one;
 	} else {
-		const char *names[] = {"raw", "float32", "fixed", "predict"};
-		for (int k = 0; k < 4; k++)
+		const char *names[] = {"raw", "float32", "fixed", "predict", "hier"};
+		for (int k = 0; k < 5; k++)
 			ndo_codec_parse(names[k], &encs[nenc++]);
 	}
 	if (cf)

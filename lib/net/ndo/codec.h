@@ -2,7 +2,7 @@
  * and velocities (tile_t.encoding; docs/protocol.md "Encodings",
  * docs/net-bench.md).
  *
- * Four encodings, chosen by the owner for a session (the description
+ * Five encodings, chosen by the owner for a session (the description
  * carries the choice as "tile-*" lines, so every peer and observer agrees):
  *
  *   raw      every value a double in tile_t.values[] (384 bits a node)
@@ -11,6 +11,9 @@
  *            axis of the object's bounding box, packed bits+2 wide
  *   predict  positions as those integers, predicted (below) and the
  *            residuals entropy-coded with zstd
+ *   hier     positions as integers 16 times finer, coded level by level
+ *            against the butterfly of the coarser nodes and the last two
+ *            frames, the residuals in steps of q by a range coder (below)
  *
  * Nodes of a tile fall in three classes (the sender decides):
  *   EXACT  nodes another simulating peer integrates with (its halo: the
@@ -66,6 +69,40 @@
  * residual itself below 3, 3 an escape; unused bits of the last byte zero)
  * followed by every escape's zigzag − 3 as a varint.
  *
+ * `hier` (lib/net/codec_hier.c): codes in steps of q/16 (q the step of
+ * fixed and predict, so the bound is theirs); a tile's nodes in levels —
+ * the top level every S-th node of the tile (S the largest power of two
+ * below its larger side), then level s = S/2, ..., 1 the nodes at
+ * multiples of s not in a coarser level, each the midpoint of an edge of
+ * level 2s (horizontal, vertical, or the grid's diagonal).  Node n's
+ * prediction, from codes the receiver holds: with k1, k2 the tile's last
+ * two frames (the slope v = k1 − k2, scaled to the steps when they are not
+ * consecutive; none without k2; no k1 at all in a keyframe, or when a
+ * reference lacks a node the frame holds), 16 P = 16 k1(n) + B[k − k1](n) +
+ * β/4 (16 v(n) − B[v](n)), rounded half up, where B is the modified
+ * butterfly over the edge's eight stencil nodes (weights 8, 8, 2, 2, −1 ×
+ * 4, over 16) — the ends' mean, or the one end, when one of them is
+ * outside the tile or not held — and β ∈ 0..4 the sender's choice per
+ * level; a top-level node's stencil is empty (in a keyframe it is
+ * predicted by the previous top-level node, 0 for the first).  Its
+ * residual r (per component) puts it at P + 16 r: the sender picks, within
+ * the bound, the r nearest 0 (so r = 0 whenever the prediction is within
+ * the bound), and the receiver holds exactly P + 16 r.  Skipped tiles as
+ * predict (their frames the predictions with β = 4 on every level).
+ *
+ * The payload: the flags byte and g2, g3 as above (bit 2: zstd on the
+ * first part), a varint n1, n1 bytes (zstd-compressed with bit 2) of the
+ * classes and EXACT nodes as predict has them, then to the end the range
+ * coder's bytes (LZMA's binary coder: 11-bit adaptive probabilities, 5
+ * bytes flushed, the first 0): per level, top first, β as 3 direct bits
+ * (not in a keyframe), then per LOSSY node of the level in raster order a
+ * flag "some residual nonzero" (context: the level group 1, 2, 4, 8+, top;
+ * the magnitudes of the edge ends' residuals), then per component a zero
+ * flag (the third implied when the first two are 0; context the group,
+ * component and its ends' magnitudes), each nonzero one's sign and |r| as
+ * Elias gamma (the exponent in unary, adaptive; the mantissa bits direct).
+ * The decoder reads every byte and no more, or the frame is corrupt.
+ *
  * Nothing received is trusted: a payload that does not parse, decompresses
  * to more than a tile of that size can hold (a decompression bomb), carries
  * a non-finite double or a code out of range is NDO_DROP_CORRUPT; a
@@ -96,10 +133,10 @@ enum { NDO_NODE_SKIP = 0, NDO_NODE_LOSSY = 1, NDO_NODE_EXACT = 2 };
 #define NDO_CODEC_ERROR_MAX 0.01
 
 typedef struct ndo_codec_params {
-	int encoding;     /* NDO_ENC_RAW, _FLOAT32, _FIXED, _PREDICT */
-	int bits;         /* fixed, predict: 1..24 */
-	int keyframe;     /* predict: 1..4096 */
-	double error;     /* fixed, predict: > 0, an error budget instead of bits:
+	int encoding;     /* NDO_ENC_RAW, _FLOAT32, _FIXED, _PREDICT, _HIER */
+	int bits;         /* fixed, predict, hier: 1..24 */
+	int keyframe;     /* predict, hier: 1..4096 */
+	double error;     /* fixed, predict, hier: > 0, an error budget instead of bits:
 	                     the largest LOSSY error over the box's diagonal
 	                     (NDO_CODEC_ERROR_MIN..MAX), one step q on every
 	                     axis with √3 q / 2 = error × diagonal; 0: bits */
@@ -107,7 +144,8 @@ typedef struct ndo_codec_params {
 	double ext[3];    /* its extent per axis, > 0 */
 } ndo_codec_params;
 
-/* "raw", "float32", "fixed[:BITS]", "predict[:BITS[:KEYFRAME]]" →
+/* "raw", "float32", "fixed[:BITS]", "predict[:BITS[:KEYFRAME]]",
+ * "hier[:BITS[:KEYFRAME]]" →
  * encoding, bits and keyframe; BITS may be an error budget instead, a
  * number with a point or an exponent ("predict:1e-4": the largest error
  * 1e-4 of the box's diagonal, the coarsest step that keeps it).  The box

@@ -197,7 +197,7 @@ int ndo_tile_values_per_node(int channels); /* 3 per vector bit, 1 for pin */
 /* Tile encodings (tile_t.encoding; ndo/codec.h).  RAW carries doubles in
  * values[]; the others a payload in data[] (position+velocity tiles only),
  * decoded by the receiver's codec (ndo_net_set_codec). */
-enum { NDO_ENC_RAW = 0, NDO_ENC_FLOAT32 = 1, NDO_ENC_FIXED = 2, NDO_ENC_PREDICT = 3 };
+enum { NDO_ENC_RAW = 0, NDO_ENC_FLOAT32 = 1, NDO_ENC_FIXED = 2, NDO_ENC_PREDICT = 3, NDO_ENC_HIER = 4 };
 
 /* The shallowest quad-tree depth at which a raw tile carrying `channels`
  * fits one datagram on `channel` with an authentication trailer, for a

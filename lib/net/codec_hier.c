@@ -1,0 +1,680 @@
+/* codec_hier.c — the hierarchical coder (ndo/codec.h, "hier", which has
+ * the definition and the payload): a tile's codes level by level, each new
+ * node's residual against the butterfly of the coarser nodes (a
+ * subdivision wavelet) combined with the time prediction, through an
+ * adaptive binary range coder with contexts.
+ *
+ * Choices, by measurement (tests/bench/bench_codec, the thesis' scene, 5 s,
+ * bits per node per update of the payload, level 6 / level 7; -v 1 shows
+ * where the bits go):
+ *   - codes and predictions 16 times finer than the bound's step q, the
+ *     residuals in steps of q from the prediction itself, the sender free
+ *     to pick any within the bound (the residual nearest 0): 4.21 → 4.00 /
+ *     2.65 → 1.48 against codes on the q lattice (whose rounding of the
+ *     prediction alone spends the whole bound); the nearest code with no
+ *     such choice: 4.74 / 3.38;
+ *   - the slope's share β per level (the sender's, from 0..4 quarters):
+ *     against a fixed linear extrapolation 4.77 / 4.01, copying k1 5.06 /
+ *     2.82 — the fine levels of level 7 want no slope, the coarse ones all
+ *     of it; β up to 7 quarters, per component, or an acceleration term
+ *     gained nothing;
+ *   - contexts beyond the edge ends' magnitudes (the previous node's, the
+ *     other components') gained under 0.3 %: the residuals are close to
+ *     white;
+ *   - the encoder's pass over a level (predictions, then the cost of each
+ *     β over every fourth value) keeps its predictions for the coding pass.
+ * No entropy coding library in Debian 12 fits (libaec is Rice coding for
+ * sampled data): the range coder is LZMA's binary one, written here;
+ * tests/unit/test_hier.c checks it against the ideal adaptive length, a
+ * decoder given any bytes reads none past the end (it counts what it
+ * lacks, and the frame is corrupt) and its loops are bounded. */
+#include "codec_private.h"
+
+#include <math.h>
+#include <string.h>
+
+hier_stats *ndo__codec_hier_stats;
+
+/* the ideal cost of a bit under probability p (P(0) in 1/2048) */
+static double pcost(uint16_t p, int bit) { return -log2((bit ? 2048.0 - p : (double)p) / 2048.0); }
+
+/* ---- the range coder ------------------------------------------------------------ */
+enum { RC_BITS = 11, RC_ONE = 1 << RC_BITS, RC_MOVE = 5 };
+#define RC_TOP (1u << 24)
+
+void ndo__rc_enc_init(rcenc *e, wbuf *b)
+{
+	*e = (rcenc){0, 0xffffffffu, 0, 1, b};
+}
+
+static inline void shift_low(rcenc *e)
+{
+	if ((uint32_t)e->low < 0xff000000u || (e->low >> 32) != 0) {
+		const uint8_t carry = (uint8_t)(e->low >> 32);
+		uint8_t t = e->cache;
+		do {
+			put_byte(e->b, (uint8_t)(t + carry));
+			t = 0xff;
+		} while (--e->pending);
+		e->cache = (uint8_t)(e->low >> 24);
+	}
+	e->pending++;
+	e->low = (e->low & 0x00ffffffu) << 8;
+}
+
+static inline void rc_bit(rcenc *e, uint16_t *p, int bit)
+{
+	const uint32_t bound = (e->range >> RC_BITS) * *p;
+	if (!bit) {
+		e->range = bound;
+		*p = (uint16_t)(*p + ((RC_ONE - *p) >> RC_MOVE));
+	} else {
+		e->low += bound;
+		e->range -= bound;
+		*p = (uint16_t)(*p - (*p >> RC_MOVE));
+	}
+	while (e->range < RC_TOP) {
+		e->range <<= 8;
+		shift_low(e);
+	}
+}
+
+static inline void rc_direct(rcenc *e, int bit)
+{
+	e->range >>= 1;
+	if (bit)
+		e->low += e->range;
+	while (e->range < RC_TOP) {
+		e->range <<= 8;
+		shift_low(e);
+	}
+}
+
+void ndo__rc_enc_bit(rcenc *e, uint16_t *p, int bit) { rc_bit(e, p, bit); }
+void ndo__rc_enc_direct(rcenc *e, int bit) { rc_direct(e, bit); }
+
+void ndo__rc_enc_flush(rcenc *e)
+{
+	for (int k = 0; k < 5; k++)
+		shift_low(e);
+}
+
+static inline uint8_t rc_byte(rcdec *d)
+{
+	if (d->pos < d->n)
+		return d->p[d->pos++];
+	d->over++;
+	return 0;
+}
+
+void ndo__rc_dec_init(rcdec *d, const uint8_t *p, size_t n)
+{
+	*d = (rcdec){p, n, 0, 0, 0xffffffffu, 0};
+	if (rc_byte(d) != 0) /* the encoder's first byte is always 0 */
+		d->over++;
+	for (int k = 0; k < 4; k++)
+		d->code = d->code << 8 | rc_byte(d);
+}
+
+static inline int rd_bit(rcdec *d, uint16_t *p)
+{
+	const uint32_t bound = (d->range >> RC_BITS) * *p;
+	int bit;
+	if (d->code < bound) {
+		d->range = bound;
+		*p = (uint16_t)(*p + ((RC_ONE - *p) >> RC_MOVE));
+		bit = 0;
+	} else {
+		d->code -= bound;
+		d->range -= bound;
+		*p = (uint16_t)(*p - (*p >> RC_MOVE));
+		bit = 1;
+	}
+	if (d->range < RC_TOP) { /* once is enough: range ≥ 2^24 >> 11 × 31 ≥ 2^16 */
+		d->range <<= 8;
+		d->code = d->code << 8 | rc_byte(d);
+		if (d->range < RC_TOP) {
+			d->range <<= 8;
+			d->code = d->code << 8 | rc_byte(d);
+		}
+	}
+	return bit;
+}
+
+static inline int rd_direct(rcdec *d)
+{
+	d->range >>= 1;
+	int bit = d->code >= d->range;
+	if (bit)
+		d->code -= d->range;
+	if (d->range < RC_TOP) {
+		d->range <<= 8;
+		d->code = d->code << 8 | rc_byte(d);
+	}
+	return bit;
+}
+
+int ndo__rc_dec_bit(rcdec *d, uint16_t *p) { return rd_bit(d, p); }
+int ndo__rc_dec_direct(rcdec *d) { return rd_direct(d); }
+
+/* ---- the model ------------------------------------------------------------------ */
+enum { H_GROUPS = 5, H_TOP = 4, H_NB = 3, H_EXP = 40 };
+
+typedef struct hmodel {
+	uint16_t node[H_GROUPS][H_NB];  /* every residual of the node 0 */
+	uint16_t zero[H_GROUPS][3][H_NB];
+	uint16_t sign[H_GROUPS][3];
+	uint16_t ex[H_GROUPS][H_NB][H_EXP];
+} hmodel;
+
+static void model_init(hmodel *m)
+{
+	uint16_t *p = (uint16_t *)m;
+	for (size_t k = 0; k < sizeof *m / sizeof *p; k++)
+		p[k] = RC_ONE / 2;
+}
+
+/* the neighbours' context: the sum of the edge ends' magnitudes */
+static inline int nb_of(unsigned t) { return t == 0 ? 0 : t <= 2 ? 1 : 2; }
+
+/* a nonzero residual's sign and magnitude */
+static inline void put_nz(rcenc *e, hmodel *m, int g, int d, int nb, int64_t r)
+{
+	rc_bit(e, &m->sign[g][d], r < 0);
+	const uint64_t a = r < 0 ? -(uint64_t)r : (uint64_t)r;
+	const int k = 63 - __builtin_clzll(a);
+	for (int i = 0; i < k; i++)
+		rc_bit(e, &m->ex[g][nb][i], 1);
+	rc_bit(e, &m->ex[g][nb][k], 0); /* k < H_EXP: |r| < 2^36 (P's bound) */
+	for (int i = k - 1; i >= 0; i--)
+		rc_direct(e, (int)(a >> i) & 1);
+}
+
+/* put_nz()'s ideal cost, in the model's state before it */
+static double nz_cost(const hmodel *m, int g, int d, int nb, int64_t r)
+{
+	const uint64_t a = r < 0 ? -(uint64_t)r : (uint64_t)r;
+	const int k = 63 - __builtin_clzll(a);
+	double c = pcost(m->sign[g][d], r < 0) + k + pcost(m->ex[g][nb][k], 0);
+	for (int i = 0; i < k; i++)
+		c += pcost(m->ex[g][nb][i], 1);
+	return c;
+}
+
+/* −1 and *bad: an exponent past H_EXP − 1 */
+static inline int64_t get_nz(rcdec *dc, hmodel *m, int g, int d, int nb, int *bad)
+{
+	const int neg = rd_bit(dc, &m->sign[g][d]);
+	int k = 0;
+	while (k < H_EXP - 1 && rd_bit(dc, &m->ex[g][nb][k]))
+		k++;
+	if (k == H_EXP - 1) {
+		*bad = 1;
+		return 0;
+	}
+	uint64_t a = 1;
+	for (int i = 0; i < k; i++)
+		a = a << 1 | (uint64_t)rd_direct(dc);
+	return neg ? -(int64_t)a : (int64_t)a;
+}
+
+/* ---- prediction ----------------------------------------------------------------- */
+/* The stencils in units of the coarser level's spacing 2s, from a base
+ * node: ends, wings, far (lib/grid/subdivide.c). */
+static const signed char stencil[3][8][2] = {
+	{{0, 0}, {1, 0}, {0, 1}, {1, -1}, {-1, 1}, {1, 1}, {0, -1}, {2, -1}},  /* horizontal */
+	{{0, 0}, {0, 1}, {1, 0}, {-1, 1}, {1, -1}, {1, 1}, {-1, 0}, {-1, 2}},  /* vertical */
+	{{1, 0}, {0, 1}, {0, 0}, {1, 1}, {1, -1}, {-1, 1}, {2, 0}, {0, 2}},    /* diagonal */
+};
+
+enum { BETA_MAX = 4, BETA_IMPLIED = 4 }; /* the slope's share, in quarters */
+
+typedef struct hier {
+	int rows, cols, top, allheld, intra;
+	const uint8_t *cls;
+	int32_t *k;           /* this frame's codes, 3 a node */
+	const int32_t *k1;    /* the reference's codes (a keyframe: zeros) */
+	int32_t *v, *dk;      /* the slope (0 without), k − k1 of the nodes coded so far */
+	int64_t *pb, *pw;     /* encoder: a level's 16 P(β = 0) and 16 × its slope part */
+	uint8_t *ctx;         /* encoder: a level's contexts, 3 a node (g × H_NB + nb) */
+	uint8_t *mag;         /* |residual| (saturated), 3 a node */
+	const double *x;      /* encoder: the positions, 3 a node */
+	const quant *z;
+	double iq[3];         /* encoder: 1 / q (the bound has a margin of 1e-9) */
+	double m2, w2[3], R[3], r[3]; /* encoder: the bound squared; per axis q², its
+	                                 ball's and inscribed box's half-widths in codes */
+	int rel[3][8];        /* a level's stencils: node offsets from the node */
+	hmodel m;
+} hier;
+
+/* The encoder's choice of node n's residuals r (steps of q, HIER_FINE
+ * codes) given its predictions p: its codes p + HIER_FINE r, within the
+ * error bound (the nearest residuals' distance at least).  Each residual
+ * the one nearest 0 within the bound's box on its axis; when those three
+ * are too far, each within the box inscribed in the bound's ball (always
+ * near enough), then axis by axis back to the first choice while they
+ * stay near enough.  −1: a code out of range. */
+static inline __attribute__((always_inline)) int choose(hier *h, size_t n, const int64_t p[3],
+                                                      int64_t r[3])
+{
+	const double F = HIER_FINE;
+	double t[3], u[3], lim = 0;
+	int64_t rn[3], a[3], b[3];
+	for (int d = 0; d < 3; d++) {
+		t[d] = (h->x[3 * n + d] - h->z->lo[d]) * h->iq[d];
+		u[d] = t[d] - (double)p[d]; /* in codes, from the prediction */
+		rn[d] = (int64_t)floor(u[d] / F + 0.5);
+		const double e = u[d] - F * (double)rn[d];
+		lim += e * e * h->w2[d];
+	}
+	if (rn[0] | rn[1] | rn[2]) {
+		double R[3], rr[3];
+		for (int d = 0; d < 3; d++) {
+			R[d] = lim > h->m2 ? sqrt(lim / h->w2[d]) : h->R[d];
+			rr[d] = R[d] / sqrt(3.0);
+		}
+		lim = lim > h->m2 ? lim : h->m2;
+		double ea = 0, eb = 0;
+		for (int d = 0; d < 3; d++) {
+			int64_t lo = (int64_t)ceil((u[d] - R[d]) / F), hi = (int64_t)floor((u[d] + R[d]) / F);
+			lo = lo > rn[d] ? rn[d] : lo, hi = hi < rn[d] ? rn[d] : hi;
+			a[d] = 0 < lo ? lo : 0 > hi ? hi : 0;
+			ea += (u[d] - F * (double)a[d]) * (u[d] - F * (double)a[d]) * h->w2[d];
+			lo = (int64_t)ceil((u[d] - rr[d]) / F), hi = (int64_t)floor((u[d] + rr[d]) / F);
+			lo = lo > rn[d] ? rn[d] : lo, hi = hi < rn[d] ? rn[d] : hi;
+			b[d] = 0 < lo ? lo : 0 > hi ? hi : 0;
+			eb += (u[d] - F * (double)b[d]) * (u[d] - F * (double)b[d]) * h->w2[d];
+		}
+		if (ea > lim) {
+			if (!(eb <= lim)) /* cannot be: the inscribed box's corner is on the ball */
+				b[0] = rn[0], b[1] = rn[1], b[2] = rn[2];
+			else
+				for (int d = 0; d < 3; d++) {
+					const double e2 = eb -
+					                  (u[d] - F * (double)b[d]) * (u[d] - F * (double)b[d]) * h->w2[d] +
+					                  (u[d] - F * (double)a[d]) * (u[d] - F * (double)a[d]) * h->w2[d];
+					if (e2 <= lim)
+						b[d] = a[d], eb = e2;
+				}
+			a[0] = b[0], a[1] = b[1], a[2] = b[2];
+		}
+		rn[0] = a[0], rn[1] = a[1], rn[2] = a[2];
+	}
+	for (int d = 0; d < 3; d++) {
+		const int64_t k = p[d] + HIER_FINE * rn[d];
+		if (k <= -CODE_MAX || k >= CODE_MAX)
+			return -1;
+		h->k[3 * n + d] = (int32_t)k;
+		r[d] = rn[d];
+	}
+	return 0;
+}
+
+/* Set by tests: every node through the general stencil (bounds and
+ * classes checked), the interior's reference. */
+int ndo__codec_hier_general;
+
+/* Node n = (i, j), of type `type` (0 horizontal, 1 vertical, 2 diagonal)
+ * in level s (0: the top): 16 × its prediction with no slope (base: 16 k1
+ * + the butterfly of the coarser nodes' k − k1) and 16 × the slope's
+ * detail (w: 16 v − the butterfly of their v), per component, and its
+ * context per component (the group g × H_NB + nb).  Returns the stencil
+ * nodes used: 8, 2 (the ends' mean), 1 (the one end held) or 0. */
+static inline __attribute__((always_inline)) int
+pred16(const hier *h, int i, int j, int s, int type, const int slope, int64_t base[3], int64_t w[3],
+       int ctx[3])
+{
+	const long n = (long)j * h->cols + i;
+	const int32_t *K1 = h->k1 + 3 * n, *V = h->v + 3 * n, *D = h->dk, *VV = h->v;
+	if (!s) {
+		for (int d = 0; d < 3; d++)
+			base[d] = 16 * (int64_t)K1[d], w[d] = slope ? 16 * (int64_t)V[d] : 0, ctx[d] = H_TOP * H_NB;
+		return 0;
+	}
+	const int g = (s == 1 ? 0 : s == 2 ? 1 : s == 4 ? 2 : 3) * H_NB;
+	const int bi = type != 1 ? i - s : i, bj = type != 0 ? j - s : j, st = 2 * s;
+	long o[8];
+	int held = 0;
+	if (h->allheld && bi >= st && bi + 2 * st < h->cols && bj >= st && bj + 2 * st < h->rows &&
+	    !ndo__codec_hier_general) {
+		for (int q = 0; q < 8; q++)
+			o[q] = 3 * (n + h->rel[type][q]);
+		const uint8_t *ma = h->mag + o[0], *mb = h->mag + o[1];
+		for (int d = 0; d < 3; d++) {
+			base[d] = 16 * (int64_t)K1[d] +
+			          8 * ((int64_t)D[o[0] + d] + D[o[1] + d]) +
+			          2 * ((int64_t)D[o[2] + d] + D[o[3] + d]) -
+			          ((int64_t)D[o[4] + d] + D[o[5] + d] + D[o[6] + d] + D[o[7] + d]);
+			w[d] = !slope ? 0
+			       : 16 * (int64_t)V[d] - 8 * ((int64_t)VV[o[0] + d] + VV[o[1] + d]) -
+			             2 * ((int64_t)VV[o[2] + d] + VV[o[3] + d]) +
+			             ((int64_t)VV[o[4] + d] + VV[o[5] + d] + VV[o[6] + d] + VV[o[7] + d]);
+			ctx[d] = g + nb_of((unsigned)ma[d] + mb[d]);
+		}
+		return 8;
+	}
+	for (int q = 0; q < 8; q++) {
+		const int ii = bi + stencil[type][q][0] * st, jj = bj + stencil[type][q][1] * st;
+		o[q] = ii >= 0 && ii < h->cols && jj >= 0 && jj < h->rows &&
+		               h->cls[(size_t)jj * (size_t)h->cols + (size_t)ii] != NDO_NODE_SKIP
+		           ? 3 * ((long)jj * h->cols + ii)
+		           : -1;
+		held += o[q] >= 0;
+	}
+	if (held == 8) {
+		for (int d = 0; d < 3; d++) {
+			base[d] = 16 * (int64_t)K1[d];
+			w[d] = 16 * (int64_t)V[d];
+			for (int q = 0; q < 8; q++) {
+				const int wq = q < 2 ? 8 : q < 4 ? 2 : -1;
+				base[d] += wq * (int64_t)D[o[q] + d];
+				w[d] -= wq * (int64_t)VV[o[q] + d];
+			}
+			w[d] = slope ? w[d] : 0;
+			ctx[d] = g + nb_of((unsigned)h->mag[o[0] + d] + h->mag[o[1] + d]);
+		}
+		return 8;
+	}
+	if (o[0] >= 0 && o[1] >= 0) {
+		for (int d = 0; d < 3; d++) {
+			base[d] = 16 * (int64_t)K1[d] + 8 * ((int64_t)D[o[0] + d] + D[o[1] + d]);
+			w[d] = slope ? 16 * (int64_t)V[d] - 8 * ((int64_t)VV[o[0] + d] + VV[o[1] + d]) : 0;
+			ctx[d] = g + nb_of((unsigned)h->mag[o[0] + d] + h->mag[o[1] + d]);
+		}
+		return 2;
+	}
+	const long e = o[0] >= 0 ? o[0] : o[1];
+	for (int d = 0; d < 3; d++) {
+		base[d] = 16 * (int64_t)K1[d] + (e >= 0 ? 16 * (int64_t)D[e + d] : 0);
+		w[d] = slope ? 16 * (int64_t)V[d] - (e >= 0 ? 16 * (int64_t)VV[e + d] : 0) : 0;
+		ctx[d] = e >= 0 ? g + nb_of(h->mag[e + d]) : H_TOP * H_NB;
+	}
+	return e >= 0;
+}
+
+/* the prediction: (4 base + β w) / 64, rounded half up */
+static inline int64_t pred_of(int64_t base, int64_t w, int beta)
+{
+	return (4 * base + beta * w + 32) >> 6; /* an arithmetic shift (GCC, Clang) */
+}
+
+enum { P_COLLECT, P_ENCODE, P_ENCODE1, P_DECODE, P_IMPLIED };
+
+typedef struct pass {
+	int beta[3];          /* this level's slope shares (one for now: all equal) */
+	int64_t last[3];      /* a keyframe's top level: the last node's codes */
+	uint64_t cost[BETA_MAX + 1];
+	uint64_t any, sample;
+	int bad;
+	rcenc *e;
+	rcdec *dc;
+} pass;
+
+/* One node of a level, in pass `mode`: P_COLLECT the encoder's
+ * predictions and contexts (and the cost of each β), P_ENCODE the codes
+ * chosen and their residuals from them, P_ENCODE1 both at once (a
+ * keyframe), P_DECODE the residuals read and the codes made, P_IMPLIED the
+ * codes the predictions. */
+static inline __attribute__((always_inline)) void node(hier *h, const int mode, pass *ps, int i,
+                                                       int j, int s, int type)
+{
+	const size_t n = (size_t)j * (size_t)h->cols + (size_t)i;
+	if (h->cls[n] != NDO_NODE_LOSSY)
+		return;
+	int64_t base[3], w[3], pp[3];
+	int ctx[3], used = 1;
+	if (mode == P_ENCODE) {
+		for (int d = 0; d < 3; d++)
+			base[d] = h->pb[3 * n + d], w[d] = h->pw[3 * n + d], ctx[d] = h->ctx[3 * n + d];
+	} else {
+		used = pred16(h, i, j, s, type, mode == P_COLLECT || ps->beta[0] != 0, base, w, ctx);
+	}
+	if (mode == P_COLLECT) {
+		for (int d = 0; d < 3; d++) {
+			h->pb[3 * n + d] = base[d], h->pw[3 * n + d] = w[d], h->ctx[3 * n + d] = (uint8_t)ctx[d];
+			if (ps->sample++ & 3) /* the costs of every fourth value */
+				continue;
+			for (int b = 0; b <= BETA_MAX; b++) {
+				const int64_t e = h->k[3 * n + d] - pred_of(base[d], w[d], b);
+				const uint64_t a = ((e < 0 ? -(uint64_t)e : (uint64_t)e) + HIER_FINE / 2) / HIER_FINE;
+				ps->cost[b] += a ? 2 + 2 * (uint64_t)(64 - __builtin_clzll(a)) : 0;
+			}
+		}
+		return;
+	}
+	const int dpcm = h->intra && !used; /* a keyframe's node without a stencil */
+	for (int d = 0; d < 3; d++)
+		pp[d] = dpcm ? ps->last[d] : pred_of(base[d], w[d], ps->beta[d]);
+	int64_t res[3] = {0, 0, 0};
+	if ((mode == P_ENCODE || mode == P_ENCODE1) && choose(h, n, pp, res)) {
+		ps->bad = 1;
+		return;
+	}
+	/* the node's flag (context: the group, the ends' magnitudes over the
+	 * components), then each component's (the last implied when the others
+	 * are 0), then each nonzero one's sign and magnitude */
+	const int g = ctx[0] / H_NB;
+	const int nbs = ctx[0] % H_NB + ctx[1] % H_NB + ctx[2] % H_NB, nn = nbs == 0 ? 0 : nbs <= 2 ? 1 : 2;
+	if (mode == P_ENCODE || mode == P_ENCODE1) {
+		const int nz = (res[0] | res[1] | res[2]) != 0;
+		hier_stats *st = ndo__codec_hier_stats;
+		if (st) {
+			st->nodes[g]++, st->zero_nodes[g] += !nz, st->values[g] += 3;
+			st->node_bits[g] += pcost(h->m.node[g][nn], nz);
+			st->zeros[g] += (res[0] == 0) + (res[1] == 0) + (res[2] == 0);
+		}
+		rc_bit(ps->e, &h->m.node[g][nn], nz);
+		if (nz) {
+			for (int d = 0; d < 3; d++) {
+				const int nb = ctx[d] % H_NB;
+				if (d < 2 || res[0] | res[1]) {
+					if (st)
+						st->zero_bits[g] += pcost(h->m.zero[g][d][nb], res[d] != 0);
+					rc_bit(ps->e, &h->m.zero[g][d][nb], res[d] != 0);
+				}
+				if (res[d]) {
+					if (st)
+						st->value_bits[g] += nz_cost(&h->m, g, d, nb, res[d]);
+					put_nz(ps->e, &h->m, g, d, nb, res[d]);
+				}
+			}
+			ps->any = 1;
+		}
+	} else if (mode == P_DECODE && rd_bit(ps->dc, &h->m.node[g][nn])) {
+		for (int d = 0; d < 3; d++)
+			if ((d == 2 && !(res[0] | res[1])) || rd_bit(ps->dc, &h->m.zero[g][d][ctx[d] % H_NB]))
+				res[d] = get_nz(ps->dc, &h->m, g, d, ctx[d] % H_NB, &ps->bad);
+	}
+	for (int d = 0; d < 3; d++) {
+		const size_t v = 3 * n + (size_t)d;
+		const int64_t r = res[d];
+		if (mode != P_ENCODE && mode != P_ENCODE1) {
+			const int64_t k = pp[d] + HIER_FINE * r;
+			if (k <= -CODE_MAX || k >= CODE_MAX) {
+				ps->bad = 1;
+				return;
+			}
+			h->k[v] = (int32_t)k;
+		}
+		const uint64_t a = r < 0 ? -(uint64_t)r : (uint64_t)r;
+		h->mag[v] = (uint8_t)(a > 255 ? 255 : a);
+		ps->last[d] = dpcm ? h->k[v] : ps->last[d];
+		h->dk[v] = h->k[v] - h->k1[v];
+	}
+}
+
+/* Every node of level s (0: the top) in raster order, in pass `mode`. */
+static inline __attribute__((always_inline)) void level(hier *h, const int mode, pass *ps, int s)
+{
+	if (!s) {
+		for (int j = 0; j < h->rows && !ps->bad; j += h->top)
+			for (int i = 0; i < h->cols; i += h->top)
+				node(h, mode, ps, i, j, 0, 0);
+		return;
+	}
+	for (int j = 0; j < h->rows && !ps->bad; j += s) {
+		if (!(j & s)) /* an even row of the level: horizontal edges */
+			for (int i = s; i < h->cols; i += 2 * s)
+				node(h, mode, ps, i, j, s, 0);
+		else
+			for (int i = 0; i < h->cols; i += s)
+				node(h, mode, ps, i, j, s, i & s ? 2 : 1);
+	}
+}
+
+/* Every LOSSY node of the frame, the top level first; each level's slope
+ * share first (3 direct bits) unless the frame is a keyframe. */
+NDO_HOT static int levels(hier *h, int mode, rcenc *e, rcdec *dc, uint64_t *any)
+{
+	pass ps = {{BETA_IMPLIED, BETA_IMPLIED, BETA_IMPLIED}, {0, 0, 0}, {0}, 0, 0, 0, e, dc};
+	for (int s = h->top; s >= 1; s /= 2) {
+		const int ls = s == h->top ? 0 : s; /* the top level: no stencil */
+		const int st = 2 * s, C = h->cols;
+		const int shift[3] = {-s, -s * C, -s - s * C}; /* the base node, from the node */
+		for (int t = 0; t < 3; t++)
+			for (int q = 0; q < 8; q++)
+				h->rel[t][q] = shift[t] + stencil[t][q][0] * st + stencil[t][q][1] * st * C;
+		int beta = BETA_IMPLIED;
+		if (mode == P_ENCODE && !h->intra) {
+			memset(ps.cost, 0, sizeof ps.cost);
+			level(h, P_COLLECT, &ps, ls);
+			for (int b = BETA_MAX; b >= 0; b--) /* ties: the implied frames' */
+				if (ps.cost[b] < ps.cost[beta])
+					beta = b;
+			for (int b = 2; b >= 0; b--)
+				rc_direct(e, beta >> b & 1);
+			if (ndo__codec_hier_stats)
+				ndo__codec_hier_stats->beta_bits += 3;
+			ps.any |= (uint64_t)(beta != BETA_IMPLIED);
+		} else if (mode == P_DECODE && !h->intra) {
+			beta = 0;
+			for (int b = 2; b >= 0; b--)
+				beta = beta << 1 | rd_direct(dc);
+			if (beta > BETA_MAX)
+				return -1;
+		}
+		ps.beta[0] = ps.beta[1] = ps.beta[2] = beta;
+		if (mode == P_ENCODE && !h->intra)
+			level(h, P_ENCODE, &ps, ls);
+		else if (mode == P_ENCODE)
+			level(h, P_ENCODE1, &ps, ls);
+		else if (mode == P_DECODE)
+			level(h, P_DECODE, &ps, ls);
+		else
+			level(h, P_IMPLIED, &ps, ls);
+		if (ps.bad)
+			return -1;
+		if (h->top == 1)
+			break;
+	}
+	if (any)
+		*any = ps.any;
+	return 0;
+}
+
+/* The references' codes and slope for every node the frame holds; none
+ * (a keyframe's zeros) when the newest lacks one of them or there is
+ * none, no slope when the second lacks one. */
+static void time_refs(hier *h, const hcodes *c, int32_t *zeros)
+{
+	const ndo_codec_frame *r0 = c->r[0], *r1 = c->r[1];
+	const int nodes = c->rows * c->cols;
+	const size_t N = 3 * (size_t)nodes;
+	for (int n = 0; n < nodes && r0; n++)
+		if (c->cls[n] != NDO_NODE_SKIP) {
+			if (!r0->have[n])
+				r0 = NULL;
+			else if (r1 && !r1->have[n])
+				r1 = NULL;
+		}
+	h->intra = !r0;
+	if (!r0) {
+		memset(zeros, 0, N * sizeof *zeros);
+		memset(h->v, 0, N * sizeof *h->v);
+		h->k1 = zeros;
+		return;
+	}
+	h->k1 = r0->k;
+	if (!r1) {
+		memset(h->v, 0, N * sizeof *h->v);
+		return;
+	}
+	const int64_t g0 = c->step - r0->step, g1 = r0->step - r1->step;
+	const int32_t *k1 = r0->k, *k2 = r1->k;
+	if (g0 == g1) { /* consecutive: within ±2^31 */
+		for (size_t v = 0; v < N; v++)
+			h->v[v] = (int32_t)((int64_t)k1[v] - k2[v]);
+		return;
+	}
+	for (size_t v = 0; v < N; v++) {
+		int64_t s = rdiv(((int64_t)k1[v] - k2[v]) * g0, g1);
+		h->v[v] = (int32_t)(s > CODE_MAX ? CODE_MAX : s < -CODE_MAX ? -CODE_MAX : s);
+	}
+}
+
+static void hier_init(hier *h, const hcodes *c, int32_t *k, int64_t *t, uint8_t *mag)
+{
+	const int nodes = c->rows * c->cols;
+	const size_t N = 3 * (size_t)nodes;
+	h->rows = c->rows, h->cols = c->cols, h->cls = c->cls, h->k = k, h->mag = mag;
+	int top = 1;
+	while (2 * top < (c->rows > c->cols ? c->rows : c->cols))
+		top *= 2;
+	h->top = top;
+	/* the scratch (HIER_SCRATCH int64 a node): pb, pw; v, dk, zeros; ctx */
+	h->pb = t, h->pw = t + N;
+	int32_t *t32 = (int32_t *)(t + 2 * N);
+	h->v = t32, h->dk = t32 + N;
+	h->ctx = (uint8_t *)(t32 + 3 * N);
+	time_refs(h, c, t32 + 2 * N);
+	h->x = NULL;
+	h->allheld = !memchr(c->cls, NDO_NODE_SKIP, (size_t)nodes);
+	memset(mag, 0, N); /* an EXACT node's: no residual */
+	for (const uint8_t *e = c->cls; (e = memchr(e, NDO_NODE_EXACT, (size_t)(c->cls + nodes - e)));
+	     e++) {
+		const size_t n = (size_t)(e - c->cls);
+		for (int d = 0; d < 3; d++)
+			h->dk[3 * n + d] = (int32_t)((int64_t)k[3 * n + d] - h->k1[3 * n + d]);
+	}
+	model_init(&h->m);
+}
+
+int ndo__codec_hier_encode(const hcodes *c, const quant *z, double maxerr, const double *x,
+                           int32_t *k, int64_t *t, uint8_t *mag, uint64_t *any, wbuf *b)
+{
+	hier h;
+	hier_init(&h, c, k, t, mag);
+	h.x = x, h.z = z, h.m2 = maxerr * maxerr * (1 - 1e-9);
+	for (int d = 0; d < 3; d++) {
+		h.w2[d] = z->q[d] * z->q[d], h.iq[d] = 1 / z->q[d];
+		h.R[d] = sqrt(h.m2 / h.w2[d]), h.r[d] = h.R[d] / sqrt(3.0);
+	}
+	rcenc e;
+	ndo__rc_enc_init(&e, b);
+	const size_t n0 = b->n;
+	if (levels(&h, P_ENCODE, &e, NULL, any))
+		return -2;
+	ndo__rc_enc_flush(&e);
+	if (ndo__codec_hier_stats)
+		ndo__codec_hier_stats->rc_bytes += (double)(b->n - n0), ndo__codec_hier_stats->frames++;
+	return b->fail ? -1 : 0;
+}
+
+int ndo__codec_hier_decode(const hcodes *c, int32_t *k, int64_t *t, uint8_t *mag,
+                           const uint8_t *p, size_t n)
+{
+	hier h;
+	hier_init(&h, c, k, t, mag);
+	rcdec d;
+	ndo__rc_dec_init(&d, p, n);
+	if (levels(&h, P_DECODE, NULL, &d, NULL))
+		return -1;
+	return d.over || d.pos != d.n ? -1 : 0;
+}
+
+int ndo__codec_hier_implied(const hcodes *c, int32_t *k, int64_t *t, uint8_t *mag)
+{
+	hier h;
+	hier_init(&h, c, k, t, mag);
+	return levels(&h, P_IMPLIED, NULL, NULL, NULL);
+}
