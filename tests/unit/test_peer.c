@@ -356,8 +356,8 @@ static void restart_case(int what, double drop, uint64_t seed, int every, int k)
 	int done = run(w, 60) == 0;
 	for (int i = 0; i < w->n; i++)
 		if (w->p[i] && w->state[i] != NDO_PEER_DONE) {
-			printf("    peer %d ended in state %d: %s\n", i, w->state[i],
-			       ndo_peer_message(w->p[i]));
+			printf("    peer %d ended in state %d at step %lld: %s\n", i, w->state[i],
+			       (long long)ndo_peer_step(w->p[i]), ndo_peer_message(w->p[i]));
 			done = 0;
 		}
 	int np = 0;
