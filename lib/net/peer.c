@@ -336,6 +336,12 @@ static int halo_later(const ndo_peer *p, const ndo_msg_halo_t *h)
 {
 	if (h->epoch > ndo_session_epoch(p->s))
 		return 1;
+	/* the region of the partition in force is not made yet (the session
+	 * installed it in this very update, or this peer has not announced):
+	 * which nodes are its halo is not known — the last region's marks
+	 * took a neighbour's step 1 into a node of the new halo at step 0 */
+	if (p->epoch_done != ndo_session_epoch(p->s))
+		return 1;
 	/* rollback keeps the halos of later steps itself */
 	return !p->rb && p->announced && p->simulating && h->step > p->cur;
 }
@@ -1208,6 +1214,7 @@ static int announce(ndo_peer *p)
 	p->announced = 1;
 	if (p->rb && (rc = rb_restart(p)))
 		return rc;
+	unstash(p); /* halos kept until the region was made */
 	p->resend_gap = p->o.resend;
 	p->next_resend = p->now + p->resend_gap;
 	return p->simulating ? publish(p) : 0;

@@ -18,15 +18,6 @@ remesh --shape wavy -l 4 -o wavy4.tgrid 2>/dev/null || fail "remesh"
 RUN=(-s "$SCENE" --dt 0.005 -t 10)
 simulate-peer -q wavy4.tgrid "${RUN[@]}" -o solo.tgrid 2>solo.err || fail "single process"
 
-# wait_for FILE REGEX SECONDS: until a line of FILE matches (1 after SECONDS).
-wait_for() {
-	local t0=$EPOCHREALTIME
-	while ! grep -Eq -- "$2" "$1" 2>/dev/null; do
-		awk "BEGIN{exit !($EPOCHREALTIME - $t0 > $3)}" && return 1
-		sleep 0.02
-	done
-}
-
 # a random pause of 0.05..0.8 s (the run takes ~1-3 s)
 pause() { sleep "$(awk -v r=$RANDOM 'BEGIN{printf "%.2f", 0.05 + 0.75 * r / 32767}')"; }
 
@@ -48,7 +39,7 @@ event() {
 		simulate-peer --join --poi 900 --peer-timeout 0.5 --start-timeout 30 "$@" 2>joiner2.err &
 		victim=$!
 	fi
-	if ! wait_for owner.err 'starting: step' 30; then
+	if ! wait_for owner.err 'starting: step' 30 >/dev/null; then
 		fail "$name" "the run did not start"
 		kill "${pids[@]}" ${victim:-} 2>/dev/null
 		wait
