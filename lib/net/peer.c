@@ -653,8 +653,9 @@ static int frame_send(ndo_peer *p)
 /* ---- checkpoints and restarts (checkpoint.h) ------------------------------ */
 /* Exact lock-step of a fixed-step explicit method: a new partition during
  * the run restarts every peer from a checkpoint, and the run stays exact.
- * (rkf45 keeps its sub-step size, the implicit methods their last
- * solution, outside the checkpointed state; realtime rolls back.) */
+ * (rkf45 keeps its sub-step size outside the checkpointed state; the
+ * implicit methods' restarts deadlocked under loss: docs/peers.md "Not
+ * done"; realtime rolls back.) */
 static int restartable(const ndo_peer *p)
 {
 	return p->exact && !p->ps && !p->rb && p->clock == NDO_CLOCK_LOCKSTEP && p->sim &&
