@@ -195,6 +195,12 @@ static void write_halo(ndo_peer *p, const ndo_msg_halo_t *h)
 			if ((size_t)p->canon[c] != c || own[c] != from || !p->hmark[c] ||
 			    h->step < p->nstep[c])
 				continue;
+			taken++;
+			/* rollback keeps its halos itself: the grid's halo nodes come
+			 * from whole regions, which the owner gathers (a halo may be
+			 * tentative, and rest + u is not the position bit for bit) */
+			if (p->rb)
+				continue;
 			const double *val = &h->values[k];
 			for (int d = 0; d < 3; d++) {
 				v[3 * c + d] = val[d];
@@ -202,7 +208,6 @@ static void write_halo(ndo_peer *p, const ndo_msg_halo_t *h)
 				x[3 * c + d] = rest[3 * c + d] + val[3 + d];
 			}
 			p->nstep[c] = h->step;
-			taken++;
 		}
 	if (!taken) /* duplicates: the session syncs the grid after its update */
 		return;
@@ -929,8 +934,8 @@ static int region(ndo_peer *p)
 		ndo_method m = ndo_sim_method(p->sim);
 		int split = ndo__ps_method(m);
 		/* realtime with exact halos rolls back (rollback.h): the explicit
-		 * methods of one exchange a step; rkf45 and the implicit methods
-		 * keep the extrapolated boundary */
+		 * methods of a fixed reach; rkf45 and the implicit methods (steps
+		 * of several exchanges) keep the extrapolated boundary */
 		int roll = p->clock == NDO_CLOCK_REALTIME && !p->hold && ndo_peer_halo_rings(m) > 0 &&
 		           !split;
 		p->exact = (p->clock == NDO_CLOCK_LOCKSTEP && !p->hold &&
@@ -944,7 +949,7 @@ static int region(ndo_peer *p)
 			 * multi-stage one, whose stages would move it.  A split step
 			 * (rkf45, the implicit methods) exchanges several times within
 			 * each step (peer_solve.h): K is 1 */
-			if (split || roll)
+			if (split)
 				p->K = 1;
 			p->W = split ? ndo__ps_rings(m)
 			             : ndo_peer_halo_rings(m) * p->K +
@@ -967,7 +972,7 @@ static int region(ndo_peer *p)
 				                    fmax(p->o.resend, 2 * p->dt / p->speed), &p->rb);
 			if (!rc && roll) {
 				ndo__rb_region r = {p->own, p->nown, p->halo, p->nhalo, p->strip, p->nstrip,
-				                    p->act, owner_channel(p), p->canon};
+				                    p->act, owner_channel(p), p->canon, p->K, p->first};
 				rc = ndo__rb_set_region(p->rb, &r);
 				if (!rc && p->announced)
 					rc = rb_restart(p);
@@ -1559,12 +1564,6 @@ static int lockstep(ndo_peer *p)
 	return resend_due(p);
 }
 
-/* Realtime: step k at wall0 + (k − sched0)·dt/speed with whatever values
- * are there.  A peer that started later (its first state announced later,
- * over a lossy link) or fell behind catches up: while another peer's
- * newest step is ahead of its own it steps at once, and its schedule
- * restarts from there — so the peers keep the earliest starter's pace
- * instead of a permanent offset. */
 /* Rollback: what arrived since the last call recomputed, the confirmed
  * strips a neighbour waits for sent again. */
 static int rb_catch_up(ndo_peer *p)
@@ -1579,6 +1578,12 @@ static int rb_catch_up(ndo_peer *p)
 	return ndo__rb_resend(p->rb, p->now, 0);
 }
 
+/* Realtime: step k at wall0 + (k − sched0)·dt/speed with whatever values
+ * are there.  A peer that started later (its first state announced later,
+ * over a lossy link) or fell behind catches up: while another peer's
+ * newest step is ahead of its own it steps at once, and its schedule
+ * restarts from there — so the peers keep the earliest starter's pace
+ * instead of a permanent offset. */
 static int realtime(ndo_peer *p)
 {
 	int rc;

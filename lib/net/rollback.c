@@ -169,6 +169,15 @@ int ndo__rb_set_region(ndo__rb *rb, const ndo__rb_region *r)
 	return 0;
 }
 
+/* Is s an exchange step (halos sent, received and taken)? */
+static int xstep(const ndo__rb *rb, int64_t s) { return (s - rb->r.first) % rb->r.K == 0; }
+/* The first exchange step at or after s. */
+static int64_t xup(const ndo__rb *rb, int64_t s)
+{
+	int64_t m = (s - rb->r.first) % rb->r.K;
+	return m ? s + rb->r.K - m : s;
+}
+
 /* The slot of `step`, emptied for it if it held another step. */
 static slot *at(ndo__rb *rb, int64_t step)
 {
@@ -187,7 +196,7 @@ static slot *at(ndo__rb *rb, int64_t step)
 static int send_strip(ndo__rb *rb, int64_t step)
 {
 	slot *S = &rb->w[step % rb->win];
-	if (S->step != step || !S->have || !rb->r.nstrip)
+	if (S->step != step || !S->have || !rb->r.nstrip || !xstep(rb, step))
 		return 0;
 	const size_t budget = 60000; /* one datagram, with the header */
 	const ndo_net_stats *ns = ndo_net_stats_get(ndo_session_net(rb->s));
@@ -295,7 +304,7 @@ void ndo__rb_receive(ndo__rb *rb, const ndo_msg_halo_t *h, double now)
 	if (!rb->w)
 		return;
 	int64_t s = h->step;
-	if (s < rb->base || s >= rb->base + rb->win) {
+	if (s < rb->base || s >= rb->base + rb->win || !xstep(rb, s)) {
 		rb->st.dropped++;
 		return;
 	}
@@ -401,14 +410,16 @@ static void slide(ndo__rb *rb)
 static int one_step(ndo__rb *rb, int64_t s, int first)
 {
 	slot *S = &rb->w[s % rb->win];
-	halo_in(rb, S, first);
+	int x = xstep(rb, s); /* between exchanges the halo is integrated along */
+	if (x)
+		halo_in(rb, S, first);
 	int rc = ndo_sim_step(rb->sim, rb->h);
 	if (rc)
 		return rc;
 	slot *N = at(rb, s + 1);
 	keep(rb, N);
 	int was = N->cf;
-	if (rb->exact && S->cf && S->ncf == rb->r.nhalo)
+	if (rb->exact && S->cf && (!x || S->ncf == rb->r.nhalo))
 		confirm(rb, N);
 	else
 		N->cf = 0;
@@ -455,7 +466,7 @@ int ndo__rb_catch_up(ndo__rb *rb)
 		if (!rb->exact || !S->cf)
 			break;
 		if (!N->cf) {
-			if (S->ncf != rb->r.nhalo)
+			if (xstep(rb, rb->fr) && S->ncf != rb->r.nhalo)
 				break;
 			confirm(rb, N);
 			if ((rc = send_strip(rb, rb->fr + 1)))
@@ -489,6 +500,7 @@ int ndo__rb_step(ndo__rb *rb, double h)
 		for (int q = 0; q < rb->nnb; q++)
 			if (rb->nbs[q].kf < m)
 				m = rb->nbs[q].kf;
+		m = xup(rb, m);
 		if (m < rb->cur && m >= rb->base && ndo__rb_confirmed(rb, m))
 			return send_strip(rb, m);
 	}
@@ -511,7 +523,7 @@ int ndo__rb_ready(const ndo__rb *rb)
 	if (!rb->w)
 		return 0;
 	const slot *S = &rb->w[rb->base % rb->win];
-	return S->step == rb->base && S->ncf == rb->r.nhalo;
+	return S->step == rb->base && (S->ncf == rb->r.nhalo || !xstep(rb, rb->base));
 }
 
 int ndo__rb_published(ndo__rb *rb)
@@ -556,7 +568,8 @@ int ndo__rb_resend(ndo__rb *rb, double now, int force)
 		return 0;
 	if (from < rb->base)
 		from = rb->base;
-	for (int64_t s = from; s <= from + 1 && s <= rb->cur; s++) {
+	from = xup(rb, from - (rb->exact ? 0 : rb->r.K - 1)); /* (exact 0: the newest) */
+	for (int64_t s = from; s <= from + rb->r.K && s <= rb->cur; s += rb->r.K) {
 		if (rb->exact && !ndo__rb_confirmed(rb, s))
 			break;
 		int rc = send_strip(rb, s);

@@ -14,10 +14,10 @@
  * The peer (peer.c) owns the region's sets — its stored nodes, the halo
  * (rings 1..W around them, canonical), the strip (its canonical nodes the
  * neighbours' halos hold) and the integrated set — as in exact lock-step
- * with one step per exchange.  This keeps, per step of a window, the
+ * with K steps per exchange.  This keeps, per step of a window, the
  * region's state (velocity and displacement: the integrated state itself)
- * and the halo values the step used, and sends every state it computes as
- * its strip.  Nothing here waits; `now` (the caller's clock) only times
+ * and, at the exchange steps, the halo values the step used; it sends the
+ * strip of every exchange step it computes.  Nothing here waits; `now` (the caller's clock) only times
  * the re-sends. */
 #ifndef NDO_NET_ROLLBACK_H
 #define NDO_NET_ROLLBACK_H
@@ -47,6 +47,10 @@ typedef struct ndo__rb_region {
 	                         1..W−1); the halo's outermost ring is held */
 	const int32_t *owner; /* per stored node: the peer that owns it */
 	const int32_t *canon; /* per stored node: its canonical node */
+	int K;                /* steps per halo exchange (≥ 1): halos travel and
+	                         are taken at the steps first + j·K, and the
+	                         halo is wide enough for K steps */
+	int64_t first;        /* the run's first step */
 } ndo__rb_region;
 
 /* resend: the first re-send's delay (doubling up to 0.2 s); the arrays of

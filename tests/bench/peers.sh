@@ -97,14 +97,15 @@ done
 fi
 # realtime with rollback over LCM: every peer's report (joiners not quiet)
 if want 3; then
-rtl="| loss | delay (ms) | divergence | exit statuses | wall time (s) | every step confirmed | rollbacks (owner) | recomputed steps per step (owner) | deepest rollback (steps, any peer) | frames shown wrong (all peers) | shown error (of the largest displacement) | computing (owner, s) |
-|---|---|---|---|---|---|---|---|---|---|---|---|"
+rtl="| loss | delay (ms) | steps per exchange | divergence | exit statuses | wall time (s) | every step confirmed | rollbacks (owner) | recomputed steps per step (owner) | deepest rollback (steps, any peer) | frames shown wrong (all peers) | shown error (of the largest displacement) | computing (owner, s) |
+|---|---|---|---|---|---|---|---|---|---|---|---|---|"
 rtload0=$(cut -d' ' -f1-3 /proc/loadavg)
 for drop in 0 0.05 0.2; do
-	for delay in 0 10 20; do
+	for dk in 0:1 10:1 20:1 20:2; do
+		delay=${dk%:*} hk=${dk#*:}
 		codes="all 0"
-		JOINER_Q="" peers 3 "$work/wavy6.tgrid" "$work/rt.tgrid" -t 2 --clock realtime -- \
-			--drop "$drop" --delay "$delay" || codes="not all 0"
+		JOINER_Q="" peers 3 "$work/wavy6.tgrid" "$work/rt.tgrid" -t 2 --clock realtime \
+			--halo-steps "$hk" -- --drop "$drop" --delay "$delay" || codes="not all 0"
 		errs=("$work/owner.err" "$work/j1.err" "$work/j2.err")
 		d=$( [ -e "$work/rt.tgrid" ] && [ "$codes" = "all 0" ] && diff_rel "$work/rt.tgrid" "$work/solo6.tgrid" || echo -)
 		rm -f "$work/rt.tgrid"
@@ -119,8 +120,8 @@ for drop in 0 0.05 0.2; do
 		comp=$(field 'computing [0-9.e+-]* s' || true)
 		per=$(awk -v r="$rec" -v t="$tak" 'BEGIN{if (t > 0) printf "%.2f", r / t; else print "-"}')
 		rtl="$rtl
-| $drop | $delay | $d | $codes | $wall | $conf of 3 | $rolls | $per | $deep | $shown | $serr | $comp |"
-		echo "realtime, loss $drop, delay $delay: $d" >&2
+| $drop | $delay | $hk | $d | $codes | $wall | $conf of 3 | $rolls | $per | $deep | $shown | $serr | $comp |"
+		echo "realtime, loss $drop, delay $delay, $hk steps per exchange: $d" >&2
 	done
 done
 rtload1=$(cut -d' ' -f1-3 /proc/loadavg)
@@ -218,7 +219,8 @@ load1=$(cut -d' ' -f1-3 /proc/loadavg)
 	echo
 	echo "Level 6, 3 peers, rk4 at h = 0.019 s (0.9 of its critical step), 2 s (105"
 	echo "steps), in one process with a fake clock and the loss and delay injected"
-	echo "on every peer's receiving side: \`$rt_cmd\`.  Difference: the owner's"
+	echo "on every peer's receiving side, one halo exchange a step and, at 20 ms,"
+	echo "also one every 2 steps: \`$rt_cmd\`.  Difference: the owner's"
 	echo "output against the single process, over its largest displacement."
 	echo "Rollbacks: all three peers'; recomputed steps per step taken and the"
 	echo "deepest rollback over the peers.  Frames shown: the whole regions sent"
@@ -240,7 +242,7 @@ load1=$(cut -d' ' -f1-3 /proc/loadavg)
 	echo "$loss"
 	echo
 	echo "Realtime with rollback over LCM: the same 3 peers and 2 s,"
-	echo "\`peers 3 wavy6.tgrid -t 2 --clock realtime -- --drop P --delay MS\`; the"
+	echo "\`peers 3 wavy6.tgrid -t 2 --clock realtime --halo-steps K -- --drop P --delay MS\`; the"
 	echo "wall time is the owner's from its first step to its last (the pace held:"
 	echo "2 s); divergence, rollbacks and the frames' error as in §2, from every"
 	echo "peer's report.  Load average (1, 5, 15 min) before: $rtload0, after:"

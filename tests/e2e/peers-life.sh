@@ -11,10 +11,10 @@
 SCENE=$NDO_ROOT/samples/thesis-fig5.3.scene
 remesh --shape wavy -l 4 -o wavy4.tgrid 2>/dev/null || fail "remesh"
 
-
 # --- a killed peer ----------------------------------------------------------
 # Lock-step, realtime pacing of the owner would not matter: the run is long
-# enough (10000 steps: 2000 ran out in 0.43 s on a quiet machine) to be under way when the peer dies.
+# enough (10000 steps, about 3 s here) to be under way when the peer dies
+# (2000 took 0.5-0.8 s, and sometimes ended before the kill 0.5 s in).
 simulate-peer --owner wavy4.tgrid -s "$SCENE" --dt 0.002 -t 20 --peers 3 --peer-timeout 1 \
 	--step-timeout 0.2 -o killed.tgrid 2>owner.err &
 owner=$!

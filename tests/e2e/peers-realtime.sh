@@ -8,9 +8,9 @@
 # reporting its last step confirmed and rollbacks taken.  The run keeps
 # the pace: it takes about its simulated time.  Peers that cannot keep the
 # pace (--speed 1000 with a 50 ms bound) stop with exit status 5 and say so.
-# (midpoint's automatic step here, 6.4 ms, is shorter than the delay: one
-# step is confirmed per network delay, so its confirmations fall behind and
-# the window fills: docs/peers.md.)
+# Midpoint's automatic step here, 6.4 ms, is shorter than the delay: with
+# one exchange a step one step is confirmed per network delay, so it runs
+# with a halo exchange every 4 steps (--halo-steps 4: 4 steps per delay).
 . "$(dirname "$0")/netns.bash"
 . "$(dirname "$0")/lib.sh"
 . "$(dirname "$0")/peers.bash"
@@ -30,11 +30,13 @@ run_peers() {
 	joiners "$n" "$@"
 }
 
-for m in rk4 symplectic-euler; do
+for m in rk4 symplectic-euler midpoint; do
+	k=1
+	[ $m = midpoint ] && k=4
 	simulate-peer -q wavy4.tgrid -s "$SCENE" -i $m -t 3 -o solo-$m.tgrid 2>>solo.err ||
 		fail "single process, $m"
 	SECONDS=0
-	if METHOD=$m run_peers 3 rt-$m.tgrid --drop 0.2 --delay 10; then
+	if METHOD=$m OWNER_OPTS="--halo-steps $k" run_peers 3 rt-$m.tgrid --drop 0.2 --delay 10; then
 		wall=$SECONDS
 		read -r rel owners step sstep < <(compare rt-$m.tgrid solo-$m.tgrid)
 		confirmed=$(cat owner.err joiner1.err joiner2.err | grep -c 'rollback: every step confirmed')
@@ -44,7 +46,7 @@ for m in rk4 symplectic-euler; do
 		shown=$(grep -o 'by up to [^ ]* m ([^ ]* of the largest' owner.err)
 		if [ "$rel" = 0 ] && [ "$owners" = 3 ] && [ "$step" = "$sstep" ] && [ "$confirmed" = 3 ] &&
 			[ "$all" -gt 0 ] && [ "$wall" -le 10 ]; then
-			pass "3 peers, $m realtime, 20% loss, 10 ms: bit for bit the single process at step $step in ${wall}s; $all rollbacks in all; owner: $rolls; frames shown off $shown)"
+			pass "3 peers, $m realtime, $k steps per exchange, 20% loss, 10 ms: bit for bit the single process at step $step in ${wall}s; $all rollbacks in all; owner: $rolls; frames shown off $shown)"
 		else
 			fail "3 peers, $m realtime, 20% loss, 10 ms" "difference $rel (expected 0), $owners owners, step $step of $sstep, $confirmed of 3 confirmed, $all rollbacks, ${wall}s"
 			grep -h 'rollback\|pace\|confirmed' owner.err joiner*.err | sed 's/^/    /'

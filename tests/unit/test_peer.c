@@ -152,7 +152,7 @@ static void split_steps_survive_loss(void)
 	}
 }
 
-/* Realtime rolls back: every explicit method of one exchange a step, 3
+/* Realtime rolls back: every explicit method, one exchange a step, 3
  * peers, 20 % loss and 10 ms delay (half an rk4 step, five of euler's):
  * the peers keep the wall clock, predict the halos that have not come,
  * roll back when the true ones differ, and end on the single process's
@@ -187,6 +187,26 @@ static void realtime_rolls_back_to_the_single_process(void)
 		       (long long)st.rollback_depth, (long long)st.recomputed, (long long)st.steps,
 		       (long long)st.predicted, (long long)st.shown_wrong, (long long)st.shown_frames,
 		       st.shown_disp > 0 ? st.shown_error / st.shown_disp : 0.0);
+	}
+	/* a delay longer than the step: one exchange every K steps confirms K
+	 * steps a round trip (euler: 10 ms are five steps; rk4 at 25 ms) */
+	static const struct { const char *m; double dt, delay; int64_t steps; int k; } wide[] = {
+		{"euler", 0.002, 10, 200, 8}, {"rk4", 0.02, 25, 50, 3}};
+	for (int m = 0; m < 2; m++) {
+		setup su = {.integrator = wide[m].m, .dt = wide[m].dt, .steps = wide[m].steps,
+		            .clock = NDO_CLOCK_REALTIME, .peers = 3, .halo_steps = wide[m].k};
+		su.faults = (ndo_faults){.drop = 0.2, .delay_ms = wide[m].delay, .seed = 23};
+		ndo_peer_stats st;
+		int ok;
+		double d = split_run(&su, 3, &st, &ok);
+		CHECK(ok && d == 0 && st.confirmed && st.rollback_depth <= 3 * wide[m].k,
+		      "%s realtime, %d steps per exchange, 20%% loss, %g ms: done %d, differs by %.3g, "
+		      "confirmed %d, deepest rollback %lld", wide[m].m, wide[m].k, wide[m].delay, ok, d,
+		      st.confirmed, (long long)st.rollback_depth);
+		printf("    %s realtime, %d steps per exchange, 3 peers, 20%% loss, %g ms: difference "
+		       "%.3g; owner: %lld rollbacks (deepest %lld steps), %lld steps recomputed for "
+		       "%lld\n", wide[m].m, wide[m].k, wide[m].delay, d, (long long)st.rollbacks,
+		       (long long)st.rollback_depth, (long long)st.recomputed, (long long)st.steps);
 	}
 	setup held = {.integrator = "rk4", .dt = 0.02, .steps = 50, .clock = NDO_CLOCK_REALTIME,
 	              .peers = 2, .hold = 1};

@@ -24,10 +24,20 @@
  *                      on with the newest values it has and counts the
  *                      miss (a dead or unreachable neighbour).
  *   NDO_CLOCK_REALTIME  a peer steps on the wall clock, step k at
- *                      start + k·dt/speed, with whatever values it holds;
- *                      nobody waits, the lag is what the network costs.  A
- *                      peer that sees another one further on catches up at
- *                      once (the earliest starter sets the pace).
+ *                      start + k·dt/speed; nobody waits.  A peer that sees
+ *                      another one further on catches up at once (the
+ *                      earliest starter sets the pace).  The explicit
+ *                      methods of a fixed reach (hold_boundary 0) exchange
+ *                      exact halos as in lock-step, predict those that have
+ *                      not come and roll back when one of an earlier step
+ *                      turns out different (lib/net/rollback.h): the run
+ *                      ends on the lock-step result once every step is
+ *                      confirmed (ndo_peer_stats.confirmed).  A peer that
+ *                      falls step_timeout behind the wall clock, or whose
+ *                      window of unconfirmed steps fills, fails with
+ *                      NDO_EPACE.  rkf45, the implicit methods and the held
+ *                      boundary integrate with whatever values have come:
+ *                      the lag is what the network costs.
  *
  * The run: the owner starts when `peers` peers (itself included) are in
  * the partition, from its grid's step s0, and every peer takes `steps`
@@ -84,16 +94,19 @@ typedef struct ndo_peer_opts {
 	/* The owner's choices for the session (a joiner takes the owner's): */
 	ndo_clock clock;        /* 0: lock-step */
 	double step_timeout;    /* lock-step: seconds a step waits for the halo,
-	                           then goes on with the newest values (0: 0.5) */
+	                           then goes on with the newest values; realtime:
+	                           the most a peer may fall behind the wall
+	                           clock (NDO_EPACE) (0: 0.5) */
 	double speed;           /* realtime: simulated seconds per wall-clock
 	                           second (0: 1) */
 	int peers;              /* start when this many peers simulate, the
 	                           owner included (≤ 1: at once) */
-	int halo_steps;         /* lock-step, exact: steps per halo exchange, k
+	int halo_steps;         /* exact halos (lock-step, realtime with
+	                           rollback): steps per halo exchange, k
 	                           (0: 1); the halo is k times as wide as one
 	                           step's stages reach (ndo_peer_halo_rings) and
 	                           its overlap is recomputed by both sides */
-	int publish_every;      /* lock-step, exact: whole-region tiles (for
+	int publish_every;      /* exact halos: whole-region tiles (for
 	                           observers, render-frame, the owner's gather)
 	                           every this many steps, and at the last step
 	                           (0: 10; < 0: only at the first and last) */
@@ -171,7 +184,8 @@ typedef enum ndo_peer_state {
 
 /* Do what is due at `now`: the session's protocol, the others' tiles, at
  * most one step, re-sends.  Returns an ndo_peer_state, or a negative
- * status: NDO_EDIVERGED (the simulation diverged: ndo_errdetail()), NDO_EIO
+ * status: NDO_EDIVERGED (the simulation diverged: ndo_errdetail()), NDO_EPACE
+ * (realtime: this peer cannot keep the pace: ndo_errdetail()), NDO_EIO
  * (the link failed), NDO_ERANGE/NDO_EINVAL (a joiner cannot use the
  * owner's description: ndo_errdetail()), NDO_ENOMEM. */
 int ndo_peer_update(ndo_peer *p, double now);
