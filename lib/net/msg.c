@@ -453,7 +453,7 @@ ndo_drop ndo_msg_validate(const ndo_msg *m, const ndo_msg_ctx *c)
 		                                                            : NDO_DROP_RANGE;
 	case NDO_MSG_PARTITION: {
 		const ndo_msg_partition_t *p = &m->u.partition;
-		if (p->epoch < 0 || !method_ok(p->method) || p->npeers < 1 ||
+		if (p->epoch < 0 || p->restart < -1 || !method_ok(p->method) || p->npeers < 1 ||
 		    p->npeers > NDO_MAX_PEERS || p->nleaves < 1 ||
 		    (size_t)p->nleaves > ndo_cell_count(L))
 			return NDO_DROP_RANGE;
@@ -490,7 +490,8 @@ ndo_drop ndo_msg_validate(const ndo_msg *m, const ndo_msg_ctx *c)
 	case NDO_MSG_HALO: {
 		const ndo_msg_halo_t *h = &m->u.halo;
 		if (h->step < 0 || !isfinite(h->time) || h->time < 0 || h->epoch < 0 ||
-		    (h->confirmed != 0 && h->confirmed != 1))
+		    (h->confirmed != 0 && h->confirmed != 1) ||
+		    (h->checkpoint != 0 && h->checkpoint != 1))
 			return h->time != h->time ? NDO_DROP_NONFINITE : NDO_DROP_RANGE;
 		int64_t count = run_nodes(L, h->nruns, h->start, h->len);
 		if (count < 0)

@@ -399,9 +399,13 @@ static void on_message(ndo_net *n, int t, const uint8_t *data, size_t len, int s
 		n->st.gaps--; /* a gap filled late: it was reordered, not lost */
 		n->st.late++;
 	}
-	if (t == NDO_MSG_TILE && n->keep_all) {
+	if ((t == NDO_MSG_TILE && n->keep_all) || t == NDO_MSG_HALO || t == NDO_MSG_SOLVE) {
 		/* the caller orders tiles by their step: a tile sent again (an
-		 * older step after a newer one) is not stale here */
+		 * older step after a newer one) is not stale here; nor are halos
+		 * and split steps' phases (ndo/peer.h orders them by step and
+		 * phase): a re-sent strip overtaken by a later message — the next
+		 * strip of the same re-send, a checkpoint — was dropped, and a
+		 * lock-step peer waited for it until its step timeout */
 		if (seq > s->last[t])
 			s->last[t] = seq;
 		if (enqueue(n, &m) != 0) {

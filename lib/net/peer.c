@@ -1,6 +1,7 @@
 /* peer.c — a simulating peer: session + simulation + time keeping
  * (ndo/peer.h; docs/peers.md). */
 #include "ndo/peer.h"
+#include "checkpoint.h"
 #include "peer_solve.h"
 #include "rollback.h"
 #include "ndo/scene.h"
@@ -88,6 +89,19 @@ struct ndo_peer {
 	double split_t0;       /* ... the last progress of the step waited for */
 	int64_t split_phases;  /* ... and the phases sent then */
 	ndo__rb *rb;           /* realtime with exact halos: rollback (rollback.h) */
+	/* restarts (checkpoint.h): exact lock-step of the fixed-step explicit
+	 * methods keeps checkpoints every C steps and goes back to the
+	 * partition's restart step when the partition changes during the run */
+	int C;
+	ndo__ck *ck;
+	int inexact;           /* went on with older values since the last
+	                          (re)start: its checkpoints are not sent */
+	int64_t rs_step;       /* a restart waiting for checkpoint nodes, −1: none */
+	int64_t rs_from;       /* ... the step this peer was at */
+	int64_t ck_skip;       /* the step just restarted from: its checkpoint is held */
+	int64_t ck_until;      /* owner: re-sends checkpoint ck_at while waiting at
+	                          a step up to this */
+	int64_t ck_at;
 	int last_sent;         /* ... the last step's frame went out (confirmed,
 	                          or after gather_timeout unconfirmed) */
 	int failed;
@@ -327,6 +341,12 @@ static int halo_later(const ndo_peer *p, const ndo_msg_halo_t *h)
 {
 	if (h->epoch > ndo_session_epoch(p->s))
 		return 1;
+	/* the region of the partition in force is not made yet (the session
+	 * installed it in this very update, or this peer has not announced):
+	 * which nodes are its halo is not known — the last region's marks
+	 * took a neighbour's step 1 into a node of the new halo at step 0 */
+	if (p->epoch_done != ndo_session_epoch(p->s))
+		return 1;
 	/* rollback keeps the halos of later steps itself */
 	return !p->rb && p->announced && p->simulating && h->step > p->cur;
 }
@@ -336,12 +356,18 @@ static void halo_free(ndo_msg_halo_t *h)
 	free(h->start), free(h->len), free(h->values);
 }
 
-/* The session's halo_fn: another peer's halo. */
+static void on_checkpoint(ndo_peer *p, const ndo_msg_halo_t *h);
+
+/* The session's halo_fn: another peer's halo (or checkpoint). */
 static void on_halo(void *user, const ndo_msg_halo_t *h)
 {
 	ndo_peer *p = user;
 	if (arrays(p)) {
 		p->failed = NDO_ENOMEM;
+		return;
+	}
+	if (h->checkpoint) {
+		on_checkpoint(p, h);
 		return;
 	}
 	if (h->epoch < ndo_session_epoch(p->s) ||
@@ -629,6 +655,168 @@ static int frame_send(ndo_peer *p)
 	return rc < 0 ? rc : 0;
 }
 
+/* ---- checkpoints and restarts (checkpoint.h) ------------------------------ */
+/* Exact lock-step of a fixed-step explicit method: a new partition during
+ * the run restarts every peer from a checkpoint, and the run stays exact.
+ * (rkf45 keeps its sub-step size outside the checkpointed state; the
+ * implicit methods' restarts deadlocked under loss: docs/peers.md "Not
+ * done"; realtime rolls back.) */
+static int restartable(const ndo_peer *p)
+{
+	return p->exact && !p->ps && !p->rb && p->clock == NDO_CLOCK_LOCKSTEP && p->sim &&
+	       p->C > 0;
+}
+
+static int ck_ready(ndo_peer *p)
+{
+	if (!p->ck && ndo__ck_create(p->count, p->ncanon, &p->ck))
+		return ndo__fail(NDO_ENOMEM, "out of memory");
+	return 0;
+}
+
+/* The owner: its next partitions restart from the newest step it holds
+ * whole. */
+static void ck_whole(ndo_peer *p)
+{
+	if (p->owner && p->ck && p->started && restartable(p))
+		ndo_session_set_restart(p->s, ndo__ck_whole(p->ck));
+}
+
+/* Keep n canonical nodes' state at cur, from the simulation. */
+static void ck_take(ndo_peer *p, size_t n, const int32_t *nodes)
+{
+	ndo_sim_get_nodes(p->sim, n, nodes, NULL, p->xs, p->vs);
+	ndo__ck_put(p->ck, p->cur, p->tcur, n, nodes, p->xs, p->vs);
+}
+
+/* A checkpoint step: the region's state kept, and sent to the owner. */
+static int checkpoint(ndo_peer *p)
+{
+	int rc = ck_ready(p);
+	if (rc)
+		return rc;
+	ck_take(p, p->nownc, p->ownc);
+	p->st.checkpoints++;
+	if (p->owner) {
+		ck_whole(p);
+		return 0;
+	}
+	return ndo__ck_send(p->ck, p->s, p->cur, p->nownc, p->ownc, &p->st.checkpoint_bytes);
+}
+
+/* The owner sends checkpoint ck_at whole (a restart's, for the peers that
+ * lack some of it). */
+static int ck_resend(ndo_peer *p)
+{
+	return ndo__ck_send(p->ck, p->s, p->ck_at, p->ncanon, p->canons, &p->st.checkpoint_bytes);
+}
+
+/* A checkpoint message: the owner keeps every member's, a joiner the
+ * owner's re-sends; messages of an older partition are not used (their
+ * steps after its restart step may have been computed with older values). */
+static void on_checkpoint(ndo_peer *p, const ndo_msg_halo_t *h)
+{
+	int32_t from = h->hdr.sender_id;
+	if (h->epoch < ndo_session_epoch(p->s) ||
+	    (p->owner ? !member(p, from) : from != ndo_session_owner_id(p->s) || !p->sim)) {
+		p->st.stale++;
+		return;
+	}
+	if (ck_ready(p)) {
+		p->failed = NDO_ENOMEM;
+		return;
+	}
+	ndo__ck_put_msg(p->ck, h);
+	ck_whole(p);
+}
+
+static int publish(ndo_peer *p);
+static void go(ndo_peer *p);
+
+/* A restart waiting for checkpoint nodes: go back to rs_step when this
+ * peer holds its region and halo there.  0 (done or waiting) or a
+ * negative status. */
+static int restart_try(ndo_peer *p)
+{
+	int64_t R = p->rs_step;
+	if (R < 0)
+		return 0;
+	int32_t *nodes = p->dist; /* scratch: count ints */
+	memcpy(nodes, p->ownc, p->nownc * sizeof *nodes);
+	memcpy(nodes + p->nownc, p->halo, p->nhalo * sizeof *nodes);
+	size_t n = p->nownc + p->nhalo;
+	double t;
+	if (ndo__ck_get(p->ck, R, n, nodes, p->xs, p->vs, &t))
+		return 0;
+	ndo_sim_set_displacements(p->sim, n, nodes, p->xs, p->vs);
+	ndo_sim_set_time(p->sim, t, R);
+	ndo_sim_restart_energy_bound(p->sim);
+	ndo_grid *g = ndo_session_grid(p->s);
+	double *x = ndo_grid_f64(g, NDO_CH_POSITION, 3), *v = ndo_grid_f64(g, NDO_CH_VELOCITY, 3);
+	const double *rest = ndo_grid_f64(g, NDO_CH_REST, 3);
+	for (size_t q = 0; q < p->ncanon; q++)
+		if (p->nstep[p->canons[q]] > R)
+			p->nstep[p->canons[q]] = R;
+	for (size_t k = 0; k < n; k++) {
+		size_t c = (size_t)nodes[k];
+		for (int d = 0; d < 3; d++) {
+			p->hu[3 * c + d] = p->xs[3 * k + d];
+			v[3 * c + d] = p->vs[3 * k + d];
+			x[3 * c + d] = rest[3 * c + d] + p->xs[3 * k + d];
+		}
+		p->nstep[c] = R;
+	}
+	ndo_grid_sync(g);
+	int64_t back = p->rs_from - R;
+	p->rs_step = -1;
+	p->cur = R;
+	p->tcur = t;
+	g->step = R;
+	g->time = t;
+	p->synced = 0;
+	p->sstep[0] = p->sstep[1] = -1;
+	p->inexact = 0;
+	p->ck_skip = R;
+	p->blocked = 0;
+	p->gather_t0 = -1;
+	if (p->started) {
+		p->st.restarts++;
+		p->st.restart_steps += back > 0 ? back : 0;
+		note(p, "partition %d: restarting from step %lld (a checkpoint), %lld step%s to take "
+		     "again", ndo_session_epoch(p->s), (long long)R, (long long)(back > 0 ? back : 0),
+		     back == 1 ? "" : "s");
+	} else {
+		go(p);
+	}
+	unstash(p);
+	return publish(p);
+}
+
+/* The partition's restart step R: every simulating peer goes back to it.
+ * `from` is the step this peer's region was at (R: none to take again). */
+static int restart_begin(ndo_peer *p, int64_t R, int64_t from)
+{
+	int rc = ck_ready(p);
+	if (rc)
+		return rc;
+	ndo__ck_drop_after(p->ck, R);
+	p->rs_step = R;
+	p->rs_from = from;
+	p->blocked = 0;
+	p->resend_gap = p->o.resend;
+	p->next_resend = p->now + p->resend_gap;
+	if (p->owner) {
+		/* what a peer lacks of R: sent now, and again while the owner waits
+		 * near R (a peer that lacks it holds its neighbours, and so the
+		 * owner, within a few exchanges of R) */
+		p->ck_at = R;
+		p->ck_until = R + (int64_t)p->K * (NDO_MAX_PEERS + 1);
+		if ((rc = ck_resend(p)))
+			return rc;
+	}
+	return restart_try(p);
+}
+
 /* What exact lock-step sends at cur: the strip at an exchange step, the
  * whole region at a frame step, the first and the last. */
 static int exact_publish(ndo_peer *p)
@@ -652,6 +840,12 @@ static int exact_publish(ndo_peer *p)
 			return rc;
 		p->st.exchanges++;
 	}
+	/* checkpoints every C steps (a multiple of K: a restart step is an
+	 * exchange step), none after a step taken with older values */
+	int64_t C = restartable(p) ? (p->C + p->K - 1) / p->K * p->K : 0;
+	if (C && !last && rel > 0 && rel % C == 0 && !p->inexact && p->cur != p->ck_skip &&
+	    (rc = checkpoint(p)))
+		return rc;
 	if (last || rel == 0 || (p->N > 0 && rel % p->N == 0))
 		return frame_send(p);
 	return 0;
@@ -820,6 +1014,11 @@ static int resend(ndo_peer *p)
 			return rc;
 		return !p->started || (p->cur >= p->final && p->last_sent) ? frame_send(p) : 0;
 	}
+	if (p->owner && p->ck_at >= 0 && (p->rs_step >= 0 || p->cur <= p->ck_until) &&
+	    (rc = ck_resend(p)))
+		return rc;
+	if (p->rs_step >= 0)
+		return 0; /* a restart waits for checkpoint nodes: nothing of this partition yet */
 	if (p->exact) {
 		/* the strips of the last two exchanges (a neighbour waits for one
 		 * of them), the whole region at the first and last steps */
@@ -903,6 +1102,8 @@ static int read_description(ndo_peer *p, ndo_scene *sc)
 		} else if (strcmp(key, "peer-final-step") == 0 && val >= 0 && val < 1e15) {
 			p->final = (int64_t)val;
 			have_final = 1;
+		} else if (strcmp(key, "peer-checkpoint-every") == 0 && val >= 0 && val <= 1e9) {
+			p->C = (int)val;
 		} else if (strcmp(key, "peer-frames-every") == 0 && val >= 0 && val <= 1e9) {
 			/* for watches (ndo/watch.h) */
 		} else {
@@ -999,6 +1200,12 @@ static int announce(ndo_peer *p)
 	if (rc)
 		return rc;
 	p->epoch_done = ndo_session_epoch(p->s);
+	int64_t R = ndo_session_restart(p->s);
+	if (!p->owner && p->simulating && restartable(p) && R >= 0) {
+		/* a run under way whose partition restarts: from its step */
+		p->announced = 1;
+		return restart_begin(p, R, R);
+	}
 	if (p->owner) {
 		if (p->sim)
 			ndo_sim_set_time(p->sim, p->tcur, p->cur);
@@ -1013,6 +1220,7 @@ static int announce(ndo_peer *p)
 	p->announced = 1;
 	if (p->rb && (rc = rb_restart(p)))
 		return rc;
+	unstash(p); /* halos kept until the region was made */
 	p->resend_gap = p->o.resend;
 	p->next_resend = p->now + p->resend_gap;
 	return p->simulating ? publish(p) : 0;
@@ -1043,6 +1251,11 @@ static int all_at(const ndo_peer *p, int64_t step)
 static void go(ndo_peer *p)
 {
 	p->started = 1;
+	if (p->owner && restartable(p) && !ck_ready(p)) {
+		/* the run's first step: the owner's simulation holds it whole */
+		ck_take(p, p->ncanon, p->canons);
+		ck_whole(p);
+	}
 	p->st.start_time = p->now;
 	p->wall0 = p->now;
 	p->sched0 = p->cur;
@@ -1289,6 +1502,7 @@ static int step_split(ndo_peer *p)
 		 * older values (the run is no longer exact), and the peers meet
 		 * again at the next one */
 		p->st.timeouts++;
+		p->inexact = 1;
 		p->st.missed += (int64_t)p->nhalo;
 		if (p->notes_missed++ < 5)
 			note(p, "step %lld: the other peers' part of the step did not come within %.2g s: "
@@ -1323,6 +1537,7 @@ static int lockstep(ndo_peer *p)
 	}
 	if (now - p->block_t0 >= p->step_timeout) {
 		p->st.timeouts++;
+		p->inexact = 1; /* no checkpoints until a restart */
 		if (p->notes_missed++ < 5) {
 			const int32_t *own = owner_channel(p);
 			char who[64] = "";
@@ -1464,6 +1679,13 @@ static int on_partition(ndo_peer *p)
 	if (rc)
 		return rc;
 	int np = npeers(p);
+	int64_t R = ndo_session_restart(p->s);
+	int restart = R >= 0 && p->simulating && restartable(p);
+	if (p->announced && !was && p->simulating && !p->owner && restart) {
+		note(p, "simulating from step %lld: %zu of %zu nodes (partition %d, %d peers)",
+		     (long long)R, p->nowned, p->ncanon, ndo_session_epoch(p->s), np);
+		return restart_begin(p, R, R);
+	}
 	if (p->announced && !was && p->simulating && !p->owner && p->cur < p->final) {
 		join_point(p);
 		if (p->rb && (rc = rb_restart(p)))
@@ -1479,6 +1701,8 @@ static int on_partition(ndo_peer *p)
 			     ndo_session_epoch(p->s), (long long)p->cur, np, np == 1 ? "" : "s",
 			     p->nowned, before);
 		}
+		if (restart) /* announced: started, or about to */
+			return restart_begin(p, R, was && p->started ? p->cur : R);
 		for (size_t q = 0; q < p->ncanon; q++)
 			if (p->mask[p->canons[q]] && p->nstep[p->canons[q]] < p->cur)
 				p->nstep[p->canons[q]] = p->cur;
@@ -1545,6 +1769,12 @@ int ndo_peer_update(ndo_peer *p, double now)
 		}
 		return NDO_PEER_ENDED;
 	}
+	if (p->rs_step >= 0) {
+		if ((rc = restart_try(p)))
+			return rc;
+		if (p->rs_step >= 0)
+			return resend_due(p);
+	}
 	if (!p->started)
 		return starting(p);
 	if (p->cur >= p->final)
@@ -1557,7 +1787,11 @@ int ndo_peer_update(ndo_peer *p, double now)
 double ndo_peer_deadline(const ndo_peer *p)
 {
 	double now = p->now, d = now + IDLE_WAIT;
-	if (p->done || p->ended || !p->started)
+	if (p->done || p->ended)
+		return d;
+	if (p->rs_step >= 0)
+		return fmin(d, p->next_resend);
+	if (!p->started)
 		return d;
 	if (p->rb)
 		d = fmin(d, ndo__rb_next_resend(p->rb));
@@ -1609,6 +1843,8 @@ int ndo_peer_create(const ndo_peer_opts *o, ndo_net *net, ndo_grid *grid, ndo_si
 	p->peers_needed = o->peers > 1 ? o->peers : 1;
 	p->sim = sim;
 	p->gather_t0 = -1;
+	p->C = o->checkpoint_every > 0 ? o->checkpoint_every : o->checkpoint_every < 0 ? 0 : 20;
+	p->rs_step = p->ck_skip = p->ck_at = -1;
 	p->fill_step = -1;
 	p->max_seen = -1;
 	p->created = -1;
@@ -1631,16 +1867,16 @@ int ndo_peer_create(const ndo_peer_opts *o, ndo_net *net, ndo_grid *grid, ndo_si
 		int split = ndo__ps_method(m), rings = ndo_peer_halo_rings(m) > 0;
 		int exact = !p->hold && (p->clock == NDO_CLOCK_LOCKSTEP ? rings || split
 		                                                        : rings && !split);
-		char peer_lines[360];
+		char peer_lines[400];
 		snprintf(peer_lines, sizeof peer_lines,
 		         "dt %.17g\nsteps %lld\npeer-clock %d\npeer-hold-boundary %d\n"
 		         "peer-halo-steps %d\npeer-publish-every %d\npeer-step-timeout %.17g\n"
 		         "peer-speed %.17g\npeer-peers %d\npeer-first-step %lld\n"
-		         "peer-final-step %lld\npeer-frames-every %d\n",
+		         "peer-final-step %lld\npeer-frames-every %d\npeer-checkpoint-every %d\n",
 		         run->dt, (long long)run->steps, (int)p->clock, p->hold, p->K, p->N,
 		         p->step_timeout, p->speed,
 		         p->peers_needed, (long long)p->first, (long long)p->final,
-		         exact ? (p->N > 0 ? p->N : 0) : 1);
+		         exact ? (p->N > 0 ? p->N : 0) : 1, p->C);
 		size_t len = strlen(run->physics) + strlen(peer_lines) + 1;
 		if (len > NDO_MAX_SCENE + 1) {
 			ndo_net_destroy(net);
@@ -1702,6 +1938,7 @@ void ndo_peer_destroy(ndo_peer *p, const char *message)
 	free(p->hstash);
 	ndo__ps_destroy(p->ps);
 	ndo__rb_destroy(p->rb);
+	ndo__ck_destroy(p->ck);
 	free(p);
 }
 

@@ -39,6 +39,8 @@ struct ndo_session {
 	int nm;
 	/* the partition in force */
 	int32_t epoch;
+	int64_t restart;      /* its restart step (partition_t.restart), −1: none */
+	int64_t restart_next; /* owner: what the next partition carries */
 	int npeers;
 	int32_t peers[NDO_MAX_PEERS], pois[NDO_MAX_PEERS];
 	ndo_part_method method;
@@ -279,8 +281,9 @@ static int coarse_now(const ndo_session *s, int64_t step)
 
 /* Install a partition: cells (taken over), peers, pois, epoch. */
 static int install(ndo_session *s, int32_t *cells, int npeers, const int32_t *peers,
-                   const int32_t *pois, int32_t epoch, ndo_part_method method)
+                   const int32_t *pois, int32_t epoch, ndo_part_method method, int64_t restart)
 {
+	s->restart = restart;
 	free(s->cells);
 	s->cells = cells;
 	s->npeers = npeers;
@@ -341,7 +344,7 @@ static int repartition(ndo_session *s)
 	used[0] = s->o.poi;
 	for (int p = 1; p < k; p++)
 		used[p] = pois[p];
-	rc = install(s, cells, k, peers, used, s->epoch + 1, s->method);
+	rc = install(s, cells, k, peers, used, s->epoch + 1, s->method, s->restart_next);
 	event(s, NDO_EV_PARTITION, 0, 0, NULL);
 	return rc;
 }
@@ -364,6 +367,7 @@ static int publish_partition(ndo_session *s)
 	for (size_t k = 0; k < s->nleaves; k++)
 		slots[k] = (int8_t)s->leaf_slots[k];
 	p.slots = slots;
+	p.restart = s->restart;
 	int rc = ndo_net_publish(s->net, NDO_MSG_PARTITION, &p);
 	free(slots);
 	return rc;
@@ -797,7 +801,7 @@ static int on_partition(ndo_session *s, const ndo_msg_partition_t *p)
 		return NDO_ENOMEM;
 	ndo_partition_cells(s->level, p, cells);
 	int rc = install(s, cells, p->npeers, p->peers, p->pois, p->epoch,
-	                 (ndo_part_method)p->method);
+	                 (ndo_part_method)p->method, p->restart);
 	event(s, NDO_EV_PARTITION, 0, 0, NULL);
 	return rc;
 }
@@ -1082,7 +1086,10 @@ int ndo_session_update(ndo_session *s, double now)
 			event(s, NDO_EV_ENDED, s->owner_id, NDO_LEAVE_TIMEOUT, why);
 			return 0;
 		}
-		if (s->described && s->cells && s->poi_acked != s->o.poi && now >= s->next_poi &&
+		/* the point of interest once the object is whole here: a
+		 * partition that gives this peer a region while it still waits
+		 * for the snapshot would hold the others' lock-step meanwhile */
+		if (s->ready && s->cells && s->poi_acked != s->o.poi && now >= s->next_poi &&
 		    !(s->o.poi < 0 && s->poi_acked == -2)) {
 			ndo_msg_poi_t p = {.face = s->o.poi};
 			if ((rc = ndo_net_publish(s->net, NDO_MSG_POI, &p)))
@@ -1311,6 +1318,7 @@ int ndo_session_create(const ndo_session_opts *o, ndo_net *net, ndo_grid *grid,
 	s->level = -1;
 	s->send_level = NDO_MAX_LEVEL + 1; /* none below the object's until known */
 	s->epoch = 0;
+	s->restart = s->restart_next = -1;
 	s->exact_step = -1;
 	s->codec.encoding = NDO_ENC_RAW;
 	s->method = s->o.partition;
@@ -1489,6 +1497,8 @@ int64_t ndo_session_object(const ndo_session *s) { return s->object; }
 int32_t ndo_session_owner_id(const ndo_session *s) { return s->owner_id; }
 const char *ndo_session_scene(const ndo_session *s) { return s->scene; }
 int32_t ndo_session_epoch(const ndo_session *s) { return s->epoch; }
+int64_t ndo_session_restart(const ndo_session *s) { return s->restart; }
+void ndo_session_set_restart(ndo_session *s, int64_t step) { s->restart_next = step < 0 ? -1 : step; }
 ndo_net *ndo_session_net(ndo_session *s) { return s->net; }
 
 const int32_t *ndo_session_cells(const ndo_session *s, int *npeers, const int32_t **peers)

@@ -21,6 +21,10 @@ expect_error "peer options alone" 2 'the peers. options need --owner or --join' 
 	simulate-peer --poi 3 s3.tgrid
 expect_error "--drop out of range" 2 '--drop' simulate-peer --owner s3.tgrid --drop 1.5
 expect_error "--peers out of range" 2 '--peers' simulate-peer --owner s3.tgrid --peers 9
+expect_error "--checkpoint-every negative" 2 '--checkpoint-every' \
+	simulate-peer --owner s3.tgrid --checkpoint-every -1
+expect_error "a joiner choosing checkpoints" 2 '^simulate-peer: --checkpoint-every: the owner decides it' \
+	simulate-peer --join --checkpoint-every 5
 expect_error "--partition unknown" 2 "--partition: 'spiral' is not quadtree, table41 or metis" \
 	simulate-peer --owner s3.tgrid --partition spiral
 expect_error "--clock unknown" 2 "--clock: 'wall' is not lockstep or realtime" \

@@ -6,20 +6,10 @@
 # during one run; a peer left waiting ends after --start-timeout.
 . "$(dirname "$0")/netns.bash"
 . "$(dirname "$0")/lib.sh"
+. "$(dirname "$0")/peers.bash"
 
 SCENE=$NDO_ROOT/samples/thesis-fig5.3.scene
 remesh --shape wavy -l 4 -o wavy4.tgrid 2>/dev/null || fail "remesh"
-
-# wait_for FILE REGEX SECONDS: until a line of FILE matches; prints the
-# time it took (fails after SECONDS).
-wait_for() {
-	local t0=$EPOCHREALTIME
-	while ! grep -Eq -- "$2" "$1" 2>/dev/null; do
-		awk "BEGIN{exit !($EPOCHREALTIME - $t0 > $3)}" && return 1
-		sleep 0.02
-	done
-	awk "BEGIN{printf \"%.2f\", $EPOCHREALTIME - $t0}"
-}
 
 # --- a killed peer ----------------------------------------------------------
 # Lock-step, realtime pacing of the owner would not matter: the run is long

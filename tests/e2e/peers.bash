@@ -1,6 +1,7 @@
-# tests/e2e/peers.bash — sourced by the scripts that compare a multi-peer
-# run over LCM with a single process (peers-run.sh, peers-split.sh,
-# peers-realtime.sh).
+# tests/e2e/peers.bash — sourced by the scripts that run peers over LCM and
+# compare a multi-peer run with a single process (peers-run.sh,
+# peers-split.sh, peers-realtime.sh, peers-restart.sh) or wait for what a
+# peer says (peers-life.sh).
 
 # compare A B: the largest position difference of A from B over B's largest
 # displacement, the number of peers in A's owner channel, A's and B's step.
@@ -46,4 +47,15 @@ wait_peers() {
 		for ((k = 1; k < n; k++)); do sed "s/^/    joiner $k: /" "joiner$k.err" | tail -3; done
 	fi
 	return $bad
+}
+
+# wait_for FILE REGEX SECONDS: until a line of FILE matches; prints the
+# time it took (fails after SECONDS).
+wait_for() {
+	local t0=$EPOCHREALTIME
+	while ! grep -Eq -- "$2" "$1" 2>/dev/null; do
+		awk "BEGIN{exit !($EPOCHREALTIME - $t0 > $3)}" && return 1
+		sleep 0.02
+	done
+	awk "BEGIN{printf \"%.2f\", $EPOCHREALTIME - $t0}"
 }

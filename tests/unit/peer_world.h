@@ -42,6 +42,7 @@ typedef struct setup {
 	const char *extra; /* another scene line ("tol 1e-6"), or NULL */
 	int jacobi;        /* the implicit methods' solve preconditioned with the
 	                      diagonal (ndo_peer_opts.jacobi) */
+	int checkpoint_every; /* ndo_peer_opts.checkpoint_every (0: the default) */
 } setup;
 
 static int level_of(const setup *su) { return su->level ? su->level : 4; }
@@ -138,7 +139,8 @@ static ndo_peer_opts opts(ndo_role role, int32_t id, int32_t poi, const setup *s
 	                               .heartbeat = 0.1, .timeout = 1.0, .retry = 0.3},
 	                   .clock = su->clock, .peers = su->peers, .hold_boundary = su->hold,
 	                   .halo_steps = su->halo_steps, .publish_every = su->publish_every,
-	                   .step_timeout = su->step_timeout, .jacobi = su->jacobi, .note = on_note,
+	                   .step_timeout = su->step_timeout, .jacobi = su->jacobi,
+	                   .checkpoint_every = su->checkpoint_every, .note = on_note,
 	                   .note_user = (void *)(intptr_t)index};
 	return o;
 }

@@ -145,7 +145,11 @@ static void halos_checked(void)
 	CHECK(roundtrip(NDO_MSG_HALO, &h, &c) == NDO_DROP_NONE, "a confirmed halo passes");
 	h.confirmed = 2;
 	CHECK(roundtrip(NDO_MSG_HALO, &h, &c) == NDO_DROP_RANGE, "confirmed neither 0 nor 1");
-	h.confirmed = 0;
+	h.confirmed = 0, h.checkpoint = 1;
+	CHECK(roundtrip(NDO_MSG_HALO, &h, &c) == NDO_DROP_NONE, "a checkpoint passes");
+	h.checkpoint = 2;
+	CHECK(roundtrip(NDO_MSG_HALO, &h, &c) == NDO_DROP_RANGE, "checkpoint neither 0 nor 1");
+	h.checkpoint = 0;
 	ndo_msg_ctx unknown = {.object_id = 0, .level = -1, .self_id = 1};
 	CHECK(roundtrip(NDO_MSG_HALO, &h, &unknown) == NDO_DROP_UNKNOWN, "before the description");
 }
@@ -235,10 +239,15 @@ static void control_messages_checked(void)
 	CHECK(roundtrip(NDO_MSG_POI, &p, &c) == NDO_DROP_NONE, "last face");
 	int32_t peers[2] = {7, 7}, pois[2] = {0, 1}, leaves[2] = {1, 2};
 	int8_t slots[2] = {0, 1};
-	ndo_msg_partition_t part = {hd, 1, NDO_PART_QUADTREE, 2, peers, pois, 2, leaves, slots};
+	ndo_msg_partition_t part = {hd, 1, NDO_PART_QUADTREE, 2, peers, pois, 2, leaves, slots, -1};
 	CHECK(roundtrip(NDO_MSG_PARTITION, &part, &c) == NDO_DROP_RANGE, "duplicate peer ids");
 	peers[1] = 8;
 	CHECK(roundtrip(NDO_MSG_PARTITION, &part, &c) == NDO_DROP_NONE, "two squares");
+	part.restart = 40;
+	CHECK(roundtrip(NDO_MSG_PARTITION, &part, &c) == NDO_DROP_NONE, "a restart step");
+	part.restart = -2;
+	CHECK(roundtrip(NDO_MSG_PARTITION, &part, &c) == NDO_DROP_RANGE, "restart below -1");
+	part.restart = -1;
 	leaves[1] = 1;
 	CHECK(roundtrip(NDO_MSG_PARTITION, &part, &c) == NDO_DROP_RANGE, "overlapping leaves");
 	part.nleaves = 1;

@@ -255,7 +255,8 @@ static void realtime_without_the_pace_stops(void)
 
 /* Joins during the run, an announced leave, a silent peer; the run still
  * ends on every live peer, and the silent one's region is taken over
- * within the heartbeat timeout. */
+ * within the heartbeat timeout; rk4 ends bit for bit on the single
+ * process (restarts from checkpoints). */
 static void life(const char *integrator, double dt, int64_t steps)
 {
 	setup su = {.integrator = integrator, .dt = dt, .steps = steps,
@@ -306,6 +307,11 @@ static void life(const char *integrator, double dt, int64_t steps)
 	ndo_peer_stats_get(w->p[0], &st);
 	printf("    %s: joins, a leave and a dead peer: differs by %.3g; owner: %lld timeouts, %lld "
 	       "repartitions\n", integrator, d, (long long)st.timeouts, (long long)st.repartitions);
+	/* the fixed-step explicit methods restart from a checkpoint at every
+	 * new partition: exact; rkf45 and the implicit methods are not */
+	if (strcmp(integrator, "rk4") == 0)
+		CHECK(d == 0 && st.restarts >= 3, "rk4: the single process bit for bit (%.3g), %lld "
+		      "restarts", d, (long long)st.restarts);
 	CHECK(isfinite(d) && d < 1, "the result stays near the single process: %.3g", d);
 	free(x);
 	ndo_peer_destroy(dead, NULL); /* quietly: its leave finds no one to read it */
@@ -320,6 +326,102 @@ static void joins_leaves_and_a_dead_peer(void)
 	 * again after the step timeout */
 	life("rkf45", 0.002, 3000);
 	life("trapezoid", 0.002, 3000);
+}
+
+/* Run rounds until the owner is at step `at` or further (or `limit`). */
+static void run_to_step(world *w, int64_t at, double limit)
+{
+	while (ndo_peer_step(w->p[0]) < at && w->t < limit && run(w, w->t + TICK) == 1)
+		;
+}
+
+/* A partition that changes during the run restarts every peer from the
+ * newest checkpoint the owner holds whole (checkpoint.h): a peer killed
+ * (destroyed without a word: silent), an announced leave and a joiner,
+ * each at a pseudo-random step (TEST_PEER_SEED=N picks others), with and
+ * without 10 % loss (2 ms delay, 2 ms jitter), and the owner's result is
+ * still the single process's bit for bit; without checkpoints it is not. */
+enum { KILL, LEAVE, JOIN };
+static const char *const WHAT[] = {"a killed peer", "an announced leave", "a joiner"};
+
+/* `every`: checkpoint_every (< 0: none, the reference, which must differ);
+ * k: steps per halo exchange. */
+static void restart_case(int what, double drop, uint64_t seed, int every, int k)
+{
+	/* a joiner takes ~0.3 s of fake time to come (its snapshot), the owner
+	 * a step a tick meanwhile */
+	setup su = {.integrator = "rk4", .dt = 0.02, .steps = what == JOIN ? 700 : 300,
+	            .clock = NDO_CLOCK_LOCKSTEP, .peers = what == JOIN ? 2 : 3,
+	            .step_timeout = 0.2, .checkpoint_every = every, .halo_steps = k};
+	if (drop > 0)
+		su.faults = (ndo_faults){.drop = drop, .delay_ms = 2, .jitter_ms = 2, .seed = seed};
+	uint64_t r = seed * 6364136223846793005ull + 1442695040888963407ull;
+	int64_t at = 10 + (int64_t)((r >> 33) % 250); /* the step of the event */
+	world *w = world_new();
+	CHECK(add_owner(w, &su) == 0, "owner");
+	for (int i = 1; i < su.peers; i++)
+		add_joiner(w, &su, POIS[i - 1]);
+	run_to_step(w, at, 30);
+	int64_t was = ndo_peer_step(w->p[0]);
+	ndo_peer *dead = NULL;
+	if (what == KILL) {
+		dead = w->p[2];
+		w->p[2] = NULL;
+	} else if (what == LEAVE) {
+		ndo_peer_destroy(w->p[2], "bye");
+		w->p[2] = NULL;
+	} else {
+		add_joiner(w, &su, POIS[1]);
+	}
+	int done = run(w, 60) == 0;
+	for (int i = 0; i < w->n; i++)
+		if (w->p[i] && w->state[i] != NDO_PEER_DONE) {
+			printf("    peer %d ended in state %d at step %lld: %s\n", i, w->state[i],
+			       (long long)ndo_peer_step(w->p[i]), ndo_peer_message(w->p[i]));
+			done = 0;
+		}
+	int np = 0;
+	ndo_session_cells(ndo_peer_session(w->p[0]), &np, NULL);
+	double *x = solo(&su);
+	double d = difference(ndo_peer_grid(w->p[0]), x);
+	ndo_peer_stats st, sj;
+	ndo_peer_stats_get(w->p[0], &st);
+	ndo_peer_stats_get(w->p[1], &sj);
+	printf("    %s at step %lld (%.0f%% loss, checkpoints %d, K %d): differs by %.3g; %d peers at the end; owner: %lld "
+	       "restarts, %lld steps again, %lld timeouts, %lld checkpoints; joiner sent %.1f kB "
+	       "of checkpoints, owner re-sent %.1f kB\n", WHAT[what], (long long)was, 100 * drop,
+	       every, k ? k : 1, d,
+	       np, (long long)st.restarts, (long long)st.restart_steps, (long long)st.timeouts,
+	       (long long)st.checkpoints, (double)sj.checkpoint_bytes / 1e3,
+	       (double)st.checkpoint_bytes / 1e3);
+	CHECK(np == (what == JOIN ? 3 : 2), "%s: %d peers simulate at the end", WHAT[what], np);
+	if (every < 0) {
+		CHECK(done && d > 1e-6 && st.restarts == 0, "%s without checkpoints: done %d, differs "
+		      "by %.3g (must differ), %lld restarts", WHAT[what], done, d,
+		      (long long)st.restarts);
+	} else {
+		CHECK(done && d == 0, "%s at step %lld, %.0f%% loss: done %d, differs by %.3g",
+		      WHAT[what], (long long)was, 100 * drop, done, d);
+		CHECK(st.restarts >= 1, "%s: the owner restarted (%lld)", WHAT[what],
+		      (long long)st.restarts);
+	}
+	free(x);
+	ndo_peer_destroy(dead, NULL); /* quietly: its leave finds no one to read it */
+	world_free(w);
+}
+
+static void restarts_keep_the_single_process(void)
+{
+	const char *s = getenv("TEST_PEER_SEED");
+	uint64_t seed = s ? strtoull(s, NULL, 10) : 1;
+	for (int what = KILL; what <= JOIN; what++) {
+		restart_case(what, 0, seed + (uint64_t)what, 0, 1);
+		restart_case(what, 0.1, seed + 10 + (uint64_t)what, 0, 1);
+		restart_case(what, 0, seed + (uint64_t)what, -1, 1);
+	}
+	/* checkpoints every 7 steps, a halo every 3: a restart step is an
+	 * exchange step (7 rounds up to 9) */
+	restart_case(KILL, 0.1, seed + 20, 7, 3);
 }
 
 static void owner_quit_ends_the_others(void)
@@ -519,13 +621,13 @@ static void a_replayed_log_gives_the_live_frames(void)
 	world_free(w);
 }
 
-/* A log that missed 40 state tiles in a row (of about 570): by default a watch skips
+/* A log that missed 30 state tiles in a row (of about 570): by default a watch skips
  * and counts a step whose tiles were lost; with hold_lost it hands the step
  * out, the lost nodes at the last frame's values, with the share held. */
 static int64_t lossy_tiles;
 static void record_lossy(void *user, const char *channel, const void *data, size_t len)
 {
-	if (ndo_msg_type_of("T", channel) == NDO_MSG_TILE && lossy_tiles++ / 40 == 4)
+	if (ndo_msg_type_of("T", channel) == NDO_MSG_TILE && lossy_tiles++ / 30 == 4)
 		return;
 	record(user, channel, data, len);
 }
@@ -595,6 +697,7 @@ int main(void)
 	RUN(realtime_rolls_back_to_the_single_process);
 	RUN(realtime_without_the_pace_stops);
 	RUN(joins_leaves_and_a_dead_peer);
+	RUN(restarts_keep_the_single_process);
 	RUN(owner_quit_ends_the_others);
 	RUN(strangers_tiles_are_not_used);
 	RUN(a_replayed_log_gives_the_live_frames);

@@ -132,6 +132,14 @@ static __attribute__((noreturn)) void usage(void)
 	    "      --publish-every N   owner: whole regions every N steps for\n"
 	    "                          observers and render-frame (default 10; 0: only\n"
 	    "                          the first and last step)\n"
+	    "      --checkpoint-every C\n"
+	    "                          owner, lockstep, euler, symplectic-euler, midpoint,\n"
+	    "                          rk4: every peer sends the owner its region's exact\n"
+	    "                          state every C steps (default 20; rounded up to a\n"
+	    "                          multiple of --halo-steps; 0: none); a join, a leave\n"
+	    "                          or a dropped peer restarts every peer from the\n"
+	    "                          newest step the owner holds whole: the result stays\n"
+	    "                          the single process's (0: not exact after them)\n"
 	    "      --send-level L      owner: whole-region state (observers, render-frame,\n"
 	    "                          frames) travels at level L, 0..the simulated\n"
 	    "                          level (default: the simulated level), every\n"
@@ -367,6 +375,7 @@ static void options(run *r, int argc, char **argv)
 		{"halo-steps", required_argument, 0, OPT_PEER},
 		{"publish-every", required_argument, 0, OPT_PEER},
 		{"send-level", required_argument, 0, OPT_PEER},
+		{"checkpoint-every", required_argument, 0, OPT_PEER},
 		{"encoding", required_argument, 0, OPT_PEER},
 		{"step-timeout", required_argument, 0, OPT_PEER},
 		{"peer-timeout", required_argument, 0, OPT_PEER},

@@ -42,7 +42,7 @@ void peer_defaults(peer_cli *c)
 static const char *const owner_only[] = {"partition", "clock", "speed", "peers", "boundary",
                                          "step-timeout", "gather-timeout", "encoding",
                                          "halo-steps", "publish-every", "send-level",
-                                         NULL};
+                                         "checkpoint-every", NULL};
 static uint32_t given; /* bit k: owner_only[k] was given */
 
 void peer_option(peer_cli *c, const char *name, const char *arg)
@@ -94,6 +94,11 @@ void peer_option(peer_cli *c, const char *name, const char *arg)
 	} else if (strcmp(name, "publish-every") == 0) {
 		c->publish_every = (int)ndo_opt_long(opt, arg, 0, 1000000000);
 		c->publish_every_set = 1;
+	} else if (strcmp(name, "checkpoint-every") == 0) {
+		/* 0: none (the library's 0 is its default, its < 0 none) */
+		c->checkpoint_every = (int)ndo_opt_long(opt, arg, 0, 1000000000);
+		if (c->checkpoint_every == 0)
+			c->checkpoint_every = -1;
 	} else if (strcmp(name, "send-level") == 0) {
 		c->send_level = (int)ndo_opt_long(opt, arg, 0, NDO_MAX_LEVEL);
 	} else if (strcmp(name, "encoding") == 0) {
@@ -403,6 +408,11 @@ static void summary(peer_run *pr, const char *how)
 		        (double)st.halo_bytes / 1e3 / (double)st.steps,
 		        (double)st.halo_tiles / (double)st.steps, (long long)st.frames,
 		        (double)st.frame_bytes / 1e3 / (double)st.steps);
+	if (st.checkpoints || st.restarts)
+		fprintf(stderr, "%s: restarts: %lld checkpoints kept, %.3g kB of them sent; %lld "
+		        "restarts from a checkpoint (new partitions), %lld steps taken again\n",
+		        ndo_progname, (long long)st.checkpoints, (double)st.checkpoint_bytes / 1e3,
+		        (long long)st.restarts, (long long)st.restart_steps);
 	if (st.rollback && st.steps)
 		fprintf(stderr, "%s: rollback: %s; %lld rollbacks (the deepest %lld steps), %lld steps "
 		        "recomputed for %lld taken; %lld halo node-steps first predicted; frames shown "
@@ -483,7 +493,7 @@ int peers_main(run *r)
 		            .coarse_levels = owner && c->send_level >= 0 ? g->level - c->send_level : 0},
 		.clock = c->clock, .step_timeout = c->step_timeout, .speed = c->speed,
 		.peers = c->peers, .hold_boundary = c->hold_boundary,
-		.halo_steps = c->halo_steps,
+		.halo_steps = c->halo_steps, .checkpoint_every = c->checkpoint_every,
 		.publish_every = c->publish_every == 0 && c->publish_every_set ? -1 : c->publish_every,
 		.start_timeout = c->start_timeout, .gather_timeout = c->gather_timeout,
 		.note = on_note, .note_user = &pr};

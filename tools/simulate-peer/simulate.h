@@ -21,7 +21,7 @@ typedef struct peer_cli {
 	ndo_clock clock;       /* --clock */
 	double speed, step_timeout, peer_timeout, start_timeout, gather_timeout;
 	int peers, hold_boundary;
-	int halo_steps, publish_every, publish_every_set;
+	int halo_steps, publish_every, publish_every_set, checkpoint_every;
 	int send_level; /* −1: the simulated level */
 	ndo_codec_params codec; /* --encoding (raw by default) */
 	ndo_faults faults;     /* --drop --delay --jitter --reorder --fault-seed */

@@ -117,6 +117,17 @@ typedef struct ndo_peer_opts {
 	                           lag's error O(h²) instead of O(h)), and a
 	                           value of another step is first carried
 	                           along its velocity, by one step at most */
+	int checkpoint_every;   /* exact lock-step of euler, symplectic Euler,
+	                           midpoint and rk4: every simulating peer keeps
+	                           its region's state every this many steps (a
+	                           multiple of halo_steps, rounded up) and sends
+	                           it to the owner, which holds every node's: a
+	                           new partition during the run (a join, a
+	                           leave, a dropped peer) restarts every peer
+	                           from the newest step the owner holds whole,
+	                           and the run stays exact (0: 20; < 0: none, the
+	                           new partition takes over from the newest
+	                           values held, not exact) */
 	int jacobi;             /* exact backward Euler and trapezoid: this peer
 	                           preconditions the distributed solve with the
 	                           system's diagonal (Jacobi) instead of its
@@ -258,6 +269,11 @@ typedef struct ndo_peer_stats {
 	                           frames' confirmed states (m) */
 	int64_t shown_frames;   /* ... frames compared, */
 	int64_t shown_wrong;    /* ... and how many of them differed */
+	/* exact lock-step restarts (checkpoint_every): */
+	int64_t checkpoints;    /* checkpoint steps this peer kept */
+	uint64_t checkpoint_bytes; /* ... bytes it sent (the owner: re-sends) */
+	int64_t restarts;       /* times it went back to a partition's restart step */
+	int64_t restart_steps;  /* ... the steps it took again */
 	double start_time;      /* caller's clock at the first step */
 	double end_time;        /* ... at the last */
 } ndo_peer_stats;

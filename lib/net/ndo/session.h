@@ -222,6 +222,12 @@ const char *ndo_session_scene(const ndo_session *s); /* the description's text *
 /* The current partition: epoch, peers (ids) and the cell slots (2N × N,
  * ndo/partition.h); NULL before one is known. */
 int32_t ndo_session_epoch(const ndo_session *s);
+/* The restart step of the partition in force (partition_t.restart): the
+ * step exact lock-step peers go back to under it, −1: none.  The owner
+ * sets what its next partitions carry (−1: none; ndo/peer.h keeps it at
+ * the newest checkpoint step it holds whole). */
+int64_t ndo_session_restart(const ndo_session *s);
+void ndo_session_set_restart(ndo_session *s, int64_t step);
 const int32_t *ndo_session_cells(const ndo_session *s, int *npeers, const int32_t **peers);
 /* Nodes this peer integrates (owner == self). */
 size_t ndo_session_owned_nodes(const ndo_session *s);
