@@ -1,6 +1,6 @@
-/* accuracy.c — a run's time and space errors, estimated from companion
- * runs one and two levels coarser, and the cheapest configuration that
- * meets a stated error (ndo/accuracy.h; issue 18). */
+/* accuracy.c — a run's time error (Richardson on a window at its level)
+ * and space error (a companion one level coarser), and the cheapest
+ * configuration that meets a stated error (ndo/accuracy.h; issue 18). */
 #include "ndo/accuracy.h"
 
 #include "ndo/restrict.h"
@@ -51,6 +51,11 @@ struct ndo_acc {
 #define RATE 4.0
 /* Largest stable step used: the tool's --dt auto default. */
 #define SAFETY 0.9
+/* The time estimate's window: the run's first eighth, at least WINDOW_MIN
+ * steps (all of a shorter run). */
+#define WINDOW 0.125
+#define WINDOW_MIN 16
+
 
 static double cpu_now(void)
 {
@@ -362,6 +367,69 @@ static double critical_at(ndo_acc *a, int level, ndo_method method)
 	return a->crit[level][method];
 }
 
+/* The time error by Richardson at the run's own level on a window: the
+ * run's first W steps at h and at h/2 (2W steps), from the same initial
+ * state, e_W = |u_h − u_h/2| / (1 − 2^−p), scaled to the run's length
+ * (the global error of an oscillation grows linearly: a phase error). */
+static int time_window(ndo_acc *a, const ndo_acc_config *c, ndo_acc_estimate *e)
+{
+	int p = ndo_method_order(c->method);
+	int64_t w = (int64_t)ceil(WINDOW * (double)c->steps);
+	if (w < WINDOW_MIN)
+		w = WINDOW_MIN;
+	if (w > c->steps)
+		w = c->steps;
+	int rkf = c->method == NDO_RKF45;
+	double factor = rkf ? 1 / (1 - 0.01) : 1 / (1 - pow(0.5, p));
+	ndo_sim *s1 = NULL, *s2 = NULL;
+	int rc = ndo_acc_sim(a, c->level, c->method, c->tol, &s1);
+	if (!rc)
+		rc = ndo_acc_sim(a, c->level, c->method, rkf ? c->tol / 100 : c->tol, &s2);
+	size_t n = nodes_of(c->level);
+	double *u1 = malloc(3 * n * sizeof(double)), *u2 = malloc(3 * n * sizeof(double));
+	double d[2] = {0, 0};
+	int64_t at[2] = {(w + 1) / 2, w};
+	if (!rc && (!u1 || !u2))
+		rc = ndo__fail(NDO_ENOMEM, "out of memory");
+	for (int64_t k = 1, j = 0; !rc && k <= w; k++) {
+		rc = ndo_sim_step(s1, c->h);
+		if (!rc)
+			rc = rkf ? ndo_sim_step(s2, c->h) : ndo_sim_step(s2, c->h / 2);
+		if (!rc && !rkf)
+			rc = ndo_sim_step(s2, c->h / 2);
+		if (!rc && k == at[j]) {
+			ndo_sim_get(s1, u1, NULL), ndo_sim_get(s2, u2, NULL);
+			d[j] = factor * ndo_acc_distance(c->level, u1, u2);
+			j = j < 1 ? j + 1 : j;
+		}
+	}
+	if (!rc) {
+		ndo_sim_stats st;
+		ndo_sim_stats_get(s1, &st);
+		e->node_evals += (double)st.evaluations * (double)ndo_vertex_count(c->level);
+		ndo_sim_stats_get(s2, &st);
+		e->node_evals += (double)st.evaluations * (double)ndo_vertex_count(c->level);
+		/* The growth over the window: d ∝ t^g, g between 0 (an error made
+		 * once, as a top mode's that the method damps) and 1 (a phase
+		 * error); the larger of the two for an error made early that
+		 * fades (the ellipsoid's released top modes). */
+		double g = d[0] > 0 && d[1] > 0 && at[0] < at[1]
+		                   ? log(d[1] / d[0]) / log((double)at[1] / (double)at[0]) : 1;
+		g = fmin(1, fmax(0, g));
+		e->time_m = fmax(d[0], d[1]) * pow((double)c->steps / (double)w, g);
+		if (rkf)
+			snprintf(e->time_how, sizeof e->time_how, "level %d, %lld of %lld steps at tolerance "
+			         "%.3g, growth t^%.2f", c->level, (long long)w, (long long)c->steps,
+			         c->tol / 100, g);
+		else
+			snprintf(e->time_how, sizeof e->time_how, "level %d, %lld of %lld steps at %.4g s, "
+			         "growth t^%.2f", c->level, (long long)w, (long long)c->steps, c->h / 2, g);
+	}
+	ndo_sim_destroy(s1), ndo_sim_destroy(s2);
+	free(u1), free(u2);
+	return rc;
+}
+
 int ndo_acc_estimate_run(ndo_acc *a, const ndo_acc_config *c, const double *u, double umax,
                          ndo_acc_estimate *e)
 {
@@ -369,64 +437,37 @@ int ndo_acc_estimate_run(ndo_acc *a, const ndo_acc_config *c, const double *u, d
 	e->time_m = e->space_m = NAN;
 	e->umax = umax;
 	e->rate = NAN;
-	int m = c->level, p = ndo_method_order(c->method);
-	double T = c->h * (double)c->steps, started = cpu_now();
+	int m = c->level;
+	double started = cpu_now();
+	int rc = time_window(a, c, e);
+	if (rc) {
+		snprintf(e->why, sizeof e->why, "time: level %d at %.4g s: %s", m, c->h / 2,
+		         ndo_errdetail());
+		if (rc == NDO_ENOMEM)
+			return rc;
+	}
 	if (m < 1) {
-		snprintf(e->why, sizeof e->why, "level 0 has no coarser level");
+		size_t k = strlen(e->why);
+		snprintf(e->why + k, sizeof e->why - k, "%slevel 0 has no coarser level", k ? "; " : "");
+		e->cpu = cpu_now() - started;
 		return NDO_OK;
 	}
-	/* Level m−1 at the run's step: the space companion, and the time
-	 * companion's partner. */
+	/* Space: level m−1 at the run's step (stable: the critical step about
+	 * doubles per level coarser), D_m = (r − 1) e_m. */
 	ndo_acc_config c1 = *c;
 	c1.level = m - 1;
-	ndo_acc_result r1, r2;
-	int rc = ndo_acc_run(a, &c1, &r1);
+	ndo_acc_result r1;
+	rc = ndo_acc_run(a, &c1, &r1);
 	if (rc) {
-		snprintf(e->why, sizeof e->why, "level %d: %s", m - 1, ndo_errdetail());
+		size_t k = strlen(e->why);
+		snprintf(e->why + k, sizeof e->why - k, "%slevel %d: %s", k ? "; " : "", m - 1,
+		         ndo_errdetail());
+		e->cpu = cpu_now() - started;
 		return rc == NDO_ENOMEM ? rc : NDO_OK;
 	}
 	add_cost(e, &r1);
-	/* Time: Richardson at level m−1. */
-	ndo_acc_config c2 = c1;
-	double factor; /* e(h) = factor × |u_c2 − u_c1| */
-	if (c->method == NDO_RKF45) {
-		c2.tol = c->tol / 100;
-		factor = 1 / (1 - 0.01); /* the error scales with the tolerance */
-		snprintf(e->time_how, sizeof e->time_how, "level %d at tolerance %.3g", m - 1, c2.tol);
-	} else {
-		int twice = c->steps >= 2;
-		if (twice) {
-			c2.steps = (c->steps + 1) / 2;
-			c2.h = T / (double)c2.steps;
-			if (!ndo_method_is_implicit(c->method))
-				twice = c2.h <= SAFETY * critical_at(a, m - 1, c->method);
-		}
-		if (twice) {
-			double q = c2.h / c->h;
-			factor = 1 / (pow(q, p) - 1);
-			snprintf(e->time_how, sizeof e->time_how, "level %d at %.4g s against %.4g s", m - 1,
-			         c2.h, c->h);
-		} else {
-			c2.steps = 2 * c->steps;
-			c2.h = T / (double)c2.steps;
-			factor = 1 / (1 - pow(0.5, p));
-			snprintf(e->time_how, sizeof e->time_how, "level %d at %.4g s against %.4g s", m - 1,
-			         c2.h, c->h);
-		}
-	}
-	rc = ndo_acc_run(a, &c2, &r2);
-	if (rc == NDO_OK) {
-		add_cost(e, &r2);
-		e->time_m = factor * ndo_acc_distance(m - 1, r2.u, r1.u);
-		ndo_acc_result_free(&r2);
-	} else {
-		snprintf(e->why, sizeof e->why, "time: level %d at %.4g s: %s", m - 1, c2.h,
-		         ndo_errdetail());
-	}
-	/* Space: D_m = (r − 1) e_m. */
-	double dm = level_difference(m, u, r1.u), r = RATE;
-	e->rate = r;
-	e->space_m = dm / (r - 1);
+	e->rate = RATE;
+	e->space_m = level_difference(m, u, r1.u) / (RATE - 1);
 	ndo_acc_result_free(&r1);
 	e->cpu = cpu_now() - started;
 	return NDO_OK;

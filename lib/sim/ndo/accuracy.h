@@ -8,13 +8,18 @@
  * largest |x − X| over the nodes and over the run (sampled at least 64
  * times and at the end).  Two parts:
  *
- *   time   the integrator's error at the run's step: Richardson's
- *          estimate from the same scene one level coarser run at twice the
- *          step (half the steps; at half the step when twice is beyond the
- *          coarse level's critical step):  e(h) = |u_2h − u_h| / (2^p − 1),
- *          p the method's order.  rkf45 compares with its tolerance / 100.
- *          The motion a coarse level carries is the same smooth motion, so
- *          its time error stands for the fine one at 1/8 of the cost.
+ *   time   the integrator's error at the run's step: Richardson at the
+ *          run's own level on a window, the run's first eighth (at least
+ *          16 steps; all of a shorter run) at h and at h/2 (rkf45: at its
+ *          tolerance and a hundredth of it), compared at the window's
+ *          middle and end: d = |u_h − u_h/2| / (1 − 2^−p), p the method's
+ *          order.  The growth between the two, d ∝ t^g with g in [0, 1]
+ *          (0: an error made once, as the top modes a method damps; 1: a
+ *          phase error, which grows with time), carries the larger d to
+ *          the run's end: e = max d × (T / T_window)^g.  (Level n−1 at
+ *          twice the step, the earlier estimate, misses the top modes
+ *          only level n has: RK4's error at its largest step was 0.08–0.5×
+ *          the truth; docs/bench/accuracy.md.)
  *   space  the discretisation's error at the run's level n: the same scene
  *          and the same integrator and step at level n−1 (inputs
  *          restricted from level n: every other node, ndo/restrict.h),
@@ -26,10 +31,9 @@
  *          pre-asymptotic (2 to 2.4 from levels 3-5 on the thesis scenes)
  *          and made worse estimates; the benchmark measures both.
  *
- * The estimates cost about 1/8 + 1/16 ≈ 20% of the run (level n−1 at
- * two steps): every node count shrinks 4× per level,
- * every critical step grows about 2×, and the companion runs use the
- * run's step.
+ * The estimates cost about 3/8 + 1/4 of the run for long runs (the window
+ * at h and h/2: 3 × 1/8; level n−1 at the run's step: a quarter of the
+ * nodes), more for runs shorter than 128 steps (the window's 16 steps).
  *
  * A scene is ndo_scene settings over an input at some level; coarser
  * levels restrict the input (positions, velocities, rest shape, pins) and
