@@ -38,6 +38,13 @@ struct ndo_acc {
  * (docs/bench/accuracy.md), so predicting half the target keeps the
  * achieved error below it. */
 #define MARGIN 0.5
+/* ... for a configuration the pilots measured (a level up to theirs, at
+ * 0.9 × its critical step, against their extrapolation u*): only u*'s own
+ * error is left unknown. */
+#define MARGIN_MEASURED 0.7
+/* The pilots' differences must fall by this much per level before the
+ * last pair is trusted for the levels above. */
+#define TRUST 2.0
 /* The pilots' step: RK4 at half its critical step, whose own time error is
  * (0.5/0.9)^4 ≈ 0.1 of RK4's at its largest step — negligible next to the
  * space differences the pilots measure. */
@@ -481,6 +488,18 @@ static int64_t steps_for(double T, double h)
 	return n < 1 ? 1 : (int64_t)fmin(n, 1e12);
 }
 
+/* The pilots' space error of a level-q result u (q ≤ top) against the
+ * extrapolation u* at level top. */
+static double against(int q, int top, const double *u, const double *ustar)
+{
+	double *up;
+	if (ndo_acc_prolong(q, top, u, &up))
+		return NAN;
+	double d = ndo_acc_distance(top, up, ustar);
+	free(up);
+	return d;
+}
+
 int ndo_acc_choose(ndo_acc *a, double target, int metres, double T, ndo_acc_choice *ch)
 {
 	memset(ch, 0, sizeof *ch);
@@ -494,11 +513,12 @@ int ndo_acc_choose(ndo_acc *a, double target, int metres, double T, ndo_acc_choi
 	int rc = by_ids(a);
 	if (rc)
 		return rc;
-	double *pu[NDO_MAX_LEVEL + 1] = {0}, ph[NDO_MAX_LEVEL + 1] = {0}, D[NDO_MAX_LEVEL + 1] = {0};
-	double umax = 0, r = RATE, es_top = 0, target_m = 0;
+	enum { L = NDO_MAX_LEVEL + 1 };
+	double *pu[L] = {0}, ph[L] = {0}, D[L] = {0}, es[L] = {0};
+	double umax = 0, r = RATE, target_m = 0, *ustar = NULL;
 	int top = p0, qmin = -1;
 	double started = cpu_now();
-	/* es(q): the space error of level q predicted from D[top]. */
+	/* ES(q): the space error of a level above the pilots, from D[top]. */
 #define ES(q) (D[top] / (r - 1) * pow(r, (double)(top - (q))))
 	for (int p = p0;; p++) {
 		double hc = critical_at(a, p, NDO_RK4);
@@ -520,16 +540,32 @@ int ndo_acc_choose(ndo_acc *a, double target, int metres, double T, ndo_acc_choi
 		for (int q = p0; q <= n && qmin < 0; q++)
 			if (ES(q) < MARGIN * target_m)
 				qmin = q;
-		if ((qmin >= 0 && qmin <= p + 1) || p + 1 >= n)
+		/* Trust the last pair once the differences fall by TRUST per
+		 * level: a coarse level that is still a blob (the bunny at levels
+		 * 2–4) differs little from the next and says nothing of finer
+		 * ones. */
+		int converged = p >= p0 + 2 && D[p] > 0 && D[p - 1] >= TRUST * D[p];
+		if (p + 1 >= n || (qmin >= 0 && qmin <= p + 1 && converged))
 			break;
 	}
-	es_top = ES(n);
+	/* u*: the top pilot extrapolated (Richardson in the level, r per
+	 * level); every pilot's space error measured against it. */
+	if ((rc = ndo_acc_prolong(top - 1, top, pu[top - 1], &ustar)))
+		goto out;
+	for (size_t q = 0; q < 3 * nodes_of(top); q++)
+		ustar[q] = pu[top][q] + (pu[top][q] - ustar[q]) / (r - 1);
+	for (int q = 0; q <= n; q++)
+		es[q] = q < p0 ? INFINITY : q <= top ? against(q, top, pu[q], ustar) : ES(q);
+	qmin = -1;
+	for (int q = p0; q <= n && qmin < 0; q++)
+		if (es[q] < MARGIN_MEASURED * target_m && (q <= top || es[q] < MARGIN * target_m))
+			qmin = q;
 	ch->pilot_top = top;
 	ch->rate = r;
 	ch->umax = umax;
 	ch->target_m = target_m;
-	ch->best_m = es_top;
-	if (qmin < 0 && es_top > target_m) {
+	ch->best_m = es[n];
+	if (qmin < 0 && es[n] > target_m) {
 		ch->reachable = 0;
 		int need = n;
 		while (ES(need) > MARGIN * target_m && need <= NDO_MAX_LEVEL)
@@ -538,43 +574,62 @@ int ndo_acc_choose(ndo_acc *a, double target, int metres, double T, ndo_acc_choi
 		goto out;
 	}
 	ch->reachable = 1;
-	/* Each method's error constant and cost per node-evaluation, at the top
-	 * pilot level against the pilot. */
+	/* Each method at 0.9 × its critical step at the candidate levels the
+	 * pilots cover (and at the top pilot level, for the levels above):
+	 * its error against u* (measured: time and space together), its
+	 * time-error constant C in e = C h^p (against the pilot), and at the
+	 * top its CPU time per node-evaluation. */
 	const ndo_method ms[2] = {NDO_SYMPLECTIC_EULER, NDO_RK4};
-	double C[2], per_eval[2], evals_per_step[2];
-	for (int k = 0; k < 2; k++) {
-		double hc = critical_at(a, top, ms[k]);
-		ndo_acc_config c = {top, ms[k], 0, steps_for(T, SAFETY * hc), 0};
-		c.h = T / (double)c.steps;
-		ndo_acc_result res;
-		if (!(hc > 0) || (rc = ndo_acc_run(a, &c, &res))) {
-			rc = rc ? rc : ndo__fail(NDO_EDIVERGED, "%s: no critical step", ndo_method_names[ms[k]]);
-			goto out;
+	double C[L][2], tot[L][2], per_eval[2] = {0, 0}, evals_per_step[2] = {0, 0};
+	int lo = qmin >= 0 && qmin < top ? qmin : top;
+	for (int q = lo; q <= top; q++)
+		for (int k = 0; k < 2; k++) {
+			double hc = critical_at(a, q, ms[k]);
+			ndo_acc_config c = {q, ms[k], 0, steps_for(T, SAFETY * hc), 0};
+			c.h = T / (double)c.steps;
+			ndo_acc_result res;
+			if (!(hc > 0) || (rc = ndo_acc_run(a, &c, &res))) {
+				rc = rc ? rc : ndo__fail(NDO_EDIVERGED, "%s: no critical step",
+				                         ndo_method_names[ms[k]]);
+				goto out;
+			}
+			int p = ndo_method_order(ms[k]);
+			double d = ndo_acc_distance(q, res.u, pu[q]);
+			double denom = pow(c.h, p) - (ms[k] == NDO_RK4 ? pow(ph[q], p) : 0);
+			C[q][k] = denom > 0 ? d / denom : 0;
+			tot[q][k] = against(q, top, res.u, ustar);
+			if (q == top) {
+				per_eval[k] = res.node_evals > 0 ? res.cpu / res.node_evals : 0;
+				evals_per_step[k] =
+				    res.node_evals / ((double)c.steps * (double)ndo_vertex_count(q));
+			}
+			ndo_acc_result_free(&res);
 		}
-		int p = ndo_method_order(ms[k]);
-		double d = ndo_acc_distance(top, res.u, pu[top]);
-		double denom = pow(c.h, p) - (ms[k] == NDO_RK4 ? pow(ph[top], p) : 0);
-		C[k] = denom > 0 ? d / denom : 0;
-		per_eval[k] = res.node_evals > 0 ? res.cpu / res.node_evals : 0;
-		evals_per_step[k] = res.node_evals / ((double)c.steps * (double)ndo_vertex_count(top));
-		ndo_acc_result_free(&res);
-	}
-	/* The candidates. */
+	/* The candidates: every level from qmin, each method at 0.9 × its
+	 * critical step when that meets the target, else at the step whose
+	 * predicted time error fits what the space error leaves. */
 	ch->cpu = INFINITY;
 	for (int q = qmin >= 0 ? qmin : n; q <= n; q++) {
-		double es = ES(q), budget = MARGIN * target_m - es;
+		int measured = q <= top;
+		double margin = measured ? MARGIN_MEASURED : MARGIN;
+		double budget = margin * target_m - es[q];
 		if (budget <= 0)
-			budget = MARGIN * (target_m - es); /* only the input level: what is left */
+			budget = MARGIN * (target_m - es[q]); /* only the input level: what is left */
 		if (budget <= 0)
 			continue;
 		for (int k = 0; k < 2; k++) {
 			int p = ndo_method_order(ms[k]);
-			double hc = critical_at(a, q, ms[k]);
+			double hc = critical_at(a, q, ms[k]), Ck = C[measured ? q : top][k];
 			if (!(hc > 0))
 				continue;
-			double h = SAFETY * hc;
-			if (C[k] > 0)
-				h = fmin(h, pow(budget / C[k], 1.0 / p));
+			double h = SAFETY * hc, err;
+			if (measured && tot[q][k] <= margin * target_m) {
+				err = tot[q][k];
+			} else {
+				if (Ck > 0)
+					h = fmin(h, pow(budget / Ck, 1.0 / p));
+				err = es[q] + Ck * pow(h, p);
+			}
 			int64_t steps = steps_for(T, h);
 			h = T / (double)steps;
 			double ne = (double)steps * evals_per_step[k] * (double)ndo_vertex_count(q);
@@ -583,8 +638,9 @@ int ndo_acc_choose(ndo_acc *a, double target, int metres, double T, ndo_acc_choi
 				ch->cpu = cpu;
 				ch->node_evals = ne;
 				ch->c = (ndo_acc_config){q, ms[k], h, steps, a->sc->sim.tol};
-				ch->space_m = es;
-				ch->time_m = C[k] * pow(h, p);
+				ch->space_m = es[q];
+				ch->time_m = Ck * pow(h, p);
+				ch->error_m = err;
 			}
 		}
 	}
@@ -595,5 +651,6 @@ out:
 	ch->pilot_cpu = cpu_now() - started;
 	for (int l = 0; l <= NDO_MAX_LEVEL; l++)
 		free(pu[l]);
+	free(ustar);
 	return rc;
 }

@@ -195,11 +195,14 @@ static void bad_targets_are_refused(void)
 	      ch.best_m > 1e-6 * ch.umax && ch.level_needed > 4,
 	      "1e-6: reachable %d, best %g m of %g m, level %d", ch.reachable, ch.best_m, ch.umax,
 	      ch.level_needed);
-	/* Reachable: a level at most the input's, a positive step. */
+	/* Reachable: a level at most the input's, a positive step, a predicted
+	 * error within the margin (0.7 of E measured at the pilots' levels,
+	 * 0.5 predicted above them). */
 	CHECK(ndo_acc_choose(f.a, 0.3, 0, 1, &ch) == NDO_OK && ch.reachable && ch.c.level <= 4 &&
-	      ch.c.h > 0 && ch.c.steps >= 1 && ch.time_m + ch.space_m <= 0.5 * 0.3 * ch.umax,
-	      "0.3: level %d, h %g, predicted %g of %g m", ch.c.level, ch.c.h, ch.time_m + ch.space_m,
-	      ch.umax);
+	      ch.c.h > 0 && ch.c.steps >= 1 &&
+	      ch.error_m <= (ch.c.level <= ch.pilot_top ? 0.7 : 0.5) * 0.3 * ch.umax,
+	      "0.3: level %d (pilots to %d), h %g, predicted %g of %g m", ch.c.level, ch.pilot_top,
+	      ch.c.h, ch.error_m, ch.umax);
 	unmake(&f);
 	fixture g;
 	make(&g, 4, "damping 0.1;force face faces=3,4 amplitude=1", bulge);

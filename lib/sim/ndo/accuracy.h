@@ -162,6 +162,8 @@ typedef struct ndo_acc_choice {
 	double target_m;        /* the target in metres */
 	double umax;            /* predicted largest displacement, m */
 	double time_m, space_m; /* predicted errors, m */
+	double error_m;         /* predicted error, m: time_m + space_m, or at levels up
+	                           to the pilots' measured against their extrapolation */
 	double cpu;             /* predicted CPU seconds of the run */
 	double node_evals;      /* predicted force evaluations × vertices */
 	double pilot_cpu;       /* what choosing cost (pilots, critical steps), CPU s */
