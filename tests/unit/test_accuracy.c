@@ -135,9 +135,10 @@ static void time_estimate_follows_the_order(void)
 {
 	fixture f;
 	make(&f, 4, "damping 0.1", bulge);
-	/* l = 2: omega = sqrt(6); a second and a half, steps well inside the
-	 * stable range, where the error is in the asymptotic regime. */
-	double a = time_estimate(&f, NDO_RK4, 0.05, 30), b = time_estimate(&f, NDO_RK4, 0.025, 60);
+	/* l = 2: omega = sqrt(6); steps well inside the stable range, where
+	 * the error is in the asymptotic regime; step counts whose windows
+	 * (an eighth, at least 16 steps) span the same time. */
+	double a = time_estimate(&f, NDO_RK4, 0.05, 128), b = time_estimate(&f, NDO_RK4, 0.025, 256);
 	CHECK(a / b > 10 && a / b < 24, "rk4: halving the step divides the estimate by %g, not ~16",
 	      a / b);
 	a = time_estimate(&f, NDO_MIDPOINT, 0.01, 160), b = time_estimate(&f, NDO_MIDPOINT, 0.005, 320);

@@ -8,18 +8,23 @@
  * largest |x − X| over the nodes and over the run (sampled at least 64
  * times and at the end).  Two parts:
  *
- *   time   the integrator's error at the run's step: Richardson at the
- *          run's own level on a window, the run's first eighth (at least
- *          16 steps; all of a shorter run) at h and at h/2 (rkf45: at its
- *          tolerance and a hundredth of it), compared at the window's
- *          middle and end: d = |u_h − u_h/2| / (1 − 2^−p), p the method's
- *          order.  The growth between the two, d ∝ t^g with g in [0, 1]
- *          (0: an error made once, as the top modes a method damps; 1: a
- *          phase error, which grows with time), carries the larger d to
- *          the run's end: e = max d × (T / T_window)^g.  (Level n−1 at
- *          twice the step, the earlier estimate, misses the top modes
- *          only level n has: RK4's error at its largest step was 0.08–0.5×
- *          the truth; docs/bench/accuracy.md.)
+ *   time   the integrator's error at the run's step: the larger of two
+ *          Richardson estimates.  Early, at the run's own level, on a
+ *          window — the run's first eighth (at least 16 steps; all of a
+ *          shorter run) at h and at h/2, compared at the window's middle
+ *          and end, d = |u_h − u_h/2| / (1 − 2^−p), p the method's order:
+ *          it sees the top modes only level n has (RK4 at its largest step
+ *          damps them, most of its error there).  Over the whole run, one
+ *          level coarser: level n−1 at twice the step against the space
+ *          companion below, e = |u_2h − u_h| / (2^p − 1) (at half the step
+ *          when twice is beyond level n−1's critical step): the error that
+ *          grows with time (a phase error) in the motion every level
+ *          carries.  Either alone missed: the coarse one RK4's top modes
+ *          (0.08–0.5× the truth), the window carried to the end by its
+ *          growth a slowly forced scene (6×; docs/simulate-peer.md).
+ *          rkf45: the window at its tolerance and a hundredth of it,
+ *          carried to the end by the growth between the two comparisons,
+ *          d ∝ t^g with g in [0, 1].
  *   space  the discretisation's error at the run's level n: the same scene
  *          and the same integrator and step at level n−1 (inputs
  *          restricted from level n: every other node, ndo/restrict.h),
@@ -31,9 +36,10 @@
  *          pre-asymptotic (2 to 2.4 from levels 3-5 on the thesis scenes)
  *          and made worse estimates; the benchmark measures both.
  *
- * The estimates cost about 3/8 + 1/4 of the run for long runs (the window
- * at h and h/2: 3 × 1/8; level n−1 at the run's step: a quarter of the
- * nodes), more for runs shorter than 128 steps (the window's 16 steps).
+ * The estimates cost 3/8 (the window) + 1/4 (level n−1 at h) + 1/8 (at
+ * 2h) of the run's node-steps for runs of 128 steps or more (the
+ * window's 16 steps make it more for shorter runs), and once per level
+ * and method level n−1's critical step (10–40 ms).
  *
  * A scene is ndo_scene settings over an input at some level; coarser
  * levels restrict the input (positions, velocities, rest shape, pins) and
@@ -125,7 +131,7 @@ typedef struct ndo_acc_estimate {
 	double umax;            /* the largest displacement, m */
 	double rate;            /* r used for the space error (4) */
 	double cpu, node_evals;
-	char time_how[96];      /* how the time error was estimated */
+	char time_how[192];     /* how the time error was estimated */
 	char why[160];          /* what was not estimated, and why ("" if all was) */
 } ndo_acc_estimate;
 int ndo_acc_estimate_run(ndo_acc *a, const ndo_acc_config *c, const double *u, double umax,
