@@ -52,10 +52,12 @@ def tallies(data, n):
           f"refused, {len(right)} of them rightly (no configuration in the sweep meets E), "
           f"{len(ref) - len(right)} wrongly (the sweep found one): "
           f"{len(met) + len(right)} of {len(ch)} cases answered correctly.", end="")
+    same = [r for r in ran if r["cheapest"] == f"level {r['level']} {r['method']} {r['step_s']} s"]
     if ratios:
         print(f" Chosen run's CPU time over the sweep's cheapest (runs whose E the sweep "
               f"met): median {statistics.median(ratios):.2g}, {len(within)} of {len(ratios)} "
-              f"within 2× (largest {max(ratios):.2g}).")
+              f"within 2× (largest {max(ratios):.2g}); {len(same)} of them chose the sweep's "
+              f"cheapest configuration itself.")
     else:
         print()
 
