@@ -22,6 +22,9 @@
  *          carries.  Either alone missed: the coarse one RK4's top modes
  *          (0.08–0.5× the truth), the window carried to the end by its
  *          growth a slowly forced scene (6×; docs/simulate-peer.md).
+ *          Symplectic Euler damps no mode: the coarse estimate alone, at
+ *          order 1.5 (a bounded first-order offset and a growing
+ *          second-order phase error; conjugate to a second-order method).
  *          rkf45: the window at its tolerance and a hundredth of it,
  *          carried to the end by the growth between the two comparisons,
  *          d ∝ t^g with g in [0, 1].
@@ -38,8 +41,9 @@
  *
  * The estimates cost 3/8 (the window) + 1/4 (level n−1 at h) + 1/8 (at
  * 2h) of the run's node-steps for runs of 128 steps or more (the
- * window's 16 steps make it more for shorter runs), and once per level
- * and method level n−1's critical step (10–40 ms).
+ * window's 16 steps make it more for shorter runs; symplectic Euler has
+ * no window), and once per level and method level n−1's critical step
+ * (10–40 ms).
  *
  * A scene is ndo_scene settings over an input at some level; coarser
  * levels restrict the input (positions, velocities, rest shape, pins) and
