@@ -33,7 +33,8 @@ def choices(data, n):
             choice = f"level {r['level']}, {r['method']}, {float(r['step_s']):.3g} s"
             print(f"| {r['scene']} | {g(r['E'])} | {choice} | {g(r['predicted'])} | "
                   f"{g(r['estimated'])} | {g(r['achieved'])} | {float(r['run_cpu_s']):.2g} | "
-                  f"{r['cheapest']} | {g(r['cheapest_cpu_s'])} | {g(r['ratio'])} |")
+                  f"{r['cheapest']} | {g(r['cheapest_cpu_s'])} | "
+                  f"{g(r['ratio']) if r['cheapest'] != 'none' else '—'} |")
         else:
             print(f"| {r['scene']} | {g(r['E'])} | refused: best {g(r['predicted'])}, needs "
                   f"level {r['level']} | | | | | {r['cheapest']} | {g(r['cheapest_cpu_s'])} | |")
