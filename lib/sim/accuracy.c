@@ -1,6 +1,7 @@
-/* accuracy.c — a run's time and space errors, estimated from companion
- * runs one and two levels coarser, and the cheapest configuration that
- * meets a stated error (ndo/accuracy.h; issue 18). */
+/* accuracy.c — a run's time error (Richardson on a window at its level
+ * and one level coarser over the run) and space error (a companion one
+ * level coarser), and the cheapest configuration that meets a stated
+ * error (ndo/accuracy.h; issue 18). */
 #include "ndo/accuracy.h"
 
 #include "ndo/restrict.h"
@@ -38,6 +39,13 @@ struct ndo_acc {
  * (docs/bench/accuracy.md), so predicting half the target keeps the
  * achieved error below it. */
 #define MARGIN 0.5
+/* ... for a configuration the pilots measured (a level up to theirs, at
+ * 0.9 × its critical step, against their extrapolation u*): only u*'s own
+ * error is left unknown. */
+#define MARGIN_MEASURED 0.7
+/* The pilots' differences must fall by this much per level before the
+ * last pair is trusted for the levels above. */
+#define TRUST 2.0
 /* The pilots' step: RK4 at half its critical step, whose own time error is
  * (0.5/0.9)^4 ≈ 0.1 of RK4's at its largest step — negligible next to the
  * space differences the pilots measure. */
@@ -51,6 +59,11 @@ struct ndo_acc {
 #define RATE 4.0
 /* Largest stable step used: the tool's --dt auto default. */
 #define SAFETY 0.9
+/* The time estimate's window: the run's first eighth, at least WINDOW_MIN
+ * steps (all of a shorter run). */
+#define WINDOW 0.125
+#define WINDOW_MIN 16
+
 
 static double cpu_now(void)
 {
@@ -362,6 +375,115 @@ static double critical_at(ndo_acc *a, int level, ndo_method method)
 	return a->crit[level][method];
 }
 
+/* The order Richardson assumes: the method's, but 1.5 for symplectic
+ * Euler, whose error on an oscillation is a first-order part that stays
+ * bounded and a second-order phase error that grows (it is conjugate to a
+ * second-order method): 2 to 4 per halving of the step. */
+static double richardson_order(ndo_method m)
+{
+	return m == NDO_SYMPLECTIC_EULER ? 1.5 : (double)ndo_method_order(m);
+}
+
+/* The time error made early, by Richardson at the run's own level on a
+ * window: the run's first W steps at h and at h/2 (rkf45: at its tolerance
+ * and a hundredth of it), compared at the window's middle and end,
+ * d = |u_h − u_h/2| / (1 − 2^−p); *dmax the larger.  rkf45 (nothing else
+ * estimates it) also carries it to the run's end by the growth between the
+ * two, d ∝ t^g with g in [0, 1]: *grown. */
+static int time_window(ndo_acc *a, const ndo_acc_config *c, ndo_acc_estimate *e, int64_t *wout,
+                       double *dmax, double *grown)
+{
+	double p = richardson_order(c->method);
+	int64_t w = (int64_t)ceil(WINDOW * (double)c->steps);
+	if (w < WINDOW_MIN)
+		w = WINDOW_MIN;
+	if (w > c->steps)
+		w = c->steps;
+	*wout = w;
+	int rkf = c->method == NDO_RKF45;
+	double factor = rkf ? 1 / (1 - 0.01) : 1 / (1 - pow(0.5, p));
+	ndo_sim *s1 = NULL, *s2 = NULL;
+	int rc = ndo_acc_sim(a, c->level, c->method, c->tol, &s1);
+	if (!rc)
+		rc = ndo_acc_sim(a, c->level, c->method, rkf ? c->tol / 100 : c->tol, &s2);
+	size_t n = nodes_of(c->level);
+	double *u1 = malloc(3 * n * sizeof(double)), *u2 = malloc(3 * n * sizeof(double));
+	double d[2] = {0, 0};
+	int64_t at[2] = {(w + 1) / 2, w};
+	if (!rc && (!u1 || !u2))
+		rc = ndo__fail(NDO_ENOMEM, "out of memory");
+	for (int64_t k = 1, j = 0; !rc && k <= w; k++) {
+		rc = ndo_sim_step(s1, c->h);
+		if (!rc)
+			rc = rkf ? ndo_sim_step(s2, c->h) : ndo_sim_step(s2, c->h / 2);
+		if (!rc && !rkf)
+			rc = ndo_sim_step(s2, c->h / 2);
+		if (!rc && k == at[j]) {
+			ndo_sim_get(s1, u1, NULL), ndo_sim_get(s2, u2, NULL);
+			d[j] = factor * ndo_acc_distance(c->level, u1, u2);
+			j = j < 1 ? j + 1 : j;
+		}
+	}
+	if (!rc) {
+		ndo_sim_stats st;
+		ndo_sim_stats_get(s1, &st);
+		e->node_evals += (double)st.evaluations * (double)ndo_vertex_count(c->level);
+		ndo_sim_stats_get(s2, &st);
+		e->node_evals += (double)st.evaluations * (double)ndo_vertex_count(c->level);
+		double g = d[0] > 0 && d[1] > 0 && at[0] < at[1]
+		                   ? log(d[1] / d[0]) / log((double)at[1] / (double)at[0]) : 1;
+		g = fmin(1, fmax(0, g));
+		*dmax = fmax(d[0], d[1]);
+		*grown = *dmax * pow((double)c->steps / (double)w, g);
+	}
+	ndo_sim_destroy(s1), ndo_sim_destroy(s2);
+	free(u1), free(u2);
+	return rc;
+}
+
+/* The time error over the whole run, by Richardson one level coarser:
+ * level m−1 at twice the step against r1, its run at the step (half the
+ * step when twice is beyond that level's critical step): what the motion
+ * every level carries accumulates (a phase error grows with time). */
+static int time_coarse(ndo_acc *a, const ndo_acc_config *c, const ndo_acc_result *r1,
+                       ndo_acc_estimate *e, double *h2, double *out)
+{
+	double p = richardson_order(c->method);
+	double T = c->h * (double)c->steps, factor;
+	ndo_acc_config c2 = *c;
+	c2.level = c->level - 1;
+	int twice = c->steps >= 2;
+	if (twice) {
+		c2.steps = (c->steps + 1) / 2;
+		c2.h = T / (double)c2.steps;
+		if (!ndo_method_is_implicit(c->method))
+			twice = c2.h <= SAFETY * critical_at(a, c2.level, c->method);
+	}
+	if (twice) {
+		factor = 1 / (pow(c2.h / c->h, p) - 1);
+	} else {
+		c2.steps = 2 * c->steps;
+		c2.h = T / (double)c2.steps;
+		factor = 1 / (1 - pow(0.5, p));
+	}
+	*h2 = c2.h;
+	ndo_acc_result r2;
+	int rc = ndo_acc_run(a, &c2, &r2);
+	if (rc)
+		return rc;
+	add_cost(e, &r2);
+	*out = factor * ndo_acc_distance(c2.level, r2.u, r1->u);
+	ndo_acc_result_free(&r2);
+	return NDO_OK;
+}
+
+static void why(ndo_acc_estimate *e, const char *what, int level)
+{
+	size_t k = strlen(e->why);
+	snprintf(e->why + k, sizeof e->why - k, "%s%s level %d: %s", k ? "; " : "", what, level,
+	         ndo_errdetail());
+}
+
 int ndo_acc_estimate_run(ndo_acc *a, const ndo_acc_config *c, const double *u, double umax,
                          ndo_acc_estimate *e)
 {
@@ -369,65 +491,66 @@ int ndo_acc_estimate_run(ndo_acc *a, const ndo_acc_config *c, const double *u, d
 	e->time_m = e->space_m = NAN;
 	e->umax = umax;
 	e->rate = NAN;
-	int m = c->level, p = ndo_method_order(c->method);
-	double T = c->h * (double)c->steps, started = cpu_now();
-	if (m < 1) {
-		snprintf(e->why, sizeof e->why, "level 0 has no coarser level");
-		return NDO_OK;
-	}
-	/* Level m−1 at the run's step: the space companion, and the time
-	 * companion's partner. */
-	ndo_acc_config c1 = *c;
-	c1.level = m - 1;
-	ndo_acc_result r1, r2;
-	int rc = ndo_acc_run(a, &c1, &r1);
+	int m = c->level, rkf = c->method == NDO_RKF45;
+	/* Symplectic Euler damps no mode: the window (for the top modes a
+	 * method damps) would only see its bounded first-order offset, which
+	 * follows the velocity of the moment (3-4× the truth on the poke,
+	 * whose motion is fastest early). */
+	int windowed = c->method != NDO_SYMPLECTIC_EULER || m < 1;
+	double started = cpu_now(), dmax = NAN, grown = NAN, tc = NAN, h2 = 0;
+	int64_t w = 0;
+	/* Time, early: the window at the run's level. */
+	int rc = windowed ? time_window(a, c, e, &w, &dmax, &grown) : NDO_OK;
 	if (rc) {
-		snprintf(e->why, sizeof e->why, "level %d: %s", m - 1, ndo_errdetail());
-		return rc == NDO_ENOMEM ? rc : NDO_OK;
+		why(e, "time: window at", m);
+		if (rc == NDO_ENOMEM)
+			return rc;
 	}
-	add_cost(e, &r1);
-	/* Time: Richardson at level m−1. */
-	ndo_acc_config c2 = c1;
-	double factor; /* e(h) = factor × |u_c2 − u_c1| */
-	if (c->method == NDO_RKF45) {
-		c2.tol = c->tol / 100;
-		factor = 1 / (1 - 0.01); /* the error scales with the tolerance */
-		snprintf(e->time_how, sizeof e->time_how, "level %d at tolerance %.3g", m - 1, c2.tol);
+	/* Space: level m−1 at the run's step (stable: the critical step about
+	 * doubles per level coarser), D_m = (r − 1) e_m; time over the run. */
+	ndo_acc_result r1 = {0};
+	if (m < 1) {
+		snprintf(e->why + strlen(e->why), sizeof e->why - strlen(e->why),
+		         "%slevel 0 has no coarser level", *e->why ? "; " : "");
 	} else {
-		int twice = c->steps >= 2;
-		if (twice) {
-			c2.steps = (c->steps + 1) / 2;
-			c2.h = T / (double)c2.steps;
-			if (!ndo_method_is_implicit(c->method))
-				twice = c2.h <= SAFETY * critical_at(a, m - 1, c->method);
-		}
-		if (twice) {
-			double q = c2.h / c->h;
-			factor = 1 / (pow(q, p) - 1);
-			snprintf(e->time_how, sizeof e->time_how, "level %d at %.4g s against %.4g s", m - 1,
-			         c2.h, c->h);
+		ndo_acc_config c1 = *c;
+		c1.level = m - 1;
+		rc = ndo_acc_run(a, &c1, &r1);
+		if (rc) {
+			why(e, "space:", m - 1);
+			if (rc == NDO_ENOMEM)
+				return rc;
 		} else {
-			c2.steps = 2 * c->steps;
-			c2.h = T / (double)c2.steps;
-			factor = 1 / (1 - pow(0.5, p));
-			snprintf(e->time_how, sizeof e->time_how, "level %d at %.4g s against %.4g s", m - 1,
-			         c2.h, c->h);
+			add_cost(e, &r1);
+			e->rate = RATE;
+			e->space_m = level_difference(m, u, r1.u) / (RATE - 1);
+			if (!rkf && (rc = time_coarse(a, c, &r1, e, &h2, &tc))) {
+				why(e, "time: coarse", m - 1);
+				if (rc == NDO_ENOMEM) {
+					ndo_acc_result_free(&r1);
+					return rc;
+				}
+			}
+			ndo_acc_result_free(&r1);
 		}
 	}
-	rc = ndo_acc_run(a, &c2, &r2);
-	if (rc == NDO_OK) {
-		add_cost(e, &r2);
-		e->time_m = factor * ndo_acc_distance(m - 1, r2.u, r1.u);
-		ndo_acc_result_free(&r2);
+	/* The larger of the two: the window sees the top modes only level m
+	 * has (RK4 at its largest step damps them: most of its error there),
+	 * the coarse companion the error that grows over the whole run. */
+	if (rkf) {
+		e->time_m = grown;
+		snprintf(e->time_how, sizeof e->time_how, "level %d, %lld of %lld steps at tolerance %.3g, "
+		         "carried to the end", m, (long long)w, (long long)c->steps, c->tol / 100);
 	} else {
-		snprintf(e->why, sizeof e->why, "time: level %d at %.4g s: %s", m - 1, c2.h,
-		         ndo_errdetail());
+		e->time_m = isnan(tc) ? dmax : isnan(dmax) ? tc : fmax(dmax, tc);
+		if (windowed)
+			snprintf(e->time_how, sizeof e->time_how, "the larger of level %d, %lld of %lld "
+			         "steps at %.4g s (%.3g m), and level %d at %.4g s (%.3g m)", m, (long long)w,
+			         (long long)c->steps, c->h / 2, dmax, m - 1, h2, tc);
+		else
+			snprintf(e->time_how, sizeof e->time_how, "level %d at %.4g s against %.4g s", m - 1,
+			         h2, c->h);
 	}
-	/* Space: D_m = (r − 1) e_m. */
-	double dm = level_difference(m, u, r1.u), r = RATE;
-	e->rate = r;
-	e->space_m = dm / (r - 1);
-	ndo_acc_result_free(&r1);
 	e->cpu = cpu_now() - started;
 	return NDO_OK;
 }
@@ -438,6 +561,18 @@ static int64_t steps_for(double T, double h)
 {
 	double n = ceil(T / h - 1e-9);
 	return n < 1 ? 1 : (int64_t)fmin(n, 1e12);
+}
+
+/* The pilots' space error of a level-q result u (q ≤ top) against the
+ * extrapolation u* at level top. */
+static double against(int q, int top, const double *u, const double *ustar)
+{
+	double *up;
+	if (ndo_acc_prolong(q, top, u, &up))
+		return NAN;
+	double d = ndo_acc_distance(top, up, ustar);
+	free(up);
+	return d;
 }
 
 int ndo_acc_choose(ndo_acc *a, double target, int metres, double T, ndo_acc_choice *ch)
@@ -453,11 +588,12 @@ int ndo_acc_choose(ndo_acc *a, double target, int metres, double T, ndo_acc_choi
 	int rc = by_ids(a);
 	if (rc)
 		return rc;
-	double *pu[NDO_MAX_LEVEL + 1] = {0}, ph[NDO_MAX_LEVEL + 1] = {0}, D[NDO_MAX_LEVEL + 1] = {0};
-	double umax = 0, r = RATE, es_top = 0, target_m = 0;
+	enum { L = NDO_MAX_LEVEL + 1 };
+	double *pu[L] = {0}, ph[L] = {0}, D[L] = {0}, es[L] = {0};
+	double umax = 0, r = RATE, target_m = 0, *ustar = NULL;
 	int top = p0, qmin = -1;
 	double started = cpu_now();
-	/* es(q): the space error of level q predicted from D[top]. */
+	/* ES(q): the space error of a level above the pilots, from D[top]. */
 #define ES(q) (D[top] / (r - 1) * pow(r, (double)(top - (q))))
 	for (int p = p0;; p++) {
 		double hc = critical_at(a, p, NDO_RK4);
@@ -479,16 +615,32 @@ int ndo_acc_choose(ndo_acc *a, double target, int metres, double T, ndo_acc_choi
 		for (int q = p0; q <= n && qmin < 0; q++)
 			if (ES(q) < MARGIN * target_m)
 				qmin = q;
-		if ((qmin >= 0 && qmin <= p + 1) || p + 1 >= n)
+		/* Trust the last pair once the differences fall by TRUST per
+		 * level: a coarse level that is still a blob (the bunny at levels
+		 * 2–4) differs little from the next and says nothing of finer
+		 * ones. */
+		int converged = p >= p0 + 2 && D[p] > 0 && D[p - 1] >= TRUST * D[p];
+		if (p + 1 >= n || (qmin >= 0 && qmin <= p + 1 && converged))
 			break;
 	}
-	es_top = ES(n);
+	/* u*: the top pilot extrapolated (Richardson in the level, r per
+	 * level); every pilot's space error measured against it. */
+	if ((rc = ndo_acc_prolong(top - 1, top, pu[top - 1], &ustar)))
+		goto out;
+	for (size_t q = 0; q < 3 * nodes_of(top); q++)
+		ustar[q] = pu[top][q] + (pu[top][q] - ustar[q]) / (r - 1);
+	for (int q = 0; q <= n; q++)
+		es[q] = q < p0 ? INFINITY : q <= top ? against(q, top, pu[q], ustar) : ES(q);
+	qmin = -1;
+	for (int q = p0; q <= n && qmin < 0; q++)
+		if (es[q] < MARGIN_MEASURED * target_m && (q <= top || es[q] < MARGIN * target_m))
+			qmin = q;
 	ch->pilot_top = top;
 	ch->rate = r;
 	ch->umax = umax;
 	ch->target_m = target_m;
-	ch->best_m = es_top;
-	if (qmin < 0 && es_top > target_m) {
+	ch->best_m = es[n];
+	if (qmin < 0 && es[n] > target_m) {
 		ch->reachable = 0;
 		int need = n;
 		while (ES(need) > MARGIN * target_m && need <= NDO_MAX_LEVEL)
@@ -497,43 +649,62 @@ int ndo_acc_choose(ndo_acc *a, double target, int metres, double T, ndo_acc_choi
 		goto out;
 	}
 	ch->reachable = 1;
-	/* Each method's error constant and cost per node-evaluation, at the top
-	 * pilot level against the pilot. */
+	/* Each method at 0.9 × its critical step at the candidate levels the
+	 * pilots cover (and at the top pilot level, for the levels above):
+	 * its error against u* (measured: time and space together), its
+	 * time-error constant C in e = C h^p (against the pilot), and at the
+	 * top its CPU time per node-evaluation. */
 	const ndo_method ms[2] = {NDO_SYMPLECTIC_EULER, NDO_RK4};
-	double C[2], per_eval[2], evals_per_step[2];
-	for (int k = 0; k < 2; k++) {
-		double hc = critical_at(a, top, ms[k]);
-		ndo_acc_config c = {top, ms[k], 0, steps_for(T, SAFETY * hc), 0};
-		c.h = T / (double)c.steps;
-		ndo_acc_result res;
-		if (!(hc > 0) || (rc = ndo_acc_run(a, &c, &res))) {
-			rc = rc ? rc : ndo__fail(NDO_EDIVERGED, "%s: no critical step", ndo_method_names[ms[k]]);
-			goto out;
+	double C[L][2], tot[L][2], per_eval[2] = {0, 0}, evals_per_step[2] = {0, 0};
+	int lo = qmin >= 0 && qmin < top ? qmin : top;
+	for (int q = lo; q <= top; q++)
+		for (int k = 0; k < 2; k++) {
+			double hc = critical_at(a, q, ms[k]);
+			ndo_acc_config c = {q, ms[k], 0, steps_for(T, SAFETY * hc), 0};
+			c.h = T / (double)c.steps;
+			ndo_acc_result res;
+			if (!(hc > 0) || (rc = ndo_acc_run(a, &c, &res))) {
+				rc = rc ? rc : ndo__fail(NDO_EDIVERGED, "%s: no critical step",
+				                         ndo_method_names[ms[k]]);
+				goto out;
+			}
+			int p = ndo_method_order(ms[k]);
+			double d = ndo_acc_distance(q, res.u, pu[q]);
+			double denom = pow(c.h, p) - (ms[k] == NDO_RK4 ? pow(ph[q], p) : 0);
+			C[q][k] = denom > 0 ? d / denom : 0;
+			tot[q][k] = against(q, top, res.u, ustar);
+			if (q == top) {
+				per_eval[k] = res.node_evals > 0 ? res.cpu / res.node_evals : 0;
+				evals_per_step[k] =
+				    res.node_evals / ((double)c.steps * (double)ndo_vertex_count(q));
+			}
+			ndo_acc_result_free(&res);
 		}
-		int p = ndo_method_order(ms[k]);
-		double d = ndo_acc_distance(top, res.u, pu[top]);
-		double denom = pow(c.h, p) - (ms[k] == NDO_RK4 ? pow(ph[top], p) : 0);
-		C[k] = denom > 0 ? d / denom : 0;
-		per_eval[k] = res.node_evals > 0 ? res.cpu / res.node_evals : 0;
-		evals_per_step[k] = res.node_evals / ((double)c.steps * (double)ndo_vertex_count(top));
-		ndo_acc_result_free(&res);
-	}
-	/* The candidates. */
+	/* The candidates: every level from qmin, each method at 0.9 × its
+	 * critical step when that meets the target, else at the step whose
+	 * predicted time error fits what the space error leaves. */
 	ch->cpu = INFINITY;
 	for (int q = qmin >= 0 ? qmin : n; q <= n; q++) {
-		double es = ES(q), budget = MARGIN * target_m - es;
+		int measured = q <= top;
+		double margin = measured ? MARGIN_MEASURED : MARGIN;
+		double budget = margin * target_m - es[q];
 		if (budget <= 0)
-			budget = MARGIN * (target_m - es); /* only the input level: what is left */
+			budget = MARGIN * (target_m - es[q]); /* only the input level: what is left */
 		if (budget <= 0)
 			continue;
 		for (int k = 0; k < 2; k++) {
 			int p = ndo_method_order(ms[k]);
-			double hc = critical_at(a, q, ms[k]);
+			double hc = critical_at(a, q, ms[k]), Ck = C[measured ? q : top][k];
 			if (!(hc > 0))
 				continue;
-			double h = SAFETY * hc;
-			if (C[k] > 0)
-				h = fmin(h, pow(budget / C[k], 1.0 / p));
+			double h = SAFETY * hc, err;
+			if (measured && tot[q][k] <= margin * target_m) {
+				err = tot[q][k];
+			} else {
+				if (Ck > 0)
+					h = fmin(h, pow(budget / Ck, 1.0 / p));
+				err = es[q] + Ck * pow(h, p);
+			}
 			int64_t steps = steps_for(T, h);
 			h = T / (double)steps;
 			double ne = (double)steps * evals_per_step[k] * (double)ndo_vertex_count(q);
@@ -542,8 +713,9 @@ int ndo_acc_choose(ndo_acc *a, double target, int metres, double T, ndo_acc_choi
 				ch->cpu = cpu;
 				ch->node_evals = ne;
 				ch->c = (ndo_acc_config){q, ms[k], h, steps, a->sc->sim.tol};
-				ch->space_m = es;
-				ch->time_m = C[k] * pow(h, p);
+				ch->space_m = es[q];
+				ch->time_m = Ck * pow(h, p);
+				ch->error_m = err;
 			}
 		}
 	}
@@ -554,5 +726,6 @@ out:
 	ch->pilot_cpu = cpu_now() - started;
 	for (int l = 0; l <= NDO_MAX_LEVEL; l++)
 		free(pu[l]);
+	free(ustar);
 	return rc;
 }

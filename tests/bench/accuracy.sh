@@ -4,8 +4,10 @@
 # thesis figures 5.3, 5.4, 5.7, the bunny, the ellipsoid free vibration, a
 # pinned sphere poked locally; inputs at levels 5 and 6.  Tables to
 # docs/bench/accuracy.md, figures to docs/simulate-peer/accuracy-N.png.
-# About ten minutes of CPU (the level-8 references, the sweeps).  The
-# summary: tests/bench/summarize_accuracy.py.
+# About fifteen minutes of CPU (the level-8 references, the sweeps).  The
+# summary: tests/bench/summarize_accuracy.py; it also rewrites the blocks
+# between "<!-- accuracy-bench: PART -->" and "<!-- /accuracy-bench -->" in
+# docs/simulate-peer.md (PART: estimates, choices, tallies).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 B=${NDO_TESTBIN:-build/tests}
@@ -49,7 +51,7 @@ out=docs/bench/accuracy.md
 		"\`tests/bench/bench_accuracy.c\`, figures \`tests/bench/plot_accuracy.py\`) on $(date -u +%Y-%m-%d)," \
 		"$(nproc) cores ($(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//'));" \
 		"load averages below, per input level (a shared machine: CPU times are process CPU times," \
-		"medians of 3 runs).  Discussed in [docs/simulate-peer.md](../simulate-peer.md#asking-for-an-accuracy)."
+		"medians of 3 trials, each repeating the run until it has taken 20 ms).  Discussed in [docs/simulate-peer.md](../simulate-peer.md#asking-for-an-accuracy)."
 	echo
 	echo "Inputs at level N, restricted from level N + 2; reference: level N + 2, RK4 at 0.2 × its" \
 		"critical step, $T s simulated.  Errors: the largest node distance at the end, at level N," \
@@ -57,7 +59,7 @@ out=docs/bench/accuracy.md
 	echo
 	echo "## Summary"
 	echo
-	/usr/bin/python3 tests/bench/summarize_accuracy.py "$d" $LEVELS
+	/usr/bin/python3 tests/bench/summarize_accuracy.py "$d" all $LEVELS
 	for N in $LEVELS; do
 		echo
 		echo "## Input level $N"
@@ -89,3 +91,16 @@ out=docs/bench/accuracy.md
 	done
 } >"$out"
 cat "$out"
+
+# The blocks of docs/simulate-peer.md that show these results.
+/usr/bin/python3 - "$d" $LEVELS <<'PY'
+import re, subprocess, sys
+doc = "docs/simulate-peer.md"
+text = open(doc).read()
+def block(m):
+    out = subprocess.run(["/usr/bin/python3", "tests/bench/summarize_accuracy.py", sys.argv[1],
+                          m.group(1)] + sys.argv[2:], check=True, capture_output=True, text=True)
+    return f"<!-- accuracy-bench: {m.group(1)} -->\n{out.stdout.strip()}\n<!-- /accuracy-bench -->"
+text = re.sub(r"<!-- accuracy-bench: (\w+) -->.*?<!-- /accuracy-bench -->", block, text, flags=re.S)
+open(doc, "w").write(text)
+PY

@@ -39,7 +39,7 @@ def main(data, level, out):
                 ax.annotate(f"E={E:g}: L{r['level']}", (float(r["run_cpu_s"]), float(r["achieved"])),
                             textcoords="offset points", xytext=(6, 4), fontsize=8)
         ax.set_title(sc)
-        ax.set_xlabel("CPU s (median of 3)")
+        ax.set_xlabel("CPU s per run (median of 3 trials of ≥ 20 ms)")
         ax.set_ylabel("error / largest displacement")
         ax.grid(True, which="both", alpha=0.3)
     for m, c in COLORS.items():

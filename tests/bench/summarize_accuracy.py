@@ -1,10 +1,13 @@
 #!/usr/bin/python3
-"""summarize_accuracy.py DATA_DIR LEVEL... — the condensed tables and the
-goals' tallies of tests/bench/accuracy.sh (markdown on stdout): per
-case E, the choice, predicted / estimated / achieved error, the chosen
-run's CPU time and the sweep's cheapest; then how many runs met E, how
-many refusals were right (the sweep found nothing meeting E either), and
-the cost ratios; and the estimates' ratios to the truth."""
+"""summarize_accuracy.py DATA_DIR PART LEVEL... — the condensed tables and
+the goals' tallies of tests/bench/accuracy.sh (markdown on stdout).
+
+PART: all (docs/bench/accuracy.md's summary), choices (per input level,
+per case E: the choice, predicted / estimated / achieved error, the chosen
+run's CPU time and the sweep's cheapest), tallies (how many runs met E,
+how many refusals were right — the sweep found nothing meeting E either —
+and the cost ratios), estimates (the estimates' ratios to the truth and
+their cost)."""
 import csv
 import os
 import statistics
@@ -20,46 +23,84 @@ def g(x):
     return f"{float(x):.2g}" if x not in ("", "inf") else ("—" if x == "" else "∞")
 
 
-def main(data, levels):
+def choices(data, n):
+    ch = rows(os.path.join(data, f"choose-{n}.csv"))
+    print(f"Input level {n}:\n")
+    print("| scene | E | choice | predicted | estimated | achieved | run CPU s | cheapest (sweep) | CPU s | ratio |")
+    print("|---|---:|---|---:|---:|---:|---:|---|---:|---:|")
+    for r in ch:
+        if r["reachable"] == "1":
+            choice = f"level {r['level']}, {r['method']}, {float(r['step_s']):.3g} s"
+            print(f"| {r['scene']} | {g(r['E'])} | {choice} | {g(r['predicted'])} | "
+                  f"{g(r['estimated'])} | {g(r['achieved'])} | {float(r['run_cpu_s']):.2g} | "
+                  f"{r['cheapest']} | {g(r['cheapest_cpu_s'])} | "
+                  f"{g(r['ratio']) if r['cheapest'] != 'none' else '—'} |")
+        else:
+            print(f"| {r['scene']} | {g(r['E'])} | refused: best {g(r['predicted'])}, needs "
+                  f"level {r['level']} | | | | | {r['cheapest']} | {g(r['cheapest_cpu_s'])} | |")
+    print()
+
+
+def tallies(data, n):
+    ch = rows(os.path.join(data, f"choose-{n}.csv"))
+    ran = [r for r in ch if r["reachable"] == "1"]
+    met = [r for r in ran if r["met"] == "1"]
+    ref = [r for r in ch if r["reachable"] != "1"]
+    right = [r for r in ref if r["cheapest"] == "none"]
+    ratios = [float(r["ratio"]) for r in ran if r["ratio"] not in ("", "0")]
+    within = [x for x in ratios if x <= 2]
+    print(f"- level {n}: {len(met)} of {len(ran)} runs met E against the reference; {len(ref)} "
+          f"refused, {len(right)} of them rightly (no configuration in the sweep meets E), "
+          f"{len(ref) - len(right)} wrongly (the sweep found one): "
+          f"{len(met) + len(right)} of {len(ch)} cases answered correctly.", end="")
+    same = [r for r in ran if r["cheapest"] == f"level {r['level']} {r['method']} {r['step_s']} s"]
+    if ratios:
+        print(f" Chosen run's CPU time over the sweep's cheapest (runs whose E the sweep "
+              f"met): median {statistics.median(ratios):.2g}, {len(within)} of {len(ratios)} "
+              f"within 2× (largest {max(ratios):.2g}); {len(same)} of them chose the sweep's "
+              f"cheapest configuration itself.")
+    else:
+        print()
+
+
+def estimates(data, n):
+    path = os.path.join(data, f"estimates-{n}.csv")
+    if not os.path.exists(path):
+        return
+    es = rows(path)
+    parts = []
+    for m in ("rk4", "symplectic-euler"):
+        e = [r for r in es if r["method"] == m]
+        for part in ("space", "time", "total"):
+            v = [float(r[f"{part}_ratio"]) for r in e]
+            if not v:
+                continue
+            inside = [x for x in v if 1 / 3 <= x <= 3]
+            parts.append(f"{m}, {part}: estimated / true {min(v):.2g} to {max(v):.2g}, "
+                         f"{len(inside)} of {len(v)} within 3×")
+    cost = [float(r["estimate_cpu_s"]) / float(r["run_cpu_s"]) for r in es
+            if float(r["run_cpu_s"]) > 0]
+    steps = [round(1 / float(r["step_s"])) for r in es]
+    print(f"- level {n} ({len(es)} runs): " + "; ".join(parts) + ".", end="")
+    if cost:
+        print(f" The estimate's CPU time over the run's: median {statistics.median(cost):.2g} "
+              f"({min(cost):.2g} to {max(cost):.2g}; these runs take {min(steps)} to "
+              f"{max(steps)} steps per simulated second).")
+    else:
+        print()
+
+
+def main(data, part, levels):
     for n in levels:
-        ch = rows(os.path.join(data, f"choose-{n}.csv"))
-        print(f"Input level {n}:\n")
-        print("| scene | E | choice | predicted | estimated | achieved | run CPU s | cheapest (sweep) | CPU s |")
-        print("|---|---:|---|---:|---:|---:|---:|---|---:|")
-        for r in ch:
-            if r["reachable"] == "1":
-                choice = f"level {r['level']}, {r['method']}, {float(r['step_s']):.3g} s"
-                print(f"| {r['scene']} | {g(r['E'])} | {choice} | {g(r['predicted'])} | "
-                      f"{g(r['estimated'])} | {g(r['achieved'])} | {float(r['run_cpu_s']):.2g} | "
-                      f"{r['cheapest']} | {g(r['cheapest_cpu_s'])} |")
-            else:
-                print(f"| {r['scene']} | {g(r['E'])} | refused: best {g(r['predicted'])}, needs "
-                      f"level {r['level']} | | | | | {r['cheapest']} | {g(r['cheapest_cpu_s'])} |")
-        ran = [r for r in ch if r["reachable"] == "1"]
-        met = [r for r in ran if r["met"] == "1"]
-        ref = [r for r in ch if r["reachable"] != "1"]
-        right = [r for r in ref if r["cheapest"] == "none"]
-        ratios = [float(r["ratio"]) for r in ran]
-        within = [x for x in ratios if x <= 2]
-        print()
-        print(f"- {len(met)} of {len(ran)} runs met E against the reference; {len(ref)} refused, "
-              f"{len(right)} of them rightly (no configuration in the sweep meets E), "
-              f"{len(ref) - len(right)} wrongly (the sweep found one): "
-              f"{len(met) + len(right)} of {len(ch)} cases answered correctly.")
-        if ratios:
-            print(f"- chosen run's CPU time over the sweep's cheapest: median "
-                  f"{statistics.median(ratios):.2g}, {len(within)} of {len(ratios)} within 2× "
-                  f"(largest {max(ratios):.2g}).")
-        es = rows(os.path.join(data, f"estimates-{n}.csv"))
-        for m in ("rk4", "symplectic-euler"):
-            e = [r for r in es if r["method"] == m]
-            for part in ("space", "time", "total"):
-                v = [float(r[f"{part}_ratio"]) for r in e]
-                inside = [x for x in v if 1 / 3 <= x <= 3]
-                print(f"- estimates, {m}, {part}: estimated / true {min(v):.2g} to {max(v):.2g}, "
-                      f"{len(inside)} of {len(v)} within 3×.")
-        print()
+        if part in ("all", "choices"):
+            choices(data, n)
+        if part in ("all", "tallies"):
+            tallies(data, n)
+        if part in ("all", "estimates"):
+            estimates(data, n)
+        if part == "all":
+            print()
 
 
 if __name__ == "__main__":
-    main(sys.argv[1], sys.argv[2:])
+    main(sys.argv[1], sys.argv[2], sys.argv[3:])

@@ -80,7 +80,7 @@ void accuracy_plan(run *r)
 		exit(NDO_EXIT_USAGE);
 	}
 	if (!r->quiet) {
-		double pred = ch.time_m + ch.space_m;
+		double pred = ch.error_m;
 		fprintf(stderr, "%s: --accuracy %g%s = %.3g m (largest displacement %.3g m, predicted): "
 		        "level %d, %s, step %.4g s, %lld steps; predicted error %.3g m (%.3g: time %.3g m, "
 		        "space %.3g m), cost %.3g node-evaluations, about %.3g s CPU; choosing took %.3g "

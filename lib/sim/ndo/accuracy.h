@@ -8,13 +8,26 @@
  * largest |x − X| over the nodes and over the run (sampled at least 64
  * times and at the end).  Two parts:
  *
- *   time   the integrator's error at the run's step: Richardson's
- *          estimate from the same scene one level coarser run at twice the
- *          step (half the steps; at half the step when twice is beyond the
- *          coarse level's critical step):  e(h) = |u_2h − u_h| / (2^p − 1),
- *          p the method's order.  rkf45 compares with its tolerance / 100.
- *          The motion a coarse level carries is the same smooth motion, so
- *          its time error stands for the fine one at 1/8 of the cost.
+ *   time   the integrator's error at the run's step: the larger of two
+ *          Richardson estimates.  Early, at the run's own level, on a
+ *          window — the run's first eighth (at least 16 steps; all of a
+ *          shorter run) at h and at h/2, compared at the window's middle
+ *          and end, d = |u_h − u_h/2| / (1 − 2^−p), p the method's order:
+ *          it sees the top modes only level n has (RK4 at its largest step
+ *          damps them, most of its error there).  Over the whole run, one
+ *          level coarser: level n−1 at twice the step against the space
+ *          companion below, e = |u_2h − u_h| / (2^p − 1) (at half the step
+ *          when twice is beyond level n−1's critical step): the error that
+ *          grows with time (a phase error) in the motion every level
+ *          carries.  Either alone missed: the coarse one RK4's top modes
+ *          (0.08–0.5× the truth), the window carried to the end by its
+ *          growth a slowly forced scene (6×; docs/simulate-peer.md).
+ *          Symplectic Euler damps no mode: the coarse estimate alone, at
+ *          order 1.5 (a bounded first-order offset and a growing
+ *          second-order phase error; conjugate to a second-order method).
+ *          rkf45: the window at its tolerance and a hundredth of it,
+ *          carried to the end by the growth between the two comparisons,
+ *          d ∝ t^g with g in [0, 1].
  *   space  the discretisation's error at the run's level n: the same scene
  *          and the same integrator and step at level n−1 (inputs
  *          restricted from level n: every other node, ndo/restrict.h),
@@ -26,10 +39,11 @@
  *          pre-asymptotic (2 to 2.4 from levels 3-5 on the thesis scenes)
  *          and made worse estimates; the benchmark measures both.
  *
- * The estimates cost about 1/8 + 1/16 ≈ 20% of the run (level n−1 at
- * two steps): every node count shrinks 4× per level,
- * every critical step grows about 2×, and the companion runs use the
- * run's step.
+ * The estimates cost 3/8 (the window) + 1/4 (level n−1 at h) + 1/8 (at
+ * 2h) of the run's node-steps for runs of 128 steps or more (the
+ * window's 16 steps make it more for shorter runs; symplectic Euler has
+ * no window), and once per level and method level n−1's critical step
+ * (10–40 ms).
  *
  * A scene is ndo_scene settings over an input at some level; coarser
  * levels restrict the input (positions, velocities, rest shape, pins) and
@@ -121,7 +135,7 @@ typedef struct ndo_acc_estimate {
 	double umax;            /* the largest displacement, m */
 	double rate;            /* r used for the space error (4) */
 	double cpu, node_evals;
-	char time_how[96];      /* how the time error was estimated */
+	char time_how[192];     /* how the time error was estimated */
 	char why[160];          /* what was not estimated, and why ("" if all was) */
 } ndo_acc_estimate;
 int ndo_acc_estimate_run(ndo_acc *a, const ndo_acc_config *c, const double *u, double umax,
@@ -158,6 +172,8 @@ typedef struct ndo_acc_choice {
 	double target_m;        /* the target in metres */
 	double umax;            /* predicted largest displacement, m */
 	double time_m, space_m; /* predicted errors, m */
+	double error_m;         /* predicted error, m: time_m + space_m, or at levels up
+	                           to the pilots' measured against their extrapolation */
 	double cpu;             /* predicted CPU seconds of the run */
 	double node_evals;      /* predicted force evaluations × vertices */
 	double pilot_cpu;       /* what choosing cost (pilots, critical steps), CPU s */
