@@ -478,7 +478,8 @@ static int mg_step(ndo_sim *s, ndo__implicit *im, double h, const double *a, con
 	im->aprev_ok = 1;
 	int iters, rc;
 	double res;
-	if ((rc = ndo__mg_solve(im->mg, im->b3, im->x3, NDO_SOLVER_TOL, 500, &iters, &res)))
+	if ((rc = ndo__mg_solve(im->mg, im->b3, im->x3, NDO_SOLVER_TOL, NDO_SOLVER_TOL_STALL, 500,
+	                        &iters, &res)))
 		return rc;
 	s->stats.iterations += iters;
 	s->stats.last_iterations = iters;

@@ -602,15 +602,15 @@ static int jacobi_only(const ndo__mg *mg)
 	return mg->nl == 1 && !mg->L;
 }
 
-int ndo__mg_solve(ndo__mg *mg, const double *b, double *x, double tol, int max_iter,
+int ndo__mg_solve(ndo__mg *mg, const double *b, double *x, double tol, double stall, int max_iter,
                   int *iters, double *relres)
 {
 	const size_t n = mg->lv[0].n;
 	const cholmod_sparse *A = mg->lv[0].A;
 	const int jac = jacobi_only(mg);
 	double *r = mg->r, *z = mg->z, *p = mg->p, *q = mg->q;
-	double s[6], bnd[3], bn[3], rn[3], rz[3] = {0, 0, 0};
-	int done[3], it = 0, rc;
+	double s[6], bnd[3], bn[3], rn[3], rz[3] = {0, 0, 0}, best = INFINITY;
+	int done[3], it = 0, rc, stalls = 0;
 	job J = {.op = OP_RESID, .M = A, .i1 = x, .i2 = b, .o1 = r};
 	run(mg, &J, n, s);
 	for (int c = 0; c < 3; c++) {
@@ -634,6 +634,11 @@ int ndo__mg_solve(ndo__mg *mg, const double *b, double *x, double tol, int max_i
 	}
 	while (!(done[0] && done[1] && done[2])) {
 		if (it == max_iter) {
+			double worst = 0;
+			for (int c = 0; c < 3; c++)
+				worst = fmax(worst, bn[c] > 0 ? rn[c] / bn[c] : 0);
+			if (worst <= stall)
+				break; /* stalled within the looser bound: as above */
 			int c = rn[0] / fmax(bn[0], DBL_MIN) > rn[1] / fmax(bn[1], DBL_MIN) ? 0 : 1;
 			c = rn[c] / fmax(bn[c], DBL_MIN) > rn[2] / fmax(bn[2], DBL_MIN) ? c : 2;
 			return ndo__fail(NDO_EDIVERGED, "multigrid did not reach a relative residual of "
@@ -658,6 +663,7 @@ int ndo__mg_solve(ndo__mg *mg, const double *b, double *x, double tol, int max_i
 				rn[c] = sqrt(s[c]);
 			all &= done[c] || rn[c] <= bnd[c];
 		}
+		int restart = 0;
 		if (all) {
 			/* The updated residual drifts from the true one: check it, and
 			 * where it is above the tolerance whether it has reached the
@@ -665,9 +671,11 @@ int ndo__mg_solve(ndo__mg *mg, const double *b, double *x, double tol, int max_i
 			J = (job){.op = OP_RESID, .M = A, .i1 = x, .i2 = b, .o1 = r};
 			run(mg, &J, n, s);
 			int floor = 0;
+			double worst = 0;
 			for (int c = 0; c < 3; c++) {
 				rn[c] = sqrt(s[c]);
 				floor |= rn[c] > tol * bn[c];
+				worst = fmax(worst, bn[c] > 0 ? rn[c] / bn[c] : 0);
 			}
 			if (floor)
 				bounds(mg, x, tol, bn, bnd);
@@ -675,6 +683,32 @@ int ndo__mg_solve(ndo__mg *mg, const double *b, double *x, double tol, int max_i
 				done[c] = rn[c] <= bnd[c];
 			if (done[0] && done[1] && done[2])
 				break;
+			/* Not there: the iteration starts again from the true
+			 * residual.  One that stalls where rounding leaves it (the
+			 * true residual no better than at the last two checks) ends
+			 * there if it is within stall. */
+			if (!(worst < 0.5 * best)) {
+				if (++stalls >= 2 && worst <= stall)
+					break;
+			} else {
+				best = worst;
+				stalls = 0;
+			}
+			restart = 1;
+		}
+		if (restart) {
+			if (jac) {
+				J = (job){.op = OP_START, .dinv = mg->lv[0].dinv, .i1 = r, .o1 = z, .o2 = p};
+				run(mg, &J, n, s);
+			} else {
+				if ((rc = precondition(mg, r, z)))
+					return rc;
+				J = (job){.op = OP_DOT, .i1 = r, .i2 = z};
+				run(mg, &J, n, s);
+				memcpy(p, z, 3 * n * sizeof *p);
+			}
+			memcpy(rz, s, sizeof rz);
+			continue;
 		}
 		if (!jac || all) {
 			if ((rc = precondition(mg, r, z)))

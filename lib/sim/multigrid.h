@@ -50,10 +50,13 @@ void ndo__mg_free(ndo__mg *mg);
  * and receives the solution.  Each column stops when its residual
  * ‖b − A x‖₂ is at most tol·‖b‖₂, or within 16·ε·‖|A||x|‖₂ (the rounding
  * floor of the product itself, which a very stiff system reaches first).
- * *iters: the iterations of the slowest column; *relres: its final
- * relative residual.  NDO_EDIVERGED when max_iter iterations do not reach
- * the tolerance. */
-int ndo__mg_solve(ndo__mg *mg, const double *b, double *x, double tol, int max_iter,
+ * Where the true residual is above that, the iteration starts again from
+ * it; one that stalls (the true residual no better than half its best over
+ * two such restarts, or max_iter iterations) ends if its relative residual
+ * is at most `stall` (≥ tol).  *iters: the iterations of the slowest
+ * column; *relres: its final relative residual.  NDO_EDIVERGED when it
+ * stalls above `stall`. */
+int ndo__mg_solve(ndo__mg *mg, const double *b, double *x, double tol, double stall, int max_iter,
                   int *iters, double *relres);
 
 /* y = A x on the finest level (n × 3 each, row-major; not aliased). */

@@ -148,7 +148,10 @@ static void steps_equal_cholmods(void)
 					CHECK(d <= tol, "level %d %s h = %.3g (%s): differs from CHOLMOD by %.3g "
 					      "(tolerance %.3g; %d levels%s)", level, ndo_method_names[m], h,
 					      vs[q].name, d, tol, levels, direct ? ", factored" : "");
-					CHECK(res <= 1e-10, "level %d %s h = %.3g (%s): relative residual %.3g",
+					/* NDO_SOLVER_TOL, or the rounding floor just above it
+					 * (2.7e-12 at most here): at 1000× the step the true
+					 * residual stalled at 2.6e-10 until CG restarted from it */
+					CHECK(res <= 1e-11, "level %d %s h = %.3g (%s): relative residual %.3g",
 					      level, ndo_method_names[m], h, vs[q].name, res);
 					seen[levels > 1 && direct]++;
 				}

@@ -87,6 +87,10 @@ typedef enum ndo_solver {
 	NDO_SOLVER_COUNT
 } ndo_solver;
 #define NDO_SOLVER_TOL 1e-12
+/* A solve that rounding stalls above NDO_SOLVER_TOL (the true residual no
+ * better over two restarts, or the iteration limit) ends there if its
+ * relative residual is at most this; above it, the step fails. */
+#define NDO_SOLVER_TOL_STALL 1e-10
 #define NDO_MULTIGRID_MIN_LEVEL 6
 
 /* "auto", "multigrid", "cholmod" (index = ndo_solver), NULL-terminated. */
