@@ -184,42 +184,16 @@ int ndo__ck_send(ndo__ck *ck, ndo_session *s, int64_t step, size_t n, const int3
 		return 0;
 	const ndo_net_stats *ns = ndo_net_stats_get(ndo_session_net(s));
 	uint64_t b0 = ns->bytes_out;
-	/* ~60 kB a message: one datagram with the header and channel name */
-	const size_t budget = 60000;
-	size_t k = 0;
-	while (k < n) {
-		size_t nr = 0, nn = 0, bytes_msg = 64;
-		for (; k < n && bytes_msg + 56 <= budget; k++) {
-			int32_t c = nodes[k];
-			if (!sl->have[c])
-				continue;
-			if (nr && ck->rs[nr - 1] + ck->rl[nr - 1] == c) {
-				ck->rl[nr - 1]++;
-				bytes_msg += 48;
-			} else {
-				ck->rs[nr] = c;
-				ck->rl[nr++] = 1;
-				bytes_msg += 56;
-			}
-			memcpy(ck->buf + 6 * nn++, sl->val + 6 * (size_t)c, 6 * sizeof *ck->buf);
-		}
-		if (!nn)
-			break;
-		ndo_msg_halo_t h;
-		memset(&h, 0, sizeof h);
-		h.step = step;
-		h.time = sl->time;
-		h.confirmed = 1;
-		h.checkpoint = 1;
-		h.nruns = (int32_t)nr;
-		h.start = ck->rs;
-		h.len = ck->rl;
-		h.nvalues = (int32_t)(6 * nn);
-		h.values = ck->buf;
-		int rc = ndo_session_send_halo(s, &h);
-		if (rc < 0)
-			return rc;
-	}
+	ndo_msg_halo_t h;
+	memset(&h, 0, sizeof h);
+	h.step = step;
+	h.time = sl->time;
+	h.confirmed = 1;
+	h.checkpoint = 1;
+	int rc = ndo_session_send_nodes(s, &h, n, nodes, sl->val, NULL, sl->have, ck->rs, ck->rl,
+	                                ck->buf);
+	if (rc < 0)
+		return rc;
 	*bytes += ns->bytes_out - b0;
 	return 0;
 }

@@ -602,43 +602,16 @@ static int strip_send(ndo_peer *p, int b)
 		return 0;
 	const ndo_net_stats *ns = ndo_net_stats_get(ndo_session_net(p->s));
 	uint64_t b0 = ns->bytes_out;
-	const double *sb = p->sbuf[b];
-	/* ~60 kB a message: one datagram with the header and channel name */
-	const size_t budget = 60000;
-	int32_t *start = (int32_t *)p->hx, *len = (int32_t *)p->hv; /* scratch */
-	size_t k = 0;
-	while (k < p->nstrip) {
-		size_t nr = 0, nn = 0, bytes = 64;
-		double *vals = p->xs;
-		while (k < p->nstrip && bytes + 56 <= budget) {
-			int32_t c = p->strip[k];
-			if (nr && start[nr - 1] + len[nr - 1] == c) {
-				len[nr - 1]++;
-				bytes += 48;
-			} else {
-				start[nr] = c;
-				len[nr++] = 1;
-				bytes += 56;
-			}
-			memcpy(vals + 6 * nn, sb + 6 * (size_t)c, 6 * sizeof *vals);
-			nn++;
-			k++;
-		}
-		ndo_msg_halo_t h;
-		memset(&h, 0, sizeof h);
-		h.step = p->sstep[b];
-		h.confirmed = 1; /* lock-step: every input was the true one */
-		h.time = p->stime[b];
-		h.nruns = (int32_t)nr;
-		h.start = start;
-		h.len = len;
-		h.nvalues = (int32_t)(6 * nn);
-		h.values = vals;
-		int rc = ndo_session_send_halo(p->s, &h);
-		if (rc < 0)
-			return rc;
-		p->st.halo_tiles++;
-	}
+	ndo_msg_halo_t h;
+	memset(&h, 0, sizeof h);
+	h.step = p->sstep[b];
+	h.confirmed = 1; /* lock-step: every input was the true one */
+	h.time = p->stime[b];
+	int rc = ndo_session_send_nodes(p->s, &h, p->nstrip, p->strip, p->sbuf[b], NULL, NULL,
+	                                (int32_t *)p->hx, (int32_t *)p->hv, p->xs);
+	if (rc < 0)
+		return rc;
+	p->st.halo_tiles += rc;
 	p->st.halo_bytes += ns->bytes_out - b0;
 	return 0;
 }

@@ -198,41 +198,18 @@ static int send_strip(ndo__rb *rb, int64_t step)
 	slot *S = &rb->w[step % rb->win];
 	if (S->step != step || !S->have || !rb->r.nstrip || !xstep(rb, step))
 		return 0;
-	const size_t budget = 60000; /* one datagram, with the header */
 	const ndo_net_stats *ns = ndo_net_stats_get(ndo_session_net(rb->s));
 	uint64_t b0 = ns->bytes_out;
-	size_t k = 0;
-	while (k < rb->r.nstrip) {
-		size_t nr = 0, nn = 0, bytes = 64;
-		while (k < rb->r.nstrip && bytes + 56 <= budget) {
-			int32_t c = rb->r.strip[k];
-			if (nr && rb->rs[nr - 1] + rb->rl[nr - 1] == c) {
-				rb->rl[nr - 1]++;
-				bytes += 48;
-			} else {
-				rb->rs[nr] = c;
-				rb->rl[nr++] = 1;
-				bytes += 56;
-			}
-			memcpy(rb->vals + 6 * nn, S->st + 6 * (size_t)rb->sidx[k], 6 * sizeof *rb->vals);
-			nn++;
-			k++;
-		}
-		ndo_msg_halo_t h;
-		memset(&h, 0, sizeof h);
-		h.step = step;
-		h.time = S->t;
-		h.confirmed = (int8_t)(S->cf != 0);
-		h.nruns = (int32_t)nr;
-		h.start = rb->rs;
-		h.len = rb->rl;
-		h.nvalues = (int32_t)(6 * nn);
-		h.values = rb->vals;
-		int rc = ndo_session_send_halo(rb->s, &h);
-		if (rc < 0)
-			return rc;
-		rb->st.messages++;
-	}
+	ndo_msg_halo_t h;
+	memset(&h, 0, sizeof h);
+	h.step = step;
+	h.time = S->t;
+	h.confirmed = (int8_t)(S->cf != 0);
+	int rc = ndo_session_send_nodes(rb->s, &h, rb->r.nstrip, rb->r.strip, S->st, rb->sidx, NULL,
+	                                rb->rs, rb->rl, rb->vals);
+	if (rc < 0)
+		return rc;
+	rb->st.messages += rc;
 	rb->st.strips++;
 	rb->st.bytes += ns->bytes_out - b0;
 	return 0;

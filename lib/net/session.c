@@ -1154,6 +1154,45 @@ int ndo_session_send_halo(ndo_session *s, ndo_msg_halo_t *h)
 	return ndo_net_publish(s->net, NDO_MSG_HALO, h);
 }
 
+int ndo_session_send_nodes(ndo_session *s, ndo_msg_halo_t *h, size_t n, const int32_t *nodes,
+                           const double *vals, const int32_t *idx, const uint8_t *have,
+                           int32_t *rs, int32_t *rl, double *buf)
+{
+	/* ~60 kB a message: one datagram with the header and channel name */
+	const size_t budget = 60000;
+	int sent = 0;
+	size_t k = 0;
+	while (k < n) {
+		size_t nr = 0, nn = 0, bytes = 64;
+		for (; k < n && bytes + 56 <= budget; k++) {
+			int32_t c = nodes[k];
+			if (have && !have[c])
+				continue;
+			if (nr && rs[nr - 1] + rl[nr - 1] == c) {
+				rl[nr - 1]++;
+				bytes += 48;
+			} else {
+				rs[nr] = c;
+				rl[nr++] = 1;
+				bytes += 56;
+			}
+			memcpy(buf + 6 * nn++, vals + 6 * (size_t)(idx ? idx[k] : c), 6 * sizeof *buf);
+		}
+		if (!nn)
+			break;
+		h->nruns = (int32_t)nr;
+		h->start = rs;
+		h->len = rl;
+		h->nvalues = (int32_t)(6 * nn);
+		h->values = buf;
+		int rc = ndo_session_send_halo(s, h);
+		if (rc < 0)
+			return rc;
+		sent++;
+	}
+	return sent;
+}
+
 int ndo_session_send_solve(ndo_session *s, ndo_msg_solve_t *m)
 {
 	if (!s->grid || s->ended || (!s->ready && s->o.role != NDO_ROLE_OWNER))

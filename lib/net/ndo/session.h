@@ -143,6 +143,17 @@ int ndo_session_publish_from(ndo_session *s, const ndo_grid *src, int64_t step, 
  * sets the epoch in force.  0 or a negative status. */
 int ndo_session_send_halo(ndo_session *s, ndo_msg_halo_t *h);
 
+/* Send the state of nodes[0..n) as halo messages like *h (its step, time
+ * and flags; the session fills in the runs, the values and the epoch):
+ * runs of consecutive node indices, as many per datagram as fit.  Node
+ * nodes[k]'s 6 values (velocity, displacement) are at vals + 6·idx[k]
+ * (idx NULL: vals + 6·nodes[k]); a node with have[nodes[k]] == 0 is left
+ * out (have may be NULL).  Scratch: rs and rl of n ints, buf of 6 n
+ * doubles.  Returns the messages sent (≥ 0) or a negative status. */
+int ndo_session_send_nodes(ndo_session *s, ndo_msg_halo_t *h, size_t n, const int32_t *nodes,
+                           const double *vals, const int32_t *idx, const uint8_t *have,
+                           int32_t *rs, int32_t *rl, double *buf);
+
 /* The same for a solve_t (ndo_msg.h): the session sets the epoch. */
 int ndo_session_send_solve(ndo_session *s, ndo_msg_solve_t *m);
 
