@@ -275,7 +275,7 @@ load1=$(cut -d' ' -f1-3 /proc/loadavg)
 	echo "at the first and the last step (\`--publish-every 0\`).  Each peer is one process with one thread; the machine has"
 	echo "$(nproc) cores, so 4 and 8 peers oversubscribe them and must lose (they wait for"
 	echo "the scheduler as much as for the network).  Load average (1, 5, 15 min) before:"
-	echo "$load0, after: $load1 — other work shared the machine.  Computing and waiting"
+	echo "$load0, after: $load1 (the 4- and 8-peer runs load the machine themselves).  Computing and waiting"
 	echo "are the owner's; halo and whole-region kB are what the owner sent per step"
 	echo "(whole regions every 10 steps, the default \`--publish-every\`)."
 	echo
@@ -294,7 +294,8 @@ load1=$(cut -d' ' -f1-3 /proc/loadavg)
 	echo "Made by \`tests/bench/peers.sh\` on $(date -u +%Y-%m-%d), $(nproc) cores,"
 	echo "$(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ //')."
 } >"$work/report.md"
-# A section not run keeps what the report had (PEERS_SECTIONS runs a part).
+# A section not run keeps what the report had (PEERS_SECTIONS runs a part;
+# sections the script does not make, such as §6 of checkpoints.sh, stay).
 /usr/bin/python3 - "$work/report.md" "$out" "${PEERS_SECTIONS:-1 2 3 4 5}" <<'PY'
 import re, sys
 new, old, ran = open(sys.argv[1]).read(), sys.argv[2], sys.argv[3].split()
@@ -302,16 +303,22 @@ try:
     prev = open(old).read()
 except OSError:
     prev = ""
+# the footer's paragraphs ("Made by ...", "Sections ...: made by ..."), wherever they are
+FOOT = re.compile(r"(?m)^(?:Sections [^\n]*: made by|Made by `tests/bench/peers\.sh`)[^\n]*\n(?:[^\n]+\n)*\n?")
 def sections(text):
-    parts = re.split(r"(?m)^(?=## \d+\. )", text)
-    return parts[0], {p.split(".", 1)[0][3:]: p for p in parts[1:]}
-head, secs = sections(new)
-_, olds = sections(prev)
-for k in secs:
-    if k not in ran and k in olds:
-        tail = "" if k != max(secs) else secs[k][secs[k].index("Made by"):] if "Made by" in secs[k] else ""
-        keep = olds[k].split("Made by")[0].rstrip() + "\n\n"
-        secs[k] = keep + tail
-open(old, "w").write(head + "".join(secs[k] for k in sorted(secs, key=int)))
+    foot = "".join(m.group(0) for m in FOOT.finditer(text))
+    body = FOOT.sub("", text)
+    parts = re.split(r"(?m)^(?=## \d+\. )", body)
+    return parts[0], {p.split(".", 1)[0][3:]: p.rstrip() + "\n\n" for p in parts[1:]}, foot
+head, secs, foot = sections(new)
+_, olds, _ = sections(prev)
+for k, text in olds.items():
+    if k not in ran or k not in secs:
+        secs[k] = text
+kept = sorted(k for k in secs if k not in ran)
+if kept:
+    foot = foot.rstrip() + "  Sections run this time: " + ", ".join(sorted(ran, key=int)) + \
+        "; sections " + ", ".join(kept) + " are kept from earlier runs (each says when and how it was made).\n"
+open(old, "w").write(head + "".join(secs[k] for k in sorted(secs, key=int)) + foot)
 PY
 cat "$out"
