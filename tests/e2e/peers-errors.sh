@@ -31,6 +31,14 @@ expect_error "--clock unknown" 2 "--clock: 'wall' is not lockstep or realtime" \
 	simulate-peer --owner s3.tgrid --clock wall
 expect_error "--boundary unknown" 2 "--boundary: 'fixed' is not exact, extrapolate or hold" \
 	simulate-peer --owner s3.tgrid --boundary fixed
+# realtime rolls back the fixed-step explicit methods only: the others are
+# refused unless an inexact boundary is asked for
+expect_error "realtime trapezoid" 2 '^simulate-peer: --clock realtime: trapezoid does not roll back' \
+	simulate-peer --owner s3.tgrid -i trapezoid --clock realtime --info
+expect_error "realtime rkf45, exact asked" 2 '^simulate-peer: --clock realtime: rkf45 does not roll back' \
+	simulate-peer --owner s3.tgrid -i rkf45 --clock realtime --boundary exact --info
+check "realtime trapezoid with --boundary extrapolate" \
+	simulate-peer -q --owner s3.tgrid -i trapezoid --dt 0.01 --clock realtime --boundary extrapolate --info
 expect_error "--channel with a regex" 2 "--channel: 'A.B'" simulate-peer --owner s3.tgrid --channel A.B
 expect_error "--poi beyond the grid" 2 '--poi: face 256 is outside 0..255 for a level-3 grid' \
 	simulate-peer -q --owner s3.tgrid --poi 256 -o x.tgrid

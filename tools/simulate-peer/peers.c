@@ -89,6 +89,7 @@ void peer_option(peer_cli *c, const char *name, const char *arg)
 			c->hold_boundary = 0;
 		else
 			ndo_usage_error("--boundary: '%s' is not exact, extrapolate or hold", arg);
+		c->boundary_inexact = strcmp(arg, "exact") != 0;
 	} else if (strcmp(name, "halo-steps") == 0) {
 		c->halo_steps = (int)ndo_opt_long(opt, arg, 1, 1000);
 	} else if (strcmp(name, "publish-every") == 0) {
@@ -473,6 +474,14 @@ int peers_main(run *r)
 	ndo_grid *g = NULL;
 	if (owner) {
 		setup(r);
+		ndo_method m = r->sc.sim.method;
+		if (c->clock == NDO_CLOCK_REALTIME && !c->boundary_inexact &&
+		    (m == NDO_RKF45 || ndo_method_is_implicit(m)))
+			ndo_usage_error("--clock realtime: %s does not roll back (its steps need the "
+			                "others' state within each step), so it would not end on the single "
+			                "process's result: run it lock-step, or ask for an extrapolated or "
+			                "held boundary with --boundary extrapolate or hold",
+			                ndo_method_names[m]);
 		plan(r);
 		if (r->info) {
 			ndo_close_stdout();
