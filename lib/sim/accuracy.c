@@ -3,6 +3,7 @@
  * level coarser), and the cheapest configuration that meets a stated
  * error (ndo/accuracy.h; issue 18). */
 #include "ndo/accuracy.h"
+#include "ndo/machine.h"
 
 #include "ndo/restrict.h"
 #include "ndo/status.h"
@@ -402,42 +403,57 @@ static int time_window(ndo_acc *a, const ndo_acc_config *c, ndo_acc_estimate *e,
 	*wout = w;
 	int rkf = c->method == NDO_RKF45;
 	double factor = rkf ? 1 / (1 - 0.01) : 1 / (1 - pow(0.5, p));
-	ndo_sim *s1 = NULL, *s2 = NULL;
-	int rc = ndo_acc_sim(a, c->level, c->method, c->tol, &s1);
-	if (!rc)
-		rc = ndo_acc_sim(a, c->level, c->method, rkf ? c->tol / 100 : c->tol, &s2);
 	size_t n = nodes_of(c->level);
-	double *u1 = malloc(3 * n * sizeof(double)), *u2 = malloc(3 * n * sizeof(double));
+	/* The two companions run one after the other, so one more simulation
+	 * of the run's size is alive at a time, beside the run's own; when it
+	 * would not fit in what is free now, the window is not run (level
+	 * n − 1 alone estimates the time error). */
+	ndo_sim_params prm = a->sc->sim;
+	prm.method = c->method;
+	size_t need = ndo_sim_memory(c->level, &prm) + 3 * 3 * n * sizeof(double),
+	       avail = ndo_memory_available();
+	if (need > avail)
+		return ndo__fail(NDO_ERANGE, "it would need %.0f MB, %.0f MB are free", need / 1e6,
+		                 avail / 1e6);
+	double *u[2] = {malloc(3 * n * sizeof(double)), malloc(3 * n * sizeof(double))};
+	double *u2 = malloc(3 * n * sizeof(double));
 	double d[2] = {0, 0};
 	int64_t at[2] = {(w + 1) / 2, w};
-	if (!rc && (!u1 || !u2))
-		rc = ndo__fail(NDO_ENOMEM, "out of memory");
-	for (int64_t k = 1, j = 0; !rc && k <= w; k++) {
-		rc = ndo_sim_step(s1, c->h);
-		if (!rc)
-			rc = rkf ? ndo_sim_step(s2, c->h) : ndo_sim_step(s2, c->h / 2);
-		if (!rc && !rkf)
-			rc = ndo_sim_step(s2, c->h / 2);
-		if (!rc && k == at[j]) {
-			ndo_sim_get(s1, u1, NULL), ndo_sim_get(s2, u2, NULL);
-			d[j] = factor * ndo_acc_distance(c->level, u1, u2);
-			j = j < 1 ? j + 1 : j;
+	int rc = !u[0] || !u[1] || !u2 ? ndo__fail(NDO_ENOMEM, "out of memory") : NDO_OK;
+	for (int pass = 0; pass < 2 && !rc; pass++) {
+		/* pass 0: at h, the states at at[] kept; pass 1: at h/2 (rkf45: a
+		 * tolerance 100 times smaller), compared with them */
+		ndo_sim *s = NULL;
+		rc = ndo_acc_sim(a, c->level, c->method, pass && rkf ? c->tol / 100 : c->tol, &s);
+		for (int64_t k = 1, j = 0; !rc && k <= w; k++) {
+			if (pass == 0 || rkf)
+				rc = ndo_sim_step(s, c->h);
+			else if (!(rc = ndo_sim_step(s, c->h / 2)))
+				rc = ndo_sim_step(s, c->h / 2);
+			for (; !rc && j < 2 && k == at[j]; j++) {
+				if (pass == 0) {
+					ndo_sim_get(s, u[j], NULL);
+				} else {
+					ndo_sim_get(s, u2, NULL);
+					d[j] = factor * ndo_acc_distance(c->level, u[j], u2);
+				}
+			}
 		}
+		if (!rc) {
+			ndo_sim_stats st;
+			ndo_sim_stats_get(s, &st);
+			e->node_evals += (double)st.evaluations * (double)ndo_vertex_count(c->level);
+		}
+		ndo_sim_destroy(s);
 	}
 	if (!rc) {
-		ndo_sim_stats st;
-		ndo_sim_stats_get(s1, &st);
-		e->node_evals += (double)st.evaluations * (double)ndo_vertex_count(c->level);
-		ndo_sim_stats_get(s2, &st);
-		e->node_evals += (double)st.evaluations * (double)ndo_vertex_count(c->level);
 		double g = d[0] > 0 && d[1] > 0 && at[0] < at[1]
 		                   ? log(d[1] / d[0]) / log((double)at[1] / (double)at[0]) : 1;
 		g = fmin(1, fmax(0, g));
 		*dmax = fmax(d[0], d[1]);
 		*grown = *dmax * pow((double)c->steps / (double)w, g);
 	}
-	ndo_sim_destroy(s1), ndo_sim_destroy(s2);
-	free(u1), free(u2);
+	free(u[0]), free(u[1]), free(u2);
 	return rc;
 }
 
