@@ -11,8 +11,8 @@
 #                  steps/s of its summary line, after the setup
 #   render-frame   one frame, process to PNG; streaming: a stream of 4 grids
 #   net-bench      a full state encoded and decoded (bench_codec, predict),
-#                  up to level CODEC_MAX (default 9: bench_codec simulates its
-#                  12 states on one thread first, 355 s at level 9)
+#                  up to level CODEC_MAX (default 10; 31 s and 1.1 GB at level 10
+#                  on 2026-11-25, loaded)
 #
 # LEVELS (default 6 7 8 9 10) chooses the levels.  The machine is shared:
 # the load is printed before and after; every process runs once (memory is
@@ -69,7 +69,7 @@ for L in $levels; do
 	run render-frame "$L" render-frame -o "$dir/f.png" "$dir/w$L.tgrid"
 	cat "$dir/w$L.tgrid" "$dir/w$L.tgrid" "$dir/w$L.tgrid" "$dir/w$L.tgrid" >"$dir/stream.tgrid"
 	run render-frame-stream "$L" render-frame -o "$dir/f%d.png" "$dir/stream.tgrid"
-	if [ -x "$tb/bench_codec" ] && [ "$L" -le "${CODEC_MAX:-9}" ]; then
+	if [ -x "$tb/bench_codec" ] && [ "$L" -le "${CODEC_MAX:-10}" ]; then
 		run net-bench-codec "$L" "$tb/bench_codec" -l "$L" -e predict -n 12
 		ms=$(grep -o 'CPU time [0-9.]* + [0-9.]* ms' "$dir/out" | awk '{ print $3 + $5 }')
 		sed -i '$ s/\t$/\t'"$ms"' ms encode+decode/' "$rows"
