@@ -602,6 +602,28 @@ static int jacobi_only(const ndo__mg *mg)
 	return mg->nl == 1 && !mg->L;
 }
 
+/* Conjugate gradients' first direction from the residual r: z = M⁻¹ r,
+ * p = z, rz = (r, z) per column (Jacobi alone: fused in one pass). */
+static int cg_start(ndo__mg *mg, int jac, double *r, double *z, double *p, double rz[3])
+{
+	const size_t n = mg->lv[0].n;
+	double s[6];
+	job J;
+	if (jac) {
+		J = (job){.op = OP_START, .dinv = mg->lv[0].dinv, .i1 = r, .o1 = z, .o2 = p};
+		run(mg, &J, n, s);
+	} else {
+		int rc = precondition(mg, r, z);
+		if (rc)
+			return rc;
+		J = (job){.op = OP_DOT, .i1 = r, .i2 = z};
+		run(mg, &J, n, s);
+		memcpy(p, z, 3 * n * sizeof *p);
+	}
+	memcpy(rz, s, 3 * sizeof *rz);
+	return NDO_OK;
+}
+
 int ndo__mg_solve(ndo__mg *mg, const double *b, double *x, double tol, double stall, int max_iter,
                   int *iters, double *relres)
 {
@@ -620,17 +642,8 @@ int ndo__mg_solve(ndo__mg *mg, const double *b, double *x, double tol, double st
 		done[c] = rn[c] <= bnd[c];
 	}
 	if (!(done[0] && done[1] && done[2])) {
-		if (jac) {
-			J = (job){.op = OP_START, .dinv = mg->lv[0].dinv, .i1 = r, .o1 = z, .o2 = p};
-			run(mg, &J, n, s);
-		} else {
-			if ((rc = precondition(mg, r, z)))
-				return rc;
-			J = (job){.op = OP_DOT, .i1 = r, .i2 = z};
-			run(mg, &J, n, s);
-			memcpy(p, z, 3 * n * sizeof *p);
-		}
-		memcpy(rz, s, sizeof rz);
+		if ((rc = cg_start(mg, jac, r, z, p, rz)))
+			return rc;
 	}
 	while (!(done[0] && done[1] && done[2])) {
 		if (it == max_iter) {
@@ -697,17 +710,8 @@ int ndo__mg_solve(ndo__mg *mg, const double *b, double *x, double tol, double st
 			restart = 1;
 		}
 		if (restart) {
-			if (jac) {
-				J = (job){.op = OP_START, .dinv = mg->lv[0].dinv, .i1 = r, .o1 = z, .o2 = p};
-				run(mg, &J, n, s);
-			} else {
-				if ((rc = precondition(mg, r, z)))
-					return rc;
-				J = (job){.op = OP_DOT, .i1 = r, .i2 = z};
-				run(mg, &J, n, s);
-				memcpy(p, z, 3 * n * sizeof *p);
-			}
-			memcpy(rz, s, sizeof rz);
+			if ((rc = cg_start(mg, jac, r, z, p, rz)))
+				return rc;
 			continue;
 		}
 		if (!jac || all) {
