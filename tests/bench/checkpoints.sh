@@ -8,11 +8,7 @@
 #   tests/bench/checkpoints.sh [L] [REPS]
 set -uo pipefail
 cd "$(dirname "$0")/../.."
-if [ -z "${NDO_IN_NETNS:-}" ]; then
-	NDO_IN_NETNS=1 exec unshare -n "$BASH" "$(realpath "$0")" "$@"
-fi
-ip link set lo up
-ip route add 224.0.0.0/4 dev lo
+. tests/e2e/netns.bash
 L=${1:-6} REPS=${2:-3}
 root=$PWD
 export PATH=$root/bin:$PATH

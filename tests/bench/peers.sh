@@ -13,11 +13,7 @@
 #      against the single process, and the traffic per step.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-if [ -z "${NDO_IN_NETNS:-}" ]; then
-	NDO_IN_NETNS=1 exec unshare -n "$BASH" "$(realpath "$0")" "$@"
-fi
-ip link set lo up
-ip route add 224.0.0.0/4 dev lo
+. tests/e2e/netns.bash
 export PATH=$PWD/bin:$PATH
 out=docs/bench/peers.md
 work=build/bench/peers
