@@ -916,19 +916,23 @@ static int region(ndo_peer *p)
 		ndo_session_set_exact_halos(p->s, p->exact); /* tiles are frames only */
 		int rc = 0;
 		if (p->exact) {
-			/* K steps reach D·K rings; the outermost ring received is held
-			 * (it stands still at its values of the exchange step): right for
-			 * a one-stage method's first step, one ring short for a
-			 * multi-stage one, whose stages would move it.  A split step
-			 * (rkf45, the implicit methods) exchanges several times within
-			 * each step (peer_solve.h): K is 1 */
+			/* K steps reach D·K rings.  The outermost ring received is held
+			 * (not integrated).  A one-stage method reads it only at its
+			 * values of the exchange step.  A multi-stage one reads, of the
+			 * first step, its displacement u and the first stage's u + c·h·v
+			 * (ring D's later stages reach no node that counts): in lock-step
+			 * the held ring moves along its velocity (ndo_sim_set_held_motion:
+			 * the very arithmetic of an integrated node's first stage), so D·K
+			 * rings are exact.  Rollback keeps one ring more, held still (its
+			 * predictions carry that ring itself).  A split step (rkf45, the
+			 * implicit methods) exchanges several times within each step
+			 * (peer_solve.h): K is 1 */
 			if (split)
 				p->K = 1;
-			p->W = split ? ndo__ps_rings(m)
-			             : ndo_peer_halo_rings(m) * p->K +
-			                   (m != NDO_EULER && m != NDO_SYMPLECTIC_EULER);
+			int multi = m != NDO_EULER && m != NDO_SYMPLECTIC_EULER;
+			p->W = split ? ndo__ps_rings(m) : ndo_peer_halo_rings(m) * p->K + (multi && roll);
 			rc = exact_region(p);
-			ndo_sim_set_held_motion(p->sim, 0);
+			ndo_sim_set_held_motion(p->sim, multi && !roll && !split);
 			if (!rc)
 				rc = ndo_sim_set_active(p->sim, p->act);
 			if (!rc && split && !p->ps)
