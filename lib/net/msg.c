@@ -202,6 +202,14 @@ ndo_drop ndo_msg_decode(ndo_msg_type t, const void *buf, size_t len, ndo_msg *m)
 	return NDO_DROP_NONE;
 }
 
+int32_t ndo_msg_peek_sender(ndo_msg_type t, const void *buf, size_t len)
+{
+	const uint8_t *b = buf;
+	if ((unsigned)t >= NDO_MSG_NTYPES || !buf || len < 22 || read_be(b, 8) != types[t].hash())
+		return 0;
+	return (int32_t)read_be(b + 18, 4);
+}
+
 void ndo_msg_free(ndo_msg *m)
 {
 	if (m && m->hdr) {

@@ -295,6 +295,12 @@ static void on_message(ndo_net *n, int t, const uint8_t *data, size_t len, int s
                        const ndo_auth_from *from)
 {
 	ndo_msg m;
+	/* our own, looped back by multicast: dropped before the decode copies
+	 * it (a sealed one is checked as a replay first, below) */
+	if (!sealed && n->ctx.self_id && ndo_msg_peek_sender((ndo_msg_type)t, data, len) == n->ctx.self_id) {
+		n->st.own++;
+		return;
+	}
 	ndo_drop r = ndo_msg_decode((ndo_msg_type)t, data, len, &m);
 	if (r != NDO_DROP_NONE) {
 		/* without a key: a keyed session's message says so */

@@ -134,6 +134,13 @@ typedef struct ndo_msg {
  * allocations: ndo_msg_free()).  Returns NDO_DROP_NONE, or
  * NDO_DROP_MALFORMED with *m left empty (nothing to free). */
 ndo_drop ndo_msg_decode(ndo_msg_type t, const void *buf, size_t len, ndo_msg *m);
+
+/* The sender id in the header of `len` bytes of a message of type t,
+ * read without decoding the rest (its bytes 18–21 after the 8-byte type
+ * hash: version, object id, sender id); 0 when the bytes are too short or
+ * the hash is not t's.  Nothing else is checked: for skipping a process's
+ * own messages (multicast loops them back) before their decode and copy. */
+int32_t ndo_msg_peek_sender(ndo_msg_type t, const void *buf, size_t len);
 void ndo_msg_free(ndo_msg *m);
 
 /* What validation knows about the receiver. */
