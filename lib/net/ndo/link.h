@@ -36,14 +36,9 @@ typedef void (*ndo_link_fn)(void *user, const char *channel, const void *data,
  * `size` bytes to `out`; NDO_ERANGE when it does not fit. */
 int ndo_lcm_url(const char *url, int recv_buf, char *out, size_t size);
 
-/* Open LCM at `url` (as ndo_lcm_url() resolves it) and receive every
- * channel "PREFIX_*".  A udpm:// URL (options ttl and recv_buf_size at
- * most) is read directly on the polling thread: a socket joined to the
- * group, LCM's unfragmented datagrams parsed (lib/net/link_lcm.c), no
- * reader thread; its queue is the socket's receive buffer (recv_buf_size)
- * and `queue` is unused.  Other URLs subscribe through LCM: queue is the
- * subscription's capacity in messages (LCM drops the newest beyond it;
- * ≤ 0: 10,000).  Sending is lcm_publish() either way. */
+/* Open LCM at `url` (as ndo_lcm_url() resolves it) and subscribe to every
+ * channel "PREFIX_*".  queue: the subscription's queue capacity in
+ * messages (LCM drops the newest beyond it; ≤ 0: 10,000). */
 int ndo_link_open_lcm(const char *url, int recv_buf, const char *prefix, int queue,
                       ndo_link **out);
 
