@@ -75,8 +75,10 @@ typedef enum ndo_clock { NDO_CLOCK_LOCKSTEP = 1, NDO_CLOCK_REALTIME = 2 } ndo_cl
  * and midpoint, 2 for rk4 (a stage's displacement reads only its own
  * node's velocity, so the reach grows every second stage), 3 for one
  * rkf45 sub-step.  0 for the implicit methods (they reach everywhere).
- * Exact lock-step exchanges a halo this wide (and one ring more, held,
- * for the multi-stage methods) every step; rkf45 and the implicit
+ * Exact lock-step exchanges a halo this wide every step, its outermost
+ * ring held, moving along its velocity for midpoint and rk4 (their first
+ * stage's own arithmetic: the stages a neighbour reads are exact);
+ * realtime with rollback one ring more, held still.  rkf45 and the implicit
  * methods exchange within each step instead (lib/net/peer_solve.h): rkf45
  * a 4-ring halo and its error at every attempted sub-step, the implicit
  * methods a 1-ring halo and the vectors and sums of a conjugate-gradient
