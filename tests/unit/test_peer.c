@@ -43,6 +43,14 @@ static void lockstep_is_the_single_process_bit_for_bit(void)
 			      "%s, %d peers: exact %d, %lld timeouts, %lld missed, %lld ungathered",
 			      methods[m], n, st.exact, (long long)st.timeouts, (long long)st.missed,
 			      (long long)st.ungathered);
+			/* the least an exact step reads: D·K rings, the outermost held (and,
+			 * for midpoint and rk4, moving along its velocity) */
+			ndo_method mm = NDO_RK4;
+			ndo_method_parse(methods[m], &mm);
+			int K = su.halo_steps ? su.halo_steps : 1;
+			CHECK(st.halo_rings == ndo_peer_halo_rings(mm) * K,
+			      "%s, %d peers, %d steps per exchange: a halo of %d rings (expected %d)",
+			      methods[m], n, K, st.halo_rings, ndo_peer_halo_rings(mm) * K);
 			if (k == 0)
 				printf("    %s, %d peers: difference %.3g, halo %d rings, %.0f halo bytes and "
 				       "%.0f frame bytes a step from the owner\n", methods[m], n, d,
