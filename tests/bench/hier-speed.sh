@@ -20,11 +20,10 @@ make -s "$new" >/dev/null
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 # the reference: codec_hier.c at REV, compiled as the Makefile compiles it
-git show "$rev:lib/net/codec_hier.c" >lib/net/.hier-speed-ref.c ||
+git show "$rev:lib/net/codec_hier.c" >"$work/codec_hier.c" ||
 	{ echo "hier-speed: no lib/net/codec_hier.c at $rev" >&2; exit 2; }
 gcc -D_GNU_SOURCE -std=c11 -O2 -Ilib/net -Ilib/sim -Ilib/grid -Ibuild/gen \
-	-c -o "$work/codec_hier.c.o" lib/net/.hier-speed-ref.c
-rm -f lib/net/.hier-speed-ref.c
+	-c -o "$work/codec_hier.c.o" "$work/codec_hier.c"
 cp lib/libndo.a "$work/libndo.a"
 ar r "$work/libndo.a" "$work/codec_hier.c.o"
 ref=build/bench/hier-speed-ref-bench_codec
