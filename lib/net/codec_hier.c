@@ -20,9 +20,17 @@
  *     gained nothing;
  *   - contexts beyond the edge ends' magnitudes (the previous node's, the
  *     other components') gained under 0.3 %: the residuals are close to
- *     white;
+ *     white; the zero flags' context with the earlier components' nonzero
+ *     count 4.014 → 4.000 / 1.485 → 1.477, not worth a change of payload;
+ *     keyframes cost level 6 0.23 bits (4.014 at every 32nd step, 3.783
+ *     at every 1000th);
  *   - the encoder's pass over a level (predictions, then the cost of each
- *     β over every fourth value) keeps its predictions for the coding pass.
+ *     β over every fourth value) keeps its predictions for the coding pass;
+ *     the decoder predicts a level before reading it too, β known; both
+ *     predict the finest two levels' row interiors in runs the compiler
+ *     vectorizes (predict_run(), with ndo__codec_hier_general the node by
+ *     node reference): level 7 encode 4.0 → 3.4 ms, decode 2.1 → 1.9 ms
+ *     (CPU, load 3-9; docs/bench/net.md).
  * No entropy coding library in Debian 12 fits (libaec is Rice coding for
  * sampled data): the range coder is LZMA's binary one, written here;
  * tests/unit/test_hier.c checks it against the ideal adaptive length, a
@@ -235,8 +243,9 @@ typedef struct hier {
 	int32_t *k;           /* this frame's codes, 3 a node */
 	const int32_t *k1;    /* the reference's codes (a keyframe: zeros) */
 	int32_t *v, *dk;      /* the slope (0 without), k − k1 of the nodes coded so far */
-	int64_t *pb, *pw;     /* encoder: a level's 16 P(β = 0) and 16 × its slope part */
-	uint8_t *ctx;         /* encoder: a level's contexts, 3 a node (g × H_NB + nb) */
+	int64_t *pb, *pw;     /* a level's 16 P(β = 0) and 16 × its slope part (the
+	                         decoder's pb, β known: the prediction itself) */
+	uint8_t *ctx;         /* a level's contexts, 3 a node (4 g + nb) */
 	uint8_t *mag;         /* |residual| (saturated), 3 a node */
 	const double *x;      /* encoder: the positions, 3 a node */
 	const quant *z;
@@ -311,14 +320,14 @@ static inline __attribute__((always_inline)) int choose(hier *h, size_t n, const
 }
 
 /* Set by tests: every node through the general stencil (bounds and
- * classes checked), the interior's reference. */
+ * classes checked), one by one, the interior's and the runs' reference. */
 int ndo__codec_hier_general;
 
 /* Node n = (i, j), of type `type` (0 horizontal, 1 vertical, 2 diagonal)
  * in level s (0: the top): 16 × its prediction with no slope (base: 16 k1
  * + the butterfly of the coarser nodes' k − k1) and 16 × the slope's
  * detail (w: 16 v − the butterfly of their v), per component, and its
- * context per component (the group g × H_NB + nb).  Returns the stencil
+ * context per component (4 × the group g + nb).  Returns the stencil
  * nodes used: 8, 2 (the ends' mean), 1 (the one end held) or 0. */
 static inline __attribute__((always_inline)) int
 pred16(const hier *h, int i, int j, int s, int type, const int slope, int64_t base[3], int64_t w[3],
@@ -328,10 +337,10 @@ pred16(const hier *h, int i, int j, int s, int type, const int slope, int64_t ba
 	const int32_t *K1 = h->k1 + 3 * n, *V = h->v + 3 * n, *D = h->dk, *VV = h->v;
 	if (!s) {
 		for (int d = 0; d < 3; d++)
-			base[d] = 16 * (int64_t)K1[d], w[d] = slope ? 16 * (int64_t)V[d] : 0, ctx[d] = H_TOP * H_NB;
+			base[d] = 16 * (int64_t)K1[d], w[d] = slope ? 16 * (int64_t)V[d] : 0, ctx[d] = 4 * H_TOP;
 		return 0;
 	}
-	const int g = (s == 1 ? 0 : s == 2 ? 1 : s == 4 ? 2 : 3) * H_NB;
+	const int g = (s == 1 ? 0 : s == 2 ? 1 : s == 4 ? 2 : 3) * 4;
 	const int bi = type != 1 ? i - s : i, bj = type != 0 ? j - s : j, st = 2 * s;
 	long o[8];
 	int held = 0;
@@ -387,7 +396,7 @@ pred16(const hier *h, int i, int j, int s, int type, const int slope, int64_t ba
 	for (int d = 0; d < 3; d++) {
 		base[d] = 16 * (int64_t)K1[d] + (e >= 0 ? 16 * (int64_t)D[e + d] : 0);
 		w[d] = slope ? 16 * (int64_t)V[d] - (e >= 0 ? 16 * (int64_t)VV[e + d] : 0) : 0;
-		ctx[d] = e >= 0 ? g + nb_of(h->mag[e + d]) : H_TOP * H_NB;
+		ctx[d] = e >= 0 ? g + nb_of(h->mag[e + d]) : 4 * H_TOP;
 	}
 	return e >= 0;
 }
@@ -398,10 +407,12 @@ static inline int64_t pred_of(int64_t base, int64_t w, int beta)
 	return (4 * base + beta * w + 32) >> 6; /* an arithmetic shift (GCC, Clang) */
 }
 
-enum { P_COLLECT, P_ENCODE, P_ENCODE1, P_DECODE, P_IMPLIED };
+enum { P_PREDICT, P_COLLECT, P_ENCODE, P_ENCODE1, P_DECODE, P_IMPLIED };
 
 typedef struct pass {
 	int beta[3];          /* this level's slope shares (one for now: all equal) */
+	int slope;            /* P_PREDICT: the slope's detail wanted */
+	int fused;            /* P_PREDICT: pb the prediction itself (β known: the decoder) */
 	int64_t last[3];      /* a keyframe's top level: the last node's codes */
 	uint64_t cost[BETA_MAX + 1];
 	uint64_t any, sample;
@@ -410,11 +421,12 @@ typedef struct pass {
 	rcdec *dc;
 } pass;
 
-/* One node of a level, in pass `mode`: P_COLLECT the encoder's
- * predictions and contexts (and the cost of each β), P_ENCODE the codes
- * chosen and their residuals from them, P_ENCODE1 both at once (a
- * keyframe), P_DECODE the residuals read and the codes made, P_IMPLIED the
- * codes the predictions. */
+/* One node of a level, in pass `mode`: P_PREDICT its predictions and
+ * contexts kept (pb, pw, ctx), P_COLLECT the cost of each β from them,
+ * P_ENCODE the codes chosen and their residuals from them, P_ENCODE1
+ * both at once (a keyframe), P_DECODE the residuals read and the codes
+ * made (a keyframe: predicting as it goes, else from the kept
+ * predictions), P_IMPLIED the codes the predictions. */
 static inline __attribute__((always_inline)) void node(hier *h, const int mode, pass *ps, int i,
                                                        int j, int s, int type)
 {
@@ -423,15 +435,24 @@ static inline __attribute__((always_inline)) void node(hier *h, const int mode, 
 		return;
 	int64_t base[3], w[3], pp[3];
 	int ctx[3], used = 1;
-	if (mode == P_ENCODE) {
+	if (mode == P_PREDICT) {
+		pred16(h, i, j, s, type, ps->slope, base, w, ctx);
+		for (int d = 0; d < 3; d++)
+			h->pb[3 * n + d] = ps->fused ? pred_of(base[d], w[d], ps->beta[d]) : base[d],
+			h->pw[3 * n + d] = w[d], h->ctx[3 * n + d] = (uint8_t)ctx[d];
+		return;
+	}
+	if (mode == P_DECODE && !h->intra) {
+		for (int d = 0; d < 3; d++)
+			pp[d] = h->pb[3 * n + d], ctx[d] = h->ctx[3 * n + d];
+	} else if (mode == P_ENCODE || mode == P_COLLECT) {
 		for (int d = 0; d < 3; d++)
 			base[d] = h->pb[3 * n + d], w[d] = h->pw[3 * n + d], ctx[d] = h->ctx[3 * n + d];
 	} else {
-		used = pred16(h, i, j, s, type, mode == P_COLLECT || ps->beta[0] != 0, base, w, ctx);
+		used = pred16(h, i, j, s, type, ps->beta[0] != 0, base, w, ctx);
 	}
 	if (mode == P_COLLECT) {
 		for (int d = 0; d < 3; d++) {
-			h->pb[3 * n + d] = base[d], h->pw[3 * n + d] = w[d], h->ctx[3 * n + d] = (uint8_t)ctx[d];
 			if (ps->sample++ & 3) /* the costs of every fourth value */
 				continue;
 			for (int b = 0; b <= BETA_MAX; b++) {
@@ -443,7 +464,7 @@ static inline __attribute__((always_inline)) void node(hier *h, const int mode, 
 		return;
 	}
 	const int dpcm = h->intra && !used; /* a keyframe's node without a stencil */
-	for (int d = 0; d < 3; d++)
+	for (int d = 0; d < 3 && !(mode == P_DECODE && !h->intra); d++)
 		pp[d] = dpcm ? ps->last[d] : pred_of(base[d], w[d], ps->beta[d]);
 	int64_t res[3] = {0, 0, 0};
 	if ((mode == P_ENCODE || mode == P_ENCODE1) && choose(h, n, pp, res)) {
@@ -453,8 +474,8 @@ static inline __attribute__((always_inline)) void node(hier *h, const int mode, 
 	/* the node's flag (context: the group, the ends' magnitudes over the
 	 * components), then each component's (the last implied when the others
 	 * are 0), then each nonzero one's sign and magnitude */
-	const int g = ctx[0] / H_NB;
-	const int nbs = ctx[0] % H_NB + ctx[1] % H_NB + ctx[2] % H_NB, nn = nbs == 0 ? 0 : nbs <= 2 ? 1 : 2;
+	const int g = ctx[0] >> 2;
+	const int nbs = (ctx[0] & 3) + (ctx[1] & 3) + (ctx[2] & 3), nn = nbs == 0 ? 0 : nbs <= 2 ? 1 : 2;
 	if (mode == P_ENCODE || mode == P_ENCODE1) {
 		const int nz = (res[0] | res[1] | res[2]) != 0;
 		hier_stats *st = ndo__codec_hier_stats;
@@ -466,7 +487,7 @@ static inline __attribute__((always_inline)) void node(hier *h, const int mode, 
 		rc_bit(ps->e, &h->m.node[g][nn], nz);
 		if (nz) {
 			for (int d = 0; d < 3; d++) {
-				const int nb = ctx[d] % H_NB;
+				const int nb = ctx[d] & 3;
 				if (d < 2 || res[0] | res[1]) {
 					if (st)
 						st->zero_bits[g] += pcost(h->m.zero[g][d][nb], res[d] != 0);
@@ -482,8 +503,8 @@ static inline __attribute__((always_inline)) void node(hier *h, const int mode, 
 		}
 	} else if (mode == P_DECODE && rd_bit(ps->dc, &h->m.node[g][nn])) {
 		for (int d = 0; d < 3; d++)
-			if ((d == 2 && !(res[0] | res[1])) || rd_bit(ps->dc, &h->m.zero[g][d][ctx[d] % H_NB]))
-				res[d] = get_nz(ps->dc, &h->m, g, d, ctx[d] % H_NB, &ps->bad);
+			if ((d == 2 && !(res[0] | res[1])) || rd_bit(ps->dc, &h->m.zero[g][d][ctx[d] & 3]))
+				res[d] = get_nz(ps->dc, &h->m, g, d, ctx[d] & 3, &ps->bad);
 	}
 	for (int d = 0; d < 3; d++) {
 		const size_t v = 3 * n + (size_t)d;
@@ -522,11 +543,93 @@ static inline __attribute__((always_inline)) void level(hier *h, const int mode,
 	}
 }
 
+/* Level s's rows' interiors (every stencil node held: h->allheld) in
+ * bulk, P_PREDICT's values for every node of the row's span, those of
+ * the level's type `type` kept: the same as pred16()'s 8-node case, in
+ * loops over consecutive values that the compiler vectorizes. */
+enum { RUN_NODES = 128 };
+static inline __attribute__((always_inline)) void
+predict_run(hier *h, long n0, int nodes, int type, int step, int g, int slope, int beta)
+{
+	int64_t tb[3 * RUN_NODES], tw[3 * RUN_NODES];
+	uint8_t tc[3 * RUN_NODES];
+	long o[8];
+	for (int q = 0; q < 8; q++)
+		o[q] = 3L * h->rel[type][q];
+	for (int c0 = 0; c0 < nodes; c0 += RUN_NODES) {
+		const int nv = 3 * (nodes - c0 < RUN_NODES ? nodes - c0 : RUN_NODES);
+		const long v0 = 3 * (n0 + c0);
+		const int32_t *K1 = h->k1 + v0, *D = h->dk + v0, *VV = h->v + v0;
+		const uint8_t *M = h->mag + v0;
+		for (int v = 0; v < nv; v++)
+			tb[v] = 16 * (int64_t)K1[v] + 8 * ((int64_t)D[v + o[0]] + D[v + o[1]]) +
+			        2 * ((int64_t)D[v + o[2]] + D[v + o[3]]) -
+			        ((int64_t)D[v + o[4]] + D[v + o[5]] + D[v + o[6]] + D[v + o[7]]);
+		if (slope)
+			for (int v = 0; v < nv; v++)
+				tw[v] = 16 * (int64_t)VV[v] - 8 * ((int64_t)VV[v + o[0]] + VV[v + o[1]]) -
+				        2 * ((int64_t)VV[v + o[2]] + VV[v + o[3]]) +
+				        ((int64_t)VV[v + o[4]] + VV[v + o[5]] + VV[v + o[6]] + VV[v + o[7]]);
+		else
+			memset(tw, 0, (size_t)nv * sizeof *tw);
+		if (beta >= 0) /* the decoder's: the prediction itself */
+			for (int v = 0; v < nv; v++)
+				tb[v] = pred_of(tb[v], tw[v], beta);
+		for (int v = 0; v < nv; v++) {
+			const unsigned t = (unsigned)M[v + o[0]] + M[v + o[1]];
+			tc[v] = (uint8_t)(g + (t > 0) + (t > 2)); /* nb_of(t) */
+		}
+		for (int v = 0; v < nv; v += 3 * step)
+			for (int d = 0; d < 3; d++)
+				h->pb[v0 + v + d] = tb[v + d], h->pw[v0 + v + d] = tw[v + d],
+				         h->ctx[v0 + v + d] = tc[v + d];
+	}
+}
+
+/* Levels finer than this go through predict_run() (the coarser ones'
+ * runs would compute mostly values not kept) */
+enum { RUN_LEVELS = 2 };
+
+/* P_PREDICT over level s (0: the top): the rows' interiors in runs where
+ * every node is held, the rest node by node */
+static inline __attribute__((always_inline)) void predict_level(hier *h, pass *ps, int s)
+{
+	if (!s || !h->allheld || s > RUN_LEVELS || ndo__codec_hier_general) {
+		level(h, P_PREDICT, ps, s);
+		return;
+	}
+	const int st = 2 * s, g = (s == 1 ? 0 : s == 2 ? 1 : s == 4 ? 2 : 3) * 4;
+	for (int j = 0; j < h->rows; j += s) {
+		const long row = (long)j * h->cols;
+		for (int type = j & s ? 1 : 0; type <= (j & s ? 2 : 0); type++) {
+			/* the type's nodes: from i0 every 2s (s when a row has one type) */
+			const int i0 = type == 1 ? 0 : s, di = 2 * s;
+			const int bj = type != 0 ? j - s : j, sh = type != 1 ? s : 0;
+			int lo = i0, hi = i0 - di; /* the interior's nodes: bi ≥ st, bi + 2st < cols */
+			if (bj >= st && bj + 2 * st < h->rows) {
+				lo = st + sh;
+				lo += ((i0 - lo) % di + di) % di;
+				hi = h->cols - 1 - 2 * st + sh;
+				hi -= ((hi - i0) % di + di) % di;
+			}
+			if (hi < lo)
+				lo = h->cols, hi = h->cols - di;
+			for (int i = i0; i < lo && i < h->cols; i += di)
+				node(h, P_PREDICT, ps, i, j, s, type);
+			if (hi >= lo)
+				predict_run(h, row + lo, hi - lo + 1, type, di, g, ps->slope,
+				            ps->fused ? ps->beta[0] : -1);
+			for (int i = hi + di > i0 ? hi + di : i0; i < h->cols; i += di)
+				node(h, P_PREDICT, ps, i, j, s, type);
+		}
+	}
+}
+
 /* Every LOSSY node of the frame, the top level first; each level's slope
  * share first (3 direct bits) unless the frame is a keyframe. */
 NDO_HOT static int levels(hier *h, int mode, rcenc *e, rcdec *dc, uint64_t *any)
 {
-	pass ps = {{BETA_IMPLIED, BETA_IMPLIED, BETA_IMPLIED}, {0, 0, 0}, {0}, 0, 0, 0, e, dc};
+	pass ps = {.beta = {BETA_IMPLIED, BETA_IMPLIED, BETA_IMPLIED}, .e = e, .dc = dc};
 	for (int s = h->top; s >= 1; s /= 2) {
 		const int ls = s == h->top ? 0 : s; /* the top level: no stencil */
 		const int st = 2 * s, C = h->cols;
@@ -537,6 +640,8 @@ NDO_HOT static int levels(hier *h, int mode, rcenc *e, rcdec *dc, uint64_t *any)
 		int beta = BETA_IMPLIED;
 		if (mode == P_ENCODE && !h->intra) {
 			memset(ps.cost, 0, sizeof ps.cost);
+			ps.slope = 1;
+			predict_level(h, &ps, ls);
 			level(h, P_COLLECT, &ps, ls);
 			for (int b = BETA_MAX; b >= 0; b--) /* ties: the implied frames' */
 				if (ps.cost[b] < ps.cost[beta])
@@ -552,6 +657,9 @@ NDO_HOT static int levels(hier *h, int mode, rcenc *e, rcdec *dc, uint64_t *any)
 				beta = beta << 1 | rd_direct(dc);
 			if (beta > BETA_MAX)
 				return -1;
+			ps.slope = beta != 0, ps.fused = 1;
+			ps.beta[0] = ps.beta[1] = ps.beta[2] = beta;
+			predict_level(h, &ps, ls);
 		}
 		ps.beta[0] = ps.beta[1] = ps.beta[2] = beta;
 		if (mode == P_ENCODE && !h->intra)
@@ -580,13 +688,15 @@ static void time_refs(hier *h, const hcodes *c, int32_t *zeros)
 	const ndo_codec_frame *r0 = c->r[0], *r1 = c->r[1];
 	const int nodes = c->rows * c->cols;
 	const size_t N = 3 * (size_t)nodes;
-	for (int n = 0; n < nodes && r0; n++)
-		if (c->cls[n] != NDO_NODE_SKIP) {
-			if (!r0->have[n])
-				r0 = NULL;
-			else if (r1 && !r1->have[n])
-				r1 = NULL;
+	if (r0) { /* without branches: a missing node in either */
+		const uint8_t *h0 = r0->have, *h1 = r1 ? r1->have : r0->have;
+		unsigned miss0 = 0, miss1 = 0;
+		for (int n = 0; n < nodes; n++) {
+			const unsigned held = c->cls[n] != NDO_NODE_SKIP;
+			miss0 |= held & (h0[n] == 0), miss1 |= held & (h1[n] == 0);
 		}
+		r0 = miss0 ? NULL : r0, r1 = miss1 ? NULL : r1;
+	}
 	h->intra = !r0;
 	if (!r0) {
 		memset(zeros, 0, N * sizeof *zeros);
@@ -604,6 +714,14 @@ static void time_refs(hier *h, const hcodes *c, int32_t *zeros)
 	if (g0 == g1) { /* consecutive: within ±2^31 */
 		for (size_t v = 0; v < N; v++)
 			h->v[v] = (int32_t)((int64_t)k1[v] - k2[v]);
+		return;
+	}
+	if (g1 > 0 && g0 % g1 == 0) { /* a whole multiple: rdiv() exact, without its division */
+		const int64_t m = g0 / g1;
+		for (size_t v = 0; v < N; v++) {
+			int64_t s = ((int64_t)k1[v] - k2[v]) * m;
+			h->v[v] = (int32_t)(s > CODE_MAX ? CODE_MAX : s < -CODE_MAX ? -CODE_MAX : s);
+		}
 		return;
 	}
 	for (size_t v = 0; v < N; v++) {

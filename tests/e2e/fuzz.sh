@@ -14,9 +14,9 @@ secs=${NDO_FUZZ_SECONDS:-20}
 # one per tile encoding, as seeds in DIR: PREFIX (hex, fuzz_auth's flags
 # byte), then the bytes that pick the type and, for a tile, the receiver's
 # level-3 decoder of that encoding — FORM msg: fuzz_msg.c's (129, then 12,
-# 13, 14 or 15 for a tile), auth: fuzz_auth.c's one byte (37, 133 or 229 with
-# 12 message types; fuzz_auth decodes float32, fixed and predict, not hier) —
-# then the message.  For fuzz_msg a fifth run sends at level 2 (predict,
+# 13, 14 or 15 for a tile), auth: fuzz_auth.c's one byte (37 with 12 message
+# types: a tile, level 3; the encoding is in PREFIX's bits 2-3, 0-3 for
+# float32, fixed, predict and hier) — then the message.  For fuzz_msg a fifth run sends at level 2 (predict,
 # --send-level 2): its tiles go through the receiver's coarse decoder.
 record_messages() {
 	[ -f hier.lcmlog ] || {
@@ -36,11 +36,10 @@ suffixes = "DESC TILE POI PARTITION HELLO PEERS LEAVE HEARTBEAT DESC_REQUEST FOR
 if sys.argv[3] == "msg":  # 129 then b: level b / 4 = 3, encoding 1 + b % 4
     tile = {"float32": bytes([129, 12]), "fixed": bytes([129, 13]), "predict": bytes([129, 14]),
             "hier": bytes([129, 15]), "coarse": bytes([129, 14])}  # the receiver's send level is 2
-else:  # one byte b: type b % (message types) = 1; of b / (message types), the
-    # level (% 8) 3 and the encoding (1 + / 8 % 3) 1 + r
-    one = lambda r: bytes([1 + len(suffixes) * (3 + 8 * r)])
-    tile = {"float32": one(0), "fixed": one(1), "predict": one(2)}
+else:  # one byte b: type b % (message types) = 1, level b / (message types) = 3
+    tile = {enc: bytes([1 + len(suffixes) * 3]) for enc in ("float32", "fixed", "predict", "hier")}
 prefix = bytes.fromhex(sys.argv[2])
+encs = ["float32", "fixed", "predict", "hier"]
 n = 0
 for enc, tb in tile.items():
     b = open(f"{enc}.lcmlog", "rb").read()
@@ -51,8 +50,10 @@ for enc, tb in tile.items():
         data = b[o + 28 + cl:o + 28 + cl + dl]
         o += 28 + cl + dl
         t = suffixes.index(ch.split("_", 1)[1])
+        # fuzz_auth: the flags byte's bits 2-3 pick the receiver's encoding
+        pre = bytes([prefix[0] | encs.index(enc) << 2]) if prefix and enc in encs else prefix
         with open(f"{sys.argv[1]}/{enc}-{n:03d}", "wb") as f:
-            f.write(prefix + (tb if t == 1 else bytes([t])) + data)
+            f.write(pre + (tb if t == 1 else bytes([t])) + data)
         n += 1
 sys.exit(n < len(tile) * 40)
 PY

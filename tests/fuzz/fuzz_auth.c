@@ -4,10 +4,10 @@
  * Byte 0 is flags: bit 0 seals the rest with the key first (so the input
  * gets past the tag to the decoder, the replay window, validation, the
  * codec and the object's box); bit 1 makes the receiver take the
- * message's object and decode tiles (as fuzz_msg's high bit).  Byte 1 is
- * b: the type b % (message types) and, with the codec, of r = b / (message
- * types) the level r % 8 and the encoding 1 + (r / 8) % 3; the rest is the
- * message.  Two properties trap:
+ * message's object and decode tiles (as fuzz_msg's high bit) in encoding
+ * 1 + (bits 2-3): float32, fixed, predict or hier.  Byte 1 is b: the type
+ * b % (message types) and, with the codec, the level (b / (message
+ * types)) % 8; the rest is the message.  Two properties trap:
  *   - unsealed bytes are never accepted (nobody without the key writes);
  *   - a sealed message delivered twice is dropped the second time as a
  *     replay, exactly once more.
@@ -58,9 +58,9 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 			object = m.hdr->object_id;
 			ndo_msg_free(&m);
 		}
-		/* the rest of the byte: level r % 8, encoding 1 + (r / 8) % 3 */
-		const int r = b1 / NDO_MSG_NTYPES, level = r % 8;
-		ndo_codec_params cp = {.encoding = 1 + (r / 8) % 3, .bits = 13, .keyframe = 32,
+		/* the rest of byte 1: the level; bits 2-3 of byte 0: the encoding */
+		const int level = (b1 / NDO_MSG_NTYPES) % 8;
+		ndo_codec_params cp = {.encoding = 1 + (data[0] >> 2 & 3), .bits = 13, .keyframe = 32,
 		                       .lo = {-1, -1, -1}, .ext = {2, 2, 2}};
 		ndo_net_set_codec(rx, &cp, level);
 		ndo_net_attach(rx, object, level);
