@@ -9,11 +9,15 @@
  *   bench_simulate threads T L...  steps/s of rk4, symplectic Euler and
  *                               midpoint on 1 and on T threads, in
  *                               alternating runs, and their ratio
+ *   bench_simulate pipeline T L...  rk4's four passes against its
+ *                               pipeline (lib/sim/rk4.c), on 1 and T
+ *                               threads, in alternating runs
  *
  * Timings are medians of 7 runs of at least 0.1 s each, single thread
  * (threads: the ratio is the median of the 7 pairs' ratios).
  * Output: markdown table rows (tests/bench/simulate.sh assembles them). */
 #include "ndo/ndo.h"
+#include "sim_private.h" /* rk4_reference: the passes beside the pipeline */
 
 #include <math.h>
 #include <stdio.h>
@@ -163,6 +167,51 @@ static void threads(int argc, char **argv)
 			ndo_sim_destroy(sT);
 			ndo_scene_forces_free(f1, 1);
 			ndo_scene_forces_free(fT, 1);
+		}
+		ndo_grid_destroy(g);
+	}
+}
+
+/* RK4's two ways (lib/sim/rk4.c): the four passes and the pipeline, on
+ * one thread and on T, the four timed in turn; the ratios are medians of
+ * the runs' ratios within a round. */
+static void pipeline(int argc, char **argv)
+{
+	int T = atoi(argv[0]);
+	printf("| level | nodes | passes, 1 thread | pipeline, 1 thread | ratio | passes, %d threads "
+	       "| pipeline, %d threads | ratio | pipeline %d threads / passes 1 thread |\n", T, T, T);
+	printf("|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+	for (int a = 1; a < argc; a++) {
+		int level = atoi(argv[a]);
+		ndo_grid *g;
+		ndo_shape_make("wavy", level, NULL, &g);
+		ndo_force *f[4];
+		ndo_sim *s[4];
+		for (int k = 0; k < 4; k++) {
+			s[k] = thesis_scene_on(g, NDO_RK4, k < 2 ? 1 : T, &f[k]);
+			s[k]->rk4_reference = k % 2 == 0;
+		}
+		ndo_critical c;
+		ndo_sim_critical(s[0], &c);
+		double h = 0.5 * c.h_crit;
+		long n = calibrate(s[0], h);
+		for (int k = 1; k < 4; k++)
+			calibrate(s[k], h);
+		double r[4][REPS], q[3][REPS];
+		for (int rep = 0; rep < REPS; rep++) {
+			for (int k = 0; k < 4; k++)
+				r[k][rep] = timed(s[k], h, n);
+			q[0][rep] = r[1][rep] / r[0][rep];
+			q[1][rep] = r[3][rep] / r[2][rep];
+			q[2][rep] = r[3][rep] / r[0][rep];
+		}
+		printf("| %d | %zu | %.4g | %.4g | %.2f | %.4g | %.4g | %.2f | %.2f |\n", level,
+		       ndo_vertex_count(level), median(r[0], REPS), median(r[1], REPS), median(q[0], REPS),
+		       median(r[2], REPS), median(r[3], REPS), median(q[1], REPS), median(q[2], REPS));
+		fflush(stdout);
+		for (int k = 0; k < 4; k++) {
+			ndo_sim_destroy(s[k]);
+			ndo_scene_forces_free(f[k], 1);
 		}
 		ndo_grid_destroy(g);
 	}
@@ -357,8 +406,10 @@ int main(int argc, char **argv)
 		kernel(argc - 2, argv + 2);
 	else if (argc >= 4 && strcmp(argv[1], "threads") == 0)
 		threads(argc - 2, argv + 2);
+	else if (argc >= 4 && strcmp(argv[1], "pipeline") == 0)
+		pipeline(argc - 2, argv + 2);
 	else {
-		fprintf(stderr, "usage: bench_simulate speed|kernel LEVEL... | threads T LEVEL... | limits\n");
+		fprintf(stderr, "usage: bench_simulate speed|kernel LEVEL... | threads|pipeline T LEVEL... | limits\n");
 		return 2;
 	}
 	return 0;
