@@ -307,7 +307,7 @@ void ndo__held_at(ndo_sim *s, double *buf, double tau)
  * NDO__CHUNKS of them, at run boundaries (a run is at most a row): *chunk
  * gets the first run of each chunk and n at the end.  The cut depends on
  * the runs alone, never on the thread count. */
-enum { NDO__CHUNK = 2048, NDO__CHUNKS = 1024 };
+enum { NDO__CHUNK = 512, NDO__CHUNKS = 1024 };
 static int cut_chunks(const ndo__span *sp, size_t n, int32_t **chunk, int *nchunk)
 {
 	size_t total = 0;

@@ -18,13 +18,19 @@
  *   penalty pins, no pressure): the stencil reaches one row, and every
  *   seam joins nodes of one row (ndo/topology.h), so stage k of a chunk of
  *   rows needs only stage k − 1 of the chunks that hold its rows ± 1.  A
- *   step is one run on the threads: the units (stage, chunk) are taken in
- *   wavefront order — stage k of chunk c at position c + k·L, L chunks
- *   behind the stage before — so that the rows a unit reads were written
- *   a few units before and are still in cache; each unit waits (on a
- *   condition variable, never spinning) only for the units it reads.  Its
- *   forces, border nodes and seam copies are done in the unit, for its
- *   rows.  Stage 3 writes the new state to spare buffers, swapped in once
+ *   step is one run on the threads.  Each thread walks the units (stage,
+ *   chunk) in wavefront order — stage k of chunk c at position c + k·L, L
+ *   chunks behind the stage before — so that the rows a unit reads were
+ *   written a few units before and are still in cache (a window of about
+ *   3L + 1 chunks of 512 nodes); the first thread from the bottom row up,
+ *   the second from the top down, further pairs from the middle of their
+ *   own share, so that they meet only at the ends of their shares.  A
+ *   thread claims a unit before running it, skips the units others have
+ *   claimed, and first runs itself any unit it reads that nobody has
+ *   claimed; it waits (on a condition variable, never spinning) only for a
+ *   unit another thread is running — a unit of the stage before, so no
+ *   wait closes a cycle — and alone, a thread runs every unit.  A unit's
+ *   forces, border nodes and seam copies are done in it, for its rows.  Stage 3 writes the new state to spare buffers, swapped in once
  *   the divergence test (on stage 0's diagnostics) has passed, so that a
  *   step that diverges leaves the state as it was, as the passes do. */
 #include "sim_private.h"
@@ -87,11 +93,11 @@ rk4_interior(const ndo_sim *s, const rk4_pass *g, const int mode, const int hasF
 					sv[p] = a;
 					Un[p] = u[p] + c * vp;
 					vs[p] = v[p] + c * a;
-					if (d) {
-						pe2 += up * ku;
-						ke2 += mass[p] * vp * vp;
-						pw += f * vp;
-					}
+					/* always (d is never NULL here): a test on d in the loop
+					 * kept it from being vectorized */
+					pe2 += up * ku;
+					ke2 += mass[p] * vp * vp;
+					pw += f * vp;
 				} else if (mode == RK4_MID) {
 					su[p] += 2 * vp;
 					sv[p] += 2 * a;
@@ -302,8 +308,7 @@ struct ndo__rk4_plan {
 	double *bterms;        /* RK4_BTERMS per active border node */
 	int nunit;
 	rk4_unit *unit;        /* wavefront order */
-	_Atomic int *done;     /* 4·C flags of this step's units */
-	_Atomic int next;      /* the next unit to take */
+	_Atomic int *done;     /* 4·C states of this step's units: free, claimed, done */
 	_Atomic int sleepers;  /* threads waiting for a unit */
 	pthread_mutex_t lock;
 	pthread_cond_t cond;
@@ -473,15 +478,18 @@ typedef struct rk4_pipe {
 	double t[4];
 	int mode[4];
 	double *out[4][2]; /* what each stage writes that the seams copy */
+	int threads;
 } rk4_pipe;
+
+enum { UNIT_FREE, UNIT_CLAIMED, UNIT_DONE };
 
 static void unit_wait(struct ndo__rk4_plan *P, int idx)
 {
-	if (atomic_load_explicit(&P->done[idx], memory_order_acquire))
+	if (atomic_load_explicit(&P->done[idx], memory_order_acquire) == UNIT_DONE)
 		return;
 	pthread_mutex_lock(&P->lock);
 	atomic_fetch_add(&P->sleepers, 1);
-	while (!atomic_load(&P->done[idx]))
+	while (atomic_load(&P->done[idx]) != UNIT_DONE)
 		pthread_cond_wait(&P->cond, &P->lock);
 	atomic_fetch_sub(&P->sleepers, 1);
 	pthread_mutex_unlock(&P->lock);
@@ -489,12 +497,38 @@ static void unit_wait(struct ndo__rk4_plan *P, int idx)
 
 static void unit_done(struct ndo__rk4_plan *P, int idx)
 {
-	atomic_store(&P->done[idx], 1);
+	atomic_store(&P->done[idx], UNIT_DONE);
 	if (atomic_load(&P->sleepers)) {
 		pthread_mutex_lock(&P->lock);
 		pthread_cond_broadcast(&P->cond);
 		pthread_mutex_unlock(&P->lock);
 	}
+}
+
+static int unit_claim(struct ndo__rk4_plan *P, int idx)
+{
+	int free_ = UNIT_FREE;
+	return atomic_load_explicit(&P->done[idx], memory_order_relaxed) == UNIT_FREE &&
+	       atomic_compare_exchange_strong(&P->done[idx], &free_, UNIT_CLAIMED);
+}
+
+static void unit_run(rk4_pipe *J, int k, int c);
+
+/* Unit (k, c), claimed: the units it reads done (run here when nobody
+ * has claimed them, waited for when somebody has), then itself. */
+static void unit_take(rk4_pipe *J, int k, int c)
+{
+	struct ndo__rk4_plan *P = J->s->rk4_plan;
+	if (k > 0)
+		for (int q = P->lo[c]; q <= P->hi[c]; q++) {
+			int idx = (k - 1) * P->C + q;
+			if (unit_claim(P, idx))
+				unit_take(J, k - 1, q);
+			else
+				unit_wait(P, idx);
+		}
+	unit_run(J, k, c);
+	unit_done(P, k * P->C + c);
 }
 
 static void unit_run(rk4_pipe *J, int k, int c)
@@ -519,23 +553,22 @@ static void unit_run(rk4_pipe *J, int k, int c)
 			sync_rows(s, J->out[k][b], P->r0[c], P->r1[c]);
 }
 
-/* A thread's share of the pipeline: take the next unit, wait for those
- * it reads, run it, until none is left. */
+/* Thread `who` of J->threads: every unit in wavefront order, the even
+ * threads upward from the bottom of their pair's share of the chunks, the
+ * odd ones downward from its top, round the ends to the rest. */
 static void pipe_thread(void *arg, int who)
 {
-	(void)who;
 	rk4_pipe *J = arg;
 	struct ndo__rk4_plan *P = J->s->rk4_plan;
-	for (;;) {
-		int i = atomic_fetch_add_explicit(&P->next, 1, memory_order_relaxed);
-		if (i >= P->nunit)
-			return;
+	const int C = P->C, pairs = (J->threads + 1) / 2, pair = who / 2;
+	const int up = who % 2 == 0;
+	const int start = up ? (int)((long)C * pair / pairs)
+	                     : (int)((long)C * (pair + 1) / pairs) - 1;
+	for (int i = 0; i < P->nunit; i++) {
 		int k = P->unit[i].k, c = P->unit[i].c;
-		if (k > 0)
-			for (int q = P->lo[c]; q <= P->hi[c]; q++)
-				unit_wait(P, (k - 1) * P->C + q);
-		unit_run(J, k, c);
-		unit_done(P, k * P->C + c);
+		c = up ? (start + c) % C : (start - c + C) % C;
+		if (unit_claim(P, k * C + c))
+			unit_take(J, k, c);
 	}
 }
 
@@ -563,10 +596,9 @@ static int step_pipeline(ndo_sim *s, double h)
 	J.out[0][0] = A, J.out[1][0] = B, J.out[2][0] = A;
 	J.out[3][0] = un, J.out[3][1] = vn;
 	for (int i = 0; i < 4 * P->C; i++)
-		atomic_init(&P->done[i], 0);
-	atomic_init(&P->next, 0);
-	int T = ndo__sim_threads_now(s);
-	ndo__sim_run(s, T, pipe_thread, &J);
+		atomic_init(&P->done[i], UNIT_FREE);
+	J.threads = ndo__sim_threads_now(s);
+	ndo__sim_run(s, J.threads, pipe_thread, &J);
 	/* Stage 0's diagnostics: the border's in its order, then the chunks'. */
 	ndo__diag d, *bd = &s->cdiag[s->nichunk];
 	memset(bd, 0, sizeof *bd);
