@@ -856,14 +856,8 @@ NDO_HOT static void combine_chunk(void *arg, int ch)
 	}
 }
 
-static void combine(const ndo_sim *s, double *out, const double *base, double h, int n,
-                    const double *coef, const double *const *src)
-{
-	lincomb l = {s, out, base, h, n, coef, src};
-	ndo__sim_run(s, s->nechunk, combine_chunk, &l);
-}
-
-/* y += h x on the active nodes (3 planes). */
+/* y += h x on the active nodes (3 planes), the same record with out = y
+ * and base = x. */
 NDO_HOT static void axpy_chunk(void *arg, int ch)
 {
 	const lincomb *l = arg;
@@ -880,10 +874,40 @@ NDO_HOT static void axpy_chunk(void *arg, int ch)
 	}
 }
 
-static void axpy(const ndo_sim *s, double *y, double h, const double *x)
+/* Several of those updates in one run on the threads, a chunk through all
+ * of them before the next: each node sees them in the order given (so the
+ * same bits as one run each), with one wake-up of the threads and the
+ * chunk's planes still in cache for the next update. */
+enum { UPDATES_MAX = 16 };
+typedef struct updates {
+	int n;
+	void (*fn[UPDATES_MAX])(void *, int);
+	lincomb l[UPDATES_MAX];
+} updates;
+
+static void updates_chunk(void *arg, int ch)
 {
-	lincomb l = {s, y, x, h, 0, NULL, NULL};
-	ndo__sim_run(s, s->nechunk, axpy_chunk, &l);
+	updates *u = arg;
+	for (int i = 0; i < u->n; i++)
+		u->fn[i](&u->l[i], ch);
+}
+
+static void updates_combine(updates *u, const ndo_sim *s, double *out, const double *base,
+                            double h, int n, const double *coef, const double *const *src)
+{
+	u->fn[u->n] = combine_chunk;
+	u->l[u->n++] = (lincomb){s, out, base, h, n, coef, src};
+}
+
+static void updates_axpy(updates *u, const ndo_sim *s, double *y, double h, const double *x)
+{
+	u->fn[u->n] = axpy_chunk;
+	u->l[u->n++] = (lincomb){s, y, x, h, 0, NULL, NULL};
+}
+
+static void updates_run(const ndo_sim *s, updates *u)
+{
+	ndo__sim_run(s, s->nechunk, updates_chunk, u);
 }
 
 /* A step of size h began with input power P: its work is added, by the
@@ -924,8 +948,10 @@ static int rk_stages(ndo_sim *s, const tableau *tb, double h, int k0_ready)
 				n++;
 			}
 		ndo__held_at(s, s->us, tb->c[i] * h);
-		combine(s, s->us, s->u, h, n, coef, su);
-		combine(s, s->kv[i], s->v, h, n, coef, sv);
+		updates up = {0};
+		updates_combine(&up, s, s->us, s->u, h, n, coef, su);
+		updates_combine(&up, s, s->kv[i], s->v, h, n, coef, sv);
+		updates_run(s, &up);
 		ndo__sync_planes(s, s->us, 3);
 		ndo__sync_planes(s, s->kv[i], 3);
 		ndo__accel(s, s->t + tb->c[i] * h, s->us, s->kv[i], s->ka[i], NULL);
@@ -936,14 +962,16 @@ static int rk_stages(ndo_sim *s, const tableau *tb, double h, int k0_ready)
 /* u += h Σ b_j kv_j (kv_0 = v), then v += h Σ b_j ka_j. */
 static void rk_finish(ndo_sim *s, const tableau *tb, double h)
 {
+	updates up = {0};
 	for (int j = 1; j < tb->s; j++)
 		if (tb->b[j] != 0)
-			axpy(s, s->u, h * tb->b[j], s->kv[j]);
+			updates_axpy(&up, s, s->u, h * tb->b[j], s->kv[j]);
 	if (tb->b[0] != 0)
-		axpy(s, s->u, h * tb->b[0], s->v);
+		updates_axpy(&up, s, s->u, h * tb->b[0], s->v);
 	for (int j = 0; j < tb->s; j++)
 		if (tb->b[j] != 0)
-			axpy(s, s->v, h * tb->b[j], s->ka[j]);
+			updates_axpy(&up, s, s->v, h * tb->b[j], s->ka[j]);
+	updates_run(s, &up);
 	ndo__held_at(s, s->u, h); /* the boundary moves on with the sub-step */
 	ndo__sync_planes(s, s->u, 3);
 	ndo__sync_planes(s, s->v, 3);
@@ -980,9 +1008,12 @@ static int step_symplectic(ndo_sim *s, double h)
 	int rc = first_stage(s, s->ka[0]);
 	if (rc)
 		return rc;
-	axpy(s, s->v, h, s->ka[0]);
+	/* v then u, node by node: u's update reads only its own node's v */
+	updates up = {0};
+	updates_axpy(&up, s, s->v, h, s->ka[0]);
+	updates_axpy(&up, s, s->u, h, s->v);
+	updates_run(s, &up);
 	ndo__sync_planes(s, s->v, 3);
-	axpy(s, s->u, h, s->v);
 	ndo__sync_planes(s, s->u, 3);
 	account(s, h);
 	s->stats.substeps++;
