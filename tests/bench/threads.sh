@@ -11,6 +11,7 @@ mkdir -p docs/bench build/bench
 t=build/bench/threads.md
 load0=$(cut -d' ' -f1-3 /proc/loadavg)
 "$B/bench_simulate" threads 2 ${LEVELS:-4 5 6 7 8 9 10} >"$t"
+"$B/bench_simulate" pipeline 2 ${PIPE_LEVELS:-6 7 8 9 10} >"$t-pipeline"
 load1=$(cut -d' ' -f1-3 /proc/loadavg)
 {
 	echo "# simulate-peer: threads"
@@ -23,8 +24,19 @@ load1=$(cut -d' ' -f1-3 /proc/loadavg)
 	echo "steps/s are medians, the ratio is the median of the 7 pairs' ratios (a busy machine slows both"
 	echo "runs of a pair alike).  Grids under 20,000 integrated nodes (levels ≤ 6) run on one thread"
 	echo "whatever is asked, so their ratio measures only noise.  The results are the same bits on"
-	echo "any thread count (test_sim: threads_give_the_same_bits)."
+	echo "any thread count (test_sim: threads_give_the_same_bits).  A simulation with threads looks now and then"
+	echo "(8 steps alternately alone and on the threads, every 0.25 s at first, up to every 4 s while the answer"
+	echo "stays: lib/sim/integrate.c, threads_pick) whether they pay, and runs alone until the next look when not."
 	echo
 	cat "$t"
+	echo
+	echo "## RK4: the four passes and the pipeline"
+	echo
+	echo "\`bench_simulate pipeline 2 6 7 8 9 10\`: rk4's step as four passes over all the nodes (each waking"
+	echo "the threads; what peers with held nodes, penalty pins and pressure still take) and as one pipeline of"
+	echo "(stage, chunk) units (\`lib/sim/rk4.c\`), the same scene, the four timed in turn, 7 rounds; each ratio"
+	echo "is the median of the rounds' ratios.  The same bits either way (test_sim: rk4_pipeline_is_the_passes)."
+	echo
+	cat "$t-pipeline"
 } >"$out"
 cat "$out"
