@@ -1188,8 +1188,11 @@ int ndo__step_tableau(ndo_sim *s, double h)
  * (the first one, a warm-up, not timed) — and takes the faster way until
  * the next look: after probe_period seconds and at least 8 × PROBE steps;
  * the period doubles (up to PROBE_MAX s) while the answer stays and starts
- * again at PROBE_MIN s when it changes.  Either way the bits are the same
- * (the chunks do not depend on the thread count). */
+ * again at PROBE_MIN s when it changes.  Between looks the steps on the
+ * threads are timed too: once 4 of them take longer on average than the
+ * steps alone did in the look, it looks again at once (the load changed).
+ * Either way the bits are the same (the chunks do not depend on the
+ * thread count). */
 #define PROBE_MIN 0.25
 #define PROBE_MAX 4.0
 
@@ -1212,7 +1215,7 @@ static double threads_pick(ndo_sim *s)
 	}
 	if (s->probe_left == 0) {
 		s->probe_steps++;
-		return 0;
+		return s->solo ? 0 : wall_seconds();
 	}
 	s->solo = s->probe_left % 2 == 0;
 	return wall_seconds();
@@ -1224,6 +1227,15 @@ static void threads_timed(ndo_sim *s, double t0)
 	if (t0 == 0)
 		return;
 	double now = wall_seconds();
+	if (s->probe_left == 0) { /* a step on the threads between looks */
+		s->run_sum += now - t0;
+		if (++s->run_n >= 4 && s->run_sum > s->run_n * s->probe_mean[0]) {
+			s->probe_next = now; /* look again at the next step */
+			s->probe_steps = 8 * PROBE;
+			s->probe_period = 0;
+		}
+		return;
+	}
 	if (s->probe_left <= PROBE)
 		s->probe_sum[s->solo ? 0 : 1] += now - t0;
 	if (--s->probe_left > 0)
@@ -1236,6 +1248,9 @@ static void threads_timed(ndo_sim *s, double t0)
 	s->solo = s->solo_last = solo;
 	s->probe_next = now + s->probe_period;
 	s->probe_steps = 0;
+	s->probe_mean[0] = s->probe_sum[0] / (PROBE / 2);
+	s->probe_mean[1] = s->probe_sum[1] / (PROBE / 2);
+	s->run_sum = 0, s->run_n = 0;
 }
 
 int ndo_sim_step(ndo_sim *s, double h)

@@ -143,6 +143,9 @@ struct ndo_sim {
 	double probe_period;   /* between looks, s */
 	int64_t probe_steps;   /* steps since the last look */
 	int solo_last;         /* what the last look found */
+	double probe_mean[2];  /* its mean step, alone and on the threads */
+	double run_sum;        /* seconds of the steps on the threads since */
+	int run_n;
 	size_t bytes;          /* ndo_sim_memory() of this simulation */
 	int32_t *ichunk, *echunk;
 	int nichunk, nechunk;
