@@ -193,31 +193,15 @@ static void rk4_border(const ndo_sim *s, const rk4_pass *g, int mode, const int3
 NDO_HOT static void rk4_runs(const ndo_sim *s, const rk4_pass *g, int mode, ndo__diag *d,
                              size_t k0, size_t k1)
 {
+#define RUNS(M, D)                                                                          \
+	(g->F ? rk4_interior(s, g, M, 1, D, k0, k1) : rk4_interior(s, g, M, 0, D, k0, k1))
 	switch (mode) {
-	case RK4_FIRST:
-		if (g->F)
-			rk4_interior(s, g, RK4_FIRST, 1, d, k0, k1);
-		else
-			rk4_interior(s, g, RK4_FIRST, 0, d, k0, k1);
-		break;
-	case RK4_MID:
-		if (g->F)
-			rk4_interior(s, g, RK4_MID, 1, NULL, k0, k1);
-		else
-			rk4_interior(s, g, RK4_MID, 0, NULL, k0, k1);
-		break;
-	case RK4_LAST:
-		if (g->F)
-			rk4_interior(s, g, RK4_LAST, 1, NULL, k0, k1);
-		else
-			rk4_interior(s, g, RK4_LAST, 0, NULL, k0, k1);
-		break;
-	default:
-		if (g->F)
-			rk4_interior(s, g, RK4_LAST_TO, 1, NULL, k0, k1);
-		else
-			rk4_interior(s, g, RK4_LAST_TO, 0, NULL, k0, k1);
+	case RK4_FIRST: RUNS(RK4_FIRST, d); break;
+	case RK4_MID: RUNS(RK4_MID, NULL); break;
+	case RK4_LAST: RUNS(RK4_LAST, NULL); break;
+	default: RUNS(RK4_LAST_TO, NULL);
 	}
+#undef RUNS
 }
 
 /* ---- the passes ------------------------------------------------------------ */
