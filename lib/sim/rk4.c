@@ -62,7 +62,10 @@ rk4_interior(const ndo_sim *s, const rk4_pass *g, const int mode, const int hasF
 	const size_t cnt = s->count, w = (size_t)s->w;
 	const double *restrict e0 = s->st.e[0], *restrict e1 = s->st.e[1],
 	                       *restrict e2 = s->st.e[2];
-	const double *restrict minv = s->minv, *restrict gam = s->gam, *restrict mass = s->mass;
+	const double *restrict minv = s->minv, *restrict mass = s->mass;
+	/* The damping rate is the same at every node (integrate.c: b/ρ + a):
+	 * one number, not a plane streamed through every pass. */
+	const double ga = s->gam[0];
 	const double c = g->c, h6 = g->h6;
 	double pe2 = 0, ke2 = 0, pw = 0, um = 0;
 	for (size_t k = k0; k < k1; k++) {
@@ -87,7 +90,7 @@ rk4_interior(const ndo_sim *s, const rk4_pass *g, const int mode, const int hasF
 				                  e2[p] * (up - U[p + w - 1]) + e0[p - 1] * (up - U[p - 1]) +
 				                  e1[p - w] * (up - U[p - w]) + e2[p - w + 1] * (up - U[p - w + 1]);
 				const double f = hasF ? F[p] : 0, vp = V[p];
-				const double a = minv[p] * (f - ku) - gam[p] * vp;
+				const double a = minv[p] * (f - ku) - ga * vp;
 				if (mode == RK4_FIRST) {
 					su[p] = vp;
 					sv[p] = a;
