@@ -44,6 +44,10 @@ summary=$(awk -v s="$rk4_6" -v l2="$l2" -v l3="$l3" -v avx2="$avx2" -v sse2="$ss
 	echo "Made by \`make bench\` (\`tests/bench/simulate.sh\`) on $(date -u +%Y-%m-%d), $(nproc) cores" \
 		"($(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | sed 's/^ *//')), one thread," \
 		"load average $(cut -d' ' -f1-3 /proc/loadavg) at the end (the machine is shared: medians of 7 runs, ratios within this run)."
+	if awk -v l="$(cut -d' ' -f1 /proc/loadavg)" -v n="$(nproc)" 'BEGIN { exit !(l > n) }'; then
+		echo "The load was above the core count: the wall-clock tables (integrators, Bullet) and the goal line"
+		echo "measure the share of a core this run got, not the code; the machine limits and the RK4 kernel are in CPU time."
+	fi
 	echo
 	echo "## Summary"
 	echo
