@@ -1194,7 +1194,7 @@ int ndo__step_tableau(ndo_sim *s, double h)
  * Either way the bits are the same (the chunks do not depend on the
  * thread count). */
 #define PROBE_MIN 0.25
-#define PROBE_MAX 4.0
+#define PROBE_MAX 16.0
 
 static double wall_seconds(void)
 {
