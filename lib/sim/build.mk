@@ -8,4 +8,4 @@ DEBS_TOOLS += libsuitesparse-dev liblapack-dev
 # multigrid solver's loops: loops
 # vectorized (-O3), reductions in them too (#pragma omp simd, no OpenMP
 # runtime).
-$(OBJ)/lib/sim/integrate.c.o $(OBJ)/lib/sim/accel.c.o $(OBJ)/lib/sim/multigrid.c.o: CFLAGS += -O3 -fopenmp-simd
+$(OBJ)/lib/sim/integrate.c.o $(OBJ)/lib/sim/rk4.c.o $(OBJ)/lib/sim/accel.c.o $(OBJ)/lib/sim/multigrid.c.o: CFLAGS += -O3 -fopenmp-simd

@@ -178,6 +178,50 @@ static void vertex_normal(const ndo_sim *s, const double *u, int32_t p, double n
 	unit(n);
 }
 
+/* Item q of face or node force F at value val: its canonical nodes (the
+ * count returned) and what each of them gets, add[e] for coordinate e. */
+static int item_force(const ndo_sim *s, const ndo__force *F, size_t q, const double *u,
+                      double val, int32_t v[3], double add[3])
+{
+	double dir[3];
+	if (F->f.kind == NDO_FORCE_FACE) {
+		triangle_nodes(s, (size_t)F->f.items[q], v);
+		if (F->f.normal) {
+			double a[3], b[3], c[3];
+			position(s, u, v[0], a);
+			position(s, u, v[1], b);
+			position(s, u, v[2], c);
+			area_vector(a, b, c, dir);
+			unit(dir);
+		} else {
+			memcpy(dir, F->f.dir, sizeof dir);
+		}
+		double each = val * F->share[q] / 3;
+		for (int e = 0; e < 3; e++)
+			add[e] = each * dir[e];
+		return 3;
+	}
+	v[0] = F->f.items[q];
+	if (F->f.normal)
+		vertex_normal(s, u, v[0], dir);
+	else
+		memcpy(dir, F->f.dir, sizeof dir);
+	for (int e = 0; e < 3; e++)
+		add[e] = val * dir[e];
+	return 1;
+}
+
+int ndo__force_item_nodes(const ndo_sim *s, int k, size_t q, int32_t v[3])
+{
+	const ndo__force *F = &s->forces[k];
+	if (F->f.kind == NDO_FORCE_FACE) {
+		triangle_nodes(s, (size_t)F->f.items[q], v);
+		return 3;
+	}
+	v[0] = F->f.items[q];
+	return 1;
+}
+
 void ndo__forces_eval(ndo_sim *s, double t, const double *u)
 {
 	size_t cnt = s->count;
@@ -207,37 +251,41 @@ void ndo__forces_eval(ndo_sim *s, double t, const double *u)
 					for (int e = 0; e < 3; e++)
 						f[(size_t)e * cnt + (size_t)v[d]] += val * n[e] / 3;
 			}
-		} else if (F->f.kind == NDO_FORCE_FACE) {
-			for (size_t q = 0; q < F->f.count; q++) {
-				int32_t v[3];
-				double dir[3];
-				triangle_nodes(s, (size_t)F->f.items[q], v);
-				if (F->f.normal) {
-					double a[3], b[3], c[3];
-					position(s, u, v[0], a);
-					position(s, u, v[1], b);
-					position(s, u, v[2], c);
-					area_vector(a, b, c, dir);
-					unit(dir);
-				} else {
-					memcpy(dir, F->f.dir, sizeof dir);
-				}
-				double each = val * F->share[q] / 3;
-				for (int d = 0; d < 3; d++)
-					for (int e = 0; e < 3; e++)
-						f[(size_t)e * cnt + (size_t)v[d]] += each * dir[e];
-			}
-		} else {
-			for (size_t q = 0; q < F->f.count; q++) {
-				int32_t p = F->f.items[q];
-				double dir[3];
-				if (F->f.normal)
-					vertex_normal(s, u, p, dir);
-				else
-					memcpy(dir, F->f.dir, sizeof dir);
-				for (int e = 0; e < 3; e++)
-					f[(size_t)e * cnt + (size_t)p] += val * dir[e];
-			}
+			continue;
 		}
+		for (size_t q = 0; q < F->f.count; q++) {
+			int32_t v[3];
+			double add[3];
+			int nv = item_force(s, F, q, u, val, v, add);
+			for (int d = 0; d < nv; d++)
+				for (int e = 0; e < 3; e++)
+					f[(size_t)e * cnt + (size_t)v[d]] += add[e];
+		}
+	}
+}
+
+void ndo__forces_eval_items(ndo_sim *s, double t, const double *u, const int32_t *zero,
+                            size_t nzero, const ndo__fitem *items, size_t nitems)
+{
+	const size_t cnt = s->count;
+	double *f = s->f;
+	for (size_t k = 0; k < nzero; k++)
+		for (int c = 0; c < 3; c++)
+			f[(size_t)c * cnt + (size_t)zero[k]] = 0;
+	int kval = -1;
+	double val = 0;
+	for (size_t i = 0; i < nitems; i++) {
+		const ndo__force *F = &s->forces[items[i].k];
+		if (items[i].k != kval)
+			kval = items[i].k, val = ndo_force_value(&F->f, t);
+		if (val == 0)
+			continue;
+		int32_t v[3];
+		double add[3];
+		int nv = item_force(s, F, (size_t)items[i].q, u, val, v, add);
+		for (int d = 0; d < nv; d++)
+			if (items[i].mask >> d & 1)
+				for (int e = 0; e < 3; e++)
+					f[(size_t)e * cnt + (size_t)v[d]] += add[e];
 	}
 }

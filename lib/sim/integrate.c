@@ -126,6 +126,9 @@ int ndo__tableau_check(ndo_method m, double *worst)
 
 /* ---- creation ------------------------------------------------------------ */
 
+/* Steps in a look at whether the threads pay (threads_pick). */
+enum { PROBE = 8 };
+
 void ndo_sim_defaults(ndo_sim_params *p)
 {
 	memset(p, 0, sizeof *p);
@@ -274,7 +277,7 @@ static int build_held_edges(ndo_sim *s)
 /* A stage buffer's held nodes at the state's displacement u: only those an
  * active node reads (the others are never read), so a peer's step costs
  * its region, not the whole grid (a full copy was 2·3·count doubles a step). */
-static void held_keep(ndo_sim *s, double *buf)
+void ndo__held_keep(ndo_sim *s, double *buf)
 {
 	const size_t cnt = s->count;
 	for (size_t k = 0; k < s->nhread; k++)
@@ -287,7 +290,7 @@ static void held_keep(ndo_sim *s, double *buf)
 
 /* Held nodes at the time τ after the state's: buf = u + τ v on them (the
  * boundary moving with its velocity, ndo_sim_set_held_motion). */
-static void held_at(ndo_sim *s, double *buf, double tau)
+void ndo__held_at(ndo_sim *s, double *buf, double tau)
 {
 	if (!s->held_motion || !s->nhmove)
 		return;
@@ -304,7 +307,7 @@ static void held_at(ndo_sim *s, double *buf, double tau)
  * NDO__CHUNKS of them, at run boundaries (a run is at most a row): *chunk
  * gets the first run of each chunk and n at the end.  The cut depends on
  * the runs alone, never on the thread count. */
-enum { NDO__CHUNK = 4096, NDO__CHUNKS = 64 };
+enum { NDO__CHUNK = 512, NDO__CHUNKS = 1024 };
 static int cut_chunks(const ndo__span *sp, size_t n, int32_t **chunk, int *nchunk)
 {
 	size_t total = 0;
@@ -333,6 +336,7 @@ static int cut_chunks(const ndo__span *sp, size_t n, int32_t **chunk, int *nchun
  * active to held nodes, and the chunks the threads share. */
 static int build_spans(ndo_sim *s)
 {
+	ndo__rk4_plan_free(s);
 	free(s->espan), free(s->ispan), free(s->bact);
 	s->espan = s->ispan = NULL;
 	s->bact = NULL;
@@ -567,6 +571,7 @@ int ndo_sim_create(int level, const double *x, const double *v, const double *re
 			nodes += (size_t)(s->espan[k].b - s->espan[k].a);
 		if (nodes >= NDO_SIM_THREAD_MIN && (rc = ndo_pool_create(p->threads, &s->pool)))
 			goto fail;
+		s->probe_steps = 8 * PROBE; /* the first steps look whether threads pay */
 	}
 	free(aos);
 	*out = s;
@@ -607,6 +612,7 @@ void ndo_sim_destroy(ndo_sim *s)
 	if (!s)
 		return;
 	ndo__implicit_free(s);
+	ndo__rk4_plan_free(s);
 	ndo__sleep_free(s->sleep);
 	ndo_stencil_free(&s->st);
 	planes_free(s->X), planes_free(s->u), planes_free(s->v);
@@ -850,14 +856,8 @@ NDO_HOT static void combine_chunk(void *arg, int ch)
 	}
 }
 
-static void combine(const ndo_sim *s, double *out, const double *base, double h, int n,
-                    const double *coef, const double *const *src)
-{
-	lincomb l = {s, out, base, h, n, coef, src};
-	ndo__sim_run(s, s->nechunk, combine_chunk, &l);
-}
-
-/* y += h x on the active nodes (3 planes). */
+/* y += h x on the active nodes (3 planes), the same record with out = y
+ * and base = x. */
 NDO_HOT static void axpy_chunk(void *arg, int ch)
 {
 	const lincomb *l = arg;
@@ -874,10 +874,40 @@ NDO_HOT static void axpy_chunk(void *arg, int ch)
 	}
 }
 
-static void axpy(const ndo_sim *s, double *y, double h, const double *x)
+/* Several of those updates in one run on the threads, a chunk through all
+ * of them before the next: each node sees them in the order given (so the
+ * same bits as one run each), with one wake-up of the threads and the
+ * chunk's planes still in cache for the next update. */
+enum { UPDATES_MAX = 16 };
+typedef struct updates {
+	int n;
+	void (*fn[UPDATES_MAX])(void *, int);
+	lincomb l[UPDATES_MAX];
+} updates;
+
+static void updates_chunk(void *arg, int ch)
 {
-	lincomb l = {s, y, x, h, 0, NULL, NULL};
-	ndo__sim_run(s, s->nechunk, axpy_chunk, &l);
+	updates *u = arg;
+	for (int i = 0; i < u->n; i++)
+		u->fn[i](&u->l[i], ch);
+}
+
+static void updates_combine(updates *u, const ndo_sim *s, double *out, const double *base,
+                            double h, int n, const double *coef, const double *const *src)
+{
+	u->fn[u->n] = combine_chunk;
+	u->l[u->n++] = (lincomb){s, out, base, h, n, coef, src};
+}
+
+static void updates_axpy(updates *u, const ndo_sim *s, double *y, double h, const double *x)
+{
+	u->fn[u->n] = axpy_chunk;
+	u->l[u->n++] = (lincomb){s, y, x, h, 0, NULL, NULL};
+}
+
+static void updates_run(const ndo_sim *s, updates *u)
+{
+	ndo__sim_run(s, s->nechunk, updates_chunk, u);
 }
 
 /* A step of size h began with input power P: its work is added, by the
@@ -905,7 +935,7 @@ static int rk_stages(ndo_sim *s, const tableau *tb, double h, int k0_ready)
 	if (!k0_ready && (rc = first_stage(s, s->ka[0])))
 		return rc;
 	if (tb->s > 1 && s->any_held)
-		held_keep(s, s->us); /* held nodes keep u */
+		ndo__held_keep(s, s->us); /* held nodes keep u */
 	for (int i = 1; i < tb->s; i++) {
 		const double *su[6], *sv[6];
 		double coef[6];
@@ -917,9 +947,11 @@ static int rk_stages(ndo_sim *s, const tableau *tb, double h, int k0_ready)
 				sv[n] = s->ka[j];
 				n++;
 			}
-		held_at(s, s->us, tb->c[i] * h);
-		combine(s, s->us, s->u, h, n, coef, su);
-		combine(s, s->kv[i], s->v, h, n, coef, sv);
+		ndo__held_at(s, s->us, tb->c[i] * h);
+		updates up = {0};
+		updates_combine(&up, s, s->us, s->u, h, n, coef, su);
+		updates_combine(&up, s, s->kv[i], s->v, h, n, coef, sv);
+		updates_run(s, &up);
 		ndo__sync_planes(s, s->us, 3);
 		ndo__sync_planes(s, s->kv[i], 3);
 		ndo__accel(s, s->t + tb->c[i] * h, s->us, s->kv[i], s->ka[i], NULL);
@@ -930,15 +962,17 @@ static int rk_stages(ndo_sim *s, const tableau *tb, double h, int k0_ready)
 /* u += h Σ b_j kv_j (kv_0 = v), then v += h Σ b_j ka_j. */
 static void rk_finish(ndo_sim *s, const tableau *tb, double h)
 {
+	updates up = {0};
 	for (int j = 1; j < tb->s; j++)
 		if (tb->b[j] != 0)
-			axpy(s, s->u, h * tb->b[j], s->kv[j]);
+			updates_axpy(&up, s, s->u, h * tb->b[j], s->kv[j]);
 	if (tb->b[0] != 0)
-		axpy(s, s->u, h * tb->b[0], s->v);
+		updates_axpy(&up, s, s->u, h * tb->b[0], s->v);
 	for (int j = 0; j < tb->s; j++)
 		if (tb->b[j] != 0)
-			axpy(s, s->v, h * tb->b[j], s->ka[j]);
-	held_at(s, s->u, h); /* the boundary moves on with the sub-step */
+			updates_axpy(&up, s, s->v, h * tb->b[j], s->ka[j]);
+	updates_run(s, &up);
+	ndo__held_at(s, s->u, h); /* the boundary moves on with the sub-step */
 	ndo__sync_planes(s, s->u, 3);
 	ndo__sync_planes(s, s->v, 3);
 }
@@ -956,221 +990,12 @@ static int step_rk(ndo_sim *s, const tableau *tb, double h)
 	return NDO_OK;
 }
 
-/* Classic RK4 in low-storage form, each stage one pass over the nodes that
- * fuses the stencil, the acceleration, the running sums of the final
- * combination and the next stage's state:
- *   stage 0  (U, V) = (u, v):    Σu = V, Σv = a;     next = (u, v) + h/2 (V, a)
- *   stage 1, 2:                  Σu += 2V, Σv += 2a; next = (u, v) + c (V, a)
- *   stage 3:                     (u, v) += h/6 (Σu + V, Σv + a)
- * Stage displacements alternate between two buffers (the stencil reads
- * the neighbours' old values); stage velocities are only read at their own
- * node, so one buffer is updated in place.  Same arithmetic as the tableau
- * path (rk_stages) up to the order of the additions. */
-enum { RK4_FIRST, RK4_MID, RK4_LAST };
-
-typedef struct rk4_pass {
-	const double *U;  /* stage displacement (3 planes) */
-	double *Un;       /* the next stage's (RK4_FIRST, RK4_MID) */
-	double *V;        /* stage velocity; RK4_FIRST reads v, writes vs */
-	double *vs;       /* the stage velocity buffer */
-	double *su, *sv;  /* the running sums */
-	double *u, *v;    /* the state */
-	const double *F;  /* forces or NULL */
-	double c, h6;
-} rk4_pass;
-
-static inline __attribute__((always_inline)) void
-rk4_interior(const ndo_sim *s, const rk4_pass *g, const int mode, const int hasF, ndo__diag *d,
-             const size_t k0, const size_t k1)
-{
-	const size_t cnt = s->count, w = (size_t)s->w;
-	const double *restrict e0 = s->st.e[0], *restrict e1 = s->st.e[1],
-	                       *restrict e2 = s->st.e[2];
-	const double *restrict minv = s->minv, *restrict gam = s->gam, *restrict mass = s->mass;
-	const double c = g->c, h6 = g->h6;
-	double pe2 = 0, ke2 = 0, pw = 0, um = 0;
-	for (size_t k = k0; k < k1; k++) {
-		const size_t lo = (size_t)s->ispan[k].a, hi = (size_t)s->ispan[k].b;
-		for (int comp = 0; comp < 3; comp++) {
-			const size_t o = (size_t)comp * cnt;
-			const double *restrict U = g->U + o;
-			const double *restrict F = hasF ? g->F + o : NULL;
-			double *restrict Un = mode == RK4_LAST ? NULL : g->Un + o;
-			double *restrict su = g->su + o, *restrict sv = g->sv + o;
-			double *restrict u = g->u + o, *restrict v = g->v + o;
-			/* RK4_FIRST reads v and writes vs; the others update vs in place
-			 * through the one pointer V. */
-			double *restrict V = mode == RK4_FIRST ? g->v + o : g->vs + o;
-			double *restrict vs = g->vs + o;
-#pragma omp simd reduction(+ : pe2, ke2, pw)
-			for (size_t p = lo; p < hi; p++) {
-				const double up = U[p];
-				const double ku = e0[p] * (up - U[p + 1]) + e1[p] * (up - U[p + w]) +
-				                  e2[p] * (up - U[p + w - 1]) + e0[p - 1] * (up - U[p - 1]) +
-				                  e1[p - w] * (up - U[p - w]) + e2[p - w + 1] * (up - U[p - w + 1]);
-				const double f = hasF ? F[p] : 0, vp = V[p];
-				const double a = minv[p] * (f - ku) - gam[p] * vp;
-				if (mode == RK4_FIRST) {
-					su[p] = vp;
-					sv[p] = a;
-					Un[p] = u[p] + c * vp;
-					vs[p] = v[p] + c * a;
-					if (d) {
-						pe2 += up * ku;
-						ke2 += mass[p] * vp * vp;
-						pw += f * vp;
-					}
-				} else if (mode == RK4_MID) {
-					su[p] += 2 * vp;
-					sv[p] += 2 * a;
-					Un[p] = u[p] + c * vp;
-					V[p] = v[p] + c * a;
-				} else {
-					u[p] += h6 * (su[p] + vp);
-					v[p] += h6 * (sv[p] + a);
-				}
-			}
-		}
-		if (d) {
-			const double *restrict ux = g->U, *restrict uy = g->U + cnt, *restrict uz = g->U + 2 * cnt;
-#pragma omp simd reduction(max : um)
-			for (size_t p = lo; p < hi; p++) {
-				const double u2 = ux[p] * ux[p] + uy[p] * uy[p] + uz[p] * uz[p];
-				um = u2 > um ? u2 : um; /* not fmax: a libm call stops vectorization */
-			}
-		}
-	}
-	if (d)
-		ndo__diag_add(d, pe2, ke2, pw, um);
-}
-
-/* The same for the active border nodes (neighbour tables). */
-static void rk4_border(const ndo_sim *s, const rk4_pass *g, int mode, ndo__diag *d)
-{
-	const size_t cnt = s->count;
-	for (size_t k = 0; k < s->nbact; k++) {
-		size_t b = (size_t)s->bact[k], p = (size_t)s->st.border[b];
-		const int32_t *nb = s->st.bnb + 6 * b;
-		const double *cf = s->st.bc + 6 * b;
-		double u2 = 0;
-		for (int comp = 0; comp < 3; comp++) {
-			size_t o = (size_t)comp * cnt, q = o + p;
-			double up = g->U[q], ku = 0;
-			for (int j = 0; j < 6; j++)
-				ku += cf[j] * (up - g->U[o + (size_t)nb[j]]);
-			double f = g->F ? g->F[q] : 0;
-			double vp = mode == RK4_FIRST ? g->v[q] : g->vs[q];
-			double a = s->minv[p] * (f - ku) - s->gam[p] * vp;
-			if (mode == RK4_FIRST) {
-				g->su[q] = vp;
-				g->sv[q] = a;
-				g->Un[q] = g->u[q] + g->c * vp;
-				g->vs[q] = g->v[q] + g->c * a;
-				if (d) {
-					d->pe2 += up * ku;
-					d->ke2 += s->mass[p] * vp * vp;
-					d->power += f * vp;
-					u2 += up * up;
-				}
-			} else if (mode == RK4_MID) {
-				g->su[q] += 2 * vp;
-				g->sv[q] += 2 * a;
-				g->Un[q] = g->u[q] + g->c * vp;
-				g->vs[q] = g->v[q] + g->c * a;
-			} else {
-				g->u[q] += g->h6 * (g->su[q] + vp);
-				g->v[q] += g->h6 * (g->sv[q] + a);
-			}
-		}
-		if (d)
-			d->umax2 = fmax(d->umax2, u2);
-	}
-}
-
-/* One chunk of a pass: interior runs, or (the last chunk) the border. */
-typedef struct rk4_job {
-	const ndo_sim *s;
-	const rk4_pass *g;
-	int mode, diag;
-} rk4_job;
-
-NDO_HOT static void rk4_chunk(void *arg, int c)
-{
-	const rk4_job *j = arg;
-	const ndo_sim *s = j->s;
-	const rk4_pass *g = j->g;
-	ndo__diag *d = j->diag ? &s->cdiag[c] : NULL;
-	if (d)
-		memset(d, 0, sizeof *d);
-	if (c == s->nichunk) {
-		rk4_border(s, g, j->mode, d);
-		return;
-	}
-	const size_t k0 = (size_t)s->ichunk[c], k1 = (size_t)s->ichunk[c + 1];
-	/* Constant arguments: the compiler makes one loop per combination. */
-	if (j->mode == RK4_FIRST) {
-		if (g->F)
-			rk4_interior(s, g, RK4_FIRST, 1, d, k0, k1);
-		else
-			rk4_interior(s, g, RK4_FIRST, 0, d, k0, k1);
-	} else if (j->mode == RK4_MID) {
-		if (g->F)
-			rk4_interior(s, g, RK4_MID, 1, NULL, k0, k1);
-		else
-			rk4_interior(s, g, RK4_MID, 0, NULL, k0, k1);
-	} else {
-		if (g->F)
-			rk4_interior(s, g, RK4_LAST, 1, NULL, k0, k1);
-		else
-			rk4_interior(s, g, RK4_LAST, 0, NULL, k0, k1);
-	}
-}
-
-static void rk4_pass_run(ndo_sim *s, rk4_pass *g, int mode, double t, ndo__diag *d)
-{
-	g->F = ndo__forces_prepare(s, t, g->U);
-	rk4_job j = {s, g, mode, d != NULL};
-	ndo__sim_run(s, s->nichunk + 1, rk4_chunk, &j);
-	if (d) {
-		ndo__diag_sum(s, d);
-		d->power += ndo__held_power(s, g->U, g->v);
-		ndo__penalty_diag(s, g->U, g->v, d);
-	}
-	s->stats.evaluations++;
-}
-
+/* Classic RK4 (rk4.c). */
 static int step_rk4(ndo_sim *s, double h)
 {
-	/* Buffers: A = us and B = kv[1] for the stage displacements, vs for the
-	 * stage velocity, kv[2] and kv[3] for the running sums. */
-	double *A = s->us, *B = s->kv[1];
-	if (s->any_held) {
-		/* Held nodes keep u in both stage buffers. */
-		held_keep(s, A);
-		held_keep(s, B);
-		held_at(s, A, h / 2);
-		held_at(s, B, h / 2);
-	}
-	rk4_pass g = {s->u, A, s->v, s->vs, s->kv[2], s->kv[3], s->u, s->v, NULL, h / 2, h / 6};
-	ndo__diag d;
-	rk4_pass_run(s, &g, RK4_FIRST, s->t, &d);
-	s->last_power = d.power;
-	int rc = ndo__diverged(s, &d, 1);
+	int rc = ndo__rk4_step(s, h);
 	if (rc)
 		return rc;
-	ndo__sync_planes(s, A, 3);
-	g.U = A, g.Un = B;
-	rk4_pass_run(s, &g, RK4_MID, s->t + h / 2, NULL);
-	ndo__sync_planes(s, B, 3);
-	g.U = B, g.Un = A, g.c = h;
-	rk4_pass_run(s, &g, RK4_MID, s->t + h / 2, NULL);
-	ndo__sync_planes(s, A, 3);
-	held_at(s, A, h);
-	g.U = A, g.Un = NULL;
-	rk4_pass_run(s, &g, RK4_LAST, s->t + h, NULL);
-	held_at(s, s->u, h);
-	ndo__sync_planes(s, s->u, 3);
-	ndo__sync_planes(s, s->v, 3);
 	account(s, h);
 	s->stats.substeps++;
 	return NDO_OK;
@@ -1183,9 +1008,12 @@ static int step_symplectic(ndo_sim *s, double h)
 	int rc = first_stage(s, s->ka[0]);
 	if (rc)
 		return rc;
-	axpy(s, s->v, h, s->ka[0]);
+	/* v then u, node by node: u's update reads only its own node's v */
+	updates up = {0};
+	updates_axpy(&up, s, s->v, h, s->ka[0]);
+	updates_axpy(&up, s, s->u, h, s->v);
+	updates_run(s, &up);
 	ndo__sync_planes(s, s->v, 3);
-	axpy(s, s->u, h, s->v);
 	ndo__sync_planes(s, s->u, 3);
 	account(s, h);
 	s->stats.substeps++;
@@ -1353,6 +1181,78 @@ int ndo__step_tableau(ndo_sim *s, double h)
 	return rc;
 }
 
+/* Threads that do not pay: on a machine busy with other work a worker
+ * may not run for a while, and a step waits for what it took; or the
+ * grid's steps are too short.  So, while the simulation has threads, it
+ * looks now and then — PROBE steps alternately alone and on the threads
+ * (the first one, a warm-up, not timed) — and takes the faster way until
+ * the next look: after probe_period seconds and at least 8 × PROBE steps;
+ * the period doubles (up to PROBE_MAX s) while the answer stays and starts
+ * again at PROBE_MIN s when it changes.  Between looks the steps on the
+ * threads are timed too: once 4 of them take longer on average than the
+ * steps alone did in the look, it looks again at once (the load changed).
+ * Either way the bits are the same (the chunks do not depend on the
+ * thread count). */
+#define PROBE_MIN 0.25
+#define PROBE_MAX 16.0
+
+static double wall_seconds(void)
+{
+	struct timespec ts;
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* Before a step: alone or on the threads; returns the time it starts
+ * (to time the look's steps) or 0. */
+static double threads_pick(ndo_sim *s)
+{
+	if (!s->pool)
+		return 0;
+	if (s->probe_left == 0 && s->probe_steps >= 8 * PROBE && wall_seconds() >= s->probe_next) {
+		s->probe_left = PROBE + 1;
+		s->probe_sum[0] = s->probe_sum[1] = 0;
+	}
+	if (s->probe_left == 0) {
+		s->probe_steps++;
+		return s->solo ? 0 : wall_seconds();
+	}
+	s->solo = s->probe_left % 2 == 0;
+	return wall_seconds();
+}
+
+/* After a step that threads_pick() timed from t0. */
+static void threads_timed(ndo_sim *s, double t0)
+{
+	if (t0 == 0)
+		return;
+	double now = wall_seconds();
+	if (s->probe_left == 0) { /* a step on the threads between looks */
+		s->run_sum += now - t0;
+		if (++s->run_n >= 4 && s->run_sum > s->run_n * s->probe_mean[0]) {
+			s->probe_next = now; /* look again at the next step */
+			s->probe_steps = 8 * PROBE;
+			s->probe_period = 0;
+		}
+		return;
+	}
+	if (s->probe_left <= PROBE)
+		s->probe_sum[s->solo ? 0 : 1] += now - t0;
+	if (--s->probe_left > 0)
+		return;
+	int solo = s->probe_sum[0] < s->probe_sum[1];
+	if (s->probe_period > 0 && solo == s->solo_last)
+		s->probe_period = fmin(2 * s->probe_period, PROBE_MAX);
+	else
+		s->probe_period = PROBE_MIN;
+	s->solo = s->solo_last = solo;
+	s->probe_next = now + s->probe_period;
+	s->probe_steps = 0;
+	s->probe_mean[0] = s->probe_sum[0] / (PROBE / 2);
+	s->probe_mean[1] = s->probe_sum[1] / (PROBE / 2);
+	s->run_sum = 0, s->run_n = 0;
+}
+
 int ndo_sim_step(ndo_sim *s, double h)
 {
 	ndo__clear_error();
@@ -1361,7 +1261,7 @@ int ndo_sim_step(ndo_sim *s, double h)
 	int rc = ndo__restiffen_due(s);
 	if (rc)
 		return rc;
-	double t0 = s->t;
+	double t0 = s->t, w0 = threads_pick(s);
 	switch (s->p.method) {
 	case NDO_EULER:
 	case NDO_MIDPOINT: rc = step_rk(s, method_tableau(s->p.method), h); break;
@@ -1370,6 +1270,7 @@ int ndo_sim_step(ndo_sim *s, double h)
 	case NDO_RKF45: rc = step_rkf45(s, h); break;
 	default: rc = ndo__implicit_step(s, h); break;
 	}
+	threads_timed(s, w0);
 	if (rc)
 		return rc;
 	if (s->p.method != NDO_RKF45)

@@ -133,10 +133,29 @@ struct ndo_sim {
 	 * go to cdiag[c] and are added in chunk order, so every thread count
 	 * gives the same bits. */
 	ndo_pool *pool;
+	/* Whether the threads pay (integrate.c, threads_pick): a few steps on
+	 * one thread and on all, in turn, now and then; `solo` until the next
+	 * look when one was faster.  solo: steps run on the caller alone. */
+	int solo;
+	int probe_left;        /* steps of the look under way */
+	double probe_sum[2];   /* its wall seconds, alone and on the threads */
+	double probe_next;     /* the monotonic time of the next look */
+	double probe_period;   /* between looks, s */
+	int64_t probe_steps;   /* steps since the last look */
+	int solo_last;         /* what the last look found */
+	double probe_mean[2];  /* its mean step, alone and on the threads */
+	double run_sum;        /* seconds of the steps on the threads since */
+	int run_n;
 	size_t bytes;          /* ndo_sim_memory() of this simulation */
 	int32_t *ichunk, *echunk;
 	int nichunk, nechunk;
 	struct ndo__diag *cdiag;
+
+	/* RK4's step as one pipeline of (stage, chunk) units (rk4.c): built
+	 * at the first step that can take it, freed when the chunks change.
+	 * rk4_reference: take the four passes instead (tests compare). */
+	struct ndo__rk4_plan *rk4_plan;
+	int rk4_reference;
 };
 
 /* sleep.c: the tiles (reach: rings a step's stages reach), a look every
@@ -163,10 +182,16 @@ typedef struct ndo__diag {
 /* The chunks' diagnostics (cdiag[0 .. nichunk]), added in chunk order. */
 void ndo__diag_sum(const ndo_sim *s, ndo__diag *d);
 
+/* The threads this step runs on (1 when alone, see `solo`). */
+static inline int ndo__sim_threads_now(const ndo_sim *s)
+{
+	return s->solo ? 1 : ndo_pool_threads(s->pool);
+}
+
 /* fn(ctx, c) for every chunk c in 0..n−1, on the simulation's threads. */
 static inline void ndo__sim_run(const ndo_sim *s, int n, void (*fn)(void *, int), void *ctx)
 {
-	ndo_pool_run(s->pool, n, fn, ctx);
+	ndo_pool_run(s->solo ? NULL : s->pool, n, fn, ctx);
 }
 
 /* Add a kernel's partial sums to the diagnostics. */
@@ -184,6 +209,25 @@ static inline void ndo__diag_add(ndo__diag *d, double pe2, double ke2, double po
  * energy (accel.c; the fused RK4 kernel calls them too). */
 double ndo__held_power(const ndo_sim *s, const double *u, const double *v);
 void ndo__penalty_diag(const ndo_sim *s, const double *u, const double *v, ndo__diag *d);
+
+/* One force item's share of the force plane at some of its nodes: force
+ * k, item (face or node) q, and the bits d of the item's nodes (a face's
+ * three, a node's one) whose entries this evaluation adds (forces.c). */
+typedef struct ndo__fitem {
+	int32_t k, q;
+	int32_t mask;
+} ndo__fitem;
+
+/* ndo__forces_eval restricted: zero f at the `nzero` nodes `zero`, then
+ * add the items' contributions, in the order given, to the nodes their
+ * masks select.  Each node gets the same additions in the same order as
+ * from ndo__forces_eval when the items keep the force-then-item order
+ * and every node's items are listed (no pressure forces). */
+void ndo__forces_eval_items(ndo_sim *s, double t, const double *u, const int32_t *zero,
+                            size_t nzero, const ndo__fitem *items, size_t nitems);
+/* The canonical nodes of item q of force k (3 for a face, 1 for a node);
+ * returns their count. */
+int ndo__force_item_nodes(const ndo_sim *s, int k, size_t q, int32_t v[3]);
 
 /* f ← external forces at time t with displacements u (forces.c). */
 void ndo__forces_eval(ndo_sim *s, double t, const double *u);
@@ -220,6 +264,16 @@ int ndo__implicit_prepare(ndo_sim *s, double h, double **a, double **df);
 void ndo__row_stencil(const ndo_sim *s, size_t p, int32_t nb[6], double cf[6]);
 /* The multigrid solver's bytes at a level: hierarchy, vectors, assembly. */
 double ndo__implicit_mg_bytes(int level);
+
+/* Held nodes of a stage buffer at the state's u (keep), or at u + τ v
+ * when they move with their velocities (at) (integrate.c). */
+void ndo__held_keep(ndo_sim *s, double *buf);
+void ndo__held_at(ndo_sim *s, double *buf, double tau);
+
+/* One classic RK4 step, without the work accounting (rk4.c), and the
+ * pipeline's plan freed (the chunks changed). */
+int ndo__rk4_step(ndo_sim *s, double h);
+void ndo__rk4_plan_free(ndo_sim *s);
 
 /* Copy the canonical values of the stage planes to their duplicates
  * (accel.c). */

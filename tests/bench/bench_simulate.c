@@ -9,11 +9,16 @@
  *   bench_simulate threads T L...  steps/s of rk4, symplectic Euler and
  *                               midpoint on 1 and on T threads, in
  *                               alternating runs, and their ratio
+ *   bench_simulate pipeline T L...  rk4's four passes against its
+ *                               pipeline (lib/sim/rk4.c), on 1 and T
+ *                               threads, in alternating runs
  *
  * Timings are medians of 7 runs of at least 0.1 s each, single thread
- * (threads: the ratio is the median of the 7 pairs' ratios).
+ * (threads: the ratio is the median of the 7 pairs' ratios); limits and
+ * kernel in process CPU time, the others in wall time.
  * Output: markdown table rows (tests/bench/simulate.sh assembles them). */
 #include "ndo/ndo.h"
+#include "sim_private.h" /* rk4_reference: the passes beside the pipeline */
 
 #include <math.h>
 #include <stdio.h>
@@ -27,6 +32,20 @@ static double now(void)
 	clock_gettime(CLOCK_MONOTONIC, &t);
 	return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
 }
+
+/* Process CPU seconds: the limits and the kernel (one thread) are timed
+ * by the CPU time they get, so that a machine busy with other work, which
+ * takes the core away for a while, slows neither (its caches and memory
+ * bandwidth are still shared). */
+static double cpu_now(void)
+{
+	struct timespec t;
+	clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+	return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
+/* The clock steps_per_second(), bandwidth() and gflops() read. */
+static double (*clock_of)(void) = now;
 
 static int cmp(const void *a, const void *b)
 {
@@ -109,22 +128,22 @@ static double steps_per_second(ndo_sim *s, double h)
 	double r[REPS];
 	long n = 1;
 	for (;;) { /* calibrate: n steps take at least 0.1 s */
-		double t0 = now();
+		double t0 = clock_of();
 		for (long k = 0; k < n; k++)
 			ndo_sim_step(s, h);
-		double el = now() - t0;
+		double el = clock_of() - t0;
 		if (el > 0.1)
 			break;
 		n = el > 0.01 ? (long)(n * 0.12 / el) + 1 : n * 10;
 	}
 	for (int k = 0; k < REPS; k++) {
-		double t0 = now();
+		double t0 = clock_of();
 		for (long q = 0; q < n; q++)
 			if (ndo_sim_step(s, h)) {
 				fprintf(stderr, "bench_simulate: %s\n", ndo_errdetail());
 				exit(1);
 			}
-		r[k] = (double)n / (now() - t0);
+		r[k] = (double)n / (clock_of() - t0);
 	}
 	return median(r, REPS);
 }
@@ -163,6 +182,51 @@ static void threads(int argc, char **argv)
 			ndo_sim_destroy(sT);
 			ndo_scene_forces_free(f1, 1);
 			ndo_scene_forces_free(fT, 1);
+		}
+		ndo_grid_destroy(g);
+	}
+}
+
+/* RK4's two ways (lib/sim/rk4.c): the four passes and the pipeline, on
+ * one thread and on T, the four timed in turn; the ratios are medians of
+ * the runs' ratios within a round. */
+static void pipeline(int argc, char **argv)
+{
+	int T = atoi(argv[0]);
+	printf("| level | nodes | passes, 1 thread | pipeline, 1 thread | ratio | passes, %d threads "
+	       "| pipeline, %d threads | ratio | pipeline %d threads / passes 1 thread |\n", T, T, T);
+	printf("|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+	for (int a = 1; a < argc; a++) {
+		int level = atoi(argv[a]);
+		ndo_grid *g;
+		ndo_shape_make("wavy", level, NULL, &g);
+		ndo_force *f[4];
+		ndo_sim *s[4];
+		for (int k = 0; k < 4; k++) {
+			s[k] = thesis_scene_on(g, NDO_RK4, k < 2 ? 1 : T, &f[k]);
+			s[k]->rk4_reference = k % 2 == 0;
+		}
+		ndo_critical c;
+		ndo_sim_critical(s[0], &c);
+		double h = 0.5 * c.h_crit;
+		long n = calibrate(s[0], h);
+		for (int k = 1; k < 4; k++)
+			calibrate(s[k], h);
+		double r[4][REPS], q[3][REPS];
+		for (int rep = 0; rep < REPS; rep++) {
+			for (int k = 0; k < 4; k++)
+				r[k][rep] = timed(s[k], h, n);
+			q[0][rep] = r[1][rep] / r[0][rep];
+			q[1][rep] = r[3][rep] / r[2][rep];
+			q[2][rep] = r[3][rep] / r[0][rep];
+		}
+		printf("| %d | %zu | %.4g | %.4g | %.2f | %.4g | %.4g | %.2f | %.2f |\n", level,
+		       ndo_vertex_count(level), median(r[0], REPS), median(r[1], REPS), median(q[0], REPS),
+		       median(r[2], REPS), median(r[3], REPS), median(q[1], REPS), median(q[2], REPS));
+		fflush(stdout);
+		for (int k = 0; k < 4; k++) {
+			ndo_sim_destroy(s[k]);
+			ndo_scene_forces_free(f[k], 1);
 		}
 		ndo_grid_destroy(g);
 	}
@@ -229,7 +293,7 @@ static double bandwidth(size_t n, int triad)
 	double r[REPS];
 	long reps = (long)(2e8 / (double)n) + 1;
 	for (int q = 0; q < REPS; q++) {
-		double t0 = now();
+		double t0 = clock_of();
 		for (long k = 0; k < reps; k++) {
 			if (triad)
 				triad_avx2(a, b, c, n);
@@ -237,7 +301,7 @@ static double bandwidth(size_t n, int triad)
 				copy_avx2(b, a, n);
 			__asm__ volatile("" ::"r"(a), "r"(b) : "memory");
 		}
-		r[q] = (triad ? 24.0 : 16.0) * (double)n * (double)reps / (now() - t0) / 1e9;
+		r[q] = (triad ? 24.0 : 16.0) * (double)n * (double)reps / (clock_of() - t0) / 1e9;
 	}
 	free(a), free(b), free(c);
 	return median(r, REPS);
@@ -284,9 +348,9 @@ static double gflops(double (*fn)(long), int lanes)
 	double r[REPS];
 	volatile double sink = 0;
 	for (int q = 0; q < REPS; q++) {
-		double t0 = now();
+		double t0 = clock_of();
 		sink += fn(iters);
-		r[q] = 2.0 * CHAINS * lanes * (double)iters / (now() - t0) / 1e9;
+		r[q] = 2.0 * CHAINS * lanes * (double)iters / (clock_of() - t0) / 1e9;
 	}
 	(void)sink;
 	return median(r, REPS);
@@ -294,6 +358,7 @@ static double gflops(double (*fn)(long), int lanes)
 
 static void limits(void)
 {
+	clock_of = cpu_now;
 	printf("| measurement | value |\n|---|---:|\n");
 	const struct {
 		const char *what;
@@ -327,6 +392,7 @@ static void limits(void)
 
 static void kernel(int argc, char **argv)
 {
+	clock_of = cpu_now;
 	printf("| level | nodes | state (MiB) | steps/s | GFLOP/s | GB/s |\n");
 	printf("|---:|---:|---:|---:|---:|---:|\n");
 	for (int a = 0; a < argc; a++) {
@@ -357,8 +423,10 @@ int main(int argc, char **argv)
 		kernel(argc - 2, argv + 2);
 	else if (argc >= 4 && strcmp(argv[1], "threads") == 0)
 		threads(argc - 2, argv + 2);
+	else if (argc >= 4 && strcmp(argv[1], "pipeline") == 0)
+		pipeline(argc - 2, argv + 2);
 	else {
-		fprintf(stderr, "usage: bench_simulate speed|kernel LEVEL... | threads T LEVEL... | limits\n");
+		fprintf(stderr, "usage: bench_simulate speed|kernel LEVEL... | threads|pipeline T LEVEL... | limits\n");
 		return 2;
 	}
 	return 0;

@@ -91,6 +91,8 @@ static __attribute__((noreturn)) void usage(void)
 	    "                          process may use (default: all of them alone, 1 as a\n"
 	    "                          peer); the same result for every N; grids under\n"
 	    "                          20,000 nodes (level 6 and below) run on one\n"
+	    "                          thread, and steps run alone while the threads do\n"
+	    "                          not pay (timed every few seconds)\n"
 	    "      --accuracy E[m]     choose the level (up to the input's), integrator\n"
 	    "                          and step that meet the error E at the least\n"
 	    "                          predicted cost: E a share of the largest\n"

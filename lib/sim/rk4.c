@@ -1,0 +1,617 @@
+/* rk4.c — classic RK4 (ndo/sim.h's NDO_RK4) in low-storage form, each
+ * stage one pass over the nodes that fuses the stencil, the acceleration,
+ * the running sums of the final combination and the next stage's state:
+ *   stage 0  (U, V) = (u, v):    Σu = V, Σv = a;     next = (u, v) + h/2 (V, a)
+ *   stage 1, 2:                  Σu += 2V, Σv += 2a; next = (u, v) + c (V, a)
+ *   stage 3:                     (u, v) += h/6 (Σu + V, Σv + a)
+ * Stage displacements alternate between two buffers (the stencil reads
+ * the neighbours' old values); stage velocities are only read at their own
+ * node, so one buffer is updated in place.  Same arithmetic as the tableau
+ * path (integrate.c, rk_stages) up to the order of the additions.
+ *
+ * Two ways to run the four passes, the same bits:
+ *
+ * - passes: each stage over every chunk on the simulation's threads, the
+ *   forces and the seams' copies between them (four wake-ups of the
+ *   threads and four sweeps over all the state a step);
+ * - the pipeline, when every node is integrated (no held nodes, no
+ *   penalty pins, no pressure): the stencil reaches one row, and every
+ *   seam joins nodes of one row (ndo/topology.h), so stage k of a chunk of
+ *   rows needs only stage k − 1 of the chunks that hold its rows ± 1.  A
+ *   step is one run on the threads.  Each thread walks the units (stage,
+ *   chunk) in wavefront order — stage k of chunk c at position c + k·L, L
+ *   chunks behind the stage before — so that the rows a unit reads were
+ *   written a few units before and are still in cache (a window of about
+ *   3L + 1 chunks of 512 nodes); the first thread from the bottom row up,
+ *   the second from the top down, further pairs from the middle of their
+ *   own share, so that they meet only at the ends of their shares.  A
+ *   thread claims a unit before running it, skips the units others have
+ *   claimed, and first runs itself any unit it reads that nobody has
+ *   claimed; it waits (on a condition variable, never spinning) only for a
+ *   unit another thread is running — a unit of the stage before, so no
+ *   wait closes a cycle — and alone, a thread runs every unit.  A unit's
+ *   forces, border nodes and seam copies are done in it, for its rows.  Stage 3 writes the new state to spare buffers, swapped in once
+ *   the divergence test (on stage 0's diagnostics) has passed, so that a
+ *   step that diverges leaves the state as it was, as the passes do. */
+#include "sim_private.h"
+#include "ndo/status.h"
+#include "ndo/topology.h"
+
+#include <pthread.h>
+#include <stdatomic.h>
+#include <stdlib.h>
+#include <string.h>
+
+enum { RK4_FIRST, RK4_MID, RK4_LAST, RK4_LAST_TO };
+
+typedef struct rk4_pass {
+	const double *U;  /* stage displacement (3 planes) */
+	double *Un;       /* the next stage's (RK4_FIRST, RK4_MID) */
+	double *vs;       /* the stage velocity buffer */
+	double *su, *sv;  /* the running sums */
+	double *u, *v;    /* the state */
+	double *uo, *vo;  /* RK4_LAST_TO: the new state (RK4_LAST: in place) */
+	const double *F;  /* forces or NULL */
+	double c, h6;
+} rk4_pass;
+
+static inline __attribute__((always_inline)) void
+rk4_interior(const ndo_sim *s, const rk4_pass *g, const int mode, const int hasF, ndo__diag *d,
+             const size_t k0, const size_t k1)
+{
+	const size_t cnt = s->count, w = (size_t)s->w;
+	const double *restrict e0 = s->st.e[0], *restrict e1 = s->st.e[1],
+	                       *restrict e2 = s->st.e[2];
+	const double *restrict minv = s->minv, *restrict mass = s->mass;
+	/* The damping rate is the same at every node (integrate.c: b/ρ + a):
+	 * one number, not a plane streamed through every pass. */
+	const double ga = s->gam[0];
+	const double c = g->c, h6 = g->h6;
+	double pe2 = 0, ke2 = 0, pw = 0, um = 0;
+	for (size_t k = k0; k < k1; k++) {
+		const size_t lo = (size_t)s->ispan[k].a, hi = (size_t)s->ispan[k].b;
+		for (int comp = 0; comp < 3; comp++) {
+			const size_t o = (size_t)comp * cnt;
+			const double *restrict U = g->U + o;
+			const double *restrict F = hasF ? g->F + o : NULL;
+			double *restrict Un = mode == RK4_FIRST || mode == RK4_MID ? g->Un + o : NULL;
+			double *restrict su = g->su + o, *restrict sv = g->sv + o;
+			double *restrict u = g->u + o, *restrict v = g->v + o;
+			double *restrict uo = mode == RK4_LAST_TO ? g->uo + o : NULL;
+			double *restrict vo = mode == RK4_LAST_TO ? g->vo + o : NULL;
+			/* RK4_FIRST reads v and writes vs; the others update vs in place
+			 * through the one pointer V. */
+			double *restrict V = mode == RK4_FIRST ? g->v + o : g->vs + o;
+			double *restrict vs = g->vs + o;
+#pragma omp simd reduction(+ : pe2, ke2, pw)
+			for (size_t p = lo; p < hi; p++) {
+				const double up = U[p];
+				const double ku = e0[p] * (up - U[p + 1]) + e1[p] * (up - U[p + w]) +
+				                  e2[p] * (up - U[p + w - 1]) + e0[p - 1] * (up - U[p - 1]) +
+				                  e1[p - w] * (up - U[p - w]) + e2[p - w + 1] * (up - U[p - w + 1]);
+				const double f = hasF ? F[p] : 0, vp = V[p];
+				const double a = minv[p] * (f - ku) - ga * vp;
+				if (mode == RK4_FIRST) {
+					su[p] = vp;
+					sv[p] = a;
+					Un[p] = u[p] + c * vp;
+					vs[p] = v[p] + c * a;
+					/* always (d is never NULL here): a test on d in the loop
+					 * kept it from being vectorized */
+					pe2 += up * ku;
+					ke2 += mass[p] * vp * vp;
+					pw += f * vp;
+				} else if (mode == RK4_MID) {
+					su[p] += 2 * vp;
+					sv[p] += 2 * a;
+					Un[p] = u[p] + c * vp;
+					V[p] = v[p] + c * a;
+				} else if (mode == RK4_LAST) {
+					u[p] += h6 * (su[p] + vp);
+					v[p] += h6 * (sv[p] + a);
+				} else {
+					uo[p] = u[p] + h6 * (su[p] + vp);
+					vo[p] = v[p] + h6 * (sv[p] + a);
+				}
+			}
+		}
+		if (d) {
+			const double *restrict ux = g->U, *restrict uy = g->U + cnt, *restrict uz = g->U + 2 * cnt;
+#pragma omp simd reduction(max : um)
+			for (size_t p = lo; p < hi; p++) {
+				const double u2 = ux[p] * ux[p] + uy[p] * uy[p] + uz[p] * uz[p];
+				um = u2 > um ? u2 : um; /* not fmax: a libm call stops vectorization */
+			}
+		}
+	}
+	if (d)
+		ndo__diag_add(d, pe2, ke2, pw, um);
+}
+
+/* Border nodes' diagnostics as the pipeline keeps them, to be added in
+ * the border's order afterwards: per node, u·Ku, m v², f·v for each
+ * coordinate, then |u|². */
+enum { RK4_BTERMS = 10 };
+
+/* The same for active border nodes (neighbour tables): bact[list[i]] for i
+ * in 0..n−1, or every one (list NULL).  Stage 0's diagnostics go to d, or
+ * (the pipeline) to terms, RK4_BTERMS per node. */
+static void rk4_border(const ndo_sim *s, const rk4_pass *g, int mode, const int32_t *list,
+                       size_t n, ndo__diag *d, double *terms)
+{
+	const size_t cnt = s->count;
+	for (size_t i = 0; i < n; i++) {
+		size_t k = list ? (size_t)list[i] : i;
+		size_t b = (size_t)s->bact[k], p = (size_t)s->st.border[b];
+		const int32_t *nb = s->st.bnb + 6 * b;
+		const double *cf = s->st.bc + 6 * b;
+		double *t = terms ? terms + RK4_BTERMS * k : NULL;
+		double u2 = 0;
+		for (int comp = 0; comp < 3; comp++) {
+			size_t o = (size_t)comp * cnt, q = o + p;
+			double up = g->U[q], ku = 0;
+			for (int j = 0; j < 6; j++)
+				ku += cf[j] * (up - g->U[o + (size_t)nb[j]]);
+			double f = g->F ? g->F[q] : 0;
+			double vp = mode == RK4_FIRST ? g->v[q] : g->vs[q];
+			double a = s->minv[p] * (f - ku) - s->gam[p] * vp;
+			if (mode == RK4_FIRST) {
+				g->su[q] = vp;
+				g->sv[q] = a;
+				g->Un[q] = g->u[q] + g->c * vp;
+				g->vs[q] = g->v[q] + g->c * a;
+				if (d) {
+					d->pe2 += up * ku;
+					d->ke2 += s->mass[p] * vp * vp;
+					d->power += f * vp;
+				}
+				if (t) {
+					t[comp] = up * ku;
+					t[3 + comp] = s->mass[p] * vp * vp;
+					t[6 + comp] = f * vp;
+				}
+				u2 += up * up;
+			} else if (mode == RK4_MID) {
+				g->su[q] += 2 * vp;
+				g->sv[q] += 2 * a;
+				g->Un[q] = g->u[q] + g->c * vp;
+				g->vs[q] = g->v[q] + g->c * a;
+			} else if (mode == RK4_LAST) {
+				g->u[q] += g->h6 * (g->su[q] + vp);
+				g->v[q] += g->h6 * (g->sv[q] + a);
+			} else {
+				g->uo[q] = g->u[q] + g->h6 * (g->su[q] + vp);
+				g->vo[q] = g->v[q] + g->h6 * (g->sv[q] + a);
+			}
+		}
+		if (d)
+			d->umax2 = fmax(d->umax2, u2);
+		if (t)
+			t[9] = u2;
+	}
+}
+
+/* Interior runs [k0, k1) of a pass (constant arguments: the compiler
+ * makes one loop per combination). */
+NDO_HOT static void rk4_runs(const ndo_sim *s, const rk4_pass *g, int mode, ndo__diag *d,
+                             size_t k0, size_t k1)
+{
+#define RUNS(M, D)                                                                          \
+	(g->F ? rk4_interior(s, g, M, 1, D, k0, k1) : rk4_interior(s, g, M, 0, D, k0, k1))
+	switch (mode) {
+	case RK4_FIRST: RUNS(RK4_FIRST, d); break;
+	case RK4_MID: RUNS(RK4_MID, NULL); break;
+	case RK4_LAST: RUNS(RK4_LAST, NULL); break;
+	default: RUNS(RK4_LAST_TO, NULL);
+	}
+#undef RUNS
+}
+
+/* ---- the passes ------------------------------------------------------------ */
+
+/* One chunk of a pass: interior runs, or (the last chunk) the border. */
+typedef struct rk4_job {
+	const ndo_sim *s;
+	const rk4_pass *g;
+	int mode, diag;
+} rk4_job;
+
+static void rk4_chunk(void *arg, int c)
+{
+	const rk4_job *j = arg;
+	const ndo_sim *s = j->s;
+	ndo__diag *d = j->diag ? &s->cdiag[c] : NULL;
+	if (d)
+		memset(d, 0, sizeof *d);
+	if (c == s->nichunk)
+		rk4_border(s, j->g, j->mode, NULL, s->nbact, d, NULL);
+	else
+		rk4_runs(s, j->g, j->mode, d, (size_t)s->ichunk[c], (size_t)s->ichunk[c + 1]);
+}
+
+static void rk4_pass_run(ndo_sim *s, rk4_pass *g, int mode, double t, ndo__diag *d)
+{
+	g->F = ndo__forces_prepare(s, t, g->U);
+	rk4_job j = {s, g, mode, d != NULL};
+	ndo__sim_run(s, s->nichunk + 1, rk4_chunk, &j);
+	if (d) {
+		ndo__diag_sum(s, d);
+		d->power += ndo__held_power(s, g->U, g->v);
+		ndo__penalty_diag(s, g->U, g->v, d);
+	}
+	s->stats.evaluations++;
+}
+
+static int step_passes(ndo_sim *s, double h)
+{
+	/* Buffers: A = us and B = kv[1] for the stage displacements, vs for the
+	 * stage velocity, kv[2] and kv[3] for the running sums. */
+	double *A = s->us, *B = s->kv[1];
+	if (s->any_held) {
+		/* Held nodes keep u in both stage buffers. */
+		ndo__held_keep(s, A);
+		ndo__held_keep(s, B);
+		ndo__held_at(s, A, h / 2);
+		ndo__held_at(s, B, h / 2);
+	}
+	rk4_pass g = {s->u, A, s->vs, s->kv[2], s->kv[3], s->u, s->v, NULL, NULL, NULL, h / 2, h / 6};
+	ndo__diag d;
+	rk4_pass_run(s, &g, RK4_FIRST, s->t, &d);
+	s->last_power = d.power;
+	int rc = ndo__diverged(s, &d, 1);
+	if (rc)
+		return rc;
+	ndo__sync_planes(s, A, 3);
+	g.U = A, g.Un = B;
+	rk4_pass_run(s, &g, RK4_MID, s->t + h / 2, NULL);
+	ndo__sync_planes(s, B, 3);
+	g.U = B, g.Un = A, g.c = h;
+	rk4_pass_run(s, &g, RK4_MID, s->t + h / 2, NULL);
+	ndo__sync_planes(s, A, 3);
+	ndo__held_at(s, A, h);
+	g.U = A, g.Un = NULL;
+	rk4_pass_run(s, &g, RK4_LAST, s->t + h, NULL);
+	ndo__held_at(s, s->u, h);
+	ndo__sync_planes(s, s->u, 3);
+	ndo__sync_planes(s, s->v, 3);
+	return NDO_OK;
+}
+
+/* ---- the pipeline ------------------------------------------------------------ */
+
+typedef struct rk4_unit {
+	int16_t k;  /* stage */
+	int32_t c;  /* chunk */
+} rk4_unit;
+
+struct ndo__rk4_plan {
+	int C, L;              /* chunks; the lag between stages, in chunks */
+	int32_t *r0, *r1;      /* each chunk's rows, border rows 0 and n included */
+	int32_t *lo, *hi;      /* the chunks a unit of chunk c reads: lo[c]..hi[c] */
+	int32_t *boff, *blist; /* chunk c's border nodes: bact[blist[boff[c]..boff[c+1])] */
+	int32_t *zoff, *zlist; /* its force nodes (fnodes) */
+	int32_t *foff;         /* its force items, fitem[foff[c]..foff[c+1]) */
+	ndo__fitem *fitem;
+	double *bterms;        /* RK4_BTERMS per active border node */
+	int nunit;
+	rk4_unit *unit;        /* wavefront order */
+	_Atomic int *done;     /* 4·C states of this step's units: free, claimed, done */
+	_Atomic int sleepers;  /* threads waiting for a unit */
+	pthread_mutex_t lock;
+	pthread_cond_t cond;
+};
+
+void ndo__rk4_plan_free(ndo_sim *s)
+{
+	struct ndo__rk4_plan *P = s->rk4_plan;
+	if (!P)
+		return;
+	free(P->r0), free(P->r1), free(P->lo), free(P->hi), free(P->boff), free(P->blist);
+	free(P->zoff), free(P->zlist), free(P->foff), free(P->fitem), free(P->bterms);
+	free(P->unit), free((void *)P->done);
+	pthread_mutex_destroy(&P->lock);
+	pthread_cond_destroy(&P->cond);
+	free(P);
+	s->rk4_plan = NULL;
+}
+
+/* Whether the pipeline can take this simulation's steps. */
+static int pipeline_fits(const ndo_sim *s)
+{
+	return !s->rk4_reference && !s->any_held && s->npen == 0 && !s->has_pressure &&
+	       s->n >= 2 && s->nispan == (size_t)(s->n - 1) && s->nichunk >= 1;
+}
+
+/* Items of a list of `n` owned by chunk c, counted then filled: the
+ * offsets off[0..C] and the items. */
+static int32_t *bucket(int C, size_t n, const int32_t *owner, int32_t **off)
+{
+	*off = calloc((size_t)C + 2, sizeof **off);
+	int32_t *list = malloc((n + 1) * sizeof *list);
+	if (!*off || !list) {
+		free(list);
+		return NULL;
+	}
+	for (size_t i = 0; i < n; i++)
+		(*off)[owner[i] + 2]++;
+	for (int c = 0; c < C; c++)
+		(*off)[c + 2] += (*off)[c + 1];
+	for (size_t i = 0; i < n; i++)
+		list[(*off)[owner[i] + 1]++] = (int32_t)i;
+	return list;
+}
+
+static int plan_build(ndo_sim *s)
+{
+	const int C = s->nichunk, n = s->n, w = s->w;
+	struct ndo__rk4_plan *P = calloc(1, sizeof *P);
+	int32_t *rowc = malloc(((size_t)n + 1) * sizeof *rowc);
+	size_t nb = s->nbact > s->nfnodes ? s->nbact : s->nfnodes;
+	int32_t *owner = malloc((nb + 1) * sizeof *owner);
+	if (!P || !rowc || !owner)
+		goto oom;
+	pthread_mutex_init(&P->lock, NULL);
+	pthread_cond_init(&P->cond, NULL);
+	s->rk4_plan = P;
+	P->C = C;
+	/* The chunk of every row: interior runs are whole rows 1..n−1 here;
+	 * row 0 goes with row 1, row n with row n − 1. */
+	for (int c = 0; c < C; c++)
+		for (int32_t k = s->ichunk[c]; k < s->ichunk[c + 1]; k++)
+			rowc[s->ispan[k].a / w] = c;
+	rowc[0] = rowc[1], rowc[n] = rowc[n - 1];
+	P->r0 = malloc((size_t)C * sizeof *P->r0), P->r1 = malloc((size_t)C * sizeof *P->r1);
+	P->lo = malloc((size_t)C * sizeof *P->lo), P->hi = malloc((size_t)C * sizeof *P->hi);
+	if (!P->r0 || !P->r1 || !P->lo || !P->hi)
+		goto oom;
+	for (int c = 0; c < C; c++)
+		P->r0[c] = n + 1, P->r1[c] = -1;
+	for (int j = 0; j <= n; j++) {
+		if (j < P->r0[rowc[j]])
+			P->r0[rowc[j]] = j;
+		P->r1[rowc[j]] = j;
+	}
+	P->L = 2;
+	for (int c = 0; c < C; c++) {
+		P->lo[c] = rowc[P->r0[c] > 0 ? P->r0[c] - 1 : 0];
+		P->hi[c] = rowc[P->r1[c] < n ? P->r1[c] + 1 : n];
+		if (P->hi[c] - c + 1 > P->L)
+			P->L = P->hi[c] - c + 1;
+		if (c - P->lo[c] + 1 > P->L)
+			P->L = c - P->lo[c] + 1;
+	}
+	/* Border nodes and force nodes by the chunk of their row. */
+	for (size_t k = 0; k < s->nbact; k++)
+		owner[k] = rowc[s->st.border[s->bact[k]] / w];
+	if (!(P->blist = bucket(C, s->nbact, owner, &P->boff)))
+		goto oom;
+	for (size_t k = 0; k < s->nfnodes; k++)
+		owner[k] = rowc[s->fnodes[k] / w];
+	if (!(P->zlist = bucket(C, s->nfnodes, owner, &P->zoff)))
+		goto oom;
+	for (int32_t i = 0; i < P->zoff[C]; i++)
+		P->zlist[i] = s->fnodes[P->zlist[i]];
+	/* Force items: for each chunk, every item with a node in it, in the
+	 * forces' order, marked with the nodes it owns. */
+	size_t nitem = 0;
+	for (int k = 0; k < s->nforces; k++)
+		nitem += s->forces[k].f.count;
+	P->foff = calloc((size_t)C + 1, sizeof *P->foff);
+	P->fitem = malloc((3 * nitem + 1) * sizeof *P->fitem);
+	if (!P->foff || !P->fitem)
+		goto oom;
+	size_t m = 0;
+	for (int c = 0; c < C; c++) {
+		P->foff[c] = (int32_t)m;
+		for (int k = 0; k < s->nforces; k++)
+			for (size_t q = 0; q < s->forces[k].f.count; q++) {
+				int32_t v[3], mask = 0;
+				int nv = ndo__force_item_nodes(s, k, q, v);
+				for (int d = 0; d < nv; d++)
+					if (rowc[v[d] / w] == c)
+						mask |= 1 << d;
+				if (mask)
+					P->fitem[m++] = (ndo__fitem){k, (int32_t)q, mask};
+			}
+	}
+	P->foff[C] = (int32_t)m;
+	P->bterms = malloc((RK4_BTERMS * s->nbact + 1) * sizeof *P->bterms);
+	/* Units in wavefront order: stage k of chunk c at c + k·L; any unit
+	 * it reads (stage k − 1, chunks ≤ c + L − 1) comes on an earlier
+	 * diagonal. */
+	P->unit = malloc((4 * (size_t)C + 1) * sizeof *P->unit);
+	P->done = calloc(4 * (size_t)C, sizeof *P->done);
+	if (!P->bterms || !P->unit || !P->done)
+		goto oom;
+	for (int diag = 0; diag < C + 3 * P->L; diag++)
+		for (int k = 3; k >= 0; k--) {
+			int c = diag - k * P->L;
+			if (c >= 0 && c < C)
+				P->unit[P->nunit++] = (rk4_unit){(int16_t)k, c};
+		}
+	free(rowc), free(owner);
+	return NDO_OK;
+oom:
+	free(rowc), free(owner);
+	if (P && !s->rk4_plan)
+		free(P);
+	ndo__rk4_plan_free(s);
+	return ndo__fail(NDO_ENOMEM, "out of memory for the RK4 pipeline");
+}
+
+/* Copy the canonical values of rows r0..r1 of 3 planes to their
+ * duplicates in those rows (ndo_sync, a row at a time: every seam joins
+ * nodes of one row). */
+static void sync_rows(const ndo_sim *s, double *x, int r0, int r1)
+{
+	const size_t cnt = s->count, w = (size_t)s->w;
+	const int n = s->n;
+	for (int c = 0; c < 3; c++) {
+		double *X = x + (size_t)c * cnt;
+		for (int j = r0; j <= r1; j++) {
+			double *row = X + (size_t)j * w;
+			if (j == 0 || j == n)
+				for (int i = n + 1; i <= 2 * n; i++)
+					row[i] = row[2 * n - i];
+			else
+				row[2 * n] = row[0];
+		}
+	}
+}
+
+typedef struct rk4_pipe {
+	ndo_sim *s;
+	rk4_pass g[4];
+	double t[4];
+	int mode[4];
+	double *out[4][2]; /* what each stage writes that the seams copy */
+	int threads;
+} rk4_pipe;
+
+enum { UNIT_FREE, UNIT_CLAIMED, UNIT_DONE };
+
+static void unit_wait(struct ndo__rk4_plan *P, int idx)
+{
+	if (atomic_load_explicit(&P->done[idx], memory_order_acquire) == UNIT_DONE)
+		return;
+	pthread_mutex_lock(&P->lock);
+	atomic_fetch_add(&P->sleepers, 1);
+	while (atomic_load(&P->done[idx]) != UNIT_DONE)
+		pthread_cond_wait(&P->cond, &P->lock);
+	atomic_fetch_sub(&P->sleepers, 1);
+	pthread_mutex_unlock(&P->lock);
+}
+
+static void unit_done(struct ndo__rk4_plan *P, int idx)
+{
+	atomic_store(&P->done[idx], UNIT_DONE);
+	if (atomic_load(&P->sleepers)) {
+		pthread_mutex_lock(&P->lock);
+		pthread_cond_broadcast(&P->cond);
+		pthread_mutex_unlock(&P->lock);
+	}
+}
+
+static int unit_claim(struct ndo__rk4_plan *P, int idx)
+{
+	int free_ = UNIT_FREE;
+	return atomic_load_explicit(&P->done[idx], memory_order_relaxed) == UNIT_FREE &&
+	       atomic_compare_exchange_strong(&P->done[idx], &free_, UNIT_CLAIMED);
+}
+
+static void unit_run(rk4_pipe *J, int k, int c);
+
+/* Unit (k, c), claimed: the units it reads done (run here when nobody
+ * has claimed them, waited for when somebody has), then itself. */
+static void unit_take(rk4_pipe *J, int k, int c)
+{
+	struct ndo__rk4_plan *P = J->s->rk4_plan;
+	if (k > 0)
+		for (int q = P->lo[c]; q <= P->hi[c]; q++) {
+			int idx = (k - 1) * P->C + q;
+			if (unit_claim(P, idx))
+				unit_take(J, k - 1, q);
+			else
+				unit_wait(P, idx);
+		}
+	unit_run(J, k, c);
+	unit_done(P, k * P->C + c);
+}
+
+static void unit_run(rk4_pipe *J, int k, int c)
+{
+	ndo_sim *s = J->s;
+	struct ndo__rk4_plan *P = s->rk4_plan;
+	const rk4_pass *g = &J->g[k];
+	if (s->has_forces)
+		ndo__forces_eval_items(s, J->t[k], g->U, P->zlist + P->zoff[c],
+		                       (size_t)(P->zoff[c + 1] - P->zoff[c]), P->fitem + P->foff[c],
+		                       (size_t)(P->foff[c + 1] - P->foff[c]));
+	ndo__diag *d = NULL;
+	if (k == 0) {
+		d = &s->cdiag[c];
+		memset(d, 0, sizeof *d);
+	}
+	rk4_runs(s, g, J->mode[k], d, (size_t)s->ichunk[c], (size_t)s->ichunk[c + 1]);
+	rk4_border(s, g, J->mode[k], P->blist + P->boff[c], (size_t)(P->boff[c + 1] - P->boff[c]),
+	           NULL, k == 0 ? P->bterms : NULL);
+	for (int b = 0; b < 2; b++)
+		if (J->out[k][b])
+			sync_rows(s, J->out[k][b], P->r0[c], P->r1[c]);
+}
+
+/* Thread `who` of J->threads: every unit in wavefront order, the even
+ * threads upward from the bottom of their pair's share of the chunks, the
+ * odd ones downward from its top, round the ends to the rest. */
+static void pipe_thread(void *arg, int who)
+{
+	rk4_pipe *J = arg;
+	struct ndo__rk4_plan *P = J->s->rk4_plan;
+	const int C = P->C, pairs = (J->threads + 1) / 2, pair = who / 2;
+	const int up = who % 2 == 0;
+	const int start = up ? (int)((long)C * pair / pairs)
+	                     : (int)((long)C * (pair + 1) / pairs) - 1;
+	for (int i = 0; i < P->nunit; i++) {
+		int k = P->unit[i].k, c = P->unit[i].c;
+		c = up ? (start + c) % C : (start - c + C) % C;
+		if (unit_claim(P, k * C + c))
+			unit_take(J, k, c);
+	}
+}
+
+static int step_pipeline(ndo_sim *s, double h)
+{
+	if (!s->rk4_plan) {
+		int rc = plan_build(s);
+		if (rc)
+			return rc;
+	}
+	struct ndo__rk4_plan *P = s->rk4_plan;
+	double *A = s->us, *B = s->kv[1], *un = s->ka[0], *vn = s->ka[1];
+	const double *F = s->has_forces ? s->f : NULL;
+	rk4_pipe J = {.s = s};
+	const rk4_pass g = {s->u, A, s->vs, s->kv[2], s->kv[3], s->u, s->v, un, vn, F, h / 2, h / 6};
+	for (int k = 0; k < 4; k++)
+		J.g[k] = g;
+	J.g[1].U = A, J.g[1].Un = B;
+	J.g[2].U = B, J.g[2].Un = A, J.g[2].c = h;
+	J.g[3].U = A, J.g[3].Un = NULL;
+	const double t[4] = {s->t, s->t + h / 2, s->t + h / 2, s->t + h};
+	const int mode[4] = {RK4_FIRST, RK4_MID, RK4_MID, RK4_LAST_TO};
+	memcpy(J.t, t, sizeof t);
+	memcpy(J.mode, mode, sizeof mode);
+	J.out[0][0] = A, J.out[1][0] = B, J.out[2][0] = A;
+	J.out[3][0] = un, J.out[3][1] = vn;
+	for (int i = 0; i < 4 * P->C; i++)
+		atomic_init(&P->done[i], UNIT_FREE);
+	J.threads = ndo__sim_threads_now(s);
+	ndo__sim_run(s, J.threads, pipe_thread, &J);
+	/* Stage 0's diagnostics: the border's in its order, then the chunks'. */
+	ndo__diag d, *bd = &s->cdiag[s->nichunk];
+	memset(bd, 0, sizeof *bd);
+	for (size_t k = 0; k < s->nbact; k++) {
+		const double *tk = P->bterms + RK4_BTERMS * k;
+		for (int comp = 0; comp < 3; comp++) {
+			bd->pe2 += tk[comp];
+			bd->ke2 += tk[3 + comp];
+			bd->power += tk[6 + comp];
+		}
+		bd->umax2 = fmax(bd->umax2, tk[9]);
+	}
+	ndo__diag_sum(s, &d);
+	d.power += ndo__held_power(s, s->u, s->v);
+	s->stats.evaluations++;
+	s->last_power = d.power;
+	int rc = ndo__diverged(s, &d, 1);
+	if (rc)
+		return rc;
+	s->stats.evaluations += 3;
+	s->ka[0] = s->u, s->ka[1] = s->v;
+	s->u = un, s->v = vn;
+	return NDO_OK;
+}
+
+int ndo__rk4_step(ndo_sim *s, double h)
+{
+	return pipeline_fits(s) ? step_pipeline(s, h) : step_passes(s, h);
+}
