@@ -185,31 +185,41 @@ NDO_MG_HOT static void run_chunk(void *ctx, int k)
 				o2[q] = J->fresh ? d : o2[q] + d;
 			}
 		break;
-	case OP_UPDATE:
-		for (size_t r = a; r < e; r++)
-			for (int c = 0; c < 3; c++) {
-				size_t q = 3 * r + (size_t)c;
-				o1[q] += J->c[c] * i1[q];
-				o2[q] -= J->c[c] * i2[q];
-				s[c] += o2[q] * o2[q];
-				if (o3) {
-					o3[q] = J->dinv[r] * o2[q];
-					s[3 + c] += o2[q] * o3[q];
-				}
+	case OP_UPDATE: {
+		/* The coefficients in locals: the stores below may not change
+		 * them (the compiler could not know). */
+		const double a0 = J->c[0], a1 = J->c[1], a2 = J->c[2], *dv = J->dinv;
+		for (size_t r = a; r < e; r++) {
+			const double *pr = i1 + 3 * r, *qr = i2 + 3 * r;
+			double *xr = o1 + 3 * r, *rr = o2 + 3 * r;
+			xr[0] += a0 * pr[0], xr[1] += a1 * pr[1], xr[2] += a2 * pr[2];
+			const double r0 = rr[0] - a0 * qr[0], r1 = rr[1] - a1 * qr[1],
+			             r2 = rr[2] - a2 * qr[2];
+			rr[0] = r0, rr[1] = r1, rr[2] = r2;
+			s[0] += r0 * r0, s[1] += r1 * r1, s[2] += r2 * r2;
+			if (o3) {
+				const double z0 = dv[r] * r0, z1 = dv[r] * r1, z2 = dv[r] * r2;
+				double *zr = o3 + 3 * r;
+				zr[0] = z0, zr[1] = z1, zr[2] = z2;
+				s[3] += r0 * z0, s[4] += r1 * z1, s[5] += r2 * z2;
 			}
+		}
 		break;
+	}
 	case OP_DOT:
 		for (size_t r = a; r < e; r++)
 			for (int c = 0; c < 3; c++)
 				s[c] += i1[3 * r + c] * i2[3 * r + c];
 		break;
-	case OP_DIR:
-		for (size_t r = a; r < e; r++)
-			for (int c = 0; c < 3; c++) {
-				size_t q = 3 * r + (size_t)c;
-				o1[q] = i1[q] + J->c[c] * o1[q];
-			}
+	case OP_DIR: {
+		const double b0 = J->c[0], b1 = J->c[1], b2 = J->c[2];
+		for (size_t r = a; r < e; r++) {
+			const double *zr = i1 + 3 * r;
+			double *pr = o1 + 3 * r;
+			pr[0] = zr[0] + b0 * pr[0], pr[1] = zr[1] + b1 * pr[1], pr[2] = zr[2] + b2 * pr[2];
+		}
 		break;
+	}
 	}
 	if (J->part)
 		memcpy(J->part + 8 * (size_t)k, s, sizeof s);
