@@ -113,6 +113,8 @@ typedef struct job {
 } job;
 
 /* y = row r of M times x (n × 3, row-major); inlined into each loop. */
+typedef double mg_v4 __attribute__((vector_size(32)));
+
 static inline void row_product(const mg_stencil *S, const int *Mp, const int *Mi,
                                const double *Mx, const double *x, size_t r, double y[3])
 {
@@ -123,8 +125,17 @@ static inline void row_product(const mg_stencil *S, const int *Mp, const int *Mi
 		                     S->fr[r], S->ful[r], S->fu[r]};
 		const double *v[7] = {x + 3 * (r - dn), x + 3 * (r - dn + 1), x + 3 * (r - 1), x + 3 * r,
 		                      x + 3 * (r + 1), x + 3 * (r + u - 1), x + 3 * (r + u)};
-		for (int t = 0; t < 7; t++)
-			y0 += m[t] * v[t][0], y1 += m[t] * v[t][1], y2 += m[t] * v[t][2];
+		/* A row's three values and the next one's first (a vector of
+		 * n × 3 has one double more: vec()) in one load; the fourth
+		 * lane is not used. */
+		mg_v4 y4 = {0, 0, 0, 0};
+		for (int t = 0; t < 7; t++) {
+			mg_v4 vt;
+			memcpy(&vt, v[t], sizeof vt);
+			y4 += m[t] * vt;
+		}
+		y[0] = y4[0], y[1] = y4[1], y[2] = y4[2];
+		return;
 	} else {
 		for (int k = Mp[r]; k < Mp[r + 1]; k++) {
 			const double m = Mx[k], *v = x + 3 * (size_t)Mi[k];
@@ -278,9 +289,14 @@ static void run(ndo__mg *mg, job *J, size_t n, double sums[6])
 
 /* ---- the hierarchy ------------------------------------------------------ */
 
+/* n × 3 doubles and one more (row_product reads it, unused, with the last
+ * row). */
 static double *vec(size_t n)
 {
-	return malloc((3 * n + 1) * sizeof(double));
+	double *v = malloc((3 * n + 1) * sizeof(double));
+	if (v)
+		v[3 * n] = 0;
+	return v;
 }
 
 /* P: linear interpolation from the coarse rows (nodes of level l−1 whose
