@@ -92,9 +92,10 @@ enum op {
 	OP_ABS,      /* part: |A||i1| squared */
 	OP_CHEB,     /* o1 (d) = c0·o1 + c1·dinv∘i1; o2 (x) += o1; c2 ≠ 0: x = d */
 	OP_UPDATE,   /* o1 (x) += c·i1 (p); o2 (r) −= c·i2 (q); part: |r|²;
-	              * with dinv also o3 (z) = dinv∘r, part 3..5: r·z */
+	              * with dinv also part 3..5: r·z, z = dinv∘r (not stored:
+	              * OP_DIR computes it again) */
 	OP_DOT,      /* part: i1·i2 */
-	OP_DIR,      /* o1 (p) = i1 (z) + c·o1 */
+	OP_DIR,      /* o1 (p) = i1 (z) + c·o1; with dinv z = dinv∘i1 (i1: r) */
 	OP_PROLONG,  /* o1 += P i1 (rows of the fine level: Pt's columns) */
 	OP_MUL,      /* o1 = M i1 (restriction: M = P's columns, Pᵀ's rows) */
 };
@@ -105,7 +106,7 @@ typedef struct job {
 	const mg_stencil *S;  /* M's regular rows, when M is a level's operator */
 	const double *dinv;
 	const double *i1, *i2;
-	double *o1, *o2, *o3;
+	double *o1, *o2;
 	double c[3], c0, c1;
 	int fresh;
 	double *part;
@@ -152,7 +153,7 @@ NDO_MG_HOT static void run_chunk(void *ctx, int k)
 	const int *Mp = J->M ? J->M->p : NULL, *Mi = J->M ? J->M->i : NULL;
 	const double *Mx = J->M ? J->M->x : NULL;
 	const double *i1 = J->i1, *i2 = J->i2;
-	double *o1 = J->o1, *o2 = J->o2, *o3 = J->o3;
+	double *o1 = J->o1, *o2 = J->o2;
 	double s[6] = {0, 0, 0, 0, 0, 0};
 	switch (J->op) {
 	case OP_RESID:
@@ -234,10 +235,8 @@ NDO_MG_HOT static void run_chunk(void *ctx, int k)
 			             r2 = rr[2] - a2 * qr[2];
 			rr[0] = r0, rr[1] = r1, rr[2] = r2;
 			s[0] += r0 * r0, s[1] += r1 * r1, s[2] += r2 * r2;
-			if (o3) {
+			if (dv) {
 				const double z0 = dv[r] * r0, z1 = dv[r] * r1, z2 = dv[r] * r2;
-				double *zr = o3 + 3 * r;
-				zr[0] = z0, zr[1] = z1, zr[2] = z2;
 				s[3] += r0 * z0, s[4] += r1 * z1, s[5] += r2 * z2;
 			}
 		}
@@ -250,11 +249,19 @@ NDO_MG_HOT static void run_chunk(void *ctx, int k)
 		break;
 	case OP_DIR: {
 		const double b0 = J->c[0], b1 = J->c[1], b2 = J->c[2];
-		for (size_t r = a; r < e; r++) {
-			const double *zr = i1 + 3 * r;
-			double *pr = o1 + 3 * r;
-			pr[0] = zr[0] + b0 * pr[0], pr[1] = zr[1] + b1 * pr[1], pr[2] = zr[2] + b2 * pr[2];
-		}
+		if (J->dinv) /* Jacobi: z = dinv∘r, not stored (i1: r) */
+			for (size_t r = a; r < e; r++) {
+				const double *rr = i1 + 3 * r, dv = J->dinv[r];
+				double *pr = o1 + 3 * r;
+				const double z0 = dv * rr[0], z1 = dv * rr[1], z2 = dv * rr[2];
+				pr[0] = z0 + b0 * pr[0], pr[1] = z1 + b1 * pr[1], pr[2] = z2 + b2 * pr[2];
+			}
+		else
+			for (size_t r = a; r < e; r++) {
+				const double *zr = i1 + 3 * r;
+				double *pr = o1 + 3 * r;
+				pr[0] = zr[0] + b0 * pr[0], pr[1] = zr[1] + b1 * pr[1], pr[2] = zr[2] + b2 * pr[2];
+			}
 		break;
 	}
 	}
@@ -775,7 +782,7 @@ int ndo__mg_solve(ndo__mg *mg, const double *b, double *x, double tol, double st
 		run(mg, &J, n, s);
 		J = (job){.op = OP_UPDATE, .i1 = p, .i2 = q, .o1 = x, .o2 = r};
 		if (jac)
-			J.o3 = z, J.dinv = mg->lv[0].dinv;
+			J.dinv = mg->lv[0].dinv; /* r·z; z itself is not stored */
 		for (int c = 0; c < 3; c++)
 			J.c[c] = done[c] || !(s[c] > 0) ? 0 : rz[c] / s[c];
 		run(mg, &J, n, s);
@@ -832,6 +839,8 @@ int ndo__mg_solve(ndo__mg *mg, const double *b, double *x, double tol, double st
 			memmove(s, s + 3, 3 * sizeof *s);
 		}
 		J = (job){.op = OP_DIR, .i1 = z, .o1 = p};
+		if (jac)
+			J.i1 = r, J.dinv = mg->lv[0].dinv;
 		for (int c = 0; c < 3; c++) {
 			J.c[c] = done[c] || !(rz[c] > 0) ? 0 : s[c] / rz[c];
 			rz[c] = s[c];
