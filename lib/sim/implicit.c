@@ -58,6 +58,10 @@ double ndo__implicit_mg_bytes(int level)
 	return ndo__mg_bytes(n) + (double)n * (2 * 24 + 8 + 7 * 16);
 }
 
+/* The multigrid step's elementwise passes run over chunks of MG_ROWS rows
+ * (mg_pass_chunk). */
+#define MG_ROWS 4096
+
 struct ndo__implicit {
 	cholmod_common cm;
 	cholmod_factor *L;
@@ -68,6 +72,7 @@ struct ndo__implicit {
 	cholmod_sparse *A;
 	ndo__mg *mg;
 	double *mass, *b3, *x3;
+	double *part;    /* the rigid correction's partial sums, 8 a chunk */
 	/* The acceleration at the start of the last step (rows × 3), for the
 	 * extrapolated first guess; valid for the step im->h when aprev_ok. */
 	double *aprev;
@@ -92,6 +97,7 @@ void ndo__implicit_free(ndo_sim *s)
 	free(im->mass);
 	free(im->b3);
 	free(im->x3);
+	free(im->part);
 	free(im->aprev);
 	cholmod_finish(&im->cm);
 	free(im->idx);
@@ -254,13 +260,16 @@ static int mg_build(ndo_sim *s, ndo__implicit *im, double h)
 	if (!im->pattern_ok) {
 		if ((rc = index_rows(s, im)))
 			return rc;
-		free(im->mass), free(im->b3), free(im->x3), free(im->aprev);
+		free(im->mass), free(im->b3), free(im->x3), free(im->aprev), free(im->part);
 		im->mass = malloc((im->na + 1) * sizeof *im->mass);
 		im->b3 = malloc((3 * im->na + 1) * sizeof *im->b3);
 		im->x3 = malloc((3 * im->na + 1) * sizeof *im->x3);
 		im->aprev = malloc((3 * im->na + 1) * sizeof *im->aprev);
-		if (!im->mass || !im->b3 || !im->x3 || !im->aprev)
+		im->part = malloc(8 * (im->na / MG_ROWS + 1) * sizeof *im->part);
+		if (!im->mass || !im->b3 || !im->x3 || !im->aprev || !im->part)
 			return ndo__fail(NDO_ENOMEM, "out of memory for the implicit solver");
+		/* the multigrid's products read one double past the last row */
+		im->b3[3 * im->na] = im->x3[3 * im->na] = 0;
 		im->pattern_ok = 1;
 	}
 	ndo__mg_free(im->mg);
@@ -393,13 +402,14 @@ static int cholmod_step(ndo_sim *s, ndo__implicit *im, double h, const double *a
 /* The multigrid step's elementwise passes over the rows, in chunks of
  * MG_ROWS on the simulation's threads (each row on its own: any thread
  * count gives the same bits). */
-#define MG_ROWS 4096
 typedef struct mg_pass {
 	ndo_sim *s;
 	ndo__implicit *im;
 	double h, c0, c1;
 	const double *a, *df, *av;
-	int phase; /* 0: v to rows; 1: the right-hand side and first guess; 2: the update */
+	double shift[3]; /* the rigid correction, added in the update */
+	int phase; /* 0: v to rows; 1: the right-hand side and first guess; 2: the update;
+	              3: the rigid correction's sums */
 	int trap, ext;
 } mg_pass;
 
@@ -411,6 +421,28 @@ static void mg_pass_chunk(void *ctx, int k)
 	const size_t cnt = s->count, a0 = (size_t)k * MG_ROWS;
 	const size_t e = a0 + MG_ROWS < im->na ? a0 + MG_ROWS : im->na;
 	const double h = P->h;
+	if (P->phase == 3) {
+		/* rigid_exact's sums over this chunk's rows (with f(t+h) in s->f
+		 * and df = f(t+h) − f(t)) */
+		const double g = s->gam[im->nodes[0]];
+		double w[3] = {0, 0, 0}, got[3] = {0, 0, 0}, msum = 0;
+		for (size_t r = a0; r < e; r++) {
+			size_t p = (size_t)im->nodes[r];
+			double m = s->mass[p];
+			for (int c = 0; c < 3; c++) {
+				size_t q = (size_t)c * cnt + p;
+				double v = s->v[q], f1 = s->f ? s->f[q] : 0, f0 = P->df ? f1 - P->df[q] : f1;
+				w[c] += P->trap ? m * v - 0.5 * h * m * g * v + 0.5 * h * (f0 + f1) : m * v + h * f1;
+				got[c] += m * im->x3[3 * r + (size_t)c];
+			}
+			msum += m;
+		}
+		double *o = im->part + 8 * (size_t)k;
+		for (int c = 0; c < 3; c++)
+			o[c] = w[c], o[3 + c] = got[c];
+		o[6] = msum;
+		return;
+	}
 	for (size_t r = a0; r < e; r++) {
 		size_t p = (size_t)im->nodes[r];
 		double m = s->mass[p], g = s->gam[p];
@@ -432,7 +464,7 @@ static void mg_pass_chunk(void *ctx, int k)
 				im->x3[j] = v + P->c0 * an + (P->ext ? P->c1 * im->aprev[j] : 0);
 				im->aprev[j] = an;
 			} else {
-				double vn = im->x3[j];
+				double vn = im->x3[j] + P->shift[c];
 				s->u[q] += P->trap ? 0.5 * h * (s->v[q] + vn) : h * vn;
 				s->v[q] = vn;
 			}
@@ -484,8 +516,19 @@ static int mg_step(ndo_sim *s, ndo__implicit *im, double h, const double *a, con
 	s->stats.iterations += iters;
 	s->stats.last_iterations = iters;
 	s->stats.last_residual = res;
-	if (!s->any_held && s->npen == 0)
-		rigid_exact(s, im, h, trap, df, im->x3, 3, 1);
+	if (!s->any_held && s->npen == 0) {
+		/* rigid_exact's shift, its sums over chunks of rows on the
+		 * threads (added in chunk order: the same bits on any count) */
+		mg_pass_run(&P, 3);
+		const int nch = (int)((im->na + MG_ROWS - 1) / MG_ROWS);
+		double sum[7] = {0, 0, 0, 0, 0, 0, 0};
+		for (int k = 0; k < nch; k++)
+			for (int c = 0; c < 7; c++)
+				sum[c] += im->part[8 * (size_t)k + (size_t)c];
+		double g = s->gam[im->nodes[0]], cg = trap ? 0.5 : 1;
+		for (int c = 0; c < 3; c++)
+			P.shift[c] = (sum[c] / (1 + cg * h * g) - sum[3 + c]) / sum[6];
+	}
 	mg_pass_run(&P, 2);
 	return NDO_OK;
 }
@@ -544,6 +587,35 @@ int ndo_sim_implicit_precondition(ndo_sim *s, double h, const double *r, double 
 	return NDO_OK;
 }
 
+/* The force difference's elementwise passes, in chunks of PREP_ELEMS
+ * values on the simulation's threads: phase 0 keeps f(t) in s->vs and puts
+ * the predicted positions u + h v in s->us, phase 1 leaves f(t+h) − f(t)
+ * in s->vs. */
+#define PREP_ELEMS 16384
+typedef struct prep_pass {
+	ndo_sim *s;
+	double h;
+	int phase;
+} prep_pass;
+
+static void prep_chunk(void *ctx, int k)
+{
+	const prep_pass *P = ctx;
+	ndo_sim *s = P->s;
+	const size_t n = 3 * s->count, a = (size_t)k * PREP_ELEMS;
+	const size_t e = a + PREP_ELEMS < n ? a + PREP_ELEMS : n;
+	const double h = P->h, *f = s->f, *u = s->u, *v = s->v;
+	double *df = s->vs, *up = s->us;
+	if (P->phase == 0)
+		for (size_t q = a; q < e; q++) {
+			df[q] = f[q];
+			up[q] = u[q] + h * v[q];
+		}
+	else
+		for (size_t q = a; q < e; q++)
+			df[q] = f[q] - df[q];
+}
+
 int ndo__implicit_prepare(ndo_sim *s, double h, double **accel, double **dforce)
 {
 	const size_t cnt = s->count;
@@ -562,13 +634,12 @@ int ndo__implicit_prepare(ndo_sim *s, double h, double **accel, double **dforce)
 		/* f(t+h) at the predicted positions u + h v, so that forces that
 		 * follow the surface keep the trapezoid second order. */
 		df = s->vs;
-		double *up = s->us;
-		memcpy(df, s->f, 3 * cnt * sizeof *df);
-		for (size_t q = 0; q < 3 * cnt; q++)
-			up[q] = s->u[q] + h * s->v[q];
-		ndo__forces_prepare(s, s->t + h, up);
-		for (size_t q = 0; q < 3 * cnt; q++)
-			df[q] = s->f[q] - df[q];
+		prep_pass P = {s, h, 0};
+		const int nch = (int)((3 * cnt + PREP_ELEMS - 1) / PREP_ELEMS);
+		ndo__sim_run(s, nch, prep_chunk, &P);
+		ndo__forces_prepare(s, s->t + h, s->us);
+		P.phase = 1;
+		ndo__sim_run(s, nch, prep_chunk, &P);
 		/* The penalty springs are in the matrix already: take their
 		 * change, −α h v, back out. */
 		for (size_t k = 0; k < s->npen; k++)

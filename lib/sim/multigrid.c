@@ -43,11 +43,26 @@
  * coarse-grid correction takes the rest. */
 #define SMOOTH_FRAC 0.2
 
+/* The operator's regular rows without their indices: a row r whose columns
+ * are r − sd, r − sd + 1, r − 1, r, r + 1, r + su − 1, r + su (a 7-point
+ * stencil in the rows' order) keeps its diagonal and its three entries
+ * towards later rows (right, up-left, up); the other three are the same
+ * values (A is symmetric) kept by the rows before.  40 bytes a row against
+ * CSR's 88, read in the same order: the same products, the same sums.
+ * reg[r] = 0: the row is read from CSR (a border, a seam, a held
+ * neighbour). */
+typedef struct mg_stencil {
+	uint8_t *reg;
+	int32_t *su, *sd;
+	double *d, *fr, *ful, *fu;
+} mg_stencil;
+
 typedef struct mg_level {
 	int level;            /* the grid level */
 	size_t n;             /* rows */
 	int32_t *nodes;       /* canonical stored node of every row (level > 0: owned) */
 	cholmod_sparse *A;    /* the operator (level 0: the caller's) */
+	mg_stencil st;        /* its regular rows */
 	cholmod_sparse *P;    /* prolongation to this level from the next (n × n_next) */
 	cholmod_sparse *Pt;   /* its transpose: P's rows */
 	double *dinv;         /* 1 / diag(A) */
@@ -77,9 +92,10 @@ enum op {
 	OP_ABS,      /* part: |A||i1| squared */
 	OP_CHEB,     /* o1 (d) = c0·o1 + c1·dinv∘i1; o2 (x) += o1; c2 ≠ 0: x = d */
 	OP_UPDATE,   /* o1 (x) += c·i1 (p); o2 (r) −= c·i2 (q); part: |r|²;
-	              * with dinv also o3 (z) = dinv∘r, part 3..5: r·z */
+	              * with dinv also part 3..5: r·z, z = dinv∘r (not stored:
+	              * OP_DIR computes it again) */
 	OP_DOT,      /* part: i1·i2 */
-	OP_DIR,      /* o1 (p) = i1 (z) + c·o1 */
+	OP_DIR,      /* o1 (p) = i1 (z) + c·o1; with dinv z = dinv∘i1 (i1: r) */
 	OP_PROLONG,  /* o1 += P i1 (rows of the fine level: Pt's columns) */
 	OP_MUL,      /* o1 = M i1 (restriction: M = P's columns, Pᵀ's rows) */
 };
@@ -87,9 +103,10 @@ enum op {
 typedef struct job {
 	enum op op;
 	const cholmod_sparse *M;
+	const mg_stencil *S;  /* M's regular rows, when M is a level's operator */
 	const double *dinv;
 	const double *i1, *i2;
-	double *o1, *o2, *o3;
+	double *o1, *o2;
 	double c[3], c0, c1;
 	int fresh;
 	double *part;
@@ -97,13 +114,34 @@ typedef struct job {
 } job;
 
 /* y = row r of M times x (n × 3, row-major); inlined into each loop. */
-static inline void row_product(const int *Mp, const int *Mi, const double *Mx,
-                               const double *x, size_t r, double y[3])
+typedef double mg_v4 __attribute__((vector_size(32)));
+
+static inline void row_product(const mg_stencil *S, const int *Mp, const int *Mi,
+                               const double *Mx, const double *x, size_t r, double y[3])
 {
 	double y0 = 0, y1 = 0, y2 = 0;
-	for (int k = Mp[r]; k < Mp[r + 1]; k++) {
-		const double m = Mx[k], *v = x + 3 * (size_t)Mi[k];
-		y0 += m * v[0], y1 += m * v[1], y2 += m * v[2];
+	if (S && S->reg[r]) {
+		const size_t u = (size_t)S->su[r], dn = (size_t)S->sd[r];
+		const double m[7] = {S->fu[r - dn], S->ful[r - dn + 1], S->fr[r - 1], S->d[r],
+		                     S->fr[r], S->ful[r], S->fu[r]};
+		const double *v[7] = {x + 3 * (r - dn), x + 3 * (r - dn + 1), x + 3 * (r - 1), x + 3 * r,
+		                      x + 3 * (r + 1), x + 3 * (r + u - 1), x + 3 * (r + u)};
+		/* A row's three values and the next one's first (a vector of
+		 * n × 3 has one double more: vec()) in one load; the fourth
+		 * lane is not used. */
+		mg_v4 y4 = {0, 0, 0, 0};
+		for (int t = 0; t < 7; t++) {
+			mg_v4 vt;
+			memcpy(&vt, v[t], sizeof vt);
+			y4 += m[t] * vt;
+		}
+		y[0] = y4[0], y[1] = y4[1], y[2] = y4[2];
+		return;
+	} else {
+		for (int k = Mp[r]; k < Mp[r + 1]; k++) {
+			const double m = Mx[k], *v = x + 3 * (size_t)Mi[k];
+			y0 += m * v[0], y1 += m * v[1], y2 += m * v[2];
+		}
 	}
 	y[0] = y0, y[1] = y1, y[2] = y2;
 }
@@ -115,13 +153,13 @@ NDO_MG_HOT static void run_chunk(void *ctx, int k)
 	const int *Mp = J->M ? J->M->p : NULL, *Mi = J->M ? J->M->i : NULL;
 	const double *Mx = J->M ? J->M->x : NULL;
 	const double *i1 = J->i1, *i2 = J->i2;
-	double *o1 = J->o1, *o2 = J->o2, *o3 = J->o3;
+	double *o1 = J->o1, *o2 = J->o2;
 	double s[6] = {0, 0, 0, 0, 0, 0};
 	switch (J->op) {
 	case OP_RESID:
 		for (size_t r = a; r < e; r++) {
 			double y[3];
-			row_product(Mp, Mi, Mx, i1, r, y);
+			row_product(J->S, Mp, Mi, Mx, i1, r, y);
 			const double y0 = y[0], y1 = y[1], y2 = y[2];
 			const double *bb = i2 + 3 * r;
 			double *o = o1 + 3 * r;
@@ -142,7 +180,7 @@ NDO_MG_HOT static void run_chunk(void *ctx, int k)
 	case OP_AP:
 		for (size_t r = a; r < e; r++) {
 			double y[3];
-			row_product(Mp, Mi, Mx, i1, r, y);
+			row_product(J->S, Mp, Mi, Mx, i1, r, y);
 			const double y0 = y[0], y1 = y[1], y2 = y[2];
 			o1[3 * r] = y0, o1[3 * r + 1] = y1, o1[3 * r + 2] = y2;
 			s[0] += i1[3 * r] * y0, s[1] += i1[3 * r + 1] * y1, s[2] += i1[3 * r + 2] * y2;
@@ -151,7 +189,7 @@ NDO_MG_HOT static void run_chunk(void *ctx, int k)
 	case OP_MUL:
 		for (size_t r = a; r < e; r++) {
 			double y[3];
-			row_product(Mp, Mi, Mx, i1, r, y);
+			row_product(J->S, Mp, Mi, Mx, i1, r, y);
 			const double y0 = y[0], y1 = y[1], y2 = y[2];
 			o1[3 * r] = y0, o1[3 * r + 1] = y1, o1[3 * r + 2] = y2;
 		}
@@ -169,7 +207,7 @@ NDO_MG_HOT static void run_chunk(void *ctx, int k)
 	case OP_PROLONG:
 		for (size_t r = a; r < e; r++) {
 			double y[3];
-			row_product(Mp, Mi, Mx, i1, r, y);
+			row_product(J->S, Mp, Mi, Mx, i1, r, y);
 			const double y0 = y[0], y1 = y[1], y2 = y[2];
 			o1[3 * r] += y0, o1[3 * r + 1] += y1, o1[3 * r + 2] += y2;
 		}
@@ -185,31 +223,47 @@ NDO_MG_HOT static void run_chunk(void *ctx, int k)
 				o2[q] = J->fresh ? d : o2[q] + d;
 			}
 		break;
-	case OP_UPDATE:
-		for (size_t r = a; r < e; r++)
-			for (int c = 0; c < 3; c++) {
-				size_t q = 3 * r + (size_t)c;
-				o1[q] += J->c[c] * i1[q];
-				o2[q] -= J->c[c] * i2[q];
-				s[c] += o2[q] * o2[q];
-				if (o3) {
-					o3[q] = J->dinv[r] * o2[q];
-					s[3 + c] += o2[q] * o3[q];
-				}
+	case OP_UPDATE: {
+		/* The coefficients in locals: the stores below may not change
+		 * them (the compiler could not know). */
+		const double a0 = J->c[0], a1 = J->c[1], a2 = J->c[2], *dv = J->dinv;
+		for (size_t r = a; r < e; r++) {
+			const double *pr = i1 + 3 * r, *qr = i2 + 3 * r;
+			double *xr = o1 + 3 * r, *rr = o2 + 3 * r;
+			xr[0] += a0 * pr[0], xr[1] += a1 * pr[1], xr[2] += a2 * pr[2];
+			const double r0 = rr[0] - a0 * qr[0], r1 = rr[1] - a1 * qr[1],
+			             r2 = rr[2] - a2 * qr[2];
+			rr[0] = r0, rr[1] = r1, rr[2] = r2;
+			s[0] += r0 * r0, s[1] += r1 * r1, s[2] += r2 * r2;
+			if (dv) {
+				const double z0 = dv[r] * r0, z1 = dv[r] * r1, z2 = dv[r] * r2;
+				s[3] += r0 * z0, s[4] += r1 * z1, s[5] += r2 * z2;
 			}
+		}
 		break;
+	}
 	case OP_DOT:
 		for (size_t r = a; r < e; r++)
 			for (int c = 0; c < 3; c++)
 				s[c] += i1[3 * r + c] * i2[3 * r + c];
 		break;
-	case OP_DIR:
-		for (size_t r = a; r < e; r++)
-			for (int c = 0; c < 3; c++) {
-				size_t q = 3 * r + (size_t)c;
-				o1[q] = i1[q] + J->c[c] * o1[q];
+	case OP_DIR: {
+		const double b0 = J->c[0], b1 = J->c[1], b2 = J->c[2];
+		if (J->dinv) /* Jacobi: z = dinv∘r, not stored (i1: r) */
+			for (size_t r = a; r < e; r++) {
+				const double *rr = i1 + 3 * r, dv = J->dinv[r];
+				double *pr = o1 + 3 * r;
+				const double z0 = dv * rr[0], z1 = dv * rr[1], z2 = dv * rr[2];
+				pr[0] = z0 + b0 * pr[0], pr[1] = z1 + b1 * pr[1], pr[2] = z2 + b2 * pr[2];
+			}
+		else
+			for (size_t r = a; r < e; r++) {
+				const double *zr = i1 + 3 * r;
+				double *pr = o1 + 3 * r;
+				pr[0] = zr[0] + b0 * pr[0], pr[1] = zr[1] + b1 * pr[1], pr[2] = zr[2] + b2 * pr[2];
 			}
 		break;
+	}
 	}
 	if (J->part)
 		memcpy(J->part + 8 * (size_t)k, s, sizeof s);
@@ -221,6 +275,10 @@ static void run(ndo__mg *mg, job *J, size_t n, double sums[6])
 {
 	int nch = (int)((n + CHUNK - 1) / CHUNK);
 	J->n = n;
+	J->S = NULL;
+	for (int l = 0; l < mg->nl && J->M; l++)
+		if (J->M == mg->lv[l].A && mg->lv[l].st.reg)
+			J->S = &mg->lv[l].st;
 	J->part = sums ? mg->part : NULL;
 	if (nch > 1 && mg->pool)
 		ndo_pool_run(mg->pool, nch, run_chunk, J);
@@ -238,9 +296,14 @@ static void run(ndo__mg *mg, job *J, size_t n, double sums[6])
 
 /* ---- the hierarchy ------------------------------------------------------ */
 
+/* n × 3 doubles and one more (row_product reads it, unused, with the last
+ * row). */
 static double *vec(size_t n)
 {
-	return malloc((3 * n + 1) * sizeof(double));
+	double *v = malloc((3 * n + 1) * sizeof(double));
+	if (v)
+		v[3 * n] = 0;
+	return v;
 }
 
 /* P: linear interpolation from the coarse rows (nodes of level l−1 whose
@@ -335,6 +398,54 @@ static double lambda_max(ndo__mg *mg, mg_level *L)
 	return lam;
 }
 
+/* The regular rows of L's operator (mg_stencil): a row whose 7 columns
+ * have the stencil's shape, and whose three entries towards earlier rows
+ * are, bit for bit, the later entries those rows keep. */
+static int stencil_build(mg_level *L)
+{
+	const size_t n = L->n;
+	const int *Ap = L->A->p, *Ai = L->A->i;
+	const double *Ax = L->A->x;
+	mg_stencil *S = &L->st;
+	S->reg = calloc(n + 1, 1);
+	S->su = calloc(n + 1, sizeof *S->su), S->sd = calloc(n + 1, sizeof *S->sd);
+	S->d = calloc(n + 1, sizeof *S->d), S->fr = calloc(n + 1, sizeof *S->fr);
+	S->ful = calloc(n + 1, sizeof *S->ful), S->fu = calloc(n + 1, sizeof *S->fu);
+	if (!S->reg || !S->su || !S->sd || !S->d || !S->fr || !S->ful || !S->fu)
+		return ndo__fail(NDO_ENOMEM, "out of memory for the multigrid solver");
+	for (size_t r = 0; r < n; r++) {
+		const int k = Ap[r], *c = Ai + k, ri = (int)r;
+		if (Ap[r + 1] - k != 7 || c[3] != ri || c[2] != ri - 1 || c[4] != ri + 1 ||
+		    c[1] != c[0] + 1 || c[5] != c[6] - 1 || ri - c[0] < 3 || c[6] - ri < 3)
+			continue;
+		S->reg[r] = 1; /* the shape; the values are checked below */
+		S->sd[r] = ri - c[0], S->su[r] = c[6] - ri;
+		S->d[r] = Ax[k + 3], S->fr[r] = Ax[k + 4], S->ful[r] = Ax[k + 5], S->fu[r] = Ax[k + 6];
+	}
+	for (size_t r = 0; r < n; r++) {
+		if (!(S->reg[r] & 1))
+			continue;
+		const size_t dn = (size_t)S->sd[r], j1 = r - 1, j2 = r - dn, j3 = r - dn + 1;
+		const double *x = Ax + Ap[r];
+		if ((S->reg[j1] & 1) && (S->reg[j2] & 1) && (S->reg[j3] & 1) &&
+		    (size_t)S->su[j2] == dn && (size_t)S->su[j3] == dn &&
+		    memcmp(&S->fu[j2], &x[0], sizeof *x) == 0 &&
+		    memcmp(&S->ful[j3], &x[1], sizeof *x) == 0 &&
+		    memcmp(&S->fr[j1], &x[2], sizeof *x) == 0)
+			S->reg[r] |= 2;
+	}
+	for (size_t r = 0; r < n; r++)
+		S->reg[r] >>= 1;
+	return NDO_OK;
+}
+
+static void stencil_free(mg_stencil *S)
+{
+	free(S->reg), free(S->su), free(S->sd);
+	free(S->d), free(S->fr), free(S->ful), free(S->fu);
+	memset(S, 0, sizeof *S);
+}
+
 static int level_setup(ndo__mg *mg, mg_level *L)
 {
 	size_t n = L->n;
@@ -347,6 +458,9 @@ static int level_setup(ndo__mg *mg, mg_level *L)
 		L->b = vec(n), L->x = vec(n);
 	if (!L->dinv || !L->r || !L->d || (!fine && (!L->b || !L->x)))
 		return ndo__fail(NDO_ENOMEM, "out of memory for the multigrid solver");
+	int rc = stencil_build(L);
+	if (rc)
+		return rc;
 	L->rho = 0;
 	double gersh = 0;
 	for (size_t r = 0; r < n; r++) {
@@ -388,6 +502,7 @@ void ndo__mg_free(ndo__mg *mg)
 		}
 		cholmod_free_sparse(&L->P, mg->cm);
 		cholmod_free_sparse(&L->Pt, mg->cm);
+		stencil_free(&L->st);
 		free(L->dinv);
 		free(L->mdiag);
 		free(L->r);
@@ -419,12 +534,13 @@ int ndo__mg_levels(const ndo__mg *mg, int *direct)
 double ndo__mg_bytes(size_t n)
 {
 	/* Per fine row: the operator (7 values and indices, a column start),
-	 * P and Pᵀ (1.75 entries a row each), the diagonal, its mass part, the
-	 * V-cycle's r, d (n × 3) and CG's r, z, p, q; coarse levels add a third
-	 * (with their own b, x); the setup's largest transient is Pᵀ(A P) and
+	 * its regular rows again without indices (mg_stencil: 4 values, 2
+	 * offsets, a flag), P and Pᵀ (1.75 entries a row each), the diagonal,
+	 * its mass part, the V-cycle's r, d (n × 3) and CG's r, z, p, q;
+	 * coarse levels add a third (with their own b, x); the setup's largest transient is Pᵀ(A P) and
 	 * A P besides the levels (about 2 × 7 entries a row of the level below
 	 * the finest). */
-	double fine = 7 * 12 + 8 + 2 * 1.75 * 12 + 8 + 8 + 2 * 24 + 4 * 24;
+	double fine = 7 * 12 + 8 + 4 * 8 + 2 * 4 + 1 + 2 * 1.75 * 12 + 8 + 8 + 2 * 24 + 4 * 24;
 	double coarse = (fine - 4 * 24 + 2 * 24 + 4) / 3;
 	return (double)n * (fine + coarse + 2 * 7 * 12 / 4.0) + 65536;
 }
@@ -666,7 +782,7 @@ int ndo__mg_solve(ndo__mg *mg, const double *b, double *x, double tol, double st
 		run(mg, &J, n, s);
 		J = (job){.op = OP_UPDATE, .i1 = p, .i2 = q, .o1 = x, .o2 = r};
 		if (jac)
-			J.o3 = z, J.dinv = mg->lv[0].dinv;
+			J.dinv = mg->lv[0].dinv; /* r·z; z itself is not stored */
 		for (int c = 0; c < 3; c++)
 			J.c[c] = done[c] || !(s[c] > 0) ? 0 : rz[c] / s[c];
 		run(mg, &J, n, s);
@@ -723,6 +839,8 @@ int ndo__mg_solve(ndo__mg *mg, const double *b, double *x, double tol, double st
 			memmove(s, s + 3, 3 * sizeof *s);
 		}
 		J = (job){.op = OP_DIR, .i1 = z, .o1 = p};
+		if (jac)
+			J.i1 = r, J.dinv = mg->lv[0].dinv;
 		for (int c = 0; c < 3; c++) {
 			J.c[c] = done[c] || !(rz[c] > 0) ? 0 : s[c] / rz[c];
 			rz[c] = s[c];

@@ -46,7 +46,8 @@ int ndo__mg_create(int level, const int32_t *nodes, size_t n, cholmod_sparse *A,
 void ndo__mg_free(ndo__mg *mg);
 
 /* Solve A X = B for three right-hand sides at once.  b, x: n × 3 doubles,
- * row-major (row r's three components together); x holds the initial guess
+ * row-major (row r's three components together; x has one double more,
+ * x[3n], read and not used); x holds the initial guess
  * and receives the solution.  Each column stops when its residual
  * ‖b − A x‖₂ is at most tol·‖b‖₂, or within 16·ε·‖|A||x|‖₂ (the rounding
  * floor of the product itself, which a very stiff system reaches first).
@@ -59,7 +60,8 @@ void ndo__mg_free(ndo__mg *mg);
 int ndo__mg_solve(ndo__mg *mg, const double *b, double *x, double tol, double stall, int max_iter,
                   int *iters, double *relres);
 
-/* y = A x on the finest level (n × 3 each, row-major; not aliased). */
+/* y = A x on the finest level (n × 3 each, row-major; not aliased; x has
+ * one double more, x[3n], read and not used). */
 void ndo__mg_apply(ndo__mg *mg, const double *x, double *y);
 
 /* The levels of the hierarchy (1: smoothing alone) and whether the

@@ -18,6 +18,7 @@ want() { [[ " ${MG_PARTS:-speed iters memory} " == *" $1 "* ]] || [ ! -s "$t-$1.
 if want speed || [ ! -s "$t-speed2.md" ]; then
 	"$B/bench_multigrid" speed 5 6 7 8 >"$t-speed.md"
 	"$B/bench_multigrid" -t 2 speed 8 >"$t-speed2.md"
+	echo "$load0 at the start and $(cut -d' ' -f1-3 /proc/loadavg) at the end" >"$t-speed.load"
 fi
 want iters && "$B/bench_multigrid" iters 0.01 0.1 1.0 4 5 6 7 8 9 10 >"$t-iters.md"
 want memory && {
@@ -30,6 +31,13 @@ want memory && {
 	done
 } >"$t-memory.md.new" && mv "$t-memory.md.new" "$t-memory.md"
 load1=$(cut -d' ' -f1-3 /proc/loadavg)
+# the tables this run did not measure, and when they were
+old=""
+for p in speed iters memory; do
+	[[ " ${MG_PARTS:-speed iters memory} " == *" $p "* ]] ||
+		old="$old${old:+; }the $p table from $(date -u -r "$t-$p.md" '+%F %H:%M UTC')$(
+			[ $p != speed ] || [ ! -s "$t-speed.load" ] || echo ", load average $(cat "$t-speed.load")")"
+done
 
 # The goal: backward Euler and trapezoid at level 8 ≥ 10× the CHOLMOD
 # figures of docs/bench/simulate.md (11.01 and 14.55 steps/s), and the ratio
@@ -49,6 +57,8 @@ summary=$(awk -v be1="$(row "$t-speed.md" backward-euler 7)" -v tr1="$(row "$t-s
 	echo
 	echo "Made by \`tests/bench/multigrid.sh\` (\`tests/bench/run multigrid\`) on $(date -u +%F), $(nproc) cores ($(lscpu | sed -n 's/^Model name: *//p' | head -1)), load average $load0 at the start and $load1 at the end (the machine is shared: medians of 7 runs; the solvers' runs alternate and each ratio is the median of the 7 pairs' ratios)."
 	echo
+	[ -z "$old" ] || printf 'Not measured in this run (MG_PARTS="%s"): %s.\n\n' "$MG_PARTS" "$old"
+	awk -v l="$load0 $load1" 'BEGIN { split(l, a, " "); if (a[1] > 1.5 || a[4] > 1.5) print "Taken under load (other work shared the 2 cores): the steps/s are low and noisy, the ratios within a pair of runs mean more; the figures of a quiet machine replace these when the lead reruns the benchmark.\n" }'
 	echo "## Summary"
 	echo
 	echo "$summary"
@@ -56,7 +66,7 @@ summary=$(awk -v be1="$(row "$t-speed.md" backward-euler 7)" -v tr1="$(row "$t-s
 	it() { awk -F'|' -v l="$2" -v c="$3" '$2 == " "l" " { split($c, a, " "); print a[1] }' "$t-iters.md"; }
 	jac=$(awk -F'|' '$3 == " 8 " && $9 ~ /Jacobi/ { v = $10 + 0; if (lo == "" || v < lo) lo = v; if (v > hi) hi = v }
 		END { printf "%.1f–%.1f", lo, hi }' "$t-speed.md")
-	echo "- Why not 10×: near the explicit limit (the benchmark's step, half RK4's) the system is mass-dominated, its condition number about 3, and conjugate gradients with Jacobi need $jac iterations a solve (this run) to the relative residual of 10⁻¹² (\`NDO_SOLVER_TOL\`: the trapezoid damps no error, so a looser stop adds up over a run, docs/peers.md) from an extrapolated first guess: as many passes of a sparse product over 3 × 131,074 unknowns plus the vector updates, bound by memory bandwidth, while a step of rk4 is four such passes (rk4 at level 8: 105 steps/s in docs/bench/simulate.md); a coarse-grid correction does not pay there (measured: 3.8 V-cycle iterations cost 1.6× of 12.6 Jacobi ones).  CHOLMOD's solve is two triangular sweeps over a factor of 8.1 million nonzeros.  The multigrid pays most where CHOLMOD is weakest: large steps on fine levels (iterations below) and memory."
+	echo "- Why not 10×: near the explicit limit (the benchmark's step, half RK4's) the system is mass-dominated (D⁻¹A's spectrum about [0.7, 1.3] at level 8, condition number about 2) and conjugate gradients with Jacobi need $jac iterations a solve (this run) to the relative residual of 10⁻¹² (\`NDO_SOLVER_TOL\`: the trapezoid damps no error, so a looser stop adds up over a run, docs/peers.md) from an extrapolated first guess.  An iteration is three passes over the rows: the product A p (the regular rows' stencil without indices: 41 bytes a row, p and q: 89 bytes), the update of x and r with two sums (152 bytes) and the new direction from r, D⁻¹ and p (80 bytes; z is not stored): 321 bytes a row, 42 MB an iteration at level 8, and a solve adds two residuals and a start (about 300 bytes a row).  At level 8 that is about 400 MB a step, which at 110 steps/s is 44 GB/s; the solve's arrays (about 25 MB besides the CSR copy) fit the 32 MB L3 only on an idle machine.  Measured with a temporary timer on one thread (load 0.9, before the vector loads and with z stored): the product 884 µs, the update 511 µs, the direction 98 µs (96 GB/s: the streaming passes run at the cache's speed, the product at a third of it, bound by its loads); on two threads (load 0.9) the product took 596 µs (1.8×), the update 446 µs (1.16×: the shared cache's bandwidth) and the direction 153 µs, slower than on one (handing a loop to the pool and waking it costs about as much as that pass: three loops an iteration).  Tried and not kept: Chebyshev iteration (one pass and no sums an iteration) needed 21.8 and 11.4 iterations on Gershgorin's interval [0.35, 1.65] and 11.7 and 11.9 on the measured [0.69, 1.31], against CG's 8.7 and 5.9; a quadratic extrapolation of the acceleration for the first guess saved 0.3 iterations (backward Euler 8.7 → 8.4, trapezoid 5.9 → 5.7) for one more stream, and adding the last step's correction to the guess moved them by ±0.2; the new direction computed inside the next product (z + βp of the neighbours again: two passes an iteration instead of three) was 10–30% slower on one thread (task-clock of 200 fixed steps, alternating, load 6–9: twice the loads in the product); not measured on two threads, where it saves a pass and a hand-over to the pool.  A coarse-grid correction does not pay either (3.8 V-cycle iterations cost 1.6× of 12.6 Jacobi ones).  CHOLMOD's solve is two triangular sweeps over a factor of 8.1 million nonzeros.  The multigrid pays most where CHOLMOD is weakest: large steps on fine levels (iterations below) and memory."
 	echo "- Iterations per solve at a fixed step, where the V-cycle runs, grow slowly with the level and level off (at 0.1 s: $(it x 5 5) at level 5, $(it x 8 5) at 8, $(it x 10 5) at 10; at 1 s: $(it x 5 6) to $(it x 10 6)), where Jacobi alone would double a level; in the Jacobi regime they stay below about 20 (the hierarchy starts where the stiffness passes 12× the mass).  Nearly, not exactly, level-independent: each level adds a smoothing error the degree-2 smoother does not remove.  CHOLMOD's factor grows faster than the nodes (8.1 million nonzeros at level 8, 135 million at 10) and its factorization faster still."
 	echo
 	echo "## Steps per second, one thread"

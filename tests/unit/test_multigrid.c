@@ -4,7 +4,8 @@
  * the solver runs as Jacobi-preconditioned CG, as a V-cycle with a smoothed
  * coarsest level and with a factored one; projected and penalty pins, a
  * region with held nodes, forces), the same bits on any thread count,
- * iterations that do not grow with the level, and the memory estimate.
+ * iterations that do not grow with the level, the memory estimate, and the
+ * operator's index-free rows against the CSR product (bit for bit).
  *
  * Why not bitwise: CG stops at a relative residual of 1e-10, CHOLMOD is
  * exact to rounding; the steps then differ by up to about κ(A)·1e-10 of
@@ -12,10 +13,12 @@
  * scaled by that bound. */
 #include "check.h"
 #include "ndo/ndo.h"
+#include "multigrid.h"
 #include "sim_private.h"
 
 #include <stdint.h>
 #include <stdlib.h>
+#include <string.h>
 
 static uint64_t rng = 7;
 static double uniform(void)
@@ -301,10 +304,81 @@ static void solver_names_parse(void)
 	      "auto switches at level %d", NDO_MULTIGRID_MIN_LEVEL);
 }
 
+/* The operator's regular rows, read without indices (multigrid.c,
+ * mg_stencil) with one vector load a neighbour, against the plain CSR
+ * product, their reference: the same bits.  A raster of W × H rows with
+ * the 7-point stencil (right, up, up-left and their transposes), random
+ * symmetric values, and edges left out around a few rows (as held
+ * neighbours leave them out) besides the border: regular and irregular
+ * rows both. */
+static void stencil_rows_equal_csr(void)
+{
+	enum { W = 40, H = 30, N = W * H };
+	cholmod_common cm;
+	cholmod_start(&cm);
+	cm.print = 0;
+	cholmod_triplet *T = cholmod_allocate_triplet(N, N, 7 * N, 0, CHOLMOD_REAL, &cm);
+	int *Ti = T->i, *Tj = T->j;
+	double *Tx = T->x, *mass = malloc(N * sizeof *mass), diag[N];
+	int32_t *nodes = malloc(N * sizeof *nodes);
+	size_t nz = 0;
+	for (int r = 0; r < N; r++)
+		mass[r] = 100 + uniform(), diag[r] = mass[r], nodes[r] = r;
+	for (int r = 0; r < N; r++) {
+		int i = r % W, j = r / W;
+		const int di[3] = {1, 0, -1}, dj[3] = {0, 1, 1};
+		for (int k = 0; k < 3; k++) {
+			int i2 = i + di[k], j2 = j + dj[k], c = j2 * W + i2;
+			if (i2 < 0 || i2 >= W || j2 >= H || (i * 7 + j * 3) % 23 == 0 ||
+			    (i2 * 7 + j2 * 3) % 23 == 0)
+				continue;
+			double v = -0.5 - 0.4 * uniform();
+			Ti[nz] = r, Tj[nz] = c, Tx[nz++] = v;
+			Ti[nz] = c, Tj[nz] = r, Tx[nz++] = v;
+			diag[r] -= v, diag[c] -= v;
+		}
+	}
+	for (int r = 0; r < N; r++)
+		Ti[nz] = r, Tj[nz] = r, Tx[nz++] = diag[r];
+	T->nnz = nz;
+	cholmod_sparse *A = cholmod_triplet_to_sparse(T, nz, &cm);
+	ndo__mg *mg = NULL;
+	int rc = ndo__mg_create(6, nodes, N, A, mass, &cm, NULL, &mg);
+	CHECK(rc == NDO_OK && mg, "the hierarchy of a %d-row raster: %s", N, ndo_errdetail());
+	if (mg) {
+		double *x = malloc((3 * N + 1) * sizeof *x), *y = malloc(3 * N * sizeof *y);
+		for (int q = 0; q < 3 * N; q++)
+			x[q] = uniform();
+		x[3 * N] = 0;
+		ndo__mg_apply(mg, x, y);
+		const int *Ap = A->p, *Ai = A->i;
+		const double *Ax = A->x;
+		int differ = 0, seven = 0;
+		for (int r = 0; r < N; r++) {
+			double ref[3] = {0, 0, 0};
+			for (int k = Ap[r]; k < Ap[r + 1]; k++)
+				for (int c = 0; c < 3; c++)
+					ref[c] += Ax[k] * x[3 * Ai[k] + c];
+			differ += memcmp(ref, y + 3 * r, sizeof ref) != 0;
+			seven += Ap[r + 1] - Ap[r] == 7;
+		}
+		printf("    %d rows, %d of them 7-point; %d differ from CSR\n", N, seven, differ);
+		CHECK(seven > N / 2 && seven < N, "regular and irregular rows both (%d of %d)", seven, N);
+		CHECK(differ == 0, "%d rows of the product differ from CSR's", differ);
+		free(x), free(y);
+		ndo__mg_free(mg);
+	}
+	cholmod_free_sparse(&A, &cm);
+	cholmod_free_triplet(&T, &cm);
+	cholmod_finish(&cm);
+	free(mass), free(nodes);
+}
+
 int main(void)
 {
 	ck_program = "test_multigrid";
 	RUN(solver_names_parse);
+	RUN(stencil_rows_equal_csr);
 	RUN(steps_equal_cholmods);
 	RUN(stiff_membrane_solves);
 	RUN(threads_give_the_same_bits);
