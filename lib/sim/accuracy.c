@@ -652,6 +652,8 @@ int ndo_acc_choose(ndo_acc *a, double target, int metres, double T, ndo_acc_choi
 		if (es[q] < MARGIN_MEASURED * target_m && (q <= top || es[q] < MARGIN * target_m))
 			qmin = q;
 	ch->pilot_top = top;
+	for (int q = 0; q <= NDO_MAX_LEVEL; q++)
+		ch->level_m[q] = q <= n ? es[q] : INFINITY;
 	ch->rate = r;
 	ch->umax = umax;
 	ch->target_m = target_m;

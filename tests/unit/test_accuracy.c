@@ -204,6 +204,13 @@ static void bad_targets_are_refused(void)
 	      ch.error_m <= (ch.c.level <= ch.pilot_top ? 0.7 : 0.5) * 0.3 * ch.umax,
 	      "0.3: level %d (pilots to %d), h %g, predicted %g of %g m", ch.c.level, ch.pilot_top,
 	      ch.c.h, ch.error_m, ch.umax);
+	/* The per-level predictions (the benchmark's table of predicted
+	 * against true space errors): the chosen level's is the choice's
+	 * space error, the input level's the best reachable, none above it. */
+	CHECK(ch.level_m[ch.c.level] == ch.space_m && ch.level_m[4] == ch.best_m &&
+	      isinf(ch.level_m[5]) && isinf(ch.level_m[1]) && ch.level_m[2] > ch.level_m[4],
+	      "0.3: level errors %g %g %g m, space %g m, best %g m", ch.level_m[2], ch.level_m[3],
+	      ch.level_m[4], ch.space_m, ch.best_m);
 	unmake(&f);
 	fixture g;
 	make(&g, 4, "damping 0.1;force face faces=3,4 amplitude=1", bulge);

@@ -183,6 +183,10 @@ typedef struct ndo_acc_choice {
 	int reachable;
 	double best_m;          /* the input level's predicted space error, m */
 	int level_needed;
+	double level_m[NDO_MAX_LEVEL + 1]; /* each level's predicted space error, m:
+	                           measured against u* up to pilot_top, r per level
+	                           above; INFINITY below the first pilot and above
+	                           the input's level */
 } ndo_acc_choice;
 int ndo_acc_choose(ndo_acc *a, double target, int metres, double duration, ndo_acc_choice *ch);
 
