@@ -218,6 +218,22 @@ static void bad_targets_are_refused(void)
 	unmake(&g);
 }
 
+/* A coarse target met far below the input's level: the finer levels,
+ * which cost more than the choice even at twice the coarser level's step,
+ * are not analysed (their critical steps — a power iteration at the
+ * input's level — were most of choosing's cost). */
+static void finer_levels_that_cannot_win_are_not_analysed(void)
+{
+	fixture f;
+	make(&f, 6, "damping 0.1;force face at=0,0,1 radius=0.3 amplitude=1 frequency=1", bulge);
+	ndo_acc_choice ch;
+	CHECK(ndo_acc_choose(f.a, 0.3, 0, 1, &ch) == NDO_OK && ch.reachable && ch.c.level < 5 &&
+	      ch.critical_top < 6,
+	      "0.3 at level 6: level %d, pilots to %d, critical steps to level %d", ch.c.level,
+	      ch.pilot_top, ch.critical_top);
+	unmake(&f);
+}
+
 int main(void)
 {
 	ck_program = "accuracy";
@@ -226,5 +242,6 @@ int main(void)
 	RUN(time_estimate_follows_the_order);
 	RUN(time_estimate_at_the_largest_step);
 	RUN(bad_targets_are_refused);
+	RUN(finer_levels_that_cannot_win_are_not_analysed);
 	return ck_failed_cases != 0;
 }

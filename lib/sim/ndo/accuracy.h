@@ -179,6 +179,10 @@ typedef struct ndo_acc_choice {
 	double node_evals;      /* predicted force evaluations × vertices */
 	double pilot_cpu;       /* what choosing cost (pilots, critical steps), CPU s */
 	int pilot_top;          /* the finest pilot level */
+	int critical_top;       /* the finest level whose critical step was computed:
+	                           finer ones cannot beat the choice even at twice the
+	                           coarser level's step (the cost of a power iteration
+	                           at the input level is saved) */
 	double rate;            /* r per level (4) */
 	int reachable;
 	double best_m;          /* the input level's predicted space error, m */
