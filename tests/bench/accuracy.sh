@@ -4,7 +4,7 @@
 # thesis figures 5.3, 5.4, 5.7, the bunny, the ellipsoid free vibration, a
 # pinned sphere poked locally; inputs at levels 5 and 6.  Tables to
 # docs/bench/accuracy.md, figures to docs/simulate-peer/accuracy-N.png.
-# About fifteen minutes of CPU (the level-8 references, the sweeps).  The
+# About ten minutes of CPU (10.5 on 2026-11-25; the level-8 references, the sweeps).  The
 # summary: tests/bench/summarize_accuracy.py; it also rewrites the blocks
 # between "<!-- accuracy-bench: PART -->" and "<!-- /accuracy-bench -->" in
 # docs/simulate-peer.md (PART: estimates, choices, tallies).
