@@ -369,8 +369,8 @@ static double critical_at(ndo_acc *a, int level, ndo_method method)
 			return 0;
 		a->omega[level] = cr.omega_max, a->gamma[level] = cr.gamma;
 	}
-	/* ndo_stable_step scans the modes (about 10 ms): once per level and
-	 * method. */
+	/* ndo_stable_step scans the modes (2–4 ms for RK4): once per level
+	 * and method. */
 	if (!(a->crit[level][method] > 0))
 		a->crit[level][method] = ndo_stable_step(method, a->omega[level], a->gamma[level], NULL);
 	return a->crit[level][method];
@@ -579,6 +579,14 @@ static int64_t steps_for(double T, double h)
 	return n < 1 ? 1 : (int64_t)fmin(n, 1e12);
 }
 
+/* The least CPU time of `T` seconds at steps no longer than h: evals_per_step
+ * force evaluations per step of `vertices` vertices, per_eval s each. */
+static double cost_floor(double T, double h, double evals_per_step, size_t vertices,
+                         double per_eval)
+{
+	return (double)steps_for(T, h) * evals_per_step * (double)vertices * per_eval;
+}
+
 /* The pilots' space error of a level-q result u (q ≤ top) against the
  * extrapolation u* at level top. */
 static double against(int q, int top, const double *u, const double *ustar)
@@ -652,6 +660,9 @@ int ndo_acc_choose(ndo_acc *a, double target, int metres, double T, ndo_acc_choi
 		if (es[q] < MARGIN_MEASURED * target_m && (q <= top || es[q] < MARGIN * target_m))
 			qmin = q;
 	ch->pilot_top = top;
+	ch->critical_top = top;
+	for (int q = 0; q <= NDO_MAX_LEVEL; q++)
+		ch->level_m[q] = q <= n ? es[q] : INFINITY;
 	ch->rate = r;
 	ch->umax = umax;
 	ch->target_m = target_m;
@@ -700,6 +711,16 @@ int ndo_acc_choose(ndo_acc *a, double target, int metres, double T, ndo_acc_choi
 	 * critical step when that meets the target, else at the step whose
 	 * predicted time error fits what the space error leaves. */
 	ch->cpu = INFINITY;
+	/* A level's critical step is about half the next coarser one's (the
+	 * mesh size halves, the top mode's frequency doubles); take it to be
+	 * at most twice.  A method whose run at level q, even at that step,
+	 * costs more than the best candidate so far is not analysed there nor
+	 * finer (4× the nodes per level, at most half the steps): the power
+	 * iteration for the input level's critical step (0.56 s for figure
+	 * 5.4 at level 6) was most of choosing's cost when a level-2 run of
+	 * 1e-5 s won. */
+	double hprev[2] = {0, 0};
+	int hlevel[2] = {0, 0}, pruned[2] = {0, 0};
 	for (int q = qmin >= 0 ? qmin : n; q <= n; q++) {
 		int measured = q <= top;
 		double margin = measured ? MARGIN_MEASURED : MARGIN;
@@ -710,9 +731,18 @@ int ndo_acc_choose(ndo_acc *a, double target, int metres, double T, ndo_acc_choi
 			continue;
 		for (int k = 0; k < 2; k++) {
 			int p = ndo_method_order(ms[k]);
+			if (q > top && !pruned[k] && hprev[k] > 0 &&
+			    cost_floor(T, hprev[k] * pow(2, q - hlevel[k]), evals_per_step[k],
+			               ndo_vertex_count(q), per_eval[k]) >= ch->cpu)
+				pruned[k] = 1;
+			if (pruned[k])
+				continue;
 			double hc = critical_at(a, q, ms[k]), Ck = C[measured ? q : top][k];
+			if (q > ch->critical_top)
+				ch->critical_top = q;
 			if (!(hc > 0))
 				continue;
+			hprev[k] = SAFETY * hc, hlevel[k] = q;
 			double h = SAFETY * hc, err;
 			if (measured && tot[q][k] <= margin * target_m) {
 				err = tot[q][k];

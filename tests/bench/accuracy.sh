@@ -4,7 +4,7 @@
 # thesis figures 5.3, 5.4, 5.7, the bunny, the ellipsoid free vibration, a
 # pinned sphere poked locally; inputs at levels 5 and 6.  Tables to
 # docs/bench/accuracy.md, figures to docs/simulate-peer/accuracy-N.png.
-# About fifteen minutes of CPU (the level-8 references, the sweeps).  The
+# About ten minutes of CPU (10.5 on 2026-11-25; the level-8 references, the sweeps).  The
 # summary: tests/bench/summarize_accuracy.py; it also rewrites the blocks
 # between "<!-- accuracy-bench: PART -->" and "<!-- /accuracy-bench -->" in
 # docs/simulate-peer.md (PART: estimates, choices, tallies).
@@ -35,6 +35,8 @@ for N in $LEVELS; do
 	"$B/bench_accuracy" estimates "$N" "$T" "${scenes[@]}" >"$d/estimates-$N.csv" 2>"$d/estimates-$N.log"
 	"$B/bench_accuracy" choose "$N" "$T" "${scenes[@]}" >"$d/choose-$N.csv" 2>"$d/choose-$N.log"
 	grep '^point,' "$d/choose-$N.log" | sed '1i point,scene,level,method,step_s,cpu_s,error' >"$d/sweep-$N.csv"
+	grep '^level,' "$d/choose-$N.log" | cut -d, -f2- |
+		sed '1i scene,level,pilots,predicted_space,true_space,ratio,true_symplectic_euler,true_rk4' >"$d/levels-$N.csv"
 	/usr/bin/python3 tests/bench/plot_accuracy.py "$d" "$N" docs/simulate-peer/accuracy-$N.png
 	echo "load average at the end: $(cut -d' ' -f1-3 /proc/loadavg)" >>"$d/load-$N"
 done
@@ -86,6 +88,16 @@ out=docs/bench/accuracy.md
 			"(level: the level that would be needed; predicted: the input level's predicted error)."
 		echo
 		table "$d/choose-$N.csv"
+		echo
+		echo "### Each level's predicted space error against the sweep's"
+		echo
+		echo "predicted_space: the chooser's (ndo_acc_choice.level_m; the E whose pilots went" \
+			"furthest), measured against the pilots' extrapolation u* up to their finest level," \
+			"extrapolated by r = 4 per level above; true_space: the sweep's RK4 at its smallest step" \
+			"at that level; true_symplectic_euler, true_rk4: each at 0.9 × its critical step; all" \
+			"relative to the reference's largest displacement."
+		echo
+		[ -f "$d/levels-$N.csv" ] && table "$d/levels-$N.csv"
 		echo
 		echo "![accuracy, level $N](../simulate-peer/accuracy-$N.png)"
 	done

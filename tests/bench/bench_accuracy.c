@@ -265,6 +265,8 @@ static void choose(int n, int argc, char **argv)
 		double best = INFINITY;
 		for (int q = 0; q < np; q++)
 			best = fmin(best, pts[q].err);
+		ndo_acc_choice most = {0}; /* the choice whose pilots went furthest */
+		most.pilot_top = -1;
 		for (int e = 0; e < 3; e++) {
 			double E = Es[e];
 			double cheapest = INFINITY;
@@ -281,6 +283,8 @@ static void choose(int n, int argc, char **argv)
 			if (ndo_acc_choose(b.in, E, 0, b.T, &ch))
 				die("choose");
 			double tc = cpu() - t0;
+			if (ch.pilot_top > most.pilot_top)
+				most = ch;
 			if (!ch.reachable) {
 				printf("%s,%g,0,%d,,,,%.3g,,,,,%.4g,,%.4g,%s,,,%.3g\n", b.name, E, ch.level_needed,
 				       ch.best_m / ch.umax, tc, cheapest, cname, best);
@@ -300,6 +304,26 @@ static void choose(int n, int argc, char **argv)
 			       cname, t / cheapest, (t + tc + es.cpu) / cheapest, best);
 			fflush(stdout);
 			ndo_acc_result_free(&r);
+		}
+		/* Each level's predicted space error (the choice whose pilots went
+		 * furthest) against the sweep's: RK4 at its smallest step there
+		 * (the time error halved away), and each method at 0.9 ×
+		 * critical. */
+		for (int l = 2; l <= n; l++) {
+			double sp = INFINITY, se = NAN, rk = NAN;
+			for (int q = 0; q < np; q++) {
+				if (pts[q].c.level != l)
+					continue;
+				if (pts[q].c.method == NDO_RK4)
+					sp = fmin(sp, pts[q].err);
+				double *first = pts[q].c.method == NDO_RK4 ? &rk : &se;
+				if (isnan(*first))
+					*first = pts[q].err;
+			}
+			double pred = most.level_m[l] / b.umax;
+			fprintf(stderr, "level,%s,%d,%s,%.3g,%.3g,%.3g,%.3g,%.3g\n", b.name, l,
+			        l <= most.pilot_top ? "measured" : "extrapolated", pred, sp, pred / sp, se,
+			        rk);
 		}
 		/* The sweep for the plot. */
 		for (int q = 0; q < np; q++)

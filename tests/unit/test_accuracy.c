@@ -204,11 +204,34 @@ static void bad_targets_are_refused(void)
 	      ch.error_m <= (ch.c.level <= ch.pilot_top ? 0.7 : 0.5) * 0.3 * ch.umax,
 	      "0.3: level %d (pilots to %d), h %g, predicted %g of %g m", ch.c.level, ch.pilot_top,
 	      ch.c.h, ch.error_m, ch.umax);
+	/* The per-level predictions (the benchmark's table of predicted
+	 * against true space errors): the chosen level's is the choice's
+	 * space error, the input level's the best reachable, none above it. */
+	CHECK(ch.level_m[ch.c.level] == ch.space_m && ch.level_m[4] == ch.best_m &&
+	      isinf(ch.level_m[5]) && isinf(ch.level_m[1]) && ch.level_m[2] > ch.level_m[4],
+	      "0.3: level errors %g %g %g m, space %g m, best %g m", ch.level_m[2], ch.level_m[3],
+	      ch.level_m[4], ch.space_m, ch.best_m);
 	unmake(&f);
 	fixture g;
 	make(&g, 4, "damping 0.1;force face faces=3,4 amplitude=1", bulge);
 	CHECK(ndo_acc_choose(g.a, 0.1, 0, 1, &ch) == NDO_EINVAL, "forces by face ids accepted");
 	unmake(&g);
+}
+
+/* A coarse target met far below the input's level: the finer levels,
+ * which cost more than the choice even at twice the coarser level's step,
+ * are not analysed (their critical steps — a power iteration at the
+ * input's level — were most of choosing's cost). */
+static void finer_levels_that_cannot_win_are_not_analysed(void)
+{
+	fixture f;
+	make(&f, 6, "damping 0.1;force face at=0,0,1 radius=0.3 amplitude=1 frequency=1", bulge);
+	ndo_acc_choice ch;
+	CHECK(ndo_acc_choose(f.a, 0.3, 0, 1, &ch) == NDO_OK && ch.reachable && ch.c.level < 5 &&
+	      ch.critical_top < 6,
+	      "0.3 at level 6: level %d, pilots to %d, critical steps to level %d", ch.c.level,
+	      ch.pilot_top, ch.critical_top);
+	unmake(&f);
 }
 
 int main(void)
@@ -219,5 +242,6 @@ int main(void)
 	RUN(time_estimate_follows_the_order);
 	RUN(time_estimate_at_the_largest_step);
 	RUN(bad_targets_are_refused);
+	RUN(finer_levels_that_cannot_win_are_not_analysed);
 	return ck_failed_cases != 0;
 }
