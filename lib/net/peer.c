@@ -61,6 +61,10 @@ struct ndo_peer {
 	double block_t0, next_resend, resend_gap;
 	double gather_t0;
 	int notes_missed;
+	/* exact lock-step: per peer heard from, the partition of its newest
+	 * halo, its newest step there, and when (a neighbour still sending is
+	 * alive: waiting for it is not waiting for a dead peer) */
+	struct { int32_t id, epoch; int64_t step; double at; } heard[NDO_MAX_PEERS];
 	/* tiles for later */
 	ndo_msg_tile_t *stash;
 	size_t nstash, capstash;
@@ -358,6 +362,47 @@ static void halo_free(ndo_msg_halo_t *h)
 
 static void on_checkpoint(ndo_peer *p, const ndo_msg_halo_t *h);
 
+/* Note a halo (of any partition) from another peer: its partition, its
+ * newest step in that partition and when it came. */
+static void heard(ndo_peer *p, const ndo_msg_halo_t *h)
+{
+	int k, free_k = -1;
+	for (k = 0; k < NDO_MAX_PEERS; k++) {
+		if (p->heard[k].id == h->hdr.sender_id)
+			break;
+		if (free_k < 0 && (p->heard[k].id == 0 || p->now - p->heard[k].at > p->step_timeout))
+			free_k = k;
+	}
+	if (k == NDO_MAX_PEERS) {
+		if (free_k < 0)
+			return;
+		k = free_k;
+		p->heard[k].id = h->hdr.sender_id;
+		p->heard[k].epoch = -1;
+	}
+	if (h->epoch < p->heard[k].epoch)
+		return;
+	if (h->epoch > p->heard[k].epoch || h->step > p->heard[k].step)
+		p->heard[k].step = h->step;
+	p->heard[k].epoch = h->epoch;
+	p->heard[k].at = p->now;
+}
+
+/* Is neighbour `id` alive and able to send step cur still: a halo came
+ * from it within the step timeout, either of an older partition (it has
+ * not installed this one yet, and will go back to its restart step) or of
+ * this one at most one exchange ahead (its two re-sent strips hold cur)? */
+static int alive_at_cur(const ndo_peer *p, int32_t id)
+{
+	int32_t epoch = ndo_session_epoch(p->s);
+	for (int k = 0; k < NDO_MAX_PEERS; k++)
+		if (p->heard[k].id == id)
+			return p->now - p->heard[k].at < p->step_timeout &&
+			       (p->heard[k].epoch < epoch || (p->heard[k].step <= p->cur + p->K &&
+			                                       p->heard[k].step >= p->cur - p->K));
+	return 0;
+}
+
 /* The session's halo_fn: another peer's halo (or checkpoint). */
 static void on_halo(void *user, const ndo_msg_halo_t *h)
 {
@@ -370,6 +415,7 @@ static void on_halo(void *user, const ndo_msg_halo_t *h)
 		on_checkpoint(p, h);
 		return;
 	}
+	heard(p, h);
 	if (h->epoch < ndo_session_epoch(p->s) ||
 	    (h->epoch == ndo_session_epoch(p->s) && !member(p, h->hdr.sender_id))) {
 		p->st.stale++;
@@ -1495,6 +1541,33 @@ static int step_split(ndo_peer *p)
 	return stepped(p);
 }
 
+/* Exact lock-step with restarts: is every neighbour whose halo at cur is
+ * missing alive and able to send it still (alive_at_cur)?  Then the step
+ * timeout does not go on with older values: under loss a re-sent strip
+ * comes, while a step taken without it would leave the run inexact for
+ * good (no partition follows to restart it); a dead neighbour falls
+ * silent and is timed out as before.  Only with restarts: every peer of a
+ * partition starts it at the same step R, so a live neighbour is at most
+ * one exchange away and holds what this peer waits for (without them, a
+ * partition takes effect at whatever step each peer is, and peers more
+ * than an exchange apart would wait for each other for ever). */
+static int neighbours_alive(ndo_peer *p)
+{
+	if (!restartable(p))
+		return 0;
+	const int32_t *own = owner_channel(p);
+	int32_t last = 0;
+	for (size_t k = 0; k < p->nhalo; k++) {
+		int32_t c = p->halo[k];
+		if (p->nstep[c] >= p->cur || own[c] == last)
+			continue;
+		last = own[c];
+		if (!alive_at_cur(p, last))
+			return 0;
+	}
+	return 1;
+}
+
 /* Lock-step: step when the halo holds step `cur`; otherwise wait,
  * re-send, and after step_timeout go on. */
 static int lockstep(ndo_peer *p)
@@ -1512,7 +1585,7 @@ static int lockstep(ndo_peer *p)
 		p->next_resend = now + p->resend_gap;
 		p->st.waited++;
 	}
-	if (now - p->block_t0 >= p->step_timeout) {
+	if (now - p->block_t0 >= p->step_timeout && !neighbours_alive(p)) {
 		p->st.timeouts++;
 		p->inexact = 1; /* no checkpoints until a restart */
 		if (p->notes_missed++ < 5) {

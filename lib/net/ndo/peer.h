@@ -22,7 +22,9 @@
  *                      again (after `resend`, doubling up to 0.2 s), which
  *                      recovers lost tiles; after `step_timeout` it goes
  *                      on with the newest values it has and counts the
- *                      miss (a dead or unreachable neighbour).
+ *                      miss (a dead or unreachable neighbour) — with
+ *                      restarts (checkpoint_every), only when some missing
+ *                      neighbour sent no halo for step_timeout.
  *   NDO_CLOCK_REALTIME  a peer steps on the wall clock, step k at
  *                      start + k·dt/speed; nobody waits.  A peer that sees
  *                      another one further on catches up at once (the
