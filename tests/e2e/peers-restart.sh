@@ -1,9 +1,9 @@
 #!/usr/bin/env bash
 # Exact restarts over real LCM in a private network namespace (docs/peers.md,
 # "Joins, leaves, a dead peer"): the owner and 2 joiners, lock-step rk4, the
-# thesis' scene (figure 5.3) at level 4 for 40 s (8000 steps of 5 ms: 2000 ran
-# out in 0.55 s on a quiet machine, before a pause of up to 0.8 s).  A
-# joiner killed with SIGKILL at a random moment of the run: the owner drops
+# thesis' scene (figure 5.3) at level 4 for 80 s (16000 steps of 5 ms: the
+# three peers ran 8000 in 0.55-0.65 s on a quiet machine, so a run half as
+# long could end before a pause of 0.8 s).  A joiner killed with SIGKILL at a random moment of the run: the owner drops
 # it after --peer-timeout 0.5 s, every survivor goes back to the newest
 # checkpoint step the owner holds whole, and the owner's -o is the single
 # process's bit for bit — also with 10 % loss injected into what every peer
@@ -16,11 +16,12 @@
 
 SCENE=$NDO_ROOT/samples/thesis-fig5.3.scene
 remesh --shape wavy -l 4 -o wavy4.tgrid 2>/dev/null || fail "remesh"
-RUN=(-s "$SCENE" --dt 0.005 -t 40)
+RUN=(-s "$SCENE" --dt 0.005 -t 80)
 simulate-peer -q wavy4.tgrid "${RUN[@]}" -o solo.tgrid 2>solo.err || fail "single process"
 
-# a random pause of 0.05..0.8 s (the run takes 2 s or more)
-pause() { sleep "$(awk -v r=$RANDOM 'BEGIN{printf "%.2f", 0.05 + 0.75 * r / 32767}')"; }
+# a random pause of 0.05..0.4 s after the first step (the run takes 1.1 s
+# or more: the event falls within it, and a joiner has time to come)
+pause() { sleep "$(awk -v r=$RANDOM 'BEGIN{printf "%.2f", 0.05 + 0.35 * r / 32767}')"; }
 
 # event NAME KIND EXPECT [options for every peer...]: owner + 2 joiners (for
 # KIND join: 1, the second comes after a pause); KIND kill|leave: after a
@@ -56,7 +57,11 @@ event() {
 		;;
 	esac
 	local bad=0 k
-	for k in "${!pids[@]}"; do wait "${pids[$k]}" || { bad=1; echo "    peer $k: exit $?"; }; done
+	for k in "${!pids[@]}"; do
+		wait "${pids[$k]}" && continue
+		echo "    peer $k: exit $?"
+		bad=1
+	done
 	[ -n "${victim:-}" ] && wait $victim 2>/dev/null
 	local at restarts
 	at=$(grep -o 'restarting from step [0-9]*.*again' owner.err | tail -1)

@@ -24,7 +24,8 @@
  *                      on with the newest values it has and counts the
  *                      miss (a dead or unreachable neighbour) — with
  *                      restarts (checkpoint_every), only when some missing
- *                      neighbour sent no halo for step_timeout.
+ *                      neighbour sent no halo for the session's peer
+ *                      timeout (at least step_timeout).
  *   NDO_CLOCK_REALTIME  a peer steps on the wall clock, step k at
  *                      start + k·dt/speed; nobody waits.  A peer that sees
  *                      another one further on catches up at once (the
