@@ -94,6 +94,35 @@ static void accel_border(const ndo_sim *s, const double *u, const double *v, con
 	}
 }
 
+/* A stage buffer's held nodes at the state's displacement u: only those an
+ * active node reads (the others are never read), so a peer's step costs
+ * its region, not the whole grid (a full copy was 2·3·count doubles a step). */
+void ndo__held_keep(ndo_sim *s, double *buf)
+{
+	const size_t cnt = s->count;
+	for (size_t k = 0; k < s->nhread; k++)
+		for (int c = 0; c < 3; c++) {
+			size_t q = (size_t)c * cnt + (size_t)s->hread[k];
+			buf[q] = s->u[q];
+		}
+	ndo__sync_planes(s, buf, 3);
+}
+
+/* Held nodes at the time τ after the state's: buf = u + τ v on them (the
+ * boundary moving with its velocity, ndo_sim_set_held_motion). */
+void ndo__held_at(ndo_sim *s, double *buf, double tau)
+{
+	if (!s->held_motion || !s->nhmove)
+		return;
+	const size_t cnt = s->count;
+	for (size_t k = 0; k < s->nhmove; k++)
+		for (int c = 0; c < 3; c++) {
+			size_t q = (size_t)c * cnt + (size_t)s->hmove[k];
+			buf[q] = s->u[q] + tau * s->v[q];
+		}
+	ndo__sync_planes(s, buf, 3);
+}
+
 /* The power the held nodes put into the active ones: Σ v_p · c u_q over
  * the edges from an active p to a held q (the part of −K u that the held
  * displacements contribute).  Only for the divergence bound. */

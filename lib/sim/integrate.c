@@ -274,35 +274,6 @@ static int build_held_edges(ndo_sim *s)
 	return NDO_OK;
 }
 
-/* A stage buffer's held nodes at the state's displacement u: only those an
- * active node reads (the others are never read), so a peer's step costs
- * its region, not the whole grid (a full copy was 2·3·count doubles a step). */
-void ndo__held_keep(ndo_sim *s, double *buf)
-{
-	const size_t cnt = s->count;
-	for (size_t k = 0; k < s->nhread; k++)
-		for (int c = 0; c < 3; c++) {
-			size_t q = (size_t)c * cnt + (size_t)s->hread[k];
-			buf[q] = s->u[q];
-		}
-	ndo__sync_planes(s, buf, 3);
-}
-
-/* Held nodes at the time τ after the state's: buf = u + τ v on them (the
- * boundary moving with its velocity, ndo_sim_set_held_motion). */
-void ndo__held_at(ndo_sim *s, double *buf, double tau)
-{
-	if (!s->held_motion || !s->nhmove)
-		return;
-	const size_t cnt = s->count;
-	for (size_t k = 0; k < s->nhmove; k++)
-		for (int c = 0; c < 3; c++) {
-			size_t q = (size_t)c * cnt + (size_t)s->hmove[k];
-			buf[q] = s->u[q] + tau * s->v[q];
-		}
-	ndo__sync_planes(s, buf, 3);
-}
-
 /* Runs sp[0..n) cut into chunks of about NDO__CHUNK nodes, at most
  * NDO__CHUNKS of them, at run boundaries (a run is at most a row): *chunk
  * gets the first run of each chunk and n at the end.  The cut depends on
