@@ -7,7 +7,7 @@
 # About ten minutes of CPU (10.5 on 2026-11-25; the level-8 references, the sweeps).  The
 # summary: tests/bench/summarize_accuracy.py; it also rewrites the blocks
 # between "<!-- accuracy-bench: PART -->" and "<!-- /accuracy-bench -->" in
-# docs/simulate-peer.md (PART: estimates, choices, tallies).
+# docs/simulate-peer.md (PART: estimates, choices, tallies, misses).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 B=${NDO_TESTBIN:-build/tests}
@@ -62,6 +62,12 @@ out=docs/bench/accuracy.md
 	echo "## Summary"
 	echo
 	/usr/bin/python3 tests/bench/summarize_accuracy.py "$d" all $LEVELS
+	echo "The runs that cost more than 2× the sweep's cheapest configuration (its error: the" \
+		"sweep's; * where taken from the level table, that method at 0.9 × its critical step;" \
+		"its level's predicted space error: the chooser's for the cheapest's level; with choosing:" \
+		"the chosen run's CPU time plus choose_cpu_s, over the cheapest's):"
+	echo
+	/usr/bin/python3 tests/bench/summarize_accuracy.py "$d" misses $LEVELS
 	for N in $LEVELS; do
 		echo
 		echo "## Input level $N"
@@ -84,7 +90,10 @@ out=docs/bench/accuracy.md
 		echo "The sweep: levels 2..$N, symplectic Euler and RK4 at 0.9 × the critical step and halvings" \
 			"(until the error stops falling).  cheapest: the sweep's cheapest configuration whose true" \
 			"error is ≤ E; ratio: the chosen run's CPU time over it; ratio_with_overhead: choosing" \
-			"(pilots, critical steps) and the estimate included.  reachable 0: refused before any run" \
+			"(pilots, critical steps) and the estimate included (choose_cpu_s: ndo_acc_choose's CPU" \
+			"time, once; a scene's later targets reuse the critical steps of its first; the" \
+			"sweep's configurations are timed without their critical step, which a plain run" \
+			"also computes).  reachable 0: refused before any run" \
 			"(level: the level that would be needed; predicted: the input level's predicted error)."
 		echo
 		table "$d/choose-$N.csv"
