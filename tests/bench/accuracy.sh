@@ -4,7 +4,8 @@
 # thesis figures 5.3, 5.4, 5.7, the bunny, the ellipsoid free vibration, a
 # pinned sphere poked locally; inputs at levels 5 and 6.  Tables to
 # docs/bench/accuracy.md, figures to docs/simulate-peer/accuracy-N.png.
-# About ten minutes of CPU (10.5 on 2026-11-25; the level-8 references, the sweeps).  The
+# About ten minutes of CPU (10.5 on 2026-11-25; the level-8 references, the sweeps; the
+# pilot study 40 s more).  The
 # summary: tests/bench/summarize_accuracy.py; it also rewrites the blocks
 # between "<!-- accuracy-bench: PART -->" and "<!-- /accuracy-bench -->" in
 # docs/simulate-peer.md (PART: estimates, choices, tallies, misses).
@@ -34,6 +35,10 @@ for N in $LEVELS; do
 	echo "bench_accuracy choose $N $T ${scenes[*]}" >>"$d/commands-$N"
 	"$B/bench_accuracy" estimates "$N" "$T" "${scenes[@]}" >"$d/estimates-$N.csv" 2>"$d/estimates-$N.log"
 	"$B/bench_accuracy" choose "$N" "$T" "${scenes[@]}" >"$d/choose-$N.csv" 2>"$d/choose-$N.log"
+	# What a pilot at the input level would tell of level N - 1 (the cost
+	# misses' candidate), on the two scenes whose misses are decided there.
+	echo "bench_accuracy pilot $N $T ${scenes[2]} ${scenes[5]}" >>"$d/commands-$N"
+	"$B/bench_accuracy" pilot "$N" "$T" "${scenes[2]}" "${scenes[5]}" >"$d/pilot-$N.csv" 2>"$d/pilot-$N.log"
 	grep '^point,' "$d/choose-$N.log" | sed '1i point,scene,level,method,step_s,cpu_s,error' >"$d/sweep-$N.csv"
 	grep '^level,' "$d/choose-$N.log" | cut -d, -f2- |
 		sed '1i scene,level,pilots,predicted_space,true_space,ratio,true_symplectic_euler,true_rk4' >"$d/levels-$N.csv"
@@ -107,6 +112,18 @@ out=docs/bench/accuracy.md
 			"relative to the reference's largest displacement."
 		echo
 		[ -f "$d/levels-$N.csv" ] && table "$d/levels-$N.csv"
+		if [ -f "$d/pilot-$N.csv" ]; then
+			echo
+			echo "### What a pilot at the input level would tell of level $((N - 1))"
+			echo
+			echo "At t = T/8, T/4, T/2, T: true_below, true_input: the true errors of levels $((N - 1))" \
+				"and $N (symplectic Euler at 0.9 × critical); predicted_below: the pilots' D / 3 from" \
+				"levels $((N - 2)) and $((N - 1)); pilot_difference: level $((N - 1))'s pilot against one at" \
+				"level $N (RK4 at half its critical step); all relative to the reference's largest" \
+				"displacement up to t (largest_m)."
+			echo
+			table "$d/pilot-$N.csv"
+		fi
 		echo
 		echo "![accuracy, level $N](../simulate-peer/accuracy-$N.png)"
 	done
