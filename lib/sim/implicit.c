@@ -502,10 +502,9 @@ static int mg_step(ndo_sim *s, ndo__implicit *im, double h, const double *a, con
 		/* A v, the held velocities left out (held positions stay put). */
 		mg_pass_run(&P, 0);
 		ndo__mg_apply(im->mg, im->x3, im->b3);
-		memcpy(im->x3, im->b3, 3 * im->na * sizeof *im->x3);
-		P.av = im->x3;
+		P.av = im->b3;
 	}
-	/* av is read before x3 is written, row by row. */
+	/* av (in b3) is read before b3 is written, element by element. */
 	mg_pass_run(&P, 1);
 	im->aprev_ok = 1;
 	int iters, rc;
