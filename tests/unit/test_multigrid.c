@@ -366,15 +366,24 @@ static cholmod_sparse *raster(double extra, int use_mass, double *mass, cholmod_
 	return cholmod_triplet_to_sparse(T, nz, cm);
 }
 
+/* CHOLMOD's workspace, the raster's mass (N) and its rows' nodes (N,
+ * r → r), for the tests below (theirs to free). */
+static void raster_start(cholmod_common *cm, double **mass, int32_t **nodes)
+{
+	cholmod_start(cm);
+	cm->print = 0;
+	*mass = malloc(N * sizeof **mass);
+	*nodes = malloc(N * sizeof **nodes);
+	for (int r = 0; r < N; r++)
+		(*nodes)[r] = r;
+}
+
 static void stencil_rows_equal_csr(void)
 {
 	cholmod_common cm;
-	cholmod_start(&cm);
-	cm.print = 0;
-	double *mass = malloc(N * sizeof *mass);
-	int32_t *nodes = malloc(N * sizeof *nodes);
-	for (int r = 0; r < N; r++)
-		nodes[r] = r;
+	double *mass;
+	int32_t *nodes;
+	raster_start(&cm, &mass, &nodes);
 	cholmod_triplet *T;
 	cholmod_sparse *A = raster(0, 1, mass, &T, &cm);
 	ndo__mg *mg = NULL;
@@ -419,12 +428,9 @@ static void stencil_rows_equal_csr(void)
 static void jacobi_solves_equal_cholmods(void)
 {
 	cholmod_common cm;
-	cholmod_start(&cm);
-	cm.print = 0;
-	double *mass = malloc(N * sizeof *mass);
-	int32_t *nodes = malloc(N * sizeof *nodes);
-	for (int r = 0; r < N; r++)
-		nodes[r] = r;
+	double *mass;
+	int32_t *nodes;
+	raster_start(&cm, &mass, &nodes);
 	const struct {
 		double extra;
 		int use_mass;
