@@ -12,6 +12,10 @@
  *   bench_simulate pipeline T L...  rk4's four passes against its
  *                               pipeline (lib/sim/rk4.c), on 1 and T
  *                               threads, in alternating runs
+ *   bench_simulate bandwidth T  the STREAM-like triad on 1 and on T
+ *                               threads over the same arrays, in
+ *                               alternating runs: what more threads can
+ *                               give a pass bound by memory
  *
  * Timings are medians of 7 runs of at least 0.1 s each, single thread
  * (threads: the ratio is the median of the 7 pairs' ratios); limits and
@@ -21,6 +25,7 @@
 #include "sim_private.h" /* rk4_reference: the passes beside the pipeline */
 
 #include <math.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -379,6 +384,85 @@ static void limits(void)
 		printf("| FMA, AVX-512 (8 doubles) | %.1f GFLOP/s |\n", gflops(fma_avx512, 8));
 }
 
+/* The triad on 1 and on T threads: the same three arrays of n doubles,
+ * thread i on its slice, reps sweeps each, wall time from the threads'
+ * start to the last one's end (a thread per run: its start is small
+ * beside a run of 0.1 s or more). */
+typedef struct triad_slice {
+	double *a, *b, *c;
+	size_t n;
+	long reps;
+} triad_slice;
+
+static void *triad_thread(void *arg)
+{
+	triad_slice *t = arg;
+	for (long k = 0; k < t->reps; k++) {
+		triad_avx2(t->a, t->b, t->c, t->n);
+		__asm__ volatile("" ::"r"(t->a) : "memory");
+	}
+	return NULL;
+}
+
+static double triad_threads(double *a, double *b, double *c, size_t n, long reps, int T)
+{
+	pthread_t th[64];
+	triad_slice sl[64];
+	double t0 = now();
+	for (int i = 0; i < T; i++) {
+		size_t o = n * (size_t)i / (size_t)T, e = n * (size_t)(i + 1) / (size_t)T;
+		sl[i] = (triad_slice){a + o, b + o, c + o, e - o, reps};
+		if (i > 0 && pthread_create(&th[i], NULL, triad_thread, &sl[i])) {
+			fprintf(stderr, "bench_simulate: cannot start a thread\n");
+			exit(1);
+		}
+	}
+	triad_thread(&sl[0]);
+	for (int i = 1; i < T; i++)
+		pthread_join(th[i], NULL);
+	return 24.0 * (double)n * (double)reps / (now() - t0) / 1e9;
+}
+
+static void bandwidth_threads(int T)
+{
+	if (T < 2 || T > 64) {
+		fprintf(stderr, "bench_simulate: bandwidth: %d threads: must be 2 to 64\n", T);
+		exit(2);
+	}
+	printf("| three arrays of | like | 1 thread (GB/s) | %d threads (GB/s) | ratio |\n", T);
+	printf("|---:|---|---:|---:|---:|\n");
+	const struct {
+		size_t bytes;
+		const char *like;
+	} sizes[] = {{768 << 10, "L2 of one core"},
+	             {6 << 20, "level 7's state (7.3 MiB)"},
+	             {24 << 20, "level 8's state (29 MiB)"},
+	             {96 << 20, "level 9's (117 MiB)"},
+	             {384 << 20, "level 10's (467 MiB)"}};
+	for (int k = 0; k < 5; k++) {
+		size_t n = sizes[k].bytes / 24;
+		double *a = malloc(n * sizeof *a), *b = malloc(n * sizeof *b), *c = malloc(n * sizeof *c);
+		if (!a || !b || !c) {
+			fprintf(stderr, "bench_simulate: out of memory\n");
+			exit(1);
+		}
+		for (size_t i = 0; i < n; i++)
+			a[i] = (double)i, b[i] = 0, c[i] = 1;
+		long reps = (long)(3e8 / (double)n) + 1;
+		triad_threads(a, b, c, n, reps, 1), triad_threads(a, b, c, n, reps, T);
+		double r1[REPS], rT[REPS], q[REPS];
+		for (int r = 0; r < REPS; r++) {
+			r1[r] = triad_threads(a, b, c, n, reps, 1);
+			rT[r] = triad_threads(a, b, c, n, reps, T);
+			q[r] = rT[r] / r1[r];
+		}
+		printf("| %.2f MiB | %s | %.1f | %.1f | %.2f |\n", (double)sizes[k].bytes / 1048576.0,
+		       sizes[k].like, median(r1, REPS), median(rT, REPS), median(q, REPS));
+		fflush(stdout);
+		free(a), free(b), free(c);
+	}
+}
+
 /* The fused RK4 pass per node and stage (integrate.c, rk4_interior), with
  * forces: stencil 3 × (6 sub + 6 mul + 5 add) = 51, acceleration 3 × 4 =
  * 12, stage update 3 × 8 = 24 (the middle stages; the first 3 × 4 + the
@@ -425,8 +509,10 @@ int main(int argc, char **argv)
 		threads(argc - 2, argv + 2);
 	else if (argc >= 4 && strcmp(argv[1], "pipeline") == 0)
 		pipeline(argc - 2, argv + 2);
+	else if (argc == 3 && strcmp(argv[1], "bandwidth") == 0)
+		bandwidth_threads(atoi(argv[2]));
 	else {
-		fprintf(stderr, "usage: bench_simulate speed|kernel LEVEL... | threads|pipeline T LEVEL... | limits\n");
+		fprintf(stderr, "usage: bench_simulate speed|kernel LEVEL... | threads|pipeline T LEVEL... | bandwidth T | limits\n");
 		return 2;
 	}
 	return 0;
