@@ -12,6 +12,10 @@
  *   bench_simulate pipeline T L...  rk4's four passes against its
  *                               pipeline (lib/sim/rk4.c), on 1 and T
  *                               threads, in alternating runs
+ *   bench_simulate fused T L...  the same for symplectic Euler and
+ *                               midpoint: their passes through the stored
+ *                               acceleration against the fused ones
+ *                               (integrate.c, ndo__accel_update)
  *   bench_simulate bandwidth T  the STREAM-like triad on 1 and on T
  *                               threads over the same arrays, in
  *                               alternating runs: what more threads can
@@ -195,20 +199,22 @@ static void threads(int argc, char **argv)
 /* RK4's two ways (lib/sim/rk4.c): the four passes and the pipeline, on
  * one thread and on T, the four timed in turn; the ratios are medians of
  * the runs' ratios within a round. */
-static void pipeline(int argc, char **argv)
+static void pipeline(int argc, char **argv, const ndo_method *ms, int nm, const char *fast)
 {
 	int T = atoi(argv[0]);
-	printf("| level | nodes | passes, 1 thread | pipeline, 1 thread | ratio | passes, %d threads "
-	       "| pipeline, %d threads | ratio | pipeline %d threads / passes 1 thread |\n", T, T, T);
-	printf("|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
-	for (int a = 1; a < argc; a++) {
+	printf("| %slevel | nodes | passes, 1 thread | %s, 1 thread | ratio | passes, %d threads "
+	       "| %s, %d threads | ratio | %s %d threads / passes 1 thread |\n",
+	       nm > 1 ? "integrator | " : "", fast, T, fast, T, fast, T);
+	printf("|%s---:|---:|---:|---:|---:|---:|---:|---:|---:|\n", nm > 1 ? "---|" : "");
+	for (int a = 1; a < argc; a++)
+	for (int im = 0; im < nm; im++) {
 		int level = atoi(argv[a]);
 		ndo_grid *g;
 		ndo_shape_make("wavy", level, NULL, &g);
 		ndo_force *f[4];
 		ndo_sim *s[4];
 		for (int k = 0; k < 4; k++) {
-			s[k] = thesis_scene_on(g, NDO_RK4, k < 2 ? 1 : T, &f[k]);
+			s[k] = thesis_scene_on(g, ms[im], k < 2 ? 1 : T, &f[k]);
 			s[k]->rk4_reference = k % 2 == 0;
 		}
 		ndo_critical c;
@@ -225,6 +231,8 @@ static void pipeline(int argc, char **argv)
 			q[1][rep] = r[3][rep] / r[2][rep];
 			q[2][rep] = r[3][rep] / r[0][rep];
 		}
+		if (nm > 1)
+			printf("| %s ", ndo_method_names[ms[im]]);
 		printf("| %d | %zu | %.4g | %.4g | %.2f | %.4g | %.4g | %.2f | %.2f |\n", level,
 		       ndo_vertex_count(level), median(r[0], REPS), median(r[1], REPS), median(q[0], REPS),
 		       median(r[2], REPS), median(r[3], REPS), median(q[1], REPS), median(q[2], REPS));
@@ -508,11 +516,14 @@ int main(int argc, char **argv)
 	else if (argc >= 4 && strcmp(argv[1], "threads") == 0)
 		threads(argc - 2, argv + 2);
 	else if (argc >= 4 && strcmp(argv[1], "pipeline") == 0)
-		pipeline(argc - 2, argv + 2);
+		pipeline(argc - 2, argv + 2, (const ndo_method[]){NDO_RK4}, 1, "pipeline");
+	else if (argc >= 4 && strcmp(argv[1], "fused") == 0)
+		pipeline(argc - 2, argv + 2, (const ndo_method[]){NDO_SYMPLECTIC_EULER, NDO_MIDPOINT}, 2,
+		         "fused");
 	else if (argc == 3 && strcmp(argv[1], "bandwidth") == 0)
 		bandwidth_threads(atoi(argv[2]));
 	else {
-		fprintf(stderr, "usage: bench_simulate speed|kernel LEVEL... | threads|pipeline T LEVEL... | bandwidth T | limits\n");
+		fprintf(stderr, "usage: bench_simulate speed|kernel LEVEL... | threads|pipeline|fused T LEVEL... | bandwidth T | limits\n");
 		return 2;
 	}
 	return 0;
