@@ -264,6 +264,7 @@ typedef struct accel_job {
 			accel_interior(s, j->u, j->v, NULL, j->a, j->up, NULL, 0, 0, UPD, k0, k1);  \
 	} while (0)
 
+/* The acceleration stored (j->up NULL) or used at once as j->up says. */
 NDO_HOT static void accel_chunk(void *arg, int c)
 {
 	const accel_job *j = arg;
@@ -276,25 +277,8 @@ NDO_HOT static void accel_chunk(void *arg, int c)
 		return;
 	}
 	const size_t k0 = (size_t)s->ichunk[c], k1 = (size_t)s->ichunk[c + 1];
-	ACCEL_RUNS(0);
-}
-
-/* The same, the acceleration used at once (the update's mode in
- * j->up->mode; the symplectic step takes diagnostics, the midpoint's
- * stages one each way). */
-NDO_HOT static void accel_update_chunk(void *arg, int c)
-{
-	const accel_job *j = arg;
-	const ndo_sim *s = j->s;
-	ndo__diag *d = j->diag ? &s->cdiag[c] : NULL;
-	if (d)
-		memset(d, 0, sizeof *d);
-	if (c == s->nichunk) {
-		accel_border(s, j->u, j->v, j->F, NULL, j->up, d);
-		return;
-	}
-	const size_t k0 = (size_t)s->ichunk[c], k1 = (size_t)s->ichunk[c + 1];
-	switch (j->up->mode) {
+	switch (j->up ? j->up->mode : 0) {
+	case 0: ACCEL_RUNS(0); break;
 	case NDO__UPD_SYMPLECTIC: ACCEL_RUNS(NDO__UPD_SYMPLECTIC); break;
 	case NDO__UPD_HALF: ACCEL_RUNS(NDO__UPD_HALF); break;
 	default: ACCEL_RUNS(NDO__UPD_FULL);
@@ -315,7 +299,7 @@ static void accel_run(ndo_sim *s, double t, const double *u, const double *v, do
                       const ndo__upd *up, ndo__diag *d)
 {
 	accel_job j = {s, u, v, ndo__forces_prepare(s, t, u), a, up, d != NULL};
-	ndo__sim_run(s, s->nichunk + 1, up ? accel_update_chunk : accel_chunk, &j);
+	ndo__sim_run(s, s->nichunk + 1, accel_chunk, &j);
 	if (d) {
 		ndo__diag_sum(s, d);
 		d->power += ndo__held_power(s, u, v);
