@@ -308,6 +308,7 @@ static int cut_chunks(const ndo__span *sp, size_t n, int32_t **chunk, int *nchun
 static int build_spans(ndo_sim *s)
 {
 	ndo__rk4_plan_free(s);
+	s->spare_held = 0;
 	free(s->espan), free(s->ispan), free(s->bact);
 	s->espan = s->ispan = NULL;
 	s->bact = NULL;
@@ -632,6 +633,32 @@ void ndo_sim_get(const ndo_sim *s, double *x, double *v)
 		}
 }
 
+/* After ndo_sim_set*: the duplicates, and the pipeline's spare state at
+ * the nodes written (sim_private.h, spare_held; all of them: NULL). */
+static void state_written(ndo_sim *s, size_t n, const int32_t *nodes)
+{
+	ndo__sync_planes(s, s->u, 3);
+	ndo__sync_planes(s, s->v, 3);
+	if (!s->spare_held)
+		return;
+	const size_t cnt = s->count;
+	if (!nodes) {
+		s->spare_held = 0;
+		return;
+	}
+	for (size_t k = 0; k < n; k++) {
+		if ((size_t)nodes[k] >= cnt)
+			continue;
+		for (int c = 0; c < 3; c++) {
+			size_t q = (size_t)c * cnt + (size_t)s->canon[nodes[k]];
+			s->ka[0][q] = s->u[q];
+			s->ka[1][q] = s->v[q];
+		}
+	}
+	ndo__sync_planes(s, s->ka[0], 3);
+	ndo__sync_planes(s, s->ka[1], 3);
+}
+
 void ndo_sim_set(ndo_sim *s, size_t n, const int32_t *nodes, const double *x,
                  const double *v)
 {
@@ -650,8 +677,7 @@ void ndo_sim_set(ndo_sim *s, size_t n, const int32_t *nodes, const double *x,
 				s->v[(size_t)c * cnt + p] = v[3 * k + c];
 		}
 	}
-	ndo__sync_planes(s, s->u, 3);
-	ndo__sync_planes(s, s->v, 3);
+	state_written(s, n, nodes);
 }
 
 void ndo_sim_get_nodes(const ndo_sim *s, size_t n, const int32_t *nodes, double *x, double *u,
@@ -687,8 +713,7 @@ void ndo_sim_set_displacements(ndo_sim *s, size_t n, const int32_t *nodes, const
 				s->v[(size_t)c * cnt + p] = v[3 * k + c];
 		}
 	}
-	ndo__sync_planes(s, s->u, 3);
-	ndo__sync_planes(s, s->v, 3);
+	state_written(s, n, nodes);
 }
 
 void ndo_sim_restart_energy_bound(ndo_sim *s)
@@ -755,6 +780,7 @@ void ndo_sim_sleep_stats_get(const ndo_sim *s, ndo_sim_sleep_stats *st)
 void ndo_sim_set_held_motion(ndo_sim *s, int on)
 {
 	s->held_motion = on != 0;
+	s->spare_held = 0;
 }
 
 int ndo_sim_store(const ndo_sim *s, ndo_grid *g)

@@ -157,6 +157,13 @@ struct ndo_sim {
 	 * rk4_reference: take the four passes instead (tests compare). */
 	struct ndo__rk4_plan *rk4_plan;
 	int rk4_reference;
+	/* With held nodes (a peer's region): ka[0] and ka[1], the spare state
+	 * the pipeline writes the next step into, hold u's and v's values at
+	 * every held node (duplicates too) but the moving ones (hmove, which
+	 * each step sets), so that a step need not copy them over: set by the
+	 * pipeline's first such step, kept by its steps and by ndo_sim_set*,
+	 * cleared by a new region, ndo_sim_set_held_motion and the passes. */
+	int spare_held;
 };
 
 /* sleep.c: the tiles (reach: rings a step's stages reach), a look every
