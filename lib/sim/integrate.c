@@ -253,11 +253,13 @@ static int build_held_edges(ndo_sim *s)
 	/* the held nodes the active ones read, and of them those that move
 	 * with their velocities (not pins) */
 	free(s->hmove), free(s->hread);
-	s->hmove = malloc((s->nhedge + 1) * sizeof *s->hmove);
-	s->hread = malloc((s->nhedge + 1) * sizeof *s->hread);
+	const size_t ndup = ndo_duplicate_count(s->level);
+	s->hmove = malloc((s->nhedge + ndup + 1) * sizeof *s->hmove);
+	s->hread = malloc((s->nhedge + ndup + 1) * sizeof *s->hread);
 	uint8_t *seen = calloc(s->count, 1);
-	if (!s->hmove || !s->hread || !seen) {
-		free(seen);
+	size_t *pairs = malloc((2 * ndup + 1) * sizeof *pairs);
+	if (!s->hmove || !s->hread || !seen || !pairs) {
+		free(seen), free(pairs);
 		return ndo__fail(NDO_ENOMEM, "out of memory for the active set");
 	}
 	s->nhmove = s->nhread = 0;
@@ -270,7 +272,17 @@ static int build_held_edges(ndo_sim *s)
 		if (!s->pin[q])
 			s->hmove[s->nhmove++] = q;
 	}
-	free(seen);
+	/* their stored duplicates, set alike (no sync of the whole buffer) */
+	ndo_duplicates(s->level, pairs);
+	for (size_t k = 0; k < ndup; k++) {
+		size_t d = pairs[2 * k], q = pairs[2 * k + 1];
+		if (!seen[q])
+			continue;
+		s->hread[s->nhread++] = (int32_t)d;
+		if (!s->pin[q])
+			s->hmove[s->nhmove++] = (int32_t)d;
+	}
+	free(seen), free(pairs);
 	return NDO_OK;
 }
 

@@ -67,13 +67,14 @@ struct ndo_sim {
 	size_t nhedge;
 	int any_held;          /* some node is not integrated */
 	/* The held nodes next to the active ones that are not pins (canonical
-	 * indices), and whether they move with their velocities during a step
-	 * (ndo_sim_set_held_motion). */
+	 * indices, then their stored duplicates), and whether they move with
+	 * their velocities during a step (ndo_sim_set_held_motion). */
 	int32_t *hmove;
 	size_t nhmove;
 	int held_motion;
-	/* Every held node next to an active one, pins too (canonical): what a
-	 * stage of an active node reads from a held one. */
+	/* Every held node next to an active one, pins too (canonical, then
+	 * their duplicates): what a stage of an active node reads from a held
+	 * one. */
 	int32_t *hread;
 	size_t nhread;
 
