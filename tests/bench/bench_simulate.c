@@ -114,6 +114,19 @@ static long calibrate(ndo_sim *s, double h)
 	}
 }
 
+/* The step h (half the first simulation's critical step) and the steps
+ * n that take it at least 0.1 s; the others stepped as long, warm. */
+static long calibrate_all(ndo_sim **s, int ns, double *h)
+{
+	ndo_critical c;
+	ndo_sim_critical(s[0], &c);
+	*h = 0.5 * c.h_crit;
+	long n = calibrate(s[0], *h);
+	for (int k = 1; k < ns; k++)
+		calibrate(s[k], *h);
+	return n;
+}
+
 /* Steps per second of n steps. */
 static double timed(ndo_sim *s, double h, long n)
 {
@@ -212,12 +225,8 @@ static void pipeline(int argc, char **argv)
 			s[k] = thesis_scene_on(g, NDO_RK4, k < 2 ? 1 : T, &f[k]);
 			s[k]->rk4_reference = k % 2 == 0;
 		}
-		ndo_critical c;
-		ndo_sim_critical(s[0], &c);
-		double h = 0.5 * c.h_crit;
-		long n = calibrate(s[0], h);
-		for (int k = 1; k < 4; k++)
-			calibrate(s[k], h);
+		double h;
+		long n = calibrate_all(s, 4, &h);
 		double r[4][REPS], q[3][REPS];
 		for (int rep = 0; rep < REPS; rep++) {
 			for (int k = 0; k < 4; k++)
@@ -328,12 +337,8 @@ static void region(int argc, char **argv)
 				ndo_sim_set_active(s[k], mask[(k - 1) / 2]);
 			}
 		}
-		ndo_critical c;
-		ndo_sim_critical(s[0], &c);
-		double h = 0.5 * c.h_crit;
-		long n = calibrate(s[0], h);
-		for (int k = 1; k < 5; k++)
-			calibrate(s[k], h);
+		double h;
+		long n = calibrate_all(s, 5, &h);
 		double r[5][REPS], q[4][REPS];
 		for (int rep = 0; rep < REPS; rep++) {
 			for (int k = 0; k < 5; k++)
