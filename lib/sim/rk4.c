@@ -369,9 +369,9 @@ static void widen(int32_t *a0, int32_t *a1, int32_t j)
  * its writes (lo[c]..hi[c]).  Without held nodes every interior row is
  * one run, so a chunk is whole rows and row 0 goes with row 1, row n with
  * row n − 1.  With held nodes (a peer's region and halo) a row may have
- * any number of runs, in one chunk or two, or none: a node outside the
- * runs (a border node, a held force node) goes with the chunk of the last
- * run of its row, or of the nearest row that has runs. */
+ * any number of runs, in one chunk or two, or none: a border node goes
+ * with the chunk of the last run of its row, or of the nearest row that
+ * has runs; force items are evaluated only at active nodes. */
 static int plan_build(ndo_sim *s)
 {
 	const int C = s->nichunk, n = s->n, w = s->w;
@@ -386,6 +386,7 @@ static int plan_build(ndo_sim *s)
 		nb = ndup;
 	int32_t *owner = malloc((nb + 1) * sizeof *owner);
 	size_t *pairs = NULL;
+	int32_t *zn = NULL; /* the active force nodes */
 	if (!P || !rowc || !own || !a0 || !a1 || !owner)
 		goto oom;
 	pthread_mutex_init(&P->lock, NULL);
@@ -457,22 +458,27 @@ static int plan_build(ndo_sim *s)
 		}
 		free(idx);
 	}
-	/* Force nodes by their chunk (held ones by their row's). */
+	/* Force nodes by their chunk: the active ones (f at a held node is
+	 * never read; a peer's region is spared the others' force items). */
+	size_t nz = 0;
+	if (!(zn = malloc((s->nfnodes + 1) * sizeof *zn)))
+		goto oom;
 	for (size_t k = 0; k < s->nfnodes; k++) {
 		int32_t p = s->fnodes[k];
-		owner[k] = own[p] >= 0 ? own[p] : rowc[p / w];
+		if (s->active[p])
+			zn[nz] = p, owner[nz++] = own[p];
 	}
-	if (!(P->zlist = bucket(C, s->nfnodes, owner, &P->zoff)))
+	if (!(P->zlist = bucket(C, nz, owner, &P->zoff)))
 		goto oom;
 	for (int32_t i = 0; i < P->zoff[C]; i++)
-		P->zlist[i] = s->fnodes[P->zlist[i]];
+		P->zlist[i] = zn[P->zlist[i]];
 	/* A unit reads one row beyond what it writes, and the nodes of its
 	 * force items. */
 	for (int c = 0; c < C; c++)
 		if (P->r1[c] >= 0)
 			a0[c] = P->r0[c] - 1, a1[c] = P->r1[c] + 1;
-	/* Force items: for each chunk, every item with a node in it, in the
-	 * forces' order, marked with the nodes it owns. */
+	/* Force items: for each chunk, every item with an active node in it, in
+	 * the forces' order, marked with those nodes. */
 	size_t nitem = 0;
 	for (int k = 0; k < s->nforces; k++)
 		nitem += s->forces[k].f.count;
@@ -488,7 +494,7 @@ static int plan_build(ndo_sim *s)
 				int32_t v[3], mask = 0;
 				int nv = ndo__force_item_nodes(s, k, q, v);
 				for (int d = 0; d < nv; d++)
-					if ((own[v[d]] >= 0 ? own[v[d]] : rowc[v[d] / w]) == c)
+					if (s->active[v[d]] && own[v[d]] == c)
 						mask |= 1 << d;
 				if (mask) {
 					P->fitem[m++] = (ndo__fitem){k, (int32_t)q, mask};
@@ -533,10 +539,10 @@ static int plan_build(ndo_sim *s)
 			if (c >= 0 && c < C)
 				P->unit[P->nunit++] = (rk4_unit){(int16_t)k, c};
 		}
-	free(rowc), free(own), free(a0), free(a1), free(owner), free(pairs);
+	free(rowc), free(own), free(a0), free(a1), free(owner), free(pairs), free(zn);
 	return NDO_OK;
 oom:
-	free(rowc), free(own), free(a0), free(a1), free(owner), free(pairs);
+	free(rowc), free(own), free(a0), free(a1), free(owner), free(pairs), free(zn);
 	if (P && !s->rk4_plan)
 		free(P);
 	ndo__rk4_plan_free(s);
