@@ -19,22 +19,34 @@ $(TBIN)/$(basename $(notdir $(1))): $(OBJ)/$(1).o $(LIBNDO)
 endef
 $(foreach s,$(UNIT_SRCS),$(eval $(call unit_rule,$(s))))
 
-# libFuzzer targets: clang, with the library's sources compiled in.
+# libFuzzer targets: clang.  The library's sources and the generated message
+# code are compiled once, with coverage and the sanitizers
+# (fuzzer-no-link), into $(OUT)/fuzz-obj/ and linked into every target: each
+# target used to compile the whole library again, serially (3 x 200 s of
+# the sanitizer build's 15 min of CPU).
 FUZZ_SRCS := $(sort $(wildcard tests/fuzz/fuzz_*.c))
 ifeq ($(SAN),1)
 TEST_PROGS += $(FUZZ_SRCS:tests/fuzz/%.c=$(TBIN)/%)
 endif
 # LCM_GEN_SRCS/DIR/STAMP: the generated message code (lib/lcmtypes/build.mk).
-# The generated code is compiled apart, without UBSan's nonnull check, for
-# the reason lib/lcmtypes/build.mk gives.
+# The generated code is compiled without UBSan's nonnull check, for the
+# reason lib/lcmtypes/build.mk gives.
 FUZZ_CC := clang -std=c11 -D_GNU_SOURCE $(ALL_INC) $(if $(LCM_GEN_DIR),-I$(LCM_GEN_DIR)) -g -O1
-$(TBIN)/fuzz_%: tests/fuzz/fuzz_%.c $(LIB_SRCS) $(LCM_GEN_STAMP) $(wildcard lib/*/ndo/*.h lib/*/*.h tests/fuzz/*.h)
-	@mkdir -p $(@D)/fuzz-gen-$*
-	for s in $(LCM_GEN_SRCS); do \
-	  $(FUZZ_CC) -w -fsanitize=fuzzer-no-link,address,undefined -fno-sanitize=nonnull-attribute \
-	    -c $$s -o $(@D)/fuzz-gen-$*/$$(basename $$s .c).o || exit 1; done
-	$(FUZZ_CC) -fsanitize=fuzzer,address,undefined -o $@ $< $(LIB_SRCS) \
-	    $(patsubst %.c,$(@D)/fuzz-gen-$*/%.o,$(notdir $(LCM_GEN_SRCS))) $(NDO_LIBS)
+FUZZ_OBJ := $(OUT)/fuzz-obj
+FUZZ_LIB_OBJS := $(LIB_SRCS:%.c=$(FUZZ_OBJ)/%.o)
+FUZZ_GEN_OBJS := $(LCM_GEN_SRCS:%.c=$(FUZZ_OBJ)/%.o)
+$(FUZZ_LIB_OBJS): $(FUZZ_OBJ)/%.o: %.c | $(LCM_GEN_STAMP)
+	@mkdir -p $(@D)
+	$(FUZZ_CC) -MMD -MP -fsanitize=fuzzer-no-link,address,undefined -c $< -o $@
+$(FUZZ_GEN_OBJS): $(FUZZ_OBJ)/%.o: %.c $(LCM_GEN_STAMP)
+	@mkdir -p $(@D)
+	$(FUZZ_CC) -w -fsanitize=fuzzer-no-link,address,undefined -fno-sanitize=nonnull-attribute \
+	    -c $< -o $@
+-include $(FUZZ_LIB_OBJS:.o=.d)
+$(TBIN)/fuzz_%: tests/fuzz/fuzz_%.c $(FUZZ_LIB_OBJS) $(FUZZ_GEN_OBJS) \
+    $(wildcard lib/*/ndo/*.h lib/*/*.h tests/fuzz/*.h)
+	@mkdir -p $(@D)
+	$(FUZZ_CC) -fsanitize=fuzzer,address,undefined -o $@ $< $(FUZZ_LIB_OBJS) $(FUZZ_GEN_OBJS) $(NDO_LIBS)
 
 BENCH_SRCS := $(sort $(wildcard tests/bench/bench_*.c tests/bench/bench_*.cpp))
 BENCH_PROGS := $(foreach s,$(BENCH_SRCS),$(TBIN)/$(basename $(notdir $(s))))

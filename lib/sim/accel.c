@@ -17,24 +17,43 @@ void ndo__sync_planes(const ndo_sim *s, double *planes, int nplanes)
 
 /* ---- the acceleration ------------------------------------------------------ */
 
-/* a = M⁻¹(f − K u) − γ v over the interior runs.  hasF and hasD are
- * constants at each call site, so the compiler emits four loops, the
- * plain ones free to vectorize. */
+/* a = M⁻¹(f − K u) − γ v over the interior runs, stored in a or (upd, a
+ * constant NDO__UPD_*) used at once as up says.  hasF, hasD and upd are
+ * constants at each call site, so the compiler emits a loop for each,
+ * the plain ones free to vectorize. */
 static inline __attribute__((always_inline)) void
 accel_interior(const ndo_sim *s, const double *restrict u, const double *restrict v,
-               const double *restrict F, double *restrict a, ndo__diag *d, const int hasF,
-               const int hasD, const size_t k0, const size_t k1)
+               const double *restrict F, double *restrict a, const ndo__upd *up,
+               ndo__diag *d, const int hasF, const int hasD, const int upd, const size_t k0,
+               const size_t k1)
 {
 	const size_t cnt = s->count, w = (size_t)s->w;
 	const double *restrict e0 = s->st.e[0], *restrict e1 = s->st.e[1],
 	                       *restrict e2 = s->st.e[2];
-	const double *restrict minv = s->minv, *restrict gam = s->gam, *restrict mass = s->mass;
+	const double *restrict minv = s->minv, *restrict mass = s->mass;
+	/* The damping rate is the same at every node (integrate.c: b/ρ + a,
+	 * as rk4.c and implicit.c take it): one number, not a plane. */
+	const double ga = s->gam[0];
 	const double *restrict ux = u, *restrict uy = u + cnt, *restrict uz = u + 2 * cnt;
 	const double *restrict vx = v, *restrict vy = v + cnt, *restrict vz = v + 2 * cnt;
 	double *restrict ax = a, *restrict ay = a + cnt, *restrict az = a + 2 * cnt;
+	const double h = upd ? up->h : 0;
+	double *restrict uox = upd ? up->uo : NULL, *restrict uoy = upd ? up->uo + cnt : NULL,
+	                 *restrict uoz = upd ? up->uo + 2 * cnt : NULL;
+	double *restrict vox = upd ? up->vo : NULL, *restrict voy = upd ? up->vo + cnt : NULL,
+	                 *restrict voz = upd ? up->vo + 2 * cnt : NULL;
+	const int full = upd == NDO__UPD_FULL;
+	const double *restrict u0x = full ? up->u0 : NULL, *restrict u0y = full ? up->u0 + cnt : NULL,
+	                       *restrict u0z = full ? up->u0 + 2 * cnt : NULL;
+	const double *restrict v0x = full ? up->v0 : NULL, *restrict v0y = full ? up->v0 + cnt : NULL,
+	                       *restrict v0z = full ? up->v0 + 2 * cnt : NULL;
 	double pe2 = 0, ke2 = 0, pw = 0, um = 0, vku = 0;
 	for (size_t k = k0; k < k1; k++) {
 		const size_t lo = (size_t)s->ispan[k].a, hi = (size_t)s->ispan[k].b;
+		/* The planes do not overlap: without saying so, the many outputs
+		 * of an update took the compiler's alias checks past its limit,
+		 * and the loops with diagnostics were never vectorized. */
+#pragma omp simd reduction(+ : pe2, ke2, pw, vku) reduction(max : um)
 		for (size_t p = lo; p < hi; p++) {
 			const double c0 = e0[p], c1 = e1[p], c2 = e2[p], c3 = e0[p - 1], c4 = e1[p - w],
 			             c5 = e2[p - w + 1];
@@ -45,9 +64,27 @@ accel_interior(const ndo_sim *s, const double *restrict u, const double *restric
 #undef KU
 			const double fx = hasF ? F[p] : 0, fy = hasF ? F[cnt + p] : 0,
 			             fz = hasF ? F[2 * cnt + p] : 0;
-			ax[p] = minv[p] * (fx - kx) - gam[p] * vx[p];
-			ay[p] = minv[p] * (fy - ky) - gam[p] * vy[p];
-			az[p] = minv[p] * (fz - kz) - gam[p] * vz[p];
+			const double gx = minv[p] * (fx - kx) - ga * vx[p];
+			const double gy = minv[p] * (fy - ky) - ga * vy[p];
+			const double gz = minv[p] * (fz - kz) - ga * vz[p];
+			if (upd == NDO__UPD_SYMPLECTIC) {
+				const double nx = vx[p] + h * gx, ny = vy[p] + h * gy, nz = vz[p] + h * gz;
+				vox[p] = nx, voy[p] = ny, voz[p] = nz;
+				uox[p] = ux[p] + h * nx, uoy[p] = uy[p] + h * ny, uoz[p] = uz[p] + h * nz;
+			} else if (upd == NDO__UPD_HALF) {
+				/* the tableau's combination: acc = 0, acc += ½ x, base + h acc */
+				double sx = 0, sy = 0, sz = 0, tx = 0, ty = 0, tz = 0;
+				sx += 0.5 * vx[p], sy += 0.5 * vy[p], sz += 0.5 * vz[p];
+				tx += 0.5 * gx, ty += 0.5 * gy, tz += 0.5 * gz;
+				uox[p] = ux[p] + h * sx, uoy[p] = uy[p] + h * sy, uoz[p] = uz[p] + h * sz;
+				vox[p] = vx[p] + h * tx, voy[p] = vy[p] + h * ty, voz[p] = vz[p] + h * tz;
+			} else if (upd == NDO__UPD_FULL) {
+				uox[p] = u0x[p] + h * vx[p], uoy[p] = u0y[p] + h * vy[p],
+				uoz[p] = u0z[p] + h * vz[p];
+				vox[p] = v0x[p] + h * gx, voy[p] = v0y[p] + h * gy, voz[p] = v0z[p] + h * gz;
+			} else {
+				ax[p] = gx, ay[p] = gy, az[p] = gz;
+			}
 			if (hasD) {
 				pe2 += ux[p] * kx + uy[p] * ky + uz[p] * kz;
 				ke2 += mass[p] * (vx[p] * vx[p] + vy[p] * vy[p] + vz[p] * vz[p]);
@@ -64,9 +101,34 @@ accel_interior(const ndo_sim *s, const double *restrict u, const double *restric
 	}
 }
 
+/* The acceleration at one component of a node, used as up says (or
+ * stored in a when up is NULL). */
+static void border_update(const ndo_sim *s, const ndo__upd *up, double *a, const double *u,
+                          const double *v, size_t q, double g)
+{
+	if (!up) {
+		a[q] = g;
+		return;
+	}
+	const double h = up->h;
+	if (up->mode == NDO__UPD_SYMPLECTIC) {
+		up->vo[q] = v[q] + h * g;
+		up->uo[q] = u[q] + h * up->vo[q];
+	} else if (up->mode == NDO__UPD_HALF) {
+		double su = 0, sv = 0;
+		su += 0.5 * v[q];
+		sv += 0.5 * g;
+		up->uo[q] = u[q] + h * su;
+		up->vo[q] = v[q] + h * sv;
+	} else {
+		up->uo[q] = up->u0[q] + h * v[q];
+		up->vo[q] = up->v0[q] + h * g;
+	}
+}
+
 /* The active border nodes, through their neighbour tables. */
 static void accel_border(const ndo_sim *s, const double *u, const double *v, const double *F,
-                         double *a, ndo__diag *d)
+                         double *a, const ndo__upd *up, ndo__diag *d)
 {
 	const size_t cnt = s->count;
 	for (size_t k = 0; k < s->nbact; k++) {
@@ -80,7 +142,8 @@ static void accel_border(const ndo_sim *s, const double *u, const double *v, con
 			for (int q = 0; q < 6; q++)
 				ku += cf[q] * (U[p] - U[nb[q]]);
 			double f = F ? F[(size_t)c * cnt + p] : 0, vc = v[(size_t)c * cnt + p];
-			a[(size_t)c * cnt + p] = s->minv[p] * (f - ku) - s->gam[p] * vc;
+			border_update(s, up, a, u, v, (size_t)c * cnt + p,
+			              s->minv[p] * (f - ku) - s->gam[p] * vc);
 			if (d) {
 				d->pe2 += U[p] * ku;
 				d->vku += vc * ku;
@@ -184,9 +247,25 @@ typedef struct accel_job {
 	const ndo_sim *s;
 	const double *u, *v, *F;
 	double *a;
+	const ndo__upd *up;
 	int diag;
 } accel_job;
 
+/* The interior loops of one update mode (a constant): with or without
+ * forces and diagnostics. */
+#define ACCEL_RUNS(UPD)                                                                          \
+	do {                                                                                     \
+		if (d && j->F)                                                                   \
+			accel_interior(s, j->u, j->v, j->F, j->a, j->up, d, 1, 1, UPD, k0, k1);     \
+		else if (d)                                                                      \
+			accel_interior(s, j->u, j->v, NULL, j->a, j->up, d, 0, 1, UPD, k0, k1);     \
+		else if (j->F)                                                                   \
+			accel_interior(s, j->u, j->v, j->F, j->a, j->up, NULL, 1, 0, UPD, k0, k1);  \
+		else                                                                             \
+			accel_interior(s, j->u, j->v, NULL, j->a, j->up, NULL, 0, 0, UPD, k0, k1);  \
+	} while (0)
+
+/* The acceleration stored (j->up NULL) or used at once as j->up says. */
 NDO_HOT static void accel_chunk(void *arg, int c)
 {
 	const accel_job *j = arg;
@@ -195,21 +274,18 @@ NDO_HOT static void accel_chunk(void *arg, int c)
 	if (d)
 		memset(d, 0, sizeof *d);
 	if (c == s->nichunk) {
-		accel_border(s, j->u, j->v, j->F, j->a, d);
+		accel_border(s, j->u, j->v, j->F, j->a, j->up, d);
 		return;
 	}
 	const size_t k0 = (size_t)s->ichunk[c], k1 = (size_t)s->ichunk[c + 1];
-	if (d) {
-		if (j->F)
-			accel_interior(s, j->u, j->v, j->F, j->a, d, 1, 1, k0, k1);
-		else
-			accel_interior(s, j->u, j->v, NULL, j->a, d, 0, 1, k0, k1);
-	} else if (j->F) {
-		accel_interior(s, j->u, j->v, j->F, j->a, NULL, 1, 0, k0, k1);
-	} else {
-		accel_interior(s, j->u, j->v, NULL, j->a, NULL, 0, 0, k0, k1);
+	switch (j->up ? j->up->mode : 0) {
+	case 0: ACCEL_RUNS(0); break;
+	case NDO__UPD_SYMPLECTIC: ACCEL_RUNS(NDO__UPD_SYMPLECTIC); break;
+	case NDO__UPD_HALF: ACCEL_RUNS(NDO__UPD_HALF); break;
+	default: ACCEL_RUNS(NDO__UPD_FULL);
 	}
 }
+#undef ACCEL_RUNS
 
 void ndo__diag_sum(const ndo_sim *s, ndo__diag *d)
 {
@@ -220,9 +296,10 @@ void ndo__diag_sum(const ndo_sim *s, ndo__diag *d)
 	}
 }
 
-void ndo__accel(ndo_sim *s, double t, const double *u, const double *v, double *a, ndo__diag *d)
+static void accel_run(ndo_sim *s, double t, const double *u, const double *v, double *a,
+                      const ndo__upd *up, ndo__diag *d)
 {
-	accel_job j = {s, u, v, ndo__forces_prepare(s, t, u), a, d != NULL};
+	accel_job j = {s, u, v, ndo__forces_prepare(s, t, u), a, up, d != NULL};
 	ndo__sim_run(s, s->nichunk + 1, accel_chunk, &j);
 	if (d) {
 		ndo__diag_sum(s, d);
@@ -230,6 +307,17 @@ void ndo__accel(ndo_sim *s, double t, const double *u, const double *v, double *
 		ndo__penalty_diag(s, u, v, d);
 	}
 	s->stats.evaluations++;
+}
+
+void ndo__accel(ndo_sim *s, double t, const double *u, const double *v, double *a, ndo__diag *d)
+{
+	accel_run(s, t, u, v, a, NULL, d);
+}
+
+void ndo__accel_update(ndo_sim *s, double t, const double *u, const double *v,
+                       const ndo__upd *up, ndo__diag *d)
+{
+	accel_run(s, t, u, v, NULL, up, d);
 }
 
 /* ---- divergence ------------------------------------------------------------ */

@@ -31,6 +31,7 @@ struct ndo_acc {
 	double omega[NDO_MAX_LEVEL + 1], gamma[NDO_MAX_LEVEL + 1]; /* λ_max's mode per
 	                                        level (omega 0: not yet estimated) */
 	double crit[NDO_MAX_LEVEL + 1][NDO_METHOD_COUNT]; /* critical steps (0: not yet) */
+	size_t max_memory; /* ndo_acc_set_max_memory; 0: what is free */
 	double umax;     /* ndo_acc_sample */
 	double *scratch; /* x at the input level */
 };
@@ -141,6 +142,20 @@ void ndo_acc_destroy(ndo_acc *a)
 int ndo_acc_level(const ndo_acc *a)
 {
 	return a->level;
+}
+
+void ndo_acc_set_critical(ndo_acc *a, int level, double omega_max, double gamma)
+{
+	if (level >= 0 && level <= NDO_MAX_LEVEL && omega_max > 0 && isfinite(omega_max)) {
+		a->omega[level] = omega_max, a->gamma[level] = gamma;
+		for (int m = 0; m < NDO_METHOD_COUNT; m++)
+			a->crit[level][m] = 0;
+	}
+}
+
+void ndo_acc_set_max_memory(ndo_acc *a, size_t bytes)
+{
+	a->max_memory = bytes;
 }
 
 /* The input restricted to `level` (made on first use). */
@@ -410,11 +425,16 @@ static int time_window(ndo_acc *a, const ndo_acc_config *c, ndo_acc_estimate *e,
 	 * n − 1 alone estimates the time error). */
 	ndo_sim_params prm = a->sc->sim;
 	prm.method = c->method;
-	size_t need = ndo_sim_memory(c->level, &prm) + 3 * 3 * n * sizeof(double),
+	size_t run = ndo_sim_memory(c->level, &prm), need = run + 3 * 3 * n * sizeof(double),
 	       avail = ndo_memory_available();
 	if (need > avail)
 		return ndo__fail(NDO_ERANGE, "it would need %.0f MB, %.0f MB are free", need / 1e6,
 		                 avail / 1e6);
+	/* A stated limit covers the run and its companion together. */
+	if (a->max_memory && run + need > a->max_memory)
+		return ndo__fail(NDO_ERANGE, "it would need %.0f MB beside the run's %.0f MB, more "
+		                 "than the %.0f MB allowed", need / 1e6, run / 1e6,
+		                 a->max_memory / 1e6);
 	double *u[2] = {malloc(3 * n * sizeof(double)), malloc(3 * n * sizeof(double))};
 	double *u2 = malloc(3 * n * sizeof(double));
 	double d[2] = {0, 0};
@@ -559,7 +579,7 @@ int ndo_acc_estimate_run(ndo_acc *a, const ndo_acc_config *c, const double *u, d
 		         "carried to the end", m, (long long)w, (long long)c->steps, c->tol / 100);
 	} else {
 		e->time_m = isnan(tc) ? dmax : isnan(dmax) ? tc : fmax(dmax, tc);
-		if (windowed)
+		if (windowed && !isnan(dmax))
 			snprintf(e->time_how, sizeof e->time_how, "the larger of level %d, %lld of %lld "
 			         "steps at %.4g s (%.3g m), and level %d at %.4g s (%.3g m)", m, (long long)w,
 			         (long long)c->steps, c->h / 2, dmax, m - 1, h2, tc);

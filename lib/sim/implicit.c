@@ -443,30 +443,50 @@ static void mg_pass_chunk(void *ctx, int k)
 		o[6] = msum;
 		return;
 	}
-	for (size_t r = a0; r < e; r++) {
-		size_t p = (size_t)im->nodes[r];
-		double m = s->mass[p], g = s->gam[p];
-		for (int c = 0; c < 3; c++) {
-			size_t q = (size_t)c * cnt + p, j = 3 * r + (size_t)c;
-			if (P->phase == 0) {
-				im->x3[j] = s->v[q];
-			} else if (P->phase == 1) {
-				/* M(a + γv) = f(t) − K u − P(u − ū).  Trapezoid: with
-				 * A v = M(1 + h/2 γ) v + h²/4 (K_AA + P) v the right-hand
-				 * side M v + h M(a + γv) − h/2 M γ v − h²/4 (K_AA + P) v
-				 * + h/2 Δf is 2 M v + h M (a + γ v) − A v + h/2 Δf (its
-				 * rounding, ε |M v|, is far below the tolerance). */
-				double v = s->v[q], an = P->a[q];
-				double rhs = P->trap ? 2 * m * v + h * m * (an + g * v) - P->av[j] +
-				                    (P->df ? 0.5 * h * P->df[q] : 0)
-				                  : m * v + h * m * (an + g * v) + (P->df ? h * P->df[q] : 0);
-				im->b3[j] = rhs;
-				im->x3[j] = v + P->c0 * an + (P->ext ? P->c1 * im->aprev[j] : 0);
-				im->aprev[j] = an;
-			} else {
-				double vn = im->x3[j] + P->shift[c];
-				s->u[q] += P->trap ? 0.5 * h * (s->v[q] + vn) : h * vn;
-				s->v[q] = vn;
+	/* One loop a phase, the step's constants in locals (the stores below
+	 * may not change them, which the compiler could not know). */
+	const int32_t *nodes = im->nodes;
+	const double *v = s->v;
+	double *x3 = im->x3;
+	if (P->phase == 0) {
+		for (size_t r = a0; r < e; r++) {
+			const size_t p = (size_t)nodes[r];
+			for (int c = 0; c < 3; c++)
+				x3[3 * r + (size_t)c] = v[(size_t)c * cnt + p];
+		}
+	} else if (P->phase == 1) {
+		/* M(a + γv) = f(t) − K u − P(u − ū).  Trapezoid: with
+		 * A v = M(1 + h/2 γ) v + h²/4 (K_AA + P) v the right-hand
+		 * side M v + h M(a + γv) − h/2 M γ v − h²/4 (K_AA + P) v
+		 * + h/2 Δf is 2 M v + h M (a + γ v) − A v + h/2 Δf (its
+		 * rounding, ε |M v|, is far below the tolerance). */
+		const double *an = P->a, *df = P->df, *av = P->av, c0 = P->c0, c1 = P->c1;
+		const int trap = P->trap, ext = P->ext;
+		double *b3 = im->b3, *aprev = im->aprev;
+		for (size_t r = a0; r < e; r++) {
+			const size_t p = (size_t)nodes[r];
+			const double m = s->mass[p], g = s->gam[p];
+			for (int c = 0; c < 3; c++) {
+				const size_t q = (size_t)c * cnt + p, j = 3 * r + (size_t)c;
+				const double vq = v[q], aq = an[q];
+				b3[j] = trap ? 2 * m * vq + h * m * (aq + g * vq) - av[j] +
+				                   (df ? 0.5 * h * df[q] : 0)
+				             : m * vq + h * m * (aq + g * vq) + (df ? h * df[q] : 0);
+				x3[j] = vq + c0 * aq + (ext ? c1 * aprev[j] : 0);
+				aprev[j] = aq;
+			}
+		}
+	} else {
+		const int trap = P->trap;
+		const double sh[3] = {P->shift[0], P->shift[1], P->shift[2]};
+		double *u = s->u, *vw = s->v;
+		for (size_t r = a0; r < e; r++) {
+			const size_t p = (size_t)nodes[r];
+			for (int c = 0; c < 3; c++) {
+				const size_t q = (size_t)c * cnt + p;
+				const double vn = x3[3 * r + (size_t)c] + sh[c];
+				u[q] += trap ? 0.5 * h * (vw[q] + vn) : h * vn;
+				vw[q] = vn;
 			}
 		}
 	}
@@ -502,10 +522,9 @@ static int mg_step(ndo_sim *s, ndo__implicit *im, double h, const double *a, con
 		/* A v, the held velocities left out (held positions stay put). */
 		mg_pass_run(&P, 0);
 		ndo__mg_apply(im->mg, im->x3, im->b3);
-		memcpy(im->x3, im->b3, 3 * im->na * sizeof *im->x3);
-		P.av = im->x3;
+		P.av = im->b3;
 	}
-	/* av is read before x3 is written, row by row. */
+	/* av (in b3) is read before b3 is written, element by element. */
 	mg_pass_run(&P, 1);
 	im->aprev_ok = 1;
 	int iters, rc;

@@ -1010,9 +1010,74 @@ static int step_rk4(ndo_sim *s, double h)
 	return NDO_OK;
 }
 
+/* Whether symplectic Euler and midpoint take their fused passes
+ * (ndo__accel_update: the acceleration used in the pass that computes
+ * it, the new state written to spare planes): when every node is
+ * integrated, so that the spare planes need nothing but what the pass
+ * writes and the seams' copies. */
+static int fused_fits(const ndo_sim *s)
+{
+	return !s->rk4_reference && !s->any_held;
+}
+
+/* The new state (u, v) in the spare planes (us, vs) swapped in. */
+static void fused_swap(ndo_sim *s, double *u, double *v)
+{
+	ndo__sync_planes(s, u, 3);
+	ndo__sync_planes(s, v, 3);
+	double *ou = s->u, *ov = s->v;
+	s->u = u, s->v = v;
+	s->us = ou, s->vs = ov;
+}
+
+/* Symplectic Euler in one pass: the same bits as step_symplectic. */
+static int step_symplectic_fused(ndo_sim *s, double h)
+{
+	s->h_mod = h;
+	double *un = s->us, *vn = s->vs;
+	ndo__upd up = {NDO__UPD_SYMPLECTIC, h, un, vn, NULL, NULL};
+	ndo__diag d;
+	ndo__accel_update(s, s->t, s->u, s->v, &up, &d);
+	s->last_power = d.power;
+	int rc = ndo__diverged(s, &d, 1);
+	if (rc)
+		return rc; /* the state as it was: the pass wrote only spare planes */
+	fused_swap(s, un, vn);
+	account(s, h);
+	s->stats.substeps++;
+	return NDO_OK;
+}
+
+/* The midpoint method in two passes (the tableau's four: stage 0, the
+ * stage state, stage 1, the finish): the same bits as step_rk. */
+static int step_midpoint_fused(ndo_sim *s, double h)
+{
+	double *um = s->us, *vm = s->kv[1], *un = s->ka[0], *vn = s->ka[1];
+	ndo__upd up = {NDO__UPD_HALF, h, um, vm, NULL, NULL};
+	ndo__diag d;
+	ndo__accel_update(s, s->t, s->u, s->v, &up, &d);
+	s->last_power = d.power;
+	int rc = ndo__diverged(s, &d, 1);
+	if (rc)
+		return rc;
+	ndo__sync_planes(s, um, 3);
+	ndo__sync_planes(s, vm, 3);
+	up = (ndo__upd){NDO__UPD_FULL, h, un, vn, s->u, s->v};
+	ndo__accel_update(s, s->t + 0.5 * h, um, vm, &up, NULL);
+	ndo__sync_planes(s, un, 3);
+	ndo__sync_planes(s, vn, 3);
+	s->ka[0] = s->u, s->ka[1] = s->v;
+	s->u = un, s->v = vn;
+	account(s, h);
+	s->stats.substeps++;
+	return NDO_OK;
+}
+
 /* Symplectic Euler: v' = v + h a(u, v), u' = u + h v'. */
 static int step_symplectic(ndo_sim *s, double h)
 {
+	if (fused_fits(s))
+		return step_symplectic_fused(s, h);
 	s->h_mod = h; /* the divergence test bounds the modified energy (accel.c) */
 	int rc = first_stage(s, s->ka[0]);
 	if (rc)
@@ -1272,8 +1337,11 @@ int ndo_sim_step(ndo_sim *s, double h)
 		return rc;
 	double t0 = s->t, w0 = threads_pick(s);
 	switch (s->p.method) {
-	case NDO_EULER:
-	case NDO_MIDPOINT: rc = step_rk(s, method_tableau(s->p.method), h); break;
+	case NDO_EULER: rc = step_rk(s, method_tableau(s->p.method), h); break;
+	case NDO_MIDPOINT:
+		rc = fused_fits(s) ? step_midpoint_fused(s, h)
+		                   : step_rk(s, method_tableau(s->p.method), h);
+		break;
 	case NDO_RK4: rc = step_rk4(s, h); break;
 	case NDO_SYMPLECTIC_EULER: rc = step_symplectic(s, h); break;
 	case NDO_RKF45: rc = step_rkf45(s, h); break;

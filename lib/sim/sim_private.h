@@ -155,7 +155,9 @@ struct ndo_sim {
 
 	/* RK4's step as one pipeline of (stage, chunk) units (rk4.c): built
 	 * at the first step that can take it, freed when the chunks change.
-	 * rk4_reference: take the four passes instead (tests compare). */
+	 * rk4_reference: take the four passes instead, and symplectic Euler
+	 * and midpoint their passes through ndo__accel (integrate.c) rather
+	 * than ndo__accel_update's fused ones (tests compare). */
 	struct ndo__rk4_plan *rk4_plan;
 	int rk4_reference;
 	/* With held nodes, the pipeline from this many integrated interior
@@ -256,6 +258,28 @@ const double *ndo__forces_prepare(ndo_sim *s, double t, const double *u);
  * NULL (accel.c). */
 void ndo__accel(ndo_sim *s, double t, const double *u, const double *v, double *a,
                 ndo__diag *diag);
+
+/* What ndo__accel_update() does with the acceleration a at each active
+ * node instead of storing it, in the same pass (one sweep over the nodes
+ * and one wake-up of the threads, not two), with the same arithmetic as
+ * storing a and updating after (integrate.c: step_symplectic, step_rk):
+ *   NDO__UPD_SYMPLECTIC  vo = v + h a,  uo = u + h vo
+ *   NDO__UPD_HALF        uo = u + h (0 + ½ v),  vo = v + h (0 + ½ a)
+ *                        (the midpoint's stage, as the tableau's sums)
+ *   NDO__UPD_FULL        uo = u0 + h v,  vo = v0 + h a  (its finish)
+ * where (u, v) is the stage state the acceleration is taken at and
+ * (u0, v0) the step's.  The outputs are other planes than the inputs. */
+enum { NDO__UPD_SYMPLECTIC = 1, NDO__UPD_HALF, NDO__UPD_FULL };
+typedef struct ndo__upd {
+	int mode;
+	double h;
+	double *uo, *vo;
+	const double *u0, *v0; /* NDO__UPD_FULL */
+} ndo__upd;
+
+/* ndo__accel's acceleration, used at once as `up` says (accel.c). */
+void ndo__accel_update(ndo_sim *s, double t, const double *u, const double *v,
+                       const ndo__upd *up, ndo__diag *diag);
 
 /* The divergence test on a diagnosed state at the start of a step
  * (accel.c).  commit: close the last step's work with this power. */

@@ -4,10 +4,11 @@
 # thesis figures 5.3, 5.4, 5.7, the bunny, the ellipsoid free vibration, a
 # pinned sphere poked locally; inputs at levels 5 and 6.  Tables to
 # docs/bench/accuracy.md, figures to docs/simulate-peer/accuracy-N.png.
-# About ten minutes of CPU (10.5 on 2026-11-25; the level-8 references, the sweeps).  The
+# About ten minutes of CPU (10.5 on 2026-11-25; the level-8 references, the sweeps; the
+# pilot study 40 s more).  The
 # summary: tests/bench/summarize_accuracy.py; it also rewrites the blocks
 # between "<!-- accuracy-bench: PART -->" and "<!-- /accuracy-bench -->" in
-# docs/simulate-peer.md (PART: estimates, choices, tallies).
+# docs/simulate-peer.md (PART: estimates, choices, tallies, misses).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 B=${NDO_TESTBIN:-build/tests}
@@ -34,6 +35,10 @@ for N in $LEVELS; do
 	echo "bench_accuracy choose $N $T ${scenes[*]}" >>"$d/commands-$N"
 	"$B/bench_accuracy" estimates "$N" "$T" "${scenes[@]}" >"$d/estimates-$N.csv" 2>"$d/estimates-$N.log"
 	"$B/bench_accuracy" choose "$N" "$T" "${scenes[@]}" >"$d/choose-$N.csv" 2>"$d/choose-$N.log"
+	# What a pilot at the input level would tell of level N - 1 (the cost
+	# misses' candidate), on the two scenes whose misses are decided there.
+	echo "bench_accuracy pilot $N $T ${scenes[2]} ${scenes[5]}" >>"$d/commands-$N"
+	"$B/bench_accuracy" pilot "$N" "$T" "${scenes[2]}" "${scenes[5]}" >"$d/pilot-$N.csv" 2>"$d/pilot-$N.log"
 	grep '^point,' "$d/choose-$N.log" | sed '1i point,scene,level,method,step_s,cpu_s,error' >"$d/sweep-$N.csv"
 	grep '^level,' "$d/choose-$N.log" | cut -d, -f2- |
 		sed '1i scene,level,pilots,predicted_space,true_space,ratio,true_symplectic_euler,true_rk4' >"$d/levels-$N.csv"
@@ -62,6 +67,12 @@ out=docs/bench/accuracy.md
 	echo "## Summary"
 	echo
 	/usr/bin/python3 tests/bench/summarize_accuracy.py "$d" all $LEVELS
+	echo "The runs that cost more than 2× the sweep's cheapest configuration (its error: the" \
+		"sweep's; * where taken from the level table, that method at 0.9 × its critical step;" \
+		"its level's predicted space error: the chooser's for the cheapest's level; with choosing:" \
+		"the chosen run's CPU time plus choose_cpu_s, over the cheapest's):"
+	echo
+	/usr/bin/python3 tests/bench/summarize_accuracy.py "$d" misses $LEVELS
 	for N in $LEVELS; do
 		echo
 		echo "## Input level $N"
@@ -84,7 +95,10 @@ out=docs/bench/accuracy.md
 		echo "The sweep: levels 2..$N, symplectic Euler and RK4 at 0.9 × the critical step and halvings" \
 			"(until the error stops falling).  cheapest: the sweep's cheapest configuration whose true" \
 			"error is ≤ E; ratio: the chosen run's CPU time over it; ratio_with_overhead: choosing" \
-			"(pilots, critical steps) and the estimate included.  reachable 0: refused before any run" \
+			"(pilots, critical steps) and the estimate included (choose_cpu_s: ndo_acc_choose's CPU" \
+			"time, once; a scene's later targets reuse the critical steps of its first; the" \
+			"sweep's configurations are timed without their critical step, which a plain run" \
+			"also computes).  reachable 0: refused before any run" \
 			"(level: the level that would be needed; predicted: the input level's predicted error)."
 		echo
 		table "$d/choose-$N.csv"
@@ -98,6 +112,18 @@ out=docs/bench/accuracy.md
 			"relative to the reference's largest displacement."
 		echo
 		[ -f "$d/levels-$N.csv" ] && table "$d/levels-$N.csv"
+		if [ -f "$d/pilot-$N.csv" ]; then
+			echo
+			echo "### What a pilot at the input level would tell of level $((N - 1))"
+			echo
+			echo "At t = T/8, T/4, T/2, T: true_below, true_input: the true errors of levels $((N - 1))" \
+				"and $N (symplectic Euler at 0.9 × critical); predicted_below: the pilots' D / 3 from" \
+				"levels $((N - 2)) and $((N - 1)); pilot_difference: level $((N - 1))'s pilot against one at" \
+				"level $N (RK4 at half its critical step); all relative to the reference's largest" \
+				"displacement up to t (largest_m)."
+			echo
+			table "$d/pilot-$N.csv"
+		fi
 		echo
 		echo "![accuracy, level $N](../simulate-peer/accuracy-$N.png)"
 	done

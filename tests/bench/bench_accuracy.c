@@ -15,6 +15,15 @@
  *                         rk4 and symplectic Euler at 0.9 × the critical step
  *                         and halvings)
  *
+ *   pilot N T SCENE...    what a pilot at the input level would tell of level
+ *                         N − 1 (the cost misses' candidate), at t = T/8,
+ *                         T/4, T/2, T: the true errors of levels N − 1 and N
+ *                         (symplectic Euler at 0.9 × critical), the pilots'
+ *                         prediction for level N − 1 (D/3 from levels N − 2
+ *                         and N − 1) and its difference from a pilot at N
+ *                         (RK4 at half its critical step), all relative to
+ *                         the reference's largest displacement up to t
+ *
  * SCENE is NAME=INPUT:SCENEFILE[:REST], INPUT a shape name (remesh
  * --shape) or a .tgrid at level N + 2, REST a shape name for the rest shape
  * (the ellipsoid released to its sphere).  The reference: the scene at
@@ -333,6 +342,62 @@ static void choose(int n, int argc, char **argv)
 	}
 }
 
+/* A level-l result of configuration (m, frac × critical) to time t, at
+ * level N (finer results restricted, coarser subdivided); *umax: its
+ * largest displacement. */
+static double *run_to(bscene *b, ndo_acc *a, int l, ndo_method m, double frac, double t,
+                      double *umax)
+{
+	ndo_acc_config c = at_fraction(a, l, m, frac, t);
+	ndo_acc_result r;
+	if (ndo_acc_run(a, &c, &r))
+		die("pilot run");
+	if (umax)
+		*umax = r.umax;
+	double *out;
+	if (l <= b->n) {
+		if (ndo_acc_prolong(l, b->n, r.u, &out))
+			die("prolong");
+	} else {
+		size_t cnt = 3 * (size_t)((2 << l) + 1) * (size_t)((1 << l) + 1);
+		double *t1 = malloc(cnt * sizeof *t1);
+		out = malloc(cnt * sizeof *out);
+		memcpy(out, r.u, cnt * sizeof *out);
+		for (int k = l; k > b->n; k--) {
+			ndo_restrict_nodes(k, 3 * sizeof(double), out, t1);
+			double *sw = out;
+			out = t1, t1 = sw;
+		}
+		free(t1);
+	}
+	ndo_acc_result_free(&r);
+	return out;
+}
+
+static void pilot(int n, int argc, char **argv)
+{
+	printf("scene,t_s,largest_m,true_below,true_input,predicted_below,pilot_difference\n");
+	for (int k = 0; k < argc; k++) {
+		bscene b;
+		setup(&b, argv[k], n);
+		for (int i = 3; i >= 0; i--) {
+			double t = b.T / (double)(1 << i), U;
+			double *ref = run_to(&b, b.fine, n + 2, NDO_RK4, 0.2, t, &U);
+			double *s1 = run_to(&b, b.in, n - 1, NDO_SYMPLECTIC_EULER, 0.9, t, NULL),
+			       *s0 = run_to(&b, b.in, n, NDO_SYMPLECTIC_EULER, 0.9, t, NULL),
+			       *p2 = run_to(&b, b.in, n - 2, NDO_RK4, 0.5, t, NULL),
+			       *p1 = run_to(&b, b.in, n - 1, NDO_RK4, 0.5, t, NULL),
+			       *p0 = run_to(&b, b.in, n, NDO_RK4, 0.5, t, NULL);
+			printf("%s,%.4g,%.4g,%.3g,%.3g,%.3g,%.3g\n", b.name, t, U,
+			       ndo_acc_distance(n, s1, ref) / U, ndo_acc_distance(n, s0, ref) / U,
+			       ndo_acc_distance(n, p1, p2) / 3 / U, ndo_acc_distance(n, p0, p1) / U);
+			fflush(stdout);
+			free(ref), free(s1), free(s0), free(p2), free(p1), free(p0);
+		}
+		teardown(&b);
+	}
+}
+
 int main(int argc, char **argv)
 {
 	if (argc >= 5)
@@ -341,8 +406,10 @@ int main(int argc, char **argv)
 		estimates(atoi(argv[2]), argc - 4, argv + 4);
 	else if (argc >= 5 && strcmp(argv[1], "choose") == 0)
 		choose(atoi(argv[2]), argc - 4, argv + 4);
+	else if (argc >= 5 && strcmp(argv[1], "pilot") == 0)
+		pilot(atoi(argv[2]), argc - 4, argv + 4);
 	else {
-		fprintf(stderr, "usage: bench_accuracy estimates|choose N T NAME=INPUT:SCENE[:REST]...\n");
+		fprintf(stderr, "usage: bench_accuracy estimates|choose|pilot N T NAME=INPUT:SCENE[:REST]...\n");
 		return 2;
 	}
 	return 0;

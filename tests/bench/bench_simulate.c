@@ -16,6 +16,14 @@
  *                               lock-step rk4's 2-ring halo) by the passes
  *                               and by the pipeline, against the whole
  *                               object, one thread, in process CPU time
+ *   bench_simulate fused T L...  the same for symplectic Euler and
+ *                               midpoint: their passes through the stored
+ *                               acceleration against the fused ones
+ *                               (integrate.c, ndo__accel_update)
+ *   bench_simulate bandwidth T  the STREAM-like triad on 1 and on T
+ *                               threads over the same arrays, in
+ *                               alternating runs: what more threads can
+ *                               give a pass bound by memory
  *
  * Timings are medians of 7 runs of at least 0.1 s each, single thread
  * (threads: the ratio is the median of the 7 pairs' ratios); limits and
@@ -27,6 +35,7 @@
 #include "sim_private.h" /* rk4_reference: the passes beside the pipeline */
 
 #include <math.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -209,20 +218,22 @@ static void threads(int argc, char **argv)
 /* RK4's two ways (lib/sim/rk4.c): the four passes and the pipeline, on
  * one thread and on T, the four timed in turn; the ratios are medians of
  * the runs' ratios within a round. */
-static void pipeline(int argc, char **argv)
+static void pipeline(int argc, char **argv, const ndo_method *ms, int nm, const char *fast)
 {
 	int T = atoi(argv[0]);
-	printf("| level | nodes | passes, 1 thread | pipeline, 1 thread | ratio | passes, %d threads "
-	       "| pipeline, %d threads | ratio | pipeline %d threads / passes 1 thread |\n", T, T, T);
-	printf("|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
-	for (int a = 1; a < argc; a++) {
+	printf("| %slevel | nodes | passes, 1 thread | %s, 1 thread | ratio | passes, %d threads "
+	       "| %s, %d threads | ratio | %s %d threads / passes 1 thread |\n",
+	       nm > 1 ? "integrator | " : "", fast, T, fast, T, fast, T);
+	printf("|%s---:|---:|---:|---:|---:|---:|---:|---:|---:|\n", nm > 1 ? "---|" : "");
+	for (int a = 1; a < argc; a++)
+	for (int im = 0; im < nm; im++) {
 		int level = atoi(argv[a]);
 		ndo_grid *g;
 		ndo_shape_make("wavy", level, NULL, &g);
 		ndo_force *f[4];
 		ndo_sim *s[4];
 		for (int k = 0; k < 4; k++) {
-			s[k] = thesis_scene_on(g, NDO_RK4, k < 2 ? 1 : T, &f[k]);
+			s[k] = thesis_scene_on(g, ms[im], k < 2 ? 1 : T, &f[k]);
 			s[k]->rk4_reference = k % 2 == 0;
 		}
 		double h;
@@ -235,6 +246,8 @@ static void pipeline(int argc, char **argv)
 			q[1][rep] = r[3][rep] / r[2][rep];
 			q[2][rep] = r[3][rep] / r[0][rep];
 		}
+		if (nm > 1)
+			printf("| %s ", ndo_method_names[ms[im]]);
 		printf("| %d | %zu | %.4g | %.4g | %.2f | %.4g | %.4g | %.2f | %.2f |\n", level,
 		       ndo_vertex_count(level), median(r[0], REPS), median(r[1], REPS), median(q[0], REPS),
 		       median(r[2], REPS), median(r[3], REPS), median(q[1], REPS), median(q[2], REPS));
@@ -511,6 +524,85 @@ static void limits(void)
 		printf("| FMA, AVX-512 (8 doubles) | %.1f GFLOP/s |\n", gflops(fma_avx512, 8));
 }
 
+/* The triad on 1 and on T threads: the same three arrays of n doubles,
+ * thread i on its slice, reps sweeps each, wall time from the threads'
+ * start to the last one's end (a thread per run: its start is small
+ * beside a run of 0.1 s or more). */
+typedef struct triad_slice {
+	double *a, *b, *c;
+	size_t n;
+	long reps;
+} triad_slice;
+
+static void *triad_thread(void *arg)
+{
+	triad_slice *t = arg;
+	for (long k = 0; k < t->reps; k++) {
+		triad_avx2(t->a, t->b, t->c, t->n);
+		__asm__ volatile("" ::"r"(t->a) : "memory");
+	}
+	return NULL;
+}
+
+static double triad_threads(double *a, double *b, double *c, size_t n, long reps, int T)
+{
+	pthread_t th[64];
+	triad_slice sl[64];
+	double t0 = now();
+	for (int i = 0; i < T; i++) {
+		size_t o = n * (size_t)i / (size_t)T, e = n * (size_t)(i + 1) / (size_t)T;
+		sl[i] = (triad_slice){a + o, b + o, c + o, e - o, reps};
+		if (i > 0 && pthread_create(&th[i], NULL, triad_thread, &sl[i])) {
+			fprintf(stderr, "bench_simulate: cannot start a thread\n");
+			exit(1);
+		}
+	}
+	triad_thread(&sl[0]);
+	for (int i = 1; i < T; i++)
+		pthread_join(th[i], NULL);
+	return 24.0 * (double)n * (double)reps / (now() - t0) / 1e9;
+}
+
+static void bandwidth_threads(int T)
+{
+	if (T < 2 || T > 64) {
+		fprintf(stderr, "bench_simulate: bandwidth: %d threads: must be 2 to 64\n", T);
+		exit(2);
+	}
+	printf("| three arrays of | like | 1 thread (GB/s) | %d threads (GB/s) | ratio |\n", T);
+	printf("|---:|---|---:|---:|---:|\n");
+	const struct {
+		size_t bytes;
+		const char *like;
+	} sizes[] = {{768 << 10, "L2 of one core"},
+	             {6 << 20, "level 7's state (7.3 MiB)"},
+	             {24 << 20, "level 8's state (29 MiB)"},
+	             {96 << 20, "level 9's (117 MiB)"},
+	             {384 << 20, "level 10's (467 MiB)"}};
+	for (int k = 0; k < 5; k++) {
+		size_t n = sizes[k].bytes / 24;
+		double *a = malloc(n * sizeof *a), *b = malloc(n * sizeof *b), *c = malloc(n * sizeof *c);
+		if (!a || !b || !c) {
+			fprintf(stderr, "bench_simulate: out of memory\n");
+			exit(1);
+		}
+		for (size_t i = 0; i < n; i++)
+			a[i] = (double)i, b[i] = 0, c[i] = 1;
+		long reps = (long)(3e8 / (double)n) + 1;
+		triad_threads(a, b, c, n, reps, 1), triad_threads(a, b, c, n, reps, T);
+		double r1[REPS], rT[REPS], q[REPS];
+		for (int r = 0; r < REPS; r++) {
+			r1[r] = triad_threads(a, b, c, n, reps, 1);
+			rT[r] = triad_threads(a, b, c, n, reps, T);
+			q[r] = rT[r] / r1[r];
+		}
+		printf("| %.2f MiB | %s | %.1f | %.1f | %.2f |\n", (double)sizes[k].bytes / 1048576.0,
+		       sizes[k].like, median(r1, REPS), median(rT, REPS), median(q, REPS));
+		fflush(stdout);
+		free(a), free(b), free(c);
+	}
+}
+
 /* The fused RK4 pass per node and stage (integrate.c, rk4_interior), with
  * forces: stencil 3 × (6 sub + 6 mul + 5 add) = 51, acceleration 3 × 4 =
  * 12, stage update 3 × 8 = 24 (the middle stages; the first 3 × 4 + the
@@ -518,7 +610,10 @@ static void limits(void)
  * node-step.  Memory: each pass reads the stage displacement, velocity,
  * the state, the two running sums (6 × 3 planes), three edge planes,
  * 1/m, γ and the force (3 planes) and writes 4 × 3 planes: 29 + 12 = 41
- * doubles, 328 bytes per node and stage, 1312 per node-step. */
+ * doubles, 328 bytes per node and stage, 1312 per node-step.  (γ is now
+ * one number, and the pipeline skips the force plane in chunks without
+ * force nodes: most of the thesis scene's rows stream 37; the count stays
+ * 41 so that the figures compare with the earlier runs.) */
 #define RK4_FLOPS 342.0
 #define RK4_BYTES 1312.0
 
@@ -556,12 +651,17 @@ int main(int argc, char **argv)
 	else if (argc >= 4 && strcmp(argv[1], "threads") == 0)
 		threads(argc - 2, argv + 2);
 	else if (argc >= 4 && strcmp(argv[1], "pipeline") == 0)
-		pipeline(argc - 2, argv + 2);
+		pipeline(argc - 2, argv + 2, (const ndo_method[]){NDO_RK4}, 1, "pipeline");
+	else if (argc >= 4 && strcmp(argv[1], "fused") == 0)
+		pipeline(argc - 2, argv + 2, (const ndo_method[]){NDO_SYMPLECTIC_EULER, NDO_MIDPOINT}, 2,
+		         "fused");
+	else if (argc == 3 && strcmp(argv[1], "bandwidth") == 0)
+		bandwidth_threads(atoi(argv[2]));
 	else if (argc >= 3 && strcmp(argv[1], "region") == 0)
 		region(argc - 2, argv + 2);
 	else {
-		fprintf(stderr, "usage: bench_simulate speed|kernel|region LEVEL... | threads|pipeline T "
-		                "LEVEL... | limits\n");
+		fprintf(stderr, "usage: bench_simulate speed|kernel|region LEVEL... | "
+		                "threads|pipeline|fused T LEVEL... | bandwidth T | limits\n");
 		return 2;
 	}
 	return 0;

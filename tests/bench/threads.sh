@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # tests/bench/threads.sh — simulate-peer's steps on 1 and 2 threads
 # (ndo_sim_params.threads, --threads): rk4, symplectic Euler and midpoint
-# at levels 4-10, timed in alternating runs in one process, with the
-# machine's load before and after.  Writes docs/bench/threads.md.
+# at levels 4-10, timed in alternating runs in one process, rk4's pipeline
+# and the other two's fused passes against their passes, and the memory
+# bandwidth of 1 and 2 threads, with the machine's load before and after.  Writes docs/bench/threads.md.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 B=${NDO_TESTBIN:-build/tests}
@@ -12,6 +13,8 @@ t=build/bench/threads.md
 load0=$(cut -d' ' -f1-3 /proc/loadavg)
 "$B/bench_simulate" threads 2 ${LEVELS:-4 5 6 7 8 9 10} >"$t"
 "$B/bench_simulate" pipeline 2 ${PIPE_LEVELS:-6 7 8 9 10} >"$t-pipeline"
+"$B/bench_simulate" fused 2 ${PIPE_LEVELS:-6 7 8 9 10} >"$t-fused"
+"$B/bench_simulate" bandwidth 2 >"$t-bandwidth"
 load1=$(cut -d' ' -f1-3 /proc/loadavg)
 {
 	echo "# simulate-peer: threads"
@@ -46,5 +49,28 @@ load1=$(cut -d' ' -f1-3 /proc/loadavg)
 	echo "is the median of the rounds' ratios.  The same bits either way (test_sim: rk4_pipeline_is_the_passes)."
 	echo
 	cat "$t-pipeline"
+	echo
+	echo "## Symplectic Euler and midpoint: the passes and the fused passes"
+	echo
+	echo "\`bench_simulate fused 2 6 7 8 9 10\`: symplectic Euler as two passes (the acceleration stored, then"
+	echo "v and u updated) and as one (\`lib/sim/accel.c\`, ndo__accel_update: the acceleration used in the pass"
+	echo "that computes it, the new state written to spare planes); midpoint as four (stage 0, the stage state,"
+	echo "stage 1, the finish) and as two.  Where some node is not integrated (held nodes, a peer's region,"
+	echo "sleeping tiles) the passes remain.  Timed like the pipeline above; the same bits either way"
+	echo "(test_sim: fused_passes_are_the_passes)."
+	echo
+	cat "$t-fused"
+	echo
+	echo "## What a second thread can give a pass bound by memory"
+	echo
+	echo "\`bench_simulate bandwidth 2\`: the STREAM-like triad (a = b + s c, 24 bytes per element, AVX2) over"
+	echo "the same three arrays on one thread and on two (each its half), 7 alternating pairs, wall time;"
+	echo "the ratio is the median of the pairs' ratios.  A pass whose time is its memory traffic can scale by"
+	echo "no more than this ratio at its size: where it is below 1.8, the 1.8x goal needs fewer bytes per step"
+	echo "(more of a step's stages per sweep over cache-sized tiles, as rk4's pipeline does), not more threads."
+	echo "Measured under a load above 2, the columns are the share of the caches and memory this process got"
+	echo "beside the others' work, not the machine's: only a quiet run says what two threads can have."
+	echo
+	cat "$t-bandwidth"
 } >"$out"
 cat "$out"

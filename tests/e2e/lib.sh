@@ -8,8 +8,10 @@ set -u
 : "${NDO_BIN:=$NDO_ROOT/bin}"
 : "${NDO_TMP:=$NDO_ROOT/build/test-tmp}"
 export PATH=$NDO_BIN:$PATH
-T=$(mktemp -d "$NDO_TMP/$(basename "$0" .sh).XXXXXX" 2>/dev/null || mktemp -d)
-cd "$T" || exit 1
+# The case's directory stays for its logs; tests/run empties $NDO_TMP when it
+# starts, `make clean` removes it (never a stray folder in /tmp).
+mkdir -p "$NDO_TMP" && T=$(mktemp -d "$NDO_TMP/$(basename "$0" .sh).XXXXXX") && cd "$T" || {
+	echo "FAIL $(basename "$0" .sh): no scratch directory under $NDO_TMP"; exit 1; }
 SCRIPT=$(basename "$0" .sh)
 
 pass() { echo "PASS $SCRIPT: $1"; }

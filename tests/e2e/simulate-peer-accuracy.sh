@@ -113,6 +113,26 @@ expect_error "accuracy with forces by face ids" 2 \
 	'^simulate-peer: --accuracy: a force given by face ids exists only at the input' \
 	simulate-peer -q --force 'face faces=1,2 amplitude=1' -t 0.2 --accuracy 0.1 s4.tgrid -o never.tgrid
 
+# --max-memory covers the estimate's time window too: a level-6 run of
+# about 4 MB fits 6 MB, the window's companion beside it does not — the
+# window is left out and said so, the estimate from level 5 remains; 20 MB
+# holds both.  The same with --accuracy choosing the input's level.
+simulate-peer -s "$SC" -t 0.2 --max-memory 6M s6.tgrid -o m6.tgrid 2>m6.log
+simulate-peer -s "$SC" -t 0.2 --max-memory 20M s6.tgrid -o m20.tgrid 2>m20.log
+if grep -q '^simulate-peer: error estimate: .* m (.*): time .* m (.*), space .*; not estimated: time: window at level 6: it would need .* MB beside the run.s .* MB, more than the 6 MB allowed' m6.log &&
+	grep '^simulate-peer: error estimate:' m20.log | grep -vq 'not estimated' && [ -s m6.tgrid ]; then
+	pass "--max-memory 6M leaves the estimate's window out and says so; 20M keeps it"
+else
+	fail "--max-memory and the estimate's window" "$(grep 'error estimate' m6.log m20.log)"
+fi
+simulate-peer -s "$SC" -t 0.2 --accuracy 0.02 --max-memory 6M s6.tgrid -o ma.tgrid 2>ma.log
+if grep -q '^simulate-peer: --accuracy 0.02 .*: level 6, ' ma.log &&
+	grep -q 'not estimated: time: window at level 6: .* more than the 6 MB allowed' ma.log; then
+	pass "--accuracy at the input's level keeps --max-memory for the window too"
+else
+	fail "--accuracy, --max-memory" "$(grep -e '--accuracy' -e 'error estimate' ma.log)"
+fi
+
 # --sleep: a slack sphere (level 7) poked at its pole for 2 s — the far tiles sleep,
 # the summary counts the node-steps saved, the result stays within the
 # bound of the every-node run; what sleeping cannot serve is refused.

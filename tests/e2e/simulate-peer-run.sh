@@ -114,7 +114,7 @@ done
 # Threads share a step's loops and change no bit (a level-7 grid: above
 # the 20,000 nodes from which steps are shared).
 remesh --shape wavy -l 7 -o w7.tgrid
-for m in rk4 midpoint; do
+for m in rk4 midpoint symplectic-euler; do
 	simulate-peer -q -i $m -n 8 -s scene.txt --dt auto --threads 1 w7.tgrid -o one.tgrid
 	simulate-peer -s scene.txt -i $m -n 8 --dt auto --threads 2 w7.tgrid -o two.tgrid 2>two.log
 	if /usr/bin/python3 -c "

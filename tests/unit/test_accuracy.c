@@ -234,6 +234,55 @@ static void finer_levels_that_cannot_win_are_not_analysed(void)
 	unmake(&f);
 }
 
+/* A caller's top mode (simulate-peer's plan(), at the input's level) is
+ * the one the choice uses there: the same predictions as computing it,
+ * and the step follows the mode given.  A memory limit that the run and the
+ * time window's companion together exceed leaves the window out (the
+ * coarse estimate remains) and says why. */
+static void known_mode_and_memory_limit(void)
+{
+	const char *scene = "damping 0.1;force face at=0,0,1 radius=0.3 amplitude=1 frequency=1";
+	fixture f, g, h;
+	make(&f, 4, scene, bulge);
+	make(&g, 4, scene, bulge);
+	make(&h, 4, scene, bulge);
+	ndo_sim *s;
+	ndo_critical cr;
+	CHECK(ndo_acc_sim(f.a, 4, NDO_RK4, 0, &s) == NDO_OK && ndo_sim_critical(s, &cr) == NDO_OK,
+	      "critical");
+	ndo_sim_destroy(s);
+	ndo_acc_set_critical(g.a, 4, cr.omega_max, cr.gamma);
+	ndo_acc_set_critical(h.a, 4, 2 * cr.omega_max, cr.gamma);
+	ndo_acc_choice a, b, c;
+	double E = 0.1;
+	CHECK(ndo_acc_choose(f.a, E, 0, 1, &a) == NDO_OK && ndo_acc_choose(g.a, E, 0, 1, &b) == NDO_OK &&
+	      ndo_acc_choose(h.a, E, 0, 1, &c) == NDO_OK && a.reachable && a.c.level == 4,
+	      "%g: level %d (reachable %d)", E, a.c.level, a.reachable);
+	/* (Which method wins can differ between two choices: each measures
+	 * its CPU time per node-evaluation.) */
+	CHECK(b.reachable && b.pilot_top == a.pilot_top && b.level_m[2] == a.level_m[2] &&
+	      b.level_m[3] == a.level_m[3] && b.level_m[4] == a.level_m[4] && b.c.level == 4 &&
+	      b.c.h <= 0.9 * ndo_stable_step(b.c.method, cr.omega_max, cr.gamma, NULL) * (1 + 1e-12),
+	      "with the mode given: level %d %s, step %g; computed: level %d %s, step %g", b.c.level,
+	      ndo_method_names[b.c.method], b.c.h, a.c.level, ndo_method_names[a.c.method], a.c.h);
+	CHECK(c.c.level == 4 && c.c.h <= 0.9 * ndo_stable_step(c.c.method, 2 * cr.omega_max,
+	                                                        cr.gamma, NULL) * (1 + 1e-12),
+	      "twice the frequency: level %d, step %g", c.c.level, c.c.h);
+	ndo_acc_result r;
+	ndo_acc_estimate e0, e1;
+	ndo_acc_config rc = {4, NDO_RK4, a.c.h, a.c.steps, 1e-6};
+	rc.h = 1.0 / (double)(rc.steps = (int64_t)ceil(1 / (0.9 * cr.h_crit)));
+	CHECK(ndo_acc_run(f.a, &rc, &r) == NDO_OK &&
+	      ndo_acc_estimate_run(f.a, &rc, r.u, r.umax, &e0) == NDO_OK, "estimate");
+	ndo_acc_set_max_memory(f.a, 1000);
+	CHECK(ndo_acc_estimate_run(f.a, &rc, r.u, r.umax, &e1) == NDO_OK, "estimate, 1000 bytes");
+	CHECK(!*e0.why && strstr(e1.why, "window") && strstr(e1.why, "allowed") &&
+	      isfinite(e1.time_m) && e1.time_m <= e0.time_m && e1.space_m == e0.space_m,
+	      "1000 bytes: '%s', time %g m (unlimited %g m, '%s')", e1.why, e1.time_m, e0.time_m, e0.why);
+	ndo_acc_result_free(&r);
+	unmake(&f), unmake(&g), unmake(&h);
+}
+
 int main(void)
 {
 	ck_program = "accuracy";
@@ -243,5 +292,6 @@ int main(void)
 	RUN(time_estimate_at_the_largest_step);
 	RUN(bad_targets_are_refused);
 	RUN(finer_levels_that_cannot_win_are_not_analysed);
+	RUN(known_mode_and_memory_limit);
 	return ck_failed_cases != 0;
 }

@@ -208,28 +208,48 @@ static void threads_give_the_same_bits(void)
 {
 	ndo_grid *g = shape("wavy", 7);
 	double *x = displaced(g, 0.01);
-	double *out[3];
 	size_t n = 3 * g->count;
-	for (int t = 1; t <= 3; t++) {
-		ndo_sim_params p;
-		ndo_sim_defaults(&p);
-		p.method = NDO_BACKWARD_EULER;
-		p.solver = NDO_SOLVER_MULTIGRID;
-		p.threads = t;
-		ndo_sim *s = make(g, x, NULL, &p);
-		for (int q = 0; q < 3; q++)
-			CHECK(ndo_sim_step(s, 0.05) == 0, "%d threads: %s", t, ndo_errdetail());
-		out[t - 1] = malloc(n * sizeof(double));
-		ndo_sim_get(s, NULL, out[t - 1]);
-		int levels;
-		ndo_sim_solver_info(s, &levels, NULL);
-		CHECK(levels > 1, "h = 0.05 s at level 7 uses the hierarchy (%d levels)", levels);
-		ndo_sim_destroy(s);
+	ndo_sim_params p0;
+	ndo_sim_defaults(&p0);
+	ndo_sim *probe = make(g, x, NULL, &p0);
+	ndo_critical c;
+	ndo_sim_critical(probe, &c);
+	ndo_sim_destroy(probe);
+	/* h = 0.05 s: the V-cycle; half RK4's limit: no hierarchy, Jacobi's
+	 * fused passes (both methods) */
+	const struct {
+		ndo_method m;
+		double h;
+		int hier;
+	} cs[] = {{NDO_BACKWARD_EULER, 0.05, 1},
+	          {NDO_BACKWARD_EULER, 0.5 * c.h_crit, 0},
+	          {NDO_TRAPEZOID, 0.5 * c.h_crit, 0}};
+	for (size_t k = 0; k < sizeof cs / sizeof cs[0]; k++) {
+		double *out[3];
+		for (int t = 1; t <= 3; t++) {
+			ndo_sim_params p;
+			ndo_sim_defaults(&p);
+			p.method = cs[k].m;
+			p.solver = NDO_SOLVER_MULTIGRID;
+			p.threads = t;
+			ndo_sim *s = make(g, x, NULL, &p);
+			for (int q = 0; q < 3; q++)
+				CHECK(ndo_sim_step(s, cs[k].h) == 0, "%d threads: %s", t, ndo_errdetail());
+			out[t - 1] = malloc(n * sizeof(double));
+			ndo_sim_get(s, NULL, out[t - 1]);
+			int levels;
+			ndo_sim_solver_info(s, &levels, NULL);
+			CHECK((levels > 1) == cs[k].hier, "%s h = %.3g s at level 7: %d levels",
+			      ndo_method_names[cs[k].m], cs[k].h, levels);
+			ndo_sim_destroy(s);
+		}
+		CHECK(memcmp(out[0], out[1], n * sizeof(double)) == 0, "%s h = %.3g s: 1 and 2 "
+		      "threads differ", ndo_method_names[cs[k].m], cs[k].h);
+		CHECK(memcmp(out[0], out[2], n * sizeof(double)) == 0, "%s h = %.3g s: 1 and 3 "
+		      "threads differ", ndo_method_names[cs[k].m], cs[k].h);
+		for (int t = 0; t < 3; t++)
+			free(out[t]);
 	}
-	CHECK(memcmp(out[0], out[1], n * sizeof(double)) == 0, "1 and 2 threads differ");
-	CHECK(memcmp(out[0], out[2], n * sizeof(double)) == 0, "1 and 3 threads differ");
-	for (int t = 0; t < 3; t++)
-		free(out[t]);
 	free(x);
 	ndo_grid_destroy(g);
 }
@@ -311,19 +331,20 @@ static void solver_names_parse(void)
  * symmetric values, and edges left out around a few rows (as held
  * neighbours leave them out) besides the border: regular and irregular
  * rows both. */
-static void stencil_rows_equal_csr(void)
+enum { W = 40, H = 30, N = W * H };
+
+/* That raster's operator, both triangles: diagonal mass[r] + extra + the
+ * off-diagonal sum (an M-matrix); T and mass (N, 100 ± 1: with extra = 0
+ * the mass dominates) are the caller's to free. */
+static cholmod_sparse *raster(double extra, int use_mass, double *mass, cholmod_triplet **Tout,
+                              cholmod_common *cm)
 {
-	enum { W = 40, H = 30, N = W * H };
-	cholmod_common cm;
-	cholmod_start(&cm);
-	cm.print = 0;
-	cholmod_triplet *T = cholmod_allocate_triplet(N, N, 7 * N, 0, CHOLMOD_REAL, &cm);
+	cholmod_triplet *T = cholmod_allocate_triplet(N, N, 7 * N, 0, CHOLMOD_REAL, cm);
 	int *Ti = T->i, *Tj = T->j;
-	double *Tx = T->x, *mass = malloc(N * sizeof *mass), diag[N];
-	int32_t *nodes = malloc(N * sizeof *nodes);
+	double *Tx = T->x, diag[N];
 	size_t nz = 0;
 	for (int r = 0; r < N; r++)
-		mass[r] = 100 + uniform(), diag[r] = mass[r], nodes[r] = r;
+		mass[r] = 100 + uniform(), diag[r] = (use_mass ? mass[r] : 0) + extra;
 	for (int r = 0; r < N; r++) {
 		int i = r % W, j = r / W;
 		const int di[3] = {1, 0, -1}, dj[3] = {0, 1, 1};
@@ -341,7 +362,30 @@ static void stencil_rows_equal_csr(void)
 	for (int r = 0; r < N; r++)
 		Ti[nz] = r, Tj[nz] = r, Tx[nz++] = diag[r];
 	T->nnz = nz;
-	cholmod_sparse *A = cholmod_triplet_to_sparse(T, nz, &cm);
+	*Tout = T;
+	return cholmod_triplet_to_sparse(T, nz, cm);
+}
+
+/* CHOLMOD's workspace, the raster's mass (N) and its rows' nodes (N,
+ * r → r), for the tests below (theirs to free). */
+static void raster_start(cholmod_common *cm, double **mass, int32_t **nodes)
+{
+	cholmod_start(cm);
+	cm->print = 0;
+	*mass = malloc(N * sizeof **mass);
+	*nodes = malloc(N * sizeof **nodes);
+	for (int r = 0; r < N; r++)
+		(*nodes)[r] = r;
+}
+
+static void stencil_rows_equal_csr(void)
+{
+	cholmod_common cm;
+	double *mass;
+	int32_t *nodes;
+	raster_start(&cm, &mass, &nodes);
+	cholmod_triplet *T;
+	cholmod_sparse *A = raster(0, 1, mass, &T, &cm);
 	ndo__mg *mg = NULL;
 	int rc = ndo__mg_create(6, nodes, N, A, mass, &cm, NULL, &mg);
 	CHECK(rc == NDO_OK && mg, "the hierarchy of a %d-row raster: %s", N, ndo_errdetail());
@@ -374,11 +418,104 @@ static void stencil_rows_equal_csr(void)
 	free(mass), free(nodes);
 }
 
+/* Without a hierarchy (the mass part of the diagonal dominates: no
+ * V-cycle), CG preconditioned by the diagonal alone on two systems: mass
+ * 100 ± 1 beside off-diagonal sums of at most 5.4 (the benchmark's
+ * regime, κ ≈ 1.1), and a diagonal of 0.2 + the off-diagonal sums with
+ * the mass part given as 100 (κ up to 55): both reach the tolerance (the
+ * true residual, computed here from CSR) and CHOLMOD's solution, the slow
+ * reference, within κ × the tolerance. */
+static void jacobi_solves_equal_cholmods(void)
+{
+	cholmod_common cm;
+	double *mass;
+	int32_t *nodes;
+	raster_start(&cm, &mass, &nodes);
+	const struct {
+		double extra;
+		int use_mass;
+		const char *name;
+	} cs[] = {{0, 1, "mass-dominated"}, {0.2, 0, "weakly dominant"}};
+	for (size_t k = 0; k < sizeof cs / sizeof cs[0]; k++) {
+		cholmod_triplet *T;
+		cholmod_sparse *A = raster(cs[k].extra, cs[k].use_mass, mass, &T, &cm);
+		ndo__mg *mg = NULL;
+		const char *pc = cs[k].name;
+		CHECK(ndo__mg_create(6, nodes, N, A, mass, &cm, NULL, &mg) == NDO_OK && mg, "%s: %s",
+		      pc, ndo_errdetail());
+		if (!mg)
+			continue;
+		int levels, direct;
+		levels = ndo__mg_levels(mg, &direct);
+		CHECK(levels == 1 && !direct, "%s: Jacobi alone (%d levels%s)", pc, levels,
+		      direct ? ", factored" : "");
+		double *b = malloc(3 * N * sizeof *b), *x = calloc(3 * N + 1, sizeof *x);
+		for (int q = 0; q < 3 * N; q++)
+			b[q] = uniform();
+		int it = 0;
+		double res = 1;
+		CHECK(ndo__mg_solve(mg, b, x, 1e-12, 1e-10, 500, &it, &res) == NDO_OK, "%s: %s", pc,
+		      ndo_errdetail());
+		/* the true residual, from CSR */
+		const int *Ap = A->p, *Ai = A->i;
+		const double *Ax = A->x;
+		double rr[3] = {0, 0, 0}, bb[3] = {0, 0, 0};
+		for (int r = 0; r < N; r++)
+			for (int c = 0; c < 3; c++) {
+				double y = 0;
+				for (int q = Ap[r]; q < Ap[r + 1]; q++)
+					y += Ax[q] * x[3 * Ai[q] + c];
+				rr[c] += (b[3 * r + c] - y) * (b[3 * r + c] - y);
+				bb[c] += b[3 * r + c] * b[3 * r + c];
+			}
+		double worst = 0;
+		for (int c = 0; c < 3; c++)
+			worst = fmax(worst, sqrt(rr[c] / bb[c]));
+		printf("    %s: %d iterations, relative residual %.3g (reported %.3g)\n", pc, it, worst,
+		       res);
+		CHECK(worst <= 1e-11, "%s: true relative residual %.3g", pc, worst);
+		/* CHOLMOD's solution */
+		cholmod_sparse *U = cholmod_copy(A, 1, 1, &cm);
+		cholmod_factor *L = cholmod_analyze(U, &cm);
+		cholmod_factorize(U, L, &cm);
+		cholmod_dense *B = cholmod_allocate_dense(N, 3, N, CHOLMOD_REAL, &cm);
+		double *bx = B->x;
+		for (int r = 0; r < N; r++)
+			for (int c = 0; c < 3; c++)
+				bx[c * N + r] = b[3 * r + c];
+		cholmod_dense *X = cholmod_solve(CHOLMOD_A, L, B, &cm);
+		const double *xx = X->x;
+		double d = 0, xn = 0;
+		for (int r = 0; r < N; r++)
+			for (int c = 0; c < 3; c++) {
+				d = fmax(d, fabs(x[3 * r + c] - xx[c * N + r]));
+				xn += xx[c * N + r] * xx[c * N + r];
+			}
+		/* ‖e‖ ≤ κ(A) · relative residual · ‖x‖ (2-norms, per column; the
+		 * largest |e| is below each), κ(A) ≤ Gershgorin's (diag + 2 × 5.4) /
+		 * diag: 1.11 and 55 */
+		const double kappa = cs[k].use_mass ? 1.11 : 55;
+		CHECK(d <= kappa * 1e-11 * sqrt(xn), "%s: differs from CHOLMOD's solution by %.3g "
+		      "(bound %.3g)", pc, d, kappa * 1e-11 * sqrt(xn));
+		printf("    %s: differs from CHOLMOD's by %.3g (bound %.3g)\n", pc, d,
+		       kappa * 1e-11 * sqrt(xn));
+		cholmod_free_dense(&X, &cm), cholmod_free_dense(&B, &cm);
+		cholmod_free_factor(&L, &cm), cholmod_free_sparse(&U, &cm);
+		free(b), free(x);
+		ndo__mg_free(mg);
+		cholmod_free_sparse(&A, &cm);
+		cholmod_free_triplet(&T, &cm);
+	}
+	cholmod_finish(&cm);
+	free(mass), free(nodes);
+}
+
 int main(void)
 {
 	ck_program = "test_multigrid";
 	RUN(solver_names_parse);
 	RUN(stencil_rows_equal_csr);
+	RUN(jacobi_solves_equal_cholmods);
 	RUN(steps_equal_cholmods);
 	RUN(stiff_membrane_solves);
 	RUN(threads_give_the_same_bits);

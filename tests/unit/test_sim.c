@@ -455,6 +455,87 @@ static void rk4_pipeline_holds_nodes_as_the_passes(void)
 	}
 }
 
+/* Symplectic Euler and midpoint in their fused passes (integrate.c:
+ * ndo__accel_update, every node integrated) give the bits of the passes
+ * through ndo__accel on any thread count: state, energies, input work,
+ * evaluations; with forces along the normals, along a fixed direction and
+ * on nodes, at a level of one chunk and at one of many.  A step that
+ * diverges leaves the state as it was. */
+static void fused_passes_are_the_passes(void)
+{
+	const ndo_method ms[] = {NDO_SYMPLECTIC_EULER, NDO_MIDPOINT};
+	for (int level = 3; level <= 7; level += 4)
+		for (int m = 0; m < 2; m++) {
+			ndo_grid *g = shape("wavy", level);
+			size_t nn = 3 * g->count;
+			double *x0 = malloc(nn * sizeof *x0), *v0 = malloc(nn * sizeof *v0);
+			random_state(g, 0.01, x0, v0);
+			int32_t faces[] = {0, 1, 2, 31, 40, 41, 90, 500};
+			int32_t nodes[] = {0, 5, (int32_t)g->count / 2, (int32_t)g->count - 1};
+			ndo_force f[3] = {{NDO_FORCE_FACE, 2.4, 1, 0, 1, {0}, level > 3 ? 8 : 7, faces},
+			                  {NDO_FORCE_FACE, 1.1, 3, 0.5, 0, {0.2, 0.3, 1}, 3, faces + 1},
+			                  {NDO_FORCE_POINT, 0.7, 2, 0, 1, {0}, 4, nodes}};
+			ndo_sim_params p;
+			ndo_sim_defaults(&p);
+			p.method = ms[m];
+			p.material.damping = 0.1;
+			p.forces = f;
+			p.nforces = 3;
+			const double h = level == 3 ? 1e-3 : 2e-4;
+			ndo_sim *ref = make(g, x0, v0, NULL, &p);
+			ref->rk4_reference = 1;
+			double *xr = malloc(nn * sizeof *xr), *vr = malloc(nn * sizeof *vr);
+			double *x = malloc(nn * sizeof *x), *v = malloc(nn * sizeof *v);
+			for (int k = 0; k < 20; k++)
+				CHECK(ndo_sim_step(ref, h) == 0, "passes: %s", ndo_errdetail());
+			ndo_sim_get(ref, xr, vr);
+			ndo_sim_energy er;
+			ndo_sim_energy_get(ref, &er);
+			ndo_sim_stats sr;
+			ndo_sim_stats_get(ref, &sr);
+			const char *name = ndo_method_names[ms[m]];
+			for (int t = 1; t <= 3; t++) {
+				p.threads = t;
+				ndo_sim *s = make(g, x0, v0, NULL, &p);
+				const double *u0 = s->u;
+				for (int k = 0; k < 20; k++) {
+					CHECK(ndo_sim_step(s, h) == 0, "fused: %s", ndo_errdetail());
+					/* the new state in spare planes, swapped in */
+					CHECK(k > 0 || s->u != u0, "%s, level %d: the fused passes were not taken",
+					      name, level);
+				}
+				ndo_sim_get(s, x, v);
+				ndo_sim_energy e;
+				ndo_sim_energy_get(s, &e);
+				ndo_sim_stats st;
+				ndo_sim_stats_get(s, &st);
+				CHECK(!memcmp(x, xr, nn * sizeof *x) && !memcmp(v, vr, nn * sizeof *v),
+				      "%s, level %d, %d threads: the fused passes' state differs from the "
+				      "passes' by %g", name, level, t, fmax(max_diff(x, xr, nn), max_diff(v, vr, nn)));
+				CHECK(e.kinetic == er.kinetic && e.potential == er.potential && e.work == er.work,
+				      "%s, level %d, %d threads: energies or work differ", name, level, t);
+				CHECK(st.evaluations == sr.evaluations, "%s, level %d, %d threads: %lld "
+				      "evaluations, the passes %lld", name, level, t, (long long)st.evaluations,
+				      (long long)sr.evaluations);
+				int rc = 0;
+				for (int k = 0; k < 200 && rc == 0; k++) {
+					ndo_sim_get(s, x, v);
+					rc = ndo_sim_step(s, 0.5);
+				}
+				CHECK(rc == NDO_EDIVERGED, "%s, level %d: no divergence (%d)", name, level, rc);
+				ndo_sim_get(s, xr, vr);
+				CHECK(!memcmp(x, xr, nn * sizeof *x) && !memcmp(v, vr, nn * sizeof *v),
+				      "%s, level %d, %d threads: the step that diverged changed the state", name,
+				      level, t);
+				ndo_sim_get(ref, xr, vr);
+				ndo_sim_destroy(s);
+			}
+			ndo_sim_destroy(ref);
+			free(x0), free(v0), free(xr), free(vr), free(x), free(v);
+			ndo_grid_destroy(g);
+		}
+}
+
 /* The fused RK4 passes give the tableau path's result, with forces,
  * penalty pins and held nodes. */
 static void fused_rk4_equals_the_tableau(void)
@@ -1271,6 +1352,7 @@ int main(void)
 	RUN(fused_rk4_equals_the_tableau);
 	RUN(rk4_pipeline_is_the_passes);
 	RUN(rk4_pipeline_holds_nodes_as_the_passes);
+	RUN(fused_passes_are_the_passes);
 	RUN(rkf45_in_parts_is_the_step);
 	RUN(power_iteration_finds_lambda_max);
 	RUN(duplicates_agree_after_every_step);

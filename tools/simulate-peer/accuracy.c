@@ -42,6 +42,10 @@ static void make_acc(run *r)
 	                   ndo_grid_find(g, NDO_CH_REST)->data, pin, ndo_sim_time(r->sim), &r->acc))
 		ndo_die("%s", ndo_errdetail());
 	ndo_grid_destroy(g);
+	/* plan() has the input level's top mode: no second power iteration
+	 * (nor a second simulation of the input's size) for it. */
+	ndo_acc_set_critical(r->acc, r->g->level, r->crit.omega_max, r->crit.gamma);
+	ndo_acc_set_max_memory(r->acc, r->max_memory);
 }
 
 void accuracy_plan(run *r)
@@ -95,13 +99,26 @@ void accuracy_plan(run *r)
 	}
 	if (r->info)
 		return;
-	ndo_sim *s;
-	if (ndo_acc_sim(r->acc, ch.c.level, ch.c.method, ch.c.tol, &s))
-		ndo_die("%s", ndo_errdetail());
-	ndo_sim_set_time(s, ndo_sim_time(r->sim), ndo_sim_step_count(r->sim));
+	/* The input's simulation goes before the chosen one is made: two of
+	 * the input's size at once would double a plain run's memory. */
+	double t = ndo_sim_time(r->sim);
+	int64_t k = ndo_sim_step_count(r->sim);
 	ndo_sim_destroy(r->sim);
-	r->sim = s;
-	if (ndo_sim_critical(r->sim, &r->crit))
+	r->sim = NULL;
+	/* The chosen run as a plain run: every core, the memory limit (the
+	 * pilots and the estimate's companions keep the scene's settings). */
+	ndo_sim_params keep = r->sc.sim;
+	r->sc.sim.threads = r->threads ? r->threads : ndo_cpu_count();
+	r->sc.sim.max_memory = r->max_memory ? r->max_memory : ndo_memory_available();
+	int rc2 = ndo_acc_sim(r->acc, ch.c.level, ch.c.method, ch.c.tol, &r->sim);
+	r->sc.sim = keep;
+	if (rc2)
+		ndo_die("%s", ndo_errdetail());
+	ndo_sim_set_time(r->sim, t, k);
+	if (ch.c.level == n) /* the same top mode as plan()'s */
+		r->crit.h_crit = ndo_stable_step(ch.c.method, r->crit.omega_max, r->crit.gamma,
+		                                 &r->crit.bound);
+	else if (ndo_sim_critical(r->sim, &r->crit))
 		ndo_die("critical step: %s", ndo_errdetail());
 	r->dt = ch.c.h;
 	r->steps = ch.c.steps;
@@ -164,7 +181,9 @@ void accuracy_print(void)
 
 void accuracy_report(run *r)
 {
-	if (!r->acc)
+	/* --accuracy makes the machinery for the choice; its estimate of a
+	 * quiet run without a log would be read by nobody. */
+	if (!r->acc || (r->quiet && !r->logging))
 		return;
 	int level = ndo_sim_level(r->sim);
 	ndo_acc_config c = {level, ndo_sim_method(r->sim), r->dt, r->steps, r->sc.sim.tol};

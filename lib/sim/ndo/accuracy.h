@@ -78,6 +78,19 @@ int ndo_acc_level(const ndo_acc *a);
  * H × W × 3 doubles owned by a; NULL when out of memory or range. */
 const double *ndo_acc_rest(ndo_acc *a, int level);
 
+/* The top mode of `level` (ω_max, rad/s, and its damping rate γ, 1/s;
+ * ndo_critical's omega_max and gamma), when the caller has it already:
+ * ndo_acc_choose then runs no power iteration there (at the input's level
+ * it would be a second simulation of the input's size beside the
+ * caller's).  Ignored unless omega_max > 0. */
+void ndo_acc_set_critical(ndo_acc *a, int level, double omega_max, double gamma);
+/* The most bytes the estimate may have in use beside the run's own
+ * simulation (0, the default: what the kernel reports free when it
+ * runs): the time window's companion, a second simulation of the run's
+ * size, is not run when the two together would exceed it (simulate-peer
+ * --max-memory). */
+void ndo_acc_set_max_memory(ndo_acc *a, size_t bytes);
+
 /* One configuration: level (≤ the input's), method, step h and steps
  * (rkf45: the output interval; tol its tolerance). */
 typedef struct ndo_acc_config {
