@@ -159,7 +159,10 @@ static void accel_border(const ndo_sim *s, const double *u, const double *v, con
 
 /* A stage buffer's held nodes at the state's displacement u: only those an
  * active node reads (the others are never read), so a peer's step costs
- * its region, not the whole grid (a full copy was 2·3·count doubles a step). */
+ * its region, not the whole grid (a full copy was 2·3·count doubles a step).
+ * Their duplicates are in the list (u's agree with their canonical nodes'):
+ * no sync of the whole buffer's seams (a memcpy call a node, three planes,
+ * seven times a step of the pipeline). */
 void ndo__held_keep(ndo_sim *s, double *buf)
 {
 	const size_t cnt = s->count;
@@ -168,7 +171,6 @@ void ndo__held_keep(ndo_sim *s, double *buf)
 			size_t q = (size_t)c * cnt + (size_t)s->hread[k];
 			buf[q] = s->u[q];
 		}
-	ndo__sync_planes(s, buf, 3);
 }
 
 /* Held nodes at the time τ after the state's: buf = u + τ v on them (the
@@ -183,7 +185,6 @@ void ndo__held_at(ndo_sim *s, double *buf, double tau)
 			size_t q = (size_t)c * cnt + (size_t)s->hmove[k];
 			buf[q] = s->u[q] + tau * s->v[q];
 		}
-	ndo__sync_planes(s, buf, 3);
 }
 
 /* The power the held nodes put into the active ones: Σ v_p · c u_q over

@@ -253,11 +253,13 @@ static int build_held_edges(ndo_sim *s)
 	/* the held nodes the active ones read, and of them those that move
 	 * with their velocities (not pins) */
 	free(s->hmove), free(s->hread);
-	s->hmove = malloc((s->nhedge + 1) * sizeof *s->hmove);
-	s->hread = malloc((s->nhedge + 1) * sizeof *s->hread);
+	const size_t ndup = ndo_duplicate_count(s->level);
+	s->hmove = malloc((s->nhedge + ndup + 1) * sizeof *s->hmove);
+	s->hread = malloc((s->nhedge + ndup + 1) * sizeof *s->hread);
 	uint8_t *seen = calloc(s->count, 1);
-	if (!s->hmove || !s->hread || !seen) {
-		free(seen);
+	size_t *pairs = malloc((2 * ndup + 1) * sizeof *pairs);
+	if (!s->hmove || !s->hread || !seen || !pairs) {
+		free(seen), free(pairs);
 		return ndo__fail(NDO_ENOMEM, "out of memory for the active set");
 	}
 	s->nhmove = s->nhread = 0;
@@ -270,7 +272,17 @@ static int build_held_edges(ndo_sim *s)
 		if (!s->pin[q])
 			s->hmove[s->nhmove++] = q;
 	}
-	free(seen);
+	/* their stored duplicates, set alike (no sync of the whole buffer) */
+	ndo_duplicates(s->level, pairs);
+	for (size_t k = 0; k < ndup; k++) {
+		size_t d = pairs[2 * k], q = pairs[2 * k + 1];
+		if (!seen[q])
+			continue;
+		s->hread[s->nhread++] = (int32_t)d;
+		if (!s->pin[q])
+			s->hmove[s->nhmove++] = (int32_t)d;
+	}
+	free(seen), free(pairs);
 	return NDO_OK;
 }
 
@@ -308,6 +320,7 @@ static int cut_chunks(const ndo__span *sp, size_t n, int32_t **chunk, int *nchun
 static int build_spans(ndo_sim *s)
 {
 	ndo__rk4_plan_free(s);
+	s->spare_held = 0;
 	free(s->espan), free(s->ispan), free(s->bact);
 	s->espan = s->ispan = NULL;
 	s->bact = NULL;
@@ -632,6 +645,32 @@ void ndo_sim_get(const ndo_sim *s, double *x, double *v)
 		}
 }
 
+/* After ndo_sim_set*: the duplicates, and the pipeline's spare state at
+ * the nodes written (sim_private.h, spare_held; all of them: NULL). */
+static void state_written(ndo_sim *s, size_t n, const int32_t *nodes)
+{
+	ndo__sync_planes(s, s->u, 3);
+	ndo__sync_planes(s, s->v, 3);
+	if (!s->spare_held)
+		return;
+	const size_t cnt = s->count;
+	if (!nodes) {
+		s->spare_held = 0;
+		return;
+	}
+	for (size_t k = 0; k < n; k++) {
+		if ((size_t)nodes[k] >= cnt)
+			continue;
+		for (int c = 0; c < 3; c++) {
+			size_t q = (size_t)c * cnt + (size_t)s->canon[nodes[k]];
+			s->ka[0][q] = s->u[q];
+			s->ka[1][q] = s->v[q];
+		}
+	}
+	ndo__sync_planes(s, s->ka[0], 3);
+	ndo__sync_planes(s, s->ka[1], 3);
+}
+
 void ndo_sim_set(ndo_sim *s, size_t n, const int32_t *nodes, const double *x,
                  const double *v)
 {
@@ -650,8 +689,7 @@ void ndo_sim_set(ndo_sim *s, size_t n, const int32_t *nodes, const double *x,
 				s->v[(size_t)c * cnt + p] = v[3 * k + c];
 		}
 	}
-	ndo__sync_planes(s, s->u, 3);
-	ndo__sync_planes(s, s->v, 3);
+	state_written(s, n, nodes);
 }
 
 void ndo_sim_get_nodes(const ndo_sim *s, size_t n, const int32_t *nodes, double *x, double *u,
@@ -687,8 +725,7 @@ void ndo_sim_set_displacements(ndo_sim *s, size_t n, const int32_t *nodes, const
 				s->v[(size_t)c * cnt + p] = v[3 * k + c];
 		}
 	}
-	ndo__sync_planes(s, s->u, 3);
-	ndo__sync_planes(s, s->v, 3);
+	state_written(s, n, nodes);
 }
 
 void ndo_sim_restart_energy_bound(ndo_sim *s)
@@ -755,6 +792,7 @@ void ndo_sim_sleep_stats_get(const ndo_sim *s, ndo_sim_sleep_stats *st)
 void ndo_sim_set_held_motion(ndo_sim *s, int on)
 {
 	s->held_motion = on != 0;
+	s->spare_held = 0;
 }
 
 int ndo_sim_store(const ndo_sim *s, ndo_grid *g)

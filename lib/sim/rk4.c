@@ -14,8 +14,7 @@
  * - passes: each stage over every chunk on the simulation's threads, the
  *   forces and the seams' copies between them (four wake-ups of the
  *   threads and four sweeps over all the state a step);
- * - the pipeline, when every node is integrated (no held nodes, no
- *   penalty pins, no pressure): the stencil reaches one row, and every
+ * - the pipeline (no penalty pins, no pressure): the stencil reaches one row, and every
  *   seam joins nodes of one row (ndo/topology.h), so stage k of a chunk of
  *   rows needs only stage k − 1 of the chunks that hold its rows ± 1.  A
  *   step is one run on the threads.  Each thread walks the units (stage,
@@ -32,7 +31,14 @@
  *   wait closes a cycle — and alone, a thread runs every unit.  A unit's
  *   forces, border nodes and seam copies are done in it, for its rows.  Stage 3 writes the new state to spare buffers, swapped in once
  *   the divergence test (on stage 0's diagnostics) has passed, so that a
- *   step that diverges leaves the state as it was, as the passes do. */
+ *   step that diverges leaves the state as it was, as the passes do.
+ *   Held nodes (a peer's region and halo, ndo_sim_set_active): a chunk
+ *   is any runs of active nodes, so a row may be shared by two chunks or
+ *   have no run; each unit waits for the units whose rows meet its rows
+ *   ± 1 (plan_build), copies only the seam duplicates of the nodes it
+ *   wrote, and stage 2 writes a third buffer, its held nodes at t + h
+ *   while stage 1 reads stage 0's at t + h/2; the spare state keeps the
+ *   held nodes' values from step to step (sim_private.h, spare_held). */
 #include "sim_private.h"
 #include "ndo/status.h"
 #include "ndo/topology.h"
@@ -291,6 +297,10 @@ struct ndo__rk4_plan {
 	int32_t *boff, *blist; /* chunk c's border nodes: bact[blist[boff[c]..boff[c+1])] */
 	int32_t *zoff, *zlist; /* its force nodes (fnodes) */
 	int32_t *foff;         /* its force items, fitem[foff[c]..foff[c+1]) */
+	int32_t *doff, *dlist; /* held nodes about (held): the seam duplicates chunk c
+	                        * copies, (duplicate, canonical) pairs
+	                        * dlist[2·doff[c]..2·doff[c+1]) */
+	int held;              /* the region has held nodes (a peer's) */
 	ndo__fitem *fitem;
 	double *bterms;        /* RK4_BTERMS per active border node */
 	int nunit;
@@ -308,6 +318,7 @@ void ndo__rk4_plan_free(ndo_sim *s)
 		return;
 	free(P->r0), free(P->r1), free(P->lo), free(P->hi), free(P->boff), free(P->blist);
 	free(P->zoff), free(P->zlist), free(P->foff), free(P->fitem), free(P->bterms);
+	free(P->doff), free(P->dlist);
 	free(P->unit), free((void *)P->done);
 	pthread_mutex_destroy(&P->lock);
 	pthread_cond_destroy(&P->cond);
@@ -315,11 +326,26 @@ void ndo__rk4_plan_free(ndo_sim *s)
 	s->rk4_plan = NULL;
 }
 
+/* A region with held nodes (a peer's) takes the pipeline from this many
+ * integrated nodes on (sim_private.h, rk4_held_min): paired whole 2-peer
+ * runs (docs/bench/peers.md §4a) found the owner's region 1.2–1.3× faster
+ * through the pipeline at level 8 (66,000 nodes) and ~16 % slower at level 7
+ * (17,000), whose state about fits a core's L2 in the passes too. */
+enum { RK4_HELD_MIN = 32768 };
+
 /* Whether the pipeline can take this simulation's steps. */
 static int pipeline_fits(const ndo_sim *s)
 {
-	return !s->rk4_reference && !s->any_held && s->npen == 0 && !s->has_pressure &&
-	       s->n >= 2 && s->nispan == (size_t)(s->n - 1) && s->nichunk >= 1;
+	int held_min = s->rk4_held_min ? s->rk4_held_min : RK4_HELD_MIN;
+	if (s->any_held && s->rk4_held_min >= 0) {
+		size_t nodes = 0;
+		for (size_t k = 0; k < s->nispan && nodes < (size_t)held_min; k++)
+			nodes += (size_t)(s->ispan[k].b - s->ispan[k].a);
+		if (nodes < (size_t)held_min)
+			return 0;
+	}
+	return !s->rk4_reference && s->npen == 0 && !s->has_pressure && s->n >= 2 &&
+	       s->nispan >= 1 && s->nichunk >= 1;
 }
 
 /* Items of a list of `n` owned by chunk c, counted then filled: the
@@ -341,58 +367,133 @@ static int32_t *bucket(int C, size_t n, const int32_t *owner, int32_t **off)
 	return list;
 }
 
+/* Rows a0..a1 widened to take row j. */
+static void widen(int32_t *a0, int32_t *a1, int32_t j)
+{
+	if (j < *a0)
+		*a0 = j;
+	if (j > *a1)
+		*a1 = j;
+}
+
+/* The plan.  Each unit of chunk c writes the stage buffers at its nodes
+ * (its interior runs, its active border nodes and, with held nodes, the
+ * seam duplicates of those) — rows r0[c]..r1[c] — and reads them one row
+ * further, and at the nodes of its force items; it waits for the units
+ * of the stage before whose writes meet its reads or whose reads meet
+ * its writes (lo[c]..hi[c]).  Without held nodes every interior row is
+ * one run, so a chunk is whole rows and row 0 goes with row 1, row n with
+ * row n − 1.  With held nodes (a peer's region and halo) a row may have
+ * any number of runs, in one chunk or two, or none: a border node goes
+ * with the chunk of the last run of its row, or of the nearest row that
+ * has runs; force items are evaluated only at active nodes. */
 static int plan_build(ndo_sim *s)
 {
 	const int C = s->nichunk, n = s->n, w = s->w;
+	const size_t cnt = s->count;
 	struct ndo__rk4_plan *P = calloc(1, sizeof *P);
 	int32_t *rowc = malloc(((size_t)n + 1) * sizeof *rowc);
+	int32_t *own = malloc((cnt + 1) * sizeof *own);
+	int32_t *a0 = malloc(((size_t)C + 1) * sizeof *a0), *a1 = malloc(((size_t)C + 1) * sizeof *a1);
 	size_t nb = s->nbact > s->nfnodes ? s->nbact : s->nfnodes;
+	size_t ndup = ndo_duplicate_count(s->level);
+	if (ndup > nb)
+		nb = ndup;
 	int32_t *owner = malloc((nb + 1) * sizeof *owner);
-	if (!P || !rowc || !owner)
+	size_t *pairs = NULL;
+	int32_t *zn = NULL; /* the active force nodes */
+	if (!P || !rowc || !own || !a0 || !a1 || !owner)
 		goto oom;
 	pthread_mutex_init(&P->lock, NULL);
 	pthread_cond_init(&P->cond, NULL);
 	s->rk4_plan = P;
 	P->C = C;
-	/* The chunk of every row: interior runs are whole rows 1..n−1 here;
-	 * row 0 goes with row 1, row n with row n − 1. */
-	for (int c = 0; c < C; c++)
-		for (int32_t k = s->ichunk[c]; k < s->ichunk[c + 1]; k++)
-			rowc[s->ispan[k].a / w] = c;
-	rowc[0] = rowc[1], rowc[n] = rowc[n - 1];
+	P->held = s->any_held;
 	P->r0 = malloc((size_t)C * sizeof *P->r0), P->r1 = malloc((size_t)C * sizeof *P->r1);
 	P->lo = malloc((size_t)C * sizeof *P->lo), P->hi = malloc((size_t)C * sizeof *P->hi);
 	if (!P->r0 || !P->r1 || !P->lo || !P->hi)
 		goto oom;
-	for (int c = 0; c < C; c++)
-		P->r0[c] = n + 1, P->r1[c] = -1;
-	for (int j = 0; j <= n; j++) {
-		if (j < P->r0[rowc[j]])
-			P->r0[rowc[j]] = j;
-		P->r1[rowc[j]] = j;
-	}
-	P->L = 2;
+	for (int j = 0; j <= n; j++)
+		rowc[j] = -1;
+	for (size_t p = 0; p < cnt; p++)
+		own[p] = -1;
 	for (int c = 0; c < C; c++) {
-		P->lo[c] = rowc[P->r0[c] > 0 ? P->r0[c] - 1 : 0];
-		P->hi[c] = rowc[P->r1[c] < n ? P->r1[c] + 1 : n];
-		if (P->hi[c] - c + 1 > P->L)
-			P->L = P->hi[c] - c + 1;
-		if (c - P->lo[c] + 1 > P->L)
-			P->L = c - P->lo[c] + 1;
+		P->r0[c] = a0[c] = n + 1, P->r1[c] = a1[c] = -1;
+		for (int32_t k = s->ichunk[c]; k < s->ichunk[c + 1]; k++) {
+			rowc[s->ispan[k].a / w] = c;
+			widen(&P->r0[c], &P->r1[c], s->ispan[k].a / w);
+			for (int32_t p = s->ispan[k].a; p < s->ispan[k].b; p++)
+				own[p] = c;
+		}
 	}
-	/* Border nodes and force nodes by the chunk of their row. */
-	for (size_t k = 0; k < s->nbact; k++)
-		owner[k] = rowc[s->st.border[s->bact[k]] / w];
+	/* rows without runs: the nearest row's chunk, the lower one first */
+	for (int j = 0; j <= n; j++)
+		if (rowc[j] < 0 || rowc[j] >= C)
+			for (int d = 1; d <= n; d++) {
+				if (j - d >= 0 && rowc[j - d] >= 0 && rowc[j - d] < C) {
+					rowc[j] = rowc[j - d] + C; /* marked: found here, not a row's own */
+					break;
+				}
+				if (j + d <= n && rowc[j + d] >= 0 && rowc[j + d] < C) {
+					rowc[j] = rowc[j + d] + C;
+					break;
+				}
+			}
+	for (int j = 0; j <= n; j++)
+		rowc[j] %= C;
+	/* Border nodes by the chunk of their row. */
+	for (size_t k = 0; k < s->nbact; k++) {
+		int32_t p = s->st.border[s->bact[k]];
+		owner[k] = own[p] = rowc[p / w];
+		widen(&P->r0[owner[k]], &P->r1[owner[k]], p / w);
+	}
 	if (!(P->blist = bucket(C, s->nbact, owner, &P->boff)))
 		goto oom;
-	for (size_t k = 0; k < s->nfnodes; k++)
-		owner[k] = rowc[s->fnodes[k] / w];
-	if (!(P->zlist = bucket(C, s->nfnodes, owner, &P->zoff)))
+	/* Held nodes: the seam duplicates of the active canonical nodes, by
+	 * the chunk that writes the canonical one (its row's). */
+	if (P->held) {
+		if (!(pairs = malloc((2 * ndup + 1) * sizeof *pairs)))
+			goto oom;
+		ndo_duplicates(s->level, pairs);
+		size_t m = 0;
+		for (size_t i = 0; i < ndup; i++)
+			if (own[pairs[2 * i + 1]] >= 0)
+				pairs[2 * m] = pairs[2 * i], pairs[2 * m + 1] = pairs[2 * i + 1],
+				owner[m++] = own[pairs[2 * i + 1]];
+		int32_t *idx = bucket(C, m, owner, &P->doff);
+		if (!idx || !(P->dlist = malloc((2 * m + 1) * sizeof *P->dlist))) {
+			free(idx);
+			goto oom;
+		}
+		for (size_t i = 0; i < m; i++) {
+			size_t q = (size_t)idx[i];
+			P->dlist[2 * i] = (int32_t)pairs[2 * q];
+			P->dlist[2 * i + 1] = (int32_t)pairs[2 * q + 1];
+			widen(&P->r0[owner[q]], &P->r1[owner[q]], (int32_t)(pairs[2 * q] / (size_t)w));
+		}
+		free(idx);
+	}
+	/* Force nodes by their chunk: the active ones (f at a held node is
+	 * never read; a peer's region is spared the others' force items). */
+	size_t nz = 0;
+	if (!(zn = malloc((s->nfnodes + 1) * sizeof *zn)))
+		goto oom;
+	for (size_t k = 0; k < s->nfnodes; k++) {
+		int32_t p = s->fnodes[k];
+		if (s->active[p])
+			zn[nz] = p, owner[nz++] = own[p];
+	}
+	if (!(P->zlist = bucket(C, nz, owner, &P->zoff)))
 		goto oom;
 	for (int32_t i = 0; i < P->zoff[C]; i++)
-		P->zlist[i] = s->fnodes[P->zlist[i]];
-	/* Force items: for each chunk, every item with a node in it, in the
-	 * forces' order, marked with the nodes it owns. */
+		P->zlist[i] = zn[P->zlist[i]];
+	/* A unit reads one row beyond what it writes, and the nodes of its
+	 * force items. */
+	for (int c = 0; c < C; c++)
+		if (P->r1[c] >= 0)
+			a0[c] = P->r0[c] - 1, a1[c] = P->r1[c] + 1;
+	/* Force items: for each chunk, every item with an active node in it, in
+	 * the forces' order, marked with those nodes. */
 	size_t nitem = 0;
 	for (int k = 0; k < s->nforces; k++)
 		nitem += s->forces[k].f.count;
@@ -408,13 +509,37 @@ static int plan_build(ndo_sim *s)
 				int32_t v[3], mask = 0;
 				int nv = ndo__force_item_nodes(s, k, q, v);
 				for (int d = 0; d < nv; d++)
-					if (rowc[v[d] / w] == c)
+					if (s->active[v[d]] && own[v[d]] == c)
 						mask |= 1 << d;
-				if (mask)
+				if (mask) {
 					P->fitem[m++] = (ndo__fitem){k, (int32_t)q, mask};
+					/* a face's nodes; a node's vertex normal, its neighbours */
+					for (int d = 0; d < nv; d++) {
+						widen(&a0[c], &a1[c], v[d] / w - (nv == 1));
+						widen(&a0[c], &a1[c], v[d] / w + (nv == 1));
+					}
+				}
 			}
 	}
 	P->foff[C] = (int32_t)m;
+	/* What each chunk waits for: the chunks whose writes meet its reads
+	 * or whose reads meet its writes. */
+	P->L = 2;
+	for (int c = 0; c < C; c++) {
+		P->lo[c] = c, P->hi[c] = c;
+		for (int q = 0; q < C; q++)
+			if ((P->r0[q] <= a1[c] && a0[c] <= P->r1[q]) ||
+			    (a0[q] <= P->r1[c] && P->r0[c] <= a1[q])) {
+				if (q < P->lo[c])
+					P->lo[c] = q;
+				if (q > P->hi[c])
+					P->hi[c] = q;
+			}
+		if (P->hi[c] - c + 1 > P->L)
+			P->L = P->hi[c] - c + 1;
+		if (c - P->lo[c] + 1 > P->L)
+			P->L = c - P->lo[c] + 1;
+	}
 	P->bterms = malloc((RK4_BTERMS * s->nbact + 1) * sizeof *P->bterms);
 	/* Units in wavefront order: stage k of chunk c at c + k·L; any unit
 	 * it reads (stage k − 1, chunks ≤ c + L − 1) comes on an earlier
@@ -429,10 +554,10 @@ static int plan_build(ndo_sim *s)
 			if (c >= 0 && c < C)
 				P->unit[P->nunit++] = (rk4_unit){(int16_t)k, c};
 		}
-	free(rowc), free(owner);
+	free(rowc), free(own), free(a0), free(a1), free(owner), free(pairs), free(zn);
 	return NDO_OK;
 oom:
-	free(rowc), free(owner);
+	free(rowc), free(own), free(a0), free(a1), free(owner), free(pairs), free(zn);
 	if (P && !s->rk4_plan)
 		free(P);
 	ndo__rk4_plan_free(s);
@@ -456,6 +581,18 @@ static void sync_rows(const ndo_sim *s, double *x, int r0, int r1)
 			else
 				row[2 * n] = row[0];
 		}
+	}
+}
+
+/* The same for n (duplicate, canonical) pairs: a chunk of a region with
+ * held nodes, whose rows other chunks may share. */
+static void copy_dups(const ndo_sim *s, double *x, const int32_t *pairs, size_t n)
+{
+	const size_t cnt = s->count;
+	for (int c = 0; c < 3; c++) {
+		double *X = x + (size_t)c * cnt;
+		for (size_t i = 0; i < n; i++)
+			X[pairs[2 * i]] = X[pairs[2 * i + 1]];
 	}
 }
 
@@ -543,8 +680,13 @@ static void unit_run(rk4_pipe *J, int k, int c)
 	rk4_border(s, g, J->mode[k], P->blist + P->boff[c], (size_t)(P->boff[c + 1] - P->boff[c]),
 	           NULL, k == 0 ? P->bterms : NULL);
 	for (int b = 0; b < 2; b++)
-		if (J->out[k][b])
-			sync_rows(s, J->out[k][b], P->r0[c], P->r1[c]);
+		if (J->out[k][b]) {
+			if (P->held)
+				copy_dups(s, J->out[k][b], P->dlist + 2 * P->doff[c],
+				          (size_t)(P->doff[c + 1] - P->doff[c]));
+			else
+				sync_rows(s, J->out[k][b], P->r0[c], P->r1[c]);
+		}
 }
 
 /* Thread `who` of J->threads: every unit in wavefront order, the even
@@ -575,19 +717,40 @@ static int step_pipeline(ndo_sim *s, double h)
 	}
 	struct ndo__rk4_plan *P = s->rk4_plan;
 	double *A = s->us, *B = s->kv[1], *un = s->ka[0], *vn = s->ka[1];
+	/* Stage 2's displacement: over stage 0's (A) when every node is
+	 * integrated; with held nodes in a buffer of its own, whose held nodes
+	 * stand at t + h while A's are at t + h/2 for stage 1 (the passes move
+	 * A's between the stages: here stages 1 and 3 run at once). */
+	double *A2 = A;
+	if (P->held) {
+		A2 = s->ka[2];
+		if (!s->spare_held) {
+			/* the new state's held nodes are the old ones': copied once,
+			 * then kept (sim_private.h) */
+			memcpy(un, s->u, 3 * s->count * sizeof *un);
+			memcpy(vn, s->v, 3 * s->count * sizeof *vn);
+			s->spare_held = 1;
+		}
+		ndo__held_keep(s, A);
+		ndo__held_keep(s, B);
+		ndo__held_keep(s, A2);
+		ndo__held_at(s, A, h / 2);
+		ndo__held_at(s, B, h / 2);
+		ndo__held_at(s, A2, h);
+	}
 	const double *F = s->has_forces ? s->f : NULL;
 	rk4_pipe J = {.s = s};
 	const rk4_pass g = {s->u, A, s->vs, s->kv[2], s->kv[3], s->u, s->v, un, vn, F, h / 2, h / 6};
 	for (int k = 0; k < 4; k++)
 		J.g[k] = g;
 	J.g[1].U = A, J.g[1].Un = B;
-	J.g[2].U = B, J.g[2].Un = A, J.g[2].c = h;
-	J.g[3].U = A, J.g[3].Un = NULL;
+	J.g[2].U = B, J.g[2].Un = A2, J.g[2].c = h;
+	J.g[3].U = A2, J.g[3].Un = NULL;
 	const double t[4] = {s->t, s->t + h / 2, s->t + h / 2, s->t + h};
 	const int mode[4] = {RK4_FIRST, RK4_MID, RK4_MID, RK4_LAST_TO};
 	memcpy(J.t, t, sizeof t);
 	memcpy(J.mode, mode, sizeof mode);
-	J.out[0][0] = A, J.out[1][0] = B, J.out[2][0] = A;
+	J.out[0][0] = A, J.out[1][0] = B, J.out[2][0] = A2;
 	J.out[3][0] = un, J.out[3][1] = vn;
 	for (int i = 0; i < 4 * P->C; i++)
 		atomic_init(&P->done[i], UNIT_FREE);
@@ -613,6 +776,9 @@ static int step_pipeline(ndo_sim *s, double h)
 	if (rc)
 		return rc;
 	s->stats.evaluations += 3;
+	if (P->held)
+		ndo__held_at(s, un, h); /* the boundary moves on with the step (the spare's
+		                          * moving held nodes are the state's but for this) */
 	s->ka[0] = s->u, s->ka[1] = s->v;
 	s->u = un, s->v = vn;
 	return NDO_OK;
@@ -620,5 +786,8 @@ static int step_pipeline(ndo_sim *s, double h)
 
 int ndo__rk4_step(ndo_sim *s, double h)
 {
-	return pipeline_fits(s) ? step_pipeline(s, h) : step_passes(s, h);
+	if (pipeline_fits(s))
+		return step_pipeline(s, h);
+	s->spare_held = 0; /* the passes move u's held nodes in place */
+	return step_passes(s, h);
 }

@@ -67,13 +67,14 @@ struct ndo_sim {
 	size_t nhedge;
 	int any_held;          /* some node is not integrated */
 	/* The held nodes next to the active ones that are not pins (canonical
-	 * indices), and whether they move with their velocities during a step
-	 * (ndo_sim_set_held_motion). */
+	 * indices, then their stored duplicates), and whether they move with
+	 * their velocities during a step (ndo_sim_set_held_motion). */
 	int32_t *hmove;
 	size_t nhmove;
 	int held_motion;
-	/* Every held node next to an active one, pins too (canonical): what a
-	 * stage of an active node reads from a held one. */
+	/* Every held node next to an active one, pins too (canonical, then
+	 * their duplicates): what a stage of an active node reads from a held
+	 * one. */
 	int32_t *hread;
 	size_t nhread;
 
@@ -159,6 +160,17 @@ struct ndo_sim {
 	 * than ndo__accel_update's fused ones (tests compare). */
 	struct ndo__rk4_plan *rk4_plan;
 	int rk4_reference;
+	/* With held nodes, the pipeline from this many integrated interior
+	 * nodes on (0: rk4.c's RK4_HELD_MIN; −1: always; tests and benchmarks
+	 * set it). */
+	int rk4_held_min;
+	/* With held nodes (a peer's region): ka[0] and ka[1], the spare state
+	 * the pipeline writes the next step into, hold u's and v's values at
+	 * every held node (duplicates too) but the moving ones (hmove, which
+	 * each step sets), so that a step need not copy them over: set by the
+	 * pipeline's first such step, kept by its steps and by ndo_sim_set*,
+	 * cleared by a new region, ndo_sim_set_held_motion and the passes. */
+	int spare_held;
 };
 
 /* sleep.c: the tiles (reach: rings a step's stages reach), a look every

@@ -12,6 +12,10 @@
  *   bench_simulate pipeline T L...  rk4's four passes against its
  *                               pipeline (lib/sim/rk4.c), on 1 and T
  *                               threads, in alternating runs
+ *   bench_simulate region L...  a 2-peer partition's region (held nodes,
+ *                               lock-step rk4's 2-ring halo) by the passes
+ *                               and by the pipeline, against the whole
+ *                               object, one thread, in process CPU time
  *   bench_simulate fused T L...  the same for symplectic Euler and
  *                               midpoint: their passes through the stored
  *                               acceleration against the fused ones
@@ -26,6 +30,8 @@
  * kernel in process CPU time, the others in wall time.
  * Output: markdown table rows (tests/bench/simulate.sh assembles them). */
 #include "ndo/ndo.h"
+#include "ndo/partition.h"
+#include "ndo/peer.h"
 #include "sim_private.h" /* rk4_reference: the passes beside the pipeline */
 
 #include <math.h>
@@ -115,6 +121,19 @@ static long calibrate(ndo_sim *s, double h)
 			return n;
 		n = el > 0.01 ? (long)(n * 0.12 / el) + 1 : n * 10;
 	}
+}
+
+/* The step h (half the first simulation's critical step) and the steps
+ * n that take it at least 0.1 s; the others stepped as long, warm. */
+static long calibrate_all(ndo_sim **s, int ns, double *h)
+{
+	ndo_critical c;
+	ndo_sim_critical(s[0], &c);
+	*h = 0.5 * c.h_crit;
+	long n = calibrate(s[0], *h);
+	for (int k = 1; k < ns; k++)
+		calibrate(s[k], *h);
+	return n;
 }
 
 /* Steps per second of n steps. */
@@ -217,12 +236,8 @@ static void pipeline(int argc, char **argv, const ndo_method *ms, int nm, const 
 			s[k] = thesis_scene_on(g, ms[im], k < 2 ? 1 : T, &f[k]);
 			s[k]->rk4_reference = k % 2 == 0;
 		}
-		ndo_critical c;
-		ndo_sim_critical(s[0], &c);
-		double h = 0.5 * c.h_crit;
-		long n = calibrate(s[0], h);
-		for (int k = 1; k < 4; k++)
-			calibrate(s[k], h);
+		double h;
+		long n = calibrate_all(s, 4, &h);
 		double r[4][REPS], q[3][REPS];
 		for (int rep = 0; rep < REPS; rep++) {
 			for (int k = 0; k < 4; k++)
@@ -241,6 +256,123 @@ static void pipeline(int argc, char **argv, const ndo_method *ms, int nm, const 
 			ndo_sim_destroy(s[k]);
 			ndo_scene_forces_free(f[k], 1);
 		}
+		ndo_grid_destroy(g);
+	}
+}
+
+/* Steps per process CPU second of n steps. */
+static double timed_cpu(ndo_sim *s, double h, long n)
+{
+	double t0 = cpu_now();
+	for (long q = 0; q < n; q++)
+		if (ndo_sim_step(s, h)) {
+			fprintf(stderr, "bench_simulate: %s\n", ndo_errdetail());
+			exit(1);
+		}
+	return (double)n / (cpu_now() - t0);
+}
+
+/* What one of 2 lock-step peers integrates a step: the 2-peer quad-tree
+ * partition (the POIs of tests/bench/peers.sh: slot 0 the joiner's face,
+ * slot 1 the owner's, anywhere), the slot's region and the rings of its
+ * halo but the outermost (ndo_peer_halo_rings: held, moving with its
+ * velocity). */
+static void peer_region(const ndo_grid *g, int slot, uint8_t *mask)
+{
+	const int level = g->level, n = 1 << level, w = g->w;
+	int32_t poi[2] = {(int32_t)(9000LL * (4LL << (2 * level)) / 16384), -1};
+	int32_t *cell = malloc((size_t)2 * n * n * sizeof *cell), ids[2] = {0, 1};
+	int32_t *own = malloc(g->count * sizeof *own), *dist = malloc(g->count * sizeof *dist);
+	int32_t *q = malloc(g->count * sizeof *q);
+	int32_t *canon = malloc(g->count * sizeof *canon);
+	if (!cell || !own || !dist || !q || !canon ||
+	    ndo_partition(level, NDO_PART_QUADTREE, 2, poi, cell, NULL)) {
+		fprintf(stderr, "bench_simulate: partition: %s\n", ndo_errdetail());
+		exit(1);
+	}
+	ndo_partition_node_owner(level, cell, ids, own);
+	for (int j = 0; j <= n; j++)
+		for (int i = 0; i < w; i++)
+			canon[(size_t)j * w + i] = (int32_t)ndo_canonical(level, i, j);
+	size_t head = 0, tail = 0;
+	for (size_t k = 0; k < g->count; k++) {
+		dist[k] = -1;
+		if (canon[k] == (int32_t)k && own[k] == slot)
+			dist[k] = 0, q[tail++] = (int32_t)k;
+	}
+	const int W = ndo_peer_halo_rings(NDO_RK4);
+	while (head < tail) {
+		size_t c = (size_t)q[head++];
+		if (dist[c] >= W)
+			continue;
+		size_t nb[6];
+		ndo_neighbors(level, (int)(c % (size_t)w), (int)(c / (size_t)w), nb);
+		for (int d = 0; d < 6; d++) {
+			size_t h = (size_t)canon[nb[d]];
+			if (dist[h] < 0)
+				dist[h] = dist[c] + 1, q[tail++] = (int32_t)h;
+		}
+	}
+	for (size_t k = 0; k < g->count; k++)
+		mask[k] = dist[canon[k]] >= 0 && dist[canon[k]] < W;
+	free(cell), free(own), free(dist), free(q), free(canon);
+}
+
+/* A 2-peer region's step, by the passes and by the pipeline, against the
+ * whole object's (the pipeline), one thread, timed in turn in process CPU
+ * time: the computing a peer's step costs beside the single process's,
+ * for each of the two regions (lock-step goes at the slower one's pace). */
+static void region(int argc, char **argv)
+{
+	printf("| level | nodes | region | integrated by the peer | whole, steps/s | region, passes | "
+	       "region, pipeline | pipeline / passes | whole step / region step (pipeline) |\n");
+	printf("|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+	for (int a = 0; a < argc; a++) {
+		int level = atoi(argv[a]);
+		ndo_grid *g;
+		ndo_shape_make("wavy", level, NULL, &g);
+		uint8_t *mask[2] = {malloc(g->count), malloc(g->count)};
+		size_t inside[2] = {0, 0};
+		for (int r = 0; r < 2; r++) {
+			peer_region(g, r, mask[r]);
+			for (size_t k = 0; k < g->count; k++)
+				inside[r] += mask[r][k] && ndo_canonical(level, (int)(k % (size_t)g->w),
+				                                         (int)(k / (size_t)g->w)) == k;
+		}
+		/* the whole; each region by the passes and by the pipeline */
+		ndo_force *f[5];
+		ndo_sim *s[5];
+		for (int k = 0; k < 5; k++) {
+			s[k] = thesis_scene_on(g, NDO_RK4, 1, &f[k]);
+			s[k]->rk4_reference = k == 1 || k == 3;
+			s[k]->rk4_held_min = -1; /* the pipeline at any size */
+			if (k > 0) {
+				ndo_sim_set_held_motion(s[k], 1);
+				ndo_sim_set_active(s[k], mask[(k - 1) / 2]);
+			}
+		}
+		double h;
+		long n = calibrate_all(s, 5, &h);
+		double r[5][REPS], q[4][REPS];
+		for (int rep = 0; rep < REPS; rep++) {
+			for (int k = 0; k < 5; k++)
+				r[k][rep] = timed_cpu(s[k], h, n);
+			for (int m = 0; m < 2; m++) {
+				q[2 * m][rep] = r[2 + 2 * m][rep] / r[1 + 2 * m][rep];
+				q[2 * m + 1][rep] = r[0][rep] / r[2 + 2 * m][rep];
+			}
+		}
+		for (int m = 0; m < 2; m++)
+			printf("| %d | %zu | %d | %zu | %.4g | %.4g | %.4g | %.2f | %.2f |\n", level,
+			       ndo_vertex_count(level), m, inside[m], median(r[0], REPS),
+			       median(r[1 + 2 * m], REPS), median(r[2 + 2 * m], REPS),
+			       median(q[2 * m], REPS), median(q[2 * m + 1], REPS));
+		fflush(stdout);
+		for (int k = 0; k < 5; k++) {
+			ndo_sim_destroy(s[k]);
+			ndo_scene_forces_free(f[k], 1);
+		}
+		free(mask[0]), free(mask[1]);
 		ndo_grid_destroy(g);
 	}
 }
@@ -525,8 +657,11 @@ int main(int argc, char **argv)
 		         "fused");
 	else if (argc == 3 && strcmp(argv[1], "bandwidth") == 0)
 		bandwidth_threads(atoi(argv[2]));
+	else if (argc >= 3 && strcmp(argv[1], "region") == 0)
+		region(argc - 2, argv + 2);
 	else {
-		fprintf(stderr, "usage: bench_simulate speed|kernel LEVEL... | threads|pipeline|fused T LEVEL... | bandwidth T | limits\n");
+		fprintf(stderr, "usage: bench_simulate speed|kernel|region LEVEL... | "
+		                "threads|pipeline|fused T LEVEL... | bandwidth T | limits\n");
 		return 2;
 	}
 	return 0;

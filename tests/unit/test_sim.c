@@ -360,6 +360,101 @@ static void rk4_pipeline_is_the_passes(void)
 	}
 }
 
+/* A peer's kind of region for the pipeline with held nodes: rows cut in
+ * two runs, rows with none, a jagged edge, both poles' seams; the rest
+ * held. */
+static void jagged_region(const ndo_grid *g, uint8_t *mask)
+{
+	const int n = (g->w - 1) / 2;
+	for (size_t p = 0; p < g->count; p++) {
+		int i = (int)(p % (size_t)g->w), j = (int)(p / (size_t)g->w);
+		mask[p] = (i < n / 2 + (j * 7) % 5 || (j > n / 2 && i > 3 * n / 2 - j % 3)) &&
+		          j != n / 4 && j != n / 4 + 1;
+	}
+}
+
+/* The pipeline with held nodes (a peer's region, its boundary still or
+ * moving, the halo overwritten between steps) is the four passes, bit for
+ * bit, and a step that diverges leaves the state alone. */
+static void rk4_pipeline_holds_nodes_as_the_passes(void)
+{
+	for (int level = 3; level <= 6; level += 3) {
+		ndo_grid *g = shape("wavy", level);
+		size_t nn = 3 * g->count;
+		double *x0 = malloc(nn * sizeof *x0), *v0 = malloc(nn * sizeof *v0);
+		random_state(g, 0.01, x0, v0);
+		uint8_t *mask = malloc(g->count);
+		jagged_region(g, mask);
+		/* the "halo": some held nodes and some active ones next to them,
+		 * overwritten before every step as a peer does */
+		int32_t halo[64];
+		size_t nh = 0;
+		for (size_t p = 0; p < g->count && nh < 64; p += 7)
+			if (p % (size_t)g->w > 2)
+				halo[nh++] = (int32_t)p;
+		double *hu = malloc(3 * nh * sizeof *hu), *hv = malloc(3 * nh * sizeof *hv);
+		int32_t faces[] = {0, 1, 2, 31, 40, 41, 90, 500};
+		int32_t nodes[] = {0, 5, (int32_t)g->count / 2, (int32_t)g->count - 1};
+		ndo_force f[2] = {{NDO_FORCE_FACE, 2.4, 1, 0, 1, {0}, level > 3 ? 8 : 7, faces},
+		                  {NDO_FORCE_POINT, 0.7, 2, 0, 1, {0}, 4, nodes}};
+		for (int moving = 0; moving < 2; moving++) {
+			ndo_sim_params p;
+			ndo_sim_defaults(&p);
+			p.material.damping = 0.1;
+			p.forces = f;
+			p.nforces = 2;
+			p.threads = 1 + moving; /* the units on one thread and on two */
+			ndo_sim *sim[2];
+			double *x[2], *v[2];
+			for (int k = 0; k < 2; k++) {
+				sim[k] = make(g, x0, v0, NULL, &p);
+				sim[k]->rk4_reference = k == 0;
+				sim[k]->rk4_held_min = -1; /* the pipeline at any size */
+				ndo_sim_set_held_motion(sim[k], moving);
+				CHECK(ndo_sim_set_active(sim[k], mask) == 0, "set_active");
+				x[k] = malloc(nn * sizeof *x[k]), v[k] = malloc(nn * sizeof *v[k]);
+			}
+			for (int step = 0; step < 12; step++) {
+				for (size_t q = 0; q < 3 * nh; q++)
+					hu[q] = 1e-3 * (uniform() - 0.5), hv[q] = 1e-2 * (uniform() - 0.5);
+				for (int k = 0; k < 2; k++) {
+					if (step % 3 == 1)
+						ndo_sim_set_displacements(sim[k], nh, halo, hu, hv);
+					if (step == 7) /* a new region: the spare state copied again */
+						CHECK(ndo_sim_set_active(sim[k], mask) == 0, "set_active");
+					CHECK(ndo_sim_step(sim[k], 1e-3) == 0, "step: %s", ndo_errdetail());
+				}
+			}
+			CHECK(sim[1]->rk4_plan != NULL, "level %d: the pipeline was not taken", level);
+			CHECK(sim[0]->rk4_plan == NULL, "level %d: the reference took the pipeline", level);
+			for (int k = 0; k < 2; k++)
+				ndo_sim_get(sim[k], x[k], v[k]);
+			CHECK(!memcmp(x[0], x[1], nn * sizeof *x[0]) && !memcmp(v[0], v[1], nn * sizeof *v[0]),
+			      "level %d, held nodes %s: the pipeline's state differs from the passes' by %g",
+			      level, moving ? "moving" : "still",
+			      fmax(max_diff(x[0], x[1], nn), max_diff(v[0], v[1], nn)));
+			ndo_sim_energy e[2];
+			for (int k = 0; k < 2; k++)
+				ndo_sim_energy_get(sim[k], &e[k]);
+			CHECK(e[0].kinetic == e[1].kinetic && e[0].work == e[1].work,
+			      "level %d: energies or work differ", level);
+			int rc = 0;
+			for (int k = 0; k < 200 && rc == 0; k++) {
+				ndo_sim_get(sim[1], x[1], v[1]);
+				rc = ndo_sim_step(sim[1], 0.5);
+			}
+			CHECK(rc == NDO_EDIVERGED, "level %d: no divergence (%d)", level, rc);
+			ndo_sim_get(sim[1], x[0], v[0]);
+			CHECK(!memcmp(x[0], x[1], nn * sizeof *x[0]) && !memcmp(v[0], v[1], nn * sizeof *v[0]),
+			      "level %d: the step that diverged changed the state", level);
+			for (int k = 0; k < 2; k++)
+				ndo_sim_destroy(sim[k]), free(x[k]), free(v[k]);
+		}
+		free(x0), free(v0), free(mask), free(hu), free(hv);
+		ndo_grid_destroy(g);
+	}
+}
+
 /* Symplectic Euler and midpoint in their fused passes (integrate.c:
  * ndo__accel_update, every node integrated) give the bits of the passes
  * through ndo__accel on any thread count: state, energies, input work,
@@ -1256,6 +1351,7 @@ int main(void)
 	RUN(follower_forces_keep_the_order);
 	RUN(fused_rk4_equals_the_tableau);
 	RUN(rk4_pipeline_is_the_passes);
+	RUN(rk4_pipeline_holds_nodes_as_the_passes);
 	RUN(fused_passes_are_the_passes);
 	RUN(rkf45_in_parts_is_the_step);
 	RUN(power_iteration_finds_lambda_max);
