@@ -531,9 +531,11 @@ static inline __attribute__((always_inline)) void node(hier *h, const int mode, 
 			}
 			h->k[v] = (int32_t)k;
 		}
+		ps->last[d] = dpcm ? h->k[v] : ps->last[d];
+		if (s == 1) /* the finest level: no level reads its magnitudes or motion */
+			continue;
 		const uint64_t a = r < 0 ? -(uint64_t)r : (uint64_t)r;
 		h->mag[v] = (uint8_t)(a > 255 ? 255 : a);
-		ps->last[d] = dpcm ? h->k[v] : ps->last[d];
 		h->dk[v] = h->k[v] - h->k1[v];
 	}
 }
