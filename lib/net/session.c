@@ -32,7 +32,7 @@ struct ndo_session {
 	ndo_net *net;
 	ndo_grid *grid;
 	int32_t self, owner_id;
-	int32_t gone_said; /* the last non-member whose leave was told (drop_member) */
+	int32_t gone_said; /* the last peer whose leave was told (drop_member): a LEAVE comes twice */
 	int64_t object;
 	int level, ended, ready, described;
 	member m[NDO_MAX_MEMBERS]; /* owner: everyone but itself; joiner: from PEERS */
@@ -701,6 +701,7 @@ static int drop_member(ndo_session *s, int32_t id, int reason, const char *why)
 	*m = s->m[--s->nm];
 	ndo_net_forget(s->net, id);
 	event(s, NDO_EV_LEFT, id, reason, why);
+	s->gone_said = id; /* its second LEAVE finds no member: said already */
 	int rc = 0;
 	if (simulates(s, id) && (rc = repartition(s)) == 0)
 		rc = publish_partition(s);
