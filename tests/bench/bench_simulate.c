@@ -12,10 +12,12 @@
  *   bench_simulate pipeline T L...  rk4's four passes against its
  *                               pipeline (lib/sim/rk4.c), on 1 and T
  *                               threads, in alternating runs
- *   bench_simulate region L...  a 2-peer partition's region (held nodes,
- *                               lock-step rk4's 2-ring halo) by the passes
- *                               and by the pipeline, against the whole
- *                               object, one thread, in process CPU time
+ *   bench_simulate region [M] L...  a 2-peer partition's region (method
+ *                               M: quadtree, the default, or table41, metis,
+ *                               bands; held nodes, lock-step rk4's 2-ring
+ *                               halo) by the passes and by the pipeline,
+ *                               against the whole object, one thread, in
+ *                               process CPU time, and the cut's length
  *   bench_simulate fused T L...  the same for symplectic Euler and
  *                               midpoint: their passes through the stored
  *                               acceleration against the fused ones
