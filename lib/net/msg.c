@@ -310,7 +310,7 @@ static int pois_ok(const int32_t *pois, int n, int level)
 
 static int method_ok(int m)
 {
-	return m == NDO_PART_QUADTREE || m == NDO_PART_TABLE41 || m == NDO_PART_METIS;
+	return m >= NDO_PART_QUADTREE && m <= NDO_PART_BANDS;
 }
 
 /* The leaves of a partition cover every cell exactly once. */

@@ -14,13 +14,14 @@ const char *ndo_part_method_name(ndo_part_method m)
 	case NDO_PART_QUADTREE: return "quadtree";
 	case NDO_PART_TABLE41: return "table41";
 	case NDO_PART_METIS: return "metis";
+	case NDO_PART_BANDS: return "bands";
 	}
 	return "?";
 }
 
 int ndo_part_method_parse(const char *s)
 {
-	for (int m = NDO_PART_QUADTREE; m <= NDO_PART_METIS; m++)
+	for (int m = NDO_PART_QUADTREE; m <= NDO_PART_BANDS; m++)
 		if (strcmp(s, ndo_part_method_name((ndo_part_method)m)) == 0)
 			return m;
 	return -1;
@@ -444,6 +445,73 @@ static int table41(int level, int k, const int32_t *seed, int32_t *cell)
 	return 0;
 }
 
+/* ---- parts made without the POIs (METIS, bands) ------------------------ */
+
+/* Relabel parts 0..k-1 so that each peer gets the part that holds its
+ * POI's cell where it can; the other parts go to the peers left, in order. */
+static void to_pois(int level, int k, const int32_t *seed, int32_t *cell)
+{
+	size_t nc = ndo_cell_count(level);
+	int map[NDO_MAX_PEERS], given[NDO_MAX_PEERS] = {0};
+	for (int part = 0; part < k; part++)
+		map[part] = -1;
+	for (int p = 0; p < k; p++) {
+		int part = cell[seed[p]];
+		if (map[part] < 0) {
+			map[part] = p;
+			given[p] = 1;
+		}
+	}
+	for (int part = 0, p = 0; part < k; part++) {
+		if (map[part] >= 0)
+			continue;
+		while (given[p])
+			p++;
+		map[part] = p;
+		given[p] = 1;
+	}
+	for (size_t c = 0; c < nc; c++)
+		cell[c] = map[cell[c]];
+}
+
+/* Bands: k runs of whole cell rows, 0 at the bottom, each cut a row's
+ * boundary (2N cell edges: the shortest that splits the grid's 2N x N
+ * rows into runs of whole rows), balanced by the stored nodes each row
+ * owns (ndo_partition_node_owner(): node row j < N goes with cell row j,
+ * node row N with cell row N-1; the folded rows 0 and N hold N+1 each). */
+static int bands(int level, int k, int32_t *cell)
+{
+	const int n = 1 << level, w = 2 * n;
+	if (k > n)
+		return ndo__fail(NDO_EINVAL, "partition: %d bands for %d cell rows", k, n);
+	long *cum = calloc((size_t)n + 1, sizeof *cum); /* cum[b]: nodes of cell rows < b */
+	if (!cum)
+		return ndo__fail(NDO_ENOMEM, "partition: out of memory");
+	for (int j = 0; j <= n; j++)
+		for (int i = 0; i <= w; i++)
+			if (ndo_canonical(level, i, j) == (size_t)j * (size_t)(w + 1) + (size_t)i)
+				cum[(j < n ? j : n - 1) + 1]++;
+	for (int b = 1; b <= n; b++)
+		cum[b] += cum[b - 1];
+	int lo = 0; /* the first row of the band being made */
+	for (int p = 0; p < k; p++) {
+		int hi = n; /* the last band takes the rest */
+		if (p < k - 1) {
+			long want = cum[n] * (p + 1) / k;
+			hi = lo + 1;
+			for (int b = lo + 2; b <= n - (k - 1 - p); b++)
+				if (labs(cum[b] - want) < labs(cum[hi] - want))
+					hi = b;
+		}
+		for (int j = lo; j < hi; j++)
+			for (int i = 0; i < w; i++)
+				cell[j * w + i] = p;
+		lo = hi;
+	}
+	free(cum);
+	return 0;
+}
+
 int ndo_partition(int level, ndo_part_method method, int k, const int32_t *poi,
                   int32_t *cell, int32_t *pois_used)
 {
@@ -474,39 +542,14 @@ int ndo_partition(int level, ndo_part_method method, int k, const int32_t *poi,
 		refine(level, k, seed, cell, mean - slack, mean + slack);
 		return 0;
 	}
-	case NDO_PART_METIS: {
-		rc = ndo_partition_metis(level, k, cell);
+	case NDO_PART_METIS:
+	case NDO_PART_BANDS:
+		/* parts made without the POIs, then given to the peers of their POIs */
+		rc = method == NDO_PART_METIS ? ndo_partition_metis(level, k, cell) : bands(level, k, cell);
 		if (rc)
 			return rc;
-		/* give each peer the part that holds its POI where it can */
-		int map[NDO_MAX_PEERS], taken[NDO_MAX_PEERS] = {0};
-		for (int p = 0; p < k; p++)
-			map[p] = -1;
-		for (int p = 0; p < k; p++) {
-			int part = cell[seed[p]];
-			if (!taken[part]) {
-				map[part] = p;
-				taken[part] = 1;
-			}
-		}
-		for (int part = 0, p = 0; part < k; part++) {
-			if (map[part] >= 0)
-				continue;
-			int free_peer = -1;
-			for (int q = 0; q < k && free_peer < 0; q++) {
-				int used_q = 0;
-				for (int r = 0; r < k; r++)
-					used_q |= map[r] == q;
-				if (!used_q)
-					free_peer = q;
-			}
-			map[part] = free_peer;
-			(void)p;
-		}
-		for (size_t c = 0; c < nc; c++)
-			cell[c] = map[cell[c]];
+		to_pois(level, k, seed, cell);
 		return 0;
-	}
 	}
 	return ndo__fail(NDO_EINVAL, "partition: unknown method %d", (int)method);
 }

@@ -12,10 +12,12 @@
  *   bench_simulate pipeline T L...  rk4's four passes against its
  *                               pipeline (lib/sim/rk4.c), on 1 and T
  *                               threads, in alternating runs
- *   bench_simulate region L...  a 2-peer partition's region (held nodes,
- *                               lock-step rk4's 2-ring halo) by the passes
- *                               and by the pipeline, against the whole
- *                               object, one thread, in process CPU time
+ *   bench_simulate region [M] L...  a 2-peer partition's region (method
+ *                               M: quadtree, the default, or table41, metis,
+ *                               bands; held nodes, lock-step rk4's 2-ring
+ *                               halo) by the passes and by the pipeline,
+ *                               against the whole object, one thread, in
+ *                               process CPU time, and the cut's length
  *   bench_simulate fused T L...  the same for symplectic Euler and
  *                               midpoint: their passes through the stored
  *                               acceleration against the fused ones
@@ -272,12 +274,13 @@ static double timed_cpu(ndo_sim *s, double h, long n)
 	return (double)n / (cpu_now() - t0);
 }
 
-/* What one of 2 lock-step peers integrates a step: the 2-peer quad-tree
- * partition (the POIs of tests/bench/peers.sh: slot 0 the joiner's face,
+/* What one of 2 lock-step peers integrates a step: the 2-peer partition
+ * by `method` (the POIs of tests/bench/peers.sh: slot 0 the joiner's face,
  * slot 1 the owner's, anywhere), the slot's region and the rings of its
  * halo but the outermost (ndo_peer_halo_rings: held, moving with its
  * velocity). */
-static void peer_region(const ndo_grid *g, int slot, uint8_t *mask)
+static void peer_region(const ndo_grid *g, ndo_part_method method, int slot, uint8_t *mask,
+                        long *cut)
 {
 	const int level = g->level, n = 1 << level, w = g->w;
 	int32_t poi[2] = {(int32_t)(9000LL * (4LL << (2 * level)) / 16384), -1};
@@ -286,10 +289,11 @@ static void peer_region(const ndo_grid *g, int slot, uint8_t *mask)
 	int32_t *q = malloc(g->count * sizeof *q);
 	int32_t *canon = malloc(g->count * sizeof *canon);
 	if (!cell || !own || !dist || !q || !canon ||
-	    ndo_partition(level, NDO_PART_QUADTREE, 2, poi, cell, NULL)) {
+	    ndo_partition(level, method, 2, poi, cell, NULL)) {
 		fprintf(stderr, "bench_simulate: partition: %s\n", ndo_errdetail());
 		exit(1);
 	}
+	*cut = ndo_cells_cut(level, cell);
 	ndo_partition_node_owner(level, cell, ids, own);
 	for (int j = 0; j <= n; j++)
 		for (int i = 0; i < w; i++)
@@ -324,17 +328,22 @@ static void peer_region(const ndo_grid *g, int slot, uint8_t *mask)
  * for each of the two regions (lock-step goes at the slower one's pace). */
 static void region(int argc, char **argv)
 {
-	printf("| level | nodes | region | integrated by the peer | whole, steps/s | region, passes | "
+	ndo_part_method method = NDO_PART_QUADTREE;
+	if (argc > 0 && ndo_part_method_parse(argv[0]) > 0)
+		method = (ndo_part_method)ndo_part_method_parse(argv[0]), argc--, argv++;
+	printf("partition: %s\n", ndo_part_method_name(method));
+	printf("| level | nodes | cut (cell edges) | region | integrated by the peer | whole, steps/s | region, passes | "
 	       "region, pipeline | pipeline / passes | whole step / region step (pipeline) |\n");
-	printf("|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+	printf("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
 	for (int a = 0; a < argc; a++) {
 		int level = atoi(argv[a]);
 		ndo_grid *g;
 		ndo_shape_make("wavy", level, NULL, &g);
+		long cut = 0;
 		uint8_t *mask[2] = {malloc(g->count), malloc(g->count)};
 		size_t inside[2] = {0, 0};
 		for (int r = 0; r < 2; r++) {
-			peer_region(g, r, mask[r]);
+			peer_region(g, method, r, mask[r], &cut);
 			for (size_t k = 0; k < g->count; k++)
 				inside[r] += mask[r][k] && ndo_canonical(level, (int)(k % (size_t)g->w),
 				                                         (int)(k / (size_t)g->w)) == k;
@@ -363,8 +372,8 @@ static void region(int argc, char **argv)
 			}
 		}
 		for (int m = 0; m < 2; m++)
-			printf("| %d | %zu | %d | %zu | %.4g | %.4g | %.4g | %.2f | %.2f |\n", level,
-			       ndo_vertex_count(level), m, inside[m], median(r[0], REPS),
+			printf("| %d | %zu | %ld | %d | %zu | %.4g | %.4g | %.4g | %.2f | %.2f |\n", level,
+			       ndo_vertex_count(level), cut, m, inside[m], median(r[0], REPS),
 			       median(r[1 + 2 * m], REPS), median(r[2 + 2 * m], REPS),
 			       median(q[2 * m], REPS), median(q[2 * m + 1], REPS));
 		fflush(stdout);
@@ -660,7 +669,7 @@ int main(int argc, char **argv)
 	else if (argc >= 3 && strcmp(argv[1], "region") == 0)
 		region(argc - 2, argv + 2);
 	else {
-		fprintf(stderr, "usage: bench_simulate speed|kernel|region LEVEL... | "
+		fprintf(stderr, "usage: bench_simulate speed|kernel|region [METHOD] LEVEL... | "
 		                "threads|pipeline|fused T LEVEL... | bandwidth T | limits\n");
 		return 2;
 	}

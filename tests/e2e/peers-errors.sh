@@ -25,7 +25,7 @@ expect_error "--checkpoint-every negative" 2 '--checkpoint-every' \
 	simulate-peer --owner s3.tgrid --checkpoint-every -1
 expect_error "a joiner choosing checkpoints" 2 '^simulate-peer: --checkpoint-every: the owner decides it' \
 	simulate-peer --join --checkpoint-every 5
-expect_error "--partition unknown" 2 "--partition: 'spiral' is not quadtree, table41 or metis" \
+expect_error "--partition unknown" 2 "--partition: 'spiral' is not quadtree, table41, metis or bands" \
 	simulate-peer --owner s3.tgrid --partition spiral
 expect_error "--clock unknown" 2 "--clock: 'wall' is not lockstep or realtime" \
 	simulate-peer --owner s3.tgrid --clock wall

@@ -9,6 +9,8 @@
 # boundary (--boundary hold) must not.  With 5% and 20% loss the run
 # completes, still bit for bit (lock-step re-sends recover every lost tile).
 # At level 8, 2 and 3 peers (their regions through RK4's pipeline) too.
+# With --partition bands (whole grid rows), 2-4 peers, midpoint and rk4,
+# and 2 peers at level 8, bit for bit too.
 . "$(dirname "$0")/netns.bash"
 . "$(dirname "$0")/lib.sh"
 . "$(dirname "$0")/peers.bash"
@@ -61,6 +63,12 @@ for n in 2 3 4; do
 		exact "$n peers, $m, $(dur "$m") s" "$n" "$m" "p$n-$m.tgrid"
 	done
 done
+# bands of whole grid rows (--partition bands) instead of the quad-tree regions
+for n in 2 3 4; do
+	for m in midpoint rk4; do
+		OWNER_OPTS="--partition bands" exact "$n peers, $m, bands of rows" "$n" "$m" "b$n-$m.tgrid"
+	done
+done
 OWNER_OPTS="--halo-steps 4" exact "3 peers, rk4, a halo exchange every 4 steps" 3 rk4 wide.tgrid
 OWNER_OPTS="--publish-every 0" \
 	exact "2 peers, midpoint, whole regions only at the end" 2 midpoint quiet.tgrid
@@ -73,6 +81,8 @@ for n in 2 3; do
 	GRID=wavy8.tgrid SOLO=solo8.tgrid RUN_TIME=0.1 \
 		exact "$n peers, rk4, level 8 (RK4's pipeline with held nodes)" "$n" rk4 "p$n-l8.tgrid"
 done
+GRID=wavy8.tgrid SOLO=solo8.tgrid RUN_TIME=0.1 OWNER_OPTS="--partition bands" \
+	exact "2 peers, rk4, level 8, bands of rows" 2 rk4 "b2-l8.tgrid"
 
 if OWNER_OPTS="--boundary hold" run_peers 2 rk4 held.tgrid; then
 	read -r rel _ < <(compare held.tgrid solo-rk4.tgrid)

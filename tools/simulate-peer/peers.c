@@ -70,7 +70,7 @@ void peer_option(peer_cli *c, const char *name, const char *arg)
 		c->name = arg;
 	} else if (strcmp(name, "partition") == 0) {
 		if ((c->partition = ndo_part_method_parse(arg)) < 0)
-			ndo_usage_error("--partition: '%s' is not quadtree, table41 or metis", arg);
+			ndo_usage_error("--partition: '%s' is not quadtree, table41, metis or bands", arg);
 	} else if (strcmp(name, "clock") == 0) {
 		int k = ndo_clock_parse(arg);
 		if (k < 0)

@@ -215,7 +215,8 @@ int ndo_tile_depth(int level, int channels, const char *channel);
 typedef enum ndo_part_method {
 	NDO_PART_QUADTREE = 1, /* balanced quad-tree growth (the default) */
 	NDO_PART_TABLE41 = 2,  /* thesis Table 4.1, literally */
-	NDO_PART_METIS = 3     /* METIS k-way on the cell graph */
+	NDO_PART_METIS = 3,    /* METIS k-way on the cell graph */
+	NDO_PART_BANDS = 4     /* bands of whole cell rows */
 } ndo_part_method;
 
 #ifdef __cplusplus

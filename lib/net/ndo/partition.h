@@ -23,6 +23,11 @@
  *   NDO_PART_METIS     METIS k-way (libmetis) on the same cell graph,
  *                      1.05 load imbalance allowed, fixed seed; part p goes
  *                      to the peer whose POI it holds where possible.
+ *   NDO_PART_BANDS     k bands of whole cell rows (all 2N cells of a row,
+ *                      so a region's stored rows are whole rows), cut at
+ *                      row boundaries (2N cell edges each) balanced by the
+ *                      stored nodes each row owns; a band goes to the peer
+ *                      whose POI it holds where possible.  Needs k <= N.
  */
 #ifndef NDO_PARTITION_H
 #define NDO_PARTITION_H
@@ -59,7 +64,7 @@ void ndo_partition_node_owner(int level, const int32_t *cell, const int32_t *ids
  * leaves cover every cell exactly once). */
 void ndo_partition_cells(int level, const ndo_msg_partition_t *p, int32_t *cell);
 
-/* Name and parse ("quadtree", "table41", "metis"); parse: −1 if unknown. */
+/* Name and parse ("quadtree", "table41", "metis", "bands"); parse: −1 if unknown. */
 const char *ndo_part_method_name(ndo_part_method m);
 int ndo_part_method_parse(const char *s);
 
