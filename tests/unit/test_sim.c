@@ -288,13 +288,17 @@ static void follower_forces_keep_the_order(void)
 	ndo_grid_destroy(g);
 }
 
-/* RK4's pipeline (rk4.c: every node integrated) gives the four passes'
- * bits on any thread count: state, energies, input work, evaluations; with
- * forces along the normals (read from the stage's positions), along a
- * fixed direction and on nodes, at a level of one chunk and at one of
- * many.  A step that diverges leaves the state as it was. */
-static void rk4_pipeline_is_the_passes(void)
+/* A fast path against the passes, bit for bit on 1-3 threads: state,
+ * energies, input work, evaluations; with forces along the normals (read
+ * from the stage's positions), along a fixed direction and on nodes, at a
+ * level of one chunk (3) and at one of many (7).  A step that diverges
+ * leaves the state as it was.  rk4: the reference takes the passes
+ * (rk4_reference) and the other RK4's pipeline (rk4.c); symplectic Euler
+ * and midpoint: the reference takes the passes, the other the fused ones
+ * (ndo__accel_update, which write spare planes swapped in after the step). */
+static void fast_path_is_the_passes(ndo_method method, const char *path)
 {
+	const char *name = ndo_method_names[method];
 	for (int level = 3; level <= 7; level += 4) {
 		ndo_grid *g = shape("wavy", level);
 		size_t nn = 3 * g->count;
@@ -307,15 +311,17 @@ static void rk4_pipeline_is_the_passes(void)
 		                  {NDO_FORCE_POINT, 0.7, 2, 0, 1, {0}, 4, nodes}};
 		ndo_sim_params p;
 		ndo_sim_defaults(&p);
+		p.method = method;
 		p.material.damping = 0.1;
 		p.forces = f;
 		p.nforces = 3;
+		const double h = method == NDO_RK4 || level == 3 ? 1e-3 : 2e-4;
 		ndo_sim *ref = make(g, x0, v0, NULL, &p);
 		ref->rk4_reference = 1;
 		double *xr = malloc(nn * sizeof *xr), *vr = malloc(nn * sizeof *vr);
 		double *x = malloc(nn * sizeof *x), *v = malloc(nn * sizeof *v);
 		for (int k = 0; k < 20; k++)
-			CHECK(ndo_sim_step(ref, 1e-3) == 0, "passes: %s", ndo_errdetail());
+			CHECK(ndo_sim_step(ref, h) == 0, "passes: %s", ndo_errdetail());
 		ndo_sim_get(ref, xr, vr);
 		ndo_sim_energy er;
 		ndo_sim_energy_get(ref, &er);
@@ -324,21 +330,24 @@ static void rk4_pipeline_is_the_passes(void)
 		for (int t = 1; t <= 3; t++) {
 			p.threads = t;
 			ndo_sim *s = make(g, x0, v0, NULL, &p);
-			for (int k = 0; k < 20; k++)
-				CHECK(ndo_sim_step(s, 1e-3) == 0, "pipeline: %s", ndo_errdetail());
-			CHECK(s->rk4_plan != NULL, "level %d: the pipeline was not taken", level);
+			const double *u0 = s->u;
+			for (int k = 0; k < 20; k++) {
+				CHECK(ndo_sim_step(s, h) == 0, "%s: %s", path, ndo_errdetail());
+				CHECK(k > 0 || (method == NDO_RK4 ? s->rk4_plan != NULL : s->u != u0),
+				      "%s, level %d: %s not taken", name, level, path);
+			}
 			ndo_sim_get(s, x, v);
 			ndo_sim_energy e;
 			ndo_sim_energy_get(s, &e);
 			ndo_sim_stats st;
 			ndo_sim_stats_get(s, &st);
 			CHECK(!memcmp(x, xr, nn * sizeof *x) && !memcmp(v, vr, nn * sizeof *v),
-			      "level %d, %d threads: the pipeline's state differs from the passes' by %g",
-			      level, t, fmax(max_diff(x, xr, nn), max_diff(v, vr, nn)));
+			      "%s, level %d, %d threads: the %s' state differs from the passes' by %g",
+			      name, level, t, path, fmax(max_diff(x, xr, nn), max_diff(v, vr, nn)));
 			CHECK(e.kinetic == er.kinetic && e.potential == er.potential && e.work == er.work,
-			      "level %d, %d threads: energies or work differ", level, t);
-			CHECK(st.evaluations == sr.evaluations, "level %d, %d threads: %lld evaluations, "
-			      "the passes %lld", level, t, (long long)st.evaluations,
+			      "%s, level %d, %d threads: energies or work differ", name, level, t);
+			CHECK(st.evaluations == sr.evaluations, "%s, level %d, %d threads: %lld "
+			      "evaluations, the passes %lld", name, level, t, (long long)st.evaluations,
 			      (long long)sr.evaluations);
 			/* Steps far above the critical one diverge; the failing step
 			 * leaves the state alone. */
@@ -347,10 +356,11 @@ static void rk4_pipeline_is_the_passes(void)
 				ndo_sim_get(s, x, v);
 				rc = ndo_sim_step(s, 0.5);
 			}
-			CHECK(rc == NDO_EDIVERGED, "level %d: no divergence (%d)", level, rc);
+			CHECK(rc == NDO_EDIVERGED, "%s, level %d: no divergence (%d)", name, level, rc);
 			ndo_sim_get(s, xr, vr);
 			CHECK(!memcmp(x, xr, nn * sizeof *x) && !memcmp(v, vr, nn * sizeof *v),
-			      "level %d, %d threads: the step that diverged changed the state", level, t);
+			      "%s, level %d, %d threads: the step that diverged changed the state", name,
+			      level, t);
 			ndo_sim_get(ref, xr, vr);
 			ndo_sim_destroy(s);
 		}
@@ -358,6 +368,12 @@ static void rk4_pipeline_is_the_passes(void)
 		free(x0), free(v0), free(xr), free(vr), free(x), free(v);
 		ndo_grid_destroy(g);
 	}
+}
+
+/* RK4's pipeline (rk4.c: every node integrated) is the four passes. */
+static void rk4_pipeline_is_the_passes(void)
+{
+	fast_path_is_the_passes(NDO_RK4, "pipeline");
 }
 
 /* A peer's kind of region for the pipeline with held nodes: rows cut in
@@ -456,84 +472,12 @@ static void rk4_pipeline_holds_nodes_as_the_passes(void)
 }
 
 /* Symplectic Euler and midpoint in their fused passes (integrate.c:
- * ndo__accel_update, every node integrated) give the bits of the passes
- * through ndo__accel on any thread count: state, energies, input work,
- * evaluations; with forces along the normals, along a fixed direction and
- * on nodes, at a level of one chunk and at one of many.  A step that
- * diverges leaves the state as it was. */
+ * ndo__accel_update, every node integrated) are the passes through
+ * ndo__accel. */
 static void fused_passes_are_the_passes(void)
 {
-	const ndo_method ms[] = {NDO_SYMPLECTIC_EULER, NDO_MIDPOINT};
-	for (int level = 3; level <= 7; level += 4)
-		for (int m = 0; m < 2; m++) {
-			ndo_grid *g = shape("wavy", level);
-			size_t nn = 3 * g->count;
-			double *x0 = malloc(nn * sizeof *x0), *v0 = malloc(nn * sizeof *v0);
-			random_state(g, 0.01, x0, v0);
-			int32_t faces[] = {0, 1, 2, 31, 40, 41, 90, 500};
-			int32_t nodes[] = {0, 5, (int32_t)g->count / 2, (int32_t)g->count - 1};
-			ndo_force f[3] = {{NDO_FORCE_FACE, 2.4, 1, 0, 1, {0}, level > 3 ? 8 : 7, faces},
-			                  {NDO_FORCE_FACE, 1.1, 3, 0.5, 0, {0.2, 0.3, 1}, 3, faces + 1},
-			                  {NDO_FORCE_POINT, 0.7, 2, 0, 1, {0}, 4, nodes}};
-			ndo_sim_params p;
-			ndo_sim_defaults(&p);
-			p.method = ms[m];
-			p.material.damping = 0.1;
-			p.forces = f;
-			p.nforces = 3;
-			const double h = level == 3 ? 1e-3 : 2e-4;
-			ndo_sim *ref = make(g, x0, v0, NULL, &p);
-			ref->rk4_reference = 1;
-			double *xr = malloc(nn * sizeof *xr), *vr = malloc(nn * sizeof *vr);
-			double *x = malloc(nn * sizeof *x), *v = malloc(nn * sizeof *v);
-			for (int k = 0; k < 20; k++)
-				CHECK(ndo_sim_step(ref, h) == 0, "passes: %s", ndo_errdetail());
-			ndo_sim_get(ref, xr, vr);
-			ndo_sim_energy er;
-			ndo_sim_energy_get(ref, &er);
-			ndo_sim_stats sr;
-			ndo_sim_stats_get(ref, &sr);
-			const char *name = ndo_method_names[ms[m]];
-			for (int t = 1; t <= 3; t++) {
-				p.threads = t;
-				ndo_sim *s = make(g, x0, v0, NULL, &p);
-				const double *u0 = s->u;
-				for (int k = 0; k < 20; k++) {
-					CHECK(ndo_sim_step(s, h) == 0, "fused: %s", ndo_errdetail());
-					/* the new state in spare planes, swapped in */
-					CHECK(k > 0 || s->u != u0, "%s, level %d: the fused passes were not taken",
-					      name, level);
-				}
-				ndo_sim_get(s, x, v);
-				ndo_sim_energy e;
-				ndo_sim_energy_get(s, &e);
-				ndo_sim_stats st;
-				ndo_sim_stats_get(s, &st);
-				CHECK(!memcmp(x, xr, nn * sizeof *x) && !memcmp(v, vr, nn * sizeof *v),
-				      "%s, level %d, %d threads: the fused passes' state differs from the "
-				      "passes' by %g", name, level, t, fmax(max_diff(x, xr, nn), max_diff(v, vr, nn)));
-				CHECK(e.kinetic == er.kinetic && e.potential == er.potential && e.work == er.work,
-				      "%s, level %d, %d threads: energies or work differ", name, level, t);
-				CHECK(st.evaluations == sr.evaluations, "%s, level %d, %d threads: %lld "
-				      "evaluations, the passes %lld", name, level, t, (long long)st.evaluations,
-				      (long long)sr.evaluations);
-				int rc = 0;
-				for (int k = 0; k < 200 && rc == 0; k++) {
-					ndo_sim_get(s, x, v);
-					rc = ndo_sim_step(s, 0.5);
-				}
-				CHECK(rc == NDO_EDIVERGED, "%s, level %d: no divergence (%d)", name, level, rc);
-				ndo_sim_get(s, xr, vr);
-				CHECK(!memcmp(x, xr, nn * sizeof *x) && !memcmp(v, vr, nn * sizeof *v),
-				      "%s, level %d, %d threads: the step that diverged changed the state", name,
-				      level, t);
-				ndo_sim_get(ref, xr, vr);
-				ndo_sim_destroy(s);
-			}
-			ndo_sim_destroy(ref);
-			free(x0), free(v0), free(xr), free(vr), free(x), free(v);
-			ndo_grid_destroy(g);
-		}
+	fast_path_is_the_passes(NDO_SYMPLECTIC_EULER, "fused passes");
+	fast_path_is_the_passes(NDO_MIDPOINT, "fused passes");
 }
 
 /* The fused RK4 passes give the tableau path's result, with forces,
