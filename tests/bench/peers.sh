@@ -9,8 +9,10 @@
 #      waits, timeouts, re-sends), and realtime with rollback by loss (0, 5,
 #      20 %) and delay (0, 10, 20 ms): divergence, pace, rollbacks,
 #      recomputed steps, the error of the frames shown during the run;
-#   4. the speed of lock-step with 1, 2, 4 and 8 peers at levels 6 and 7,
-#      against the single process, and the traffic per step.
+#   4. the speed of lock-step with 1, 2, 4 and 8 peers at levels 5-9
+#      (PEERS_LEVELS), against the single process, and the traffic per step;
+#      PEERS_COUNTS picks the runs: N peers, Nnf without frames
+#      (--publish-every 0), Nb with --partition bands, Nbnf both.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 . tests/e2e/netns.bash
@@ -151,8 +153,9 @@ for level in ${PEERS_LEVELS:-5 6 7 8 9}; do
 	steps=""
 	for n in ${PEERS_COUNTS:-1 2 2nf 4 8}; do
 		rs="" ratios="" cs="" wt="" hb="" fb=""
-		np=${n%nf} own=()
-		[ "$n" != "$np" ] && own=(--publish-every 0)
+		np=${n%nf} own=() kind=""
+		[ "$n" != "$np" ] && own=(--publish-every 0) kind=" (no frames)"
+		[ "${np%b}" != "$np" ] && np=${np%b} own+=(--partition bands) kind=" bands$kind"
 		for rep in $(seq "${PEERS_REPS:-3}"); do
 			one=$(solo "$level" "$t")
 			sps="$sps $one"
@@ -167,8 +170,7 @@ for level in ${PEERS_LEVELS:-5 6 7 8 9}; do
 			hb="$hb $(grep -o 'exchanges, [0-9.e+-]* kB' "$work/owner.err" | awk '{print $2}')"
 			fb="$fb $(grep -o 'times, [0-9.e+-]* kB' "$work/owner.err" | awk '{print $2}')"
 		done
-		label=$np
-		[ "$n" != "$np" ] && label="$np (no frames)"
+		label=$np$kind
 		[ -n "$rs" ] || { speed="$speed
 | $level | $label | failed | | | | | | |"; continue; }
 		r=$(echo "$rs" | median) ratio=$(echo "$ratios" | median)
