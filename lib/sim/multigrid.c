@@ -87,7 +87,8 @@ struct ndo__mg {
 
 enum op {
 	OP_RESID,    /* o1 = i2 − A i1; part: |o1|², |i2|² */
-	OP_START,    /* Jacobi: o1 (z) = o2 (p) = dinv∘i1 (r); part: r·z */
+	OP_START,    /* Jacobi: o1 (p) = dinv∘i1 (r); part: r·z (z = p is
+	              * not stored: OP_DIR computes it again) */
 	OP_AP,       /* o1 = A i1; part: i1·o1 */
 	OP_ABS,      /* part: |A||i1| squared */
 	OP_CHEB,     /* o1 (d) = c0·o1 + c1·dinv∘i1; o2 (x) += o1; c2 ≠ 0: x = d */
@@ -173,7 +174,7 @@ NDO_MG_HOT static void run_chunk(void *ctx, int k)
 			for (int c = 0; c < 3; c++) {
 				size_t q = 3 * r + (size_t)c;
 				double zz = J->dinv[r] * i1[q];
-				o1[q] = o2[q] = zz;
+				o1[q] = zz;
 				s[c] += i1[q] * zz;
 			}
 		break;
@@ -726,7 +727,7 @@ static int cg_start(ndo__mg *mg, int jac, double *r, double *z, double *p, doubl
 	double s[6];
 	job J;
 	if (jac) {
-		J = (job){.op = OP_START, .dinv = mg->lv[0].dinv, .i1 = r, .o1 = z, .o2 = p};
+		J = (job){.op = OP_START, .dinv = mg->lv[0].dinv, .i1 = r, .o1 = p};
 		run(mg, &J, n, s);
 	} else {
 		int rc = precondition(mg, r, z);
