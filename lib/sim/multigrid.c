@@ -47,8 +47,9 @@
  * are r − sd, r − sd + 1, r − 1, r, r + 1, r + su − 1, r + su (a 7-point
  * stencil in the rows' order) keeps its diagonal and its three entries
  * towards later rows (right, up-left, up); the other three are the same
- * values (A is symmetric) kept by the rows before.  40 bytes a row against
- * CSR's 88, read in the same order: the same products, the same sums.
+ * values (A is symmetric) kept by the rows before.  44 bytes a row (with
+ * the run length) against CSR's 88, read in the same order: the same
+ * products, the same sums.
  * reg[r] = 0: the row is read from CSR (a border, a seam, a held
  * neighbour). */
 typedef struct mg_stencil {
