@@ -193,17 +193,24 @@ NDO_MG_HOT static void run_chunk(void *ctx, int k)
 	double s[6] = {0, 0, 0, 0, 0, 0};
 	switch (J->op) {
 	case OP_RESID:
+	case OP_AP:
 		for (size_t r = a, r1; r < e; r = r1) {
 			r1 = r + 1;
 			if (J->S && J->S->run[r]) {
 				r1 = r + (size_t)J->S->run[r] < e ? r + (size_t)J->S->run[r] : e;
-				stencil_rows(J->S, OP_RESID, i1, i2, r, r1, o1, s);
+				stencil_rows(J->S, J->op, i1, i2, r, r1, o1, s);
 				continue;
 			}
 			double y[3];
 			row_product(Mp, Mi, Mx, i1, r, y);
-			const double *bb = i2 + 3 * r;
 			double *o = o1 + 3 * r;
+			if (J->op == OP_AP) {
+				const double *v = i1 + 3 * r;
+				o[0] = y[0], o[1] = y[1], o[2] = y[2];
+				s[0] += v[0] * y[0], s[1] += v[1] * y[1], s[2] += v[2] * y[2];
+				continue;
+			}
+			const double *bb = i2 + 3 * r;
 			o[0] = bb[0] - y[0], o[1] = bb[1] - y[1], o[2] = bb[2] - y[2];
 			s[0] += o[0] * o[0], s[1] += o[1] * o[1], s[2] += o[2] * o[2];
 			s[3] += bb[0] * bb[0], s[4] += bb[1] * bb[1], s[5] += bb[2] * bb[2];
@@ -217,20 +224,6 @@ NDO_MG_HOT static void run_chunk(void *ctx, int k)
 				o1[q] = zz;
 				s[c] += i1[q] * zz;
 			}
-		break;
-	case OP_AP:
-		for (size_t r = a, r1; r < e; r = r1) {
-			r1 = r + 1;
-			if (J->S && J->S->run[r]) {
-				r1 = r + (size_t)J->S->run[r] < e ? r + (size_t)J->S->run[r] : e;
-				stencil_rows(J->S, OP_AP, i1, NULL, r, r1, o1, s);
-				continue;
-			}
-			double y[3];
-			row_product(Mp, Mi, Mx, i1, r, y);
-			o1[3 * r] = y[0], o1[3 * r + 1] = y[1], o1[3 * r + 2] = y[2];
-			s[0] += i1[3 * r] * y[0], s[1] += i1[3 * r + 1] * y[1], s[2] += i1[3 * r + 2] * y[2];
-		}
 		break;
 	case OP_MUL:
 		for (size_t r = a; r < e; r++) {
