@@ -58,7 +58,11 @@ summary=$(awk -v be1="$(row "$t-speed.md" backward-euler 7)" -v tr1="$(row "$t-s
 	echo "Made by \`tests/bench/multigrid.sh\` (\`tests/bench/run multigrid\`) on $(date -u +%F), $(nproc) cores ($(lscpu | sed -n 's/^Model name: *//p' | head -1)), load average $load0 at the start and $load1 at the end (the machine is shared: medians of 7 runs; the solvers' runs alternate and each ratio is the median of the 7 pairs' ratios)."
 	echo
 	[ -z "$old" ] || printf 'Not measured in this run (MG_PARTS="%s"): %s.\n\n' "$MG_PARTS" "$old"
-	awk -v l="$load0 $load1" 'BEGIN { split(l, a, " "); if (a[1] > 1.5 || a[4] > 1.5) print "Taken under load (other work shared the 2 cores): the steps/s are low and noisy, the ratios within a pair of runs mean more; the figures of a quiet machine replace these when the lead reruns the benchmark.\n" }'
+	# under load: this run's, or the speed tables' run where this one did not measure them
+	chk="$load0 $load1"
+	[[ " ${MG_PARTS:-speed iters memory} " == *" speed "* ]] || [ ! -s "$t-speed.load" ] ||
+		chk=$(awk '{ print $1, $2, $3, $8, $9, $10 }' "$t-speed.load")
+	awk -v l="$chk" 'BEGIN { split(l, a, " "); if (a[1] > 1.5 || a[4] > 1.5) print "Taken under load (other work shared the 2 cores): the steps/s are low and noisy, the ratios within a pair of runs mean more; the figures of a quiet machine replace these when the lead reruns the benchmark.\n" }'
 	echo "## Summary"
 	echo
 	echo "$summary"
