@@ -47,12 +47,14 @@
  * are r − sd, r − sd + 1, r − 1, r, r + 1, r + su − 1, r + su (a 7-point
  * stencil in the rows' order) keeps its diagonal and its three entries
  * towards later rows (right, up-left, up); the other three are the same
- * values (A is symmetric) kept by the rows before.  40 bytes a row against
- * CSR's 88, read in the same order: the same products, the same sums.
+ * values (A is symmetric) kept by the rows before.  44 bytes a row (with
+ * the run length) against CSR's 88, read in the same order: the same
+ * products, the same sums.
  * reg[r] = 0: the row is read from CSR (a border, a seam, a held
  * neighbour). */
 typedef struct mg_stencil {
 	uint8_t *reg;
+	int32_t *run;  /* reg[r]: the regular rows from r on with r's su and sd */
 	int32_t *su, *sd;
 	double *d, *fr, *ful, *fu;
 } mg_stencil;
@@ -87,7 +89,8 @@ struct ndo__mg {
 
 enum op {
 	OP_RESID,    /* o1 = i2 − A i1; part: |o1|², |i2|² */
-	OP_START,    /* Jacobi: o1 (z) = o2 (p) = dinv∘i1 (r); part: r·z */
+	OP_START,    /* Jacobi: o1 (p) = dinv∘i1 (r); part: r·z (z = p is
+	              * not stored: OP_DIR computes it again) */
 	OP_AP,       /* o1 = A i1; part: i1·o1 */
 	OP_ABS,      /* part: |A||i1| squared */
 	OP_CHEB,     /* o1 (d) = c0·o1 + c1·dinv∘i1; o2 (x) += o1; c2 ≠ 0: x = d */
@@ -113,37 +116,70 @@ typedef struct job {
 	size_t n;
 } job;
 
-/* y = row r of M times x (n × 3, row-major); inlined into each loop. */
 typedef double mg_v4 __attribute__((vector_size(32)));
 
-static inline void row_product(const mg_stencil *S, const int *Mp, const int *Mi,
-                               const double *Mx, const double *x, size_t r, double y[3])
+/* y = row r of M (CSR) times x (n × 3, row-major); inlined into each
+ * loop. */
+static inline void row_product(const int *Mp, const int *Mi, const double *Mx, const double *x,
+                               size_t r, double y[3])
 {
 	double y0 = 0, y1 = 0, y2 = 0;
-	if (S && S->reg[r]) {
-		const size_t u = (size_t)S->su[r], dn = (size_t)S->sd[r];
-		const double m[7] = {S->fu[r - dn], S->ful[r - dn + 1], S->fr[r - 1], S->d[r],
-		                     S->fr[r], S->ful[r], S->fu[r]};
-		const double *v[7] = {x + 3 * (r - dn), x + 3 * (r - dn + 1), x + 3 * (r - 1), x + 3 * r,
-		                      x + 3 * (r + 1), x + 3 * (r + u - 1), x + 3 * (r + u)};
-		/* A row's three values and the next one's first (a vector of
-		 * n × 3 has one double more: vec()) in one load; the fourth
-		 * lane is not used. */
-		mg_v4 y4 = {0, 0, 0, 0};
-		for (int t = 0; t < 7; t++) {
-			mg_v4 vt;
-			memcpy(&vt, v[t], sizeof vt);
-			y4 += m[t] * vt;
-		}
-		y[0] = y4[0], y[1] = y4[1], y[2] = y4[2];
-		return;
-	} else {
-		for (int k = Mp[r]; k < Mp[r + 1]; k++) {
-			const double m = Mx[k], *v = x + 3 * (size_t)Mi[k];
-			y0 += m * v[0], y1 += m * v[1], y2 += m * v[2];
-		}
+	for (int k = Mp[r]; k < Mp[r + 1]; k++) {
+		const double m = Mx[k], *v = x + 3 * (size_t)Mi[k];
+		y0 += m * v[0], y1 += m * v[1], y2 += m * v[2];
 	}
 	y[0] = y0, y[1] = y1, y[2] = y2;
+}
+
+/* y (rows r0..r1 − 1) = those rows of the operator times x, for a run of
+ * regular rows with the same su and sd (S->run), with the pass's own work
+ * on each row done as it is computed: the same products added in the same
+ * order as row_product, and the same sums in the same order as the loops
+ * over single rows.  A row's left, own and right values of x, its lower
+ * pair's second and its upper pair's second are the next row's own, left,
+ * (right), lower first and upper first, and its right coefficient the next
+ * row's left one: 3 loads of x and 6 coefficients a row instead of 7, 7
+ * and the row's flag and offsets.  OP_AP: y = A x, s += x·y; OP_RESID:
+ * y = b − A x, s += |y|², |b|².  y must not overlap x. */
+static inline void stencil_rows(const mg_stencil *S, enum op op, const double *x,
+                                const double *b, size_t r0, size_t r1, double *y, double s[6])
+{
+	const size_t u = (size_t)S->su[r0], dn = (size_t)S->sd[r0];
+	const double *fu = S->fu, *ful = S->ful, *fr = S->fr, *dg = S->d;
+	mg_v4 xm, x0, xp, xd0, xd1, xu0, xu1;
+	memcpy(&xm, x + 3 * (r0 - 1), sizeof xm);
+	memcpy(&x0, x + 3 * r0, sizeof x0);
+	memcpy(&xd0, x + 3 * (r0 - dn), sizeof xd0);
+	memcpy(&xu0, x + 3 * (r0 + u - 1), sizeof xu0);
+	double fl = fr[r0 - 1];
+	double s0 = s[0], s1 = s[1], s2 = s[2], s3 = s[3], s4 = s[4], s5 = s[5];
+	for (size_t r = r0; r < r1; r++) {
+		memcpy(&xp, x + 3 * (r + 1), sizeof xp);
+		memcpy(&xd1, x + 3 * (r - dn + 1), sizeof xd1);
+		memcpy(&xu1, x + 3 * (r + u), sizeof xu1);
+		const double fri = fr[r];
+		mg_v4 y4 = {0, 0, 0, 0};
+		y4 += fu[r - dn] * xd0;
+		y4 += ful[r - dn + 1] * xd1;
+		y4 += fl * xm;
+		y4 += dg[r] * x0;
+		y4 += fri * xp;
+		y4 += ful[r] * xu0;
+		y4 += fu[r] * xu1;
+		double *yr = y + 3 * r;
+		if (op == OP_AP) {
+			yr[0] = y4[0], yr[1] = y4[1], yr[2] = y4[2];
+			s0 += x0[0] * y4[0], s1 += x0[1] * y4[1], s2 += x0[2] * y4[2];
+		} else {
+			const double *bb = b + 3 * r;
+			const double o0 = bb[0] - y4[0], o1 = bb[1] - y4[1], o2 = bb[2] - y4[2];
+			yr[0] = o0, yr[1] = o1, yr[2] = o2;
+			s0 += o0 * o0, s1 += o1 * o1, s2 += o2 * o2;
+			s3 += bb[0] * bb[0], s4 += bb[1] * bb[1], s5 += bb[2] * bb[2];
+		}
+		xm = x0, x0 = xp, xd0 = xd1, xu0 = xu1, fl = fri;
+	}
+	s[0] = s0, s[1] = s1, s[2] = s2, s[3] = s3, s[4] = s4, s[5] = s5;
 }
 
 NDO_MG_HOT static void run_chunk(void *ctx, int k)
@@ -157,13 +193,25 @@ NDO_MG_HOT static void run_chunk(void *ctx, int k)
 	double s[6] = {0, 0, 0, 0, 0, 0};
 	switch (J->op) {
 	case OP_RESID:
-		for (size_t r = a; r < e; r++) {
+	case OP_AP:
+		for (size_t r = a, r1; r < e; r = r1) {
+			r1 = r + 1;
+			if (J->S && J->S->run[r]) {
+				r1 = r + (size_t)J->S->run[r] < e ? r + (size_t)J->S->run[r] : e;
+				stencil_rows(J->S, J->op, i1, i2, r, r1, o1, s);
+				continue;
+			}
 			double y[3];
-			row_product(J->S, Mp, Mi, Mx, i1, r, y);
-			const double y0 = y[0], y1 = y[1], y2 = y[2];
-			const double *bb = i2 + 3 * r;
+			row_product(Mp, Mi, Mx, i1, r, y);
 			double *o = o1 + 3 * r;
-			o[0] = bb[0] - y0, o[1] = bb[1] - y1, o[2] = bb[2] - y2;
+			if (J->op == OP_AP) {
+				const double *v = i1 + 3 * r;
+				o[0] = y[0], o[1] = y[1], o[2] = y[2];
+				s[0] += v[0] * y[0], s[1] += v[1] * y[1], s[2] += v[2] * y[2];
+				continue;
+			}
+			const double *bb = i2 + 3 * r;
+			o[0] = bb[0] - y[0], o[1] = bb[1] - y[1], o[2] = bb[2] - y[2];
 			s[0] += o[0] * o[0], s[1] += o[1] * o[1], s[2] += o[2] * o[2];
 			s[3] += bb[0] * bb[0], s[4] += bb[1] * bb[1], s[5] += bb[2] * bb[2];
 		}
@@ -173,23 +221,14 @@ NDO_MG_HOT static void run_chunk(void *ctx, int k)
 			for (int c = 0; c < 3; c++) {
 				size_t q = 3 * r + (size_t)c;
 				double zz = J->dinv[r] * i1[q];
-				o1[q] = o2[q] = zz;
+				o1[q] = zz;
 				s[c] += i1[q] * zz;
 			}
-		break;
-	case OP_AP:
-		for (size_t r = a; r < e; r++) {
-			double y[3];
-			row_product(J->S, Mp, Mi, Mx, i1, r, y);
-			const double y0 = y[0], y1 = y[1], y2 = y[2];
-			o1[3 * r] = y0, o1[3 * r + 1] = y1, o1[3 * r + 2] = y2;
-			s[0] += i1[3 * r] * y0, s[1] += i1[3 * r + 1] * y1, s[2] += i1[3 * r + 2] * y2;
-		}
 		break;
 	case OP_MUL:
 		for (size_t r = a; r < e; r++) {
 			double y[3];
-			row_product(J->S, Mp, Mi, Mx, i1, r, y);
+			row_product(Mp, Mi, Mx, i1, r, y);
 			const double y0 = y[0], y1 = y[1], y2 = y[2];
 			o1[3 * r] = y0, o1[3 * r + 1] = y1, o1[3 * r + 2] = y2;
 		}
@@ -207,7 +246,7 @@ NDO_MG_HOT static void run_chunk(void *ctx, int k)
 	case OP_PROLONG:
 		for (size_t r = a; r < e; r++) {
 			double y[3];
-			row_product(J->S, Mp, Mi, Mx, i1, r, y);
+			row_product(Mp, Mi, Mx, i1, r, y);
 			const double y0 = y[0], y1 = y[1], y2 = y[2];
 			o1[3 * r] += y0, o1[3 * r + 1] += y1, o1[3 * r + 2] += y2;
 		}
@@ -436,12 +475,21 @@ static int stencil_build(mg_level *L)
 	}
 	for (size_t r = 0; r < n; r++)
 		S->reg[r] >>= 1;
+	S->run = calloc(n + 1, sizeof *S->run);
+	if (!S->run)
+		return ndo__fail(NDO_ENOMEM, "out of memory for the multigrid solver");
+	for (size_t r = n; r-- > 0;)
+		if (S->reg[r])
+			S->run[r] = r + 1 < n && S->reg[r + 1] && S->su[r + 1] == S->su[r] &&
+			                    S->sd[r + 1] == S->sd[r]
+			                ? S->run[r + 1] + 1
+			                : 1;
 	return NDO_OK;
 }
 
 static void stencil_free(mg_stencil *S)
 {
-	free(S->reg), free(S->su), free(S->sd);
+	free(S->reg), free(S->run), free(S->su), free(S->sd);
 	free(S->d), free(S->fr), free(S->ful), free(S->fu);
 	memset(S, 0, sizeof *S);
 }
@@ -520,7 +568,7 @@ void ndo__mg_free(ndo__mg *mg)
 
 void ndo__mg_apply(ndo__mg *mg, const double *x, double *y)
 {
-	job J = {.op = OP_MUL, .M = mg->lv[0].A, .i1 = x, .o1 = y};
+	job J = {.op = OP_AP, .M = mg->lv[0].A, .i1 = x, .o1 = y};
 	run(mg, &J, mg->lv[0].n, NULL);
 }
 
@@ -535,12 +583,12 @@ double ndo__mg_bytes(size_t n)
 {
 	/* Per fine row: the operator (7 values and indices, a column start),
 	 * its regular rows again without indices (mg_stencil: 4 values, 2
-	 * offsets, a flag), P and Pᵀ (1.75 entries a row each), the diagonal,
+	 * offsets, a flag, a run length), P and Pᵀ (1.75 entries a row each), the diagonal,
 	 * its mass part, the V-cycle's r, d (n × 3) and CG's r, z, p, q;
 	 * coarse levels add a third (with their own b, x); the setup's largest transient is Pᵀ(A P) and
 	 * A P besides the levels (about 2 × 7 entries a row of the level below
 	 * the finest). */
-	double fine = 7 * 12 + 8 + 4 * 8 + 2 * 4 + 1 + 2 * 1.75 * 12 + 8 + 8 + 2 * 24 + 4 * 24;
+	double fine = 7 * 12 + 8 + 4 * 8 + 3 * 4 + 1 + 2 * 1.75 * 12 + 8 + 8 + 2 * 24 + 4 * 24;
 	double coarse = (fine - 4 * 24 + 2 * 24 + 4) / 3;
 	return (double)n * (fine + coarse + 2 * 7 * 12 / 4.0) + 65536;
 }
@@ -726,7 +774,7 @@ static int cg_start(ndo__mg *mg, int jac, double *r, double *z, double *p, doubl
 	double s[6];
 	job J;
 	if (jac) {
-		J = (job){.op = OP_START, .dinv = mg->lv[0].dinv, .i1 = r, .o1 = z, .o2 = p};
+		J = (job){.op = OP_START, .dinv = mg->lv[0].dinv, .i1 = r, .o1 = p};
 		run(mg, &J, n, s);
 	} else {
 		int rc = precondition(mg, r, z);

@@ -12,6 +12,13 @@
  *   bench_multigrid memory L M S H  peak resident memory of three steps of
  *                                  method M with solver S at level L, step H,
  *                                  against the estimate --max-memory checks
+ *   bench_multigrid steps L M N    CPU seconds of N steps of method M with the
+ *                                  multigrid solver at level L (half RK4's
+ *                                  step, after 5 steps that build it) and
+ *                                  iterations per solve: one side of a paired
+ *                                  comparison of two builds, run alternately;
+ *                                  and a hash of the final velocities' bits,
+ *                                  the same where two builds compute the same
  *
  * Timings are medians of 7 runs of at least 0.1 s each, on one thread or,
  * after -t T (first), on T; the two solvers' runs alternate, and the ratio
@@ -275,6 +282,54 @@ static void memory(int argc, char **argv)
 	ndo_grid_destroy(g);
 }
 
+static void steps(int argc, char **argv)
+{
+	ndo_method m;
+	if (argc != 3 || ndo_method_parse(argv[1], &m) || atol(argv[2]) < 1) {
+		fprintf(stderr, "usage: bench_multigrid steps L METHOD N\n");
+		exit(2);
+	}
+	int level = atoi(argv[0]);
+	long n = atol(argv[2]);
+	ndo_grid *g;
+	if (ndo_shape_make("wavy", level, NULL, &g))
+		die();
+	double h = 0.5 * h_rk4(g);
+	ndo_force *f;
+	ndo_sim *s = scene(g, m, NDO_SOLVER_MULTIGRID, &f);
+	for (int k = 0; k < 5; k++)
+		if (ndo_sim_step(s, h))
+			die();
+	ndo_sim_stats st0, st;
+	ndo_sim_stats_get(s, &st0);
+	struct timespec t0, t1;
+	clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t0);
+	for (long k = 0; k < n; k++)
+		if (ndo_sim_step(s, h))
+			die();
+	clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t1);
+	ndo_sim_stats_get(s, &st);
+	size_t nv = 3 * g->count;
+	double *v = malloc(nv * sizeof *v);
+	if (!v)
+		die();
+	ndo_sim_get(s, NULL, v);
+	uint64_t hash = 14695981039346656037u; /* FNV-1a over the bytes */
+	const unsigned char *vb = (const unsigned char *)v;
+	for (size_t q = 0; q < nv * sizeof *v; q++)
+		hash = (hash ^ vb[q]) * 1099511628211u;
+	free(v);
+	double cpu = (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
+	printf("%s level %d: %ld steps %.4f CPU s, %.1f steps per CPU s, %.2f iterations/solve, "
+	       "velocities %016llx\n",
+	       argv[1], level, n, cpu, (double)n / cpu,
+	       (double)(st.iterations - st0.iterations) / (double)(st.solves - st0.solves),
+	       (unsigned long long)hash);
+	ndo_sim_destroy(s);
+	ndo_scene_forces_free(f, 1);
+	ndo_grid_destroy(g);
+}
+
 int main(int argc, char **argv)
 {
 	if (argc >= 3 && strcmp(argv[1], "-t") == 0) {
@@ -288,9 +343,11 @@ int main(int argc, char **argv)
 		iters(argc - 2, argv + 2);
 	else if (argc >= 2 && strcmp(argv[1], "memory") == 0)
 		memory(argc - 2, argv + 2);
+	else if (argc >= 2 && strcmp(argv[1], "steps") == 0)
+		steps(argc - 2, argv + 2);
 	else {
 		fprintf(stderr, "usage: bench_multigrid [-t T] speed L... | iters H... L... | memory L METHOD "
-		        "SOLVER H\n");
+		        "SOLVER H | steps L METHOD N\n");
 		return 2;
 	}
 	return 0;
