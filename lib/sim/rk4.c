@@ -328,7 +328,7 @@ void ndo__rk4_plan_free(ndo_sim *s)
 
 /* A region with held nodes (a peer's) takes the pipeline from this many
  * integrated nodes on (sim_private.h, rk4_held_min): paired whole 2-peer
- * runs (docs/bench/peers.md §4a) found the owner's region 1.2–1.3× faster
+ * runs (docs/bench/peers-regions.md §1) found the owner's region 1.2–1.3× faster
  * through the pipeline at level 8 (66,000 nodes) and ~16 % slower at level 7
  * (17,000), whose state about fits a core's L2 in the passes too. */
 enum { RK4_HELD_MIN = 32768 };
