@@ -326,24 +326,15 @@ void ndo__rk4_plan_free(ndo_sim *s)
 	s->rk4_plan = NULL;
 }
 
-/* A region with held nodes (a peer's) takes the pipeline from this many
- * integrated nodes on (sim_private.h, rk4_held_min): paired whole 2-peer
- * runs (docs/bench/peers-regions.md §1) found the owner's region 1.2–1.3× faster
- * through the pipeline at level 8 (66,000 nodes) and ~16 % slower at level 7
- * (17,000), whose state about fits a core's L2 in the passes too. */
-enum { RK4_HELD_MIN = 32768 };
-
-/* Whether the pipeline can take this simulation's steps. */
+/* Whether the pipeline can take this simulation's steps: a region with held
+ * nodes (a peer's) too, at any size.  On a quiet machine (bench_simulate
+ * region, docs/bench/peers-regions.md) each 2-peer region at levels 6-8
+ * stepped 1.05-1.38x faster through it than through the passes in 10 of 12
+ * cases (bands of whole rows 1.05-1.15x in all 6), 0.96-0.97x in two
+ * quad-tree regions; an earlier bound of 32,768 nodes came from runs under
+ * load. */
 static int pipeline_fits(const ndo_sim *s)
 {
-	int held_min = s->rk4_held_min ? s->rk4_held_min : RK4_HELD_MIN;
-	if (s->any_held && s->rk4_held_min >= 0) {
-		size_t nodes = 0;
-		for (size_t k = 0; k < s->nispan && nodes < (size_t)held_min; k++)
-			nodes += (size_t)(s->ispan[k].b - s->ispan[k].a);
-		if (nodes < (size_t)held_min)
-			return 0;
-	}
 	return !s->rk4_reference && s->npen == 0 && !s->has_pressure && s->n >= 2 &&
 	       s->nispan >= 1 && s->nichunk >= 1;
 }

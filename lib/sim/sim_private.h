@@ -160,10 +160,6 @@ struct ndo_sim {
 	 * than ndo__accel_update's fused ones (tests compare). */
 	struct ndo__rk4_plan *rk4_plan;
 	int rk4_reference;
-	/* With held nodes, the pipeline from this many integrated interior
-	 * nodes on (0: rk4.c's RK4_HELD_MIN; −1: always; tests and benchmarks
-	 * set it). */
-	int rk4_held_min;
 	/* With held nodes (a peer's region): ka[0] and ka[1], the spare state
 	 * the pipeline writes the next step into, hold u's and v's values at
 	 * every held node (duplicates too) but the moving ones (hmove, which

@@ -354,7 +354,6 @@ static void region(int argc, char **argv)
 		for (int k = 0; k < 5; k++) {
 			s[k] = thesis_scene_on(g, NDO_RK4, 1, &f[k]);
 			s[k]->rk4_reference = k == 1 || k == 3;
-			s[k]->rk4_held_min = -1; /* the pipeline at any size */
 			if (k > 0) {
 				ndo_sim_set_held_motion(s[k], 1);
 				ndo_sim_set_active(s[k], mask[(k - 1) / 2]);

@@ -73,8 +73,8 @@ OWNER_OPTS="--halo-steps 4" exact "3 peers, rk4, a halo exchange every 4 steps" 
 OWNER_OPTS="--publish-every 0" \
 	exact "2 peers, midpoint, whole regions only at the end" 2 midpoint quiet.tgrid
 
-# Level 8: regions of 32,768 nodes or more step rk4 through the pipeline
-# (lib/sim/rk4.c, with held nodes), the smaller ones above in the passes.
+# Level 8: regions of many chunks step rk4 through the pipeline
+# (lib/sim/rk4.c, with held nodes) on a grid where each unit waits for others.
 remesh --shape wavy -l 8 -o wavy8.tgrid 2>/dev/null || fail "remesh level 8"
 simulate-peer -q wavy8.tgrid -s "$SCENE" -t 0.1 -o solo8.tgrid 2>>solo.err || fail "single process, level 8"
 for n in 2 3; do

@@ -425,7 +425,6 @@ static void rk4_pipeline_holds_nodes_as_the_passes(void)
 			for (int k = 0; k < 2; k++) {
 				sim[k] = make(g, x0, v0, NULL, &p);
 				sim[k]->rk4_reference = k == 0;
-				sim[k]->rk4_held_min = -1; /* the pipeline at any size */
 				ndo_sim_set_held_motion(sim[k], moving);
 				CHECK(ndo_sim_set_active(sim[k], mask) == 0, "set_active");
 				x[k] = malloc(nn * sizeof *x[k]), v[k] = malloc(nn * sizeof *v[k]);
