@@ -50,11 +50,10 @@
  * values (A is symmetric) kept by the rows before.  44 bytes a row (with
  * the run length) against CSR's 88, read in the same order: the same
  * products, the same sums.
- * reg[r] = 0: the row is read from CSR (a border, a seam, a held
+ * run[r] = 0: the row is read from CSR (a border, a seam, a held
  * neighbour). */
 typedef struct mg_stencil {
-	uint8_t *reg;
-	int32_t *run;  /* reg[r]: the regular rows from r on with r's su and sd */
+	int32_t *run;  /* the regular rows from r on with r's su and sd */
 	int32_t *su, *sd;
 	double *d, *fr, *ful, *fu;
 } mg_stencil;
@@ -316,7 +315,7 @@ static void run(ndo__mg *mg, job *J, size_t n, double sums[6])
 	J->n = n;
 	J->S = NULL;
 	for (int l = 0; l < mg->nl && J->M; l++)
-		if (J->M == mg->lv[l].A && mg->lv[l].st.reg)
+		if (J->M == mg->lv[l].A && mg->lv[l].st.run)
 			J->S = &mg->lv[l].st;
 	J->part = sums ? mg->part : NULL;
 	if (nch > 1 && mg->pool)
@@ -446,50 +445,49 @@ static int stencil_build(mg_level *L)
 	const int *Ap = L->A->p, *Ai = L->A->i;
 	const double *Ax = L->A->x;
 	mg_stencil *S = &L->st;
-	S->reg = calloc(n + 1, 1);
+	uint8_t *reg = calloc(n + 1, 1); /* bit 1: the shape; bit 2: regular */
+	S->run = calloc(n + 1, sizeof *S->run);
 	S->su = calloc(n + 1, sizeof *S->su), S->sd = calloc(n + 1, sizeof *S->sd);
 	S->d = calloc(n + 1, sizeof *S->d), S->fr = calloc(n + 1, sizeof *S->fr);
 	S->ful = calloc(n + 1, sizeof *S->ful), S->fu = calloc(n + 1, sizeof *S->fu);
-	if (!S->reg || !S->su || !S->sd || !S->d || !S->fr || !S->ful || !S->fu)
+	if (!reg || !S->run || !S->su || !S->sd || !S->d || !S->fr || !S->ful || !S->fu) {
+		free(reg);
 		return ndo__fail(NDO_ENOMEM, "out of memory for the multigrid solver");
+	}
 	for (size_t r = 0; r < n; r++) {
 		const int k = Ap[r], *c = Ai + k, ri = (int)r;
 		if (Ap[r + 1] - k != 7 || c[3] != ri || c[2] != ri - 1 || c[4] != ri + 1 ||
 		    c[1] != c[0] + 1 || c[5] != c[6] - 1 || ri - c[0] < 3 || c[6] - ri < 3)
 			continue;
-		S->reg[r] = 1; /* the shape; the values are checked below */
+		reg[r] = 1; /* the shape; the values are checked below */
 		S->sd[r] = ri - c[0], S->su[r] = c[6] - ri;
 		S->d[r] = Ax[k + 3], S->fr[r] = Ax[k + 4], S->ful[r] = Ax[k + 5], S->fu[r] = Ax[k + 6];
 	}
 	for (size_t r = 0; r < n; r++) {
-		if (!(S->reg[r] & 1))
+		if (!(reg[r] & 1))
 			continue;
 		const size_t dn = (size_t)S->sd[r], j1 = r - 1, j2 = r - dn, j3 = r - dn + 1;
 		const double *x = Ax + Ap[r];
-		if ((S->reg[j1] & 1) && (S->reg[j2] & 1) && (S->reg[j3] & 1) &&
+		if ((reg[j1] & 1) && (reg[j2] & 1) && (reg[j3] & 1) &&
 		    (size_t)S->su[j2] == dn && (size_t)S->su[j3] == dn &&
 		    memcmp(&S->fu[j2], &x[0], sizeof *x) == 0 &&
 		    memcmp(&S->ful[j3], &x[1], sizeof *x) == 0 &&
 		    memcmp(&S->fr[j1], &x[2], sizeof *x) == 0)
-			S->reg[r] |= 2;
+			reg[r] |= 2;
 	}
-	for (size_t r = 0; r < n; r++)
-		S->reg[r] >>= 1;
-	S->run = calloc(n + 1, sizeof *S->run);
-	if (!S->run)
-		return ndo__fail(NDO_ENOMEM, "out of memory for the multigrid solver");
 	for (size_t r = n; r-- > 0;)
-		if (S->reg[r])
-			S->run[r] = r + 1 < n && S->reg[r + 1] && S->su[r + 1] == S->su[r] &&
+		if (reg[r] & 2)
+			S->run[r] = r + 1 < n && (reg[r + 1] & 2) && S->su[r + 1] == S->su[r] &&
 			                    S->sd[r + 1] == S->sd[r]
 			                ? S->run[r + 1] + 1
 			                : 1;
+	free(reg);
 	return NDO_OK;
 }
 
 static void stencil_free(mg_stencil *S)
 {
-	free(S->reg), free(S->run), free(S->su), free(S->sd);
+	free(S->run), free(S->su), free(S->sd);
 	free(S->d), free(S->fr), free(S->ful), free(S->fu);
 	memset(S, 0, sizeof *S);
 }
@@ -583,12 +581,12 @@ double ndo__mg_bytes(size_t n)
 {
 	/* Per fine row: the operator (7 values and indices, a column start),
 	 * its regular rows again without indices (mg_stencil: 4 values, 2
-	 * offsets, a flag, a run length), P and Pᵀ (1.75 entries a row each), the diagonal,
+	 * offsets, a run length), P and Pᵀ (1.75 entries a row each), the diagonal,
 	 * its mass part, the V-cycle's r, d (n × 3) and CG's r, z, p, q;
 	 * coarse levels add a third (with their own b, x); the setup's largest transient is Pᵀ(A P) and
 	 * A P besides the levels (about 2 × 7 entries a row of the level below
 	 * the finest). */
-	double fine = 7 * 12 + 8 + 4 * 8 + 3 * 4 + 1 + 2 * 1.75 * 12 + 8 + 8 + 2 * 24 + 4 * 24;
+	double fine = 7 * 12 + 8 + 4 * 8 + 3 * 4 + 2 * 1.75 * 12 + 8 + 8 + 2 * 24 + 4 * 24;
 	double coarse = (fine - 4 * 24 + 2 * 24 + 4) / 3;
 	return (double)n * (fine + coarse + 2 * 7 * 12 / 4.0) + 65536;
 }
