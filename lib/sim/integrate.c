@@ -1030,18 +1030,26 @@ static void fused_swap(ndo_sim *s, double *u, double *v)
 	s->us = ou, s->vs = ov;
 }
 
+/* A fused method's first pass, at the step's state, with the divergence
+ * test on its diagnostics: a step that diverges returns with the state as
+ * it was (the pass wrote only the spare planes uo, vo). */
+static int fused_first(ndo_sim *s, int mode, double h, double *uo, double *vo)
+{
+	ndo__upd up = {mode, h, uo, vo, NULL, NULL};
+	ndo__diag d;
+	ndo__accel_update(s, s->t, s->u, s->v, &up, &d);
+	s->last_power = d.power;
+	return ndo__diverged(s, &d, 1);
+}
+
 /* Symplectic Euler in one pass: the same bits as step_symplectic. */
 static int step_symplectic_fused(ndo_sim *s, double h)
 {
 	s->h_mod = h;
 	double *un = s->us, *vn = s->vs;
-	ndo__upd up = {NDO__UPD_SYMPLECTIC, h, un, vn, NULL, NULL};
-	ndo__diag d;
-	ndo__accel_update(s, s->t, s->u, s->v, &up, &d);
-	s->last_power = d.power;
-	int rc = ndo__diverged(s, &d, 1);
+	int rc = fused_first(s, NDO__UPD_SYMPLECTIC, h, un, vn);
 	if (rc)
-		return rc; /* the state as it was: the pass wrote only spare planes */
+		return rc;
 	fused_swap(s, un, vn);
 	account(s, h);
 	s->stats.substeps++;
@@ -1053,16 +1061,12 @@ static int step_symplectic_fused(ndo_sim *s, double h)
 static int step_midpoint_fused(ndo_sim *s, double h)
 {
 	double *um = s->us, *vm = s->kv[1], *un = s->ka[0], *vn = s->ka[1];
-	ndo__upd up = {NDO__UPD_HALF, h, um, vm, NULL, NULL};
-	ndo__diag d;
-	ndo__accel_update(s, s->t, s->u, s->v, &up, &d);
-	s->last_power = d.power;
-	int rc = ndo__diverged(s, &d, 1);
+	int rc = fused_first(s, NDO__UPD_HALF, h, um, vm);
 	if (rc)
 		return rc;
 	ndo__sync_planes(s, um, 3);
 	ndo__sync_planes(s, vm, 3);
-	up = (ndo__upd){NDO__UPD_FULL, h, un, vn, s->u, s->v};
+	ndo__upd up = {NDO__UPD_FULL, h, un, vn, s->u, s->v};
 	ndo__accel_update(s, s->t + 0.5 * h, um, vm, &up, NULL);
 	ndo__sync_planes(s, un, 3);
 	ndo__sync_planes(s, vn, 3);
