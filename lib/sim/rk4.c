@@ -59,6 +59,11 @@ typedef struct rk4_pass {
 	double *uo, *vo;  /* RK4_LAST_TO: the new state (RK4_LAST: in place) */
 	const double *F;  /* forces or NULL */
 	double c, h6;
+	/* vs, su and sv: node p's coordinate comp at [comp·ss + p + sd] (the
+	 * passes: whole planes, ss = count, sd = 0; the pipeline: a chunk's
+	 * slot of the ring, sd = slot start − first row's start) */
+	size_t ss;
+	ptrdiff_t sd;
 } rk4_pass;
 
 static inline __attribute__((always_inline)) void
@@ -81,43 +86,44 @@ rk4_interior(const ndo_sim *s, const rk4_pass *g, const int mode, const int hasF
 			const double *restrict U = g->U + o;
 			const double *restrict F = hasF ? g->F + o : NULL;
 			double *restrict Un = mode == RK4_FIRST || mode == RK4_MID ? g->Un + o : NULL;
-			double *restrict su = g->su + o, *restrict sv = g->sv + o;
 			double *restrict u = g->u + o, *restrict v = g->v + o;
 			double *restrict uo = mode == RK4_LAST_TO ? g->uo + o : NULL;
 			double *restrict vo = mode == RK4_LAST_TO ? g->vo + o : NULL;
-			/* RK4_FIRST reads v and writes vs; the others update vs in place
-			 * through the one pointer V. */
-			double *restrict V = mode == RK4_FIRST ? g->v + o : g->vs + o;
-			double *restrict vs = g->vs + o;
+			/* vs, su, sv from node lo on, indexed p − lo (rk4_pass: ss, sd);
+			 * RK4_FIRST reads v and writes vs, the others update vs in place */
+			const ptrdiff_t so = (ptrdiff_t)((size_t)comp * g->ss + lo) + g->sd;
+			double *restrict su = g->su + so, *restrict sv = g->sv + so;
+			double *restrict vs = g->vs + so;
 #pragma omp simd reduction(+ : pe2, ke2, pw)
 			for (size_t p = lo; p < hi; p++) {
+				const size_t i = p - lo;
 				const double up = U[p];
 				const double ku = e0[p] * (up - U[p + 1]) + e1[p] * (up - U[p + w]) +
 				                  e2[p] * (up - U[p + w - 1]) + e0[p - 1] * (up - U[p - 1]) +
 				                  e1[p - w] * (up - U[p - w]) + e2[p - w + 1] * (up - U[p - w + 1]);
-				const double f = hasF ? F[p] : 0, vp = V[p];
+				const double f = hasF ? F[p] : 0, vp = mode == RK4_FIRST ? v[p] : vs[i];
 				const double a = minv[p] * (f - ku) - ga * vp;
 				if (mode == RK4_FIRST) {
-					su[p] = vp;
-					sv[p] = a;
+					su[i] = vp;
+					sv[i] = a;
 					Un[p] = u[p] + c * vp;
-					vs[p] = v[p] + c * a;
+					vs[i] = v[p] + c * a;
 					/* always (d is never NULL here): a test on d in the loop
 					 * kept it from being vectorized */
 					pe2 += up * ku;
 					ke2 += mass[p] * vp * vp;
 					pw += f * vp;
 				} else if (mode == RK4_MID) {
-					su[p] += 2 * vp;
-					sv[p] += 2 * a;
+					su[i] += 2 * vp;
+					sv[i] += 2 * a;
 					Un[p] = u[p] + c * vp;
-					V[p] = v[p] + c * a;
+					vs[i] = v[p] + c * a;
 				} else if (mode == RK4_LAST) {
-					u[p] += h6 * (su[p] + vp);
-					v[p] += h6 * (sv[p] + a);
+					u[p] += h6 * (su[i] + vp);
+					v[p] += h6 * (sv[i] + a);
 				} else {
-					uo[p] = u[p] + h6 * (su[p] + vp);
-					vo[p] = v[p] + h6 * (sv[p] + a);
+					uo[p] = u[p] + h6 * (su[i] + vp);
+					vo[p] = v[p] + h6 * (sv[i] + a);
 				}
 			}
 		}
@@ -155,17 +161,18 @@ static void rk4_border(const ndo_sim *s, const rk4_pass *g, int mode, const int3
 		double u2 = 0;
 		for (int comp = 0; comp < 3; comp++) {
 			size_t o = (size_t)comp * cnt, q = o + p;
+			size_t qs = (size_t)((ptrdiff_t)((size_t)comp * g->ss + p) + g->sd); /* vs, su, sv */
 			double up = g->U[q], ku = 0;
 			for (int j = 0; j < 6; j++)
 				ku += cf[j] * (up - g->U[o + (size_t)nb[j]]);
 			double f = g->F ? g->F[q] : 0;
-			double vp = mode == RK4_FIRST ? g->v[q] : g->vs[q];
+			double vp = mode == RK4_FIRST ? g->v[q] : g->vs[qs];
 			double a = s->minv[p] * (f - ku) - s->gam[p] * vp;
 			if (mode == RK4_FIRST) {
-				g->su[q] = vp;
-				g->sv[q] = a;
+				g->su[qs] = vp;
+				g->sv[qs] = a;
 				g->Un[q] = g->u[q] + g->c * vp;
-				g->vs[q] = g->v[q] + g->c * a;
+				g->vs[qs] = g->v[q] + g->c * a;
 				if (d) {
 					d->pe2 += up * ku;
 					d->ke2 += s->mass[p] * vp * vp;
@@ -178,16 +185,16 @@ static void rk4_border(const ndo_sim *s, const rk4_pass *g, int mode, const int3
 				}
 				u2 += up * up;
 			} else if (mode == RK4_MID) {
-				g->su[q] += 2 * vp;
-				g->sv[q] += 2 * a;
+				g->su[qs] += 2 * vp;
+				g->sv[qs] += 2 * a;
 				g->Un[q] = g->u[q] + g->c * vp;
-				g->vs[q] = g->v[q] + g->c * a;
+				g->vs[qs] = g->v[q] + g->c * a;
 			} else if (mode == RK4_LAST) {
-				g->u[q] += g->h6 * (g->su[q] + vp);
-				g->v[q] += g->h6 * (g->sv[q] + a);
+				g->u[q] += g->h6 * (g->su[qs] + vp);
+				g->v[q] += g->h6 * (g->sv[qs] + a);
 			} else {
-				g->uo[q] = g->u[q] + g->h6 * (g->su[q] + vp);
-				g->vo[q] = g->v[q] + g->h6 * (g->sv[q] + a);
+				g->uo[q] = g->u[q] + g->h6 * (g->su[qs] + vp);
+				g->vo[q] = g->v[q] + g->h6 * (g->sv[qs] + a);
 			}
 		}
 		if (d)
@@ -260,7 +267,8 @@ static int step_passes(ndo_sim *s, double h)
 		ndo__held_at(s, A, h / 2);
 		ndo__held_at(s, B, h / 2);
 	}
-	rk4_pass g = {s->u, A, s->vs, s->kv[2], s->kv[3], s->u, s->v, NULL, NULL, NULL, h / 2, h / 6};
+	rk4_pass g = {s->u, A, s->vs, s->kv[2], s->kv[3], s->u, s->v, NULL, NULL, NULL,
+	              h / 2, h / 6, s->count, 0};
 	ndo__diag d;
 	rk4_pass_run(s, &g, RK4_FIRST, s->t, &d);
 	s->last_power = d.power;
@@ -305,6 +313,16 @@ struct ndo__rk4_plan {
 	double *bterms;        /* RK4_BTERMS per active border node */
 	int nunit;
 	rk4_unit *unit;        /* wavefront order */
+	/* The ring (ring_layout): the stage velocity and the running sums, read
+	 * at their own node only, live from stage 0 of a chunk to its stage 3,
+	 * in one of R = 3L + 1 slots of S nodes of the share of the thread
+	 * that walks its chunks; stage 0 of chunk c waits for stage 3 of
+	 * prev[c], the slot's chunk before. */
+	int R, ring_T;         /* slots a share; the thread count of slot[], prev[] */
+	size_t S;              /* a slot: rows r0..r1 of the widest chunk */
+	int32_t *slot, *prev;
+	size_t ring_cap;       /* slots in ring */
+	double *ring;          /* vs, su, sv: 3 × 3 planes of ring_cap·S */
 	_Atomic int *done;     /* 4·C states of this step's units: free, claimed, done */
 	_Atomic int sleepers;  /* threads waiting for a unit */
 	pthread_mutex_t lock;
@@ -320,6 +338,7 @@ void ndo__rk4_plan_free(ndo_sim *s)
 	free(P->zoff), free(P->zlist), free(P->foff), free(P->fitem), free(P->bterms);
 	free(P->doff), free(P->dlist);
 	free(P->unit), free((void *)P->done);
+	free(P->slot), free(P->prev), free(P->ring);
 	pthread_mutex_destroy(&P->lock);
 	pthread_cond_destroy(&P->cond);
 	free(P);
@@ -531,6 +550,13 @@ static int plan_build(ndo_sim *s)
 		if (c - P->lo[c] + 1 > P->L)
 			P->L = c - P->lo[c] + 1;
 	}
+	P->R = 3 * P->L + 1;
+	for (int c = 0; c < C; c++)
+		if ((size_t)(P->r1[c] - P->r0[c] + 1) * (size_t)w > P->S)
+			P->S = (size_t)(P->r1[c] - P->r0[c] + 1) * (size_t)w;
+	P->slot = malloc((size_t)C * sizeof *P->slot), P->prev = malloc((size_t)C * sizeof *P->prev);
+	if (!P->slot || !P->prev)
+		goto oom;
 	P->bterms = malloc((RK4_BTERMS * s->nbact + 1) * sizeof *P->bterms);
 	/* Units in wavefront order: stage k of chunk c at c + k·L; any unit
 	 * it reads (stage k − 1, chunks ≤ c + L − 1) comes on an earlier
@@ -587,6 +613,53 @@ static void copy_dups(const ndo_sim *s, double *x, const int32_t *pairs, size_t 
 	}
 }
 
+/* The ring's slots for T threads, as pipe_thread walks the chunks: each
+ * pair of threads shares a range of chunks, the even one walking up from
+ * its bottom, the odd one (if any) down from its top, each half (the whole
+ * range for a thread alone) a share.  Chunk c at distance d from its
+ * share's start takes slot d mod R of the share's, after the chunk R
+ * closer to the start (prev).  The waits prev adds close no cycle: a wait
+ * goes R chunks back towards the start and 3 stages up, and the stages'
+ * own waits bring it at most 3(L − 1) < R chunks forward again. */
+static int ring_layout(const ndo_sim *s, struct ndo__rk4_plan *P, int T)
+{
+	if (s->rk4_ring_slots > 0 && s->rk4_ring_slots < P->R)
+		P->R = s->rk4_ring_slots > 3 * P->L - 2 ? s->rk4_ring_slots : 3 * P->L - 2;
+	const int C = P->C, R = P->R, pairs = (T + 1) / 2;
+	size_t nslot = 0;
+	for (int pair = 0; pair < pairs; pair++) {
+		const int lo = (int)((long)C * pair / pairs), hi = (int)((long)C * (pair + 1) / pairs);
+		const int two = 2 * pair + 1 < T, mid = two ? lo + (hi - lo) / 2 : hi;
+		for (int half = 0; half < 1 + two; half++) {
+			const int a = half ? mid : lo, b = half ? hi : mid;
+			for (int c = a; c < b; c++) {
+				const int d = half ? hi - 1 - c : c - a;
+				P->slot[c] = (int32_t)(nslot + (size_t)(d % R));
+				P->prev[c] = d >= R ? (half ? c + R : c - R) : -1;
+			}
+			nslot += (size_t)(b - a < R ? b - a : R);
+		}
+	}
+	if (nslot > P->ring_cap) {
+		free(P->ring);
+		P->ring_cap = 0;
+		if (!(P->ring = malloc(9 * nslot * P->S * sizeof *P->ring)))
+			return ndo__fail(NDO_ENOMEM, "out of memory for the RK4 pipeline's ring");
+		P->ring_cap = nslot;
+	}
+	P->ring_T = T;
+	return NDO_OK;
+}
+
+int ndo__rk4_ring_reuses(const ndo_sim *s)
+{
+	const struct ndo__rk4_plan *P = s->rk4_plan;
+	int n = 0;
+	for (int c = 0; P && P->ring_T && c < P->C; c++)
+		n += P->prev[c] >= 0;
+	return n;
+}
+
 typedef struct rk4_pipe {
 	ndo_sim *s;
 	rk4_pass g[4];
@@ -634,6 +707,14 @@ static void unit_run(rk4_pipe *J, int k, int c);
 static void unit_take(rk4_pipe *J, int k, int c)
 {
 	struct ndo__rk4_plan *P = J->s->rk4_plan;
+	if (k == 0 && P->prev[c] >= 0) {
+		/* the slot free: its chunk before through stage 3 */
+		int idx = 3 * P->C + P->prev[c];
+		if (unit_claim(P, idx))
+			unit_take(J, 3, P->prev[c]);
+		else
+			unit_wait(P, idx);
+	}
 	if (k > 0)
 		for (int q = P->lo[c]; q <= P->hi[c]; q++) {
 			int idx = (k - 1) * P->C + q;
@@ -665,10 +746,15 @@ static void unit_run(rk4_pipe *J, int k, int c)
 	 * rows runs the loops without forces, 3 streams of zeros fewer (the
 	 * same bits: f − Ku with f = 0 either way). */
 	rk4_pass gl = *g;
+	const size_t ps = P->ring_cap * P->S; /* a plane of the ring */
+	gl.vs = P->ring, gl.su = P->ring + 3 * ps, gl.sv = P->ring + 6 * ps;
+	gl.ss = ps;
+	gl.sd = (ptrdiff_t)((size_t)P->slot[c] * P->S) - (ptrdiff_t)P->r0[c] * s->w;
 	if (P->zoff[c + 1] == P->zoff[c])
 		gl.F = NULL;
 	rk4_runs(s, &gl, J->mode[k], d, (size_t)s->ichunk[c], (size_t)s->ichunk[c + 1]);
-	rk4_border(s, g, J->mode[k], P->blist + P->boff[c], (size_t)(P->boff[c + 1] - P->boff[c]),
+	gl.F = g->F;
+	rk4_border(s, &gl, J->mode[k], P->blist + P->boff[c], (size_t)(P->boff[c + 1] - P->boff[c]),
 	           NULL, k == 0 ? P->bterms : NULL);
 	for (int b = 0; b < 2; b++)
 		if (J->out[k][b]) {
@@ -731,7 +817,8 @@ static int step_pipeline(ndo_sim *s, double h)
 	}
 	const double *F = s->has_forces ? s->f : NULL;
 	rk4_pipe J = {.s = s};
-	const rk4_pass g = {s->u, A, s->vs, s->kv[2], s->kv[3], s->u, s->v, un, vn, F, h / 2, h / 6};
+	/* vs, su, sv: the ring's (unit_run) */
+	const rk4_pass g = {s->u, A, NULL, NULL, NULL, s->u, s->v, un, vn, F, h / 2, h / 6, 0, 0};
 	for (int k = 0; k < 4; k++)
 		J.g[k] = g;
 	J.g[1].U = A, J.g[1].Un = B;
@@ -746,6 +833,11 @@ static int step_pipeline(ndo_sim *s, double h)
 	for (int i = 0; i < 4 * P->C; i++)
 		atomic_init(&P->done[i], UNIT_FREE);
 	J.threads = ndo__sim_threads_now(s);
+	if (P->ring_T != J.threads) {
+		int rc = ring_layout(s, P, J.threads);
+		if (rc)
+			return rc;
+	}
 	ndo__sim_run(s, J.threads, pipe_thread, &J);
 	/* Stage 0's diagnostics: the border's in its order, then the chunks'. */
 	ndo__diag d, *bd = &s->cdiag[s->nichunk];

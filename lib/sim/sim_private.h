@@ -160,6 +160,11 @@ struct ndo_sim {
 	 * than ndo__accel_update's fused ones (tests compare). */
 	struct ndo__rk4_plan *rk4_plan;
 	int rk4_reference;
+	/* Tests: the ring's slots per share (rk4.c, ring_layout) when fewer
+	 * than its own 3L + 1, at least the 3L − 2 below which the slots'
+	 * waits would close a cycle: a slot is then needed again before the
+	 * wavefront has read it for the last time (0: the ring's own). */
+	int rk4_ring_slots;
 	/* With held nodes (a peer's region): ka[0] and ka[1], the spare state
 	 * the pipeline writes the next step into, hold u's and v's values at
 	 * every held node (duplicates too) but the moving ones (hmove, which
@@ -307,6 +312,9 @@ void ndo__held_at(ndo_sim *s, double *buf, double tau);
  * pipeline's plan freed (the chunks changed). */
 int ndo__rk4_step(ndo_sim *s, double h);
 void ndo__rk4_plan_free(ndo_sim *s);
+/* The chunks whose ring slot an earlier chunk of the same step used
+ * (0 before the pipeline's first step; tests). */
+int ndo__rk4_ring_reuses(const ndo_sim *s);
 
 /* Copy the canonical values of the stage planes to their duplicates
  * (accel.c). */

@@ -470,6 +470,73 @@ static void rk4_pipeline_holds_nodes_as_the_passes(void)
 	}
 }
 
+
+/* The pipeline's ring (rk4.c: the stage velocity and the running sums in
+ * a few chunk-sized slots a thread's share) with as few slots as it
+ * allows, so that the wavefront reaches a chunk before the slot's chunk
+ * before is through its last stage and the slot's wait must hold it back:
+ * the four passes' bits on 1-3 threads, at levels of an odd number of
+ * chunks (6: 15, 7: 63), every node integrated or a peer's region with
+ * held nodes, rows in two runs and both poles' seams. */
+static void rk4_ring_reused_late_enough(void)
+{
+	for (int level = 6; level <= 7; level++) {
+		ndo_grid *g = shape("wavy", level);
+		size_t nn = 3 * g->count;
+		double *x0 = malloc(nn * sizeof *x0), *v0 = malloc(nn * sizeof *v0);
+		random_state(g, 0.01, x0, v0);
+		uint8_t *mask = malloc(g->count);
+		jagged_region(g, mask);
+		double *x[2], *v[2];
+		for (int k = 0; k < 2; k++)
+			x[k] = malloc(nn * sizeof *x[k]), v[k] = malloc(nn * sizeof *v[k]);
+		int32_t faces[] = {0, 1, 2, 31, 40, 41, 90, 500};
+		int32_t nodes[] = {0, 5, (int32_t)g->count / 2, (int32_t)g->count - 1};
+		ndo_force f[2] = {{NDO_FORCE_FACE, 2.4, 1, 0, 1, {0}, 8, faces},
+		                  {NDO_FORCE_POINT, 0.7, 2, 0, 1, {0}, 4, nodes}};
+		for (int held = 0; held < 2; held++)
+			for (int t = 1; t <= 3; t++)
+				for (int slots = 1; slots <= 2; slots++) {
+					ndo_sim_params p;
+					ndo_sim_defaults(&p);
+					p.material.damping = 0.1;
+					p.forces = f;
+					p.nforces = 2;
+					p.threads = t;
+					ndo_sim *sim[2];
+					for (int k = 0; k < 2; k++) {
+						sim[k] = make(g, x0, v0, NULL, &p);
+						sim[k]->rk4_reference = k == 0;
+						/* 1: the fewest slots; 2: the ring's own */
+						sim[k]->rk4_ring_slots = slots == 1;
+						if (held)
+							CHECK(ndo_sim_set_active(sim[k], mask) == 0, "set_active");
+						for (int step = 0; step < 8; step++)
+							CHECK(ndo_sim_step(sim[k], 1e-3) == 0, "step: %s", ndo_errdetail());
+						ndo_sim_get(sim[k], x[k], v[k]);
+					}
+					/* (a region's few chunks at level 6 fit the ring's own) */
+					CHECK(ndo__rk4_ring_reuses(sim[1]) > 0 || (level == 6 && held && slots == 2),
+					      "level %d, %s, %d threads, %s slots: no slot of the ring was used twice",
+					      level, held ? "held nodes" : "every node", t,
+					      slots == 1 ? "the fewest" : "the ring's own");
+					CHECK(!memcmp(x[0], x[1], nn * sizeof *x[0]) &&
+					          !memcmp(v[0], v[1], nn * sizeof *v[0]),
+					      "level %d, %s, %d threads, %s slots: the pipeline's state differs "
+					      "from the passes' by %g",
+					      level, held ? "held nodes" : "every node", t,
+					      slots == 1 ? "the fewest" : "the ring's own",
+					      fmax(max_diff(x[0], x[1], nn), max_diff(v[0], v[1], nn)));
+					for (int k = 0; k < 2; k++)
+						ndo_sim_destroy(sim[k]);
+				}
+		for (int k = 0; k < 2; k++)
+			free(x[k]), free(v[k]);
+		free(x0), free(v0), free(mask);
+		ndo_grid_destroy(g);
+	}
+}
+
 /* Symplectic Euler and midpoint in their fused passes (integrate.c:
  * ndo__accel_update, every node integrated) are the passes through
  * ndo__accel. */
@@ -1295,6 +1362,7 @@ int main(void)
 	RUN(fused_rk4_equals_the_tableau);
 	RUN(rk4_pipeline_is_the_passes);
 	RUN(rk4_pipeline_holds_nodes_as_the_passes);
+	RUN(rk4_ring_reused_late_enough);
 	RUN(fused_passes_are_the_passes);
 	RUN(rkf45_in_parts_is_the_step);
 	RUN(power_iteration_finds_lambda_max);
