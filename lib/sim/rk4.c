@@ -113,9 +113,8 @@ rk4_interior(const ndo_sim *s, const rk4_pass *g, const int mode, const int hasF
 			RK4_PLANES(1)
 			RK4_PLANES(2)
 #undef RK4_PLANES
-			/* (GCC 12 at -O2 vectorizes this loop only with ivdep and
-			 * rk4_runs' dynamic cost model: measured, the loop is the step's) */
-#pragma GCC ivdep
+			/* (without the pragma GCC 12 keeps this loop scalar) */
+#pragma omp simd
 			for (size_t p = lo; p < hi; p++) {
 				const size_t i = p - lo;
 				const double E0 = e0[p], E1 = e1[p], E2 = e2[p], E0m = e0[p - 1],
@@ -274,7 +273,7 @@ static void rk4_border(const ndo_sim *s, const rk4_pass *g, int mode, const int3
 
 /* Interior runs [k0, k1) of a pass (constant arguments: the compiler
  * makes one loop per combination). */
-NDO_HOT __attribute__((optimize("vect-cost-model=dynamic"))) static void rk4_runs(const ndo_sim *s, const rk4_pass *g, int mode, ndo__diag *d,
+NDO_HOT static void rk4_runs(const ndo_sim *s, const rk4_pass *g, int mode, ndo__diag *d,
                              size_t k0, size_t k1)
 {
 #define RUNS(M, D)                                                                          \
