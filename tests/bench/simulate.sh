@@ -38,6 +38,10 @@ summary=$(awk -v s="$rk4_6" -v l2="$l2" -v l3="$l3" -v avx2="$avx2" -v sse2="$ss
 		(g6 >= 0.6 * r && g7 >= 0.6 * r && g8 >= 0.6 * r ? "met" : "NOT met")
 }')
 
+# Dated notes (changes measured in paired runs, by hand) are kept from
+# the last file.
+notes=$(awk '/^## Notes \(dated\)/ { f = 1 } f' "$out" 2>/dev/null || true)
+
 {
 	echo "# simulate-peer: speed"
 	echo
@@ -76,5 +80,9 @@ summary=$(awk -v s="$rk4_6" -v l2="$l2" -v l3="$l3" -v avx2="$avx2" -v sse2="$ss
 	echo "342 flops and 1,312 bytes of compulsory traffic per node-step (counted in \`tests/bench/bench_simulate.c\`), times the steps per second of CPU time (like the machine limits above: a busy machine takes the core away, which would otherwise count against the kernel).  One thread; where every node is integrated, as here, the four stages run as one pipeline over chunks of rows (\`lib/sim/rk4.c\`)."
 	echo
 	cat "$t-kernel.md"
+	if [ -n "$notes" ]; then
+		echo
+		echo "$notes"
+	fi
 } >"$out"
 cat "$out"
