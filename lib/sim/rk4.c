@@ -388,8 +388,10 @@ struct ndo__rk4_plan {
 	int R, ring_T;         /* slots a share; the thread count of slot[], prev[] */
 	size_t S;              /* a slot: rows r0..r1 of the widest chunk */
 	int32_t *slot, *prev;
-	size_t ring_cap;       /* slots in ring */
-	double *ring;          /* vs, su, sv: 3 × 3 planes of ring_cap·S */
+	double *rvs, *rsu, *rsv; /* the ring: vs, su, sv, 3 planes of rps each */
+	size_t rps;
+	size_t ring_cap;       /* slots in ring, when the passes' planes are too small */
+	double *ring;
 	_Atomic int *done;     /* 4·C states of this step's units: free, claimed, done */
 	_Atomic int sleepers;  /* threads waiting for a unit */
 	pthread_mutex_t lock;
@@ -688,7 +690,7 @@ static void copy_dups(const ndo_sim *s, double *x, const int32_t *pairs, size_t 
  * closer to the start (prev).  The waits prev adds close no cycle: a wait
  * goes R chunks back towards the start and 3 stages up, and the stages'
  * own waits bring it at most 3(L − 1) < R chunks forward again. */
-static int ring_layout(const ndo_sim *s, struct ndo__rk4_plan *P, int T)
+static int ring_layout(ndo_sim *s, struct ndo__rk4_plan *P, int T)
 {
 	if (s->rk4_ring_slots > 0 && s->rk4_ring_slots < P->R)
 		P->R = s->rk4_ring_slots > 3 * P->L - 2 ? s->rk4_ring_slots : 3 * P->L - 2;
@@ -707,10 +709,15 @@ static int ring_layout(const ndo_sim *s, struct ndo__rk4_plan *P, int T)
 			nslot += (size_t)(b - a < R ? b - a : R);
 		}
 	}
-	if (nslot > P->ring_cap) {
+	/* The ring: at the start of the planes the passes keep vs, su and sv
+	 * in (nothing there is kept from step to step) when it fits, as it
+	 * does from level 7 up where every node is integrated (level 6 on one
+	 * thread); else in a buffer of its own (step_pipeline binds it). */
+	P->rps = nslot * P->S;
+	if (P->rps > s->count && nslot > P->ring_cap) {
 		free(P->ring);
 		P->ring_cap = 0;
-		if (!(P->ring = malloc(9 * nslot * P->S * sizeof *P->ring)))
+		if (!(P->ring = malloc(9 * P->rps * sizeof *P->ring)))
 			return ndo__fail(NDO_ENOMEM, "out of memory for the RK4 pipeline's ring");
 		P->ring_cap = nslot;
 	}
@@ -813,9 +820,8 @@ static void unit_run(rk4_pipe *J, int k, int c)
 	 * rows runs the loops without forces, 3 streams of zeros fewer (the
 	 * same bits: f − Ku with f = 0 either way). */
 	rk4_pass gl = *g;
-	const size_t ps = P->ring_cap * P->S; /* a plane of the ring */
-	gl.vs = P->ring, gl.su = P->ring + 3 * ps, gl.sv = P->ring + 6 * ps;
-	gl.ss = ps;
+	gl.vs = P->rvs, gl.su = P->rsu, gl.sv = P->rsv;
+	gl.ss = P->rps;
 	gl.sd = (ptrdiff_t)((size_t)P->slot[c] * P->S) - (ptrdiff_t)P->r0[c] * s->w;
 	if (P->zoff[c + 1] == P->zoff[c])
 		gl.F = NULL;
@@ -905,6 +911,10 @@ static int step_pipeline(ndo_sim *s, double h)
 		if (rc)
 			return rc;
 	}
+	if (P->rps <= s->count) /* (the planes as they are this step) */
+		P->rvs = s->vs, P->rsu = s->kv[2], P->rsv = s->kv[3];
+	else
+		P->rvs = P->ring, P->rsu = P->ring + 3 * P->rps, P->rsv = P->ring + 6 * P->rps;
 	ndo__sim_run(s, J.threads, pipe_thread, &J);
 	/* Stage 0's diagnostics: the border's in its order, then the chunks'. */
 	ndo__diag d, *bd = &s->cdiag[s->nichunk];
