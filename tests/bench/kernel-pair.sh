@@ -32,8 +32,9 @@ echo "|---:|---:|---:|---:|---:|---:|"
 sort -s -k3,3n -k4,4n -k1,1n "$t/runs" | awk -v l2="$l2" '
 	function median(a, n,    i, j, x) {
 		for (i = 2; i <= n; i++)
-			for (j = i; j > 1 && a[j - 1] > a[j]; j--)
-				x = a[j], a[j] = a[j - 1], a[j - 1] = x
+			for (j = i; j > 1 && a[j - 1] > a[j]; j--) {
+				x = a[j]; a[j] = a[j - 1]; a[j - 1] = x
+			}
 		return n % 2 ? a[(n + 1) / 2] : (a[n / 2] + a[n / 2 + 1]) / 2
 	}
 	function flush(    q, i) {
@@ -44,7 +45,7 @@ sort -s -k3,3n -k4,4n -k1,1n "$t/runs" | awk -v l2="$l2" '
 		split(key, kk, " ")
 		roof = kk[1] == 1 ? sprintf("%.0f%%", 100 * median(gf, n) / (0.26 * l2)) : "-"
 		printf "| %d | %d | %.4g | %.4g | %.3f | %s |\n", kk[1], kk[2], median(bs, n), median(nw, n), median(q, n), roof
-		delete nw; delete bs; delete gf; n = 0
+		split("", nw); split("", bs); split("", gf); n = 0
 	}
 	{
 		k = $3 " " $4
