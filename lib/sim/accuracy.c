@@ -32,6 +32,7 @@ struct ndo_acc {
 	                                        level (omega 0: not yet estimated) */
 	double crit[NDO_MAX_LEVEL + 1][NDO_METHOD_COUNT]; /* critical steps (0: not yet) */
 	size_t max_memory; /* ndo_acc_set_max_memory; 0: what is free */
+	double active[NDO_MAX_LEVEL + 1]; /* ndo_acc_active (0: not yet counted) */
 	double umax;     /* ndo_acc_sample */
 	double *scratch; /* x at the input level */
 };
@@ -79,6 +80,28 @@ static size_t nodes_of(int level)
 	size_t n = (size_t)1 << level;
 	return (2 * n + 1) * (n + 1);
 }
+
+/* The cost model (ndo_acc_work): CPU seconds per step, A + B × vertices
+ * + C × integrated vertices, per method.  Counted, not timed: the choice
+ * used to weigh configurations by the pilots' measured CPU time per
+ * node-evaluation, so the same command chose differently from run to run
+ * and on a loaded machine.  The constants: a least-squares fit (of the
+ * relative error) to `bench_accuracy cost 6 1 SCENES...` — the six scenes
+ * of tests/bench/accuracy.sh at levels 2-6, each method at 0.9 × its
+ * critical step, CPU time per step the median of 3 trials of ≥ 20 ms —
+ * on the 2-core AMD EPYC of docs/bench/accuracy.md (2026-11-25, load
+ * average 2.5); the fit is within 0.77-1.47× of every measured step
+ * (docs/bench/accuracy.md, "The cost model").  Integrated vertices are
+ * the unpinned ones (pinned nodes are held, not stepped: RK4's stages
+ * cost twice per node what the per-vertex passes do); A is the per-step
+ * overhead that dominates at levels 2-3. */
+static const struct {
+	ndo_method method;
+	double a, b, c; /* s per step; s per vertex-step; s per integrated vertex-step */
+} work[] = {
+	{NDO_SYMPLECTIC_EULER, 0.94e-6, 7.1e-9, 5.0e-9},
+	{NDO_RK4, 2.2e-6, 7.5e-9, 28e-9},
+};
 
 int ndo_method_order(ndo_method m)
 {
@@ -189,6 +212,33 @@ static int ensure_level(ndo_acc *a, int level)
 const double *ndo_acc_rest(ndo_acc *a, int level)
 {
 	return ensure_level(a, level) ? NULL : a->lv[level].rest;
+}
+
+double ndo_acc_active(ndo_acc *a, int level)
+{
+	if (ensure_level(a, level))
+		return -1;
+	if (a->active[level] > 0)
+		return a->active[level];
+	const uint8_t *pin = a->lv[level].pin;
+	int N = 1 << level, W = 2 * N + 1, held = a->sc->sim.pin_mode == NDO_PINS_PROJECT;
+	double k = 0;
+	for (int j = 0; j <= N; j++)
+		for (int i = 0; i < W; i++) {
+			size_t p = (size_t)j * (size_t)W + (size_t)i;
+			k += ndo_canonical(level, i, j) == p && !(held && pin[p]);
+		}
+	return a->active[level] = k;
+}
+
+double ndo_acc_work(ndo_acc *a, int level, ndo_method method, int64_t steps)
+{
+	double act = ndo_acc_active(a, level);
+	for (size_t k = 0; act >= 0 && k < sizeof work / sizeof *work; k++)
+		if (work[k].method == method)
+			return (double)steps * (work[k].a + work[k].b * (double)ndo_vertex_count(level) +
+			                        work[k].c * act);
+	return NAN;
 }
 
 /* NDO_EINVAL when a force is selected by ids: no coarser level has it. */
@@ -599,12 +649,10 @@ static int64_t steps_for(double T, double h)
 	return n < 1 ? 1 : (int64_t)fmin(n, 1e12);
 }
 
-/* The least CPU time of `T` seconds at steps no longer than h: evals_per_step
- * force evaluations per step of `vertices` vertices, per_eval s each. */
-static double cost_floor(double T, double h, double evals_per_step, size_t vertices,
-                         double per_eval)
+/* The least predicted CPU time of `T` seconds at steps no longer than h. */
+static double cost_floor(ndo_acc *a, double T, double h, int level, ndo_method m)
 {
-	return (double)steps_for(T, h) * evals_per_step * (double)vertices * per_eval;
+	return ndo_acc_work(a, level, m, steps_for(T, h));
 }
 
 /* The pilots' space error of a level-q result u (q ≤ top) against the
@@ -700,9 +748,10 @@ int ndo_acc_choose(ndo_acc *a, double target, int metres, double T, ndo_acc_choi
 	 * pilots cover (and at the top pilot level, for the levels above):
 	 * its error against u* (measured: time and space together), its
 	 * time-error constant C in e = C h^p (against the pilot), and at the
-	 * top its CPU time per node-evaluation. */
+	 * top its force evaluations per step (the cost is counted by
+	 * ndo_acc_work, not timed: the same choice on any load). */
 	const ndo_method ms[2] = {NDO_SYMPLECTIC_EULER, NDO_RK4};
-	double C[L][2], tot[L][2], per_eval[2] = {0, 0}, evals_per_step[2] = {0, 0};
+	double C[L][2], tot[L][2], evals_per_step[2] = {0, 0};
 	int lo = qmin >= 0 && qmin < top ? qmin : top;
 	for (int q = lo; q <= top; q++)
 		for (int k = 0; k < 2; k++) {
@@ -720,11 +769,9 @@ int ndo_acc_choose(ndo_acc *a, double target, int metres, double T, ndo_acc_choi
 			double denom = pow(c.h, p) - (ms[k] == NDO_RK4 ? pow(ph[q], p) : 0);
 			C[q][k] = denom > 0 ? d / denom : 0;
 			tot[q][k] = against(q, top, res.u, ustar);
-			if (q == top) {
-				per_eval[k] = res.node_evals > 0 ? res.cpu / res.node_evals : 0;
+			if (q == top)
 				evals_per_step[k] =
 				    res.node_evals / ((double)c.steps * (double)ndo_vertex_count(q));
-			}
 			ndo_acc_result_free(&res);
 		}
 	/* The candidates: every level from qmin, each method at 0.9 × its
@@ -752,8 +799,7 @@ int ndo_acc_choose(ndo_acc *a, double target, int metres, double T, ndo_acc_choi
 		for (int k = 0; k < 2; k++) {
 			int p = ndo_method_order(ms[k]);
 			if (q > top && !pruned[k] && hprev[k] > 0 &&
-			    cost_floor(T, hprev[k] * pow(2, q - hlevel[k]), evals_per_step[k],
-			               ndo_vertex_count(q), per_eval[k]) >= ch->cpu)
+			    cost_floor(a, T, hprev[k] * pow(2, q - hlevel[k]), q, ms[k]) >= ch->cpu)
 				pruned[k] = 1;
 			if (pruned[k])
 				continue;
@@ -774,7 +820,7 @@ int ndo_acc_choose(ndo_acc *a, double target, int metres, double T, ndo_acc_choi
 			int64_t steps = steps_for(T, h);
 			h = T / (double)steps;
 			double ne = (double)steps * evals_per_step[k] * (double)ndo_vertex_count(q);
-			double cpu = ne * per_eval[k];
+			double cpu = ndo_acc_work(a, q, ms[k], steps);
 			if (cpu < ch->cpu) {
 				ch->cpu = cpu;
 				ch->node_evals = ne;

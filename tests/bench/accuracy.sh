@@ -14,11 +14,17 @@ cd "$(dirname "$0")/../.."
 B=${NDO_TESTBIN:-build/tests}
 LEVELS=${ACCURACY_LEVELS:-5 6} # the inputs' levels; each reference is N + 2
 T=${ACCURACY_TIME:-1}    # simulated seconds
+PARTS=" ${ACCURACY_PARTS:-estimates choose pilot cost} "
+part() { [[ $PARTS == *" $1 "* ]]; }
 d=build/bench/accuracy
 mkdir -p "$d" docs/bench docs/simulate-peer
 S=samples A=tests/bench/accuracy
 # ACCURACY_REPORT_ONLY=1: only rewrite the report from the CSV files of an
-# earlier run (build/bench/accuracy/).
+# earlier run (build/bench/accuracy/).  ACCURACY_PARTS: the programs to run
+# (default all: "estimates choose pilot cost"; the others' CSV files of an
+# earlier run are kept and reported).  cost (the chooser's cost model
+# against measured CPU time per step, about a minute) runs at the last of
+# LEVELS only.
 for N in $LEVELS; do
 	[ "${ACCURACY_REPORT_ONLY:-0}" = 1 ] && break
 	# The bunny at the reference level, remeshed once (libcgal-demo's bunny00.off).
@@ -30,20 +36,46 @@ for N in $LEVELS; do
 	scenes=(fig5.3=wavy:$S/thesis-fig5.3.scene fig5.4=tetra:$S/thesis-fig5.4.scene
 		fig5.7=sphere:$S/thesis-fig5.7.scene bunny=$bunny:$S/bunny.scene
 		ellipsoid=ellipsoid:$A/ellipsoid.scene:sphere poke=sphere:$A/poke.scene)
-	echo "bench_accuracy estimates $N $T ${scenes[*]}" >"$d/commands-$N"
-	echo "load average at the start: $(cut -d' ' -f1-3 /proc/loadavg)" >"$d/load-$N"
-	echo "bench_accuracy choose $N $T ${scenes[*]}" >>"$d/commands-$N"
-	"$B/bench_accuracy" estimates "$N" "$T" "${scenes[@]}" >"$d/estimates-$N.csv" 2>"$d/estimates-$N.log"
-	"$B/bench_accuracy" choose "$N" "$T" "${scenes[@]}" >"$d/choose-$N.csv" 2>"$d/choose-$N.log"
+	# A run of some parts adds its commands and loads to the earlier run's.
+	if part estimates && part choose && part pilot; then
+		: >"$d/commands-$N"
+		: >"$d/load-$N"
+	fi
+	what=$(echo $PARTS | sed 's/ cost//; s/^cost$//')
+	if [ -n "$what" ]; then
+		echo "load average at the start ($what, $(date -u +%H:%M) UTC): $(cut -d' ' -f1-3 /proc/loadavg)" >>"$d/load-$N"
+	fi
+	if part estimates; then
+		echo "bench_accuracy estimates $N $T ${scenes[*]}" >>"$d/commands-$N"
+		"$B/bench_accuracy" estimates "$N" "$T" "${scenes[@]}" >"$d/estimates-$N.csv" 2>"$d/estimates-$N.log"
+	fi
+	if part choose; then
+		echo "bench_accuracy choose $N $T ${scenes[*]}" >>"$d/commands-$N"
+		"$B/bench_accuracy" choose "$N" "$T" "${scenes[@]}" >"$d/choose-$N.csv" 2>"$d/choose-$N.log"
+	fi
 	# What a pilot at the input level would tell of level N - 1 (the cost
 	# misses' candidate), on the two scenes whose misses are decided there.
-	echo "bench_accuracy pilot $N $T ${scenes[2]} ${scenes[5]}" >>"$d/commands-$N"
-	"$B/bench_accuracy" pilot "$N" "$T" "${scenes[2]}" "${scenes[5]}" >"$d/pilot-$N.csv" 2>"$d/pilot-$N.log"
-	grep '^point,' "$d/choose-$N.log" | sed '1i point,scene,level,method,step_s,cpu_s,error' >"$d/sweep-$N.csv"
-	grep '^level,' "$d/choose-$N.log" | cut -d, -f2- |
-		sed '1i scene,level,pilots,predicted_space,true_space,ratio,true_symplectic_euler,true_rk4' >"$d/levels-$N.csv"
-	/usr/bin/python3 tests/bench/plot_accuracy.py "$d" "$N" docs/simulate-peer/accuracy-$N.png
-	echo "load average at the end: $(cut -d' ' -f1-3 /proc/loadavg)" >>"$d/load-$N"
+	if part pilot; then
+		echo "bench_accuracy pilot $N $T ${scenes[2]} ${scenes[5]}" >>"$d/commands-$N"
+		"$B/bench_accuracy" pilot "$N" "$T" "${scenes[2]}" "${scenes[5]}" >"$d/pilot-$N.csv" 2>"$d/pilot-$N.log"
+	fi
+	if part choose; then
+		grep '^point,' "$d/choose-$N.log" | sed '1i point,scene,level,method,step_s,cpu_s,error' >"$d/sweep-$N.csv"
+		grep '^level,' "$d/choose-$N.log" | cut -d, -f2- |
+			sed '1i scene,level,pilots,predicted_space,true_space,ratio,true_symplectic_euler,true_rk4' >"$d/levels-$N.csv"
+		/usr/bin/python3 tests/bench/plot_accuracy.py "$d" "$N" docs/simulate-peer/accuracy-$N.png
+	fi
+	if [ -n "$what" ]; then
+		echo "load average at the end ($what, $(date -u +%H:%M) UTC): $(cut -d' ' -f1-3 /proc/loadavg)" >>"$d/load-$N"
+	fi
+	# The chooser's cost model (ndo_acc_work) against measured CPU time per
+	# step: every scene at levels 2..N, both candidates.
+	if part cost && [ "$N" = "${LEVELS##* }" ]; then
+		echo "bench_accuracy cost $N $T ${scenes[*]}" >"$d/cost-commands"
+		echo "load average at the start: $(cut -d' ' -f1-3 /proc/loadavg)" >"$d/cost-load"
+		"$B/bench_accuracy" cost "$N" "$T" "${scenes[@]}" >"$d/cost.csv" 2>"$d/cost.log"
+		echo "load average at the end: $(cut -d' ' -f1-3 /proc/loadavg)" >>"$d/cost-load"
+	fi
 done
 
 table() { # CSV to a markdown table
@@ -127,6 +159,28 @@ out=docs/bench/accuracy.md
 		echo
 		echo "![accuracy, level $N](../simulate-peer/accuracy-$N.png)"
 	done
+	if [ -f "$d/cost.csv" ]; then
+		echo
+		echo "## The cost model"
+		echo
+		echo "ndo_acc_choose weighs a candidate by counted work, not by a timing (ndo_acc_work," \
+			"lib/sim/accuracy.c): steps × (A + B × vertices + C × integrated vertices) per method," \
+			"the integrated vertices being the distinct unpinned ones.  Each scene at levels 2 to" \
+			"the input's, each method at 0.9 × its critical step: CPU time per step (the median of 3" \
+			"trials of at least 20 ms) against the model (model_us), and a least-squares fit of the" \
+			"three constants to these measurements (the constants in the code are such a fit, of" \
+			"the run of 2026-11-25 16:36 UTC at load 1.2-2.5)."
+		echo
+		echo '```'
+		cat "$d/cost-commands"
+		echo '```'
+		echo
+		sed 's/$/;/' "$d/cost-load" | tr '\n' ' ' && echo
+		echo
+		/usr/bin/python3 tests/bench/summarize_accuracy.py "$d" cost
+		echo
+		table "$d/cost.csv"
+	fi
 } >"$out"
 cat "$out"
 

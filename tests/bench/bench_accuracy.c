@@ -15,6 +15,13 @@
  *                         rk4 and symplectic Euler at 0.9 × the critical step
  *                         and halvings)
  *
+ *   cost N T SCENE...     the cost model's constants (ndo_acc_choose counts
+ *                         work, it times nothing): each scene at levels
+ *                         2..N, symplectic Euler and RK4 at 0.9 × the
+ *                         critical step, CPU time per step (median of 3
+ *                         trials of at least 20 ms each) against the
+ *                         model's prediction (ndo_acc_work)
+ *
  *   pilot N T SCENE...    what a pilot at the input level would tell of level
  *                         N − 1 (the cost misses' candidate), at t = T/8,
  *                         T/4, T/2, T: the true errors of levels N − 1 and N
@@ -55,6 +62,7 @@ static double cpu(void)
 }
 
 static double T_override; /* the T argument: simulated seconds */
+static int no_reference;  /* cost: no reference run (setup) */
 
 typedef struct bscene {
 	char name[64];
@@ -125,6 +133,10 @@ static void setup(bscene *b, const char *spec, int n)
 	free(x), free(xr), free(p1), free(p2), free(pin);
 	ndo_grid_destroy(g);
 	ndo_grid_destroy(rest);
+	b->ref = NULL;
+	b->umax = NAN;
+	if (no_reference)
+		return;
 	/* The reference. */
 	ndo_sim *s;
 	ndo_critical cr;
@@ -229,7 +241,7 @@ static double timed(bscene *b, const ndo_acc_config *c, double *err)
 		*err = INFINITY;
 		return INFINITY;
 	}
-	*err = true_error(b, c->level, r.u) / b->umax;
+	*err = b->ref ? true_error(b, c->level, r.u) / b->umax : NAN;
 	int reps = r.cpu > 0 ? (int)fmin(1000, ceil(MIN_TRIAL / r.cpu)) : 1000;
 	ndo_acc_result_free(&r);
 	for (int k = 0; k < 3; k++) {
@@ -398,6 +410,28 @@ static void pilot(int n, int argc, char **argv)
 	}
 }
 
+static void cost(int n, int argc, char **argv)
+{
+	const ndo_method ms[2] = {NDO_SYMPLECTIC_EULER, NDO_RK4};
+	printf("scene,level,method,vertices,integrated,steps,cpu_per_step_us,model_us,"
+	       "measured_over_model\n");
+	for (int k = 0; k < argc; k++) {
+		bscene b;
+		setup(&b, argv[k], n);
+		for (int l = 2; l <= n; l++)
+			for (int q = 0; q < 2; q++) {
+				ndo_acc_config c = at_fraction(b.in, l, ms[q], 0.9, b.T);
+				double err, t = timed(&b, &c, &err) / (double)c.steps;
+				double model = ndo_acc_work(b.in, l, ms[q], 1);
+				printf("%s,%d,%s,%zu,%.0f,%lld,%.4g,%.4g,%.3g\n", b.name, l,
+				       ndo_method_names[ms[q]], ndo_vertex_count(l), ndo_acc_active(b.in, l),
+				       (long long)c.steps, 1e6 * t, 1e6 * model, t / model);
+				fflush(stdout);
+			}
+		teardown(&b);
+	}
+}
+
 int main(int argc, char **argv)
 {
 	if (argc >= 5)
@@ -406,10 +440,12 @@ int main(int argc, char **argv)
 		estimates(atoi(argv[2]), argc - 4, argv + 4);
 	else if (argc >= 5 && strcmp(argv[1], "choose") == 0)
 		choose(atoi(argv[2]), argc - 4, argv + 4);
+	else if (argc >= 5 && strcmp(argv[1], "cost") == 0)
+		no_reference = 1, cost(atoi(argv[2]), argc - 4, argv + 4);
 	else if (argc >= 5 && strcmp(argv[1], "pilot") == 0)
 		pilot(atoi(argv[2]), argc - 4, argv + 4);
 	else {
-		fprintf(stderr, "usage: bench_accuracy estimates|choose|pilot N T NAME=INPUT:SCENE[:REST]...\n");
+		fprintf(stderr, "usage: bench_accuracy estimates|choose|cost|pilot N T NAME=INPUT:SCENE[:REST]...\n");
 		return 2;
 	}
 	return 0;

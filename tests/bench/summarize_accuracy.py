@@ -8,7 +8,8 @@ run's CPU time and the sweep's cheapest), tallies (how many runs met E,
 how many refusals were right — the sweep found nothing meeting E either —
 and the cost ratios, the run alone and with choosing counted), misses (the
 runs that cost more than 2x the sweep's cheapest), estimates (the
-estimates' ratios to the truth and their cost)."""
+estimates' ratios to the truth and their cost), cost (the chooser's cost
+model against measured CPU time per step: cost.csv, no LEVEL)."""
 import csv
 import os
 import statistics
@@ -133,7 +134,29 @@ def estimates(data, n):
         print()
 
 
+def cost(data):
+    """Per method: the code's model against the measurements, and the
+    constants a least-squares fit of the relative error gives."""
+    import numpy as np
+    rs = [r for r in rows(os.path.join(data, "cost.csv")) if r["cpu_per_step_us"] != "inf"]
+    print("| method | measured / model | fit: A, µs per step | B, ns per vertex-step | "
+          "C, ns per integrated vertex-step | measured / fit |")
+    print("|---|---|---:|---:|---:|---|")
+    for m in sorted({r["method"] for r in rs}):
+        R = [r for r in rs if r["method"] == m]
+        t = np.array([float(r["cpu_per_step_us"]) for r in R])
+        X = np.array([[1, float(r["vertices"]), float(r["integrated"])] for r in R])
+        c, *_ = np.linalg.lstsq(X / t[:, None], np.ones(len(t)), rcond=None)
+        q = [float(r["measured_over_model"]) for r in R]
+        f = t / (X @ c)
+        print(f"| {m} | {min(q):.2f} to {max(q):.2f} (median {statistics.median(q):.2f}) | "
+              f"{c[0]:.3g} | {1e3 * c[1]:.3g} | {1e3 * c[2]:.3g} | {f.min():.2f} to {f.max():.2f} |")
+
+
 def main(data, part, levels):
+    if part == "cost":
+        cost(data)
+        return
     if part == "misses":
         misses(data, levels)
         return

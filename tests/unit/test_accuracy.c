@@ -2,7 +2,8 @@
  * a run at the input level is the simulation itself; motion every level
  * represents exactly (a rigid translation, K's null space) has no space or
  * time error; the time estimate follows each method's order; bad targets
- * and forces that exist only at the input level are refused.  (Estimates
+ * and forces that exist only at the input level are refused; the choice's
+ * cost is counted work, the same every time.  (Estimates
  * against a finer reference: tests/e2e/simulate-peer-accuracy.sh and the
  * benchmark.) */
 #include "check.h"
@@ -283,6 +284,53 @@ static void known_mode_and_memory_limit(void)
 	unmake(&f), unmake(&g), unmake(&h);
 }
 
+/* The cost is counted, not timed (ndo_acc_work): two machineries over
+ * the same scene choose the same configuration at the same predicted cost;
+ * the work grows with the steps and the integrated (unpinned) vertices,
+ * and only the two candidates have a model. */
+static void cost_is_counted(void)
+{
+	const char *sc = "damping 0.1;force face at=0,0,1 radius=0.3 amplitude=1 frequency=1";
+	fixture f, g;
+	make(&f, 5, sc, bulge);
+	make(&g, 5, sc, bulge);
+	ndo_acc_choice a, b;
+	CHECK(ndo_acc_choose(f.a, 0.05, 0, 1, &a) == NDO_OK && ndo_acc_choose(g.a, 0.05, 0, 1, &b) ==
+	      NDO_OK && a.reachable && b.reachable && a.c.level == b.c.level &&
+	      a.c.method == b.c.method && a.c.steps == b.c.steps && a.cpu == b.cpu &&
+	      a.error_m == b.error_m && a.cpu == ndo_acc_work(f.a, a.c.level, a.c.method, a.c.steps),
+	      "two choices: level %d/%d, %s/%s, %lld/%lld steps, %.4g/%.4g s", a.c.level, b.c.level,
+	      ndo_method_names[a.c.method], ndo_method_names[b.c.method], (long long)a.c.steps,
+	      (long long)b.c.steps, a.cpu, b.cpu);
+	double w = ndo_acc_work(f.a, 4, NDO_RK4, 10);
+	CHECK(w > 0 && ndo_acc_work(f.a, 4, NDO_RK4, 20) == 2 * w &&
+	      ndo_acc_work(f.a, 4, NDO_SYMPLECTIC_EULER, 10) < w && ndo_acc_work(f.a, 5, NDO_RK4, 10) > w,
+	      "work: %.3g s for 10 rk4 steps at level 4", w);
+	CHECK(isnan(ndo_acc_work(f.a, 4, NDO_EULER, 10)), "a model for forward Euler");
+	CHECK(ndo_acc_active(f.a, 4) == (double)ndo_vertex_count(4), "level 4 integrates %.0f of %zu",
+	      ndo_acc_active(f.a, 4), ndo_vertex_count(4));
+	/* The lower half pinned: only the unpinned distinct vertices count. */
+	size_t nv = ndo_vertex_count(5);
+	int32_t *vid = malloc(f.g->count * sizeof *vid), *rep = malloc(nv * sizeof *rep);
+	uint8_t *pin = malloc(f.g->count);
+	const double *X = f.g->ch[0].data;
+	for (size_t p = 0; p < f.g->count; p++)
+		pin[p] = X[3 * p + 2] < 0;
+	ndo_vertex_ids(5, vid, rep);
+	double want = 0;
+	for (size_t v = 0; v < nv; v++)
+		want += !pin[rep[v]];
+	ndo_acc *h;
+	CHECK(ndo_acc_create(&f.sc, 5, f.x, NULL, X, pin, 0, &h) == NDO_OK, "create, pinned");
+	CHECK(ndo_acc_active(h, 5) == want && want < 0.6 * (double)nv &&
+	      ndo_acc_work(h, 5, NDO_RK4, 10) < ndo_acc_work(f.a, 5, NDO_RK4, 10),
+	      "half pinned: %.0f integrated, want %.0f of %zu", ndo_acc_active(h, 5), want, nv);
+	ndo_acc_destroy(h);
+	free(vid), free(rep), free(pin);
+	unmake(&f);
+	unmake(&g);
+}
+
 int main(void)
 {
 	ck_program = "accuracy";
@@ -293,5 +341,6 @@ int main(void)
 	RUN(bad_targets_are_refused);
 	RUN(finer_levels_that_cannot_win_are_not_analysed);
 	RUN(known_mode_and_memory_limit);
+	RUN(cost_is_counted);
 	return ck_failed_cases != 0;
 }

@@ -155,6 +155,17 @@ typedef struct ndo_acc_estimate {
 int ndo_acc_estimate_run(ndo_acc *a, const ndo_acc_config *c, const double *u, double umax,
                          ndo_acc_estimate *e);
 
+/* The predicted CPU seconds of `steps` steps of `method` at `level` of
+ * this scene: a count of work, not a measurement (the same every time, on
+ * any load), steps × (A + B × vertices + C × integrated vertices — the
+ * unpinned ones, the only ones a step updates), with constants per method
+ * measured once (lib/sim/accuracy.c; bench_accuracy cost).  Symplectic
+ * Euler and RK4, ndo_acc_choose's candidates, only: NaN for the others
+ * and on failure (out of memory). */
+double ndo_acc_work(ndo_acc *a, int level, ndo_method method, int64_t steps);
+/* The integrated (unpinned, distinct) vertices at `level`; -1 on failure. */
+double ndo_acc_active(ndo_acc *a, int level);
+
 /* The order of the method's error (rkf45: 5). */
 int ndo_method_order(ndo_method m);
 
@@ -173,7 +184,10 @@ int ndo_method_order(ndo_method m);
  * every level as above (by r = 4 per level), the last one the largest
  * displacement.  At the last pilot level, RK4 and symplectic Euler at
  * 0.9 × their critical steps against the pilot give each method's error
- * constant C in e = C h^p and its CPU time per node-evaluation.  A
+ * constant C in e = C h^p.  The cost is counted, not timed
+ * (ndo_acc_work: steps × a per-method constant per step, per vertex and
+ * per integrated vertex), so the same scene, duration and target give the
+ * same choice on any load.  A
  * configuration meets the target when e_space + e_time ≤ margin × target
  * (margin 0.5: what the estimates' spread on the benchmark's scenes
  * needs for 90%).  When no level up to the input's meets it — the input
@@ -188,7 +202,8 @@ typedef struct ndo_acc_choice {
 	double time_m, space_m; /* predicted errors, m */
 	double error_m;         /* predicted error, m: time_m + space_m, or at levels up
 	                           to the pilots' measured against their extrapolation */
-	double cpu;             /* predicted CPU seconds of the run */
+	double cpu;             /* predicted CPU seconds of the run (ndo_acc_work: counted
+	                           work, the same on any load) */
 	double node_evals;      /* predicted force evaluations × vertices */
 	double pilot_cpu;       /* what choosing cost (pilots, critical steps), CPU s */
 	int pilot_top;          /* the finest pilot level */
