@@ -287,8 +287,11 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 		/* the LOSSY codes are the coder's choice within the bound */
 		hcodes hc = {in->rows, in->cols, in->cls, {r[0], r[1], r[2]}, in->step};
 		uint64_t any;
+		const double t0 = ndo__codec_hier_times ? ndo__now_ms() : 0;
 		int he = ndo__codec_hier_encode(&hc, &z, ndo_codec_max_error(p), X, recon->k, w->ht,
 		                                w->hmag, &any, &rcs);
+		if (ndo__codec_hier_times)
+			ndo__codec_hier_times->whole[0] += ndo__now_ms() - t0;
 		if (he) {
 			rc = he == -2 ? ndo__fail(NDO_ERANGE, "a position out of the codes' range")
 			              : ndo__fail(NDO_ENOMEM, "out of memory");
@@ -633,7 +636,10 @@ ndo_drop ndo_codec_decode_strided(const ndo_codec_params *p, ndo_codec_work *w,
 	int dl;
 	if (enc == NDO_ENC_HIER) {
 		hcodes hc = {rows, cols, cls, {ref[0], ref[1], ref[2]}, step};
+		const double t0 = ndo__codec_hier_times ? ndo__now_ms() : 0;
 		dl = ndo__codec_hier_decode(&hc, recon->k, w->ht, w->hmag, rcp, rcn);
+		if (ndo__codec_hier_times)
+			ndo__codec_hier_times->whole[1] += ndo__now_ms() - t0;
 		for (int n = 0; n < nodes && !dl; n++)
 			if (cls[n] == NDO_NODE_LOSSY)
 				for (int d = 0; d < 3; d++)

@@ -48,6 +48,19 @@
 #include <string.h>
 
 hier_stats *ndo__codec_hier_stats;
+hier_times *ndo__codec_hier_times;
+
+/* stmt, its CPU time added to ndo__codec_hier_times' phase k, level
+ * column c (0: level 1, 1: level 2, 2: the coarser levels and the setup) */
+#define LCOL(s) ((s) == 1 ? 0 : (s) == 2 ? 1 : 2)
+#define PHASE(k, c, stmt)                                                      \
+	do {                                                                   \
+		hier_times *ht_ = ndo__codec_hier_times;                       \
+		const double t0_ = ht_ ? ndo__now_ms() : 0;                    \
+		stmt;                                                          \
+		if (ht_)                                                       \
+			ht_->ms[k][c] += ndo__now_ms() - t0_;                  \
+	} while (0)
 
 /* the ideal cost of a bit under probability p (P(0) in 1/2048) */
 static double pcost(uint16_t p, int bit) { return -log2((bit ? 2048.0 - p : (double)p) / 2048.0); }
@@ -668,8 +681,8 @@ NDO_HOT static int levels(hier *h, int mode, rcenc *e, rcdec *dc, uint64_t *any)
 		if (mode == P_ENCODE && !h->intra) {
 			memset(ps.cost, 0, sizeof ps.cost);
 			ps.slope = 1;
-			predict_level(h, &ps, ls);
-			level(h, P_COLLECT, &ps, ls);
+			PHASE(0, LCOL(ls), predict_level(h, &ps, ls));
+			PHASE(1, LCOL(ls), level(h, P_COLLECT, &ps, ls));
 			for (int b = BETA_MAX; b >= 0; b--) /* ties: the implied frames' */
 				if (ps.cost[b] < ps.cost[beta])
 					beta = b;
@@ -688,15 +701,15 @@ NDO_HOT static int levels(hier *h, int mode, rcenc *e, rcdec *dc, uint64_t *any)
 				slope_fill(h);
 			ps.slope = beta != 0, ps.fused = 1;
 			ps.beta[0] = ps.beta[1] = ps.beta[2] = beta;
-			predict_level(h, &ps, ls);
+			PHASE(3, LCOL(ls), predict_level(h, &ps, ls));
 		}
 		ps.beta[0] = ps.beta[1] = ps.beta[2] = beta;
 		if (mode == P_ENCODE && !h->intra)
-			level(h, P_ENCODE, &ps, ls);
+			PHASE(2, LCOL(ls), level(h, P_ENCODE, &ps, ls));
 		else if (mode == P_ENCODE)
-			level(h, P_ENCODE1, &ps, ls);
+			PHASE(2, LCOL(ls), level(h, P_ENCODE1, &ps, ls));
 		else if (mode == P_DECODE)
-			level(h, P_DECODE, &ps, ls);
+			PHASE(4, LCOL(ls), level(h, P_DECODE, &ps, ls));
 		else
 			level(h, P_IMPLIED, &ps, ls);
 		if (ps.bad)
@@ -802,8 +815,7 @@ int ndo__codec_hier_encode(const hcodes *c, const quant *z, double maxerr, const
                            int32_t *k, int64_t *t, uint8_t *mag, uint64_t *any, wbuf *b)
 {
 	hier h;
-	hier_init(&h, c, k, t, mag);
-	slope_fill(&h);
+	PHASE(5, 2, hier_init(&h, c, k, t, mag); slope_fill(&h));
 	h.x = x, h.z = z, h.m2 = maxerr * maxerr * (1 - 1e-9);
 	for (int d = 0; d < 3; d++) {
 		h.w2[d] = z->q[d] * z->q[d], h.iq[d] = 1 / z->q[d];
@@ -824,7 +836,7 @@ int ndo__codec_hier_decode(const hcodes *c, int32_t *k, int64_t *t, uint8_t *mag
                            const uint8_t *p, size_t n)
 {
 	hier h;
-	hier_init(&h, c, k, t, mag);
+	PHASE(6, 2, hier_init(&h, c, k, t, mag));
 	rcdec d;
 	ndo__rc_dec_init(&d, p, n);
 	if (levels(&h, P_DECODE, NULL, &d, NULL))

@@ -20,6 +20,7 @@
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
 #include <zstd.h>
 
 /* The hot loops are compiled for x86-64 and x86-64-v3 (AVX2), at -O3 so
@@ -403,5 +404,26 @@ typedef struct hier_stats {
 	double beta_bits, rc_bytes, frames;
 } hier_stats;
 extern hier_stats *ndo__codec_hier_stats;
+
+/* Where hier's time goes (tests/bench/bench_codec.c -v 2; apart from the
+ * bits, whose ideal costs take time themselves): when set, every frame
+ * adds its ms (wall clock, one thread) per phase (encoder: 0 predict, 1 the slopes' costs, 2
+ * choose and code, 5 setup; decoder: 3 predict, 4 decode, 6 setup) and
+ * level (0: level 1, 1: level 2, 2: the coarser ones; setups: 2), and the
+ * hier calls' whole times in codec.c (encode, decode). */
+typedef struct hier_times {
+	double ms[7][3], whole[2];
+} hier_times;
+extern hier_times *ndo__codec_hier_times;
+
+/* the time in ms for hier_times' phases: the monotonic clock, which the
+ * vDSO reads in ~20 ns (the thread's CPU clock is a system call, ~1 us,
+ * and its ~300 calls a level-7 step added 0.5 ms) */
+static inline double ndo__now_ms(void)
+{
+	struct timespec t;
+	clock_gettime(CLOCK_MONOTONIC, &t);
+	return 1e3 * (double)t.tv_sec + 1e-6 * (double)t.tv_nsec;
+}
 
 #endif

@@ -6,7 +6,7 @@
  * tile, its region's cover) and decoded by a receiver, which must
  * reconstruct exactly what the encoder says it will.
  *
- *   bench_codec [-l LEVEL] [-e ENCODING] [-p PEERS] [-t SECONDS] [-z ZSTD_LEVEL] [-v 1]
+ *   bench_codec [-l LEVEL] [-e ENCODING] [-p PEERS] [-t SECONDS] [-z ZSTD_LEVEL] [-v 1|2]
  *
  * Prints one line: payload bits per node per update (over W x H nodes,
  * the thesis' count; without message headers), the share of the EXACT
@@ -18,7 +18,9 @@
  * share of them with every residual 0, the values' zero share and the
  * ideal bits (the range coder's model) of the node flags, zero flags and
  * nonzero values, then the slope shares' bits and the rest (headers,
- * classes, the coder's own overhead). */
+ * classes, the coder's own overhead).  With -v 2 and hier, where the time
+ * goes (the means over the steps of the ms of each phase per level, wall clock;
+ * apart from -v 1, whose ideal costs take time themselves). */
 #include "ndo/ndo.h"
 #include "ndo/codec.h"
 #include "ndo/partition.h"
@@ -79,7 +81,10 @@ int main(int argc, char **argv)
 			peers = atoi(argv[a + 1]);
 		else if (!strcmp(argv[a], "-d")) /* every step's positions, f64, to a file */
 			dump = argv[a + 1];
-		else if (!strcmp(argv[a], "-v") && atoi(argv[a + 1]) > 0) {
+		else if (!strcmp(argv[a], "-v") && atoi(argv[a + 1]) == 2) {
+			static hier_times ht;
+			ndo__codec_hier_times = &ht;
+		} else if (!strcmp(argv[a], "-v") && atoi(argv[a + 1]) > 0) {
 			static hier_stats hs;
 			ndo__codec_hier_stats = &hs;
 		} else if (!strcmp(argv[a], "-t"))
@@ -261,6 +266,25 @@ int main(int argc, char **argv)
 		}
 		printf("  slope shares %.4f; headers, classes and the coder's overhead %.3f (%.1f%%)\n",
 		       hs->beta_bits / upd, (total - coded) / upd, 100 * (total - coded) / total);
+	}
+	if (ndo__codec_hier_times) {
+		const hier_times *ht = ndo__codec_hier_times;
+		/* means over the steps (the line above has medians) */
+		double me = 0, md = 0;
+		for (int64_t s = 0; s < steps; s++)
+			me += ce[s], md += cd[s];
+		const double ns = (double)steps;
+		const double(*ms)[3] = ht->ms;
+		printf("where the time goes (ms a step, means; wall clock in the phases): encode %.3f, of it hier %.3f: setup %.3f, "
+		       "predict %.3f/%.3f/%.3f, slope costs %.3f/%.3f/%.3f, choose and code %.3f/%.3f/%.3f "
+		       "(levels 1/2/coarser)\n",
+		       1e3 * me / ns, ht->whole[0] / ns, ms[5][2] / ns, ms[0][0] / ns, ms[0][1] / ns,
+		       ms[0][2] / ns, ms[1][0] / ns, ms[1][1] / ns, ms[1][2] / ns, ms[2][0] / ns,
+		       ms[2][1] / ns, ms[2][2] / ns);
+		printf("  decode %.3f, of it hier %.3f: setup %.3f, predict %.3f/%.3f/%.3f, decode "
+		       "%.3f/%.3f/%.3f\n",
+		       1e3 * md / ns, ht->whole[1] / ns, ms[6][2] / ns, ms[3][0] / ns, ms[3][1] / ns,
+		       ms[3][2] / ns, ms[4][0] / ns, ms[4][1] / ns, ms[4][2] / ns);
 	}
 	ndo_codec_destroy(enc);
 	ndo_codec_destroy(dec);
