@@ -171,8 +171,9 @@ struct ndo_sim {
 	/* Several steps of symplectic Euler or midpoint as one pipeline of
 	 * (pass, chunk) units across the steps (wave.c, ndo_sim_steps): the
 	 * plan, built at the first such run and freed when the chunks or the
-	 * held edges change.  wave_test (tests only): 1 takes the units in a
-	 * shuffled order; 3 besides lets a unit wait only for its own chunk's
+	 * held edges change.  wave_test (tests only; nonzero: the wave also
+	 * where it would not pay, ndo_sim_steps): 4 in its own order, 1 in
+	 * shuffled ones; 3 besides lets a unit wait only for its own chunk's
 	 * pass before (wrong: the test that must catch it). */
 	struct ndo__wave_plan *wave_plan;
 	int wave_test;

@@ -428,7 +428,7 @@ static void wave_thread(void *arg, int who)
 	wave_run *J = arg;
 	struct ndo__wave_plan *P = J->s->wave_plan;
 	const int C = P->C, L = P->L, np = J->np;
-	if (J->s->wave_test) {
+	if (J->s->wave_test & 1) {
 		const int n = np * C;
 		int *ord = malloc((size_t)n * sizeof *ord);
 		if (!ord)
@@ -510,7 +510,7 @@ int ndo__wave_run(ndo_sim *s, double h, int m, const double *t)
 		atomic_init(&P->state[i], UNIT_FREE);
 	J.threads = ndo__sim_threads_now(s);
 	ndo__sim_run(s, J.threads, wave_thread, &J);
-	if (s->wave_test) /* a shuffling thread that found no memory left units */
+	if (s->wave_test & 1) /* a shuffling thread that found no memory left units */
 		for (int i = 0; i < J.np * C; i++)
 			if (unit_claim(P, i))
 				unit_take(&J, i / C, i % C);
