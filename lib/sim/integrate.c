@@ -1301,6 +1301,17 @@ static double threads_pick(ndo_sim *s, int64_t steps)
 	return wall_seconds();
 }
 
+/* Whether the next threads_pick() will have the steps run alone. */
+static int threads_next_solo(const ndo_sim *s)
+{
+	if (!s->pool)
+		return 1;
+	int left = s->probe_left;
+	if (left == 0 && s->probe_steps >= 8 * PROBE && wall_seconds() >= s->probe_next)
+		left = PROBE + 1;
+	return left == 0 ? s->solo : left % 2 == 0;
+}
+
 /* After `steps` steps (ndo_sim_steps: a run of them, timed as one step
  * of their mean time) that threads_pick() timed from t0. */
 static void threads_timed(ndo_sim *s, double t0, int64_t steps)
@@ -1421,15 +1432,19 @@ int ndo_sim_steps(ndo_sim *s, double h, int64_t k)
 		return ndo__fail(NDO_EINVAL, "step size %g: must be positive and finite", h);
 	if (k < 0)
 		return ndo__fail(NDO_EINVAL, "%lld steps: must be ≥ 0", (long long)k);
-	/* The wave where it pays: with threads (no barrier between the passes
-	 * and the steps), and on one thread from 65,536 nodes, where the state
-	 * is larger than the caches and a unit finds the rows it reads still
-	 * there (measured under load, bench_simulate wave: 1.15-1.9x one step
-	 * at a time at levels 8 and 9; 0.87-0.97x at level 7, where the state
-	 * stays in the cache anyway and the units' bookkeeping costs). */
-	const int wave = ndo__wave_fits(s) && (s->pool || s->count >= 65536 || s->wave_test);
+	/* The wave where it pays: on the threads (no barrier between the
+	 * passes and the steps), and on one thread from 65,536 nodes, where
+	 * the state is larger than the caches and a unit finds the rows it
+	 * reads still there (measured under load, bench_simulate wave:
+	 * 1.15-1.9x one step at a time at levels 8 and 9; 0.87-0.97x at level
+	 * 7, where the state stays in the cache anyway and the units'
+	 * bookkeeping costs).  So below that size, steps that run alone
+	 * (threads_pick) go one at a time, and a look at whether the threads
+	 * pay compares those with the wave on the threads. */
+	const int fits = ndo__wave_fits(s);
 	double t[17];
 	while (k > 0) {
+		int wave = fits && (s->count >= 65536 || s->wave_test || !threads_next_solo(s));
 		int m = k >= 2 && wave ? ndo__wave_batch(s) : 0;
 		int rc;
 		if (m >= 2) {
