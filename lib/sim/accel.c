@@ -126,16 +126,22 @@ static void border_update(const ndo_sim *s, const ndo__upd *up, double *a, const
 	}
 }
 
-/* The active border nodes, through their neighbour tables. */
+/* The active border nodes, through their neighbour tables: bact[list[i]]
+ * for i in 0..n−1, or every one (list NULL).  Diagnostics go to d, or
+ * (the wave, wave.c) to terms, NDO__BTERMS per node at its place in bact,
+ * to be added in the border's order afterwards. */
 static void accel_border(const ndo_sim *s, const double *u, const double *v, const double *F,
-                         double *a, const ndo__upd *up, ndo__diag *d)
+                         double *a, const ndo__upd *up, const int32_t *list, size_t n,
+                         ndo__diag *d, double *terms)
 {
 	const size_t cnt = s->count;
-	for (size_t k = 0; k < s->nbact; k++) {
+	for (size_t i = 0; i < n; i++) {
+		const size_t k = list ? (size_t)list[i] : i;
 		size_t b = (size_t)s->bact[k];
 		size_t p = (size_t)s->st.border[b];
 		const int32_t *nb = s->st.bnb + 6 * b;
 		const double *cf = s->st.bc + 6 * b;
+		double *t = terms ? terms + NDO__BTERMS * k : NULL;
 		for (int c = 0; c < 3; c++) {
 			const double *U = u + (size_t)c * cnt;
 			double ku = 0;
@@ -150,10 +156,39 @@ static void accel_border(const ndo_sim *s, const double *u, const double *v, con
 				d->ke2 += s->mass[p] * vc * vc;
 				d->power += f * vc;
 			}
+			if (t) {
+				t[4 * c] = U[p] * ku;
+				t[4 * c + 1] = vc * ku;
+				t[4 * c + 2] = s->mass[p] * vc * vc;
+				t[4 * c + 3] = f * vc;
+			}
 		}
+		const double u2 = u[p] * u[p] + u[cnt + p] * u[cnt + p] + u[2 * cnt + p] * u[2 * cnt + p];
 		if (d)
-			d->umax2 = fmax(d->umax2, u[p] * u[p] + u[cnt + p] * u[cnt + p] +
-			                              u[2 * cnt + p] * u[2 * cnt + p]);
+			d->umax2 = fmax(d->umax2, u2);
+		if (t)
+			t[12] = u2;
+	}
+}
+
+void ndo__accel_border_nodes(const ndo_sim *s, const double *u, const double *v, const double *F,
+                             const ndo__upd *up, const int32_t *list, size_t n, double *terms)
+{
+	accel_border(s, u, v, F, NULL, up, list, n, NULL, terms);
+}
+
+void ndo__border_terms_sum(const ndo_sim *s, const double *terms, ndo__diag *d)
+{
+	memset(d, 0, sizeof *d);
+	for (size_t k = 0; k < s->nbact; k++) {
+		const double *t = terms + NDO__BTERMS * k;
+		for (int c = 0; c < 3; c++) {
+			d->pe2 += t[4 * c];
+			d->vku += t[4 * c + 1];
+			d->ke2 += t[4 * c + 2];
+			d->power += t[4 * c + 3];
+		}
+		d->umax2 = fmax(d->umax2, t[12]);
 	}
 }
 
@@ -274,12 +309,24 @@ NDO_HOT static void accel_chunk(void *arg, int c)
 	if (d)
 		memset(d, 0, sizeof *d);
 	if (c == s->nichunk) {
-		accel_border(s, j->u, j->v, j->F, j->a, j->up, d);
+		accel_border(s, j->u, j->v, j->F, j->a, j->up, NULL, s->nbact, d, NULL);
 		return;
 	}
 	const size_t k0 = (size_t)s->ichunk[c], k1 = (size_t)s->ichunk[c + 1];
 	switch (j->up ? j->up->mode : 0) {
 	case 0: ACCEL_RUNS(0); break;
+	case NDO__UPD_SYMPLECTIC: ACCEL_RUNS(NDO__UPD_SYMPLECTIC); break;
+	case NDO__UPD_HALF: ACCEL_RUNS(NDO__UPD_HALF); break;
+	default: ACCEL_RUNS(NDO__UPD_FULL);
+	}
+}
+
+/* Interior runs [k0, k1) used at once as up says (the wave, wave.c). */
+NDO_HOT void ndo__accel_runs(const ndo_sim *s, const double *u, const double *v, const double *F,
+                             const ndo__upd *up, ndo__diag *d, size_t k0, size_t k1)
+{
+	const accel_job jj = {s, u, v, F, NULL, up, d != NULL}, *j = &jj;
+	switch (up->mode) {
 	case NDO__UPD_SYMPLECTIC: ACCEL_RUNS(NDO__UPD_SYMPLECTIC); break;
 	case NDO__UPD_HALF: ACCEL_RUNS(NDO__UPD_HALF); break;
 	default: ACCEL_RUNS(NDO__UPD_FULL);

@@ -210,6 +210,7 @@ static void positions_aos(const ndo_sim *s, const double *u, double *x)
  * (rebuilt when K is). */
 static int build_held_edges(ndo_sim *s)
 {
+	ndo__wave_plan_free(s); /* its chunks and held edges change */
 	free(s->hedge);
 	s->hedge = NULL;
 	s->nhedge = 0;
@@ -597,6 +598,7 @@ void ndo_sim_destroy(ndo_sim *s)
 		return;
 	ndo__implicit_free(s);
 	ndo__rk4_plan_free(s);
+	ndo__wave_plan_free(s);
 	ndo__sleep_free(s->sleep);
 	ndo_stencil_free(&s->st);
 	planes_free(s->X), planes_free(s->u), planes_free(s->v);
@@ -1283,7 +1285,7 @@ static double wall_seconds(void)
 
 /* Before a step: alone or on the threads; returns the time it starts
  * (to time the look's steps) or 0. */
-static double threads_pick(ndo_sim *s)
+static double threads_pick(ndo_sim *s, int64_t steps)
 {
 	if (!s->pool)
 		return 0;
@@ -1292,19 +1294,33 @@ static double threads_pick(ndo_sim *s)
 		s->probe_sum[0] = s->probe_sum[1] = 0;
 	}
 	if (s->probe_left == 0) {
-		s->probe_steps++;
+		s->probe_steps += steps;
 		return s->solo ? 0 : wall_seconds();
 	}
 	s->solo = s->probe_left % 2 == 0;
 	return wall_seconds();
 }
 
-/* After a step that threads_pick() timed from t0. */
-static void threads_timed(ndo_sim *s, double t0)
+/* Whether the next threads_pick() will have the steps run alone. */
+static int threads_next_solo(const ndo_sim *s)
+{
+	if (!s->pool)
+		return 1;
+	int left = s->probe_left;
+	if (left == 0 && s->probe_steps >= 8 * PROBE && wall_seconds() >= s->probe_next)
+		left = PROBE + 1;
+	return left == 0 ? s->solo : left % 2 == 0;
+}
+
+/* After `steps` steps (ndo_sim_steps: a run of them, timed as one step
+ * of their mean time) that threads_pick() timed from t0. */
+static void threads_timed(ndo_sim *s, double t0, int64_t steps)
 {
 	if (t0 == 0)
 		return;
 	double now = wall_seconds();
+	if (steps > 1)
+		t0 = now - (now - t0) / (double)steps;
 	if (s->probe_left == 0) { /* a step on the threads between looks */
 		s->run_sum += now - t0;
 		if (++s->run_n >= 4 && s->run_sum > s->run_n * s->probe_mean[0]) {
@@ -1339,7 +1355,7 @@ int ndo_sim_step(ndo_sim *s, double h)
 	int rc = ndo__restiffen_due(s);
 	if (rc)
 		return rc;
-	double t0 = s->t, w0 = threads_pick(s);
+	double t0 = s->t, w0 = threads_pick(s, 1);
 	switch (s->p.method) {
 	case NDO_EULER: rc = step_rk(s, method_tableau(s->p.method), h); break;
 	case NDO_MIDPOINT:
@@ -1351,7 +1367,7 @@ int ndo_sim_step(ndo_sim *s, double h)
 	case NDO_RKF45: rc = step_rkf45(s, h); break;
 	default: rc = ndo__implicit_step(s, h); break;
 	}
-	threads_timed(s, w0);
+	threads_timed(s, w0, 1);
 	if (rc)
 		return rc;
 	if (s->p.method != NDO_RKF45)
@@ -1365,6 +1381,83 @@ int ndo_sim_step(ndo_sim *s, double h)
 		s->node_steps_all += (double)all;
 		if (ndo__sleep_check(s->sleep, s) && (rc = set_active(s, ndo__sleep_mask(s->sleep))))
 			return rc;
+	}
+	return NDO_OK;
+}
+
+/* m steps of the wave (wave.c) from steps run at times t[0..m): each
+ * step's divergence test and accounting in order, as ndo_sim_step makes
+ * them; at a step that fails, the run again up to it (the state it
+ * started from is still there). */
+static int steps_wave(ndo_sim *s, double h, int m, double *t)
+{
+	double w0 = threads_pick(s, m);
+	t[0] = s->t;
+	for (int j = 1; j <= m; j++)
+		t[j] = t[j - 1] + h;
+	int rc = ndo__wave_run(s, h, m, t);
+	threads_timed(s, w0, m);
+	if (rc)
+		return rc;
+	const int two = s->p.method == NDO_MIDPOINT;
+	for (int j = 0; j < m; j++) {
+		ndo__diag d;
+		ndo__wave_diag(s, j, &d);
+		if (s->p.method == NDO_SYMPLECTIC_EULER)
+			s->h_mod = h;
+		s->stats.evaluations++;
+		s->last_power = d.power;
+		if ((rc = ndo__diverged(s, &d, 1))) {
+			int again = j > 0 ? ndo__wave_run(s, h, j, t) : NDO_OK;
+			if (again)
+				return again;
+			ndo__wave_commit(s, j);
+			return rc;
+		}
+		s->stats.evaluations += two;
+		account(s, h);
+		s->stats.substeps++;
+		s->t = t[j + 1];
+		s->step++;
+		s->stats.steps++;
+	}
+	ndo__wave_commit(s, m);
+	return NDO_OK;
+}
+
+int ndo_sim_steps(ndo_sim *s, double h, int64_t k)
+{
+	ndo__clear_error();
+	if (!(h > 0) || !isfinite(h))
+		return ndo__fail(NDO_EINVAL, "step size %g: must be positive and finite", h);
+	if (k < 0)
+		return ndo__fail(NDO_EINVAL, "%lld steps: must be ≥ 0", (long long)k);
+	/* The wave where it pays: on the threads (no barrier between the
+	 * passes and the steps), and on one thread from 65,536 nodes, where
+	 * the state is larger than the caches and a unit finds the rows it
+	 * reads still there (measured under load, bench_simulate wave:
+	 * 1.15-1.9x one step at a time at levels 8 and 9; 0.87-0.97x at level
+	 * 7, where the state stays in the cache anyway and the units'
+	 * bookkeeping costs).  So below that size, steps that run alone
+	 * (threads_pick) go one at a time, and a look at whether the threads
+	 * pay compares those with the wave on the threads. */
+	const int fits = ndo__wave_fits(s);
+	double t[17];
+	while (k > 0) {
+		int wave = fits && (s->count >= 65536 || s->wave_test || !threads_next_solo(s));
+		int m = k >= 2 && wave ? ndo__wave_batch(s) : 0;
+		int rc;
+		if (m >= 2) {
+			if (m > k)
+				m = (int)k;
+			rc = steps_wave(s, h, m, t);
+		} else {
+			m = 1;
+			rc = ndo_sim_step(s, h);
+		}
+		if (rc)
+			return rc;
+		k -= m;
 	}
 	return NDO_OK;
 }

@@ -172,6 +172,16 @@ struct ndo_sim {
 	 * pipeline's first such step, kept by its steps and by ndo_sim_set*,
 	 * cleared by a new region, ndo_sim_set_held_motion and the passes. */
 	int spare_held;
+
+	/* Several steps of symplectic Euler or midpoint as one pipeline of
+	 * (pass, chunk) units across the steps (wave.c, ndo_sim_steps): the
+	 * plan, built at the first such run and freed when the chunks or the
+	 * held edges change.  wave_test (tests only; nonzero: the wave also
+	 * where it would not pay, ndo_sim_steps): 4 in its own order, 1 in
+	 * shuffled ones; 3 besides lets a unit wait only for its own chunk's
+	 * pass before (wrong: the test that must catch it). */
+	struct ndo__wave_plan *wave_plan;
+	int wave_test;
 };
 
 /* sleep.c: the tiles (reach: rings a step's stages reach), a look every
@@ -282,6 +292,19 @@ typedef struct ndo__upd {
 void ndo__accel_update(ndo_sim *s, double t, const double *u, const double *v,
                        const ndo__upd *up, ndo__diag *diag);
 
+/* The same over interior runs [k0, k1) only, diagnostics added to d (may
+ * be NULL), and over the active border nodes bact[list[0..n)] (their
+ * diagnostics, when terms is not NULL, as NDO__BTERMS numbers a node at
+ * terms + NDO__BTERMS · k for bact[k]; ndo__border_terms_sum adds them in
+ * the border's order, as a pass over every border node does): the
+ * pieces of a pass the wave runs chunk by chunk (wave.c; accel.c). */
+enum { NDO__BTERMS = 13 };
+void ndo__accel_runs(const ndo_sim *s, const double *u, const double *v, const double *F,
+                     const ndo__upd *up, ndo__diag *d, size_t k0, size_t k1);
+void ndo__accel_border_nodes(const ndo_sim *s, const double *u, const double *v, const double *F,
+                             const ndo__upd *up, const int32_t *list, size_t n, double *terms);
+void ndo__border_terms_sum(const ndo_sim *s, const double *terms, ndo__diag *d);
+
 /* The divergence test on a diagnosed state at the start of a step
  * (accel.c).  commit: close the last step's work with this power. */
 int ndo__diverged(ndo_sim *s, const ndo__diag *d, int commit);
@@ -315,6 +338,17 @@ void ndo__rk4_plan_free(ndo_sim *s);
 /* The chunks whose ring slot an earlier chunk of the same step used
  * (0 before the pipeline's first step; tests). */
 int ndo__rk4_ring_reuses(const ndo_sim *s);
+
+/* The wave (wave.c): whether it can take this simulation's steps; m
+ * steps of size h from the state (u, v) at times t[0..m) into spare planes,
+ * the state left alone; step j's first-pass diagnostics as the passes sum
+ * them; the state after the m steps swapped in.  The plan freed. */
+int ndo__wave_fits(const ndo_sim *s);
+int ndo__wave_run(ndo_sim *s, double h, int m, const double *t);
+void ndo__wave_diag(ndo_sim *s, int j, ndo__diag *d);
+void ndo__wave_commit(ndo_sim *s, int m);
+int ndo__wave_batch(ndo_sim *s);
+void ndo__wave_plan_free(ndo_sim *s);
 
 /* Copy the canonical values of the stage planes to their duplicates
  * (accel.c). */

@@ -8,7 +8,9 @@
  *   bench_simulate kernel L...  the RK4 kernel's GFLOP/s and GB/s
  *   bench_simulate threads T L...  steps/s of rk4, symplectic Euler and
  *                               midpoint on 1 and on T threads, in
- *                               alternating runs, and their ratio
+ *                               alternating runs, and their ratio (the
+ *                               steps as simulate-peer takes them
+ *                               between frames: ndo_sim_steps)
  *   bench_simulate pipeline T L...  rk4's four passes against its
  *                               pipeline (lib/sim/rk4.c), on 1 and T
  *                               threads, in alternating runs
@@ -22,6 +24,10 @@
  *                               midpoint: their passes through the stored
  *                               acceleration against the fused ones
  *                               (integrate.c, ndo__accel_update)
+ *   bench_simulate wave T L...  the same for symplectic Euler and
+ *                               midpoint: steps one at a time
+ *                               (ndo_sim_step) against runs of them
+ *                               (ndo_sim_steps: lib/sim/wave.c)
  *   bench_simulate bandwidth T  the STREAM-like triad on 1 and on T
  *                               threads over the same arrays, in
  *                               alternating runs: what more threads can
@@ -138,15 +144,20 @@ static long calibrate_all(ndo_sim **s, int ns, double *h)
 	return n;
 }
 
-/* Steps per second of n steps. */
-static double timed(ndo_sim *s, double h, long n)
+/* Steps per second of n steps, one call each or (many) one call of
+ * ndo_sim_steps, as simulate-peer takes steps with nothing between them. */
+static double timed_how(ndo_sim *s, double h, long n, int many)
 {
 	double t0 = now();
-	for (long q = 0; q < n; q++)
-		if (ndo_sim_step(s, h)) {
-			fprintf(stderr, "bench_simulate: %s\n", ndo_errdetail());
-			exit(1);
-		}
+	int rc = 0;
+	if (many)
+		rc = ndo_sim_steps(s, h, n);
+	for (long q = 0; q < n && !many && rc == 0; q++)
+		rc = ndo_sim_step(s, h);
+	if (rc) {
+		fprintf(stderr, "bench_simulate: %s\n", ndo_errdetail());
+		exit(1);
+	}
 	return (double)n / (now() - t0);
 }
 
@@ -201,8 +212,8 @@ static void threads(int argc, char **argv)
 			calibrate(sT, h);
 			double r1[REPS], rT[REPS], q[REPS];
 			for (int r = 0; r < REPS; r++) {
-				r1[r] = timed(s1, h, n);
-				rT[r] = timed(sT, h, n);
+				r1[r] = timed_how(s1, h, n, 1);
+				rT[r] = timed_how(sT, h, n, 1);
 				q[r] = rT[r] / r1[r];
 			}
 			printf("| %s | %d | %zu | %.4g | %.4g | %.2f |\n", ndo_method_names[ms[k]], level,
@@ -220,12 +231,14 @@ static void threads(int argc, char **argv)
 /* RK4's two ways (lib/sim/rk4.c): the four passes and the pipeline, on
  * one thread and on T, the four timed in turn; the ratios are medians of
  * the runs' ratios within a round. */
-static void pipeline(int argc, char **argv, const ndo_method *ms, int nm, const char *fast)
+static void pipeline(int argc, char **argv, const ndo_method *ms, int nm, const char *fast,
+                     int wave)
 {
 	int T = atoi(argv[0]);
-	printf("| %slevel | nodes | passes, 1 thread | %s, 1 thread | ratio | passes, %d threads "
-	       "| %s, %d threads | ratio | %s %d threads / passes 1 thread |\n",
-	       nm > 1 ? "integrator | " : "", fast, T, fast, T, fast, T);
+	const char *slow = wave ? "one at a time" : "passes";
+	printf("| %slevel | nodes | %s, 1 thread | %s, 1 thread | ratio | %s, %d threads "
+	       "| %s, %d threads | ratio | %s %d threads / %s 1 thread |\n",
+	       nm > 1 ? "integrator | " : "", slow, fast, slow, T, fast, T, fast, T, slow);
 	printf("|%s---:|---:|---:|---:|---:|---:|---:|---:|---:|\n", nm > 1 ? "---|" : "");
 	for (int a = 1; a < argc; a++)
 	for (int im = 0; im < nm; im++) {
@@ -236,14 +249,14 @@ static void pipeline(int argc, char **argv, const ndo_method *ms, int nm, const 
 		ndo_sim *s[4];
 		for (int k = 0; k < 4; k++) {
 			s[k] = thesis_scene_on(g, ms[im], k < 2 ? 1 : T, &f[k]);
-			s[k]->rk4_reference = k % 2 == 0;
+			s[k]->rk4_reference = !wave && k % 2 == 0;
 		}
 		double h;
 		long n = calibrate_all(s, 4, &h);
 		double r[4][REPS], q[3][REPS];
 		for (int rep = 0; rep < REPS; rep++) {
 			for (int k = 0; k < 4; k++)
-				r[k][rep] = timed(s[k], h, n);
+				r[k][rep] = timed_how(s[k], h, n, wave && k % 2);
 			q[0][rep] = r[1][rep] / r[0][rep];
 			q[1][rep] = r[3][rep] / r[2][rep];
 			q[2][rep] = r[3][rep] / r[0][rep];
@@ -659,17 +672,20 @@ int main(int argc, char **argv)
 	else if (argc >= 4 && strcmp(argv[1], "threads") == 0)
 		threads(argc - 2, argv + 2);
 	else if (argc >= 4 && strcmp(argv[1], "pipeline") == 0)
-		pipeline(argc - 2, argv + 2, (const ndo_method[]){NDO_RK4}, 1, "pipeline");
+		pipeline(argc - 2, argv + 2, (const ndo_method[]){NDO_RK4}, 1, "pipeline", 0);
 	else if (argc >= 4 && strcmp(argv[1], "fused") == 0)
 		pipeline(argc - 2, argv + 2, (const ndo_method[]){NDO_SYMPLECTIC_EULER, NDO_MIDPOINT}, 2,
-		         "fused");
+		         "fused", 0);
+	else if (argc >= 4 && strcmp(argv[1], "wave") == 0)
+		pipeline(argc - 2, argv + 2, (const ndo_method[]){NDO_SYMPLECTIC_EULER, NDO_MIDPOINT}, 2,
+		         "ndo_sim_steps", 1);
 	else if (argc == 3 && strcmp(argv[1], "bandwidth") == 0)
 		bandwidth_threads(atoi(argv[2]));
 	else if (argc >= 3 && strcmp(argv[1], "region") == 0)
 		region(argc - 2, argv + 2);
 	else {
 		fprintf(stderr, "usage: bench_simulate speed|kernel|region [METHOD] LEVEL... | "
-		                "threads|pipeline|fused T LEVEL... | bandwidth T | limits\n");
+		                "threads|pipeline|fused|wave T LEVEL... | bandwidth T | limits\n");
 		return 2;
 	}
 	return 0;

@@ -546,6 +546,121 @@ static void fused_passes_are_the_passes(void)
 	fast_path_is_the_passes(NDO_MIDPOINT, "fused passes");
 }
 
+/* One simulation's result against another's: state, time, step count,
+ * energies, work and statistics, bit for bit. */
+static int same_run(ndo_sim *a, ndo_sim *b, size_t nn, double *xa, double *va, double *xb,
+                    double *vb)
+{
+	ndo_sim_get(a, xa, va);
+	ndo_sim_get(b, xb, vb);
+	ndo_sim_energy ea, eb;
+	ndo_sim_energy_get(a, &ea);
+	ndo_sim_energy_get(b, &eb);
+	ndo_sim_stats sa, sb;
+	ndo_sim_stats_get(a, &sa);
+	ndo_sim_stats_get(b, &sb);
+	return !memcmp(xa, xb, nn * sizeof *xa) && !memcmp(va, vb, nn * sizeof *va) &&
+	       ndo_sim_time(a) == ndo_sim_time(b) && ndo_sim_step_count(a) == ndo_sim_step_count(b) &&
+	       ea.kinetic == eb.kinetic && ea.potential == eb.potential && ea.work == eb.work &&
+	       sa.evaluations == sb.evaluations && sa.steps == sb.steps &&
+	       sa.substeps == sb.substeps;
+}
+
+/* ndo_sim_steps (symplectic Euler and midpoint: several steps as one
+ * pipeline of (pass, chunk) units, wave.c) is k calls of ndo_sim_step,
+ * bit for bit, on 1-3 threads, in its own order and in shuffled ones
+ * (wave_test 4 and 1), with forces, seams, and pins that cut rows and hold
+ * border and seam nodes; a run that diverges stops at the same step with
+ * the same state.  And the test can fail: units that wait only for their
+ * own chunk's pass before, not their neighbours' (wave_test 3), give
+ * other bits. */
+static void steps_are_single_steps(void)
+{
+	const ndo_method ms[2] = {NDO_SYMPLECTIC_EULER, NDO_MIDPOINT};
+	for (int level = 3; level <= 7; level += 4)
+		for (int im = 0; im < 2; im++)
+			for (int pins = 0; pins < 2; pins++) {
+				const char *name = ndo_method_names[ms[im]];
+				ndo_grid *g = shape("wavy", level);
+				const size_t nn = 3 * g->count;
+				const int n = 1 << level;
+				double *x0 = malloc(nn * sizeof *x0), *v0 = malloc(nn * sizeof *v0);
+				double *xa = malloc(nn * sizeof *xa), *va = malloc(nn * sizeof *va);
+				double *xb = malloc(nn * sizeof *xb), *vb = malloc(nn * sizeof *vb);
+				random_state(g, 0.01, x0, v0);
+				uint8_t *pin = calloc(g->count, 1);
+				for (size_t p = 0; pins && p < g->count; p++) {
+					int i = (int)(p % (size_t)g->w), j = (int)(p / (size_t)g->w);
+					pin[p] = (i * 7 + j * 3) % 29 == 0 || (j == n / 2 && i > n / 3 && i < n) ||
+					         (j == 0 && i < 3) || (i == 0 && j == n / 3);
+				}
+				int32_t faces[] = {0, 1, 2, 31, 40, 41, 90, 500};
+				int32_t nodes[] = {0, 5, (int32_t)g->count / 2, (int32_t)g->count - 1};
+				ndo_force f[3] = {{NDO_FORCE_FACE, 2.4, 1, 0, 1, {0}, level > 3 ? 8 : 7, faces},
+				                  {NDO_FORCE_FACE, 1.1, 3, 0.5, 0, {0.2, 0.3, 1}, 3, faces + 1},
+				                  {NDO_FORCE_POINT, 0.7, 2, 0, 1, {0}, 4, nodes}};
+				ndo_sim_params p;
+				ndo_sim_defaults(&p);
+				p.method = ms[im];
+				p.material.damping = 0.1;
+				p.forces = f;
+				p.nforces = 3;
+				const double h = level == 3 ? 1e-3 : 2e-4;
+				const int K = 37;
+				ndo_sim *ref = make(g, x0, v0, pins ? pin : NULL, &p);
+				for (int k = 0; k < K; k++)
+					CHECK(ndo_sim_step(ref, h) == 0, "single steps: %s", ndo_errdetail());
+				for (int t = 1; t <= 3; t++)
+					for (int shuffled = 0; shuffled < 2; shuffled++) {
+						p.threads = t;
+						ndo_sim *s = make(g, x0, v0, pins ? pin : NULL, &p);
+						s->wave_test = shuffled ? 1 : 4;
+						/* in runs of 1, 5 and the rest: batches and single steps */
+						CHECK(ndo_sim_steps(s, h, 1) == 0 && ndo_sim_steps(s, h, 5) == 0 &&
+						      ndo_sim_steps(s, h, K - 6) == 0, "steps: %s", ndo_errdetail());
+						CHECK(s->wave_plan != NULL, "%s, level %d: the wave not taken", name,
+						      level);
+						CHECK(same_run(ref, s, nn, xa, va, xb, vb),
+						      "%s, level %d, pins %d, %d threads%s: ndo_sim_steps differs from "
+						      "single steps by %g", name, level, pins, t,
+						      shuffled ? ", shuffled" : "",
+						      fmax(max_diff(xa, xb, nn), max_diff(va, vb, nn)));
+						ndo_sim_destroy(s);
+					}
+				/* divergence: single steps and ndo_sim_steps stop at the same
+				 * step, the state the one it started from */
+				for (int t = 1; t <= 2; t++) {
+					p.threads = t;
+					ndo_sim *a = make(g, x0, v0, pins ? pin : NULL, &p);
+					ndo_sim *b = make(g, x0, v0, pins ? pin : NULL, &p);
+					b->wave_test = 4;
+					int ra = 0;
+					for (int k = 0; k < 200 && ra == 0; k++)
+						ra = ndo_sim_step(a, 0.5);
+					int rb = ndo_sim_steps(b, 0.5, 200);
+					CHECK(ra == NDO_EDIVERGED && rb == NDO_EDIVERGED,
+					      "%s, level %d: no divergence (%d, %d)", name, level, ra, rb);
+					CHECK(same_run(a, b, nn, xa, va, xb, vb),
+					      "%s, level %d, pins %d, %d threads: diverged at step %lld, single "
+					      "steps at %lld, or another state", name, level, pins, t,
+					      (long long)ndo_sim_step_count(b), (long long)ndo_sim_step_count(a));
+					ndo_sim_destroy(a), ndo_sim_destroy(b);
+				}
+				/* units that do not wait for their neighbours: caught (level 7:
+				 * many chunks; level 3 has one) */
+				p.threads = 1;
+				ndo_sim *w = make(g, x0, v0, pins ? pin : NULL, &p);
+				w->wave_test = 3;
+				CHECK(ndo_sim_steps(w, h, K) == 0, "steps: %s", ndo_errdetail());
+				CHECK(level == 3 || (w->nichunk > 1 && !same_run(ref, w, nn, xa, va, xb, vb)),
+				      "%s, level %d: units run before their neighbours' pass before gave the "
+				      "same bits: the comparison cannot fail", name, level);
+				ndo_sim_destroy(w), ndo_sim_destroy(ref);
+				free(x0), free(v0), free(xa), free(va), free(xb), free(vb), free(pin);
+				ndo_grid_destroy(g);
+			}
+}
+
 /* The fused RK4 passes give the tableau path's result, with forces,
  * penalty pins and held nodes. */
 static void fused_rk4_equals_the_tableau(void)
@@ -1364,6 +1479,7 @@ int main(void)
 	RUN(rk4_pipeline_holds_nodes_as_the_passes);
 	RUN(rk4_ring_reused_late_enough);
 	RUN(fused_passes_are_the_passes);
+	RUN(steps_are_single_steps);
 	RUN(rkf45_in_parts_is_the_step);
 	RUN(power_iteration_finds_lambda_max);
 	RUN(duplicates_agree_after_every_step);

@@ -163,11 +163,23 @@ void sleep_report(const run *r)
 	        st.tiles, (long long)st.sleeps, (long long)st.wakes);
 }
 
+static int64_t sample_every(const run *r)
+{
+	return r->steps / 64 > 1 ? r->steps / 64 : 1;
+}
+
 void accuracy_sample(run *r, int64_t k)
 {
-	int64_t every = r->steps / 64 > 1 ? r->steps / 64 : 1;
-	if (r->acc && (k % every == 0 || k == r->steps))
+	if (r->acc && (k % sample_every(r) == 0 || k == r->steps))
 		ndo_acc_sample(r->acc, r->sim);
+}
+
+int64_t accuracy_next(const run *r, int64_t k)
+{
+	if (!r->acc)
+		return INT64_MAX;
+	int64_t e = sample_every(r);
+	return (k / e + 1) * e;
 }
 
 /* The estimate's line, printed after the run's summary (accuracy_print). */

@@ -257,7 +257,22 @@ static void simulate(run *r)
 	sa.sa_handler = on_signal;
 	sigaction(SIGINT, &sa, NULL);
 	sigaction(SIGTERM, &sa, NULL);
-	for (int64_t k = 0; k <= r->steps; k++) {
+	/* Between the steps that log, write a frame or sample the accuracy,
+	 * the steps run with nothing between them: ndo_sim_steps (symplectic
+	 * Euler and midpoint then pipeline several steps; the same bits), at
+	 * most 16 at a time so that interrupts and progress are seen. */
+	for (int64_t k = 0;;) {
+		accuracy_sample(r, k);
+		if (r->logging && (k % r->sc.log_every == 0 || k == r->steps))
+			log_row(r, r->sim, ndo_sim_step_count(r->sim));
+		if (r->frame && k % r->sc.frame_every == 0)
+			write_frame(r, frame++);
+		if (show && now() - shown > 0.25) {
+			shown = now();
+			progress(r, k, t0);
+		}
+		if (k == r->steps)
+			break;
 		if (interrupted) {
 			if (show)
 				fputc('\n', stderr);
@@ -270,7 +285,14 @@ static void simulate(run *r)
 			ndo_close_stdout();
 			exit(EXIT_INTERRUPTED);
 		}
-		int rc = k > 0 ? ndo_sim_step(r->sim, r->dt) : NDO_OK;
+		int64_t to = k + 16 < r->steps ? k + 16 : r->steps;
+		if (r->logging && (k / r->sc.log_every + 1) * r->sc.log_every < to)
+			to = (k / r->sc.log_every + 1) * r->sc.log_every;
+		if (r->frame && (k / r->sc.frame_every + 1) * r->sc.frame_every < to)
+			to = (k / r->sc.frame_every + 1) * r->sc.frame_every;
+		if (accuracy_next(r, k) < to)
+			to = accuracy_next(r, k);
+		int rc = ndo_sim_steps(r->sim, r->dt, to - k);
 		if (rc) {
 			if (show)
 				fputc('\n', stderr);
@@ -279,15 +301,7 @@ static void simulate(run *r)
 				        ndo_errdetail());
 			diverged(r);
 		}
-		accuracy_sample(r, k);
-		if (r->logging && (k % r->sc.log_every == 0 || k == r->steps))
-			log_row(r, r->sim, ndo_sim_step_count(r->sim));
-		if (r->frame && k % r->sc.frame_every == 0)
-			write_frame(r, frame++);
-		if (show && now() - shown > 0.25) {
-			shown = now();
-			progress(r, k, t0);
-		}
+		k = to;
 	}
 	double el = now() - t0;
 	if (show)

@@ -83,6 +83,8 @@ void log_row(run *r, ndo_sim *sim, int64_t step);
 void accuracy_option(run *r, const char *arg);
 void accuracy_plan(run *r);
 void accuracy_sample(run *r, int64_t k);
+/* The next step after k that accuracy_sample() samples at (INT64_MAX: none). */
+int64_t accuracy_next(const run *r, int64_t k);
 void accuracy_report(run *r);
 void accuracy_print(void);
 int accuracy_store(run *r, ndo_grid *g);

@@ -244,6 +244,22 @@ int ndo_sim_threads(const ndo_sim *s);
  * positive definite or rkf45's sub-step underflows. */
 int ndo_sim_step(ndo_sim *s, double h);
 
+/* k steps of size h, for callers with nothing to do between them: the
+ * same bits as k calls of ndo_sim_step() (state, time, step count,
+ * energies, work, statistics) on any thread count, and the same return:
+ * at the first step that fails it returns that step's status with the
+ * state as that step left it (NDO_EDIVERGED: the first bad state, at
+ * ndo_sim_time; ndo_sim_step_count says how many steps were taken).
+ * Symplectic Euler and midpoint without penalty pins, pressure, sleeping
+ * tiles, re-assembly of K or a moving boundary run up to 16 steps at a
+ * time as one pipeline on the threads, with no wait between the passes
+ * or the steps (lib/sim/wave.c) — when the steps run on the threads, or
+ * from 65,536 nodes on one (where a pipeline's rows are still in the
+ * cache when the next step reads them); the others step one at a time.
+ * k = 0
+ * does nothing; NDO_EINVAL for k < 0 or h not positive and finite. */
+int ndo_sim_steps(ndo_sim *s, double h, int64_t k);
+
 /* rkf45's step in parts, for peers that split the object (ndo/peer.h):
  * ndo_sim_step(s, h) for rkf45 is
  *     ndo_sim_rkf45_begin(s, h);
