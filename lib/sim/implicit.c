@@ -493,44 +493,36 @@ static void mg_pass_chunk(void *ctx, int k)
 		const double *an = P->a, *df = P->df, *av = P->av, c0 = P->c0, c1 = P->c1;
 		const int trap = P->trap, ext = P->ext;
 		double *b3 = im->b3, *aprev = im->aprev;
-		if (P->cached) {
-			/* A v = A x + shift A 1 = b − r + shift rsum, the last
-			 * solve's b and x read before this step's are written;
-			 * where some row's v is not x + shift (changed from
-			 * outside), the chunk says so and the step starts over. */
-			const double *res = im->res, *rsum = im->rsum;
-			const double sh[3] = {im->shift[0], im->shift[1], im->shift[2]};
-			int miss = 0;
-			for (size_t r = a0; r < e; r++) {
-				const size_t p = (size_t)nodes[r];
-				const double m = s->mass[p], g = s->gam[p];
-				for (int c = 0; c < 3; c++) {
-					const size_t q = (size_t)c * cnt + p, j = 3 * r + (size_t)c;
-					const double vq = v[q], aq = an[q];
-					miss |= vq != x3[j] + sh[c];
-					const double avj = b3[j] - res[j] + sh[c] * rsum[r];
-					b3[j] = 2 * m * vq + h * m * (aq + g * vq) - avj +
-					        (df ? 0.5 * h * df[q] : 0);
-					x3[j] = vq + c0 * aq + (ext ? c1 * aprev[j] : 0);
-					aprev[j] = aq;
-				}
-			}
-			im->part[8 * (size_t)k + 7] = miss;
-			return;
-		}
+		/* cached: A v = A x + shift A 1 = b − r + shift rsum, the last
+		 * solve's b and x read before this step's are written; where some
+		 * row's v is not x + shift (changed from outside), the chunk says
+		 * so and the step starts over. */
+		const int cached = P->cached;
+		const double *res = im->res, *rsum = im->rsum;
+		const double sh[3] = {im->shift[0], im->shift[1], im->shift[2]};
+		int miss = 0;
 		for (size_t r = a0; r < e; r++) {
 			const size_t p = (size_t)nodes[r];
 			const double m = s->mass[p], g = s->gam[p];
 			for (int c = 0; c < 3; c++) {
 				const size_t q = (size_t)c * cnt + p, j = 3 * r + (size_t)c;
 				const double vq = v[q], aq = an[q];
-				b3[j] = trap ? 2 * m * vq + h * m * (aq + g * vq) - av[j] +
+				double avj = 0;
+				if (cached) {
+					miss |= vq != x3[j] + sh[c];
+					avj = b3[j] - res[j] + sh[c] * rsum[r];
+				} else if (trap) {
+					avj = av[j];
+				}
+				b3[j] = trap ? 2 * m * vq + h * m * (aq + g * vq) - avj +
 				                   (df ? 0.5 * h * df[q] : 0)
 				             : m * vq + h * m * (aq + g * vq) + (df ? h * df[q] : 0);
 				x3[j] = vq + c0 * aq + (ext ? c1 * aprev[j] : 0);
 				aprev[j] = aq;
 			}
 		}
+		if (cached)
+			im->part[8 * (size_t)k + 7] = miss;
 	} else {
 		const int trap = P->trap;
 		const double sh[3] = {P->shift[0], P->shift[1], P->shift[2]};
