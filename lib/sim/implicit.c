@@ -62,6 +62,11 @@ double ndo__implicit_mg_bytes(int level)
  * (mg_pass_chunk). */
 #define MG_ROWS 4096
 
+/* Steps the trapezoid takes the full product A v after finding v changed
+ * since the last solve (peers' seams change it every step: the failed try
+ * costs a right-hand side's pass). */
+#define AV_SKIP 7
+
 struct ndo__implicit {
 	cholmod_common cm;
 	cholmod_factor *L;
@@ -77,6 +82,15 @@ struct ndo__implicit {
 	 * extrapolated first guess; valid for the step im->h when aprev_ok. */
 	double *aprev;
 	int aprev_ok;
+	/* Trapezoid: A v at the next step's start from the last solve, A x =
+	 * b − r plus the rigid shift times A's row sums (rsum), while v is
+	 * still x + shift on every row (checked in the right-hand side's
+	 * pass): valid when av_ok; av_skip steps left without trying after
+	 * v was found changed. */
+	double *rsum;
+	const double *res;
+	double shift[3];
+	int av_ok, av_skip;
 	int32_t *idx;    /* stored node → row of A, or −1 */
 	int32_t *nodes;  /* row → canonical stored node */
 	size_t na;
@@ -99,6 +113,7 @@ void ndo__implicit_free(ndo_sim *s)
 	free(im->x3);
 	free(im->part);
 	free(im->aprev);
+	free(im->rsum);
 	cholmod_finish(&im->cm);
 	free(im->idx);
 	free(im->nodes);
@@ -261,12 +276,14 @@ static int mg_build(ndo_sim *s, ndo__implicit *im, double h)
 		if ((rc = index_rows(s, im)))
 			return rc;
 		free(im->mass), free(im->b3), free(im->x3), free(im->aprev), free(im->part);
+		free(im->rsum);
 		im->mass = malloc((im->na + 1) * sizeof *im->mass);
+		im->rsum = malloc((im->na + 1) * sizeof *im->rsum);
 		im->b3 = malloc((3 * im->na + 1) * sizeof *im->b3);
 		im->x3 = malloc((3 * im->na + 1) * sizeof *im->x3);
 		im->aprev = malloc((3 * im->na + 1) * sizeof *im->aprev);
 		im->part = malloc(8 * (im->na / MG_ROWS + 1) * sizeof *im->part);
-		if (!im->mass || !im->b3 || !im->x3 || !im->aprev || !im->part)
+		if (!im->mass || !im->rsum || !im->b3 || !im->x3 || !im->aprev || !im->part)
 			return ndo__fail(NDO_ENOMEM, "out of memory for the implicit solver");
 		/* the multigrid's products read one double past the last row */
 		im->b3[3 * im->na] = im->x3[3 * im->na] = 0;
@@ -275,11 +292,22 @@ static int mg_build(ndo_sim *s, ndo__implicit *im, double h)
 	ndo__mg_free(im->mg);
 	im->mg = NULL;
 	im->aprev_ok = 0;
+	im->av_ok = 0;
 	cholmod_free_sparse(&im->A, &im->cm);
 	int trap = s->p.method == NDO_TRAPEZOID;
 	im->A = assemble(s, im, trap ? h / 2 : h, trap ? h * h / 4 : h * h, 1);
 	if (!im->A)
 		return ndo__fail(NDO_ENOMEM, "out of memory assembling the implicit system");
+	{
+		const int *Ap = im->A->p;
+		const double *Ax = im->A->x;
+		for (size_t r = 0; r < im->na; r++) {
+			double sum = 0;
+			for (int k = Ap[r]; k < Ap[r + 1]; k++)
+				sum += Ax[k];
+			im->rsum[r] = sum;
+		}
+	}
 	if ((rc = ndo__mg_create(s->level, im->nodes, im->na, im->A, im->mass, &im->cm, s->pool,
 	                         &im->mg)))
 		return rc;
@@ -411,6 +439,8 @@ typedef struct mg_pass {
 	int phase; /* 0: v to rows; 1: the right-hand side and first guess; 2: the update;
 	              3: the rigid correction's sums */
 	int trap, ext;
+	int cached; /* phase 1, trapezoid: A v from the last solve (im->res, b3, x3),
+	               and part[8k + 7] = 1 where v is not x3 + shift */
 } mg_pass;
 
 static void mg_pass_chunk(void *ctx, int k)
@@ -463,19 +493,36 @@ static void mg_pass_chunk(void *ctx, int k)
 		const double *an = P->a, *df = P->df, *av = P->av, c0 = P->c0, c1 = P->c1;
 		const int trap = P->trap, ext = P->ext;
 		double *b3 = im->b3, *aprev = im->aprev;
+		/* cached: A v = A x + shift A 1 = b − r + shift rsum, the last
+		 * solve's b and x read before this step's are written; where some
+		 * row's v is not x + shift (changed from outside), the chunk says
+		 * so and the step starts over. */
+		const int cached = P->cached;
+		const double *res = im->res, *rsum = im->rsum;
+		const double sh[3] = {im->shift[0], im->shift[1], im->shift[2]};
+		int miss = 0;
 		for (size_t r = a0; r < e; r++) {
 			const size_t p = (size_t)nodes[r];
 			const double m = s->mass[p], g = s->gam[p];
 			for (int c = 0; c < 3; c++) {
 				const size_t q = (size_t)c * cnt + p, j = 3 * r + (size_t)c;
 				const double vq = v[q], aq = an[q];
-				b3[j] = trap ? 2 * m * vq + h * m * (aq + g * vq) - av[j] +
+				double avj = 0;
+				if (cached) {
+					miss |= vq != x3[j] + sh[c];
+					avj = b3[j] - res[j] + sh[c] * rsum[r];
+				} else if (trap) {
+					avj = av[j];
+				}
+				b3[j] = trap ? 2 * m * vq + h * m * (aq + g * vq) - avj +
 				                   (df ? 0.5 * h * df[q] : 0)
 				             : m * vq + h * m * (aq + g * vq) + (df ? h * df[q] : 0);
 				x3[j] = vq + c0 * aq + (ext ? c1 * aprev[j] : 0);
 				aprev[j] = aq;
 			}
 		}
+		if (cached)
+			im->part[8 * (size_t)k + 7] = miss;
 	} else {
 		const int trap = P->trap;
 		const double sh[3] = {P->shift[0], P->shift[1], P->shift[2]};
@@ -518,14 +565,37 @@ static int mg_step(ndo_sim *s, ndo__implicit *im, double h, const double *a, con
 	mg_pass P = {.s = s, .im = im, .h = h, .a = a, .df = df, .trap = trap, .ext = ext,
 	             .c0 = !near ? 0 : !ext ? h : trap ? 1.5 * h : 2 * h,
 	             .c1 = !ext ? 0 : trap ? -0.5 * h : -h};
-	if (trap) {
-		/* A v, the held velocities left out (held positions stay put). */
-		mg_pass_run(&P, 0);
-		ndo__mg_apply(im->mg, im->x3, im->b3);
-		P.av = im->b3;
+	const int nch = (int)((im->na + MG_ROWS - 1) / MG_ROWS);
+	/* Trapezoid: A v, the held velocities left out (held positions stay
+	 * put): from the last solve where v has not changed since (the
+	 * fallback's guess, with aprev already a(t), is v + h a(t) as after a
+	 * change), or the full product. */
+	P.cached = trap && im->av_ok && im->av_skip == 0;
+	if (trap && im->av_skip > 0)
+		im->av_skip--;
+	im->av_ok = 0;
+	if (P.cached) {
+		mg_pass_run(&P, 1);
+		int miss = 0;
+		for (int k = 0; k < nch; k++)
+			miss |= im->part[8 * (size_t)k + 7] != 0;
+		if (miss) {
+			P.cached = 0;
+			im->av_skip = AV_SKIP;
+			s->stats.av_misses++;
+		}
 	}
-	/* av (in b3) is read before b3 is written, element by element. */
-	mg_pass_run(&P, 1);
+	if (!P.cached) {
+		if (trap) {
+			mg_pass_run(&P, 0);
+			ndo__mg_apply(im->mg, im->x3, im->b3);
+			P.av = im->b3;
+		}
+		/* av (in b3) is read before b3 is written, element by element. */
+		mg_pass_run(&P, 1);
+	} else {
+		s->stats.av_reused++;
+	}
 	im->aprev_ok = 1;
 	int iters, rc;
 	double res;
@@ -539,7 +609,6 @@ static int mg_step(ndo_sim *s, ndo__implicit *im, double h, const double *a, con
 		/* rigid_exact's shift, its sums over chunks of rows on the
 		 * threads (added in chunk order: the same bits on any count) */
 		mg_pass_run(&P, 3);
-		const int nch = (int)((im->na + MG_ROWS - 1) / MG_ROWS);
 		double sum[7] = {0, 0, 0, 0, 0, 0, 0};
 		for (int k = 0; k < nch; k++)
 			for (int c = 0; c < 7; c++)
@@ -549,6 +618,10 @@ static int mg_step(ndo_sim *s, ndo__implicit *im, double h, const double *a, con
 			P.shift[c] = (sum[c] / (1 + cg * h * g) - sum[3 + c]) / sum[6];
 	}
 	mg_pass_run(&P, 2);
+	if (trap && (im->res = ndo__mg_residual(im->mg))) {
+		memcpy(im->shift, P.shift, sizeof im->shift);
+		im->av_ok = 1;
+	}
 	return NDO_OK;
 }
 

@@ -81,6 +81,7 @@ struct ndo__mg {
 	mg_level lv[NDO_MAX_LEVEL + 1];
 	cholmod_factor *L;    /* the coarsest level's factor, or NULL */
 	double *r, *z, *p, *q; /* conjugate gradients, n × 3 each */
+	int r_true;           /* r is b − A x computed from x (not the recurrence's) */
 	double *part;         /* 8 partial sums per chunk */
 };
 
@@ -570,6 +571,11 @@ void ndo__mg_apply(ndo__mg *mg, const double *x, double *y)
 	run(mg, &J, mg->lv[0].n, NULL);
 }
 
+const double *ndo__mg_residual(const ndo__mg *mg)
+{
+	return mg->r_true ? mg->r : NULL;
+}
+
 int ndo__mg_levels(const ndo__mg *mg, int *direct)
 {
 	if (direct)
@@ -797,6 +803,7 @@ int ndo__mg_solve(ndo__mg *mg, const double *b, double *x, double tol, double st
 	int done[3], it = 0, rc, stalls = 0;
 	job J = {.op = OP_RESID, .M = A, .i1 = x, .i2 = b, .o1 = r};
 	run(mg, &J, n, s);
+	mg->r_true = 1;
 	for (int c = 0; c < 3; c++) {
 		rn[c] = sqrt(s[c]);
 		bn[c] = sqrt(s[3 + c]);
@@ -832,6 +839,7 @@ int ndo__mg_solve(ndo__mg *mg, const double *b, double *x, double tol, double st
 		for (int c = 0; c < 3; c++)
 			J.c[c] = done[c] || !(s[c] > 0) ? 0 : rz[c] / s[c];
 		run(mg, &J, n, s);
+		mg->r_true = 0;
 		int all = 1;
 		for (int c = 0; c < 3; c++) {
 			if (!done[c])
@@ -845,6 +853,7 @@ int ndo__mg_solve(ndo__mg *mg, const double *b, double *x, double tol, double st
 			 * rounding floor. */
 			J = (job){.op = OP_RESID, .M = A, .i1 = x, .i2 = b, .o1 = r};
 			run(mg, &J, n, s);
+			mg->r_true = 1;
 			int floor = 0;
 			double worst = 0;
 			for (int c = 0; c < 3; c++) {

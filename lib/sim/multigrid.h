@@ -64,6 +64,11 @@ int ndo__mg_solve(ndo__mg *mg, const double *b, double *x, double tol, double st
  * one double more, x[3n], read and not used). */
 void ndo__mg_apply(ndo__mg *mg, const double *x, double *y);
 
+/* The last solve's residual b − A x (n × 3, row-major), computed from the
+ * x it returned, or NULL when it ended on the iteration's updated residual
+ * (a stall at max_iter).  Valid until the next solve or ndo__mg_free. */
+const double *ndo__mg_residual(const ndo__mg *mg);
+
 /* The levels of the hierarchy (1: smoothing alone) and whether the
  * coarsest is factored. */
 int ndo__mg_levels(const ndo__mg *mg, int *direct);

@@ -362,6 +362,10 @@ typedef struct ndo_sim_stats {
 	int last_iterations;   /* multigrid: the last solve's iterations */
 	double last_residual;  /* multigrid: the last solve's relative residual
 	                          ‖b − A x‖ / ‖b‖ (worst coordinate) */
+	int64_t av_reused;     /* multigrid trapezoid: steps that took A v from
+	                          the last solve (v unchanged since) */
+	int64_t av_misses;     /* ... that tried and found v changed (the full
+	                          product instead) */
 } ndo_sim_stats;
 void ndo_sim_stats_get(const ndo_sim *s, ndo_sim_stats *st);
 
