@@ -488,8 +488,13 @@ static inline __attribute__((always_inline)) void node(hier *h, const int mode, 
 		for (int d = 0; d < 3; d++) {
 			if (ps->sample++ & 3) /* the costs of every fourth value */
 				continue;
+			/* the nearest code (codec.c's code_of(), which skips the
+			 * nodes hier codes; the range checked there) */
+			const double t = (h->x[3 * n + d] - h->z->lo[d]) / h->z->q[d] + 0.5;
+			int64_t kq = (int64_t)t;
+			kq -= (double)kq > t;
 			for (int b = 0; b <= BETA_MAX; b++) {
-				const int64_t e = h->k[3 * n + d] - pred_of(base[d], w[d], b);
+				const int64_t e = kq - pred_of(base[d], w[d], b);
 				const uint64_t a = ((e < 0 ? -(uint64_t)e : (uint64_t)e) + HIER_FINE / 2) / HIER_FINE;
 				ps->cost[b] += a ? 2 + 2 * (uint64_t)(64 - __builtin_clzll(a)) : 0;
 			}
