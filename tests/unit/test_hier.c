@@ -224,7 +224,8 @@ static void interior_and_general_stencils_agree(void)
 		ndo__codec_hier_general = 1;
 		run slow = tiles("hier:1e-4:16", mixed);
 		ndo__codec_hier_general = 0;
-		CHECK(fast.bytes == slow.bytes && fast.crc == slow.crc && slow.same && slow.decoded,
+		CHECK(fast.bytes == slow.bytes && fast.crc == slow.crc && slow.same && slow.decoded &&
+		          fast.same && fast.decoded,
 		      "%s: the same payloads (%zu and %zu bytes)", mixed ? "mixed" : "all LOSSY",
 		      fast.bytes, slow.bytes);
 	}
