@@ -315,30 +315,17 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 			goto done;
 		}
 		allzero = any == 0;
-		/* the LOSSY nodes' values and, in the same pass, the error */
-		double max2 = 0, sum2 = 0;
-		for (int n = 0; n < nodes; n++) {
-			if (in->cls[n] != NDO_NODE_LOSSY)
-				continue;
-			double e2 = 0;
-			for (int d = 0; d < 3; d++) {
-				const double v = value_of(&z, d, recon->k[3 * n + d]), e = v - X[3 * n + d];
-				recon->x[3 * n + d] = v;
-				e2 += e * e;
-			}
-			sum2 += e2;
-			max2 = e2 > max2 ? e2 : max2;
-		}
-		w->err_max2 = max2, w->err_sum2 = sum2, w->err_n = lossy;
-		errors_known = 1;
 	}
-	if (!errors_known) { /* the error this frame introduces */
+	if (!errors_known) { /* the error this frame introduces (hier: the LOSSY
+	                      * nodes' values from its codes in the same pass) */
 		double max2 = 0, sum2 = 0;
 		for (int n = 0; n < nodes; n++) {
 			if (in->cls[n] != NDO_NODE_LOSSY)
 				continue;
 			double e2 = 0;
 			for (int d = 0; d < 3; d++) {
+				if (enc == NDO_ENC_HIER)
+					recon->x[3 * n + d] = value_of(&z, d, recon->k[3 * n + d]);
 				double e = recon->x[3 * n + d] - X[3 * n + d];
 				e2 += e * e;
 			}
