@@ -259,11 +259,28 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 		allzero = any == 0;
 	} else {
 		/* codes of every carried node (the others' are not used) and the
-		 * LOSSY nodes' values: code_of() and value_of() without branches */
+		 * LOSSY nodes' values: code_of() and value_of() without branches;
+		 * under hier, which chooses the LOSSY nodes' codes itself, only
+		 * their range: by a product, well inside the range or past it
+		 * (NaN) checked again as code_of() does (its division) */
 		int out = 0;
+		const int hier = enc == NDO_ENC_HIER;
+		const double iq[3] = {1 / z.q[0], 1 / z.q[1], 1 / z.q[2]};
 		for (int n = 0; n < nodes; n++) {
 			const double *xn = X + 3 * n;
 			int lossy = in->cls[n] == NDO_NODE_LOSSY;
+			if (hier && lossy) {
+				int far = 0;
+				for (int d = 0; d < 3; d++) {
+					const double u = (xn[d] - z.lo[d]) * iq[d];
+					far |= !(u > -CODE_MAX / 2 && u < CODE_MAX / 2);
+				}
+				for (int d = 0; d < 3 && far; d++) {
+					const double t = (xn[d] - z.lo[d]) / z.q[d] + 0.5;
+					out |= !(t >= -CODE_MAX + 1 && t < CODE_MAX) & (recon->have[n] != 0);
+				}
+				continue;
+			}
 			for (int d = 0; d < 3; d++) {
 				double t = (xn[d] - z.lo[d]) / z.q[d] + 0.5;
 				int inr = t >= -CODE_MAX + 1 && t < CODE_MAX;
@@ -298,18 +315,17 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 			goto done;
 		}
 		allzero = any == 0;
-		for (int n = 0; n < nodes; n++)
-			if (in->cls[n] == NDO_NODE_LOSSY)
-				for (int d = 0; d < 3; d++)
-					recon->x[3 * n + d] = value_of(&z, d, recon->k[3 * n + d]);
 	}
-	if (!errors_known) { /* the error this frame introduces */
+	if (!errors_known) { /* the error this frame introduces (hier: the LOSSY
+	                      * nodes' values from its codes in the same pass) */
 		double max2 = 0, sum2 = 0;
 		for (int n = 0; n < nodes; n++) {
 			if (in->cls[n] != NDO_NODE_LOSSY)
 				continue;
 			double e2 = 0;
 			for (int d = 0; d < 3; d++) {
+				if (enc == NDO_ENC_HIER)
+					recon->x[3 * n + d] = value_of(&z, d, recon->k[3 * n + d]);
 				double e = recon->x[3 * n + d] - X[3 * n + d];
 				e2 += e * e;
 			}

@@ -28,7 +28,7 @@
  *     β over every fourth value) keeps its predictions for the coding pass;
  *     the decoder predicts a level before reading it too, β known; both
  *     predict the finest two levels' row interiors in runs the compiler
- *     vectorizes (predict_run(), with ndo__codec_hier_general the node by
+ *     vectorizes (predict_run_all(), with ndo__codec_hier_general the node by
  *     node reference): level 7 encode 4.0 → 3.4 ms, decode 2.1 → 1.9 ms
  *     (CPU, load 3-9; docs/bench/net.md).
  *   - the encoder takes residual 0 without rounding when the prediction
@@ -37,6 +37,10 @@
  *     7 enc + dec 0.92 of before, the same payloads (docs/bench/net.md);
  *     a context of the node's last motion detail (|w|) gained 0.5 % at
  *     level 6 and lost 0.2 % at level 7, not kept.
+ *   - codec.c makes no code of the LOSSY nodes (the β costs make their
+ *     sampled ones from x), the decoder's runs predict only the nodes
+ *     kept, at every level: level 7 enc + dec 0.92 of before, the same
+ *     payloads (docs/bench/net.md, the fourth pass).
  * No entropy coding library in Debian 12 fits (libaec is Rice coding for
  * sampled data): the range coder is LZMA's binary one, written here;
  * tests/unit/test_hier.c checks it against the ideal adaptive length, a
@@ -488,8 +492,13 @@ static inline __attribute__((always_inline)) void node(hier *h, const int mode, 
 		for (int d = 0; d < 3; d++) {
 			if (ps->sample++ & 3) /* the costs of every fourth value */
 				continue;
+			/* the nearest code (codec.c's code_of(), which skips the
+			 * nodes hier codes; the range checked there) */
+			const double t = (h->x[3 * n + d] - h->z->lo[d]) / h->z->q[d] + 0.5;
+			int64_t kq = (int64_t)t;
+			kq -= (double)kq > t;
 			for (int b = 0; b <= BETA_MAX; b++) {
-				const int64_t e = h->k[3 * n + d] - pred_of(base[d], w[d], b);
+				const int64_t e = kq - pred_of(base[d], w[d], b);
 				const uint64_t a = ((e < 0 ? -(uint64_t)e : (uint64_t)e) + HIER_FINE / 2) / HIER_FINE;
 				ps->cost[b] += a ? 2 + 2 * (uint64_t)(64 - __builtin_clzll(a)) : 0;
 			}
@@ -579,12 +588,13 @@ static inline __attribute__((always_inline)) void level(hier *h, const int mode,
 }
 
 /* Level s's rows' interiors (every stencil node held: h->allheld) in
- * bulk, P_PREDICT's values for every node of the row's span, those of
- * the level's type `type` kept: the same as pred16()'s 8-node case, in
- * loops over consecutive values that the compiler vectorizes. */
+ * bulk, the encoder's P_PREDICT values (pb, pw, ctx) for every node of
+ * the row's span, those of the level's type `type` kept: the same as
+ * pred16()'s 8-node case, in loops over consecutive values that the
+ * compiler vectorizes. */
 enum { RUN_NODES = 128 };
 static inline __attribute__((always_inline)) void
-predict_run(hier *h, long n0, int nodes, int type, int step, int g, int slope, int beta)
+predict_run_all(hier *h, long n0, int nodes, int type, int step, int g, int slope, int beta)
 {
 	int64_t tb[3 * RUN_NODES], tw[3 * RUN_NODES];
 	uint8_t tc[3 * RUN_NODES];
@@ -624,7 +634,39 @@ predict_run(hier *h, long n0, int nodes, int type, int step, int g, int slope, i
 	}
 }
 
-/* Levels finer than this go through predict_run() (the coarser ones'
+/* The same, the decoder's (β known: pb the prediction itself), only the
+ * nodes kept, every `step`-th of the span, one by one: decode 0.96 of
+ * predict_run_all()'s, whose runs compute 2 or 4 times the values; the
+ * encoder's (pw too, the slope always) 1.04 (docs/bench/net.md). */
+static inline __attribute__((always_inline)) void
+predict_run_kept(hier *h, long n0, int nodes, int type, int step, int g, int slope, int beta)
+{
+	long o[8];
+	for (int q = 0; q < 8; q++)
+		o[q] = 3L * h->rel[type][q];
+	const int32_t *K1 = h->k1, *D = h->dk, *VV = h->v;
+	const uint8_t *M = h->mag;
+	for (long v = 3 * n0, end = 3 * (n0 + nodes); v < end; v += 3L * step)
+		for (int d = 0; d < 3; d++) {
+			const long u = v + d;
+			const int64_t b = 16 * (int64_t)K1[u] + 8 * ((int64_t)D[u + o[0]] + D[u + o[1]]) +
+			                  2 * ((int64_t)D[u + o[2]] + D[u + o[3]]) -
+			                  ((int64_t)D[u + o[4]] + D[u + o[5]] + D[u + o[6]] + D[u + o[7]]);
+			const int64_t w =
+			    !slope ? 0
+			           : 16 * (int64_t)VV[u] - 8 * ((int64_t)VV[u + o[0]] + VV[u + o[1]]) -
+			                 2 * ((int64_t)VV[u + o[2]] + VV[u + o[3]]) +
+			                 ((int64_t)VV[u + o[4]] + VV[u + o[5]] + VV[u + o[6]] + VV[u + o[7]]);
+			const unsigned t = (unsigned)M[u + o[0]] + M[u + o[1]];
+			h->ctx[u] = (uint8_t)(g + (t > 0) + (t > 2)); /* nb_of(t) */
+			if (beta >= 0) /* the decoder's: the prediction itself */
+				h->pb[u] = pred_of(b, w, beta);
+			else /* the encoder's: pw too */
+				h->pb[u] = b, h->pw[u] = w;
+		}
+}
+
+/* Levels finer than this go through the encoder's predict_run_all() (the coarser ones'
  * runs would compute mostly values not kept) */
 enum { RUN_LEVELS = 2 };
 
@@ -632,7 +674,7 @@ enum { RUN_LEVELS = 2 };
  * every node is held, the rest node by node */
 static inline __attribute__((always_inline)) void predict_level(hier *h, pass *ps, int s)
 {
-	if (!s || !h->allheld || s > RUN_LEVELS || ndo__codec_hier_general) {
+	if (!s || !h->allheld || (s > RUN_LEVELS && !ps->fused) || ndo__codec_hier_general) {
 		level(h, P_PREDICT, ps, s);
 		return;
 	}
@@ -654,9 +696,11 @@ static inline __attribute__((always_inline)) void predict_level(hier *h, pass *p
 				lo = h->cols, hi = h->cols - di;
 			for (int i = i0; i < lo && i < h->cols; i += di)
 				node(h, P_PREDICT, ps, i, j, s, type);
-			if (hi >= lo)
-				predict_run(h, row + lo, hi - lo + 1, type, di, g, ps->slope,
-				            ps->fused ? ps->beta[0] : -1);
+			if (hi >= lo && ps->fused)
+				predict_run_kept(h, row + lo, hi - lo + 1, type, di, g, ps->slope,
+				                 ps->beta[0]);
+			else if (hi >= lo)
+				predict_run_all(h, row + lo, hi - lo + 1, type, di, g, ps->slope, -1);
 			for (int i = hi + di > i0 ? hi + di : i0; i < h->cols; i += di)
 				node(h, P_PREDICT, ps, i, j, s, type);
 		}

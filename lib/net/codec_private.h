@@ -379,7 +379,8 @@ typedef struct hcodes {
 	const ndo_codec_frame *r[3];
 	int64_t step;
 } hcodes;
-/* k: the frame's codes (3 a node; encoder: every carried node's; decoder:
+/* k: the frame's codes (3 a node; encoder: every carried node's but the
+ * LOSSY ones', which it chooses, their positions x checked in range; decoder:
  * the EXACT nodes', the LOSSY ones' filled); t (HIER_SCRATCH a node) and
  * mag (3 a node) scratch.  Encode: 0, −1 (out of memory) or −2 (a code out
  * of range); *any: a nonzero

@@ -224,7 +224,8 @@ static void interior_and_general_stencils_agree(void)
 		ndo__codec_hier_general = 1;
 		run slow = tiles("hier:1e-4:16", mixed);
 		ndo__codec_hier_general = 0;
-		CHECK(fast.bytes == slow.bytes && fast.crc == slow.crc && slow.same && slow.decoded,
+		CHECK(fast.bytes == slow.bytes && fast.crc == slow.crc && slow.same && slow.decoded &&
+		          fast.same && fast.decoded,
 		      "%s: the same payloads (%zu and %zu bytes)", mixed ? "mixed" : "all LOSSY",
 		      fast.bytes, slow.bytes);
 	}
@@ -317,6 +318,62 @@ static void hostile_payloads(void)
 	ndo_codec_hist_free(&ft), ndo_codec_hist_free(&fr);
 }
 
+/* codec.c checks the range of the positions hier codes by a product
+ * (no code of them made), those near the range's ends or past them again
+ * as code_of() does: a frame is refused exactly when a LOSSY position's
+ * nearest code (its division) is out of range, NaN and infinities too.
+ * (Within a step q below the top, hier itself may refuse one: its codes
+ * there, p + 16 r, may have none in range within the bound; not tried.) */
+static void positions_at_the_codes_range(void)
+{
+	enum { R = 3, C = 3, NN = R * C };
+	ndo_codec_params p;
+	ndo_codec_parse("hier:1e-4", &p);
+	for (int d = 0; d < 3; d++)
+		p.lo[d] = -1.5, p.ext[d] = 3;
+	const quant z = ndo__codec_quant_of(&p);
+	const double M = CODE_MAX, T[] = {M - 17, M - 16.75, M - 0.25, M, M + 3, -M + 1, -M + 0.75, -M,
+	                                  M / 2 - 1, M / 2, M / 2 + 0.25, -M / 2 + 0.5, -M / 2 - 1,
+	                                  2 * M, 0.5};
+	enum { NT = sizeof T / sizeof *T };
+	double xs[NT + 3];
+	for (int k = 0; k < NT; k++) /* t = (x − lo) / q + 0.5 near T */
+		xs[k] = z.lo[0] + (T[k] - 0.5) * z.q[0];
+	xs[NT] = NAN, xs[NT + 1] = INFINITY, xs[NT + 2] = -INFINITY;
+	uint8_t cls[NN];
+	memset(cls, NDO_NODE_LOSSY, sizeof cls);
+	int agree = 1, refused = 0, taken = 0;
+	for (int k = 0; k < NT + 3; k++)
+		for (int node = 0; node < NN; node += 4) { /* a corner (the top level), the middle, ... */
+			double x[3 * NN], v[3 * NN];
+			for (int n = 0; n < 3 * NN; n++)
+				x[n] = 0.01 * n, v[n] = 0;
+			x[3 * node] = xs[k];
+			const double t = (xs[k] - z.lo[0]) / z.q[0] + 0.5;
+			const int out = !(t >= -CODE_MAX + 1 && t < CODE_MAX);
+			const int either = !out && t > CODE_MAX - 16; /* M − 0.25: no crash */
+			ndo_codec_hist h;
+			ndo_codec_hist_init(&h, NN);
+			ndo_codec_input in = {R, C, x, v, cls, 0, 0, 0, 0};
+			uint8_t *data = NULL;
+			size_t len = 0;
+			int64_t base;
+			int un;
+			const int rc = ndo_codec_encode(&p, NULL, NULL, 1, &in, &data, &len, &base, &h.f[0], &un);
+			if ((!either && (rc != 0) != out) || (rc && !strstr(ndo_errdetail(), "out of the codes' range"))) {
+				printf("    x %.17g (t %.17g), node %d: rc %d, %s\n", xs[k], t, node, rc,
+				       rc ? ndo_errdetail() : "");
+				agree = 0;
+			}
+			refused += rc != 0, taken += rc == 0;
+			free(data);
+			ndo_codec_hist_free(&h);
+		}
+	CHECK(agree && refused > 0 && taken > 0,
+	      "refused exactly the positions out of the codes' range (%d refused, %d taken)", refused,
+	      taken);
+}
+
 int main(void)
 {
 	ck_program = "test_hier";
@@ -325,5 +382,6 @@ int main(void)
 	RUN(interior_and_general_stencils_agree);
 	RUN(fewer_bytes_than_predict);
 	RUN(hostile_payloads);
+	RUN(positions_at_the_codes_range);
 	return ck_failed_cases != 0;
 }
