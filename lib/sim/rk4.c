@@ -294,6 +294,8 @@ struct ndo__rk4_plan {
 	int C, L;              /* chunks; the lag between stages, in chunks */
 	int32_t *r0, *r1;      /* each chunk's rows, border rows 0 and n included */
 	int32_t *lo, *hi;      /* the chunks a unit of chunk c reads: lo[c]..hi[c] */
+	int32_t *a0, *a1;      /* the rows it reads */
+	uint8_t *late;         /* 4·C: the unit reads a pending node (ndo_sim_step_begin) */
 	int32_t *boff, *blist; /* chunk c's border nodes: bact[blist[boff[c]..boff[c+1])] */
 	int32_t *zoff, *zlist; /* its force nodes (fnodes) */
 	int32_t *foff;         /* its force items, fitem[foff[c]..foff[c+1]) */
@@ -317,6 +319,7 @@ void ndo__rk4_plan_free(ndo_sim *s)
 	if (!P)
 		return;
 	free(P->r0), free(P->r1), free(P->lo), free(P->hi), free(P->boff), free(P->blist);
+	free(P->a0), free(P->a1), free(P->late);
 	free(P->zoff), free(P->zlist), free(P->foff), free(P->fitem), free(P->bterms);
 	free(P->doff), free(P->dlist);
 	free(P->unit), free((void *)P->done);
@@ -537,7 +540,8 @@ static int plan_build(ndo_sim *s)
 	 * diagonal. */
 	P->unit = malloc((4 * (size_t)C + 1) * sizeof *P->unit);
 	P->done = calloc(4 * (size_t)C, sizeof *P->done);
-	if (!P->bterms || !P->unit || !P->done)
+	P->late = malloc(4 * (size_t)C);
+	if (!P->bterms || !P->unit || !P->done || !P->late)
 		goto oom;
 	for (int diag = 0; diag < C + 3 * P->L; diag++)
 		for (int k = 3; k >= 0; k--) {
@@ -545,7 +549,8 @@ static int plan_build(ndo_sim *s)
 			if (c >= 0 && c < C)
 				P->unit[P->nunit++] = (rk4_unit){(int16_t)k, c};
 		}
-	free(rowc), free(own), free(a0), free(a1), free(owner), free(pairs), free(zn);
+	P->a0 = a0, P->a1 = a1;
+	free(rowc), free(own), free(owner), free(pairs), free(zn);
 	return NDO_OK;
 oom:
 	free(rowc), free(own), free(a0), free(a1), free(owner), free(pairs), free(zn);
@@ -594,6 +599,7 @@ typedef struct rk4_pipe {
 	int mode[4];
 	double *out[4][2]; /* what each stage writes that the seams copy */
 	int threads;
+	const uint8_t *skip; /* units not to run (the late ones, begun ahead) or NULL */
 } rk4_pipe;
 
 enum { UNIT_FREE, UNIT_CLAIMED, UNIT_DONE };
@@ -694,12 +700,18 @@ static void pipe_thread(void *arg, int who)
 	for (int i = 0; i < P->nunit; i++) {
 		int k = P->unit[i].k, c = P->unit[i].c;
 		c = up ? (start + c) % C : (start - c + C) % C;
+		if (J->skip && J->skip[k * C + c])
+			continue; /* a unit it reads is late too: none is run */
 		if (unit_claim(P, k * C + c))
 			unit_take(J, k, c);
 	}
 }
 
-static int step_pipeline(ndo_sim *s, double h)
+/* The pipeline's buffers and the held nodes' stage values for a step of
+ * size h; `fresh`: the units' states too (not when a step was begun
+ * ahead: its held nodes are set again, from the pending nodes' values
+ * that came since). */
+static int pipe_setup(ndo_sim *s, double h, rk4_pipe *J, int fresh)
 {
 	if (!s->rk4_plan) {
 		int rc = plan_build(s);
@@ -730,22 +742,39 @@ static int step_pipeline(ndo_sim *s, double h)
 		ndo__held_at(s, A2, h);
 	}
 	const double *F = s->has_forces ? s->f : NULL;
-	rk4_pipe J = {.s = s};
+	*J = (rk4_pipe){.s = s};
 	const rk4_pass g = {s->u, A, s->vs, s->kv[2], s->kv[3], s->u, s->v, un, vn, F, h / 2, h / 6};
 	for (int k = 0; k < 4; k++)
-		J.g[k] = g;
-	J.g[1].U = A, J.g[1].Un = B;
-	J.g[2].U = B, J.g[2].Un = A2, J.g[2].c = h;
-	J.g[3].U = A2, J.g[3].Un = NULL;
+		J->g[k] = g;
+	J->g[1].U = A, J->g[1].Un = B;
+	J->g[2].U = B, J->g[2].Un = A2, J->g[2].c = h;
+	J->g[3].U = A2, J->g[3].Un = NULL;
 	const double t[4] = {s->t, s->t + h / 2, s->t + h / 2, s->t + h};
 	const int mode[4] = {RK4_FIRST, RK4_MID, RK4_MID, RK4_LAST_TO};
-	memcpy(J.t, t, sizeof t);
-	memcpy(J.mode, mode, sizeof mode);
-	J.out[0][0] = A, J.out[1][0] = B, J.out[2][0] = A2;
-	J.out[3][0] = un, J.out[3][1] = vn;
-	for (int i = 0; i < 4 * P->C; i++)
-		atomic_init(&P->done[i], UNIT_FREE);
-	J.threads = ndo__sim_threads_now(s);
+	memcpy(J->t, t, sizeof t);
+	memcpy(J->mode, mode, sizeof mode);
+	J->out[0][0] = A, J->out[1][0] = B, J->out[2][0] = A2;
+	J->out[3][0] = un, J->out[3][1] = vn;
+	if (fresh)
+		for (int i = 0; i < 4 * P->C; i++)
+			atomic_init(&P->done[i], UNIT_FREE);
+	J->threads = ndo__sim_threads_now(s);
+	return NDO_OK;
+}
+
+static int step_pipeline(ndo_sim *s, double h)
+{
+	/* begun ahead (ndo_sim_step_begin) for this very step and still
+	 * valid: the units done stay done */
+	int ahead = s->ahead && s->spare_held && s->rk4_plan && s->ahead_t == s->t &&
+	            s->ahead_h == h;
+	s->ahead = 0;
+	rk4_pipe J;
+	int rc = pipe_setup(s, h, &J, !ahead);
+	if (rc)
+		return rc;
+	struct ndo__rk4_plan *P = s->rk4_plan;
+	double *un = s->ka[0], *vn = s->ka[1];
 	ndo__sim_run(s, J.threads, pipe_thread, &J);
 	/* Stage 0's diagnostics: the border's in its order, then the chunks'. */
 	ndo__diag d, *bd = &s->cdiag[s->nichunk];
@@ -763,7 +792,7 @@ static int step_pipeline(ndo_sim *s, double h)
 	d.power += ndo__held_power(s, s->u, s->v);
 	s->stats.evaluations++;
 	s->last_power = d.power;
-	int rc = ndo__diverged(s, &d, 1);
+	rc = ndo__diverged(s, &d, 1);
 	if (rc)
 		return rc;
 	s->stats.evaluations += 3;
@@ -775,10 +804,59 @@ static int step_pipeline(ndo_sim *s, double h)
 	return NDO_OK;
 }
 
+/* Begin the step ahead (ndo_sim_step_begin): a unit is late when the rows
+ * it reads hold a pending node (its state, or as a held node its stage
+ * values) or it reads a late unit of the stage before; the others run
+ * now.  Every unit writes only its active nodes' stage and spare values,
+ * which nothing before the rest of the step reads or writes. */
+int ndo__rk4_begin(ndo_sim *s, double h, size_t n, const int32_t *pending)
+{
+	if (!pipeline_fits(s))
+		return 0;
+	if (!s->pend && !(s->pend = calloc(s->count, 1)))
+		return ndo__fail(NDO_ENOMEM, "out of memory");
+	rk4_pipe J;
+	int rc = pipe_setup(s, h, &J, 1);
+	if (rc)
+		return rc;
+	struct ndo__rk4_plan *P = s->rk4_plan;
+	const int C = P->C, N = s->n, w = s->w;
+	uint8_t *prow = calloc((size_t)N + 1, 1);
+	if (!prow)
+		return ndo__fail(NDO_ENOMEM, "out of memory");
+	memset(s->pend, 0, s->count);
+	for (size_t k = 0; k < n; k++)
+		if ((size_t)pending[k] < s->count) {
+			s->pend[s->canon[pending[k]]] = 1;
+			prow[pending[k] / w] = 1; /* a seam's nodes share a row */
+			prow[s->canon[pending[k]] / w] = 1;
+		}
+	int early = 0;
+	for (int k = 0; k < 4; k++)
+		for (int c = 0; c < C; c++) {
+			uint8_t late = 0;
+			for (int j = P->a0[c] < 0 ? 0 : P->a0[c]; j <= P->a1[c] && j <= N && !late; j++)
+				late = prow[j];
+			for (int q = P->lo[c]; k > 0 && q <= P->hi[c] && !late; q++)
+				late = P->late[(k - 1) * C + q];
+			P->late[k * C + c] = late;
+			early += !late;
+		}
+	free(prow);
+	J.skip = P->late;
+	if (early)
+		ndo__sim_run(s, J.threads, pipe_thread, &J);
+	s->ahead = 1;
+	s->ahead_t = s->t;
+	s->ahead_h = h;
+	return early;
+}
+
 int ndo__rk4_step(ndo_sim *s, double h)
 {
 	if (pipeline_fits(s))
 		return step_pipeline(s, h);
 	s->spare_held = 0; /* the passes move u's held nodes in place */
+	s->ahead = 0;
 	return step_passes(s, h);
 }

@@ -167,6 +167,13 @@ struct ndo_sim {
 	 * pipeline's first such step, kept by its steps and by ndo_sim_set*,
 	 * cleared by a new region, ndo_sim_set_held_motion and the passes. */
 	int spare_held;
+	/* A step begun ahead (ndo_sim_step_begin): the pipeline's units that
+	 * read none of the pending nodes (pend, per stored node) are done for
+	 * the step from time ahead_t of size ahead_h.  Dropped (ahead = 0) by
+	 * a write to any other node, a new region, held motion, the time. */
+	int ahead;
+	double ahead_t, ahead_h;
+	uint8_t *pend;
 };
 
 /* sleep.c: the tiles (reach: rings a step's stages reach), a look every
@@ -307,6 +314,7 @@ void ndo__held_at(ndo_sim *s, double *buf, double tau);
  * pipeline's plan freed (the chunks changed). */
 int ndo__rk4_step(ndo_sim *s, double h);
 void ndo__rk4_plan_free(ndo_sim *s);
+int ndo__rk4_begin(ndo_sim *s, double h, size_t n, const int32_t *pending);
 
 /* Copy the canonical values of the stage planes to their duplicates
  * (accel.c). */
