@@ -66,6 +66,37 @@ static void lockstep_is_the_single_process_bit_for_bit(void)
 	      "differs by %.3g (expected the lag's error)", ok, st.exact, d);
 }
 
+/* rk4 over a delayed link (2 peers, bands, level 6: several chunks of
+ * units a region): a peer waiting for its halo runs the units of the step
+ * that read none of it (ndo_sim_step_begin) and the rest once it came; the
+ * result is the single process's bit for bit.  (A quad-tree region's
+ * border crosses all its rows, so there every unit waits.)  A unit that read a halo
+ * node before its values came would read this peer's own older values
+ * there, and the bits would differ (test_sim: rk4_begun_ahead_is_the_step
+ * checks the same with random halos). */
+static void lockstep_steps_ahead_of_the_halo(void)
+{
+	for (int bands = 1; bands >= 0; bands--) {
+		setup su = {.integrator = "rk4", .dt = 0.02, .steps = 30, .clock = NDO_CLOCK_LOCKSTEP,
+		            .peers = 2, .level = 6, .bands = bands};
+		su.faults = (ndo_faults){.delay_ms = 3, .jitter_ms = 2, .seed = 11};
+		ndo_peer_stats st;
+		int ok;
+		double d = split_run(&su, 2, &st, &ok);
+		CHECK(ok && d == 0 && st.exact && st.timeouts == 0,
+		      "%s, delayed: done %d, exact %d, %lld timeouts, differs by %.3g (expected 0)",
+		      bands ? "bands" : "quad-tree", ok, st.exact, (long long)st.timeouts, d);
+		/* the quad-tree's border crosses every row of its region: every
+		 * unit reads the halo's rows, none runs ahead */
+		CHECK(bands ? st.ahead > 0 && st.ahead <= st.steps : st.ahead == 0, "%s, delayed: %lld of %lld steps begun "
+		      "ahead of the halo", bands ? "bands" : "quad-tree", (long long)st.ahead,
+		      (long long)st.steps);
+		printf("    rk4, 2 peers, %s, level 6, 3 ms delay: difference %.3g, %lld of %lld steps "
+		       "begun ahead of the halo\n", bands ? "bands" : "quad-tree", d,
+		       (long long)st.ahead, (long long)st.steps);
+	}
+}
+
 /* rkf45 and the implicit methods split exactly (peer_solve.h): rkf45 takes
  * the single process's sub-steps (its error reduced over the peers) and
  * ends on its positions bit for bit; backward Euler and the trapezoid solve
@@ -715,6 +746,7 @@ int main(void)
 		return ck_failed_cases != 0;
 	}
 	RUN(lockstep_is_the_single_process_bit_for_bit);
+	RUN(lockstep_steps_ahead_of_the_halo);
 	RUN(split_steps_are_the_single_process);
 	RUN(lockstep_survives_loss);
 	RUN(split_steps_survive_loss);
