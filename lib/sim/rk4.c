@@ -296,6 +296,9 @@ struct ndo__rk4_plan {
 	int32_t *lo, *hi;      /* the chunks a unit of chunk c reads: lo[c]..hi[c] */
 	int32_t *a0, *a1;      /* the rows it reads */
 	uint8_t *late;         /* 4·C: the unit reads a pending node (ndo_sim_step_begin) */
+	int32_t *plist;        /* ... of these pending nodes (pn; s->pend marks them) */
+	size_t pn;
+	int marked, early;     /* late[] and s->pend are plist's; its units not late */
 	int32_t *boff, *blist; /* chunk c's border nodes: bact[blist[boff[c]..boff[c+1])] */
 	int32_t *zoff, *zlist; /* its force nodes (fnodes) */
 	int32_t *foff;         /* its force items, fitem[foff[c]..foff[c+1]) */
@@ -319,7 +322,7 @@ void ndo__rk4_plan_free(ndo_sim *s)
 	if (!P)
 		return;
 	free(P->r0), free(P->r1), free(P->lo), free(P->hi), free(P->boff), free(P->blist);
-	free(P->a0), free(P->a1), free(P->late);
+	free(P->a0), free(P->a1), free(P->late), free(P->plist);
 	free(P->zoff), free(P->zlist), free(P->foff), free(P->fitem), free(P->bterms);
 	free(P->doff), free(P->dlist);
 	free(P->unit), free((void *)P->done);
@@ -815,41 +818,60 @@ int ndo__rk4_begin(ndo_sim *s, double h, size_t n, const int32_t *pending)
 		return 0;
 	if (!s->pend && !(s->pend = calloc(s->count, 1)))
 		return ndo__fail(NDO_ENOMEM, "out of memory");
+	if (!s->rk4_plan) {
+		int rc = plan_build(s);
+		if (rc)
+			return rc;
+	}
+	struct ndo__rk4_plan *P = s->rk4_plan;
+	/* the marks: kept while the plan and the pending nodes stay (a peer's
+	 * halo from one exchange to the next) */
+	if (!P->marked || P->pn != n || memcmp(P->plist, pending, n * sizeof *pending)) {
+		const int C = P->C, N = s->n, w = s->w;
+		int32_t *pl = realloc(P->plist, (n + 1) * sizeof *pl);
+		uint8_t *prow = calloc((size_t)N + 1, 1);
+		if (!pl || !prow) {
+			free(prow);
+			P->plist = pl;
+			P->marked = 0;
+			return ndo__fail(NDO_ENOMEM, "out of memory");
+		}
+		P->plist = pl;
+		memcpy(pl, pending, n * sizeof *pl);
+		P->pn = n;
+		memset(s->pend, 0, s->count);
+		for (size_t k = 0; k < n; k++)
+			if ((size_t)pending[k] < s->count) {
+				s->pend[s->canon[pending[k]]] = 1;
+				prow[pending[k] / w] = 1; /* a seam's nodes share a row */
+				prow[s->canon[pending[k]] / w] = 1;
+			}
+		P->early = 0;
+		for (int k = 0; k < 4; k++)
+			for (int c = 0; c < C; c++) {
+				uint8_t late = 0;
+				for (int j = P->a0[c] < 0 ? 0 : P->a0[c]; j <= P->a1[c] && j <= N && !late; j++)
+					late = prow[j];
+				for (int q = P->lo[c]; k > 0 && q <= P->hi[c] && !late; q++)
+					late = P->late[(k - 1) * C + q];
+				P->late[k * C + c] = late;
+				P->early += !late;
+			}
+		free(prow);
+		P->marked = 1;
+	}
+	if (!P->early)
+		return 0; /* every unit reads them (a quad-tree region): the step runs whole */
 	rk4_pipe J;
 	int rc = pipe_setup(s, h, &J, 1);
 	if (rc)
 		return rc;
-	struct ndo__rk4_plan *P = s->rk4_plan;
-	const int C = P->C, N = s->n, w = s->w;
-	uint8_t *prow = calloc((size_t)N + 1, 1);
-	if (!prow)
-		return ndo__fail(NDO_ENOMEM, "out of memory");
-	memset(s->pend, 0, s->count);
-	for (size_t k = 0; k < n; k++)
-		if ((size_t)pending[k] < s->count) {
-			s->pend[s->canon[pending[k]]] = 1;
-			prow[pending[k] / w] = 1; /* a seam's nodes share a row */
-			prow[s->canon[pending[k]] / w] = 1;
-		}
-	int early = 0;
-	for (int k = 0; k < 4; k++)
-		for (int c = 0; c < C; c++) {
-			uint8_t late = 0;
-			for (int j = P->a0[c] < 0 ? 0 : P->a0[c]; j <= P->a1[c] && j <= N && !late; j++)
-				late = prow[j];
-			for (int q = P->lo[c]; k > 0 && q <= P->hi[c] && !late; q++)
-				late = P->late[(k - 1) * C + q];
-			P->late[k * C + c] = late;
-			early += !late;
-		}
-	free(prow);
 	J.skip = P->late;
-	if (early)
-		ndo__sim_run(s, J.threads, pipe_thread, &J);
+	ndo__sim_run(s, J.threads, pipe_thread, &J);
 	s->ahead = 1;
 	s->ahead_t = s->t;
 	s->ahead_h = h;
-	return early;
+	return P->early;
 }
 
 int ndo__rk4_step(ndo_sim *s, double h)
