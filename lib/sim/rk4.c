@@ -393,6 +393,8 @@ struct ndo__rk4_plan {
 	int R, ring_T;         /* slots a share; the thread count of slot[], prev[] */
 	size_t S;              /* a slot: rows r0..r1 of the widest chunk */
 	int32_t *slot, *prev;
+	uint8_t *alone;        /* chunks on a slot of their own, out of the shares'
+	                        * turns (late ones, ndo_sim_step_begin) */
 	double *rvs, *rsu, *rsv; /* the ring: vs, su, sv, 3 planes of rps each */
 	size_t rps;
 	size_t ring_cap;       /* slots in ring, when the passes' planes are too small */
@@ -413,7 +415,7 @@ void ndo__rk4_plan_free(ndo_sim *s)
 	free(P->zoff), free(P->zlist), free(P->foff), free(P->fitem), free(P->bterms);
 	free(P->doff), free(P->dlist);
 	free(P->unit), free((void *)P->done);
-	free(P->slot), free(P->prev), free(P->ring);
+	free(P->slot), free(P->prev), free(P->alone), free(P->ring);
 	pthread_mutex_destroy(&P->lock);
 	pthread_cond_destroy(&P->cond);
 	free(P);
@@ -630,7 +632,8 @@ static int plan_build(ndo_sim *s)
 		if ((size_t)(P->r1[c] - P->r0[c] + 1) * (size_t)w > P->S)
 			P->S = (size_t)(P->r1[c] - P->r0[c] + 1) * (size_t)w;
 	P->slot = malloc((size_t)C * sizeof *P->slot), P->prev = malloc((size_t)C * sizeof *P->prev);
-	if (!P->slot || !P->prev)
+	P->alone = calloc((size_t)C + 1, 1);
+	if (!P->slot || !P->prev || !P->alone)
 		goto oom;
 	P->bterms = malloc((RK4_BTERMS * s->nbact + 1) * sizeof *P->bterms);
 	/* Units in wavefront order: stage k of chunk c at c + k·L; any unit
@@ -695,9 +698,11 @@ static void copy_dups(const ndo_sim *s, double *x, const int32_t *pairs, size_t 
  * its bottom, the odd one (if any) down from its top, each half (the whole
  * range for a thread alone) a share.  Chunk c at distance d from its
  * share's start takes slot d mod R of the share's, after the chunk R
- * closer to the start (prev).  The waits prev adds close no cycle: a wait
- * goes R chunks back towards the start and 3 stages up, and the stages'
- * own waits bring it at most 3(L − 1) < R chunks forward again. */
+ * closer to the start (prev); chunks marked alone are left out of that
+ * count (the others' d counts only the others) and take one slot each
+ * after the share's R.  The waits prev adds close no cycle: a wait
+ * goes R chunks or more back towards the start and 3 stages up, and the
+ * stages' own waits bring it at most 3(L − 1) < R chunks forward again. */
 static int ring_layout(ndo_sim *s, struct ndo__rk4_plan *P, int T)
 {
 	if (s->rk4_ring_slots > 0 && s->rk4_ring_slots < P->R)
@@ -705,19 +710,31 @@ static int ring_layout(ndo_sim *s, struct ndo__rk4_plan *P, int T)
 	const int C = P->C, R = P->R, pairs = (T + 1) / 2;
 	size_t nslot = 0;
 	P->ring_T = 0; /* (until it is laid out: not on running out of memory) */
+	int32_t *last = malloc(((size_t)R + 1) * sizeof *last); /* each slot's chunk */
+	if (!last)
+		return ndo__fail(NDO_ENOMEM, "out of memory for the RK4 pipeline's ring");
 	for (int pair = 0; pair < pairs; pair++) {
 		const int lo = (int)((long)C * pair / pairs), hi = (int)((long)C * (pair + 1) / pairs);
 		const int two = 2 * pair + 1 < T, mid = two ? lo + (hi - lo) / 2 : hi;
 		for (int half = 0; half < 1 + two; half++) {
 			const int a = half ? mid : lo, b = half ? hi : mid;
-			for (int c = a; c < b; c++) {
-				const int d = half ? hi - 1 - c : c - a;
-				P->slot[c] = (int32_t)(nslot + (size_t)(d % R));
-				P->prev[c] = d >= R ? (half ? c + R : c - R) : -1;
+			int j = 0; /* the share's chunks on the ring's slots so far */
+			for (int d = 0; d < b - a; d++) {
+				const int c = half ? hi - 1 - d : a + d;
+				if (P->alone[c])
+					continue;
+				P->slot[c] = (int32_t)(nslot + (size_t)(j % R));
+				P->prev[c] = j >= R ? last[j % R] : -1;
+				last[j % R] = c;
+				j++;
 			}
-			nslot += (size_t)(b - a < R ? b - a : R);
+			nslot += (size_t)(j < R ? j : R);
+			for (int c = a; c < b; c++)
+				if (P->alone[c])
+					P->slot[c] = (int32_t)nslot++, P->prev[c] = -1;
 		}
 	}
+	free(last);
 	/* The ring: at the start of the planes the passes keep vs, su and sv
 	 * in (nothing there is kept from step to step) when it fits, as it
 	 * does from level 7 up where every node is integrated (level 6 on one
@@ -1028,14 +1045,10 @@ int ndo__rk4_begin(ndo_sim *s, double h, size_t n, const int32_t *pending)
 	/* The ring laid out for the threads the step runs on (ndo_sim_step_begin
 	 * chose them for it): the late units follow from its slots' waits. */
 	const int T = ndo__sim_threads_now(s);
-	if (P->ring_T != T) {
-		int rc = ring_layout(s, P, T);
-		if (rc)
-			return rc;
-	}
 	/* the marks: kept while the plan, the ring's layout and the pending
 	 * nodes stay (a peer's halo from one exchange to the next) */
-	if (!P->marked || P->pn != n || memcmp(P->plist, pending, n * sizeof *pending)) {
+	if (!P->marked || P->ring_T != T || P->pn != n ||
+	    memcmp(P->plist, pending, n * sizeof *pending)) {
 		const int C = P->C, N = s->n, w = s->w;
 		int32_t *pl = realloc(P->plist, (n + 1) * sizeof *pl);
 		uint8_t *prow = calloc((size_t)N + 1, 1);
@@ -1055,19 +1068,39 @@ int ndo__rk4_begin(ndo_sim *s, double h, size_t n, const int32_t *pending)
 				prow[pending[k] / w] = 1; /* a seam's nodes share a row */
 				prow[s->canon[pending[k]] / w] = 1;
 			}
-		/* Late: reads a pending row, or waits for a late unit — of the
-		 * stage before, or (stage 0) stage 3 of the chunk that used its
-		 * ring slot before (prev, which may come later in the chunks'
-		 * order: sweeps until nothing changes; the waits close no cycle,
-		 * ring_layout). */
+		/* Late: reads a pending row, or a late unit of the stage before */
+		int early = 0;
 		for (int k = 0; k < 4; k++)
 			for (int c = 0; c < C; c++) {
 				uint8_t late = 0;
 				for (int j = P->a0[c] < 0 ? 0 : P->a0[c]; j <= P->a1[c] && j <= N && !late; j++)
 					late = prow[j];
+				for (int q = P->lo[c]; k > 0 && q <= P->hi[c] && !late; q++)
+					late = P->late[(k - 1) * C + q];
 				P->late[k * C + c] = late;
+				early += !late;
 			}
 		free(prow);
+		/* The ring: where some unit is early, the chunks late at stage 3
+		 * take slots of their own (ring_layout), out of the early chunks'
+		 * way: an early chunk on a slot after a late one would wait for it
+		 * (on 2 threads, the odd one walks down from the top of its share,
+		 * the lower band's halo: half the band would be late). */
+		int relay = P->ring_T != T;
+		for (int c = 0; c < C; c++) {
+			uint8_t alone = early > 0 && P->late[3 * C + c];
+			relay |= alone != P->alone[c];
+			P->alone[c] = alone;
+		}
+		if (relay) {
+			int rc = ring_layout(s, P, T);
+			if (rc)
+				return rc;
+		}
+		/* And (stage 0) late when stage 3 of the chunk that used its slot
+		 * before (prev) is: none with those slots, but so whatever the
+		 * layout (prev may come later in the chunks' order: sweeps until
+		 * nothing changes; the waits close no cycle, ring_layout). */
 		for (int changed = 1; changed;) {
 			changed = 0;
 			for (int k = 0; k < 4; k++)

@@ -549,7 +549,8 @@ static void rk4_ring_reused_late_enough(void)
  * late ones at its halo (the odd thread walks down from the top, so that
  * an early chunk's slot is a late one's: its stage 0 must wait, not run
  * ahead); once a step runs on other threads than it was begun on (solo),
- * which drops what was done ahead in the other ring's layout. */
+ * which drops what was done ahead in the other ring's layout; as many
+ * units begun ahead on one thread as on more. */
 static void rk4_begun_ahead_is_the_step(void)
 {
 	for (int level = 5; level <= 7; level++)
@@ -599,7 +600,7 @@ static void rk4_begun_ahead_is_the_step(void)
 					CHECK(ndo_sim_set_active(sim[k], mask) == 0, "set_active");
 					x[k] = malloc(nn * sizeof *x[k]), v[k] = malloc(nn * sizeof *v[k]);
 				}
-				int early = 0;
+				int early = 0, early0 = -1;
 				for (int step = 0; step < 10; step++) {
 					for (size_t q = 0; q < 3 * nh; q++)
 						hu[q] = 1e-3 * (uniform() - 0.5), hv[q] = 1e-2 * (uniform() - 0.5);
@@ -608,6 +609,15 @@ static void rk4_begun_ahead_is_the_step(void)
 					int rc = ndo_sim_step_begin(sim[1], 1e-3, nh, halo);
 					CHECK(rc >= 0, "begin: %s", ndo_errdetail());
 					early += rc;
+					/* as many units ahead on each step's threads (the probe's
+					 * look takes turns): a band's late chunks keep out of the
+					 * early ones' slots */
+					if (early0 < 0)
+						early0 = rc;
+					CHECK(shape_k == 1 || rc == early0,
+					      "level %d band, %d threads, step %d (on %d): %d units begun ahead, "
+					      "%d at step 0",
+					      level, p.threads, step, ndo__sim_threads_now(sim[1]), rc, early0);
 					/* step 3: on one thread where begun on more, or on more where
 					 * begun on one (the step's choice, integrate.c: threads_pick) */
 					const int flip = step == 3 && p.threads > 1;
