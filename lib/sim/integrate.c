@@ -322,6 +322,7 @@ static int build_spans(ndo_sim *s)
 {
 	ndo__rk4_plan_free(s);
 	s->spare_held = 0;
+	s->ahead = 0;
 	free(s->espan), free(s->ispan), free(s->bact);
 	s->espan = s->ispan = NULL;
 	s->bact = NULL;
@@ -603,7 +604,7 @@ void ndo_sim_destroy(ndo_sim *s)
 	ndo_stencil_free(&s->st);
 	planes_free(s->X), planes_free(s->u), planes_free(s->v);
 	planes_free(s->mass), planes_free(s->minv), planes_free(s->gam);
-	free(s->pin), free(s->active), free(s->canon);
+	free(s->pin), free(s->active), free(s->canon), free(s->pend);
 	ndo_pool_destroy(s->pool);
 	free(s->espan), free(s->ispan), free(s->bact), free(s->hedge), free(s->hmove),
 	    free(s->hread);
@@ -651,6 +652,12 @@ void ndo_sim_get(const ndo_sim *s, double *x, double *v)
  * the nodes written (sim_private.h, spare_held; all of them: NULL). */
 static void state_written(ndo_sim *s, size_t n, const int32_t *nodes)
 {
+	/* a step begun ahead read every node but the pending ones */
+	if (s->ahead && !nodes)
+		s->ahead = 0;
+	for (size_t k = 0; s->ahead && k < n; k++)
+		if ((size_t)nodes[k] < s->count && !s->pend[s->canon[nodes[k]]])
+			s->ahead = 0;
 	ndo__sync_planes(s, s->u, 3);
 	ndo__sync_planes(s, s->v, 3);
 	if (!s->spare_held)
@@ -795,6 +802,7 @@ void ndo_sim_set_held_motion(ndo_sim *s, int on)
 {
 	s->held_motion = on != 0;
 	s->spare_held = 0;
+	s->ahead = 0;
 }
 
 int ndo_sim_store(const ndo_sim *s, ndo_grid *g)
@@ -1283,22 +1291,33 @@ static double wall_seconds(void)
 	return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-/* Before a step: alone or on the threads; returns the time it starts
- * (to time the look's steps) or 0. */
-static double threads_pick(ndo_sim *s, int64_t steps)
+/* Before `steps` steps (with a pool): alone or on the threads (solo);
+ * returns whether they are timed. */
+static int threads_choose(ndo_sim *s, int64_t steps)
 {
-	if (!s->pool)
-		return 0;
 	if (s->probe_left == 0 && s->probe_steps >= 8 * PROBE && wall_seconds() >= s->probe_next) {
 		s->probe_left = PROBE + 1;
 		s->probe_sum[0] = s->probe_sum[1] = 0;
 	}
 	if (s->probe_left == 0) {
 		s->probe_steps += steps;
-		return s->solo ? 0 : wall_seconds();
+		return !s->solo;
 	}
 	s->solo = s->probe_left % 2 == 0;
-	return wall_seconds();
+	return 1;
+}
+
+/* Before a step: alone or on the threads (chosen already when the step
+ * was begun ahead, for the threads that ran its first units and the
+ * layout of rk4's ring); returns the time it starts (to time the look's
+ * steps) or 0. */
+static double threads_pick(ndo_sim *s, int64_t steps)
+{
+	if (!s->pool)
+		return 0;
+	int timed = s->picked ? s->picked - 1 : threads_choose(s, steps);
+	s->picked = 0;
+	return timed ? wall_seconds() : 0;
 }
 
 /* Whether the next threads_pick() will have the steps run alone. */
@@ -1306,6 +1325,8 @@ static int threads_next_solo(const ndo_sim *s)
 {
 	if (!s->pool)
 		return 1;
+	if (s->picked) /* chosen when the step was begun ahead */
+		return s->solo;
 	int left = s->probe_left;
 	if (left == 0 && s->probe_steps >= 8 * PROBE && wall_seconds() >= s->probe_next)
 		left = PROBE + 1;
@@ -1460,6 +1481,22 @@ int ndo_sim_steps(ndo_sim *s, double h, int64_t k)
 		k -= m;
 	}
 	return NDO_OK;
+}
+
+int ndo_sim_step_begin(ndo_sim *s, double h, size_t n, const int32_t *pending)
+{
+	ndo__clear_error();
+	s->ahead = 0;
+	if (!(h > 0) || !isfinite(h))
+		return ndo__fail(NDO_EINVAL, "step size %g: must be positive and finite", h);
+	/* a re-assembly due at this step reads the pending nodes' state */
+	if (s->p.method != NDO_RK4 || !n || s->sleep ||
+	    (s->p.restiffen > 0 && s->stats.steps > 0 && s->stats.steps % s->p.restiffen == 0))
+		return 0;
+	/* the step's threads: the units run now on them, in the ring they lay out */
+	if (s->pool && !s->picked)
+		s->picked = 1 + threads_choose(s, 1);
+	return ndo__rk4_begin(s, h, n, pending);
 }
 
 /* ---- rkf45 in parts (ndo/sim.h) ---------------------------------------------- */

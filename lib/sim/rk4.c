@@ -369,6 +369,11 @@ struct ndo__rk4_plan {
 	int C, L;              /* chunks; the lag between stages, in chunks */
 	int32_t *r0, *r1;      /* each chunk's rows, border rows 0 and n included */
 	int32_t *lo, *hi;      /* the chunks a unit of chunk c reads: lo[c]..hi[c] */
+	int32_t *a0, *a1;      /* the rows it reads */
+	uint8_t *late;         /* 4·C: the unit reads a pending node (ndo_sim_step_begin) */
+	int32_t *plist;        /* ... of these pending nodes (pn; s->pend marks them) */
+	size_t pn;
+	int marked, early;     /* late[] and s->pend are plist's; its units not late */
 	int32_t *boff, *blist; /* chunk c's border nodes: bact[blist[boff[c]..boff[c+1])] */
 	int32_t *zoff, *zlist; /* its force nodes (fnodes) */
 	int32_t *foff;         /* its force items, fitem[foff[c]..foff[c+1]) */
@@ -388,6 +393,8 @@ struct ndo__rk4_plan {
 	int R, ring_T;         /* slots a share; the thread count of slot[], prev[] */
 	size_t S;              /* a slot: rows r0..r1 of the widest chunk */
 	int32_t *slot, *prev;
+	uint8_t *alone;        /* chunks on a slot of their own, out of the shares'
+	                        * turns (late ones, ndo_sim_step_begin) */
 	double *rvs, *rsu, *rsv; /* the ring: vs, su, sv, 3 planes of rps each */
 	size_t rps;
 	size_t ring_cap;       /* slots in ring, when the passes' planes are too small */
@@ -404,10 +411,11 @@ void ndo__rk4_plan_free(ndo_sim *s)
 	if (!P)
 		return;
 	free(P->r0), free(P->r1), free(P->lo), free(P->hi), free(P->boff), free(P->blist);
+	free(P->a0), free(P->a1), free(P->late), free(P->plist);
 	free(P->zoff), free(P->zlist), free(P->foff), free(P->fitem), free(P->bterms);
 	free(P->doff), free(P->dlist);
 	free(P->unit), free((void *)P->done);
-	free(P->slot), free(P->prev), free(P->ring);
+	free(P->slot), free(P->prev), free(P->alone), free(P->ring);
 	pthread_mutex_destroy(&P->lock);
 	pthread_cond_destroy(&P->cond);
 	free(P);
@@ -624,7 +632,8 @@ static int plan_build(ndo_sim *s)
 		if ((size_t)(P->r1[c] - P->r0[c] + 1) * (size_t)w > P->S)
 			P->S = (size_t)(P->r1[c] - P->r0[c] + 1) * (size_t)w;
 	P->slot = malloc((size_t)C * sizeof *P->slot), P->prev = malloc((size_t)C * sizeof *P->prev);
-	if (!P->slot || !P->prev)
+	P->alone = calloc((size_t)C + 1, 1);
+	if (!P->slot || !P->prev || !P->alone)
 		goto oom;
 	P->bterms = malloc((RK4_BTERMS * s->nbact + 1) * sizeof *P->bterms);
 	/* Units in wavefront order: stage k of chunk c at c + k·L; any unit
@@ -632,7 +641,8 @@ static int plan_build(ndo_sim *s)
 	 * diagonal. */
 	P->unit = malloc((4 * (size_t)C + 1) * sizeof *P->unit);
 	P->done = calloc(4 * (size_t)C, sizeof *P->done);
-	if (!P->bterms || !P->unit || !P->done)
+	P->late = malloc(4 * (size_t)C);
+	if (!P->bterms || !P->unit || !P->done || !P->late)
 		goto oom;
 	for (int diag = 0; diag < C + 3 * P->L; diag++)
 		for (int k = 3; k >= 0; k--) {
@@ -640,7 +650,8 @@ static int plan_build(ndo_sim *s)
 			if (c >= 0 && c < C)
 				P->unit[P->nunit++] = (rk4_unit){(int16_t)k, c};
 		}
-	free(rowc), free(own), free(a0), free(a1), free(owner), free(pairs), free(zn);
+	P->a0 = a0, P->a1 = a1;
+	free(rowc), free(own), free(owner), free(pairs), free(zn);
 	return NDO_OK;
 oom:
 	free(rowc), free(own), free(a0), free(a1), free(owner), free(pairs), free(zn);
@@ -687,28 +698,43 @@ static void copy_dups(const ndo_sim *s, double *x, const int32_t *pairs, size_t 
  * its bottom, the odd one (if any) down from its top, each half (the whole
  * range for a thread alone) a share.  Chunk c at distance d from its
  * share's start takes slot d mod R of the share's, after the chunk R
- * closer to the start (prev).  The waits prev adds close no cycle: a wait
- * goes R chunks back towards the start and 3 stages up, and the stages'
- * own waits bring it at most 3(L − 1) < R chunks forward again. */
+ * closer to the start (prev); chunks marked alone are left out of that
+ * count (the others' d counts only the others) and take one slot each
+ * after the share's R.  The waits prev adds close no cycle: a wait
+ * goes R chunks or more back towards the start and 3 stages up, and the
+ * stages' own waits bring it at most 3(L − 1) < R chunks forward again. */
 static int ring_layout(ndo_sim *s, struct ndo__rk4_plan *P, int T)
 {
 	if (s->rk4_ring_slots > 0 && s->rk4_ring_slots < P->R)
 		P->R = s->rk4_ring_slots > 3 * P->L - 2 ? s->rk4_ring_slots : 3 * P->L - 2;
 	const int C = P->C, R = P->R, pairs = (T + 1) / 2;
 	size_t nslot = 0;
+	P->ring_T = 0; /* (until it is laid out: not on running out of memory) */
+	int32_t *last = malloc(((size_t)R + 1) * sizeof *last); /* each slot's chunk */
+	if (!last)
+		return ndo__fail(NDO_ENOMEM, "out of memory for the RK4 pipeline's ring");
 	for (int pair = 0; pair < pairs; pair++) {
 		const int lo = (int)((long)C * pair / pairs), hi = (int)((long)C * (pair + 1) / pairs);
 		const int two = 2 * pair + 1 < T, mid = two ? lo + (hi - lo) / 2 : hi;
 		for (int half = 0; half < 1 + two; half++) {
 			const int a = half ? mid : lo, b = half ? hi : mid;
-			for (int c = a; c < b; c++) {
-				const int d = half ? hi - 1 - c : c - a;
-				P->slot[c] = (int32_t)(nslot + (size_t)(d % R));
-				P->prev[c] = d >= R ? (half ? c + R : c - R) : -1;
+			int j = 0; /* the share's chunks on the ring's slots so far */
+			for (int d = 0; d < b - a; d++) {
+				const int c = half ? hi - 1 - d : a + d;
+				if (P->alone[c])
+					continue;
+				P->slot[c] = (int32_t)(nslot + (size_t)(j % R));
+				P->prev[c] = j >= R ? last[j % R] : -1;
+				last[j % R] = c;
+				j++;
 			}
-			nslot += (size_t)(b - a < R ? b - a : R);
+			nslot += (size_t)(j < R ? j : R);
+			for (int c = a; c < b; c++)
+				if (P->alone[c])
+					P->slot[c] = (int32_t)nslot++, P->prev[c] = -1;
 		}
 	}
+	free(last);
 	/* The ring: at the start of the planes the passes keep vs, su and sv
 	 * in (nothing there is kept from step to step) when it fits, as it
 	 * does from level 7 up where every node is integrated (level 6 on one
@@ -722,7 +748,40 @@ static int ring_layout(ndo_sim *s, struct ndo__rk4_plan *P, int T)
 		P->ring_cap = nslot;
 	}
 	P->ring_T = T;
+	P->marked = 0; /* a step begun ahead: its late units follow prev too */
 	return NDO_OK;
+}
+
+/* The ring's planes as ring_bind binds them this step. */
+static void ring_planes(const ndo_sim *s, const struct ndo__rk4_plan *P, double **vs, double **su,
+                        double **sv)
+{
+	if (P->rps <= s->count) /* (the planes as they are this step) */
+		*vs = s->vs, *su = s->kv[2], *sv = s->kv[3];
+	else
+		*vs = P->ring, *su = P->ring + 3 * P->rps, *sv = P->ring + 6 * P->rps;
+}
+
+/* The ring laid out for T threads and bound, before a step's first unit
+ * runs (ndo_sim_step_begin's too). */
+static int ring_bind(ndo_sim *s, struct ndo__rk4_plan *P, int T)
+{
+	if (P->ring_T != T) {
+		int rc = ring_layout(s, P, T);
+		if (rc)
+			return rc;
+	}
+	ring_planes(s, P, &P->rvs, &P->rsu, &P->rsv);
+	return NDO_OK;
+}
+
+/* Whether the ring is laid out for T threads and bound as ring_bind would
+ * bind it now: the units a step begun ahead ran kept their values there. */
+static int ring_bound(const ndo_sim *s, const struct ndo__rk4_plan *P, int T)
+{
+	double *vs, *su, *sv;
+	ring_planes(s, P, &vs, &su, &sv);
+	return P->ring_T == T && P->rvs == vs && P->rsu == su && P->rsv == sv;
 }
 
 int ndo__rk4_ring_reuses(const ndo_sim *s)
@@ -741,6 +800,7 @@ typedef struct rk4_pipe {
 	int mode[4];
 	double *out[4][2]; /* what each stage writes that the seams copy */
 	int threads;
+	const uint8_t *skip; /* units not to run (the late ones, begun ahead) or NULL */
 } rk4_pipe;
 
 enum { UNIT_FREE, UNIT_CLAIMED, UNIT_DONE };
@@ -853,12 +913,18 @@ static void pipe_thread(void *arg, int who)
 	for (int i = 0; i < P->nunit; i++) {
 		int k = P->unit[i].k, c = P->unit[i].c;
 		c = up ? (start + c) % C : (start - c + C) % C;
+		if (J->skip && J->skip[k * C + c])
+			continue; /* a unit it reads is late too: none is run */
 		if (unit_claim(P, k * C + c))
 			unit_take(J, k, c);
 	}
 }
 
-static int step_pipeline(ndo_sim *s, double h)
+/* The pipeline's buffers and the held nodes' stage values for a step of
+ * size h; `fresh`: the units' states too (not when a step was begun
+ * ahead: its held nodes are set again, from the pending nodes' values
+ * that came since). */
+static int pipe_setup(ndo_sim *s, double h, rk4_pipe *J, int fresh)
 {
 	if (!s->rk4_plan) {
 		int rc = plan_build(s);
@@ -889,32 +955,44 @@ static int step_pipeline(ndo_sim *s, double h)
 		ndo__held_at(s, A2, h);
 	}
 	const double *F = s->has_forces ? s->f : NULL;
-	rk4_pipe J = {.s = s};
+	*J = (rk4_pipe){.s = s};
 	/* vs, su, sv: the ring's (unit_run) */
 	const rk4_pass g = {s->u, A, NULL, NULL, NULL, s->u, s->v, un, vn, F, h / 2, h / 6, 0, 0};
 	for (int k = 0; k < 4; k++)
-		J.g[k] = g;
-	J.g[1].U = A, J.g[1].Un = B;
-	J.g[2].U = B, J.g[2].Un = A2, J.g[2].c = h;
-	J.g[3].U = A2, J.g[3].Un = NULL;
+		J->g[k] = g;
+	J->g[1].U = A, J->g[1].Un = B;
+	J->g[2].U = B, J->g[2].Un = A2, J->g[2].c = h;
+	J->g[3].U = A2, J->g[3].Un = NULL;
 	const double t[4] = {s->t, s->t + h / 2, s->t + h / 2, s->t + h};
 	const int mode[4] = {RK4_FIRST, RK4_MID, RK4_MID, RK4_LAST_TO};
-	memcpy(J.t, t, sizeof t);
-	memcpy(J.mode, mode, sizeof mode);
-	J.out[0][0] = A, J.out[1][0] = B, J.out[2][0] = A2;
-	J.out[3][0] = un, J.out[3][1] = vn;
-	for (int i = 0; i < 4 * P->C; i++)
-		atomic_init(&P->done[i], UNIT_FREE);
-	J.threads = ndo__sim_threads_now(s);
-	if (P->ring_T != J.threads) {
-		int rc = ring_layout(s, P, J.threads);
-		if (rc)
-			return rc;
+	memcpy(J->t, t, sizeof t);
+	memcpy(J->mode, mode, sizeof mode);
+	J->out[0][0] = A, J->out[1][0] = B, J->out[2][0] = A2;
+	J->out[3][0] = un, J->out[3][1] = vn;
+	J->threads = ndo__sim_threads_now(s);
+	if (fresh) {
+		for (int i = 0; i < 4 * P->C; i++)
+			atomic_init(&P->done[i], UNIT_FREE);
+		return ring_bind(s, P, J->threads);
 	}
-	if (P->rps <= s->count) /* (the planes as they are this step) */
-		P->rvs = s->vs, P->rsu = s->kv[2], P->rsv = s->kv[3];
-	else
-		P->rvs = P->ring, P->rsu = P->ring + 3 * P->rps, P->rsv = P->ring + 6 * P->rps;
+	return NDO_OK;
+}
+
+static int step_pipeline(ndo_sim *s, double h)
+{
+	/* begun ahead (ndo_sim_step_begin) for this very step and still
+	 * valid: the units done stay done, in the ring as it was laid out
+	 * and bound for them (else what was done ahead is dropped: the whole
+	 * step runs) */
+	int ahead = s->ahead && s->spare_held && s->rk4_plan && s->ahead_t == s->t &&
+	            s->ahead_h == h && ring_bound(s, s->rk4_plan, ndo__sim_threads_now(s));
+	s->ahead = 0;
+	rk4_pipe J;
+	int rc = pipe_setup(s, h, &J, !ahead);
+	if (rc)
+		return rc;
+	struct ndo__rk4_plan *P = s->rk4_plan;
+	double *un = s->ka[0], *vn = s->ka[1];
 	ndo__sim_run(s, J.threads, pipe_thread, &J);
 	/* Stage 0's diagnostics: the border's in its order, then the chunks'. */
 	ndo__diag d, *bd = &s->cdiag[s->nichunk];
@@ -932,7 +1010,7 @@ static int step_pipeline(ndo_sim *s, double h)
 	d.power += ndo__held_power(s, s->u, s->v);
 	s->stats.evaluations++;
 	s->last_power = d.power;
-	int rc = ndo__diverged(s, &d, 1);
+	rc = ndo__diverged(s, &d, 1);
 	if (rc)
 		return rc;
 	s->stats.evaluations += 3;
@@ -944,10 +1022,122 @@ static int step_pipeline(ndo_sim *s, double h)
 	return NDO_OK;
 }
 
+/* Begin the step ahead (ndo_sim_step_begin): a unit is late when the rows
+ * it reads hold a pending node (its state, or as a held node its stage
+ * values) or it reads a late unit of the stage before, or (stage 0) its
+ * ring slot's chunk before is late; the others run now, on the threads
+ * and in the ring's layout the step will use (step_pipeline drops them
+ * if it would not).  Every unit writes only its active nodes' stage and
+ * spare values and its chunk's slot of the ring, which nothing before the
+ * rest of the step reads or writes. */
+int ndo__rk4_begin(ndo_sim *s, double h, size_t n, const int32_t *pending)
+{
+	if (!pipeline_fits(s))
+		return 0;
+	if (!s->pend && !(s->pend = calloc(s->count, 1)))
+		return ndo__fail(NDO_ENOMEM, "out of memory");
+	if (!s->rk4_plan) {
+		int rc = plan_build(s);
+		if (rc)
+			return rc;
+	}
+	struct ndo__rk4_plan *P = s->rk4_plan;
+	/* The ring laid out for the threads the step runs on (ndo_sim_step_begin
+	 * chose them for it): the late units follow from its slots' waits. */
+	const int T = ndo__sim_threads_now(s);
+	/* the marks: kept while the plan, the ring's layout and the pending
+	 * nodes stay (a peer's halo from one exchange to the next) */
+	if (!P->marked || P->ring_T != T || P->pn != n ||
+	    memcmp(P->plist, pending, n * sizeof *pending)) {
+		const int C = P->C, N = s->n, w = s->w;
+		int32_t *pl = realloc(P->plist, (n + 1) * sizeof *pl);
+		uint8_t *prow = calloc((size_t)N + 1, 1);
+		if (!pl || !prow) {
+			free(prow);
+			P->plist = pl;
+			P->marked = 0;
+			return ndo__fail(NDO_ENOMEM, "out of memory");
+		}
+		P->plist = pl;
+		memcpy(pl, pending, n * sizeof *pl);
+		P->pn = n;
+		memset(s->pend, 0, s->count);
+		for (size_t k = 0; k < n; k++)
+			if ((size_t)pending[k] < s->count) {
+				s->pend[s->canon[pending[k]]] = 1;
+				prow[pending[k] / w] = 1; /* a seam's nodes share a row */
+				prow[s->canon[pending[k]] / w] = 1;
+			}
+		/* Late: reads a pending row, or a late unit of the stage before */
+		int early = 0;
+		for (int k = 0; k < 4; k++)
+			for (int c = 0; c < C; c++) {
+				uint8_t late = 0;
+				for (int j = P->a0[c] < 0 ? 0 : P->a0[c]; j <= P->a1[c] && j <= N && !late; j++)
+					late = prow[j];
+				for (int q = P->lo[c]; k > 0 && q <= P->hi[c] && !late; q++)
+					late = P->late[(k - 1) * C + q];
+				P->late[k * C + c] = late;
+				early += !late;
+			}
+		free(prow);
+		/* The ring: where some unit is early, the chunks late at stage 3
+		 * take slots of their own (ring_layout), out of the early chunks'
+		 * way: an early chunk on a slot after a late one would wait for it
+		 * (on 2 threads, the odd one walks down from the top of its share,
+		 * the lower band's halo: half the band would be late). */
+		int relay = P->ring_T != T;
+		for (int c = 0; c < C; c++) {
+			uint8_t alone = early > 0 && P->late[3 * C + c];
+			relay |= alone != P->alone[c];
+			P->alone[c] = alone;
+		}
+		if (relay) {
+			int rc = ring_layout(s, P, T);
+			if (rc)
+				return rc;
+		}
+		/* And (stage 0) late when stage 3 of the chunk that used its slot
+		 * before (prev) is: none with those slots, but so whatever the
+		 * layout (prev may come later in the chunks' order: sweeps until
+		 * nothing changes; the waits close no cycle, ring_layout). */
+		for (int changed = 1; changed;) {
+			changed = 0;
+			for (int k = 0; k < 4; k++)
+				for (int c = 0; c < C; c++) {
+					if (P->late[k * C + c])
+						continue;
+					uint8_t late = k == 0 && P->prev[c] >= 0 && P->late[3 * C + P->prev[c]];
+					for (int q = P->lo[c]; k > 0 && q <= P->hi[c] && !late; q++)
+						late = P->late[(k - 1) * C + q];
+					if (late)
+						P->late[k * C + c] = 1, changed = 1;
+				}
+		}
+		P->early = 0;
+		for (int i = 0; i < 4 * C; i++)
+			P->early += !P->late[i];
+		P->marked = 1;
+	}
+	if (!P->early)
+		return 0; /* every unit reads them (a quad-tree region): the step runs whole */
+	rk4_pipe J;
+	int rc = pipe_setup(s, h, &J, 1);
+	if (rc)
+		return rc;
+	J.skip = P->late;
+	ndo__sim_run(s, J.threads, pipe_thread, &J);
+	s->ahead = 1;
+	s->ahead_t = s->t;
+	s->ahead_h = h;
+	return P->early;
+}
+
 int ndo__rk4_step(ndo_sim *s, double h)
 {
 	if (pipeline_fits(s))
 		return step_pipeline(s, h);
 	s->spare_held = 0; /* the passes move u's held nodes in place */
+	s->ahead = 0;
 	return step_passes(s, h);
 }

@@ -148,6 +148,8 @@ struct ndo_sim {
 	double probe_mean[2];  /* its mean step, alone and on the threads */
 	double run_sum;        /* seconds of the steps on the threads since */
 	int run_n;
+	int picked;            /* ndo_sim_step_begin chose solo for the next step:
+	                        * 1 + whether threads_pick times it, else 0 */
 	size_t bytes;          /* ndo_sim_memory() of this simulation */
 	int32_t *ichunk, *echunk;
 	int nichunk, nechunk;
@@ -182,6 +184,14 @@ struct ndo_sim {
 	 * pass before (wrong: the test that must catch it). */
 	struct ndo__wave_plan *wave_plan;
 	int wave_test;
+
+	/* A step begun ahead (ndo_sim_step_begin): the pipeline's units that
+	 * read none of the pending nodes (pend, per stored node) are done for
+	 * the step from time ahead_t of size ahead_h.  Dropped (ahead = 0) by
+	 * a write to any other node, a new region, held motion, the time. */
+	int ahead;
+	double ahead_t, ahead_h;
+	uint8_t *pend;
 };
 
 /* sleep.c: the tiles (reach: rings a step's stages reach), a look every
@@ -338,6 +348,7 @@ void ndo__rk4_plan_free(ndo_sim *s);
 /* The chunks whose ring slot an earlier chunk of the same step used
  * (0 before the pipeline's first step; tests). */
 int ndo__rk4_ring_reuses(const ndo_sim *s);
+int ndo__rk4_begin(ndo_sim *s, double h, size_t n, const int32_t *pending);
 
 /* The wave (wave.c): whether it can take this simulation's steps; m
  * steps of size h from the state (u, v) at times t[0..m) into spare planes,

@@ -43,6 +43,7 @@ typedef struct setup {
 	int jacobi;        /* the implicit methods' solve preconditioned with the
 	                      diagonal (ndo_peer_opts.jacobi) */
 	int checkpoint_every; /* ndo_peer_opts.checkpoint_every (0: the default) */
+	int bands;         /* --partition bands (0: the quad-tree) */
 } setup;
 
 static int level_of(const setup *su) { return su->level ? su->level : 4; }
@@ -142,6 +143,8 @@ static ndo_peer_opts opts(ndo_role role, int32_t id, int32_t poi, const setup *s
 	                   .step_timeout = su->step_timeout, .jacobi = su->jacobi,
 	                   .checkpoint_every = su->checkpoint_every, .note = on_note,
 	                   .note_user = (void *)(intptr_t)index};
+	if (su->bands)
+		o.session.partition = NDO_PART_BANDS;
 	return o;
 }
 

@@ -66,6 +66,37 @@ static void lockstep_is_the_single_process_bit_for_bit(void)
 	      "differs by %.3g (expected the lag's error)", ok, st.exact, d);
 }
 
+/* rk4 over a delayed link (2 peers, bands, level 6: several chunks of
+ * units a region): a peer waiting for its halo runs the units of the step
+ * that read none of it (ndo_sim_step_begin) and the rest once it came; the
+ * result is the single process's bit for bit.  (A quad-tree region's
+ * border crosses all its rows, so there every unit waits.)  A unit that read a halo
+ * node before its values came would read this peer's own older values
+ * there, and the bits would differ (test_sim: rk4_begun_ahead_is_the_step
+ * checks the same with random halos). */
+static void lockstep_steps_ahead_of_the_halo(void)
+{
+	for (int bands = 1; bands >= 0; bands--) {
+		setup su = {.integrator = "rk4", .dt = 0.02, .steps = 30, .clock = NDO_CLOCK_LOCKSTEP,
+		            .peers = 2, .level = 6, .bands = bands};
+		su.faults = (ndo_faults){.delay_ms = 3, .jitter_ms = 2, .seed = 11};
+		ndo_peer_stats st;
+		int ok;
+		double d = split_run(&su, 2, &st, &ok);
+		CHECK(ok && d == 0 && st.exact && st.timeouts == 0,
+		      "%s, delayed: done %d, exact %d, %lld timeouts, differs by %.3g (expected 0)",
+		      bands ? "bands" : "quad-tree", ok, st.exact, (long long)st.timeouts, d);
+		/* the quad-tree's border crosses every row of its region: every
+		 * unit reads the halo's rows, none runs ahead */
+		CHECK(bands ? st.ahead > 0 && st.ahead <= st.steps : st.ahead == 0, "%s, delayed: %lld of %lld steps begun "
+		      "ahead of the halo", bands ? "bands" : "quad-tree", (long long)st.ahead,
+		      (long long)st.steps);
+		printf("    rk4, 2 peers, %s, level 6, 3 ms delay: difference %.3g, %lld of %lld steps "
+		       "begun ahead of the halo\n", bands ? "bands" : "quad-tree", d,
+		       (long long)st.ahead, (long long)st.steps);
+	}
+}
+
 /* rkf45 and the implicit methods split exactly (peer_solve.h): rkf45 takes
  * the single process's sub-steps (its error reduced over the peers) and
  * ends on its positions bit for bit; backward Euler and the trapezoid solve
@@ -352,6 +383,10 @@ static void run_to_step(world *w, int64_t at, double limit)
 enum { KILL, LEAVE, JOIN };
 static const char *const WHAT[] = {"a killed peer", "an announced leave", "a joiner"};
 
+/* The level and the partition of the next restart_case (0: level 4, the
+ * quad-tree). */
+static int rc_level, rc_bands;
+
 /* `every`: checkpoint_every (< 0: none, the reference, which must differ);
  * k: steps per halo exchange. */
 static void restart_case(int what, double drop, uint64_t seed, int every, int k)
@@ -360,7 +395,8 @@ static void restart_case(int what, double drop, uint64_t seed, int every, int k)
 	 * a step a tick meanwhile */
 	setup su = {.integrator = "rk4", .dt = 0.02, .steps = what == JOIN ? 700 : 300,
 	            .clock = NDO_CLOCK_LOCKSTEP, .peers = what == JOIN ? 2 : 3,
-	            .step_timeout = 0.2, .checkpoint_every = every, .halo_steps = k};
+	            .step_timeout = 0.2, .checkpoint_every = every, .halo_steps = k,
+	            .level = rc_level, .bands = rc_bands};
 	if (drop > 0)
 		su.faults = (ndo_faults){.drop = drop, .delay_ms = 2, .jitter_ms = 2, .seed = seed};
 	uint64_t r = seed * 6364136223846793005ull + 1442695040888963407ull;
@@ -397,11 +433,11 @@ static void restart_case(int what, double drop, uint64_t seed, int every, int k)
 	ndo_peer_stats_get(w->p[1], &sj);
 	printf("    %s at step %lld (%.0f%% loss, checkpoints %d, K %d): differs by %.3g; %d peers at the end; owner: %lld "
 	       "restarts, %lld steps again, %lld timeouts, %lld checkpoints; joiner sent %.1f kB "
-	       "of checkpoints, owner re-sent %.1f kB\n", WHAT[what], (long long)was, 100 * drop,
+	       "of checkpoints, owner re-sent %.1f kB; %lld steps begun ahead of the halo\n", WHAT[what], (long long)was, 100 * drop,
 	       every, k ? k : 1, d,
 	       np, (long long)st.restarts, (long long)st.restart_steps, (long long)st.timeouts,
 	       (long long)st.checkpoints, (double)sj.checkpoint_bytes / 1e3,
-	       (double)st.checkpoint_bytes / 1e3);
+	       (double)st.checkpoint_bytes / 1e3, (long long)st.ahead);
 	CHECK(np == (what == JOIN ? 3 : 2), "%s: %d peers simulate at the end", WHAT[what], np);
 	if (every < 0) {
 		CHECK(done && d > 1e-6 && st.restarts == 0, "%s without checkpoints: done %d, differs "
@@ -430,6 +466,12 @@ static void restarts_keep_the_single_process(void)
 	/* checkpoints every 7 steps, a halo every 3: a restart step is an
 	 * exchange step (7 rounds up to 9) */
 	restart_case(KILL, 0.1, seed + 20, 7, 3);
+	/* bands at level 6: steps begun ahead of their halo (ndo_sim_step_begin),
+	 * some of them dropped by the restart's writes */
+	rc_level = 6, rc_bands = 1;
+	restart_case(KILL, 0.1, seed + 30, 0, 1);
+	restart_case(JOIN, 0.1, seed + 31, 0, 1);
+	rc_level = 0, rc_bands = 0;
 	/* kills whose losses timed a live neighbour out after the restart (the
 	 * step went on with older values, and nothing restarted it again):
 	 * 0.28 % and 0.18 % off before neighbours_alive (peer.c).  Seed 134: a
@@ -715,6 +757,7 @@ int main(void)
 		return ck_failed_cases != 0;
 	}
 	RUN(lockstep_is_the_single_process_bit_for_bit);
+	RUN(lockstep_steps_ahead_of_the_halo);
 	RUN(split_steps_are_the_single_process);
 	RUN(lockstep_survives_loss);
 	RUN(split_steps_survive_loss);

@@ -537,6 +537,125 @@ static void rk4_ring_reused_late_enough(void)
 	}
 }
 
+/* A step begun ahead of its halo (ndo_sim_step_begin: the units that read
+ * no pending node run first, the halo is written, then the step) is the
+ * step taken after the halo came, bit for bit: the halo's values are new
+ * and random, so a unit that read a pending node before they came would
+ * show.  Bands of whole rows (some units early) and the jagged region
+ * (pending nodes here and there); one thread and two; still and moving
+ * held nodes; a write to another node drops what was done ahead.  And the
+ * ring (rk4.c) with its fewest slots (rk4_ring_slots) on two and three
+ * threads, up to level 7, where a band's chunks reuse the slots of the
+ * late ones at its halo (the odd thread walks down from the top, so that
+ * an early chunk's slot is a late one's: its stage 0 must wait, not run
+ * ahead); once a step runs on other threads than it was begun on (solo),
+ * which drops what was done ahead in the other ring's layout; as many
+ * units begun ahead on one thread as on more. */
+static void rk4_begun_ahead_is_the_step(void)
+{
+	for (int level = 5; level <= 7; level++)
+		for (int shape_k = 0; shape_k < 2; shape_k++) {
+			ndo_grid *g = shape("wavy", level);
+			const int n = (g->w - 1) / 2;
+			const size_t w = (size_t)g->w, nn = 3 * g->count;
+			double *x0 = malloc(nn * sizeof *x0), *v0 = malloc(nn * sizeof *v0);
+			random_state(g, 0.01, x0, v0);
+			uint8_t *mask = malloc(g->count);
+			int32_t *halo = malloc(g->count * sizeof *halo);
+			size_t nh = 0;
+			const int R = n / 2 + 3; /* a band's last integrated row: its halo's ring 1 */
+			if (shape_k == 0) {
+				for (size_t p = 0; p < g->count; p++) {
+					mask[p] = p / w <= (size_t)R;
+					if (p / w == (size_t)R || p / w == (size_t)R + 1)
+						halo[nh++] = (int32_t)p;
+				}
+			} else {
+				jagged_region(g, mask);
+				for (size_t p = 0; p < g->count; p += 97)
+					halo[nh++] = (int32_t)p;
+			}
+			double *hu = malloc(3 * nh * sizeof *hu), *hv = malloc(3 * nh * sizeof *hv);
+			int32_t faces[] = {0, 1, 2, 31, 40, 41, 90, 500};
+			int32_t nodes[] = {0, 5, (int32_t)g->count / 2, (int32_t)g->count - 1};
+			ndo_force f[2] = {{NDO_FORCE_FACE, 2.4, 1, 0, 1, {0}, 8, faces},
+			                  {NDO_FORCE_POINT, 0.7, 2, 0, 1, {0}, 4, nodes}};
+			for (int run = 0; run < 4; run++) {
+				/* still and moving held nodes; the ring's own slots, the fewest */
+				const int moving = run % 2, fewest = run >= 2;
+				if (level == 7 && !fewest)
+					continue;
+				ndo_sim_params p;
+				ndo_sim_defaults(&p);
+				p.material.damping = 0.1;
+				p.forces = f;
+				p.nforces = 2;
+				p.threads = 1 + moving + fewest;
+				ndo_sim *sim[2];
+				double *x[2], *v[2];
+				for (int k = 0; k < 2; k++) {
+					sim[k] = make(g, x0, v0, NULL, &p);
+					sim[k]->rk4_ring_slots = fewest;
+					ndo_sim_set_held_motion(sim[k], moving);
+					CHECK(ndo_sim_set_active(sim[k], mask) == 0, "set_active");
+					x[k] = malloc(nn * sizeof *x[k]), v[k] = malloc(nn * sizeof *v[k]);
+				}
+				int early = 0, early0 = -1;
+				for (int step = 0; step < 10; step++) {
+					for (size_t q = 0; q < 3 * nh; q++)
+						hu[q] = 1e-3 * (uniform() - 0.5), hv[q] = 1e-2 * (uniform() - 0.5);
+					double one[3] = {1e-4, 0, 0};
+					int32_t other = (int32_t)(w + 3); /* row 1: no halo node */
+					int rc = ndo_sim_step_begin(sim[1], 1e-3, nh, halo);
+					CHECK(rc >= 0, "begin: %s", ndo_errdetail());
+					early += rc;
+					/* as many units ahead on each step's threads (the probe's
+					 * look takes turns): a band's late chunks keep out of the
+					 * early ones' slots */
+					if (early0 < 0)
+						early0 = rc;
+					CHECK(shape_k == 1 || rc == early0,
+					      "level %d band, %d threads, step %d (on %d): %d units begun ahead, "
+					      "%d at step 0",
+					      level, p.threads, step, ndo__sim_threads_now(sim[1]), rc, early0);
+					/* step 3: on one thread where begun on more, or on more where
+					 * begun on one (the step's choice, integrate.c: threads_pick) */
+					const int flip = step == 3 && p.threads > 1;
+					if (flip)
+						sim[1]->solo = !sim[1]->solo;
+					for (int k = 0; k < 2; k++) {
+						ndo_sim_set_displacements(sim[k], nh, halo, hu, hv);
+						if (step == 6) /* not pending: the step is taken whole */
+							ndo_sim_set_displacements(sim[k], 1, &other, one, NULL);
+						CHECK(ndo_sim_step(sim[k], 1e-3) == 0, "step: %s", ndo_errdetail());
+					}
+					if (flip)
+						sim[1]->solo = !sim[1]->solo;
+					for (int k = 0; k < 2; k++)
+						ndo_sim_get(sim[k], x[k], v[k]);
+					CHECK(!memcmp(x[0], x[1], nn * sizeof *x[0]) &&
+					          !memcmp(v[0], v[1], nn * sizeof *v[0]),
+					      "level %d, %s, held nodes %s, %d threads, %s slots, step %d: begun "
+					      "ahead differs by %g",
+					      level, shape_k ? "jagged" : "band", moving ? "moving" : "still",
+					      p.threads, fewest ? "the fewest" : "the ring's own", step,
+					      fmax(max_diff(x[0], x[1], nn), max_diff(v[0], v[1], nn)));
+				}
+				CHECK(sim[1]->rk4_plan != NULL, "the pipeline was not taken");
+				if (shape_k == 0)
+					CHECK(early > 0, "level %d band: no unit ran ahead", level);
+				if (level == 7 && shape_k == 0)
+					CHECK(ndo__rk4_ring_reuses(sim[1]) > 0,
+					      "level 7 band, %d threads: no slot of the ring was used twice",
+					      p.threads);
+				for (int k = 0; k < 2; k++)
+					ndo_sim_destroy(sim[k]), free(x[k]), free(v[k]);
+			}
+			free(x0), free(v0), free(mask), free(halo), free(hu), free(hv);
+			ndo_grid_destroy(g);
+		}
+}
+
 /* Symplectic Euler and midpoint in their fused passes (integrate.c:
  * ndo__accel_update, every node integrated) are the passes through
  * ndo__accel. */
@@ -1478,6 +1597,7 @@ int main(void)
 	RUN(rk4_pipeline_is_the_passes);
 	RUN(rk4_pipeline_holds_nodes_as_the_passes);
 	RUN(rk4_ring_reused_late_enough);
+	RUN(rk4_begun_ahead_is_the_step);
 	RUN(fused_passes_are_the_passes);
 	RUN(steps_are_single_steps);
 	RUN(rkf45_in_parts_is_the_step);

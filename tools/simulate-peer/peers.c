@@ -402,13 +402,17 @@ static void summary(peer_run *pr, const char *how)
 	if (st.behind)
 		fprintf(stderr, "%s: %lld steps were taken late: the simulation cannot keep up with "
 		        "--speed\n", ndo_progname, (long long)st.behind);
-	if (st.exact && st.steps)
+	if (st.exact && st.steps) {
+		char ahead[64] = ""; /* rk4 with bands: ndo/sim.h, ndo_sim_step_begin */
+		if (st.ahead)
+			snprintf(ahead, sizeof ahead, "; %lld steps begun ahead of it", (long long)st.ahead);
 		fprintf(stderr, "%s: exact: a halo of %d rings in %lld exchanges, %.3g kB a step "
-		        "(%.3g tiles); whole regions %lld times, %.3g kB a step\n", ndo_progname,
+		        "(%.3g tiles)%s; whole regions %lld times, %.3g kB a step\n", ndo_progname,
 		        st.halo_rings, (long long)st.exchanges,
 		        (double)st.halo_bytes / 1e3 / (double)st.steps,
-		        (double)st.halo_tiles / (double)st.steps, (long long)st.frames,
+		        (double)st.halo_tiles / (double)st.steps, ahead, (long long)st.frames,
 		        (double)st.frame_bytes / 1e3 / (double)st.steps);
+	}
 	if (st.checkpoints || st.restarts)
 		fprintf(stderr, "%s: restarts: %lld checkpoints kept, %.3g kB of them sent; %lld "
 		        "restarts from a checkpoint (new partitions), %lld steps taken again\n",

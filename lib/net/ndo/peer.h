@@ -224,6 +224,9 @@ typedef struct ndo_peer_stats {
 	int64_t steps;          /* steps taken */
 	int64_t waited;         /* lock-step: steps that waited for the halo */
 	double wait_seconds;    /* time spent waiting for it */
+	int64_t ahead;          /* exact lock-step, rk4: steps begun while their
+	                           halo was in flight (the units that read none
+	                           of it, ndo_sim_step_begin), waiting included */
 	double compute_seconds; /* time in ndo_sim_step (CLOCK_MONOTONIC) */
 	int64_t timeouts;       /* steps that went on after step_timeout */
 	int64_t missed;         /* halo node-steps integrated with an older step's

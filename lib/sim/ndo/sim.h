@@ -260,6 +260,20 @@ int ndo_sim_step(ndo_sim *s, double h);
  * does nothing; NDO_EINVAL for k < 0 or h not positive and finite. */
 int ndo_sim_steps(ndo_sim *s, double h, int64_t k);
 
+/* Begin the next step (of size h) ahead of part of its input: run now
+ * what of it does not read the state of the n nodes `pending` (stored
+ * indices; a peer's halo, ndo/peer.h, whose values are in flight), so
+ * that a caller waiting for their values computes the rest meanwhile.
+ * Then the caller writes those nodes (ndo_sim_set_displacements,
+ * ndo_sim_set) and ndo_sim_step(s, h) takes the step: the same bits as
+ * the step without the begin.  Writing any other node, a new region,
+ * held motion, another time or another h drops what was done ahead
+ * (ndo_sim_step then takes the whole step).  Only rk4's pipeline (see
+ * lib/sim/rk4.c) begins ahead, and not at a step that re-assembles K:
+ * otherwise nothing is done.  Returns the (stage, chunk) units run ahead
+ * (0: none), NDO_EINVAL for a bad h, NDO_ENOMEM. */
+int ndo_sim_step_begin(ndo_sim *s, double h, size_t n, const int32_t *pending);
+
 /* rkf45's step in parts, for peers that split the object (ndo/peer.h):
  * ndo_sim_step(s, h) for rkf45 is
  *     ndo_sim_rkf45_begin(s, h);
