@@ -47,8 +47,8 @@ summary=$(awk -v be1="$(row "$t-speed.md" backward-euler 7)" -v tr1="$(row "$t-s
 	-v beq="$(row "$t-speed.md" backward-euler 8)" -v trq="$(row "$t-speed.md" trapezoid 8)" \
 	-v be2="$(row "$t-speed2.md" backward-euler 7)" -v tr2="$(row "$t-speed2.md" trapezoid 7)" \
 	-v beq2="$(row "$t-speed2.md" backward-euler 8)" -v trq2="$(row "$t-speed2.md" trapezoid 8)" 'BEGIN {
-	printf "- Goal: backward Euler and trapezoid at level 8 at 10× the steps/s of CHOLMOD (docs/bench/simulate.md: 11.01 and 14.55).  Measured, one thread: **%.3g and %.3g steps/s, %.2f× and %.2f× CHOLMOD** run alternately with it in this run (%.1f× and %.1f× the recorded figures, measured on another day, under another load); two threads: %.3g and %.3g steps/s, %.2f× and %.2f× CHOLMOD (on one): %s.  Two threads against one, each through the CHOLMOD runs paired with it (the ratio of the ratios: the machine'"'"'s load changes between the two tables, and the steps/s with it): backward Euler %.2f×, trapezoid %.2f×.\n",
-		be1, tr1, beq, trq, be1 / 11.01, tr1 / 14.55, be2, tr2, beq2, trq2,
+	printf "- Goal: backward Euler and trapezoid at level 8 at 10× the steps/s of CHOLMOD (docs/bench/simulate.md: 11.01 and 14.55).  Measured, one thread: **%.3g and %.3g steps/s, %.2f× and %.2f× CHOLMOD** run alternately with it in this run (%.1f× and %.1f× the recorded figures, measured on another day, under another load); two threads: %.3g and %.3g steps/s, %.2f× and %.2f× CHOLMOD (on one; %.1f× and %.1f× the recorded figures): %s.  Two threads against one, each through the CHOLMOD runs paired with it (the ratio of the ratios: the machine'"'"'s load changes between the two tables, and the steps/s with it): backward Euler %.2f×, trapezoid %.2f×.\n",
+		be1, tr1, beq, trq, be1 / 11.01, tr1 / 14.55, be2, tr2, beq2, trq2, be2 / 11.01, tr2 / 14.55,
 		(beq2 >= 10 && trq2 >= 10) ? "met" : "NOT met", beq2 / beq, trq2 / trq
 }')
 
