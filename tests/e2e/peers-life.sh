@@ -48,6 +48,9 @@ else
 fi
 
 # --- the owner quits -----------------------------------------------------------
+# (the last part's logs go first: a peer started in the background opens
+# its 2> only when it runs, and wait_for must not find the old lines)
+rm -f owner.err j1.err
 simulate-peer --owner wavy4.tgrid -s "$SCENE" --dt 0.001 -t 100 --peers 2 -o never.tgrid \
 	2>owner.err &
 owner=$!
@@ -82,6 +85,7 @@ fi
 # 0.2 s apart; when all 8 simulate, 3 of them leave (SIGTERM: an announced
 # leave); the other 4 stay to the end with the owner.
 SECONDS=0
+rm -f owner.err
 simulate-peer --owner wavy4.tgrid -s "$SCENE" -t 6 --clock realtime -o eight.tgrid \
 	2>owner.err &
 owner=$!

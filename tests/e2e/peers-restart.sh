@@ -31,7 +31,11 @@ event() {
 	shift 3
 	local peers=3 pids=() victim
 	[ "$kind" = join ] && peers=2
-	rm -f peers.tgrid
+	# the last event's logs go first: a peer started in the background opens
+	# its 2> only when it runs, and wait_for below must not find the last
+	# owner's "starting: step" (on a loaded machine it did, the victim was
+	# killed before the run began, and the owner waited for 3 peers)
+	rm -f peers.tgrid owner.err joiner1.err joiner2.err
 	simulate-peer --owner wavy4.tgrid "${RUN[@]}" --peers $peers --peer-timeout 0.5 \
 		--step-timeout 0.2 --start-timeout 30 ${OWNER_OPTS:-} -o peers.tgrid "$@" 2>owner.err &
 	pids+=($!)
@@ -73,6 +77,8 @@ event() {
 	else
 		fail "$name" "exit status bad=$bad, difference $rel, step $step of $sstep, $restarts restarts (${at:-none})"
 		tail -4 owner.err | sed 's/^/    owner: /'
+		tail -2 joiner1.err | sed 's/^/    joiner 1: /'
+		[ ! -s joiner2.err ] || tail -2 joiner2.err | sed 's/^/    joiner 2: /'
 	fi
 }
 
