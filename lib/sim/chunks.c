@@ -40,6 +40,17 @@ static void widen(int32_t *a0, int32_t *a1, int32_t j)
 		*a1 = j;
 }
 
+void ndo__chunks_copy_dups(const ndo_sim *s, const ndo__chunks *K, int c, double *x)
+{
+	const size_t cnt = s->count, n = (size_t)(K->doff[c + 1] - K->doff[c]);
+	const int32_t *pairs = K->dlist + 2 * K->doff[c];
+	for (int comp = 0; comp < 3; comp++) {
+		double *X = x + (size_t)comp * cnt;
+		for (size_t i = 0; i < n; i++)
+			X[pairs[2 * i]] = X[pairs[2 * i + 1]];
+	}
+}
+
 void ndo__chunks_free(ndo__chunks *K)
 {
 	free(K->r0), free(K->r1), free(K->a0), free(K->a1), free(K->lo), free(K->hi);

@@ -52,10 +52,9 @@
  * 1/m loaded once a node); stage 0 one loop a coordinate, the order its
  * diagnostics are summed in. */
 #include "sim_private.h"
+#include "units.h"
 #include "ndo/status.h"
 
-#include <pthread.h>
-#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -390,10 +389,7 @@ struct ndo__rk4_plan {
 	size_t rps;
 	size_t ring_cap;       /* slots in ring, when the passes' planes are too small */
 	double *ring;
-	_Atomic int *done;     /* 4·C states of this step's units: free, claimed, done */
-	_Atomic int sleepers;  /* threads waiting for a unit */
-	pthread_mutex_t lock;
-	pthread_cond_t cond;
+	ndo__units u;          /* this step's units' states, 4·C */
 };
 
 void ndo__rk4_plan_free(ndo_sim *s)
@@ -403,10 +399,9 @@ void ndo__rk4_plan_free(ndo_sim *s)
 		return;
 	ndo__chunks_free(&P->ch);
 	free(P->late), free(P->plist), free(P->bterms);
-	free(P->unit), free((void *)P->done);
+	free(P->unit);
 	free(P->slot), free(P->prev), free(P->alone), free(P->ring);
-	pthread_mutex_destroy(&P->lock);
-	pthread_cond_destroy(&P->cond);
+	ndo__units_destroy(&P->u);
 	free(P);
 	s->rk4_plan = NULL;
 }
@@ -433,8 +428,7 @@ static int plan_build(ndo_sim *s)
 	struct ndo__rk4_plan *P = calloc(1, sizeof *P);
 	if (!P)
 		return ndo__fail(NDO_ENOMEM, "out of memory for the RK4 pipeline");
-	pthread_mutex_init(&P->lock, NULL);
-	pthread_cond_init(&P->cond, NULL);
+	ndo__units_init(&P->u);
 	s->rk4_plan = P;
 	P->held = s->any_held;
 	if (ndo__chunks_build(s, &P->ch, P->held ? NDO__CHUNKS_DUPS : 0))
@@ -453,9 +447,9 @@ static int plan_build(ndo_sim *s)
 	 * it reads (stage k − 1, chunks ≤ c + L − 1) comes on an earlier
 	 * diagonal. */
 	P->unit = malloc((4 * (size_t)C + 1) * sizeof *P->unit);
-	P->done = calloc(4 * (size_t)C, sizeof *P->done);
+	P->u.state = calloc(4 * (size_t)C, sizeof *P->u.state);
 	P->late = malloc(4 * (size_t)C);
-	if (!P->bterms || !P->unit || !P->done || !P->late)
+	if (!P->bterms || !P->unit || !P->u.state || !P->late)
 		goto oom;
 	for (int diag = 0; diag < C + 3 * L; diag++)
 		for (int k = 3; k >= 0; k--) {
@@ -486,18 +480,6 @@ static void sync_rows(const ndo_sim *s, double *x, int r0, int r1)
 			else
 				row[2 * n] = row[0];
 		}
-	}
-}
-
-/* The same for n (duplicate, canonical) pairs: a chunk of a region with
- * held nodes, whose rows other chunks may share. */
-static void copy_dups(const ndo_sim *s, double *x, const int32_t *pairs, size_t n)
-{
-	const size_t cnt = s->count;
-	for (int c = 0; c < 3; c++) {
-		double *X = x + (size_t)c * cnt;
-		for (size_t i = 0; i < n; i++)
-			X[pairs[2 * i]] = X[pairs[2 * i + 1]];
 	}
 }
 
@@ -611,37 +593,6 @@ typedef struct rk4_pipe {
 	const uint8_t *skip; /* units not to run (the late ones, begun ahead) or NULL */
 } rk4_pipe;
 
-enum { UNIT_FREE, UNIT_CLAIMED, UNIT_DONE };
-
-static void unit_wait(struct ndo__rk4_plan *P, int idx)
-{
-	if (atomic_load_explicit(&P->done[idx], memory_order_acquire) == UNIT_DONE)
-		return;
-	pthread_mutex_lock(&P->lock);
-	atomic_fetch_add(&P->sleepers, 1);
-	while (atomic_load(&P->done[idx]) != UNIT_DONE)
-		pthread_cond_wait(&P->cond, &P->lock);
-	atomic_fetch_sub(&P->sleepers, 1);
-	pthread_mutex_unlock(&P->lock);
-}
-
-static void unit_done(struct ndo__rk4_plan *P, int idx)
-{
-	atomic_store(&P->done[idx], UNIT_DONE);
-	if (atomic_load(&P->sleepers)) {
-		pthread_mutex_lock(&P->lock);
-		pthread_cond_broadcast(&P->cond);
-		pthread_mutex_unlock(&P->lock);
-	}
-}
-
-static int unit_claim(struct ndo__rk4_plan *P, int idx)
-{
-	int free_ = UNIT_FREE;
-	return atomic_load_explicit(&P->done[idx], memory_order_relaxed) == UNIT_FREE &&
-	       atomic_compare_exchange_strong(&P->done[idx], &free_, UNIT_CLAIMED);
-}
-
 static void unit_run(rk4_pipe *J, int k, int c);
 
 /* Unit (k, c), claimed: the units it reads done (run here when nobody
@@ -652,21 +603,21 @@ static void unit_take(rk4_pipe *J, int k, int c)
 	if (k == 0 && P->prev[c] >= 0) {
 		/* the slot free: its chunk before through stage 3 */
 		int idx = 3 * P->ch.C + P->prev[c];
-		if (unit_claim(P, idx))
+		if (ndo__unit_claim(&P->u, idx))
 			unit_take(J, 3, P->prev[c]);
 		else
-			unit_wait(P, idx);
+			ndo__unit_wait(&P->u, idx);
 	}
 	if (k > 0)
 		for (int q = P->ch.lo[c]; q <= P->ch.hi[c]; q++) {
 			int idx = (k - 1) * P->ch.C + q;
-			if (unit_claim(P, idx))
+			if (ndo__unit_claim(&P->u, idx))
 				unit_take(J, k - 1, q);
 			else
-				unit_wait(P, idx);
+				ndo__unit_wait(&P->u, idx);
 		}
 	unit_run(J, k, c);
-	unit_done(P, k * P->ch.C + c);
+	ndo__unit_done(&P->u, k * P->ch.C + c);
 }
 
 static void unit_run(rk4_pipe *J, int k, int c)
@@ -700,9 +651,8 @@ static void unit_run(rk4_pipe *J, int k, int c)
 	           NULL, k == 0 ? P->bterms : NULL);
 	for (int b = 0; b < 2; b++)
 		if (J->out[k][b]) {
-			if (P->held)
-				copy_dups(s, J->out[k][b], K->dlist + 2 * K->doff[c],
-				          (size_t)(K->doff[c + 1] - K->doff[c]));
+			if (P->held) /* rows other chunks may share: the chunk's pairs */
+				ndo__chunks_copy_dups(s, K, c, J->out[k][b]);
 			else
 				sync_rows(s, J->out[k][b], K->r0[c], K->r1[c]);
 		}
@@ -724,7 +674,7 @@ static void pipe_thread(void *arg, int who)
 		c = up ? (start + c) % C : (start - c + C) % C;
 		if (J->skip && J->skip[k * C + c])
 			continue; /* a unit it reads is late too: none is run */
-		if (unit_claim(P, k * C + c))
+		if (ndo__unit_claim(&P->u, k * C + c))
 			unit_take(J, k, c);
 	}
 }
@@ -781,7 +731,7 @@ static int pipe_setup(ndo_sim *s, double h, rk4_pipe *J, int fresh)
 	J->threads = ndo__sim_threads_now(s);
 	if (fresh) {
 		for (int i = 0; i < 4 * P->ch.C; i++)
-			atomic_init(&P->done[i], UNIT_FREE);
+			atomic_init(&P->u.state[i], NDO__UNIT_FREE);
 		return ring_bind(s, P, J->threads);
 	}
 	return NDO_OK;

@@ -294,6 +294,9 @@ enum { NDO__CHUNKS_DUPS = 1, NDO__CHUNKS_EDGES = 2 };
  * ndo__chunks_free, which leaves K empty. */
 int ndo__chunks_build(const ndo_sim *s, ndo__chunks *K, int what);
 void ndo__chunks_free(ndo__chunks *K);
+/* Chunk c's seam duplicates (NDO__CHUNKS_DUPS) copied from their
+ * canonical nodes in the 3 planes x (a pass's output, the rows it wrote). */
+void ndo__chunks_copy_dups(const ndo_sim *s, const ndo__chunks *K, int c, double *x);
 
 /* f ← external forces at time t with displacements u (forces.c). */
 void ndo__forces_eval(ndo_sim *s, double t, const double *u);

@@ -31,10 +31,9 @@
  * Held nodes (pins) never move: B, C and M get u at those read, and the
  * final state u and v at every held node. */
 #include "sim_private.h"
+#include "units.h"
 #include "ndo/status.h"
 
-#include <pthread.h>
-#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -43,12 +42,9 @@ struct ndo__wave_plan {
 	                        * seam duplicates and held edges (sim_private.h) */
 	/* a run: unit states, the first passes' diagnostics */
 	int cap;               /* steps the arrays below hold */
-	_Atomic int *state;    /* 2·cap·C */
+	ndo__units u;          /* unit states, 2·cap·C */
 	ndo__diag *dg;         /* cap·C */
 	double *bt, *et;       /* cap·nbact·NDO__BTERMS, cap·nhedge·3 */
-	_Atomic int sleepers;
-	pthread_mutex_t lock;
-	pthread_cond_t cond;
 };
 
 void ndo__wave_plan_free(ndo_sim *s)
@@ -57,9 +53,8 @@ void ndo__wave_plan_free(ndo_sim *s)
 	if (!P)
 		return;
 	ndo__chunks_free(&P->ch);
-	free((void *)P->state), free(P->dg), free(P->bt), free(P->et);
-	pthread_mutex_destroy(&P->lock);
-	pthread_cond_destroy(&P->cond);
+	free(P->dg), free(P->bt), free(P->et);
+	ndo__units_destroy(&P->u);
 	free(P);
 	s->wave_plan = NULL;
 }
@@ -83,8 +78,7 @@ static int plan_build(ndo_sim *s)
 	struct ndo__wave_plan *P = calloc(1, sizeof *P);
 	if (!P)
 		return ndo__fail(NDO_ENOMEM, "out of memory for the steps' pipeline");
-	pthread_mutex_init(&P->lock, NULL);
-	pthread_cond_init(&P->cond, NULL);
+	ndo__units_init(&P->u);
 	s->wave_plan = P;
 	if (ndo__chunks_build(s, &P->ch, NDO__CHUNKS_DUPS | NDO__CHUNKS_EDGES)) {
 		ndo__wave_plan_free(s);
@@ -115,22 +109,10 @@ typedef struct wave_run {
 	int threads;
 } wave_run;
 
-enum { UNIT_FREE, UNIT_CLAIMED, UNIT_DONE };
-
 /* X_j's planes: A, then B and C in turn. */
 static int xbuf(int j)
 {
 	return j == 0 ? 0 : j % 2 ? 1 : 2;
-}
-
-static void copy_dups(const ndo_sim *s, double *x, const int32_t *pairs, size_t n)
-{
-	const size_t cnt = s->count;
-	for (int c = 0; c < 3; c++) {
-		double *X = x + (size_t)c * cnt;
-		for (size_t i = 0; i < n; i++)
-			X[pairs[2 * i]] = X[pairs[2 * i + 1]];
-	}
 }
 
 static void unit_run(wave_run *J, int p, int c)
@@ -185,39 +167,8 @@ static void unit_run(wave_run *J, int p, int c)
 					u[(size_t)comp * cnt + (size_t)e->q];
 		}
 	}
-	const int32_t *dl = K->dlist + 2 * K->doff[c];
-	const size_t nd = (size_t)(K->doff[c + 1] - K->doff[c]);
-	copy_dups(s, up.uo, dl, nd);
-	copy_dups(s, up.vo, dl, nd);
-}
-
-static void unit_wait(struct ndo__wave_plan *P, int idx)
-{
-	if (atomic_load_explicit(&P->state[idx], memory_order_acquire) == UNIT_DONE)
-		return;
-	pthread_mutex_lock(&P->lock);
-	atomic_fetch_add(&P->sleepers, 1);
-	while (atomic_load(&P->state[idx]) != UNIT_DONE)
-		pthread_cond_wait(&P->cond, &P->lock);
-	atomic_fetch_sub(&P->sleepers, 1);
-	pthread_mutex_unlock(&P->lock);
-}
-
-static void unit_done(struct ndo__wave_plan *P, int idx)
-{
-	atomic_store(&P->state[idx], UNIT_DONE);
-	if (atomic_load(&P->sleepers)) {
-		pthread_mutex_lock(&P->lock);
-		pthread_cond_broadcast(&P->cond);
-		pthread_mutex_unlock(&P->lock);
-	}
-}
-
-static int unit_claim(struct ndo__wave_plan *P, int idx)
-{
-	int free_ = UNIT_FREE;
-	return atomic_load_explicit(&P->state[idx], memory_order_relaxed) == UNIT_FREE &&
-	       atomic_compare_exchange_strong(&P->state[idx], &free_, UNIT_CLAIMED);
+	ndo__chunks_copy_dups(s, K, c, up.uo);
+	ndo__chunks_copy_dups(s, K, c, up.vo);
 }
 
 /* Unit (p, c), claimed: the units it reads done (run here when nobody has
@@ -231,14 +182,14 @@ static void unit_take(wave_run *J, int p, int c)
 			lo = hi = c; /* wrong on purpose (tests): the neighbours not waited for */
 		for (int q = lo; q <= hi; q++) {
 			int idx = (p - 1) * P->ch.C + q;
-			if (unit_claim(P, idx))
+			if (ndo__unit_claim(&P->u, idx))
 				unit_take(J, p - 1, q);
 			else
-				unit_wait(P, idx);
+				ndo__unit_wait(&P->u, idx);
 		}
 	}
 	unit_run(J, p, c);
-	unit_done(P, p * P->ch.C + c);
+	ndo__unit_done(&P->u, p * P->ch.C + c);
 }
 
 /* Thread `who` of J->threads: every unit in wavefront order, the even
@@ -265,7 +216,7 @@ static void wave_thread(void *arg, int who)
 			ord[i] = ord[r], ord[r] = tmp;
 		}
 		for (int i = 0; i < n; i++)
-			if (unit_claim(P, ord[i]))
+			if (ndo__unit_claim(&P->u, ord[i]))
 				unit_take(J, ord[i] / C, ord[i] % C);
 		free(ord);
 		return;
@@ -278,7 +229,7 @@ static void wave_thread(void *arg, int who)
 			if (c < 0 || c >= C)
 				continue;
 			c = up ? (start + c) % C : (start - c + C) % C;
-			if (unit_claim(P, p * C + c))
+			if (ndo__unit_claim(&P->u, p * C + c))
 				unit_take(J, p, c);
 		}
 }
@@ -308,13 +259,13 @@ int ndo__wave_run(ndo_sim *s, double h, int m, const double *t)
 	struct ndo__wave_plan *P = s->wave_plan;
 	const int C = P->ch.C, pps = s->p.method == NDO_MIDPOINT ? 2 : 1;
 	if (m > P->cap) {
-		free((void *)P->state), free(P->dg), free(P->bt), free(P->et);
-		P->state = malloc((size_t)(pps * m * C) * sizeof *P->state);
+		free((void *)P->u.state), free(P->dg), free(P->bt), free(P->et);
+		P->u.state = malloc((size_t)(pps * m * C) * sizeof *P->u.state);
 		P->dg = malloc((size_t)(m * C) * sizeof *P->dg);
 		P->bt = malloc(((size_t)m * s->nbact * NDO__BTERMS + 1) * sizeof *P->bt);
 		P->et = malloc(((size_t)m * s->nhedge * 3 + 1) * sizeof *P->et);
 		P->cap = m;
-		if (!P->state || !P->dg || !P->bt || !P->et) {
+		if (!P->u.state || !P->dg || !P->bt || !P->et) {
 			ndo__wave_plan_free(s);
 			return ndo__fail(NDO_ENOMEM, "out of memory for the steps' pipeline");
 		}
@@ -329,12 +280,12 @@ int ndo__wave_run(ndo_sim *s, double h, int m, const double *t)
 			ndo__held_keep(s, J.mu);
 	}
 	for (int i = 0; i < J.np * C; i++)
-		atomic_init(&P->state[i], UNIT_FREE);
+		atomic_init(&P->u.state[i], NDO__UNIT_FREE);
 	J.threads = ndo__sim_threads_now(s);
 	ndo__sim_run(s, J.threads, wave_thread, &J);
 	if (s->wave_test & 1) /* a shuffling thread that found no memory left units */
 		for (int i = 0; i < J.np * C; i++)
-			if (unit_claim(P, i))
+			if (ndo__unit_claim(&P->u, i))
 				unit_take(&J, i / C, i % C);
 	return NDO_OK;
 }
