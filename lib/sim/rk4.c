@@ -35,7 +35,7 @@
  *   Held nodes (a peer's region and halo, ndo_sim_set_active): a chunk
  *   is any runs of active nodes, so a row may be shared by two chunks or
  *   have no run; each unit waits for the units whose rows meet its rows
- *   ± 1 (plan_build), copies only the seam duplicates of the nodes it
+ *   ± 1 (chunks.c), copies only the seam duplicates of the nodes it
  *   wrote, and stage 2 writes a third buffer, its held nodes at t + h
  *   while stage 1 reads stage 0's at t + h/2; the spare state keeps the
  *   held nodes' values from step to step (sim_private.h, spare_held).
@@ -52,11 +52,9 @@
  * 1/m loaded once a node); stage 0 one loop a coordinate, the order its
  * diagnostics are summed in. */
 #include "sim_private.h"
+#include "units.h"
 #include "ndo/status.h"
-#include "ndo/topology.h"
 
-#include <pthread.h>
-#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -366,22 +364,14 @@ typedef struct rk4_unit {
 } rk4_unit;
 
 struct ndo__rk4_plan {
-	int C, L;              /* chunks; the lag between stages, in chunks */
-	int32_t *r0, *r1;      /* each chunk's rows, border rows 0 and n included */
-	int32_t *lo, *hi;      /* the chunks a unit of chunk c reads: lo[c]..hi[c] */
-	int32_t *a0, *a1;      /* the rows it reads */
+	ndo__chunks ch;        /* what each chunk writes, reads and waits for
+	                        * (sim_private.h); with held nodes, the seam
+	                        * duplicates it copies (ch.dlist) */
 	uint8_t *late;         /* 4·C: the unit reads a pending node (ndo_sim_step_begin) */
 	int32_t *plist;        /* ... of these pending nodes (pn; s->pend marks them) */
 	size_t pn;
 	int marked, early;     /* late[] and s->pend are plist's; its units not late */
-	int32_t *boff, *blist; /* chunk c's border nodes: bact[blist[boff[c]..boff[c+1])] */
-	int32_t *zoff, *zlist; /* its force nodes (fnodes) */
-	int32_t *foff;         /* its force items, fitem[foff[c]..foff[c+1]) */
-	int32_t *doff, *dlist; /* held nodes about (held): the seam duplicates chunk c
-	                        * copies, (duplicate, canonical) pairs
-	                        * dlist[2·doff[c]..2·doff[c+1]) */
 	int held;              /* the region has held nodes (a peer's) */
-	ndo__fitem *fitem;
 	double *bterms;        /* RK4_BTERMS per active border node */
 	int nunit;
 	rk4_unit *unit;        /* wavefront order */
@@ -399,10 +389,7 @@ struct ndo__rk4_plan {
 	size_t rps;
 	size_t ring_cap;       /* slots in ring, when the passes' planes are too small */
 	double *ring;
-	_Atomic int *done;     /* 4·C states of this step's units: free, claimed, done */
-	_Atomic int sleepers;  /* threads waiting for a unit */
-	pthread_mutex_t lock;
-	pthread_cond_t cond;
+	ndo__units u;          /* this step's units' states, 4·C */
 };
 
 void ndo__rk4_plan_free(ndo_sim *s)
@@ -410,14 +397,11 @@ void ndo__rk4_plan_free(ndo_sim *s)
 	struct ndo__rk4_plan *P = s->rk4_plan;
 	if (!P)
 		return;
-	free(P->r0), free(P->r1), free(P->lo), free(P->hi), free(P->boff), free(P->blist);
-	free(P->a0), free(P->a1), free(P->late), free(P->plist);
-	free(P->zoff), free(P->zlist), free(P->foff), free(P->fitem), free(P->bterms);
-	free(P->doff), free(P->dlist);
-	free(P->unit), free((void *)P->done);
+	ndo__chunks_free(&P->ch);
+	free(P->late), free(P->plist), free(P->bterms);
+	free(P->unit);
 	free(P->slot), free(P->prev), free(P->alone), free(P->ring);
-	pthread_mutex_destroy(&P->lock);
-	pthread_cond_destroy(&P->cond);
+	ndo__units_destroy(&P->u);
 	free(P);
 	s->rk4_plan = NULL;
 }
@@ -435,202 +419,25 @@ static int pipeline_fits(const ndo_sim *s)
 	       s->nispan >= 1 && s->nichunk >= 1;
 }
 
-/* Items of a list of `n` owned by chunk c, counted then filled: the
- * offsets off[0..C] and the items. */
-static int32_t *bucket(int C, size_t n, const int32_t *owner, int32_t **off)
-{
-	*off = calloc((size_t)C + 2, sizeof **off);
-	int32_t *list = malloc((n + 1) * sizeof *list);
-	if (!*off || !list) {
-		free(list);
-		return NULL;
-	}
-	for (size_t i = 0; i < n; i++)
-		(*off)[owner[i] + 2]++;
-	for (int c = 0; c < C; c++)
-		(*off)[c + 2] += (*off)[c + 1];
-	for (size_t i = 0; i < n; i++)
-		list[(*off)[owner[i] + 1]++] = (int32_t)i;
-	return list;
-}
-
-/* Rows a0..a1 widened to take row j. */
-static void widen(int32_t *a0, int32_t *a1, int32_t j)
-{
-	if (j < *a0)
-		*a0 = j;
-	if (j > *a1)
-		*a1 = j;
-}
-
-/* The plan.  Each unit of chunk c writes the stage buffers at its nodes
- * (its interior runs, its active border nodes and, with held nodes, the
- * seam duplicates of those) — rows r0[c]..r1[c] — and reads them one row
- * further, and at the nodes of its force items; it waits for the units
- * of the stage before whose writes meet its reads or whose reads meet
- * its writes (lo[c]..hi[c]).  Without held nodes every interior row is
- * one run, so a chunk is whole rows and row 0 goes with row 1, row n with
- * row n − 1.  With held nodes (a peer's region and halo) a row may have
- * any number of runs, in one chunk or two, or none: a border node goes
- * with the chunk of the last run of its row, or of the nearest row that
- * has runs; force items are evaluated only at active nodes. */
+/* The plan: the chunks (chunks.c), with held nodes their seam
+ * duplicates too (without, every interior row is one run, so a chunk is
+ * whole rows and copies its rows' seams: sync_rows), then the ring's
+ * slots, the border nodes' diagnostics and the units' wavefront order. */
 static int plan_build(ndo_sim *s)
 {
-	const int C = s->nichunk, n = s->n, w = s->w;
-	const size_t cnt = s->count;
 	struct ndo__rk4_plan *P = calloc(1, sizeof *P);
-	int32_t *rowc = malloc(((size_t)n + 1) * sizeof *rowc);
-	int32_t *own = malloc((cnt + 1) * sizeof *own);
-	int32_t *a0 = malloc(((size_t)C + 1) * sizeof *a0), *a1 = malloc(((size_t)C + 1) * sizeof *a1);
-	size_t nb = s->nbact > s->nfnodes ? s->nbact : s->nfnodes;
-	size_t ndup = ndo_duplicate_count(s->level);
-	if (ndup > nb)
-		nb = ndup;
-	int32_t *owner = malloc((nb + 1) * sizeof *owner);
-	size_t *pairs = NULL;
-	int32_t *zn = NULL; /* the active force nodes */
-	if (!P || !rowc || !own || !a0 || !a1 || !owner)
-		goto oom;
-	pthread_mutex_init(&P->lock, NULL);
-	pthread_cond_init(&P->cond, NULL);
+	if (!P)
+		return ndo__fail(NDO_ENOMEM, "out of memory for the RK4 pipeline");
+	ndo__units_init(&P->u);
 	s->rk4_plan = P;
-	P->C = C;
 	P->held = s->any_held;
-	P->r0 = malloc((size_t)C * sizeof *P->r0), P->r1 = malloc((size_t)C * sizeof *P->r1);
-	P->lo = malloc((size_t)C * sizeof *P->lo), P->hi = malloc((size_t)C * sizeof *P->hi);
-	if (!P->r0 || !P->r1 || !P->lo || !P->hi)
+	if (ndo__chunks_build(s, &P->ch, P->held ? NDO__CHUNKS_DUPS : 0))
 		goto oom;
-	for (int j = 0; j <= n; j++)
-		rowc[j] = -1;
-	for (size_t p = 0; p < cnt; p++)
-		own[p] = -1;
-	for (int c = 0; c < C; c++) {
-		P->r0[c] = a0[c] = n + 1, P->r1[c] = a1[c] = -1;
-		for (int32_t k = s->ichunk[c]; k < s->ichunk[c + 1]; k++) {
-			rowc[s->ispan[k].a / w] = c;
-			widen(&P->r0[c], &P->r1[c], s->ispan[k].a / w);
-			for (int32_t p = s->ispan[k].a; p < s->ispan[k].b; p++)
-				own[p] = c;
-		}
-	}
-	/* rows without runs: the nearest row's chunk, the lower one first */
-	for (int j = 0; j <= n; j++)
-		if (rowc[j] < 0 || rowc[j] >= C)
-			for (int d = 1; d <= n; d++) {
-				if (j - d >= 0 && rowc[j - d] >= 0 && rowc[j - d] < C) {
-					rowc[j] = rowc[j - d] + C; /* marked: found here, not a row's own */
-					break;
-				}
-				if (j + d <= n && rowc[j + d] >= 0 && rowc[j + d] < C) {
-					rowc[j] = rowc[j + d] + C;
-					break;
-				}
-			}
-	for (int j = 0; j <= n; j++)
-		rowc[j] %= C;
-	/* Border nodes by the chunk of their row. */
-	for (size_t k = 0; k < s->nbact; k++) {
-		int32_t p = s->st.border[s->bact[k]];
-		owner[k] = own[p] = rowc[p / w];
-		widen(&P->r0[owner[k]], &P->r1[owner[k]], p / w);
-	}
-	if (!(P->blist = bucket(C, s->nbact, owner, &P->boff)))
-		goto oom;
-	/* Held nodes: the seam duplicates of the active canonical nodes, by
-	 * the chunk that writes the canonical one (its row's). */
-	if (P->held) {
-		if (!(pairs = malloc((2 * ndup + 1) * sizeof *pairs)))
-			goto oom;
-		ndo_duplicates(s->level, pairs);
-		size_t m = 0;
-		for (size_t i = 0; i < ndup; i++)
-			if (own[pairs[2 * i + 1]] >= 0)
-				pairs[2 * m] = pairs[2 * i], pairs[2 * m + 1] = pairs[2 * i + 1],
-				owner[m++] = own[pairs[2 * i + 1]];
-		int32_t *idx = bucket(C, m, owner, &P->doff);
-		if (!idx || !(P->dlist = malloc((2 * m + 1) * sizeof *P->dlist))) {
-			free(idx);
-			goto oom;
-		}
-		for (size_t i = 0; i < m; i++) {
-			size_t q = (size_t)idx[i];
-			P->dlist[2 * i] = (int32_t)pairs[2 * q];
-			P->dlist[2 * i + 1] = (int32_t)pairs[2 * q + 1];
-			widen(&P->r0[owner[q]], &P->r1[owner[q]], (int32_t)(pairs[2 * q] / (size_t)w));
-		}
-		free(idx);
-	}
-	/* Force nodes by their chunk: the active ones (f at a held node is
-	 * never read; a peer's region is spared the others' force items). */
-	size_t nz = 0;
-	if (!(zn = malloc((s->nfnodes + 1) * sizeof *zn)))
-		goto oom;
-	for (size_t k = 0; k < s->nfnodes; k++) {
-		int32_t p = s->fnodes[k];
-		if (s->active[p])
-			zn[nz] = p, owner[nz++] = own[p];
-	}
-	if (!(P->zlist = bucket(C, nz, owner, &P->zoff)))
-		goto oom;
-	for (int32_t i = 0; i < P->zoff[C]; i++)
-		P->zlist[i] = zn[P->zlist[i]];
-	/* A unit reads one row beyond what it writes, and the nodes of its
-	 * force items. */
+	const int C = P->ch.C, L = P->ch.L, w = s->w;
+	P->R = 3 * L + 1;
 	for (int c = 0; c < C; c++)
-		if (P->r1[c] >= 0)
-			a0[c] = P->r0[c] - 1, a1[c] = P->r1[c] + 1;
-	/* Force items: for each chunk, every item with an active node in it, in
-	 * the forces' order, marked with those nodes. */
-	size_t nitem = 0;
-	for (int k = 0; k < s->nforces; k++)
-		nitem += s->forces[k].f.count;
-	P->foff = calloc((size_t)C + 1, sizeof *P->foff);
-	P->fitem = malloc((3 * nitem + 1) * sizeof *P->fitem);
-	if (!P->foff || !P->fitem)
-		goto oom;
-	size_t m = 0;
-	for (int c = 0; c < C; c++) {
-		P->foff[c] = (int32_t)m;
-		for (int k = 0; k < s->nforces; k++)
-			for (size_t q = 0; q < s->forces[k].f.count; q++) {
-				int32_t v[3], mask = 0;
-				int nv = ndo__force_item_nodes(s, k, q, v);
-				for (int d = 0; d < nv; d++)
-					if (s->active[v[d]] && own[v[d]] == c)
-						mask |= 1 << d;
-				if (mask) {
-					P->fitem[m++] = (ndo__fitem){k, (int32_t)q, mask};
-					/* a face's nodes; a node's vertex normal, its neighbours */
-					for (int d = 0; d < nv; d++) {
-						widen(&a0[c], &a1[c], v[d] / w - (nv == 1));
-						widen(&a0[c], &a1[c], v[d] / w + (nv == 1));
-					}
-				}
-			}
-	}
-	P->foff[C] = (int32_t)m;
-	/* What each chunk waits for: the chunks whose writes meet its reads
-	 * or whose reads meet its writes. */
-	P->L = 2;
-	for (int c = 0; c < C; c++) {
-		P->lo[c] = c, P->hi[c] = c;
-		for (int q = 0; q < C; q++)
-			if ((P->r0[q] <= a1[c] && a0[c] <= P->r1[q]) ||
-			    (a0[q] <= P->r1[c] && P->r0[c] <= a1[q])) {
-				if (q < P->lo[c])
-					P->lo[c] = q;
-				if (q > P->hi[c])
-					P->hi[c] = q;
-			}
-		if (P->hi[c] - c + 1 > P->L)
-			P->L = P->hi[c] - c + 1;
-		if (c - P->lo[c] + 1 > P->L)
-			P->L = c - P->lo[c] + 1;
-	}
-	P->R = 3 * P->L + 1;
-	for (int c = 0; c < C; c++)
-		if ((size_t)(P->r1[c] - P->r0[c] + 1) * (size_t)w > P->S)
-			P->S = (size_t)(P->r1[c] - P->r0[c] + 1) * (size_t)w;
+		if ((size_t)(P->ch.r1[c] - P->ch.r0[c] + 1) * (size_t)w > P->S)
+			P->S = (size_t)(P->ch.r1[c] - P->ch.r0[c] + 1) * (size_t)w;
 	P->slot = malloc((size_t)C * sizeof *P->slot), P->prev = malloc((size_t)C * sizeof *P->prev);
 	P->alone = calloc((size_t)C + 1, 1);
 	if (!P->slot || !P->prev || !P->alone)
@@ -640,23 +447,18 @@ static int plan_build(ndo_sim *s)
 	 * it reads (stage k − 1, chunks ≤ c + L − 1) comes on an earlier
 	 * diagonal. */
 	P->unit = malloc((4 * (size_t)C + 1) * sizeof *P->unit);
-	P->done = calloc(4 * (size_t)C, sizeof *P->done);
+	P->u.state = calloc(4 * (size_t)C, sizeof *P->u.state);
 	P->late = malloc(4 * (size_t)C);
-	if (!P->bterms || !P->unit || !P->done || !P->late)
+	if (!P->bterms || !P->unit || !P->u.state || !P->late)
 		goto oom;
-	for (int diag = 0; diag < C + 3 * P->L; diag++)
+	for (int diag = 0; diag < C + 3 * L; diag++)
 		for (int k = 3; k >= 0; k--) {
-			int c = diag - k * P->L;
+			int c = diag - k * L;
 			if (c >= 0 && c < C)
 				P->unit[P->nunit++] = (rk4_unit){(int16_t)k, c};
 		}
-	P->a0 = a0, P->a1 = a1;
-	free(rowc), free(own), free(owner), free(pairs), free(zn);
 	return NDO_OK;
 oom:
-	free(rowc), free(own), free(a0), free(a1), free(owner), free(pairs), free(zn);
-	if (P && !s->rk4_plan)
-		free(P);
 	ndo__rk4_plan_free(s);
 	return ndo__fail(NDO_ENOMEM, "out of memory for the RK4 pipeline");
 }
@@ -681,18 +483,6 @@ static void sync_rows(const ndo_sim *s, double *x, int r0, int r1)
 	}
 }
 
-/* The same for n (duplicate, canonical) pairs: a chunk of a region with
- * held nodes, whose rows other chunks may share. */
-static void copy_dups(const ndo_sim *s, double *x, const int32_t *pairs, size_t n)
-{
-	const size_t cnt = s->count;
-	for (int c = 0; c < 3; c++) {
-		double *X = x + (size_t)c * cnt;
-		for (size_t i = 0; i < n; i++)
-			X[pairs[2 * i]] = X[pairs[2 * i + 1]];
-	}
-}
-
 /* The ring's slots for T threads, as pipe_thread walks the chunks: each
  * pair of threads shares a range of chunks, the even one walking up from
  * its bottom, the odd one (if any) down from its top, each half (the whole
@@ -706,8 +496,8 @@ static void copy_dups(const ndo_sim *s, double *x, const int32_t *pairs, size_t 
 static int ring_layout(ndo_sim *s, struct ndo__rk4_plan *P, int T)
 {
 	if (s->rk4_ring_slots > 0 && s->rk4_ring_slots < P->R)
-		P->R = s->rk4_ring_slots > 3 * P->L - 2 ? s->rk4_ring_slots : 3 * P->L - 2;
-	const int C = P->C, R = P->R, pairs = (T + 1) / 2;
+		P->R = s->rk4_ring_slots > 3 * P->ch.L - 2 ? s->rk4_ring_slots : 3 * P->ch.L - 2;
+	const int C = P->ch.C, R = P->R, pairs = (T + 1) / 2;
 	size_t nslot = 0;
 	P->ring_T = 0; /* (until it is laid out: not on running out of memory) */
 	int32_t *last = malloc(((size_t)R + 1) * sizeof *last); /* each slot's chunk */
@@ -788,7 +578,7 @@ int ndo__rk4_ring_reuses(const ndo_sim *s)
 {
 	const struct ndo__rk4_plan *P = s->rk4_plan;
 	int n = 0;
-	for (int c = 0; P && P->ring_T && c < P->C; c++)
+	for (int c = 0; P && P->ring_T && c < P->ch.C; c++)
 		n += P->prev[c] >= 0;
 	return n;
 }
@@ -803,37 +593,6 @@ typedef struct rk4_pipe {
 	const uint8_t *skip; /* units not to run (the late ones, begun ahead) or NULL */
 } rk4_pipe;
 
-enum { UNIT_FREE, UNIT_CLAIMED, UNIT_DONE };
-
-static void unit_wait(struct ndo__rk4_plan *P, int idx)
-{
-	if (atomic_load_explicit(&P->done[idx], memory_order_acquire) == UNIT_DONE)
-		return;
-	pthread_mutex_lock(&P->lock);
-	atomic_fetch_add(&P->sleepers, 1);
-	while (atomic_load(&P->done[idx]) != UNIT_DONE)
-		pthread_cond_wait(&P->cond, &P->lock);
-	atomic_fetch_sub(&P->sleepers, 1);
-	pthread_mutex_unlock(&P->lock);
-}
-
-static void unit_done(struct ndo__rk4_plan *P, int idx)
-{
-	atomic_store(&P->done[idx], UNIT_DONE);
-	if (atomic_load(&P->sleepers)) {
-		pthread_mutex_lock(&P->lock);
-		pthread_cond_broadcast(&P->cond);
-		pthread_mutex_unlock(&P->lock);
-	}
-}
-
-static int unit_claim(struct ndo__rk4_plan *P, int idx)
-{
-	int free_ = UNIT_FREE;
-	return atomic_load_explicit(&P->done[idx], memory_order_relaxed) == UNIT_FREE &&
-	       atomic_compare_exchange_strong(&P->done[idx], &free_, UNIT_CLAIMED);
-}
-
 static void unit_run(rk4_pipe *J, int k, int c);
 
 /* Unit (k, c), claimed: the units it reads done (run here when nobody
@@ -843,33 +602,34 @@ static void unit_take(rk4_pipe *J, int k, int c)
 	struct ndo__rk4_plan *P = J->s->rk4_plan;
 	if (k == 0 && P->prev[c] >= 0) {
 		/* the slot free: its chunk before through stage 3 */
-		int idx = 3 * P->C + P->prev[c];
-		if (unit_claim(P, idx))
+		int idx = 3 * P->ch.C + P->prev[c];
+		if (ndo__unit_claim(&P->u, idx))
 			unit_take(J, 3, P->prev[c]);
 		else
-			unit_wait(P, idx);
+			ndo__unit_wait(&P->u, idx);
 	}
 	if (k > 0)
-		for (int q = P->lo[c]; q <= P->hi[c]; q++) {
-			int idx = (k - 1) * P->C + q;
-			if (unit_claim(P, idx))
+		for (int q = P->ch.lo[c]; q <= P->ch.hi[c]; q++) {
+			int idx = (k - 1) * P->ch.C + q;
+			if (ndo__unit_claim(&P->u, idx))
 				unit_take(J, k - 1, q);
 			else
-				unit_wait(P, idx);
+				ndo__unit_wait(&P->u, idx);
 		}
 	unit_run(J, k, c);
-	unit_done(P, k * P->C + c);
+	ndo__unit_done(&P->u, k * P->ch.C + c);
 }
 
 static void unit_run(rk4_pipe *J, int k, int c)
 {
 	ndo_sim *s = J->s;
 	struct ndo__rk4_plan *P = s->rk4_plan;
+	const ndo__chunks *K = &P->ch;
 	const rk4_pass *g = &J->g[k];
 	if (s->has_forces)
-		ndo__forces_eval_items(s, J->t[k], g->U, P->zlist + P->zoff[c],
-		                       (size_t)(P->zoff[c + 1] - P->zoff[c]), P->fitem + P->foff[c],
-		                       (size_t)(P->foff[c + 1] - P->foff[c]));
+		ndo__forces_eval_items(s, J->t[k], g->U, K->zlist + K->zoff[c],
+		                       (size_t)(K->zoff[c + 1] - K->zoff[c]), K->fitem + K->foff[c],
+		                       (size_t)(K->foff[c + 1] - K->foff[c]));
 	ndo__diag *d = NULL;
 	if (k == 0) {
 		d = &s->cdiag[c];
@@ -882,20 +642,19 @@ static void unit_run(rk4_pipe *J, int k, int c)
 	rk4_pass gl = *g;
 	gl.vs = P->rvs, gl.su = P->rsu, gl.sv = P->rsv;
 	gl.ss = P->rps;
-	gl.sd = (ptrdiff_t)((size_t)P->slot[c] * P->S) - (ptrdiff_t)P->r0[c] * s->w;
-	if (P->zoff[c + 1] == P->zoff[c])
+	gl.sd = (ptrdiff_t)((size_t)P->slot[c] * P->S) - (ptrdiff_t)K->r0[c] * s->w;
+	if (K->zoff[c + 1] == K->zoff[c])
 		gl.F = NULL;
 	rk4_runs(s, &gl, J->mode[k], d, (size_t)s->ichunk[c], (size_t)s->ichunk[c + 1]);
 	gl.F = g->F;
-	rk4_border(s, &gl, J->mode[k], P->blist + P->boff[c], (size_t)(P->boff[c + 1] - P->boff[c]),
+	rk4_border(s, &gl, J->mode[k], K->blist + K->boff[c], (size_t)(K->boff[c + 1] - K->boff[c]),
 	           NULL, k == 0 ? P->bterms : NULL);
 	for (int b = 0; b < 2; b++)
 		if (J->out[k][b]) {
-			if (P->held)
-				copy_dups(s, J->out[k][b], P->dlist + 2 * P->doff[c],
-				          (size_t)(P->doff[c + 1] - P->doff[c]));
+			if (P->held) /* rows other chunks may share: the chunk's pairs */
+				ndo__chunks_copy_dups(s, K, c, J->out[k][b]);
 			else
-				sync_rows(s, J->out[k][b], P->r0[c], P->r1[c]);
+				sync_rows(s, J->out[k][b], K->r0[c], K->r1[c]);
 		}
 }
 
@@ -906,7 +665,7 @@ static void pipe_thread(void *arg, int who)
 {
 	rk4_pipe *J = arg;
 	struct ndo__rk4_plan *P = J->s->rk4_plan;
-	const int C = P->C, pairs = (J->threads + 1) / 2, pair = who / 2;
+	const int C = P->ch.C, pairs = (J->threads + 1) / 2, pair = who / 2;
 	const int up = who % 2 == 0;
 	const int start = up ? (int)((long)C * pair / pairs)
 	                     : (int)((long)C * (pair + 1) / pairs) - 1;
@@ -915,7 +674,7 @@ static void pipe_thread(void *arg, int who)
 		c = up ? (start + c) % C : (start - c + C) % C;
 		if (J->skip && J->skip[k * C + c])
 			continue; /* a unit it reads is late too: none is run */
-		if (unit_claim(P, k * C + c))
+		if (ndo__unit_claim(&P->u, k * C + c))
 			unit_take(J, k, c);
 	}
 }
@@ -971,8 +730,8 @@ static int pipe_setup(ndo_sim *s, double h, rk4_pipe *J, int fresh)
 	J->out[3][0] = un, J->out[3][1] = vn;
 	J->threads = ndo__sim_threads_now(s);
 	if (fresh) {
-		for (int i = 0; i < 4 * P->C; i++)
-			atomic_init(&P->done[i], UNIT_FREE);
+		for (int i = 0; i < 4 * P->ch.C; i++)
+			atomic_init(&P->u.state[i], NDO__UNIT_FREE);
 		return ring_bind(s, P, J->threads);
 	}
 	return NDO_OK;
@@ -1042,6 +801,7 @@ int ndo__rk4_begin(ndo_sim *s, double h, size_t n, const int32_t *pending)
 			return rc;
 	}
 	struct ndo__rk4_plan *P = s->rk4_plan;
+	const ndo__chunks *K = &P->ch;
 	/* The ring laid out for the threads the step runs on (ndo_sim_step_begin
 	 * chose them for it): the late units follow from its slots' waits. */
 	const int T = ndo__sim_threads_now(s);
@@ -1049,7 +809,7 @@ int ndo__rk4_begin(ndo_sim *s, double h, size_t n, const int32_t *pending)
 	 * nodes stay (a peer's halo from one exchange to the next) */
 	if (!P->marked || P->ring_T != T || P->pn != n ||
 	    memcmp(P->plist, pending, n * sizeof *pending)) {
-		const int C = P->C, N = s->n, w = s->w;
+		const int C = K->C, N = s->n, w = s->w;
 		int32_t *pl = realloc(P->plist, (n + 1) * sizeof *pl);
 		uint8_t *prow = calloc((size_t)N + 1, 1);
 		if (!pl || !prow) {
@@ -1073,9 +833,9 @@ int ndo__rk4_begin(ndo_sim *s, double h, size_t n, const int32_t *pending)
 		for (int k = 0; k < 4; k++)
 			for (int c = 0; c < C; c++) {
 				uint8_t late = 0;
-				for (int j = P->a0[c] < 0 ? 0 : P->a0[c]; j <= P->a1[c] && j <= N && !late; j++)
+				for (int j = K->a0[c] < 0 ? 0 : K->a0[c]; j <= K->a1[c] && j <= N && !late; j++)
 					late = prow[j];
-				for (int q = P->lo[c]; k > 0 && q <= P->hi[c] && !late; q++)
+				for (int q = K->lo[c]; k > 0 && q <= K->hi[c] && !late; q++)
 					late = P->late[(k - 1) * C + q];
 				P->late[k * C + c] = late;
 				early += !late;
@@ -1108,7 +868,7 @@ int ndo__rk4_begin(ndo_sim *s, double h, size_t n, const int32_t *pending)
 					if (P->late[k * C + c])
 						continue;
 					uint8_t late = k == 0 && P->prev[c] >= 0 && P->late[3 * C + P->prev[c]];
-					for (int q = P->lo[c]; k > 0 && q <= P->hi[c] && !late; q++)
+					for (int q = K->lo[c]; k > 0 && q <= K->hi[c] && !late; q++)
 						late = P->late[(k - 1) * C + q];
 					if (late)
 						P->late[k * C + c] = 1, changed = 1;

@@ -265,6 +265,39 @@ void ndo__forces_eval_items(ndo_sim *s, double t, const double *u, const int32_t
  * returns their count. */
 int ndo__force_item_nodes(const ndo_sim *s, int k, size_t q, int32_t v[3]);
 
+/* The chunks of the interior runs (s->ichunk) as the pipelines of (pass,
+ * chunk) units see them (chunks.c; rk4.c's RK4 pipeline and wave.c's
+ * steps embed one each).  A unit of chunk c writes its interior runs,
+ * its active border nodes and (NDO__CHUNKS_DUPS) the seam duplicates of
+ * those — rows r0[c]..r1[c], border rows 0 and n included — and reads
+ * them one row further and at the nodes of its force items — rows
+ * a0[c]..a1[c]; it waits for the units of the pass before of chunks
+ * lo[c]..hi[c], those whose writes meet its reads or whose reads meet its
+ * writes; L, the lag between passes in the wavefront, is the most chunks
+ * from c to lo[c] or hi[c] counting c, at least 2.  The lists by chunk are list[off[c]..off[c+1]):
+ * its active border nodes bact[blist[i]]; its active force nodes zlist[i];
+ * its force items fitem[i] (every item with an active node in the chunk,
+ * in the forces' order, its mask those nodes); (NDO__CHUNKS_DUPS) the
+ * (duplicate, canonical) pairs it copies, dlist[2i], dlist[2i + 1];
+ * (NDO__CHUNKS_EDGES) its held edges hedge[elist[i]], those of its active
+ * nodes.  Lists not asked for are NULL. */
+typedef struct ndo__chunks {
+	int C, L;
+	int32_t *r0, *r1, *a0, *a1, *lo, *hi;
+	int32_t *boff, *blist, *zoff, *zlist, *foff;
+	ndo__fitem *fitem;
+	int32_t *doff, *dlist, *eoff, *elist;
+} ndo__chunks;
+enum { NDO__CHUNKS_DUPS = 1, NDO__CHUNKS_EDGES = 2 };
+/* Build K for s's chunks (what: NDO__CHUNKS_ flags); NDO_ENOMEM with K
+ * empty when out of memory (the caller says what for).  Freed by
+ * ndo__chunks_free, which leaves K empty. */
+int ndo__chunks_build(const ndo_sim *s, ndo__chunks *K, int what);
+void ndo__chunks_free(ndo__chunks *K);
+/* Chunk c's seam duplicates (NDO__CHUNKS_DUPS) copied from their
+ * canonical nodes in the 3 planes x (a pass's output, the rows it wrote). */
+void ndo__chunks_copy_dups(const ndo_sim *s, const ndo__chunks *K, int c, double *x);
+
 /* f ← external forces at time t with displacements u (forces.c). */
 void ndo__forces_eval(ndo_sim *s, double t, const double *u);
 int ndo__forces_resolve(ndo_sim *s, const ndo_force *forces, int nforces);

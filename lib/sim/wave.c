@@ -7,8 +7,9 @@
  * its input one row beyond the rows it writes (the stencil's ring), and
  * every seam joins nodes of one row (ndo/topology.h), so pass p of a chunk
  * of rows needs only pass p − 1 of the chunks whose rows meet its rows ± 1
- * (lo[c]..hi[c]: the same chunks whose reads meet its writes, so a unit
- * also never overwrites what a unit of the pass before still reads).
+ * (chunks.c, lo[c]..hi[c]: the same chunks whose reads meet its writes,
+ * so a unit also never overwrites what a unit of the pass before still
+ * reads).
  * m steps are m · (1 or 2) passes, one run on the threads: each thread
  * walks the units (pass, chunk) in wavefront order — pass p of chunk c at
  * c + p·L — the first from the bottom row up, the second from the top
@@ -30,32 +31,20 @@
  * Held nodes (pins) never move: B, C and M get u at those read, and the
  * final state u and v at every held node. */
 #include "sim_private.h"
+#include "units.h"
 #include "ndo/status.h"
-#include "ndo/topology.h"
 
-#include <pthread.h>
-#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 
 struct ndo__wave_plan {
-	int C, L;              /* chunks; the lag between passes, in chunks */
-	int32_t *r0, *r1;      /* each chunk's rows */
-	int32_t *lo, *hi;      /* the chunks a unit of chunk c waits for */
-	int32_t *boff, *blist; /* chunk c's border nodes: bact[blist[boff[c]..boff[c+1])] */
-	int32_t *zoff, *zlist; /* its force nodes */
-	int32_t *foff;         /* its force items, fitem[foff[c]..foff[c+1]) */
-	ndo__fitem *fitem;
-	int32_t *doff, *dlist; /* its seam duplicates, (duplicate, canonical) pairs */
-	int32_t *eoff, *elist; /* its held edges: hedge[elist[eoff[c]..eoff[c+1])] */
+	ndo__chunks ch;        /* what each chunk writes, reads and waits for, its
+	                        * seam duplicates and held edges (sim_private.h) */
 	/* a run: unit states, the first passes' diagnostics */
 	int cap;               /* steps the arrays below hold */
-	_Atomic int *state;    /* 2·cap·C */
+	ndo__units u;          /* unit states, 2·cap·C */
 	ndo__diag *dg;         /* cap·C */
 	double *bt, *et;       /* cap·nbact·NDO__BTERMS, cap·nhedge·3 */
-	_Atomic int sleepers;
-	pthread_mutex_t lock;
-	pthread_cond_t cond;
 };
 
 void ndo__wave_plan_free(ndo_sim *s)
@@ -63,12 +52,9 @@ void ndo__wave_plan_free(ndo_sim *s)
 	struct ndo__wave_plan *P = s->wave_plan;
 	if (!P)
 		return;
-	free(P->r0), free(P->r1), free(P->lo), free(P->hi), free(P->boff), free(P->blist);
-	free(P->zoff), free(P->zlist), free(P->foff), free(P->fitem), free(P->doff), free(P->dlist);
-	free(P->eoff), free(P->elist);
-	free((void *)P->state), free(P->dg), free(P->bt), free(P->et);
-	pthread_mutex_destroy(&P->lock);
-	pthread_cond_destroy(&P->cond);
+	ndo__chunks_free(&P->ch);
+	free(P->dg), free(P->bt), free(P->et);
+	ndo__units_destroy(&P->u);
 	free(P);
 	s->wave_plan = NULL;
 }
@@ -84,192 +70,21 @@ int ndo__wave_fits(const ndo_sim *s)
 	       s->nispan >= 1 && s->nichunk >= 1;
 }
 
-/* Items of a list of `n` owned by chunk c, counted then filled. */
-static int32_t *bucket(int C, size_t n, const int32_t *owner, int32_t **off)
-{
-	*off = calloc((size_t)C + 2, sizeof **off);
-	int32_t *list = malloc((n + 1) * sizeof *list);
-	if (!*off || !list) {
-		free(list);
-		return NULL;
-	}
-	for (size_t i = 0; i < n; i++)
-		(*off)[owner[i] + 2]++;
-	for (int c = 0; c < C; c++)
-		(*off)[c + 2] += (*off)[c + 1];
-	for (size_t i = 0; i < n; i++)
-		list[(*off)[owner[i] + 1]++] = (int32_t)i;
-	return list;
-}
-
-static void widen(int32_t *a0, int32_t *a1, int32_t j)
-{
-	if (j < *a0)
-		*a0 = j;
-	if (j > *a1)
-		*a1 = j;
-}
-
-/* The plan, as rk4.c's: a chunk writes its interior runs, its active
- * border nodes (those of the rows of its runs, or of the nearest row that
- * has runs) and the seam duplicates of those, and reads one row further
- * and the nodes of its force items. */
+/* The plan: the chunks (chunks.c, as rk4.c's pipeline has them), each
+ * with the seam duplicates of the nodes it writes and the held edges of
+ * its active nodes, whether or not the region holds nodes. */
 static int plan_build(ndo_sim *s)
 {
-	const int C = s->nichunk, n = s->n, w = s->w;
-	const size_t cnt = s->count;
 	struct ndo__wave_plan *P = calloc(1, sizeof *P);
-	int32_t *rowc = malloc(((size_t)n + 1) * sizeof *rowc);
-	int32_t *own = malloc((cnt + 1) * sizeof *own);
-	int32_t *a0 = malloc(((size_t)C + 1) * sizeof *a0), *a1 = malloc(((size_t)C + 1) * sizeof *a1);
-	const size_t ndup = ndo_duplicate_count(s->level);
-	size_t nb = s->nbact;
-	if (s->nfnodes > nb)
-		nb = s->nfnodes;
-	if (ndup > nb)
-		nb = ndup;
-	if (s->nhedge > nb)
-		nb = s->nhedge;
-	int32_t *owner = malloc((nb + 1) * sizeof *owner);
-	size_t *pairs = malloc((2 * ndup + 1) * sizeof *pairs);
-	int32_t *zn = malloc((s->nfnodes + 1) * sizeof *zn);
-	if (!P || !rowc || !own || !a0 || !a1 || !owner || !pairs || !zn)
-		goto oom;
-	pthread_mutex_init(&P->lock, NULL);
-	pthread_cond_init(&P->cond, NULL);
+	if (!P)
+		return ndo__fail(NDO_ENOMEM, "out of memory for the steps' pipeline");
+	ndo__units_init(&P->u);
 	s->wave_plan = P;
-	P->C = C;
-	P->r0 = malloc((size_t)C * sizeof *P->r0), P->r1 = malloc((size_t)C * sizeof *P->r1);
-	P->lo = malloc((size_t)C * sizeof *P->lo), P->hi = malloc((size_t)C * sizeof *P->hi);
-	if (!P->r0 || !P->r1 || !P->lo || !P->hi)
-		goto oom;
-	for (int j = 0; j <= n; j++)
-		rowc[j] = -1;
-	for (size_t p = 0; p < cnt; p++)
-		own[p] = -1;
-	for (int c = 0; c < C; c++) {
-		P->r0[c] = a0[c] = n + 1, P->r1[c] = a1[c] = -1;
-		for (int32_t k = s->ichunk[c]; k < s->ichunk[c + 1]; k++) {
-			rowc[s->ispan[k].a / w] = c;
-			widen(&P->r0[c], &P->r1[c], s->ispan[k].a / w);
-			for (int32_t p = s->ispan[k].a; p < s->ispan[k].b; p++)
-				own[p] = c;
-		}
+	if (ndo__chunks_build(s, &P->ch, NDO__CHUNKS_DUPS | NDO__CHUNKS_EDGES)) {
+		ndo__wave_plan_free(s);
+		return ndo__fail(NDO_ENOMEM, "out of memory for the steps' pipeline");
 	}
-	for (int j = 0; j <= n; j++)
-		if (rowc[j] < 0 || rowc[j] >= C)
-			for (int d = 1; d <= n; d++) {
-				if (j - d >= 0 && rowc[j - d] >= 0 && rowc[j - d] < C) {
-					rowc[j] = rowc[j - d] + C;
-					break;
-				}
-				if (j + d <= n && rowc[j + d] >= 0 && rowc[j + d] < C) {
-					rowc[j] = rowc[j + d] + C;
-					break;
-				}
-			}
-	for (int j = 0; j <= n; j++)
-		rowc[j] %= C;
-	for (size_t k = 0; k < s->nbact; k++) {
-		int32_t p = s->st.border[s->bact[k]];
-		owner[k] = own[p] = rowc[p / w];
-		widen(&P->r0[owner[k]], &P->r1[owner[k]], p / w);
-	}
-	if (!(P->blist = bucket(C, s->nbact, owner, &P->boff)))
-		goto oom;
-	/* the seam duplicates of the active canonical nodes, by the chunk that
-	 * writes the canonical one */
-	ndo_duplicates(s->level, pairs);
-	size_t m = 0;
-	for (size_t i = 0; i < ndup; i++)
-		if (own[pairs[2 * i + 1]] >= 0)
-			pairs[2 * m] = pairs[2 * i], pairs[2 * m + 1] = pairs[2 * i + 1],
-			owner[m++] = own[pairs[2 * i + 1]];
-	int32_t *idx = bucket(C, m, owner, &P->doff);
-	if (!idx || !(P->dlist = malloc((2 * m + 1) * sizeof *P->dlist))) {
-		free(idx);
-		goto oom;
-	}
-	for (size_t i = 0; i < m; i++) {
-		size_t q = (size_t)idx[i];
-		P->dlist[2 * i] = (int32_t)pairs[2 * q];
-		P->dlist[2 * i + 1] = (int32_t)pairs[2 * q + 1];
-		widen(&P->r0[owner[q]], &P->r1[owner[q]], (int32_t)(pairs[2 * q] / (size_t)w));
-	}
-	free(idx);
-	/* held edges by the chunk of their active node */
-	for (size_t k = 0; k < s->nhedge; k++)
-		owner[k] = own[s->hedge[k].p];
-	for (size_t k = 0; k < s->nhedge; k++)
-		if (owner[k] < 0)
-			goto oom; /* not reached: every active canonical node is owned */
-	if (!(P->elist = bucket(C, s->nhedge, owner, &P->eoff)))
-		goto oom;
-	/* force nodes by their chunk, the active ones */
-	size_t nz = 0;
-	for (size_t k = 0; k < s->nfnodes; k++) {
-		int32_t p = s->fnodes[k];
-		if (s->active[p])
-			zn[nz] = p, owner[nz++] = own[p];
-	}
-	if (!(P->zlist = bucket(C, nz, owner, &P->zoff)))
-		goto oom;
-	for (int32_t i = 0; i < P->zoff[C]; i++)
-		P->zlist[i] = zn[P->zlist[i]];
-	for (int c = 0; c < C; c++)
-		if (P->r1[c] >= 0)
-			a0[c] = P->r0[c] - 1, a1[c] = P->r1[c] + 1;
-	size_t nitem = 0;
-	for (int k = 0; k < s->nforces; k++)
-		nitem += s->forces[k].f.count;
-	P->foff = calloc((size_t)C + 1, sizeof *P->foff);
-	P->fitem = malloc((3 * nitem + 1) * sizeof *P->fitem);
-	if (!P->foff || !P->fitem)
-		goto oom;
-	m = 0;
-	for (int c = 0; c < C; c++) {
-		P->foff[c] = (int32_t)m;
-		for (int k = 0; k < s->nforces; k++)
-			for (size_t q = 0; q < s->forces[k].f.count; q++) {
-				int32_t v[3], mask = 0;
-				int nv = ndo__force_item_nodes(s, k, q, v);
-				for (int d = 0; d < nv; d++)
-					if (s->active[v[d]] && own[v[d]] == c)
-						mask |= 1 << d;
-				if (mask) {
-					P->fitem[m++] = (ndo__fitem){k, (int32_t)q, mask};
-					for (int d = 0; d < nv; d++) {
-						widen(&a0[c], &a1[c], v[d] / w - (nv == 1));
-						widen(&a0[c], &a1[c], v[d] / w + (nv == 1));
-					}
-				}
-			}
-	}
-	P->foff[C] = (int32_t)m;
-	P->L = 2;
-	for (int c = 0; c < C; c++) {
-		P->lo[c] = c, P->hi[c] = c;
-		for (int q = 0; q < C; q++)
-			if ((P->r0[q] <= a1[c] && a0[c] <= P->r1[q]) ||
-			    (a0[q] <= P->r1[c] && P->r0[c] <= a1[q])) {
-				if (q < P->lo[c])
-					P->lo[c] = q;
-				if (q > P->hi[c])
-					P->hi[c] = q;
-			}
-		if (P->hi[c] - c + 1 > P->L)
-			P->L = P->hi[c] - c + 1;
-		if (c - P->lo[c] + 1 > P->L)
-			P->L = c - P->lo[c] + 1;
-	}
-	free(rowc), free(own), free(a0), free(a1), free(owner), free(pairs), free(zn);
 	return NDO_OK;
-oom:
-	free(rowc), free(own), free(a0), free(a1), free(owner), free(pairs), free(zn);
-	if (P && !s->wave_plan)
-		free(P);
-	ndo__wave_plan_free(s);
-	return ndo__fail(NDO_ENOMEM, "out of memory for the steps' pipeline");
 }
 
 /* Steps a run takes at most: the wavefront spans (passes − 1)·L chunks,
@@ -280,7 +95,7 @@ int ndo__wave_batch(ndo_sim *s)
 	if (!s->wave_plan && plan_build(s))
 		return 0;
 	const int pps = s->p.method == NDO_MIDPOINT ? 2 : 1;
-	int m = s->wave_plan->C / (4 * s->wave_plan->L * pps);
+	int m = s->wave_plan->ch.C / (4 * s->wave_plan->ch.L * pps);
 	return m < 2 ? 2 : m > 16 ? 16 : m;
 }
 
@@ -294,28 +109,17 @@ typedef struct wave_run {
 	int threads;
 } wave_run;
 
-enum { UNIT_FREE, UNIT_CLAIMED, UNIT_DONE };
-
 /* X_j's planes: A, then B and C in turn. */
 static int xbuf(int j)
 {
 	return j == 0 ? 0 : j % 2 ? 1 : 2;
 }
 
-static void copy_dups(const ndo_sim *s, double *x, const int32_t *pairs, size_t n)
-{
-	const size_t cnt = s->count;
-	for (int c = 0; c < 3; c++) {
-		double *X = x + (size_t)c * cnt;
-		for (size_t i = 0; i < n; i++)
-			X[pairs[2 * i]] = X[pairs[2 * i + 1]];
-	}
-}
-
 static void unit_run(wave_run *J, int p, int c)
 {
 	ndo_sim *s = J->s;
 	struct ndo__wave_plan *P = s->wave_plan;
+	const ndo__chunks *K = &P->ch;
 	const int j = p / J->pps, second = p % J->pps != 0;
 	const int a = xbuf(j), b = xbuf(j + 1);
 	const double *u, *v;
@@ -335,67 +139,36 @@ static void unit_run(wave_run *J, int p, int c)
 		up.u0 = J->xu[a], up.v0 = J->xv[a];
 	}
 	if (s->has_forces)
-		ndo__forces_eval_items(s, t, u, P->zlist + P->zoff[c],
-		                       (size_t)(P->zoff[c + 1] - P->zoff[c]), P->fitem + P->foff[c],
-		                       (size_t)(P->foff[c + 1] - P->foff[c]));
+		ndo__forces_eval_items(s, t, u, K->zlist + K->zoff[c],
+		                       (size_t)(K->zoff[c + 1] - K->zoff[c]), K->fitem + K->foff[c],
+		                       (size_t)(K->foff[c + 1] - K->foff[c]));
 	ndo__diag *d = NULL;
 	double *bt = NULL;
 	if (!second) {
-		d = &P->dg[(size_t)j * (size_t)P->C + (size_t)c];
+		d = &P->dg[(size_t)j * (size_t)K->C + (size_t)c];
 		memset(d, 0, sizeof *d);
 		bt = P->bt + (size_t)j * s->nbact * NDO__BTERMS;
 	}
 	/* f is zero but at the force nodes (no pressure, no penalty pins): a
 	 * chunk without any runs without it, the same bits (rk4.c) */
-	ndo__accel_runs(s, u, v, P->zoff[c + 1] > P->zoff[c] ? s->f : NULL, &up, d,
+	ndo__accel_runs(s, u, v, K->zoff[c + 1] > K->zoff[c] ? s->f : NULL, &up, d,
 	                (size_t)s->ichunk[c], (size_t)s->ichunk[c + 1]);
-	ndo__accel_border_nodes(s, u, v, s->f, &up, P->blist + P->boff[c],
-	                        (size_t)(P->boff[c + 1] - P->boff[c]), bt);
+	ndo__accel_border_nodes(s, u, v, s->f, &up, K->blist + K->boff[c],
+	                        (size_t)(K->boff[c + 1] - K->boff[c]), bt);
 	if (d) {
 		/* ndo__held_power's terms, v at the active node, u at the held */
 		const size_t cnt = s->count;
 		double *et = P->et + (size_t)j * s->nhedge * 3;
-		for (int32_t i = P->eoff[c]; i < P->eoff[c + 1]; i++) {
-			const ndo__edge *e = &s->hedge[P->elist[i]];
+		for (int32_t i = K->eoff[c]; i < K->eoff[c + 1]; i++) {
+			const ndo__edge *e = &s->hedge[K->elist[i]];
 			for (int comp = 0; comp < 3; comp++)
-				et[3 * (size_t)P->elist[i] + (size_t)comp] =
+				et[3 * (size_t)K->elist[i] + (size_t)comp] =
 					v[(size_t)comp * cnt + (size_t)e->p] * e->c *
 					u[(size_t)comp * cnt + (size_t)e->q];
 		}
 	}
-	const int32_t *dl = P->dlist + 2 * P->doff[c];
-	const size_t nd = (size_t)(P->doff[c + 1] - P->doff[c]);
-	copy_dups(s, up.uo, dl, nd);
-	copy_dups(s, up.vo, dl, nd);
-}
-
-static void unit_wait(struct ndo__wave_plan *P, int idx)
-{
-	if (atomic_load_explicit(&P->state[idx], memory_order_acquire) == UNIT_DONE)
-		return;
-	pthread_mutex_lock(&P->lock);
-	atomic_fetch_add(&P->sleepers, 1);
-	while (atomic_load(&P->state[idx]) != UNIT_DONE)
-		pthread_cond_wait(&P->cond, &P->lock);
-	atomic_fetch_sub(&P->sleepers, 1);
-	pthread_mutex_unlock(&P->lock);
-}
-
-static void unit_done(struct ndo__wave_plan *P, int idx)
-{
-	atomic_store(&P->state[idx], UNIT_DONE);
-	if (atomic_load(&P->sleepers)) {
-		pthread_mutex_lock(&P->lock);
-		pthread_cond_broadcast(&P->cond);
-		pthread_mutex_unlock(&P->lock);
-	}
-}
-
-static int unit_claim(struct ndo__wave_plan *P, int idx)
-{
-	int free_ = UNIT_FREE;
-	return atomic_load_explicit(&P->state[idx], memory_order_relaxed) == UNIT_FREE &&
-	       atomic_compare_exchange_strong(&P->state[idx], &free_, UNIT_CLAIMED);
+	ndo__chunks_copy_dups(s, K, c, up.uo);
+	ndo__chunks_copy_dups(s, K, c, up.vo);
 }
 
 /* Unit (p, c), claimed: the units it reads done (run here when nobody has
@@ -404,19 +177,19 @@ static void unit_take(wave_run *J, int p, int c)
 {
 	struct ndo__wave_plan *P = J->s->wave_plan;
 	if (p > 0) {
-		int lo = P->lo[c], hi = P->hi[c];
+		int lo = P->ch.lo[c], hi = P->ch.hi[c];
 		if (J->s->wave_test == 3)
 			lo = hi = c; /* wrong on purpose (tests): the neighbours not waited for */
 		for (int q = lo; q <= hi; q++) {
-			int idx = (p - 1) * P->C + q;
-			if (unit_claim(P, idx))
+			int idx = (p - 1) * P->ch.C + q;
+			if (ndo__unit_claim(&P->u, idx))
 				unit_take(J, p - 1, q);
 			else
-				unit_wait(P, idx);
+				ndo__unit_wait(&P->u, idx);
 		}
 	}
 	unit_run(J, p, c);
-	unit_done(P, p * P->C + c);
+	ndo__unit_done(&P->u, p * P->ch.C + c);
 }
 
 /* Thread `who` of J->threads: every unit in wavefront order, the even
@@ -427,7 +200,7 @@ static void wave_thread(void *arg, int who)
 {
 	wave_run *J = arg;
 	struct ndo__wave_plan *P = J->s->wave_plan;
-	const int C = P->C, L = P->L, np = J->np;
+	const int C = P->ch.C, L = P->ch.L, np = J->np;
 	if (J->s->wave_test & 1) {
 		const int n = np * C;
 		int *ord = malloc((size_t)n * sizeof *ord);
@@ -443,7 +216,7 @@ static void wave_thread(void *arg, int who)
 			ord[i] = ord[r], ord[r] = tmp;
 		}
 		for (int i = 0; i < n; i++)
-			if (unit_claim(P, ord[i]))
+			if (ndo__unit_claim(&P->u, ord[i]))
 				unit_take(J, ord[i] / C, ord[i] % C);
 		free(ord);
 		return;
@@ -456,7 +229,7 @@ static void wave_thread(void *arg, int who)
 			if (c < 0 || c >= C)
 				continue;
 			c = up ? (start + c) % C : (start - c + C) % C;
-			if (unit_claim(P, p * C + c))
+			if (ndo__unit_claim(&P->u, p * C + c))
 				unit_take(J, p, c);
 		}
 }
@@ -484,15 +257,15 @@ int ndo__wave_run(ndo_sim *s, double h, int m, const double *t)
 			return rc;
 	}
 	struct ndo__wave_plan *P = s->wave_plan;
-	const int C = P->C, pps = s->p.method == NDO_MIDPOINT ? 2 : 1;
+	const int C = P->ch.C, pps = s->p.method == NDO_MIDPOINT ? 2 : 1;
 	if (m > P->cap) {
-		free((void *)P->state), free(P->dg), free(P->bt), free(P->et);
-		P->state = malloc((size_t)(pps * m * C) * sizeof *P->state);
+		free((void *)P->u.state), free(P->dg), free(P->bt), free(P->et);
+		P->u.state = malloc((size_t)(pps * m * C) * sizeof *P->u.state);
 		P->dg = malloc((size_t)(m * C) * sizeof *P->dg);
 		P->bt = malloc(((size_t)m * s->nbact * NDO__BTERMS + 1) * sizeof *P->bt);
 		P->et = malloc(((size_t)m * s->nhedge * 3 + 1) * sizeof *P->et);
 		P->cap = m;
-		if (!P->state || !P->dg || !P->bt || !P->et) {
+		if (!P->u.state || !P->dg || !P->bt || !P->et) {
 			ndo__wave_plan_free(s);
 			return ndo__fail(NDO_ENOMEM, "out of memory for the steps' pipeline");
 		}
@@ -507,12 +280,12 @@ int ndo__wave_run(ndo_sim *s, double h, int m, const double *t)
 			ndo__held_keep(s, J.mu);
 	}
 	for (int i = 0; i < J.np * C; i++)
-		atomic_init(&P->state[i], UNIT_FREE);
+		atomic_init(&P->u.state[i], NDO__UNIT_FREE);
 	J.threads = ndo__sim_threads_now(s);
 	ndo__sim_run(s, J.threads, wave_thread, &J);
 	if (s->wave_test & 1) /* a shuffling thread that found no memory left units */
 		for (int i = 0; i < J.np * C; i++)
-			if (unit_claim(P, i))
+			if (ndo__unit_claim(&P->u, i))
 				unit_take(&J, i / C, i % C);
 	return NDO_OK;
 }
@@ -520,7 +293,7 @@ int ndo__wave_run(ndo_sim *s, double h, int m, const double *t)
 void ndo__wave_diag(ndo_sim *s, int j, ndo__diag *d)
 {
 	struct ndo__wave_plan *P = s->wave_plan;
-	const int C = P->C;
+	const int C = P->ch.C;
 	memcpy(s->cdiag, P->dg + (size_t)j * (size_t)C, (size_t)C * sizeof *s->cdiag);
 	ndo__border_terms_sum(s, P->bt + (size_t)j * s->nbact * NDO__BTERMS, &s->cdiag[C]);
 	ndo__diag_sum(s, d);
