@@ -170,4 +170,5 @@ if [ $ro = 0 ] && [ $rj = 0 ] && [ $rv = 0 ] && [ "$steps" = "0 10 20 30 40 50 "
 	pass "an observer writes its 6 frames (steps $steps) and the owner's result, and says so"
 else
 	fail "an observer's frames" "exits $ro $rj $rv, frame steps '$steps', output equal: $same; $(grep observed obs.err)"
+	tail -3 obs.err | sed 's/^/    observer: /'
 fi
