@@ -9,8 +9,9 @@
 # boundary (--boundary hold) must not.  With 5% and 20% loss the run
 # completes, still bit for bit (lock-step re-sends recover every lost tile).
 # At level 8, 2 and 3 peers (their regions through RK4's pipeline) too.
-# With --partition bands (whole grid rows), 2-4 peers, midpoint and rk4,
-# and 2 peers at level 8, bit for bit too.
+# The owner's default partition from level 3 is bands of whole grid rows;
+# with --partition quadtree (regions grown from the POIs, borders across
+# rows), 2-4 peers, midpoint and rk4, and 2 peers at level 8, bit for bit too.
 . "$(dirname "$0")/netns.bash"
 . "$(dirname "$0")/lib.sh"
 . "$(dirname "$0")/peers.bash"
@@ -63,10 +64,10 @@ for n in 2 3 4; do
 		exact "$n peers, $m, $(dur "$m") s" "$n" "$m" "p$n-$m.tgrid"
 	done
 done
-# bands of whole grid rows (--partition bands) instead of the quad-tree regions
+# the quad-tree's regions instead of the default bands of whole grid rows
 for n in 2 3 4; do
 	for m in midpoint rk4; do
-		OWNER_OPTS="--partition bands" exact "$n peers, $m, bands of rows" "$n" "$m" "b$n-$m.tgrid"
+		OWNER_OPTS="--partition quadtree" exact "$n peers, $m, quad-tree regions" "$n" "$m" "q$n-$m.tgrid"
 	done
 done
 OWNER_OPTS="--halo-steps 4" exact "3 peers, rk4, a halo exchange every 4 steps" 3 rk4 wide.tgrid
@@ -81,8 +82,8 @@ for n in 2 3; do
 	GRID=wavy8.tgrid SOLO=solo8.tgrid RUN_TIME=0.1 \
 		exact "$n peers, rk4, level 8 (RK4's pipeline with held nodes)" "$n" rk4 "p$n-l8.tgrid"
 done
-GRID=wavy8.tgrid SOLO=solo8.tgrid RUN_TIME=0.1 OWNER_OPTS="--partition bands" \
-	exact "2 peers, rk4, level 8, bands of rows" 2 rk4 "b2-l8.tgrid"
+GRID=wavy8.tgrid SOLO=solo8.tgrid RUN_TIME=0.1 OWNER_OPTS="--partition quadtree" \
+	exact "2 peers, rk4, level 8, quad-tree regions" 2 rk4 "q2-l8.tgrid"
 
 if OWNER_OPTS="--boundary hold" run_peers 2 rk4 held.tgrid; then
 	read -r rel _ < <(compare held.tgrid solo-rk4.tgrid)

@@ -27,7 +27,7 @@ void peer_defaults(peer_cli *c)
 	memset(c, 0, sizeof *c);
 	c->poi = -1;
 	c->prefix = "NDO";
-	c->partition = NDO_PART_QUADTREE;
+	c->partition = 0; /* bands where every peer count fits (owner_partition) */
 	c->clock = NDO_CLOCK_LOCKSTEP;
 	c->speed = 1;
 	c->step_timeout = 0.5;
@@ -36,6 +36,16 @@ void peer_defaults(peer_cli *c)
 	c->gather_timeout = 10;
 	c->peers = 1;
 	c->send_level = -1;
+}
+
+/* The owner's partition method: the one asked for, or bands of whole rows
+ * (the faster steps, docs/peers.md) where the grid has a cell row for each
+ * of NDO_MAX_PEERS peers, the quad-tree's regions on the coarser grids. */
+static ndo_part_method owner_partition(const peer_cli *c, int level)
+{
+	if (c->partition)
+		return (ndo_part_method)c->partition;
+	return (1 << level) >= NDO_MAX_PEERS ? NDO_PART_BANDS : NDO_PART_QUADTREE;
 }
 
 /* Options only the owner decides; a joiner takes them from it. */
@@ -501,7 +511,7 @@ int peers_main(run *r)
 	}
 	ndo_peer_opts o = {
 		.session = {.role = owner ? NDO_ROLE_OWNER : NDO_ROLE_JOINER, .name = c->name,
-		            .poi = c->poi, .partition = (ndo_part_method)c->partition,
+		            .poi = c->poi, .partition = owner ? owner_partition(c, g->level) : 0,
 		            .timeout = c->peer_timeout, .codec = &c->codec,
 		            .coarse_levels = owner && c->send_level >= 0 ? g->level - c->send_level : 0},
 		.clock = c->clock, .step_timeout = c->step_timeout, .speed = c->speed,
