@@ -6,7 +6,8 @@
  * tile, its region's cover) and decoded by a receiver, which must
  * reconstruct exactly what the encoder says it will.
  *
- *   bench_codec [-l LEVEL] [-e ENCODING] [-p PEERS] [-t SECONDS] [-z ZSTD_LEVEL] [-v 1|2]
+ *   bench_codec [-l LEVEL] [-e ENCODING] [-p PEERS] [-t SECONDS | -n STEPS] [-z ZSTD_LEVEL]
+ *               [-v 1|2] [-d DUMP_FILE]    (-h: this usage; an unknown option: it, exit 2)
  *
  * Prints one line: payload bits per node per update (over W x H nodes,
  * the thesis' count; without message headers), the share of the EXACT
@@ -72,7 +73,20 @@ int main(int argc, char **argv)
 	double seconds = 5;
 	long long nsteps = 0;
 	const char *spec = "predict", *dump = NULL;
-	for (int a = 1; a + 1 < argc; a += 2) {
+	static const char usage[] =
+	    "usage: bench_codec [-l LEVEL] [-e ENCODING] [-p PEERS] [-t SECONDS | -n STEPS]\n"
+	    "                   [-z ZSTD_LEVEL] [-v 1|2] [-d DUMP_FILE]\n";
+	for (int a = 1; a < argc; a += 2) {
+		const char *o = argv[a];
+		int known = o[0] == '-' && o[1] && !o[2] && strchr("lepdvtnz", o[1]);
+		if (!known || a + 1 >= argc) {
+			int help = !strcmp(o, "-h") || !strcmp(o, "--help");
+			if (!help)
+				fprintf(stderr, "bench_codec: '%s': %s\n", o,
+				        known ? "an option without its value" : "not an option");
+			fputs(usage, help ? stdout : stderr);
+			return help ? 0 : 2;
+		}
 		if (!strcmp(argv[a], "-l"))
 			level = atoi(argv[a + 1]);
 		else if (!strcmp(argv[a], "-e"))
