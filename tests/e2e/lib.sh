@@ -15,7 +15,12 @@ mkdir -p "$NDO_TMP" && T=$(mktemp -d "$NDO_TMP/$(basename "$0" .sh).XXXXXX") && 
 SCRIPT=$(basename "$0" .sh)
 
 pass() { echo "PASS $SCRIPT: $1"; }
-fail() { echo "FAIL $SCRIPT: $1${2:+: $2}"; }
+# A FAIL line also marks the script failed, so that run alone it exits 1
+# (tests/run counts the lines either way); a file, since cases run in
+# subshells and pipelines too.
+FAILED_MARK=$T/.failed
+fail() { echo "FAIL $SCRIPT: $1${2:+: $2}"; : >"$FAILED_MARK"; }
+trap 'rc=$?; [ -e "$FAILED_MARK" ] && [ $rc -eq 0 ] && rc=1; exit $rc' EXIT
 
 # check NAME CMD...: the command succeeds
 check() {
