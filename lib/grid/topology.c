@@ -117,11 +117,24 @@ void ndo_duplicates(int level, size_t *pairs)
 	}
 }
 
-void ndo_sync(int level, void *data, size_t node_bytes)
+long ndo_duplicate_of(int level, size_t k)
+{
+	size_t n = (size_t)1 << level, w = 2 * n + 1, i = k % w, j = k / w;
+	if ((j == 0 || j == n) && i < n)
+		return (long)(j * w + 2 * n - i); /* the bottom and top folds */
+	if (i == 0 && j > 0 && j < n)
+		return (long)(j * w + 2 * n); /* the column seam */
+	return -1;
+}
+
+/* ndo_sync's copies for nodes of `nb` bytes; with nb a constant (the
+ * callers below) each copy is a move or two, not a call to memcpy: a peer
+ * syncs a dozen planes of doubles every step, 3·2^level copies of 8 bytes
+ * each, and the calls cost more than the copies. */
+static inline void sync_nodes(int level, unsigned char *d, size_t nb)
 {
 	int n = 1 << level, w = 2 * n + 1;
-	unsigned char *d = data;
-#define COPY(dst, src) memcpy(d + (dst) * node_bytes, d + (src) * node_bytes, node_bytes)
+#define COPY(dst, src) memcpy(d + (dst) * nb, d + (src) * nb, nb)
 	for (int i = n + 1; i <= 2 * n; i++) {
 		COPY(ndo_node(w, i, 0), ndo_node(w, 2 * n - i, 0));
 		COPY(ndo_node(w, i, n), ndo_node(w, 2 * n - i, n));
@@ -129,6 +142,18 @@ void ndo_sync(int level, void *data, size_t node_bytes)
 	for (int j = 1; j < n; j++)
 		COPY(ndo_node(w, 2 * n, j), ndo_node(w, 0, j));
 #undef COPY
+}
+
+void ndo_sync(int level, void *data, size_t node_bytes)
+{
+	switch (node_bytes) { /* the grid's and the simulation's usual nodes */
+	case 1: sync_nodes(level, data, 1); break;
+	case 4: sync_nodes(level, data, 4); break;
+	case 8: sync_nodes(level, data, 8); break;
+	case 12: sync_nodes(level, data, 12); break;
+	case 24: sync_nodes(level, data, 24); break;
+	default: sync_nodes(level, data, node_bytes);
+	}
 }
 
 size_t ndo_grid_unsynced(const ndo_grid *g, const char **channel, int *i, int *j)

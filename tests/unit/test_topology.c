@@ -384,6 +384,51 @@ static void sync_makes_duplicates_agree(void)
 	}
 }
 
+/* ndo_sync for any node size (its fast paths for 1, 4, 8, 12 and 24 bytes
+ * and the general one) against the slow reference: every duplicate pair of
+ * ndo_duplicates() copied with memcpy, in the pairs' order; and
+ * ndo_duplicate_of against the same pairs. */
+static void sync_sizes_are_the_reference(void)
+{
+	const size_t sizes[] = {1, 2, 4, 8, 12, 16, 24, 40};
+	for (int level = 0; level <= 6; level++) {
+		size_t count = ndo_vertex_count(level) + ndo_duplicate_count(level);
+		size_t npairs = ndo_duplicate_count(level);
+		size_t *pairs = malloc(2 * npairs * sizeof *pairs);
+		ndo_duplicates(level, pairs);
+		/* ndo_duplicate_of: each pair's canonical node names its duplicate,
+		 * and no other node has one */
+		long *dup = malloc(count * sizeof *dup);
+		for (size_t k = 0; k < count; k++)
+			dup[k] = -1;
+		int bad = 0;
+		for (size_t k = 0; k < npairs; k++) {
+			bad += dup[pairs[2 * k + 1]] != -1; /* a second duplicate */
+			dup[pairs[2 * k + 1]] = (long)pairs[2 * k];
+		}
+		for (size_t k = 0; k < count; k++)
+			bad += ndo_duplicate_of(level, k) != dup[k];
+		CHECK(bad == 0, "level %d: ndo_duplicate_of differs from ndo_duplicates at %d nodes", level,
+		      bad);
+		free(dup);
+		for (size_t z = 0; z < sizeof sizes / sizeof *sizes; z++) {
+			size_t nb = sizes[z];
+			unsigned char *fast = malloc(count * nb), *slow = malloc(count * nb);
+			srand((unsigned)(11 * level + (int)nb));
+			for (size_t k = 0; k < count * nb; k++)
+				fast[k] = slow[k] = (unsigned char)rand();
+			ndo_sync(level, fast, nb);
+			for (size_t k = 0; k < npairs; k++)
+				memcpy(slow + pairs[2 * k] * nb, slow + pairs[2 * k + 1] * nb, nb);
+			CHECK(memcmp(fast, slow, count * nb) == 0, "level %d, %zu-byte nodes: ndo_sync "
+			      "differs from the pairs copied one by one", level, nb);
+			free(fast);
+			free(slow);
+		}
+		free(pairs);
+	}
+}
+
 int main(void)
 {
 	ck_program = "topology";
@@ -394,5 +439,6 @@ int main(void)
 	RUN(duplicates_and_canonical);
 	RUN(pad_holds_ghost_values);
 	RUN(sync_makes_duplicates_agree);
+	RUN(sync_sizes_are_the_reference);
 	return ck_failed_cases != 0;
 }

@@ -71,6 +71,11 @@ void ndo_triangles(int level, int32_t *tri);
  * pairs, 2 size_t each. */
 void ndo_duplicates(int level, size_t *pairs);
 
+/* The stored duplicate of canonical stored node k, or −1 when it has none:
+ * every canonical node has at most one (the folds of rows 0 and N, the
+ * column seam), and these are ndo_duplicates()'s pairs. */
+long ndo_duplicate_of(int level, size_t k);
+
 /* Make stored duplicates agree: copy each canonical node's `node_bytes`
  * bytes (one node's values) over its duplicates in `data` (W*H nodes). */
 void ndo_sync(int level, void *data, size_t node_bytes);
