@@ -658,26 +658,33 @@ static void state_written(ndo_sim *s, size_t n, const int32_t *nodes)
 	for (size_t k = 0; s->ahead && k < n; k++)
 		if ((size_t)nodes[k] < s->count && !s->pend[s->canon[nodes[k]]])
 			s->ahead = 0;
-	ndo__sync_planes(s, s->u, 3);
-	ndo__sync_planes(s, s->v, 3);
-	if (!s->spare_held)
-		return;
-	const size_t cnt = s->count;
 	if (!nodes) {
+		ndo__sync_planes(s, s->u, 3);
+		ndo__sync_planes(s, s->v, 3);
 		s->spare_held = 0;
 		return;
 	}
+	/* the written nodes' duplicates alone (a pass over every seam of the
+	 * planes cost a peer more than its halo's writes), and their spare
+	 * state */
+	const size_t cnt = s->count;
 	for (size_t k = 0; k < n; k++) {
 		if ((size_t)nodes[k] >= cnt)
 			continue;
+		size_t p = (size_t)s->canon[nodes[k]];
+		long d = ndo_duplicate_of(s->level, p);
 		for (int c = 0; c < 3; c++) {
-			size_t q = (size_t)c * cnt + (size_t)s->canon[nodes[k]];
-			s->ka[0][q] = s->u[q];
-			s->ka[1][q] = s->v[q];
+			size_t q = (size_t)c * cnt + p;
+			if (s->spare_held)
+				s->ka[0][q] = s->u[q], s->ka[1][q] = s->v[q];
+			if (d < 0)
+				continue;
+			size_t r = (size_t)c * cnt + (size_t)d;
+			s->u[r] = s->u[q], s->v[r] = s->v[q];
+			if (s->spare_held)
+				s->ka[0][r] = s->u[q], s->ka[1][r] = s->v[q];
 		}
 	}
-	ndo__sync_planes(s, s->ka[0], 3);
-	ndo__sync_planes(s, s->ka[1], 3);
 }
 
 void ndo_sim_set(ndo_sim *s, size_t n, const int32_t *nodes, const double *x,
