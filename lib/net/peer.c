@@ -207,14 +207,17 @@ static void write_halo(ndo_peer *p, const ndo_msg_halo_t *h)
 			if (p->rb)
 				continue;
 			const double *val = &h->values[k];
+			long dup = ndo_duplicate_of(p->level, c); /* the grid's copy of it */
 			for (int d = 0; d < 3; d++) {
 				v[3 * c + d] = val[d];
 				p->hu[3 * c + d] = val[3 + d];
 				x[3 * c + d] = rest[3 * c + d] + val[3 + d];
+				if (dup >= 0)
+					v[3 * dup + d] = v[3 * c + d], x[3 * dup + d] = x[3 * c + d];
 			}
 			p->nstep[c] = h->step;
 		}
-	if (!taken) /* duplicates: the session syncs the grid after its update */
+	if (!taken)
 		return;
 	if (h->step > p->max_seen)
 		p->max_seen = h->step;
@@ -499,9 +502,8 @@ static void unstash(ndo_peer *p)
 			p->st.stale++;
 			halo_free(h);
 		} else if (!halo_later(p, h)) {
-			write_halo(p, h);
+			write_halo(p, h); /* its nodes' duplicates too */
 			halo_free(h);
-			wrote = 1;
 		} else {
 			p->hstash[keep++] = *h;
 		}
@@ -1368,11 +1370,8 @@ static int stepped(ndo_peer *p)
 	p->cur++;
 	p->tcur = ndo_sim_time(p->sim);
 	p->synced = 0;
-	for (size_t q = 0; q < p->nown; q++) {
-		size_t c = (size_t)p->own[q];
-		if ((size_t)p->canon[c] == c)
-			p->nstep[c] = p->cur;
-	}
+	for (size_t q = 0; q < p->nownc; q++)
+		p->nstep[p->ownc[q]] = p->cur;
 	if (p->blocked)
 		p->st.wait_seconds += p->now - p->block_t0;
 	p->blocked = 0;
