@@ -12,7 +12,8 @@
 #   4. the speed of lock-step with 1, 2, 4 and 8 peers at levels 5-9
 #      (PEERS_LEVELS), against the single process, and the traffic per step;
 #      PEERS_COUNTS picks the runs: N peers, Nnf without frames
-#      (--publish-every 0), Nb with --partition bands, Nbnf both.
+#      (--publish-every 0), Nq with --partition quadtree (the default from
+#      level 3 is bands of whole rows), Nqnf both.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 . tests/e2e/netns.bash
@@ -155,7 +156,7 @@ for level in ${PEERS_LEVELS:-5 6 7 8 9}; do
 		rs="" ratios="" cs="" wt="" hb="" fb=""
 		np=${n%nf} own=() kind=""
 		[ "$n" != "$np" ] && own=(--publish-every 0) kind=" (no frames)"
-		[ "${np%b}" != "$np" ] && np=${np%b} own+=(--partition bands) kind=" bands$kind"
+		[ "${np%q}" != "$np" ] && np=${np%q} own+=(--partition quadtree) kind=" quad-tree$kind"
 		for rep in $(seq "${PEERS_REPS:-3}"); do
 			one=$(solo "$level" "$t")
 			sps="$sps $one"
@@ -270,8 +271,8 @@ load1=$(cut -d' ' -f1-3 /proc/loadavg)
 	echo "medians of ${PEERS_REPS:-3} runs; each peer run follows a run of one single-threaded"
 	echo "process, and *× one process* is the median of these pairs' ratios (the"
 	echo "*1 process* row: the median of all its runs).  *2 (no frames)*: whole regions only"
-	echo "at the first and the last step (\`--publish-every 0\`).  *bands*: the owner's \`--partition bands\`"
-	echo "(bands of whole rows; the others: the default quad-tree regions).  Each peer is one process with one thread; the machine has"
+	echo "at the first and the last step (\`--publish-every 0\`).  *quad-tree*: the owner's \`--partition quadtree\`"
+	echo "(regions grown from the peers' POIs; the others: bands of whole rows, the default from level 3).  Each peer is one process with one thread; the machine has"
 	echo "$(nproc) cores, so 4 and 8 peers oversubscribe them and must lose (they wait for"
 	echo "the scheduler as much as for the network).  Load average (1, 5, 15 min) before:"
 	echo "$load0, after: $load1 (the 4- and 8-peer runs load the machine themselves).  Computing and waiting"

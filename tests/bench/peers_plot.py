@@ -1,16 +1,18 @@
 #!/usr/bin/python3
 """peers_plot.py OUT.svg < TABLE — speedup of exact lock-step peers over one
-process against the level, one line per peer count, from the markdown table
-of tests/bench/peers.sh section 4.  Plain SVG: no plotting library needed."""
+process against the level, one line per row label of the markdown table of
+tests/bench/peers.sh section 4 (a colour per peer count; dashed: the
+quad-tree's regions, thin: no frames between).  Plain SVG: no plotting
+library needed."""
 import sys
 
 rows = {}
 for line in sys.stdin:
     f = [c.strip() for c in line.strip().strip("|").split("|")]
-    if len(f) < 5 or not f[0].isdigit() or not f[1].isdigit():
+    if len(f) < 5 or not f[0].isdigit() or not f[1].split(" ")[0].isdigit() or "process" in f[1]:
         continue
     try:
-        rows.setdefault(int(f[1]), []).append((int(f[0]), float(f[4])))
+        rows.setdefault(f[1], []).append((int(f[0]), float(f[4])))
     except ValueError:
         pass
 W, H, L, B = 560, 340, 60, 40
@@ -35,13 +37,18 @@ while k <= ymax + 1e-9:
     out.append(f'<text x="{L-6}" y="{y(k)+4:.1f}" text-anchor="end">{k:g}</text>')
     k += 0.5
 colors = {1: "#7f7f7f", 2: "#1f77b4", 4: "#ff7f0e", 8: "#d62728"}
-for i, (n, pts) in enumerate(sorted(rows.items())):
+order = lambda label: (int(label.split(" ")[0]), label)
+for i, (label, pts) in enumerate(sorted(rows.items(), key=lambda r: order(r[0]))):
     pts.sort()
+    n = int(label.split(" ")[0])
     c = colors.get(n, "black")
+    dash = ' stroke-dasharray="6 3"' if "quad-tree" in label else ""
+    width = 1 if "no frames" in label else 2
     path = " ".join(f"{x(lv):.1f},{y(s):.1f}" for lv, s in pts)
-    out.append(f'<polyline points="{path}" fill="none" stroke="{c}" stroke-width="2"/>')
+    out.append(f'<polyline points="{path}" fill="none" stroke="{c}" stroke-width="{width}"{dash}/>')
     for lv, s in pts:
         out.append(f'<circle cx="{x(lv):.1f}" cy="{y(s):.1f}" r="3" fill="{c}"/>')
-    out.append(f'<text x="{W-90}" y="{30+14*i}" fill="{c}">{n} peer{"s" if n > 1 else ""}</text>')
+    name = f'{n} peer{"s" if n > 1 else ""}{label[len(str(n)):]}'
+    out.append(f'<text x="{L+10}" y="{30+14*i}" fill="{c}">{name}</text>')
 out.append("</svg>")
 open(sys.argv[1], "w").write("\n".join(out) + "\n")
