@@ -718,7 +718,7 @@ static void ck_whole(ndo_peer *p)
 static void ck_take(ndo_peer *p, size_t n, const int32_t *nodes)
 {
 	ndo_sim_get_nodes(p->sim, n, nodes, NULL, p->xs, p->vs);
-	ndo__ck_put(p->ck, p->cur, p->tcur, n, nodes, p->xs, p->vs);
+	ndo__ck_put(p->ck, p->cur, p->tcur, ndo_sim_rkf45_substep(p->sim), n, nodes, p->xs, p->vs);
 }
 
 /* A checkpoint step: the region's state kept, and sent to the owner. */
@@ -777,11 +777,12 @@ static int restart_try(ndo_peer *p)
 	memcpy(nodes, p->ownc, p->nownc * sizeof *nodes);
 	memcpy(nodes + p->nownc, p->halo, p->nhalo * sizeof *nodes);
 	size_t n = p->nownc + p->nhalo;
-	double t;
-	if (ndo__ck_get(p->ck, R, n, nodes, p->xs, p->vs, &t))
+	double t, sub;
+	if (ndo__ck_get(p->ck, R, n, nodes, p->xs, p->vs, &t, &sub))
 		return 0;
 	ndo_sim_set_displacements(p->sim, n, nodes, p->xs, p->vs);
 	ndo_sim_set_time(p->sim, t, R);
+	ndo_sim_rkf45_set_substep(p->sim, sub); /* rkf45's controller at R (0 for the others) */
 	ndo_sim_restart_energy_bound(p->sim);
 	ndo_grid *g = ndo_session_grid(p->s);
 	double *x = ndo_grid_f64(g, NDO_CH_POSITION, 3), *v = ndo_grid_f64(g, NDO_CH_VELOCITY, 3);
