@@ -375,13 +375,14 @@ static double silence(const ndo_peer *p)
 	return fmax(t, p->step_timeout);
 }
 
-/* Note a halo (of any partition) from another peer: its partition, its
- * newest step in that partition and when it came. */
-static void heard(ndo_peer *p, const ndo_msg_halo_t *h)
+/* Note a halo or a split step's phase (of any partition) from another
+ * peer `id`: its partition, its newest step in that partition and when it
+ * came. */
+static void heard(ndo_peer *p, int32_t id, int32_t epoch, int64_t step)
 {
 	int k, free_k = -1;
 	for (k = 0; k < NDO_MAX_PEERS; k++) {
-		if (p->heard[k].id == h->hdr.sender_id)
+		if (p->heard[k].id == id)
 			break;
 		if (free_k < 0 && (p->heard[k].id == 0 || p->now - p->heard[k].at > silence(p)))
 			free_k = k;
@@ -390,14 +391,14 @@ static void heard(ndo_peer *p, const ndo_msg_halo_t *h)
 		if (free_k < 0)
 			return;
 		k = free_k;
-		p->heard[k].id = h->hdr.sender_id;
+		p->heard[k].id = id;
 		p->heard[k].epoch = -1;
 	}
-	if (h->epoch < p->heard[k].epoch)
+	if (epoch < p->heard[k].epoch)
 		return;
-	if (h->epoch > p->heard[k].epoch || h->step > p->heard[k].step)
-		p->heard[k].step = h->step;
-	p->heard[k].epoch = h->epoch;
+	if (epoch > p->heard[k].epoch || step > p->heard[k].step)
+		p->heard[k].step = step;
+	p->heard[k].epoch = epoch;
 	p->heard[k].at = p->now;
 }
 
@@ -428,7 +429,7 @@ static void on_halo(void *user, const ndo_msg_halo_t *h)
 		on_checkpoint(p, h);
 		return;
 	}
-	heard(p, h);
+	heard(p, h->hdr.sender_id, h->epoch, h->step);
 	if (h->epoch < ndo_session_epoch(p->s) ||
 	    (h->epoch == ndo_session_epoch(p->s) && !member(p, h->hdr.sender_id))) {
 		p->st.stale++;
@@ -515,6 +516,7 @@ static void unstash(ndo_peer *p)
 static void on_solve(void *user, const ndo_msg_solve_t *m)
 {
 	ndo_peer *p = user;
+	heard(p, m->hdr.sender_id, m->epoch, m->step);
 	if (p->ps && (m->epoch > ndo_session_epoch(p->s) || member(p, m->hdr.sender_id)))
 		ndo__ps_receive(p->ps, m);
 }
@@ -688,15 +690,13 @@ static int frame_send(ndo_peer *p)
 }
 
 /* ---- checkpoints and restarts (checkpoint.h) ------------------------------ */
-/* Exact lock-step of a fixed-step explicit method: a new partition during
- * the run restarts every peer from a checkpoint, and the run stays exact.
- * (rkf45 keeps its sub-step size outside the checkpointed state; the
- * implicit methods' restarts deadlocked under loss: docs/peers.md "Not
- * done"; realtime rolls back.) */
+/* Exact lock-step: a new partition during the run restarts every peer
+ * from a checkpoint, and the run stays exact — every method: the state
+ * (u, v), the time and rkf45's next sub-step size are all a step reads.
+ * (Realtime rolls back instead.) */
 static int restartable(const ndo_peer *p)
 {
-	return p->exact && !p->ps && !p->rb && p->clock == NDO_CLOCK_LOCKSTEP && p->sim &&
-	       p->C > 0;
+	return p->exact && !p->rb && p->clock == NDO_CLOCK_LOCKSTEP && p->sim && p->C > 0;
 }
 
 static int ck_ready(ndo_peer *p)
@@ -1497,6 +1497,29 @@ static int step(ndo_peer *p)
 	return NDO_PEER_STEPPED;
 }
 
+/* A split step with restarts: is every other peer of the partition alive
+ * and able to send its part of step cur (alive_at_cur: a phase or halo
+ * came from it within silence(p), of an older partition — it has not
+ * installed this one yet and will go back to the restart step — or of
+ * this one within a step of cur)?  Then the step timeout does not take
+ * the step alone: its phases come (every peer re-sends its last two), and
+ * a step taken alone would leave the run inexact with no partition to
+ * restart it.  Every peer waits for every other one, not only its
+ * neighbours: the phases' sums are everyone's. */
+static int members_alive(ndo_peer *p)
+{
+	if (!restartable(p))
+		return 0;
+	int n = 0;
+	const int32_t *ids;
+	if (!ndo_session_cells(p->s, &n, &ids))
+		return 0;
+	for (int k = 0; k < n; k++)
+		if (ids[k] != ndo_session_self(p->s) && !alive_at_cur(p, ids[k]))
+			return 0;
+	return 1;
+}
+
 /* Exact lock-step of rkf45 and the implicit methods: the step goes on
  * as far as the others' messages allow (peer_solve.h); a peer that waits
  * sends its last two phases again, and after step_timeout without
@@ -1504,7 +1527,8 @@ static int step(ndo_peer *p)
  * their older values) and counts the miss — unless another peer is
  * behind (a new partition caught the peers at different steps): then the
  * one behind gives up and catches up, and the peers meet at its next step
- * instead of overtaking each other. */
+ * instead of overtaking each other; and, with restarts, unless every
+ * other peer is alive (members_alive). */
 static int step_split(ndo_peer *p)
 {
 	double t0 = wall();
@@ -1532,7 +1556,8 @@ static int step_split(ndo_peer *p)
 			p->resend_gap = p->o.resend;
 			p->next_resend = now + p->resend_gap;
 		}
-		if (now - p->split_t0 < p->step_timeout || ndo__ps_behind(p->ps, p->cur))
+		if (now - p->split_t0 < p->step_timeout || ndo__ps_behind(p->ps, p->cur) ||
+		    members_alive(p))
 			return resend_due(p); /* a peer behind this one comes: it gives up, not this one */
 		/* a neighbour that died, or peers that a new partition caught at
 		 * different steps: this step is taken alone, with the halo's
