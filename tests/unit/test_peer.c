@@ -807,7 +807,8 @@ int main(void)
 		 * (a sweep for rare losses; ~0.05 s a seed for rk4);
 		 * TEST_PEER_METHOD=rkf45 (backward-euler, trapezoid) another method,
 		 * TEST_PEER_EVENT=leave (join) another event, TEST_PEER_FIRST=M
-		 * seeds M..M+N−1 */
+		 * seeds M..M+N−1, TEST_PEER_LEVEL, TEST_PEER_PEERS (before the
+		 * event), TEST_PEER_CHECKPOINTS=C (no loss; −1: none) */
 		int n = atoi(kills), what = KILL;
 		const char *ev = getenv("TEST_PEER_EVENT"), *first = getenv("TEST_PEER_FIRST");
 		rc_method = getenv("TEST_PEER_METHOD");
@@ -817,7 +818,9 @@ int main(void)
 			what = JOIN;
 		uint64_t s0 = first ? strtoull(first, NULL, 10) : 1;
 		const char *lv = getenv("TEST_PEER_LEVEL"), *ev2 = getenv("TEST_PEER_CHECKPOINTS");
+		const char *np = getenv("TEST_PEER_PEERS");
 		rc_level = lv ? atoi(lv) : 0;
+		rc_peers = np ? atoi(np) : 0;
 		for (int i = 0; i < n; i++)
 			restart_case(what, ev2 ? 0 : 0.1, s0 + (uint64_t)i, ev2 ? atoi(ev2) : 0, 1);
 		return ck_failed_cases != 0;
