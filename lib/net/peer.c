@@ -49,6 +49,8 @@ struct ndo_peer {
 	/* where this peer is */
 	int announced, started, simulating, ended, done;
 	int32_t epoch_done;    /* the partition the region was last made for */
+	double epoch_t0;       /* ... when (split steps: the others' time to
+	                          show up under it, members_alive) */
 	int64_t cur;
 	double tcur;
 	int64_t fill_step, max_seen;
@@ -1237,6 +1239,7 @@ static int announce(ndo_peer *p)
 	if (rc)
 		return rc;
 	p->epoch_done = ndo_session_epoch(p->s);
+	p->epoch_t0 = p->now;
 	int64_t R = ndo_session_restart(p->s);
 	if (!p->owner && p->simulating && restartable(p) && R >= 0) {
 		/* a run under way whose partition restarts: from its step */
@@ -1497,16 +1500,41 @@ static int step(ndo_peer *p)
 	return NDO_PEER_STEPPED;
 }
 
+/* Can peer `id` still send its part of split step cur, which this peer
+ * has waited `waited` s for?  Yes when a phase of it came within
+ * silence(p) of this partition at cur or before (one behind is waited for
+ * anyway: ndo__ps_behind), or at cur + 1 while this peer has waited less
+ * than silence(p) — it finished cur, and re-sends cur's last phase until
+ * this peer's next one comes; one that went on alone after a timeout never
+ * sends it, and waiting on for it while it waits for this one, behind,
+ * would be a deadlock.  One not heard of under this partition yet has
+ * silence(p) from when this peer installed it (or from its last message
+ * of another partition, if later) to show up: it may still be installing
+ * it, or waiting for the checkpoint it restarts from. */
+static int split_alive(const ndo_peer *p, int32_t id, double waited)
+{
+	int32_t epoch = ndo_session_epoch(p->s);
+	for (int k = 0; k < NDO_MAX_PEERS; k++) {
+		if (p->heard[k].id != id)
+			continue;
+		if (p->heard[k].epoch != epoch)
+			return p->now - fmax(p->heard[k].at, p->epoch_t0) < silence(p);
+		if (p->now - p->heard[k].at >= silence(p))
+			return 0;
+		if (p->heard[k].step <= p->cur)
+			return 1;
+		return p->heard[k].step == p->cur + 1 && waited < silence(p);
+	}
+	return p->now - p->epoch_t0 < silence(p);
+}
+
 /* A split step with restarts: is every other peer of the partition alive
- * and able to send its part of step cur (alive_at_cur: a phase or halo
- * came from it within silence(p), of an older partition — it has not
- * installed this one yet and will go back to the restart step — or of
- * this one within a step of cur)?  Then the step timeout does not take
- * the step alone: its phases come (every peer re-sends its last two), and
- * a step taken alone would leave the run inexact with no partition to
- * restart it.  Every peer waits for every other one, not only its
- * neighbours: the phases' sums are everyone's. */
-static int members_alive(ndo_peer *p)
+ * and able to send its part of step cur (split_alive)?  Then the step
+ * timeout does not take the step alone: its phases come (every peer
+ * re-sends its last two), and a step taken alone would leave the run
+ * inexact with no partition to restart it.  Every peer waits for every
+ * other one, not only its neighbours: the phases' sums are everyone's. */
+static int members_alive(ndo_peer *p, double waited)
 {
 	if (!restartable(p))
 		return 0;
@@ -1515,7 +1543,7 @@ static int members_alive(ndo_peer *p)
 	if (!ndo_session_cells(p->s, &n, &ids))
 		return 0;
 	for (int k = 0; k < n; k++)
-		if (ids[k] != ndo_session_self(p->s) && !alive_at_cur(p, ids[k]))
+		if (ids[k] != ndo_session_self(p->s) && !split_alive(p, ids[k], waited))
 			return 0;
 	return 1;
 }
@@ -1557,7 +1585,7 @@ static int step_split(ndo_peer *p)
 			p->next_resend = now + p->resend_gap;
 		}
 		if (now - p->split_t0 < p->step_timeout || ndo__ps_behind(p->ps, p->cur) ||
-		    members_alive(p))
+		    members_alive(p, now - p->split_t0))
 			return resend_due(p); /* a peer behind this one comes: it gives up, not this one */
 		/* a neighbour that died, or peers that a new partition caught at
 		 * different steps: this step is taken alone, with the halo's
@@ -1775,6 +1803,7 @@ static int on_partition(ndo_peer *p)
 	if (ndo_session_epoch(p->s) == p->epoch_done)
 		return 0; /* several events, one partition in force */
 	p->epoch_done = ndo_session_epoch(p->s);
+	p->epoch_t0 = p->now;
 	size_t before = p->nowned;
 	int was = p->simulating;
 	int rc = region(p);
