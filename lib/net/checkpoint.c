@@ -8,6 +8,7 @@
 typedef struct slot {
 	int64_t step;  /* −1: free */
 	double time;
+	double substep; /* rkf45's next sub-step size (checkpoint.h) */
 	size_t held;   /* canonical nodes held */
 	uint8_t *have; /* per stored node */
 	double *val;   /* per stored node: v (3), u (3) */
@@ -114,13 +115,14 @@ static void put_one(ndo__ck *ck, slot *sl, size_t c, const double *val)
 	}
 }
 
-void ndo__ck_put(ndo__ck *ck, int64_t step, double time, size_t n, const int32_t *nodes,
-                 const double *u, const double *v)
+void ndo__ck_put(ndo__ck *ck, int64_t step, double time, double substep, size_t n,
+                 const int32_t *nodes, const double *u, const double *v)
 {
 	slot *sl = slot_for(ck, step);
 	if (!sl)
 		return;
 	sl->time = time;
+	sl->substep = substep;
 	for (size_t k = 0; k < n; k++) {
 		double val[6];
 		memcpy(val, v + 3 * k, 3 * sizeof *val);
@@ -135,6 +137,7 @@ void ndo__ck_put_msg(ndo__ck *ck, const ndo_msg_halo_t *h)
 	if (!sl)
 		return;
 	sl->time = h->time;
+	sl->substep = h->substep;
 	size_t k = 0;
 	for (int r = 0; r < h->nruns; r++)
 		for (int32_t q = 0; q < h->len[r]; q++, k += 6)
@@ -153,7 +156,7 @@ size_t ndo__ck_missing(const ndo__ck *ck, int64_t step, size_t n, const int32_t 
 }
 
 int ndo__ck_get(const ndo__ck *ck, int64_t step, size_t n, const int32_t *nodes, double *u,
-                double *v, double *time)
+                double *v, double *time, double *substep)
 {
 	const slot *sl = find(ck, step);
 	if (!sl || ndo__ck_missing(ck, step, n, nodes))
@@ -164,6 +167,7 @@ int ndo__ck_get(const ndo__ck *ck, int64_t step, size_t n, const int32_t *nodes,
 		memcpy(u + 3 * k, val + 3, 3 * sizeof *u);
 	}
 	*time = sl->time;
+	*substep = sl->substep;
 	return 0;
 }
 
@@ -190,6 +194,7 @@ int ndo__ck_send(ndo__ck *ck, ndo_session *s, int64_t step, size_t n, const int3
 	h.time = sl->time;
 	h.confirmed = 1;
 	h.checkpoint = 1;
+	h.substep = sl->substep;
 	int rc = ndo_session_send_nodes(s, &h, n, nodes, sl->val, NULL, sl->have, ck->rs, ck->rl,
 	                                ck->buf);
 	if (rc < 0)

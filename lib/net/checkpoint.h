@@ -29,11 +29,14 @@ typedef struct ndo__ck ndo__ck;
 int ndo__ck_create(size_t count, size_t ncanon, ndo__ck **out);
 void ndo__ck_destroy(ndo__ck *ck);
 
-/* Keep the state of n canonical nodes at `step` (u, v: 3 per node).  A
- * step older than every slot, when none is free, is not kept; the newest
- * whole step is never evicted. */
-void ndo__ck_put(ndo__ck *ck, int64_t step, double time, size_t n, const int32_t *nodes,
-                 const double *u, const double *v);
+/* Keep the state of n canonical nodes at `step` (u, v: 3 per node) and
+ * what the method's controller carries to the next step (`substep`:
+ * rkf45's next sub-step size, ndo_sim_rkf45_substep; 0 for the others —
+ * the same on every peer, since all take the same sub-steps).  A step
+ * older than every slot, when none is free, is not kept; the newest whole
+ * step is never evicted. */
+void ndo__ck_put(ndo__ck *ck, int64_t step, double time, double substep, size_t n,
+                 const int32_t *nodes, const double *u, const double *v);
 /* ... from a checkpoint message (runs of node indices). */
 void ndo__ck_put_msg(ndo__ck *ck, const ndo_msg_halo_t *h);
 
@@ -42,10 +45,10 @@ int64_t ndo__ck_whole(const ndo__ck *ck);
 /* How many of the n nodes are not held at `step` (n when the step is not
  * kept). */
 size_t ndo__ck_missing(const ndo__ck *ck, int64_t step, size_t n, const int32_t *nodes);
-/* The state of n nodes at `step` (u, v: 3 per node) and its time: 0, or
- * −1 when some node is not held. */
+/* The state of n nodes at `step` (u, v: 3 per node), its time and
+ * sub-step size: 0, or −1 when some node is not held. */
 int ndo__ck_get(const ndo__ck *ck, int64_t step, size_t n, const int32_t *nodes, double *u,
-                double *v, double *time);
+                double *v, double *time, double *substep);
 /* Forget every step after `step` (they are recomputed). */
 void ndo__ck_drop_after(ndo__ck *ck, int64_t step);
 

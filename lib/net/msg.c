@@ -499,8 +499,10 @@ ndo_drop ndo_msg_validate(const ndo_msg *m, const ndo_msg_ctx *c)
 		const ndo_msg_halo_t *h = &m->u.halo;
 		if (h->step < 0 || !isfinite(h->time) || h->time < 0 || h->epoch < 0 ||
 		    (h->confirmed != 0 && h->confirmed != 1) ||
-		    (h->checkpoint != 0 && h->checkpoint != 1))
-			return h->time != h->time ? NDO_DROP_NONFINITE : NDO_DROP_RANGE;
+		    (h->checkpoint != 0 && h->checkpoint != 1) || !isfinite(h->substep) ||
+		    h->substep < 0 || (h->substep != 0 && !h->checkpoint))
+			return h->time != h->time || h->substep != h->substep ? NDO_DROP_NONFINITE
+			                                                      : NDO_DROP_RANGE;
 		int64_t count = run_nodes(L, h->nruns, h->start, h->len);
 		if (count < 0)
 			return NDO_DROP_RANGE;

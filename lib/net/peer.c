@@ -49,6 +49,8 @@ struct ndo_peer {
 	/* where this peer is */
 	int announced, started, simulating, ended, done;
 	int32_t epoch_done;    /* the partition the region was last made for */
+	double epoch_t0;       /* ... when (split steps: the others' time to
+	                          show up under it, members_alive) */
 	int64_t cur;
 	double tcur;
 	int64_t fill_step, max_seen;
@@ -378,13 +380,14 @@ static double silence(const ndo_peer *p)
 	return fmax(t, p->step_timeout);
 }
 
-/* Note a halo (of any partition) from another peer: its partition, its
- * newest step in that partition and when it came. */
-static void heard(ndo_peer *p, const ndo_msg_halo_t *h)
+/* Note a halo or a split step's phase (of any partition) from another
+ * peer `id`: its partition, its newest step in that partition and when it
+ * came. */
+static void heard(ndo_peer *p, int32_t id, int32_t epoch, int64_t step)
 {
 	int k, free_k = -1;
 	for (k = 0; k < NDO_MAX_PEERS; k++) {
-		if (p->heard[k].id == h->hdr.sender_id)
+		if (p->heard[k].id == id)
 			break;
 		if (free_k < 0 && (p->heard[k].id == 0 || p->now - p->heard[k].at > silence(p)))
 			free_k = k;
@@ -393,14 +396,14 @@ static void heard(ndo_peer *p, const ndo_msg_halo_t *h)
 		if (free_k < 0)
 			return;
 		k = free_k;
-		p->heard[k].id = h->hdr.sender_id;
+		p->heard[k].id = id;
 		p->heard[k].epoch = -1;
 	}
-	if (h->epoch < p->heard[k].epoch)
+	if (epoch < p->heard[k].epoch)
 		return;
-	if (h->epoch > p->heard[k].epoch || h->step > p->heard[k].step)
-		p->heard[k].step = h->step;
-	p->heard[k].epoch = h->epoch;
+	if (epoch > p->heard[k].epoch || step > p->heard[k].step)
+		p->heard[k].step = step;
+	p->heard[k].epoch = epoch;
 	p->heard[k].at = p->now;
 }
 
@@ -431,7 +434,7 @@ static void on_halo(void *user, const ndo_msg_halo_t *h)
 		on_checkpoint(p, h);
 		return;
 	}
-	heard(p, h);
+	heard(p, h->hdr.sender_id, h->epoch, h->step);
 	if (h->epoch < ndo_session_epoch(p->s) ||
 	    (h->epoch == ndo_session_epoch(p->s) && !member(p, h->hdr.sender_id))) {
 		p->st.stale++;
@@ -517,6 +520,7 @@ static void unstash(ndo_peer *p)
 static void on_solve(void *user, const ndo_msg_solve_t *m)
 {
 	ndo_peer *p = user;
+	heard(p, m->hdr.sender_id, m->epoch, m->step);
 	if (p->ps && (m->epoch > ndo_session_epoch(p->s) || member(p, m->hdr.sender_id)))
 		ndo__ps_receive(p->ps, m);
 }
@@ -690,15 +694,13 @@ static int frame_send(ndo_peer *p)
 }
 
 /* ---- checkpoints and restarts (checkpoint.h) ------------------------------ */
-/* Exact lock-step of a fixed-step explicit method: a new partition during
- * the run restarts every peer from a checkpoint, and the run stays exact.
- * (rkf45 keeps its sub-step size outside the checkpointed state; the
- * implicit methods' restarts deadlocked under loss: docs/peers.md "Not
- * done"; realtime rolls back.) */
+/* Exact lock-step: a new partition during the run restarts every peer
+ * from a checkpoint, and the run stays exact — every method: the state
+ * (u, v), the time and rkf45's next sub-step size are all a step reads.
+ * (Realtime rolls back instead.) */
 static int restartable(const ndo_peer *p)
 {
-	return p->exact && !p->ps && !p->rb && p->clock == NDO_CLOCK_LOCKSTEP && p->sim &&
-	       p->C > 0;
+	return p->exact && !p->rb && p->clock == NDO_CLOCK_LOCKSTEP && p->sim && p->C > 0;
 }
 
 static int ck_ready(ndo_peer *p)
@@ -720,7 +722,7 @@ static void ck_whole(ndo_peer *p)
 static void ck_take(ndo_peer *p, size_t n, const int32_t *nodes)
 {
 	ndo_sim_get_nodes(p->sim, n, nodes, NULL, p->xs, p->vs);
-	ndo__ck_put(p->ck, p->cur, p->tcur, n, nodes, p->xs, p->vs);
+	ndo__ck_put(p->ck, p->cur, p->tcur, ndo_sim_rkf45_substep(p->sim), n, nodes, p->xs, p->vs);
 }
 
 /* A checkpoint step: the region's state kept, and sent to the owner. */
@@ -779,11 +781,12 @@ static int restart_try(ndo_peer *p)
 	memcpy(nodes, p->ownc, p->nownc * sizeof *nodes);
 	memcpy(nodes + p->nownc, p->halo, p->nhalo * sizeof *nodes);
 	size_t n = p->nownc + p->nhalo;
-	double t;
-	if (ndo__ck_get(p->ck, R, n, nodes, p->xs, p->vs, &t))
+	double t, sub;
+	if (ndo__ck_get(p->ck, R, n, nodes, p->xs, p->vs, &t, &sub))
 		return 0;
 	ndo_sim_set_displacements(p->sim, n, nodes, p->xs, p->vs);
 	ndo_sim_set_time(p->sim, t, R);
+	ndo_sim_rkf45_set_substep(p->sim, sub); /* rkf45's controller at R (0 for the others) */
 	ndo_sim_restart_energy_bound(p->sim);
 	ndo_grid *g = ndo_session_grid(p->s);
 	double *x = ndo_grid_f64(g, NDO_CH_POSITION, 3), *v = ndo_grid_f64(g, NDO_CH_VELOCITY, 3);
@@ -1238,6 +1241,7 @@ static int announce(ndo_peer *p)
 	if (rc)
 		return rc;
 	p->epoch_done = ndo_session_epoch(p->s);
+	p->epoch_t0 = p->now;
 	int64_t R = ndo_session_restart(p->s);
 	if (!p->owner && p->simulating && restartable(p) && R >= 0) {
 		/* a run under way whose partition restarts: from its step */
@@ -1495,6 +1499,54 @@ static int step(ndo_peer *p)
 	return NDO_PEER_STEPPED;
 }
 
+/* Can peer `id` still send its part of split step cur, which this peer
+ * has waited `waited` s for?  Yes when a phase of it came within
+ * silence(p) of this partition at cur or before (one behind is waited for
+ * anyway: ndo__ps_behind), or at cur + 1 while this peer has waited less
+ * than silence(p) — it finished cur, and re-sends cur's last phase until
+ * this peer's next one comes; one that went on alone after a timeout never
+ * sends it, and waiting on for it while it waits for this one, behind,
+ * would be a deadlock.  One not heard of under this partition yet has
+ * silence(p) from when this peer installed it (or from its last message
+ * of another partition, if later) to show up: it may still be installing
+ * it, or waiting for the checkpoint it restarts from. */
+static int split_alive(const ndo_peer *p, int32_t id, double waited)
+{
+	int32_t epoch = ndo_session_epoch(p->s);
+	for (int k = 0; k < NDO_MAX_PEERS; k++) {
+		if (p->heard[k].id != id)
+			continue;
+		if (p->heard[k].epoch != epoch)
+			return p->now - fmax(p->heard[k].at, p->epoch_t0) < silence(p);
+		if (p->now - p->heard[k].at >= silence(p))
+			return 0;
+		if (p->heard[k].step <= p->cur)
+			return 1;
+		return p->heard[k].step == p->cur + 1 && waited < silence(p);
+	}
+	return p->now - p->epoch_t0 < silence(p);
+}
+
+/* A split step with restarts: is every other peer of the partition alive
+ * and able to send its part of step cur (split_alive)?  Then the step
+ * timeout does not take the step alone: its phases come (every peer
+ * re-sends its last two), and a step taken alone would leave the run
+ * inexact with no partition to restart it.  Every peer waits for every
+ * other one, not only its neighbours: the phases' sums are everyone's. */
+static int members_alive(ndo_peer *p, double waited)
+{
+	if (!restartable(p))
+		return 0;
+	int n = 0;
+	const int32_t *ids;
+	if (!ndo_session_cells(p->s, &n, &ids))
+		return 0;
+	for (int k = 0; k < n; k++)
+		if (ids[k] != ndo_session_self(p->s) && !split_alive(p, ids[k], waited))
+			return 0;
+	return 1;
+}
+
 /* Exact lock-step of rkf45 and the implicit methods: the step goes on
  * as far as the others' messages allow (peer_solve.h); a peer that waits
  * sends its last two phases again, and after step_timeout without
@@ -1502,7 +1554,8 @@ static int step(ndo_peer *p)
  * their older values) and counts the miss — unless another peer is
  * behind (a new partition caught the peers at different steps): then the
  * one behind gives up and catches up, and the peers meet at its next step
- * instead of overtaking each other. */
+ * instead of overtaking each other; and, with restarts, unless every
+ * other peer is alive (members_alive). */
 static int step_split(ndo_peer *p)
 {
 	double t0 = wall();
@@ -1530,7 +1583,8 @@ static int step_split(ndo_peer *p)
 			p->resend_gap = p->o.resend;
 			p->next_resend = now + p->resend_gap;
 		}
-		if (now - p->split_t0 < p->step_timeout || ndo__ps_behind(p->ps, p->cur))
+		if (now - p->split_t0 < p->step_timeout || ndo__ps_behind(p->ps, p->cur) ||
+		    members_alive(p, now - p->split_t0))
 			return resend_due(p); /* a peer behind this one comes: it gives up, not this one */
 		/* a neighbour that died, or peers that a new partition caught at
 		 * different steps: this step is taken alone, with the halo's
@@ -1748,6 +1802,7 @@ static int on_partition(ndo_peer *p)
 	if (ndo_session_epoch(p->s) == p->epoch_done)
 		return 0; /* several events, one partition in force */
 	p->epoch_done = ndo_session_epoch(p->s);
+	p->epoch_t0 = p->now;
 	size_t before = p->nowned;
 	int was = p->simulating;
 	int rc = region(p);

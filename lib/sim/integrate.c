@@ -1570,6 +1570,13 @@ void ndo_sim_rkf45_peek(const ndo_sim *s, size_t n, const int32_t *nodes, double
 	}
 }
 
+double ndo_sim_rkf45_substep(const ndo_sim *s) { return s->h_sub; }
+
+void ndo_sim_rkf45_set_substep(ndo_sim *s, double h)
+{
+	s->h_sub = h > 0 && isfinite(h) ? h : 0;
+}
+
 void ndo_sim_rkf45_abort(ndo_sim *s)
 {
 	s->t = s->rk_t0;

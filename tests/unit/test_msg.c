@@ -149,7 +149,18 @@ static void halos_checked(void)
 	CHECK(roundtrip(NDO_MSG_HALO, &h, &c) == NDO_DROP_NONE, "a checkpoint passes");
 	h.checkpoint = 2;
 	CHECK(roundtrip(NDO_MSG_HALO, &h, &c) == NDO_DROP_RANGE, "checkpoint neither 0 nor 1");
-	h.checkpoint = 0;
+	/* rkf45's sub-step size, in a checkpoint only: positive and finite */
+	h.checkpoint = 1, h.substep = 0.004;
+	CHECK(roundtrip(NDO_MSG_HALO, &h, &c) == NDO_DROP_NONE, "a checkpoint with a sub-step passes");
+	h.substep = -0.004;
+	CHECK(roundtrip(NDO_MSG_HALO, &h, &c) == NDO_DROP_RANGE, "a negative sub-step");
+	h.substep = NAN;
+	CHECK(roundtrip(NDO_MSG_HALO, &h, &c) == NDO_DROP_NONFINITE, "a NaN sub-step");
+	h.substep = INFINITY;
+	CHECK(roundtrip(NDO_MSG_HALO, &h, &c) == NDO_DROP_RANGE, "an infinite sub-step");
+	h.checkpoint = 0, h.substep = 0.004;
+	CHECK(roundtrip(NDO_MSG_HALO, &h, &c) == NDO_DROP_RANGE, "a sub-step in a halo");
+	h.substep = 0;
 	ndo_msg_ctx unknown = {.object_id = 0, .level = -1, .self_id = 1};
 	CHECK(roundtrip(NDO_MSG_HALO, &h, &unknown) == NDO_DROP_UNKNOWN, "before the description");
 }

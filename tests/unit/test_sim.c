@@ -914,6 +914,74 @@ static void rkf45_in_parts_is_the_step(void)
 	ndo_grid_destroy(g);
 }
 
+/* rkf45 resumed from a checkpoint (what a peer's restart does, ndo/peer.h):
+ * a fresh simulation given another's state (u, v), time and next sub-step
+ * size (ndo_sim_rkf45_substep) takes the same sub-steps from there, bit
+ * for bit; without the sub-step size it starts from the whole step and
+ * does not. */
+static void rkf45_resumes_from_state_time_and_substep(void)
+{
+	ndo_grid *g = shape("wavy", 3);
+	size_t nn = 3 * g->count;
+	double *x0 = malloc(nn * sizeof *x0), *v0 = malloc(nn * sizeof *v0);
+	random_state(g, 0.01, x0, v0);
+	int32_t faces[] = {40, 41, 90};
+	ndo_force f = {NDO_FORCE_FACE, 2.4, 1, 0, 1, {0}, 3, faces};
+	ndo_sim_params p;
+	ndo_sim_defaults(&p);
+	p.method = NDO_RKF45;
+	p.material.damping = 0.1;
+	p.forces = &f;
+	p.nforces = 1;
+	p.tol = 1e-7;
+	ndo_sim *a = make(g, x0, v0, NULL, &p);
+	CHECK(ndo_sim_rkf45_substep(a) == 0, "no sub-step before the first step: %g",
+	      ndo_sim_rkf45_substep(a));
+	for (int k = 0; k < 10; k++)
+		ndo_sim_step(a, 0.05);
+	int32_t *all = malloc(g->count * sizeof *all);
+	for (size_t k = 0; k < g->count; k++)
+		all[k] = (int32_t)k;
+	double *u = malloc(nn * sizeof *u), *v = malloc(nn * sizeof *v);
+	ndo_sim_get_nodes(a, g->count, all, NULL, u, v);
+	double t = ndo_sim_time(a), hs = ndo_sim_rkf45_substep(a);
+	ndo_sim_stats s0;
+	ndo_sim_stats_get(a, &s0);
+	for (int k = 0; k < 10; k++)
+		ndo_sim_step(a, 0.05);
+	ndo_sim_stats sa;
+	ndo_sim_stats_get(a, &sa);
+	double *xa = malloc(nn * sizeof *xa), *xb = malloc(nn * sizeof *xb);
+	ndo_sim_get(a, xa, NULL);
+	CHECK(hs > 0 && hs < 0.05, "the controller's sub-step after 10 steps: %g s", hs);
+	for (int with = 1; with >= 0; with--) {
+		ndo_sim *b = make(g, x0, v0, NULL, &p);
+		ndo_sim_set_displacements(b, g->count, all, u, v);
+		ndo_sim_set_time(b, t, 10);
+		ndo_sim_restart_energy_bound(b);
+		if (with)
+			ndo_sim_rkf45_set_substep(b, hs);
+		for (int k = 0; k < 10; k++)
+			ndo_sim_step(b, 0.05);
+		ndo_sim_stats sb;
+		ndo_sim_stats_get(b, &sb);
+		ndo_sim_get(b, xb, NULL);
+		int same = memcmp(xa, xb, nn * sizeof *xa) == 0 &&
+		           sb.substeps == sa.substeps - s0.substeps && ndo_sim_time(b) == ndo_sim_time(a);
+		if (with)
+			CHECK(same, "resumed with the sub-step: differs by %g, %lld sub-steps (expected %lld)",
+			      max_diff(xa, xb, nn), (long long)sb.substeps,
+			      (long long)(sa.substeps - s0.substeps));
+		else
+			CHECK(!same, "resumed without the sub-step: the same bits (expected other "
+			      "sub-steps)");
+		ndo_sim_destroy(b);
+	}
+	free(xa), free(xb), free(u), free(v), free(all), free(x0), free(v0);
+	ndo_sim_destroy(a);
+	ndo_grid_destroy(g);
+}
+
 /* The power iteration's λ_max against the dense eigenvalues, with and
  * without pins (pinned nodes are Dirichlet conditions). */
 static void power_iteration_finds_lambda_max(void)
@@ -1610,6 +1678,7 @@ int main(void)
 	RUN(fused_passes_are_the_passes);
 	RUN(steps_are_single_steps);
 	RUN(rkf45_in_parts_is_the_step);
+	RUN(rkf45_resumes_from_state_time_and_substep);
 	RUN(power_iteration_finds_lambda_max);
 	RUN(duplicates_agree_after_every_step);
 	RUN(threads_give_the_same_bits);

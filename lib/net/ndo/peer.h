@@ -25,7 +25,10 @@
  *                      miss (a dead or unreachable neighbour) — with
  *                      restarts (checkpoint_every), only when some missing
  *                      neighbour sent no halo for the session's peer
- *                      timeout (at least step_timeout).
+ *                      timeout (at least step_timeout) — for rkf45 and
+ *                      the implicit methods, when some other peer sent no
+ *                      phase that shows it alive (docs/peers.md, "rkf45
+ *                      and the implicit methods").
  *   NDO_CLOCK_REALTIME  a peer steps on the wall clock, step k at
  *                      start + k·dt/speed; nobody waits.  A peer that sees
  *                      another one further on catches up at once (the
@@ -122,15 +125,17 @@ typedef struct ndo_peer_opts {
 	                           lag's error O(h²) instead of O(h)), and a
 	                           value of another step is first carried
 	                           along its velocity, by one step at most */
-	int checkpoint_every;   /* exact lock-step of euler, symplectic Euler,
-	                           midpoint and rk4: every simulating peer keeps
-	                           its region's state every this many steps (a
-	                           multiple of halo_steps, rounded up) and sends
-	                           it to the owner, which holds every node's: a
-	                           new partition during the run (a join, a
-	                           leave, a dropped peer) restarts every peer
-	                           from the newest step the owner holds whole,
-	                           and the run stays exact (0: 20; < 0: none, the
+	int checkpoint_every;   /* exact lock-step, every method: every
+	                           simulating peer keeps its region's state
+	                           (rkf45: and its next sub-step size) every
+	                           this many steps (a multiple of halo_steps,
+	                           rounded up) and sends it to the owner, which
+	                           holds every node's: a new partition during
+	                           the run (a join, a leave, a dropped peer)
+	                           restarts every peer from the newest step the
+	                           owner holds whole, and the run stays exact
+	                           (backward Euler and the trapezoid: to the
+	                           solve's tolerance) (0: 20; < 0: none, the
 	                           new partition takes over from the newest
 	                           values held, not exact) */
 	int jacobi;             /* exact backward Euler and trapezoid: this peer

@@ -302,6 +302,15 @@ void ndo_sim_rkf45_abort(ndo_sim *s);
  * bit: a peer sends its strip's with the error, so that one exchange per
  * attempt serves both (ndo/peer.h). */
 void ndo_sim_rkf45_peek(const ndo_sim *s, size_t n, const int32_t *nodes, double *u, double *v);
+/* The controller's state between steps: the sub-step size the next step
+ * tries first (s; 0 before rkf45's first step: the step's whole size).
+ * With the state (u, v) and the time it is all a step reads, so a peer
+ * that goes back to a checkpoint (ndo/peer.h) sets it too and takes the
+ * single process's sub-steps from there bit for bit.  Other methods keep
+ * it at 0 and ignore it; set: a negative or non-finite size is taken as
+ * 0. */
+double ndo_sim_rkf45_substep(const ndo_sim *s);
+void ndo_sim_rkf45_set_substep(ndo_sim *s, double h);
 
 /* The implicit system by rows, for a solver that is not this
  * simulation's own — peers that solve it together (ndo/peer.h) — instead
