@@ -27,11 +27,18 @@ LIB_OBJS += $(LCM_GEN_SRCS:%=$(OBJ)/%.o)
 # (lcm_malloc(0) returns NULL): formally undefined, harmless, and not
 # ours to change, so UBSan's nonnull check is off for these files only.
 $(LCM_GEN_DIR)/ndo_msg_CPPFLAGS := -w $(if $(filter 1,$(SAN)),-fno-sanitize=nonnull-attribute)
-# Every object of the library, the tools and the tests may include a
-# generated header: generate first.
-LCM_GEN_USERS := $(wildcard tools/*/*.c tools/*/*.cpp tests/unit/*.c \
-    tests/unit/*.cpp tests/bench/*.c tests/bench/*.cpp)
-$(LIB_OBJS) $(LCM_GEN_USERS:%=$(OBJ)/%.o): | $(LCM_GEN_STAMP)
+# Generate before compiling anything.  The C of the network layer, the
+# tools and the tests may include a generated header (through ndo/msg.h):
+# those objects are compiled again when the messages change (a normal
+# prerequisite: the headers their .d files name are rewritten by the
+# stamp's rule, which make does not know, so it would keep objects built
+# against the old layout).  The grid and sim layers and the C++ include
+# none (the layers' rule, tests/layers.py).
+LCM_GEN_USERS := $(wildcard lib/net/*.c tools/*/*.c tests/unit/*.c tests/bench/*.c)
+LCM_GEN_OTHERS := $(filter-out $(LCM_GEN_USERS:%=$(OBJ)/%.o),$(LIB_OBJS)) \
+    $(patsubst %,$(OBJ)/%.o,$(wildcard tools/*/*.cpp tests/unit/*.cpp tests/bench/*.cpp))
+$(LCM_GEN_USERS:%=$(OBJ)/%.o): $(LCM_GEN_STAMP)
+$(LCM_GEN_OTHERS): | $(LCM_GEN_STAMP)
 
 NDO_LIBS += -llcm -lmetis
 DEBS_TOOLS += liblcm-dev liblcm-bin libmetis-dev
