@@ -703,6 +703,12 @@ static int restartable(const ndo_peer *p)
 	return p->exact && !p->rb && p->clock == NDO_CLOCK_LOCKSTEP && p->sim && p->C > 0;
 }
 
+int ndo_peer_checkpoint_default(int level)
+{
+	int shift = level < 4 ? 0 : level > 7 ? 3 : level - 4;
+	return 20 << shift;
+}
+
 static int ck_ready(ndo_peer *p)
 {
 	if (!p->ck && ndo__ck_create(p->count, p->ncanon, &p->ck))
@@ -1974,7 +1980,9 @@ int ndo_peer_create(const ndo_peer_opts *o, ndo_net *net, ndo_grid *grid, ndo_si
 	p->peers_needed = o->peers > 1 ? o->peers : 1;
 	p->sim = sim;
 	p->gather_t0 = -1;
-	p->C = o->checkpoint_every > 0 ? o->checkpoint_every : o->checkpoint_every < 0 ? 0 : 20;
+	p->C = o->checkpoint_every > 0   ? o->checkpoint_every
+	       : o->checkpoint_every < 0 ? 0
+	                                 : ndo_peer_checkpoint_default(grid ? grid->level : 0);
 	p->rs_step = p->ck_skip = p->ck_at = -1;
 	p->fill_step = -1;
 	p->max_seen = -1;

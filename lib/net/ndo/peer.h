@@ -135,8 +135,9 @@ typedef struct ndo_peer_opts {
 	                           restarts every peer from the newest step the
 	                           owner holds whole, and the run stays exact
 	                           (backward Euler and the trapezoid: to the
-	                           solve's tolerance) (0: 20; < 0: none, the
-	                           new partition takes over from the newest
+	                           solve's tolerance) (0: the owner's object's
+	                           ndo_peer_checkpoint_default(); < 0: none,
+	                           the new partition takes over from the newest
 	                           values held, not exact) */
 	int jacobi;             /* exact backward Euler and trapezoid: this peer
 	                           preconditions the distributed solve with the
@@ -174,6 +175,16 @@ typedef struct ndo_peer ndo_peer;
  * NDO_EINVAL for an inconsistent call, NDO_ENOMEM. */
 int ndo_peer_create(const ndo_peer_opts *o, ndo_net *net, ndo_grid *grid, ndo_sim *sim,
                     const ndo_peer_run *run, ndo_peer **out);
+
+/* The owner's checkpoint interval when ndo_peer_opts.checkpoint_every is
+ * 0, for an object of `level`: 20 steps up to level 4, twice as many each
+ * level above, 160 from level 7.  A checkpoint is the region's whole state
+ * (48 bytes a node) and rk4's halo two rings of it, so checkpoints every
+ * 20 steps at level 7 sent more than the halo (40 against 25 kB a step, 2
+ * peers) and cost 2 peers 6 % of their speed; this keeps them near a fifth
+ * of the halo's bytes at levels 5-7, and a restart takes at most 160 steps
+ * again (docs/peers.md, "Restarts"). */
+int ndo_peer_checkpoint_default(int level);
 
 /* Leave (the owner: end the session for everyone, with `message`) and
  * free.  Accepts NULL. */
