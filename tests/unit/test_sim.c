@@ -837,25 +837,36 @@ static void fused_rk4_equals_the_tableau(void)
 	ndo_grid_destroy(g);
 }
 
+/* The rkf45 tests' scene: a level-3 wavy grid (returned) at a random
+ * state (*x0, *v0: 3·count each, malloc'd), a face force on three faces
+ * near the pole (f), damping 0.1, tolerance 1e-7. */
+static ndo_grid *rkf45_scene(double **x0, double **v0, ndo_force *f, ndo_sim_params *p)
+{
+	static int32_t faces[] = {40, 41, 90};
+	ndo_grid *g = shape("wavy", 3);
+	*x0 = malloc(3 * g->count * sizeof **x0), *v0 = malloc(3 * g->count * sizeof **v0);
+	random_state(g, 0.01, *x0, *v0);
+	*f = (ndo_force){NDO_FORCE_FACE, 2.4, 1, 0, 1, {0}, 3, faces};
+	ndo_sim_defaults(p);
+	p->method = NDO_RKF45;
+	p->material.damping = 0.1;
+	p->forces = f;
+	p->nforces = 1;
+	p->tol = 1e-7;
+	return g;
+}
+
 /* rkf45 in parts (ndo/sim.h): begin/attempt/decide is ndo_sim_step bit for
  * bit; the error over a subset of rows is at most the whole one, and the
  * larger of two complementary subsets' is the whole one; peek gives the
  * state an accepted attempt leaves, bit for bit. */
 static void rkf45_in_parts_is_the_step(void)
 {
-	ndo_grid *g = shape("wavy", 3);
-	size_t nn = 3 * g->count;
-	double *x0 = malloc(nn * sizeof *x0), *v0 = malloc(nn * sizeof *v0);
-	random_state(g, 0.01, x0, v0);
-	int32_t faces[] = {40, 41, 90};
-	ndo_force f = {NDO_FORCE_FACE, 2.4, 1, 0, 1, {0}, 3, faces};
+	double *x0, *v0;
+	ndo_force f;
 	ndo_sim_params p;
-	ndo_sim_defaults(&p);
-	p.method = NDO_RKF45;
-	p.material.damping = 0.1;
-	p.forces = &f;
-	p.nforces = 1;
-	p.tol = 1e-7;
+	ndo_grid *g = rkf45_scene(&x0, &v0, &f, &p);
+	size_t nn = 3 * g->count;
 	ndo_sim *a = make(g, x0, v0, NULL, &p), *b = make(g, x0, v0, NULL, &p);
 	uint8_t *left = malloc(g->count), *right = malloc(g->count);
 	int32_t *all = malloc(g->count * sizeof *all);
@@ -921,19 +932,11 @@ static void rkf45_in_parts_is_the_step(void)
  * does not. */
 static void rkf45_resumes_from_state_time_and_substep(void)
 {
-	ndo_grid *g = shape("wavy", 3);
-	size_t nn = 3 * g->count;
-	double *x0 = malloc(nn * sizeof *x0), *v0 = malloc(nn * sizeof *v0);
-	random_state(g, 0.01, x0, v0);
-	int32_t faces[] = {40, 41, 90};
-	ndo_force f = {NDO_FORCE_FACE, 2.4, 1, 0, 1, {0}, 3, faces};
+	double *x0, *v0;
+	ndo_force f;
 	ndo_sim_params p;
-	ndo_sim_defaults(&p);
-	p.method = NDO_RKF45;
-	p.material.damping = 0.1;
-	p.forces = &f;
-	p.nforces = 1;
-	p.tol = 1e-7;
+	ndo_grid *g = rkf45_scene(&x0, &v0, &f, &p);
+	size_t nn = 3 * g->count;
 	ndo_sim *a = make(g, x0, v0, NULL, &p);
 	CHECK(ndo_sim_rkf45_substep(a) == 0, "no sub-step before the first step: %g",
 	      ndo_sim_rkf45_substep(a));
