@@ -43,6 +43,9 @@ $(FUZZ_GEN_OBJS): $(FUZZ_OBJ)/%.o: %.c $(LCM_GEN_STAMP)
 	$(FUZZ_CC) -w -fsanitize=fuzzer-no-link,address,undefined -fno-sanitize=nonnull-attribute \
 	    -c $< -o $@
 -include $(FUZZ_LIB_OBJS:.o=.d)
+# the network layer's objects again when the messages change (as the
+# library's, lib/lcmtypes/build.mk)
+$(filter $(FUZZ_OBJ)/lib/net/%,$(FUZZ_LIB_OBJS)): $(LCM_GEN_STAMP)
 $(TBIN)/fuzz_%: tests/fuzz/fuzz_%.c $(FUZZ_LIB_OBJS) $(FUZZ_GEN_OBJS) \
     $(wildcard lib/*/ndo/*.h lib/*/*.h tests/fuzz/*.h)
 	@mkdir -p $(@D)
