@@ -181,9 +181,9 @@ int ndo_peer_create(const ndo_peer_opts *o, ndo_net *net, ndo_grid *grid, ndo_si
  * level above, 160 from level 7.  A checkpoint is the region's whole state
  * (48 bytes a node) and rk4's halo two rings of it, so checkpoints every
  * 20 steps at level 7 sent more than the halo (40 against 25 kB a step, 2
- * peers) and cost 2 peers 6 % of their speed; this keeps them near a fifth
- * of the halo's bytes at levels 5-7, and a restart takes at most 160 steps
- * again (docs/peers.md, "Restarts"). */
+ * peers: 1.42x one process in paired runs, 1.56x with 160); this keeps
+ * them near a fifth of the halo's bytes at levels 5-7, and a restart takes
+ * at most 160 steps again (docs/peers.md, "Restarts"). */
 int ndo_peer_checkpoint_default(int level);
 
 /* Leave (the owner: end the session for everyone, with `message`) and
