@@ -77,6 +77,8 @@ struct ndo_peer {
 	size_t nown;
 	int32_t *ownc;         /* canonical nodes of the region */
 	size_t nownc;
+	int32_t *orun;         /* ownc as runs of consecutive nodes: start, end pairs */
+	size_t norun;
 	uint8_t *hmark;        /* per canonical node: in the halo (rings 1..W) */
 	uint8_t *act;          /* per stored node: integrated (region and halo) */
 	int32_t *dist;         /* BFS scratch */
@@ -579,6 +581,7 @@ static int exact_region(ndo_peer *p)
 	if (!p->hmark) {
 		p->own = malloc(p->count * sizeof *p->own);
 		p->ownc = malloc(p->count * sizeof *p->ownc);
+		p->orun = malloc(2 * p->count * sizeof *p->orun);
 		p->hmark = calloc(p->count, 1);
 		p->act = calloc(p->count, 1);
 		p->dist = malloc(p->count * sizeof *p->dist);
@@ -586,8 +589,8 @@ static int exact_region(ndo_peer *p)
 		p->hu = calloc(3 * p->count, sizeof *p->hu);
 		p->sbuf[0] = calloc(6 * p->count, sizeof(double));
 		p->sbuf[1] = calloc(6 * p->count, sizeof(double));
-		if (!p->own || !p->ownc || !p->hmark || !p->act || !p->dist || !p->strip || !p->hu ||
-		    !p->sbuf[0] || !p->sbuf[1])
+		if (!p->own || !p->ownc || !p->orun || !p->hmark || !p->act || !p->dist || !p->strip ||
+		    !p->hu || !p->sbuf[0] || !p->sbuf[1])
 			return ndo__fail(NDO_ENOMEM, "out of memory");
 		p->sstep[0] = p->sstep[1] = -1;
 	}
@@ -614,6 +617,19 @@ static int exact_region(ndo_peer *p)
 			p->ownc[nownc++] = (int32_t)k;
 	}
 	p->nownc = nownc;
+	/* its runs: a band's rows are runs of hundreds (its seams' duplicates
+	 * are not canonical and break them), so marking the region's step
+	 * each step is a few fills, not a scattered store a node */
+	p->norun = 0;
+	for (size_t k = 0; k < nownc; k++) {
+		if (p->norun && p->orun[2 * p->norun - 1] == p->ownc[k])
+			p->orun[2 * p->norun - 1]++;
+		else {
+			p->orun[2 * p->norun] = p->ownc[k];
+			p->orun[2 * p->norun + 1] = p->ownc[k] + 1;
+			p->norun++;
+		}
+	}
 	/* the strip: rings around the others' regions */
 	for (size_t k = 0; k < p->ncanon; k++)
 		from[p->canons[k]] = own[p->canons[k]] != self;
@@ -1380,8 +1396,12 @@ static int stepped(ndo_peer *p)
 	p->cur++;
 	p->tcur = ndo_sim_time(p->sim);
 	p->synced = 0;
-	for (size_t q = 0; q < p->nownc; q++)
-		p->nstep[p->ownc[q]] = p->cur;
+	for (size_t r = 0; r < p->norun; r++) {
+		int64_t *restrict n = p->nstep;
+		const int64_t cur = p->cur;
+		for (int32_t c = p->orun[2 * r]; c < p->orun[2 * r + 1]; c++)
+			n[c] = cur;
+	}
 	if (p->blocked)
 		p->st.wait_seconds += p->now - p->block_t0;
 	p->blocked = 0;
@@ -2070,7 +2090,7 @@ void ndo_peer_destroy(ndo_peer *p, const char *message)
 	free(p->scene);
 	free(p->canon), free(p->canons), free(p->nstep), free(p->mask), free(p->halo);
 	free(p->hx), free(p->hv), free(p->xs), free(p->vs);
-	free(p->own), free(p->ownc), free(p->hmark), free(p->act), free(p->dist), free(p->strip);
+	free(p->own), free(p->ownc), free(p->orun), free(p->hmark), free(p->act), free(p->dist), free(p->strip);
 	free(p->hu), free(p->sbuf[0]), free(p->sbuf[1]);
 	for (size_t k = 0; k < p->nhstash; k++)
 		halo_free(&p->hstash[k]);
