@@ -411,6 +411,39 @@ static double level_difference(int fine, const double *uf, const double *uc)
 }
 
 
+/* The space error of a level-m result u against its companion uc one level
+ * coarser, where both have a value: |u − uc| over level m − 1's nodes
+ * (level m's even rows and columns; the grid is n + 1 rows of 2n + 1).
+ * Over all of level m's nodes, with the companion carried there by the
+ * butterfly, the difference also held the butterfly's own interpolation
+ * error, which is not the coarser run's: on the ellipsoid's free
+ * vibration at level 6 the estimate was 3.1-3.3 times the truth, against
+ * 2.7-2.9 times from the shared nodes (docs/bench/accuracy.md).
+ *   tf (3 × level m − 1's nodes, or NULL): the time error's field there
+ * (time_coarse); with it, the two errors together, node by node: the
+ * space error u − u* = −(u − uc) / (r − 1) plus the time error, the
+ * largest node's — where the two point in opposite directions they
+ * cancel, as the true errors do, and their sum (time_m + space_m) is only
+ * a bound: 3.4-3.9 times the truth on figure 5.4 with symplectic Euler. */
+static double shared_difference(int m, const double *u, const double *uc, const double *tf)
+{
+	size_t n = (size_t)1 << m, w = 2 * n + 1, wc = n + 1;
+	double big = 0;
+	for (size_t r = 0; r <= n; r += 2)
+		for (size_t c = 0; c < w; c += 2) {
+			const double *a = u + 3 * (r * w + c);
+			size_t q = 3 * (r / 2 * wc + c / 2);
+			double s2 = 0;
+			for (int k = 0; k < 3; k++) {
+				double d = a[k] - uc[q + (size_t)k];
+				double v = tf ? tf[q + (size_t)k] - d / (RATE - 1) : d;
+				s2 += v * v;
+			}
+			big = fmax(big, s2);
+		}
+	return sqrt(big);
+}
+
 static void add_cost(ndo_acc_estimate *e, const ndo_acc_result *r)
 {
 	e->cpu += r->cpu;
@@ -530,9 +563,11 @@ static int time_window(ndo_acc *a, const ndo_acc_config *c, ndo_acc_estimate *e,
 /* The time error over the whole run, by Richardson one level coarser:
  * level m−1 at twice the step against r1, its run at the step (half the
  * step when twice is beyond that level's critical step): what the motion
- * every level carries accumulates (a phase error grows with time). */
+ * every level carries accumulates (a phase error grows with time).
+ * field (3 × level m−1's nodes, or NULL): the error itself, r1 − u*, node
+ * by node. */
 static int time_coarse(ndo_acc *a, const ndo_acc_config *c, const ndo_acc_result *r1,
-                       ndo_acc_estimate *e, double *h2, double *out)
+                       ndo_acc_estimate *e, double *h2, double *out, double *field)
 {
 	double p = richardson_order(c->method);
 	double T = c->h * (double)c->steps, factor;
@@ -559,6 +594,9 @@ static int time_coarse(ndo_acc *a, const ndo_acc_config *c, const ndo_acc_result
 		return rc;
 	add_cost(e, &r2);
 	*out = factor * ndo_acc_distance(c2.level, r2.u, r1->u);
+	/* u(h) − u* = (u(2h) − u(h)) / (2^p − 1), or (u(h) − u(h/2)) / (1 − 2^−p) */
+	for (size_t q = 0; field && q < 3 * nodes_of(c2.level); q++)
+		field[q] = factor * (twice ? r2.u[q] - r1->u[q] : r1->u[q] - r2.u[q]);
 	ndo_acc_result_free(&r2);
 	return NDO_OK;
 }
@@ -574,7 +612,7 @@ int ndo_acc_estimate_run(ndo_acc *a, const ndo_acc_config *c, const double *u, d
                          ndo_acc_estimate *e)
 {
 	memset(e, 0, sizeof *e);
-	e->time_m = e->space_m = NAN;
+	e->time_m = e->space_m = e->total_m = NAN;
 	e->umax = umax;
 	e->rate = NAN;
 	int m = c->level, rkf = c->method == NDO_RKF45;
@@ -583,7 +621,7 @@ int ndo_acc_estimate_run(ndo_acc *a, const ndo_acc_config *c, const double *u, d
 	 * follows the velocity of the moment (3-4× the truth on the poke,
 	 * whose motion is fastest early). */
 	int windowed = c->method != NDO_SYMPLECTIC_EULER || m < 1;
-	double started = cpu_now(), dmax = NAN, grown = NAN, tc = NAN, h2 = 0;
+	double started = cpu_now(), dmax = NAN, grown = NAN, tc = NAN, h2 = 0, *tfield = NULL;
 	int64_t w = 0;
 	/* Time, early: the window at the run's level. */
 	int rc = windowed ? time_window(a, c, e, &w, &dmax, &grown) : NDO_OK;
@@ -609,14 +647,23 @@ int ndo_acc_estimate_run(ndo_acc *a, const ndo_acc_config *c, const double *u, d
 		} else {
 			add_cost(e, &r1);
 			e->rate = RATE;
-			e->space_m = level_difference(m, u, r1.u) / (RATE - 1);
-			if (!rkf && (rc = time_coarse(a, c, &r1, e, &h2, &tc))) {
+			e->space_m = shared_difference(m, u, r1.u, NULL) / (RATE - 1);
+			/* the time error's field, for the total (below); without the
+			 * memory, the total is the two errors' sum */
+			tfield = malloc(3 * nodes_of(m - 1) * sizeof *tfield);
+			if (!rkf && (rc = time_coarse(a, c, &r1, e, &h2, &tc, tfield))) {
 				why(e, "time: coarse", m - 1);
+				free(tfield);
+				tfield = NULL;
 				if (rc == NDO_ENOMEM) {
 					ndo_acc_result_free(&r1);
 					return rc;
 				}
 			}
+			if (tfield && !rkf && !isnan(tc) && !(windowed && dmax > tc))
+				e->total_m = shared_difference(m, u, r1.u, tfield);
+			free(tfield);
+			tfield = NULL;
 			ndo_acc_result_free(&r1);
 		}
 	}
@@ -637,6 +684,8 @@ int ndo_acc_estimate_run(ndo_acc *a, const ndo_acc_config *c, const double *u, d
 			snprintf(e->time_how, sizeof e->time_how, "level %d at %.4g s against %.4g s", m - 1,
 			         h2, c->h);
 	}
+	if (isnan(e->total_m))
+		e->total_m = e->time_m + e->space_m;
 	e->cpu = cpu_now() - started;
 	return NDO_OK;
 }

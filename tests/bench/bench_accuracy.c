@@ -212,7 +212,7 @@ static void estimates(int n, int argc, char **argv)
 				die("run");
 			double tt = ndo_acc_distance(n, r.u, rt.u), ts = ndo_acc_distance(n, rt.u, b.ref),
 			       tot = ndo_acc_distance(n, r.u, b.ref), U = b.umax;
-			double te = e.time_m + e.space_m;
+			double te = e.total_m;
 			printf("%s,%d,%s,%.5g,%.5g,%.3g,%.3g,%.3g,%.3g,%.3g,%.3g,%.3g,%.3g,%.3g,%.4g,%.4g,%.3g\n",
 			       b.name, n, ndo_method_names[ms[q]], c.h, U, e.time_m / U, tt / U, e.space_m / U,
 			       ts / U, te / U, tot / U, e.time_m / tt, e.space_m / ts, te / tot, r.cpu, e.cpu, e.rate);
@@ -321,7 +321,7 @@ static void choose(int n, int argc, char **argv)
 			       "%.3g\n",
 			       b.name, E, ch.c.level, ndo_method_names[ch.c.method], ch.c.h,
 			       (long long)ch.c.steps, ch.error_m / ch.umax,
-			       (es.time_m + es.space_m) / r.umax, err, err <= E, t, tc, es.cpu, cheapest,
+			       es.total_m / r.umax, err, err <= E, t, tc, es.cpu, cheapest,
 			       cname, t / cheapest, (t + tc + es.cpu) / cheapest, best);
 			fflush(stdout);
 			ndo_acc_result_free(&r);

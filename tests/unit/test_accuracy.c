@@ -183,6 +183,39 @@ static void time_estimate_at_the_largest_step(void)
 	unmake(&f);
 }
 
+/* The total estimate: the time and space errors added node by node
+ * (symplectic Euler's time error comes from the coarser companion, a
+ * field there), so never more than their sum and, on the poked sphere
+ * where they point apart, less; rk4's window (a number, not a field) at
+ * its largest step leaves the sum. */
+static void total_adds_the_fields(void)
+{
+	fixture f;
+	make(&f, 4, "damping 0.1;pin at=0,0,-1 radius=1.6;force face at=0,0,1 radius=0.1 amplitude=0.5",
+	     bulge);
+	const ndo_method ms[2] = {NDO_SYMPLECTIC_EULER, NDO_RK4};
+	for (int k = 0; k < 2; k++) {
+		ndo_sim *s;
+		ndo_critical cr;
+		CHECK(ndo_acc_sim(f.a, 4, ms[k], 0, &s) == NDO_OK && ndo_sim_critical(s, &cr) == NDO_OK,
+		      "critical step");
+		ndo_sim_destroy(s);
+		ndo_acc_config c = {4, ms[k], 0, (int64_t)ceil(1 / (0.9 * cr.h_crit)), 0};
+		c.h = 1 / (double)c.steps;
+		ndo_acc_result r;
+		ndo_acc_estimate e;
+		CHECK(ndo_acc_run(f.a, &c, &r) == NDO_OK &&
+		      ndo_acc_estimate_run(f.a, &c, r.u, r.umax, &e) == NDO_OK, "estimate");
+		double sum = e.time_m + e.space_m;
+		CHECK(e.total_m > 0 && e.total_m <= sum * (1 + 1e-12) &&
+		      (k == 0 ? e.total_m < 0.95 * sum : e.total_m == sum),
+		      "%s: total %g m, time %g m + space %g m = %g m", ndo_method_names[ms[k]], e.total_m,
+		      e.time_m, e.space_m, sum);
+		ndo_acc_result_free(&r);
+	}
+	unmake(&f);
+}
+
 static void bad_targets_are_refused(void)
 {
 	fixture f;
@@ -338,6 +371,7 @@ int main(void)
 	RUN(rigid_motion_has_no_error);
 	RUN(time_estimate_follows_the_order);
 	RUN(time_estimate_at_the_largest_step);
+	RUN(total_adds_the_fields);
 	RUN(bad_targets_are_refused);
 	RUN(finer_levels_that_cannot_win_are_not_analysed);
 	RUN(known_mode_and_memory_limit);

@@ -210,7 +210,7 @@ void accuracy_report(run *r)
 		ndo_die("error estimate: %s", ndo_errdetail());
 	free(u);
 	r->coarse = NULL;
-	double rel = umax > 0 ? 1 / umax : NAN, tot = e.time_m + e.space_m;
+	double rel = umax > 0 ? 1 / umax : NAN, tot = e.total_m;
 	if (!r->quiet) {
 		if (isnan(e.time_m) && isnan(e.space_m))
 			snprintf(report, sizeof report, "%s: error estimate: none (%s)\n", ndo_progname, e.why);

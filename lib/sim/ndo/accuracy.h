@@ -146,6 +146,9 @@ double ndo_acc_distance(int level, const double *a, const double *b);
  * runs' force evaluations × vertices. */
 typedef struct ndo_acc_estimate {
 	double time_m, space_m; /* m */
+	double total_m;         /* the two together, m: the largest node's
+	                         * |time + space| as fields where the time error
+	                         * is the coarse companion's, else their sum */
 	double umax;            /* the largest displacement, m */
 	double rate;            /* r used for the space error (4) */
 	double cpu, node_evals;
