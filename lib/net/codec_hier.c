@@ -587,13 +587,59 @@ static inline __attribute__((always_inline)) void level(hier *h, const int mode,
 	}
 }
 
+/* The passes, each its own function: levels() with every pass inlined
+ * was one function of ~160 kB of code, its passes' loops sharing its
+ * registers and its stack; apart (with LOCAL_CODER below), level 7 enc +
+ * dec 0.99 of before (tests/bench/hier-speed c90eaed 3, load 3.5), and
+ * a change to one pass no longer moves the others' code (one that added a
+ * pass to the decoder slowed the encoder 13 %). */
+NDO_HOT __attribute__((noinline)) static void level_predict(hier *h, pass *ps, int s)
+{
+	level(h, P_PREDICT, ps, s);
+}
+/* The coding passes run on local copies of the pass and of the range
+ * coder's state: through ps->e or ps->dc, the coder's range and code
+ * (uint32_t) might be the target of any store of a code (int32_t), and
+ * the compiler read them from memory again after each; local, whose
+ * address no store can hold, they stay in registers. */
+#define LOCAL_CODER(ps, f, stmt)                                                       \
+	do {                                                                           \
+		pass p_ = *(ps);                                                       \
+		__typeof__(*p_.f) c_ = *p_.f;                                          \
+		p_.f = &c_;                                                            \
+		stmt;                                                                  \
+		p_.f = (ps)->f;                                                        \
+		*p_.f = c_;                                                            \
+		*(ps) = p_;                                                            \
+	} while (0)
+NDO_HOT __attribute__((noinline)) static void level_collect(hier *h, pass *ps, int s)
+{
+	pass p = *ps;
+	level(h, P_COLLECT, &p, s);
+	*ps = p;
+}
+NDO_HOT __attribute__((noinline)) static void level_encode(hier *h, pass *ps, int s)
+{
+	LOCAL_CODER(ps, e, level(h, P_ENCODE, &p_, s));
+}
+NDO_HOT __attribute__((noinline)) static void level_decode(hier *h, pass *ps, int s)
+{
+	LOCAL_CODER(ps, dc, level(h, P_DECODE, &p_, s));
+}
+/* a row's nodes outside its run (predict_level()) */
+NDO_HOT __attribute__((noinline)) static void node_predict(hier *h, pass *ps, int i, int j, int s,
+                                                          int type)
+{
+	node(h, P_PREDICT, ps, i, j, s, type);
+}
+
 /* Level s's rows' interiors (every stencil node held: h->allheld) in
  * bulk, the encoder's P_PREDICT values (pb, pw, ctx) for every node of
  * the row's span, those of the level's type `type` kept: the same as
  * pred16()'s 8-node case, in loops over consecutive values that the
  * compiler vectorizes. */
 enum { RUN_NODES = 128 };
-static inline __attribute__((always_inline)) void
+NDO_HOT __attribute__((noinline)) static void
 predict_run_all(hier *h, long n0, int nodes, int type, int step, int g, int slope, int beta)
 {
 	int64_t tb[3 * RUN_NODES], tw[3 * RUN_NODES];
@@ -638,7 +684,7 @@ predict_run_all(hier *h, long n0, int nodes, int type, int step, int g, int slop
  * nodes kept, every `step`-th of the span, one by one: decode 0.96 of
  * predict_run_all()'s, whose runs compute 2 or 4 times the values; the
  * encoder's (pw too, the slope always) 1.04 (docs/bench/net.md). */
-static inline __attribute__((always_inline)) void
+NDO_HOT __attribute__((noinline)) static void
 predict_run_kept(hier *h, long n0, int nodes, int type, int step, int g, int slope, int beta)
 {
 	long o[8];
@@ -675,7 +721,7 @@ enum { RUN_LEVELS = 2 };
 static inline __attribute__((always_inline)) void predict_level(hier *h, pass *ps, int s)
 {
 	if (!s || !h->allheld || (s > RUN_LEVELS && !ps->fused) || ndo__codec_hier_general) {
-		level(h, P_PREDICT, ps, s);
+		level_predict(h, ps, s);
 		return;
 	}
 	const int st = 2 * s, g = (s == 1 ? 0 : s == 2 ? 1 : s == 4 ? 2 : 3) * 4;
@@ -695,14 +741,14 @@ static inline __attribute__((always_inline)) void predict_level(hier *h, pass *p
 			if (hi < lo)
 				lo = h->cols, hi = h->cols - di;
 			for (int i = i0; i < lo && i < h->cols; i += di)
-				node(h, P_PREDICT, ps, i, j, s, type);
+				node_predict(h, ps, i, j, s, type);
 			if (hi >= lo && ps->fused)
 				predict_run_kept(h, row + lo, hi - lo + 1, type, di, g, ps->slope,
 				                 ps->beta[0]);
 			else if (hi >= lo)
 				predict_run_all(h, row + lo, hi - lo + 1, type, di, g, ps->slope, -1);
 			for (int i = hi + di > i0 ? hi + di : i0; i < h->cols; i += di)
-				node(h, P_PREDICT, ps, i, j, s, type);
+				node_predict(h, ps, i, j, s, type);
 		}
 	}
 }
@@ -726,7 +772,7 @@ NDO_HOT static int levels(hier *h, int mode, rcenc *e, rcdec *dc, uint64_t *any)
 			memset(ps.cost, 0, sizeof ps.cost);
 			ps.slope = 1;
 			PHASE(0, LCOL(ls), predict_level(h, &ps, ls));
-			PHASE(1, LCOL(ls), level(h, P_COLLECT, &ps, ls));
+			PHASE(1, LCOL(ls), level_collect(h, &ps, ls));
 			for (int b = BETA_MAX; b >= 0; b--) /* ties: the implied frames' */
 				if (ps.cost[b] < ps.cost[beta])
 					beta = b;
@@ -749,11 +795,11 @@ NDO_HOT static int levels(hier *h, int mode, rcenc *e, rcdec *dc, uint64_t *any)
 		}
 		ps.beta[0] = ps.beta[1] = ps.beta[2] = beta;
 		if (mode == P_ENCODE && !h->intra)
-			PHASE(2, LCOL(ls), level(h, P_ENCODE, &ps, ls));
+			PHASE(2, LCOL(ls), level_encode(h, &ps, ls));
 		else if (mode == P_ENCODE)
 			PHASE(2, LCOL(ls), level(h, P_ENCODE1, &ps, ls));
 		else if (mode == P_DECODE)
-			PHASE(4, LCOL(ls), level(h, P_DECODE, &ps, ls));
+			PHASE(4, LCOL(ls), level_decode(h, &ps, ls));
 		else
 			level(h, P_IMPLIED, &ps, ls);
 		if (ps.bad)
