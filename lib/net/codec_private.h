@@ -371,7 +371,7 @@ int ndo__rc_dec_direct(rcdec *d);
 
 /* A frame for the hierarchical coder: the tile, its classes, the
  * references (newest first, NULL: absent) and the step. */
-#define HIER_SCRATCH 11
+#define HIER_SCRATCH 15 /* int64 a node: codec_hier.c's hier_init() lays them out */
 #define HIER_FINE 16 /* hier's codes: steps of q / 16; its residuals: steps of q */
 typedef struct hcodes {
 	int rows, cols;
