@@ -267,7 +267,7 @@ static const signed char stencil[3][8][2] = {
 enum { BETA_MAX = 4, BETA_IMPLIED = 4 }; /* the slope's share, in quarters */
 
 typedef struct hier {
-	int rows, cols, top, allheld, intra;
+	int rows, cols, top, allheld, alllossy, intra;
 	const uint8_t *cls;
 	int32_t *k;           /* this frame's codes, 3 a node */
 	const int32_t *k1;    /* the reference's codes (a keyframe: zeros) */
@@ -649,6 +649,9 @@ NDO_HOT __attribute__((noinline)) static void level_predict(hier *h, pass *ps, i
 {
 	level(h, P_PREDICT, ps, s);
 }
+/* predict_compact()'s runs and collect_sampled()'s: their values on the stack */
+enum { RUN_NODES = 128 };
+
 /* The coding passes run on local copies of the pass and of the range
  * coder's state: through ps->e or ps->dc, the coder's range and code
  * (uint32_t) might be the target of any store of a code (int32_t), and
@@ -670,6 +673,61 @@ NDO_HOT __attribute__((noinline)) static void level_collect(hier *h, pass *ps, i
 	level(h, P_COLLECT, &p, s);
 	*ps = p;
 }
+
+/* P_COLLECT over level s ≥ 1 of a tile whose every node is LOSSY
+ * (h->alllossy): every value of the level counts in ps->sample, so the
+ * sampled ones (every fourth) are known without visiting the others;
+ * node() P_COLLECT's costs of those alone, without branches. */
+NDO_HOT __attribute__((noinline)) static void collect_sampled(hier *h, pass *ps, int s)
+{
+	const int C = h->cols, R = h->rows;
+	const int64_t *const pb = h->pb, *const pw = h->pw;
+	const double *const x = h->x, *const lo = h->z->lo, *const q = h->z->q;
+	uint64_t smp = ps->sample, cost[BETA_MAX + 1];
+	memcpy(cost, ps->cost, sizeof cost);
+	for (int j = 0; j < R; j += s) {
+		/* the row's nodes: an even row of the level horizontal edges, from
+		 * i = s every 2s; an odd one every s (level()) */
+		const int i0 = j & s ? 0 : s, di = j & s ? s : 2 * s;
+		const int cnt = i0 < C ? (C - 1 - i0) / di + 1 : 0;
+		/* the row's sampled values (smp counts the values before it): their
+		 * index and nearest code, then their costs (apart, the divisions'
+		 * latency overlaps; in one loop each waited for its own) */
+		for (int v = (int)((4 - (smp & 3)) & 3), nq = v / 3, d = v % 3; v < 3 * cnt;) {
+			size_t su[RUN_NODES];
+			int64_t sk[RUN_NODES];
+			int nv = 0;
+			for (; v < 3 * cnt && nv < RUN_NODES; v += 4) {
+				const size_t u = 3 * ((size_t)j * (size_t)C + (size_t)i0 + (size_t)nq * (size_t)di) +
+				                 (size_t)d;
+				const double t = (x[u] - lo[d]) / q[d] + 0.5;
+				int64_t kq = (int64_t)t;
+				kq -= (double)kq > t;
+				su[nv] = u, sk[nv++] = kq;
+				/* 4 values on: the next node, and the next component */
+				nq++, d++;
+				if (d == 3)
+					nq++, d = 0;
+			}
+			for (int k = 0; k < nv; k++) {
+				/* node()'s cost without branches, which GCC makes of a ?: or
+				 * a product by a != 0 (|e| and a = 0 are data: mispredicted,
+				 * they cost more than the rest): for a ≥ 1 clz(a | 1) = clz(a),
+				 * for a = 0 the −4 (a − 1 wraps) cancels 2 + 2 × 1 */
+				const int64_t y = 4 * pb[su[k]] + 32, w = pw[su[k]], kq = sk[k];
+				for (int b = 0; b <= BETA_MAX; b++) {
+					const int64_t e = kq - ((y + b * w) >> 6); /* pred_of() */
+					const uint64_t sg = (uint64_t)(e >> 63), ae = ((uint64_t)e ^ sg) - sg;
+					const uint64_t a = (ae + HIER_FINE / 2) / HIER_FINE;
+					cost[b] += 2 + 2 * (uint64_t)(64 - __builtin_clzll(a | 1)) - 4 * ((a - 1) >> 63);
+				}
+			}
+		}
+		smp += 3 * (uint64_t)cnt;
+	}
+	ps->sample = smp;
+	memcpy(ps->cost, cost, sizeof cost);
+}
 NDO_HOT __attribute__((noinline)) static void level_encode(hier *h, pass *ps, int s)
 {
 	LOCAL_CODER(ps, e, level(h, P_ENCODE, &p_, s));
@@ -682,8 +740,6 @@ NDO_HOT __attribute__((noinline)) static void level_decode_direct(hier *h, pass 
 {
 	LOCAL_CODER(ps, dc, level(h, P_DECODE_D, &p_, s));
 }
-
-enum { RUN_NODES = 128 }; /* predict_compact()'s runs: their values on the stack */
 
 /* predict_compact()'s arrays and settings, in locals: through h, any
  * int32_t store might change them */
@@ -885,7 +941,10 @@ NDO_HOT static int levels(hier *h, int mode, rcenc *e, rcdec *dc, uint64_t *any)
 			memset(ps.cost, 0, sizeof ps.cost);
 			ps.slope = 1;
 			PHASE(0, LCOL(ls), predict_level(h, &ps, ls));
-			PHASE(1, LCOL(ls), level_collect(h, &ps, ls));
+			if (ls && h->alllossy && !ndo__codec_hier_general)
+				PHASE(1, LCOL(ls), collect_sampled(h, &ps, ls));
+			else
+				PHASE(1, LCOL(ls), level_collect(h, &ps, ls));
 			for (int b = BETA_MAX; b >= 0; b--) /* ties: the implied frames' */
 				if (ps.cost[b] < ps.cost[beta])
 					beta = b;
@@ -1014,9 +1073,11 @@ static void hier_init(hier *h, const hcodes *c, int32_t *k, int64_t *t, uint8_t 
 	time_refs(h, c, t32 + 2 * N);
 	h->x = NULL;
 	h->allheld = !memchr(c->cls, NDO_NODE_SKIP, (size_t)nodes);
+	h->alllossy = h->allheld;
 	memset(mag, 0, N); /* an EXACT node's: no residual */
 	for (const uint8_t *e = c->cls; (e = memchr(e, NDO_NODE_EXACT, (size_t)(c->cls + nodes - e)));
 	     e++) {
+		h->alllossy = 0;
 		const size_t n = (size_t)(e - c->cls);
 		for (int d = 0; d < 3; d++)
 			h->dk[3 * n + d] = (int32_t)((int64_t)k[3 * n + d] - h->k1[3 * n + d]);
