@@ -656,10 +656,8 @@ ndo_drop ndo_codec_decode_strided(const ndo_codec_params *p, ndo_codec_work *w,
 		dl = ndo__codec_hier_decode(&hc, recon->k, w->ht, w->hmag, rcp, rcn);
 		if (ndo__codec_hier_times)
 			ndo__codec_hier_times->whole[1] += ndo__now_ms() - t0;
-		for (int n = 0; n < nodes && !dl; n++)
-			if (cls[n] == NDO_NODE_LOSSY)
-				for (int d = 0; d < 3; d++)
-					recon->x[3 * n + d] = value_of(&z, d, recon->k[3 * n + d]);
+		/* the LOSSY nodes' values from their codes: below, with the
+		 * output (a frame that fails keeps none: recon->step −1) */
 	} else {
 		dl = decode_lossy(p, w, &b, flags, cls, cnt[1], rows, cols, ref, step, recon, &o);
 	}
@@ -673,12 +671,15 @@ ndo_drop ndo_codec_decode_strided(const ndo_codec_params *p, ndo_codec_work *w,
 	}
 	/* positions and velocities out (the fast decoder's are: no node of its
 	 * frames is SKIP) */
+	const int hier = enc == NDO_ENC_HIER;
 	for (int n = 0; n < nodes && !o.done; n++) {
 		if (cls[n] == NDO_NODE_EXACT)
 			continue;
 		int lossy = cls[n] == NDO_NODE_LOSSY;
 		int est = lossy && prev && prev->have[n] && dtp > 0;
 		for (int d = 0; d < 3; d++) {
+			if (hier && lossy)
+				recon->x[3 * n + d] = value_of(&z, d, recon->k[3 * n + d]);
 			x[S * n + d] = lossy ? recon->x[3 * n + d] : NAN;
 			v[S * n + d] = est ? (recon->x[3 * n + d] - frame_pos(&z, prev, n, d)) * inv : NAN;
 		}
