@@ -755,59 +755,63 @@ typedef struct cpx {
 /* m nodes' values, `step` nodes apart from node n0, from their butterflies
  * (tb, tw: the stencils' parts of 16 × the prediction without slope and
  * of 16 × the slope's detail) and contexts (tc), where P_PREDICT keeps
- * them (node(), P_PREDICT) */
-static inline __attribute__((always_inline)) void
-cpx_put(const cpx *x, size_t n0, size_t step, int m, const int64_t *tb, const int64_t *tw,
-        const uint8_t *tc, unsigned *oor)
-{
-	const int32_t *const K1 = x->K1, *const V = x->V;
-	if (x->beta < 0) { /* the encoder's */
-		int64_t *const pb = x->pb, *const pw = x->pw;
-		uint8_t *const cx = x->cx;
-		for (int q = 0; q < m; q++)
-			for (int d = 0; d < 3; d++) {
-				const size_t u = 3 * (n0 + step * (size_t)q) + (size_t)d;
-				const int v = 3 * q + d;
-				pb[u] = 16 * (int64_t)K1[u] + tb[v];
-				pw[u] = 16 * (int64_t)V[u] + tw[v];
-				cx[u] = tc[v];
-			}
-	} else if (!x->direct) {
-		int64_t *const pb = x->pb;
-		uint8_t *const cx = x->cx;
-		for (int q = 0; q < m; q++)
-			for (int d = 0; d < 3; d++) {
-				const size_t u = 3 * (n0 + step * (size_t)q) + (size_t)d;
-				const int v = 3 * q + d;
-				pb[u] = pred_of(16 * (int64_t)K1[u] + tb[v],
-				                x->slope ? 16 * (int64_t)V[u] + tw[v] : 0, x->beta);
-				cx[u] = tc[v];
-			}
-	} else {
-		int32_t *const kk = x->kk, *const dk = x->dk;
-		uint8_t *const cx = x->cx, *const mag = x->mag;
-		const int slope = x->slope, beta = x->beta, fine = x->fine;
-		unsigned out = 0;
-		for (int q = 0; q < m; q++) {
-			const size_t n = n0 + step * (size_t)q;
-			const int lossy = x->cls[n] == NDO_NODE_LOSSY;
-			for (int d = 0; d < 3; d++) {
-				const size_t u = 3 * n + (size_t)d;
-				const int v = 3 * q + d;
-				const int64_t k = pred_of(16 * (int64_t)K1[u] + tb[v],
-				                          slope ? 16 * (int64_t)V[u] + tw[v] : 0, beta);
-				cx[u] = tc[v];
-				if (!lossy) /* an EXACT node's code stays */
-					continue;
-				out |= k <= -CODE_MAX || k >= CODE_MAX;
-				kk[u] = (int32_t)k;
-				if (!fine)
-					mag[u] = 0, dk[u] = (int32_t)(k - K1[u]);
-			}
-		}
-		*oor |= out;
-	}
+ * them (node(), P_PREDICT); the butterflies int32_t when the stencils'
+ * values are small enough (cpx_put32), else int64_t */
+#define CPX_PUT(NAME, T)                                                               \
+static inline __attribute__((always_inline)) void                                      \
+NAME(const cpx *x, size_t n0, size_t step, int m, const T *tb, const T *tw,            \
+     const uint8_t *tc, unsigned *oor)                                                 \
+{                                                                                      \
+	const int32_t *const K1 = x->K1, *const V = x->V;                                     \
+	if (x->beta < 0) { /* the encoder's */                                                \
+		int64_t *const pb = x->pb, *const pw = x->pw;                                        \
+		uint8_t *const cx = x->cx;                                                           \
+		for (int q = 0; q < m; q++)                                                          \
+			for (int d = 0; d < 3; d++) {                                                       \
+				const size_t u = 3 * (n0 + step * (size_t)q) + (size_t)d;                          \
+				const int v = 3 * q + d;                                                           \
+				pb[u] = 16 * (int64_t)K1[u] + tb[v];                                               \
+				pw[u] = 16 * (int64_t)V[u] + tw[v];                                                \
+				cx[u] = tc[v];                                                                     \
+			}                                                                                   \
+	} else if (!x->direct) {                                                              \
+		int64_t *const pb = x->pb;                                                           \
+		uint8_t *const cx = x->cx;                                                           \
+		for (int q = 0; q < m; q++)                                                          \
+			for (int d = 0; d < 3; d++) {                                                       \
+				const size_t u = 3 * (n0 + step * (size_t)q) + (size_t)d;                          \
+				const int v = 3 * q + d;                                                           \
+				pb[u] = pred_of(16 * (int64_t)K1[u] + tb[v],                                       \
+				                x->slope ? 16 * (int64_t)V[u] + tw[v] : 0, x->beta);               \
+				cx[u] = tc[v];                                                                     \
+			}                                                                                   \
+	} else {                                                                              \
+		int32_t *const kk = x->kk, *const dk = x->dk;                                        \
+		uint8_t *const cx = x->cx, *const mag = x->mag;                                      \
+		const int slope = x->slope, beta = x->beta, fine = x->fine;                          \
+		unsigned out = 0;                                                                    \
+		for (int q = 0; q < m; q++) {                                                        \
+			const size_t n = n0 + step * (size_t)q;                                             \
+			const int lossy = x->cls[n] == NDO_NODE_LOSSY;                                      \
+			for (int d = 0; d < 3; d++) {                                                       \
+				const size_t u = 3 * n + (size_t)d;                                                \
+				const int v = 3 * q + d;                                                           \
+				const int64_t k = pred_of(16 * (int64_t)K1[u] + tb[v],                             \
+				                          slope ? 16 * (int64_t)V[u] + tw[v] : 0, beta);           \
+				cx[u] = tc[v];                                                                     \
+				if (!lossy) /* an EXACT node's code stays */                                       \
+					continue;                                                                         \
+				out |= k <= -CODE_MAX || k >= CODE_MAX;                                            \
+				kk[u] = (int32_t)k;                                                                \
+				if (!fine)                                                                         \
+					mag[u] = 0, dk[u] = (int32_t)(k - K1[u]);                                         \
+			}                                                                                   \
+		}                                                                                    \
+		*oor |= out;                                                                         \
+	}                                                                                     \
 }
+CPX_PUT(cpx_put, int64_t)
+CPX_PUT(cpx_put32, int32_t)
 
 NDO_HOT __attribute__((noinline)) static void predict_compact(hier *h, pass *ps, int s)
 {
@@ -819,6 +823,8 @@ NDO_HOT __attribute__((noinline)) static void predict_compact(hier *h, pass *ps,
 	int32_t *const Dc = h->dc, *const Vc = h->vc;
 	uint8_t *const Mc = h->mc;
 	const size_t sst = 3 * (size_t)st;
+	const uint32_t SMALL = 1u << 22;
+	uint32_t big = 0; /* the OR of value + 2^22: ≥ 2^23 for one past ±2^22 */
 	for (int J = 0; J < Rc; J++) {
 		const int32_t *ds = x.dk + sst * (size_t)J * (size_t)C,
 		              *vs = x.V + sst * (size_t)J * (size_t)C;
@@ -826,9 +832,14 @@ NDO_HOT __attribute__((noinline)) static void predict_compact(hier *h, pass *ps,
 		int32_t *dd = Dc + 3 * (size_t)J * (size_t)Cc, *vd = Vc + 3 * (size_t)J * (size_t)Cc;
 		uint8_t *md = Mc + 3 * (size_t)J * (size_t)Cc;
 		for (int I = 0; I < Cc; I++, ds += sst, vs += sst, ms += sst, dd += 3, vd += 3, md += 3)
-			for (int d = 0; d < 3; d++)
+			for (int d = 0; d < 3; d++) {
 				dd[d] = ds[d], vd[d] = slope ? vs[d] : 0, md[d] = ms[d];
+				big |= ((uint32_t)dd[d] + SMALL) | ((uint32_t)vd[d] + SMALL);
+			}
 	}
+	/* every value within ±2^22: the butterflies (|sum of weights| 24) in
+	 * int32_t, twice the lanes of int64_t */
+	const int narrow = big < 2 * SMALL;
 	unsigned oor = 0;
 	for (int t = 0; t < 3; t++) {
 		/* the stencil's offsets (values, compact) and its extent */
@@ -889,6 +900,23 @@ NDO_HOT __attribute__((noinline)) static void predict_compact(hier *h, pass *ps,
 				const long v0 = 3L * ((long)J * Cc + I0);
 				const int32_t *D = Dc + v0, *VV = Vc + v0;
 				const uint8_t *M = Mc + v0;
+				for (int v = 0; v < nv; v++) {
+					const unsigned u = (unsigned)M[v + c[0]] + M[v + c[1]];
+					tc[v] = (uint8_t)(g + (u > 0) + (u > 2)); /* nb_of(u) */
+				}
+				if (narrow) {
+					int32_t tb32[3 * RUN_NODES], tw32[3 * RUN_NODES];
+					for (int v = 0; v < nv; v++)
+						tb32[v] = 8 * (D[v + c[0]] + D[v + c[1]]) + 2 * (D[v + c[2]] + D[v + c[3]]) -
+						          (D[v + c[4]] + D[v + c[5]] + D[v + c[6]] + D[v + c[7]]);
+					for (int v = 0; v < nv; v++)
+						tw32[v] = -8 * (VV[v + c[0]] + VV[v + c[1]]) -
+						          2 * (VV[v + c[2]] + VV[v + c[3]]) +
+						          (VV[v + c[4]] + VV[v + c[5]] + VV[v + c[6]] + VV[v + c[7]]);
+					cpx_put32(&x, row + (size_t)st * (size_t)I0, (size_t)st, m, tb32, tw32, tc,
+					          &oor);
+					continue;
+				}
 				for (int v = 0; v < nv; v++)
 					tb[v] = 8 * ((int64_t)D[v + c[0]] + D[v + c[1]]) +
 					        2 * ((int64_t)D[v + c[2]] + D[v + c[3]]) -
@@ -901,10 +929,6 @@ NDO_HOT __attribute__((noinline)) static void predict_compact(hier *h, pass *ps,
 						         VV[v + c[7]]);
 				else
 					memset(tw, 0, (size_t)nv * sizeof *tw);
-				for (int v = 0; v < nv; v++) {
-					const unsigned u = (unsigned)M[v + c[0]] + M[v + c[1]];
-					tc[v] = (uint8_t)(g + (u > 0) + (u > 2)); /* nb_of(u) */
-				}
 				cpx_put(&x, row + (size_t)st * (size_t)I0, (size_t)st, m, tb, tw, tc, &oor);
 			}
 		}
