@@ -732,6 +732,77 @@ NDO_HOT __attribute__((noinline)) static void level_encode(hier *h, pass *ps, in
 {
 	LOCAL_CODER(ps, e, level(h, P_ENCODE, &p_, s));
 }
+
+/* P_ENCODE over level s ≥ 1 of a tile whose every node is LOSSY, in two
+ * loops: first each node's predictions and choose()'s first test (the
+ * prediction within the bound: residuals 0), its codes (and above level 1
+ * mag 0 and dk) made, a flag kept (zf, a byte a node); then in raster
+ * order a flagged node's flag bit alone, the others through node().  The
+ * first loop has no branch on the data and no coder: the floating point
+ * of one node overlaps the next's. */
+NDO_HOT __attribute__((noinline)) static void encode_zeros(hier *h, const pass *ps, int s,
+                                                          uint8_t *zf)
+{
+	const int C = h->cols, R = h->rows, beta = ps->beta[0], fine = s == 1;
+	const int64_t *const pb = h->pb, *const pw = h->pw;
+	const double *const x = h->x, *const lo = h->z->lo, *const iq = h->iq, *const w2 = h->w2;
+	const double m2 = h->m2;
+	const int32_t *const K1 = h->k1;
+	int32_t *const kk = h->k, *const dk = h->dk;
+	uint8_t *const mag = h->mag;
+	for (int j = 0; j < R; j += s) {
+		const int i0 = j & s ? 0 : s, di = j & s ? s : 2 * s;
+		for (int i = i0; i < C; i += di) {
+			const size_t n = (size_t)j * (size_t)C + (size_t)i;
+			int64_t p[3];
+			double lim = 0;
+			unsigned in = 1;
+			for (int d = 0; d < 3; d++) { /* as choose() */
+				const size_t u = 3 * n + (size_t)d;
+				p[d] = pred_of(pb[u], pw[u], beta);
+				const double t = (x[u] - lo[d]) * iq[d], e = t - (double)p[d];
+				lim += e * e * w2[d];
+				in &= p[d] > -CODE_MAX && p[d] < CODE_MAX;
+			}
+			const int z = (lim <= m2) & in;
+			zf[n] = (uint8_t)z;
+			if (!z)
+				continue;
+			for (int d = 0; d < 3; d++) {
+				const size_t u = 3 * n + (size_t)d;
+				kk[u] = (int32_t)p[d];
+				if (!fine)
+					mag[u] = 0, dk[u] = (int32_t)(p[d] - K1[u]);
+			}
+		}
+	}
+}
+
+static inline __attribute__((always_inline)) void encode_flagged(hier *h, pass *ps, int s,
+                                                                 const uint8_t *zf)
+{
+	const int C = h->cols, R = h->rows;
+	for (int j = 0; j < R && !ps->bad; j += s) {
+		const int i0 = j & s ? 0 : s, di = j & s ? s : 2 * s;
+		for (int i = i0; i < C; i += di) {
+			const size_t n = (size_t)j * (size_t)C + (size_t)i;
+			if (!zf[n]) {
+				node(h, P_ENCODE, ps, i, j, s, !(j & s) ? 0 : i & s ? 2 : 1);
+				continue;
+			}
+			const uint8_t *cx = h->ctx + 3 * n; /* node()'s flag, 0 */
+			const int nbs = (cx[0] & 3) + (cx[1] & 3) + (cx[2] & 3);
+			rc_bit(ps->e, &h->m.node[cx[0] >> 2][nbs == 0 ? 0 : nbs <= 2 ? 1 : 2], 0);
+		}
+	}
+}
+
+NDO_HOT __attribute__((noinline)) static void level_encode_zf(hier *h, pass *ps, int s)
+{
+	uint8_t *const zf = h->mc; /* predict_compact()'s, free until the next level */
+	encode_zeros(h, ps, s, zf);
+	LOCAL_CODER(ps, e, encode_flagged(h, &p_, s, zf));
+}
 NDO_HOT __attribute__((noinline)) static void level_decode(hier *h, pass *ps, int s)
 {
 	LOCAL_CODER(ps, dc, level(h, P_DECODE, &p_, s));
@@ -995,7 +1066,10 @@ NDO_HOT static int levels(hier *h, int mode, rcenc *e, rcdec *dc, uint64_t *any)
 		}
 		ps.beta[0] = ps.beta[1] = ps.beta[2] = beta;
 		if (mode == P_ENCODE && !h->intra)
-			PHASE(2, LCOL(ls), level_encode(h, &ps, ls));
+			PHASE(2, LCOL(ls),
+			      ls && h->alllossy && !ndo__codec_hier_stats && !ndo__codec_hier_general
+			          ? level_encode_zf(h, &ps, ls)
+			          : level_encode(h, &ps, ls));
 		else if (mode == P_ENCODE)
 			PHASE(2, LCOL(ls), level(h, P_ENCODE1, &ps, ls));
 		else if (mode == P_DECODE && ps.direct)
