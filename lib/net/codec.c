@@ -168,12 +168,15 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 	pctx pc = {.cols = in->cols, .nodes = nodes, .cls = in->cls, .erow = w->erow};
 	ndo__codec_pctx_init(&pc, r[0], r[1], r[2], in->step);
 	const int fast = enc == NDO_ENC_PREDICT && ndo__codec_uniform(&pc);
-	/* positions and velocities: rows in place (stride), or gathered
-	 * contiguous for every loop but the row loops' */
+	/* positions: rows in place (stride), or gathered contiguous for every
+	 * loop but the row loops'; velocities in place (only the EXACT nodes'
+	 * are read: gathered with the positions, they were a third of hier's
+	 * time outside codec_hier.c at level 7) */
 	const double *X = in->x, *V = in->v;
 	size_t XS = in->stride > 0 ? (size_t)in->stride : (size_t)in->cols;
+	const size_t VS = XS;
 	if (XS != (size_t)in->cols && !(fast && fast_mode(&pc) != M_INTRA)) {
-		const size_t need = 6 * (size_t)nodes * sizeof *w->xg;
+		const size_t need = 3 * (size_t)nodes * sizeof *w->xg;
 		if (need > w->xgcap) {
 			double *g = realloc(w->xg, need);
 			if (!g) {
@@ -182,13 +185,10 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 			}
 			w->xg = g, w->xgcap = need;
 		}
-		for (int j = 0; j < in->rows; j++) {
+		for (int j = 0; j < in->rows; j++)
 			memcpy(w->xg + 3 * (size_t)j * in->cols, in->x + 3 * (size_t)j * XS,
 			       3 * (size_t)in->cols * sizeof *X);
-			memcpy(w->xg + 3 * ((size_t)nodes + (size_t)j * in->cols), in->v + 3 * (size_t)j * XS,
-			       3 * (size_t)in->cols * sizeof *V);
-		}
-		X = w->xg, V = w->xg + 3 * (size_t)nodes, XS = (size_t)in->cols;
+		X = w->xg, XS = (size_t)in->cols;
 	}
 	size_t cnt[3];
 	class_pass(in->cls, nodes, enc, recon->have, cnt);
@@ -205,7 +205,7 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 			continue;
 		nexact++;
 		const double *xn = X + 3 * ((size_t)(n / in->cols) * XS + (size_t)(n % in->cols)),
-		             *vn = V + 3 * ((size_t)(n / in->cols) * XS + (size_t)(n % in->cols));
+		             *vn = V + 3 * ((size_t)(n / in->cols) * VS + (size_t)(n % in->cols));
 		for (int d = 0; d < 3; d++) {
 			if (!isfinite(xn[d]) || !isfinite(vn[d]))
 				ok = 0;
@@ -227,7 +227,7 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 		for (int n = 0; n < nodes; n++) /* velocities as they are */
 			if (in->cls[n] == NDO_NODE_EXACT)
 				for (int d = 0; d < 3; d++)
-					put_f64(&body, V[3 * ((size_t)(n / in->cols) * XS +
+					put_f64(&body, V[3 * ((size_t)(n / in->cols) * VS +
 					                      (size_t)(n % in->cols)) + (size_t)d]);
 	}
 	if (enc == NDO_ENC_FLOAT32) {

@@ -48,7 +48,7 @@ struct ndo_codec_work {
 	uint64_t *u;     /* 3 x nodes: the residuals, zigzag-coded */
 	int64_t *erow;   /* 6 x nodes: two rows' extrapolation errors (pctx) */
 	void *row;       /* the row loops' scratch (row_scratch()) */
-	double *xg;      /* 6 x nodes: strided input gathered (ndo_codec_input.stride) */
+	double *xg;      /* 3 x nodes: strided positions gathered (ndo_codec_input.stride) */
 	size_t xgcap;
 	size_t rowcap;   /* its bytes */
 	double err_max2, err_sum2; /* the last frame encoded: its LOSSY errors */
