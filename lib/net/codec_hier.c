@@ -324,9 +324,9 @@ static inline __attribute__((always_inline)) int choose(hier *h, size_t n, const
 	}
 	if (rn[0] | rn[1] | rn[2]) {
 		double R[3], rr[3];
-		for (int d = 0; d < 3; d++) {
+		for (int d = 0; d < 3; d++) { /* h->r: the bound's R / √3, made once */
 			R[d] = lim > h->m2 ? sqrt(lim / h->w2[d]) : h->R[d];
-			rr[d] = R[d] / sqrt(3.0);
+			rr[d] = lim > h->m2 ? R[d] / sqrt(3.0) : h->r[d];
 		}
 		lim = lim > h->m2 ? lim : h->m2;
 		double ea = 0, eb = 0;
