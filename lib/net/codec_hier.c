@@ -924,7 +924,8 @@ NDO_HOT __attribute__((noinline)) static void predict_compact(hier *h, pass *ps,
 		}
 		const int oi = t != 1 ? s : 0, oj = t != 0 ? s : 0; /* the node, from its base */
 		for (int J = 0; J < Rc && st * J + oj < R; J++) {
-			const int j = st * J + oj, nI = (C - 1 - oi) / st + 1; /* the row's nodes */
+			/* the row's nodes (none when the tile is narrower than oi + 1) */
+			const int j = st * J + oj, nI = C - 1 - oi >= 0 ? (C - 1 - oi) / st + 1 : 0;
 			int a = -imin, b = Cc - 1 - imax; /* the interior: bases [a, b] */
 			b = b < nI - 1 ? b : nI - 1;
 			if (J < -jmin || J > Rc - 1 - jmax || a > b)
