@@ -317,16 +317,17 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 		allzero = any == 0;
 	}
 	if (!errors_known) { /* the error this frame introduces (hier: the LOSSY
-	                      * nodes' values from its codes in the same pass) */
+	                      * nodes' values from its codes, not kept: a node
+	                      * NDO_HAVE_CODE has no x, ndo/codec.h) */
 		double max2 = 0, sum2 = 0;
 		for (int n = 0; n < nodes; n++) {
 			if (in->cls[n] != NDO_NODE_LOSSY)
 				continue;
 			double e2 = 0;
 			for (int d = 0; d < 3; d++) {
-				if (enc == NDO_ENC_HIER)
-					recon->x[3 * n + d] = value_of(&z, d, recon->k[3 * n + d]);
-				double e = recon->x[3 * n + d] - X[3 * n + d];
+				double e = (enc == NDO_ENC_HIER ? value_of(&z, d, recon->k[3 * n + d])
+				                                : recon->x[3 * n + d]) -
+				           X[3 * n + d];
 				e2 += e * e;
 			}
 			sum2 += e2;
@@ -657,7 +658,7 @@ ndo_drop ndo_codec_decode_strided(const ndo_codec_params *p, ndo_codec_work *w,
 		if (ndo__codec_hier_times)
 			ndo__codec_hier_times->whole[1] += ndo__now_ms() - t0;
 		/* the LOSSY nodes' values from their codes: below, with the
-		 * output (a frame that fails keeps none: recon->step −1) */
+		 * output, and not kept (a node NDO_HAVE_CODE has no x, ndo/codec.h) */
 	} else {
 		dl = decode_lossy(p, w, &b, flags, cls, cnt[1], rows, cols, ref, step, recon, &o);
 	}
@@ -678,10 +679,10 @@ ndo_drop ndo_codec_decode_strided(const ndo_codec_params *p, ndo_codec_work *w,
 		int lossy = cls[n] == NDO_NODE_LOSSY;
 		int est = lossy && prev && prev->have[n] && dtp > 0;
 		for (int d = 0; d < 3; d++) {
-			if (hier && lossy)
-				recon->x[3 * n + d] = value_of(&z, d, recon->k[3 * n + d]);
-			x[S * n + d] = lossy ? recon->x[3 * n + d] : NAN;
-			v[S * n + d] = est ? (recon->x[3 * n + d] - frame_pos(&z, prev, n, d)) * inv : NAN;
+			const double xv = hier && lossy ? value_of(&z, d, recon->k[3 * n + d])
+			                                : recon->x[3 * n + d];
+			x[S * n + d] = lossy ? xv : NAN;
+			v[S * n + d] = est ? (xv - frame_pos(&z, prev, n, d)) * inv : NAN;
 		}
 	}
 done:
