@@ -289,7 +289,8 @@ typedef struct hier {
 	int rel[3][8];        /* a level's stencils: node offsets from the node */
 	const int32_t *s1, *s2; /* the slope's references, until v is made (slope_fill()) */
 	int32_t *dc, *vc;     /* predict_compact(): dk and v on the coarser lattice, */
-	uint8_t *mc;          /* and mag */
+	uint8_t *mc;          /* and mag; */
+	uint8_t *fc;          /* and the decoder's node flag contexts (g H_NB + nn), a node */
 	int64_t g0, g1;       /* their steps' gaps: this frame's from s1, s1's from s2 */
 	hmodel m;
 } hier;
@@ -457,7 +458,7 @@ static inline int64_t pred_of(int64_t base, int64_t w, int beta)
 	return (4 * base + beta * w + 32) >> 6; /* an arithmetic shift (GCC, Clang) */
 }
 
-enum { P_PREDICT, P_COLLECT, P_ENCODE, P_ENCODE1, P_DECODE, P_DECODE_D, P_IMPLIED };
+enum { P_PREDICT, P_COLLECT, P_ENCODE, P_ENCODE1, P_DECODE, P_DECODE_D, P_DECODE_NZ, P_IMPLIED };
 
 typedef struct pass {
 	int beta[3];          /* this level's slope shares (one for now: all equal) */
@@ -509,10 +510,11 @@ static inline __attribute__((always_inline)) void node(hier *h, const int mode, 
 			h->pw[3 * n + d] = w[d], h->ctx[3 * n + d] = (uint8_t)ctx[d];
 		return;
 	}
-	if (mode == P_DECODE_D) { /* the codes made; the residuals from 0 */
+	if (mode == P_DECODE_D || mode == P_DECODE_NZ) { /* the codes made; the residuals from 0
+	                                                    (P_DECODE_NZ: the node's flag read, 1) */
 		const int g = h->ctx[3 * n] >> 2;
 		const int nbs = (h->ctx[3 * n] & 3) + (h->ctx[3 * n + 1] & 3) + (h->ctx[3 * n + 2] & 3);
-		if (!rd_bit(ps->dc, &h->m.node[g][nbs == 0 ? 0 : nbs <= 2 ? 1 : 2]))
+		if (mode == P_DECODE_D && !rd_bit(ps->dc, &h->m.node[g][nbs == 0 ? 0 : nbs <= 2 ? 1 : 2]))
 			return;
 		int64_t res[3] = {0, 0, 0};
 		for (int d = 0; d < 3; d++) {
@@ -817,11 +819,33 @@ NDO_HOT __attribute__((noinline)) static void level_decode_direct(hier *h, pass 
 	LOCAL_CODER(ps, dc, level(h, P_DECODE_D, &p_, s));
 }
 
+/* P_DECODE_D over level s ≥ 1 of a tile whose every node is LOSSY and
+ * whose predictions predict_compact() made: a node's flag read in the
+ * context it kept (fc), node() only for a node with a nonzero residual. */
+static inline __attribute__((always_inline)) void decode_flagged(hier *h, pass *ps, int s)
+{
+	const int C = h->cols, R = h->rows;
+	const uint8_t *const fc = h->fc;
+	uint16_t *const pn = &h->m.node[0][0];
+	for (int j = 0; j < R && !ps->bad; j += s) {
+		const int i0 = j & s ? 0 : s, di = j & s ? s : 2 * s;
+		for (int i = i0; i < C && !ps->bad; i += di) {
+			const size_t n = (size_t)j * (size_t)C + (size_t)i;
+			if (rd_bit(ps->dc, pn + fc[n]))
+				node(h, P_DECODE_NZ, ps, i, j, s, 0);
+		}
+	}
+}
+NDO_HOT __attribute__((noinline)) static void level_decode_fc(hier *h, pass *ps, int s)
+{
+	LOCAL_CODER(ps, dc, decode_flagged(h, &p_, s));
+}
+
 /* predict_compact()'s arrays and settings, in locals: through h, any
  * int32_t store might change them */
 typedef struct cpx {
 	int32_t *kk, *dk;
-	uint8_t *cx, *mag;
+	uint8_t *cx, *mag, *fc;
 	int64_t *pb, *pw;
 	const int32_t *K1, *V;
 	const uint8_t *cls;
@@ -863,12 +887,15 @@ NAME(const cpx *x, size_t n0, size_t step, int m, const T *tb, const T *tw,     
 			}                                                                                   \
 	} else {                                                                              \
 		int32_t *const kk = x->kk, *const dk = x->dk;                                        \
-		uint8_t *const cx = x->cx, *const mag = x->mag;                                      \
+		uint8_t *const cx = x->cx, *const mag = x->mag, *const fc = x->fc;                   \
+		const uint8_t *const cls = x->cls;                                                   \
 		const int slope = x->slope, beta = x->beta, fine = x->fine;                          \
 		unsigned out = 0;                                                                    \
 		for (int q = 0; q < m; q++) {                                                        \
 			const size_t n = n0 + step * (size_t)q;                                             \
-			const int lossy = x->cls[n] == NDO_NODE_LOSSY;                                      \
+			const int lossy = cls[n] == NDO_NODE_LOSSY;                                         \
+			const int nbs = (tc[3 * q] & 3) + (tc[3 * q + 1] & 3) + (tc[3 * q + 2] & 3);         \
+			fc[n] = (uint8_t)((tc[3 * q] >> 2) * H_NB + (nbs > 0) + (nbs > 2)); /* nb_of() */  \
 			for (int d = 0; d < 3; d++) {                                                       \
 				const size_t u = 3 * n + (size_t)d;                                                \
 				const int v = 3 * q + d;                                                           \
@@ -894,7 +921,7 @@ NDO_HOT __attribute__((noinline)) static void predict_compact(hier *h, pass *ps,
 	const int st = 2 * s, C = h->cols, R = h->rows;
 	const int Cc = (C - 1) / st + 1, Rc = (R - 1) / st + 1;
 	const int g = (s == 1 ? 0 : s == 2 ? 1 : s == 4 ? 2 : 3) * 4, slope = ps->slope;
-	const cpx x = {h->k, h->dk, h->ctx, h->mag, h->pb, h->pw, h->k1, h->v, h->cls,
+	const cpx x = {h->k, h->dk, h->ctx, h->mag, h->fc, h->pb, h->pw, h->k1, h->v, h->cls,
 	               slope, ps->fused ? ps->beta[0] : -1, ps->direct, s == 1};
 	int32_t *const Dc = h->dc, *const Vc = h->vc;
 	uint8_t *const Mc = h->mc;
@@ -1078,6 +1105,9 @@ NDO_HOT static int levels(hier *h, int mode, rcenc *e, rcdec *dc, uint64_t *any)
 			          : level_encode(h, &ps, ls));
 		else if (mode == P_ENCODE)
 			PHASE(2, LCOL(ls), level(h, P_ENCODE1, &ps, ls));
+		else if (mode == P_DECODE && ps.direct && ls && h->allheld && h->alllossy &&
+		         !ndo__codec_hier_general)
+			PHASE(4, LCOL(ls), level_decode_fc(h, &ps, ls));
 		else if (mode == P_DECODE && ps.direct)
 			PHASE(4, LCOL(ls), level_decode_direct(h, &ps, ls));
 		else if (mode == P_DECODE)
@@ -1169,13 +1199,14 @@ static void hier_init(hier *h, const hcodes *c, int32_t *k, int64_t *t, uint8_t 
 	h->top = top;
 	/* the scratch (HIER_SCRATCH int64 a node): pb, pw; v, dk, zeros; ctx
 	 * (11 a node); predict_compact()'s dc, vc and mc (≤ 3 values a node
-	 * each, 4 a node: its lattice has at most as many nodes as the tile) */
+	 * each: its lattice has at most as many nodes as the tile) and fc, 3.5
+	 * a node */
 	h->pb = t, h->pw = t + N;
 	int32_t *t32 = (int32_t *)(t + 2 * N);
 	h->v = t32, h->dk = t32 + N;
 	h->ctx = (uint8_t *)(t32 + 3 * N);
 	h->dc = (int32_t *)(t + 11 * (size_t)nodes), h->vc = h->dc + N;
-	h->mc = (uint8_t *)(h->vc + N);
+	h->mc = (uint8_t *)(h->vc + N), h->fc = h->mc + N;
 	time_refs(h, c, t32 + 2 * N);
 	h->x = NULL;
 	h->allheld = !memchr(c->cls, NDO_NODE_SKIP, (size_t)nodes);
