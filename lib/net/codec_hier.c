@@ -49,9 +49,9 @@
  *     c90eaed's, the same payloads (tests/bench/hier-speed c90eaed 3);
  *     with the β costs over the sampled values alone and without branches
  *     (collect_sampled()), int32 butterflies, the zero-residual nodes
- *     found before the coder (encode_zeros()) and less around hier in
- *     codec.c: 0.72 (hier-speed c90eaed 5; docs/bench/net.md, the fifth
- *     pass).
+ *     found before the coder (encode_zeros()), the decoder's flags in
+ *     contexts kept (fc) and less around hier in codec.c: 0.67
+ *     (hier-speed c90eaed 5; docs/bench/net.md, the fifth pass).
  * No entropy coding library in Debian 12 fits (libaec is Rice coding for
  * sampled data): the range coder is LZMA's binary one, written here;
  * tests/unit/test_hier.c checks it against the ideal adaptive length, a
