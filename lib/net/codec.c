@@ -168,12 +168,15 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 	pctx pc = {.cols = in->cols, .nodes = nodes, .cls = in->cls, .erow = w->erow};
 	ndo__codec_pctx_init(&pc, r[0], r[1], r[2], in->step);
 	const int fast = enc == NDO_ENC_PREDICT && ndo__codec_uniform(&pc);
-	/* positions and velocities: rows in place (stride), or gathered
-	 * contiguous for every loop but the row loops' */
+	/* positions: rows in place (stride), or gathered contiguous for every
+	 * loop but the row loops'; velocities in place (only the EXACT nodes'
+	 * are read: gathered with the positions, they were a third of hier's
+	 * time outside codec_hier.c at level 7) */
 	const double *X = in->x, *V = in->v;
 	size_t XS = in->stride > 0 ? (size_t)in->stride : (size_t)in->cols;
+	const size_t VS = XS;
 	if (XS != (size_t)in->cols && !(fast && fast_mode(&pc) != M_INTRA)) {
-		const size_t need = 6 * (size_t)nodes * sizeof *w->xg;
+		const size_t need = 3 * (size_t)nodes * sizeof *w->xg;
 		if (need > w->xgcap) {
 			double *g = realloc(w->xg, need);
 			if (!g) {
@@ -182,13 +185,10 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 			}
 			w->xg = g, w->xgcap = need;
 		}
-		for (int j = 0; j < in->rows; j++) {
+		for (int j = 0; j < in->rows; j++)
 			memcpy(w->xg + 3 * (size_t)j * in->cols, in->x + 3 * (size_t)j * XS,
 			       3 * (size_t)in->cols * sizeof *X);
-			memcpy(w->xg + 3 * ((size_t)nodes + (size_t)j * in->cols), in->v + 3 * (size_t)j * XS,
-			       3 * (size_t)in->cols * sizeof *V);
-		}
-		X = w->xg, V = w->xg + 3 * (size_t)nodes, XS = (size_t)in->cols;
+		X = w->xg, XS = (size_t)in->cols;
 	}
 	size_t cnt[3];
 	class_pass(in->cls, nodes, enc, recon->have, cnt);
@@ -205,7 +205,7 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 			continue;
 		nexact++;
 		const double *xn = X + 3 * ((size_t)(n / in->cols) * XS + (size_t)(n % in->cols)),
-		             *vn = V + 3 * ((size_t)(n / in->cols) * XS + (size_t)(n % in->cols));
+		             *vn = V + 3 * ((size_t)(n / in->cols) * VS + (size_t)(n % in->cols));
 		for (int d = 0; d < 3; d++) {
 			if (!isfinite(xn[d]) || !isfinite(vn[d]))
 				ok = 0;
@@ -227,7 +227,7 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 		for (int n = 0; n < nodes; n++) /* velocities as they are */
 			if (in->cls[n] == NDO_NODE_EXACT)
 				for (int d = 0; d < 3; d++)
-					put_f64(&body, V[3 * ((size_t)(n / in->cols) * XS +
+					put_f64(&body, V[3 * ((size_t)(n / in->cols) * VS +
 					                      (size_t)(n % in->cols)) + (size_t)d]);
 	}
 	if (enc == NDO_ENC_FLOAT32) {
@@ -317,16 +317,17 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 		allzero = any == 0;
 	}
 	if (!errors_known) { /* the error this frame introduces (hier: the LOSSY
-	                      * nodes' values from its codes in the same pass) */
+	                      * nodes' values from its codes, not kept: a node
+	                      * NDO_HAVE_CODE has no x, ndo/codec.h) */
 		double max2 = 0, sum2 = 0;
 		for (int n = 0; n < nodes; n++) {
 			if (in->cls[n] != NDO_NODE_LOSSY)
 				continue;
 			double e2 = 0;
 			for (int d = 0; d < 3; d++) {
-				if (enc == NDO_ENC_HIER)
-					recon->x[3 * n + d] = value_of(&z, d, recon->k[3 * n + d]);
-				double e = recon->x[3 * n + d] - X[3 * n + d];
+				double e = (enc == NDO_ENC_HIER ? value_of(&z, d, recon->k[3 * n + d])
+				                                : recon->x[3 * n + d]) -
+				           X[3 * n + d];
 				e2 += e * e;
 			}
 			sum2 += e2;
@@ -656,10 +657,8 @@ ndo_drop ndo_codec_decode_strided(const ndo_codec_params *p, ndo_codec_work *w,
 		dl = ndo__codec_hier_decode(&hc, recon->k, w->ht, w->hmag, rcp, rcn);
 		if (ndo__codec_hier_times)
 			ndo__codec_hier_times->whole[1] += ndo__now_ms() - t0;
-		for (int n = 0; n < nodes && !dl; n++)
-			if (cls[n] == NDO_NODE_LOSSY)
-				for (int d = 0; d < 3; d++)
-					recon->x[3 * n + d] = value_of(&z, d, recon->k[3 * n + d]);
+		/* the LOSSY nodes' values from their codes: below, with the
+		 * output, and not kept (a node NDO_HAVE_CODE has no x, ndo/codec.h) */
 	} else {
 		dl = decode_lossy(p, w, &b, flags, cls, cnt[1], rows, cols, ref, step, recon, &o);
 	}
@@ -673,14 +672,17 @@ ndo_drop ndo_codec_decode_strided(const ndo_codec_params *p, ndo_codec_work *w,
 	}
 	/* positions and velocities out (the fast decoder's are: no node of its
 	 * frames is SKIP) */
+	const int hier = enc == NDO_ENC_HIER;
 	for (int n = 0; n < nodes && !o.done; n++) {
 		if (cls[n] == NDO_NODE_EXACT)
 			continue;
 		int lossy = cls[n] == NDO_NODE_LOSSY;
 		int est = lossy && prev && prev->have[n] && dtp > 0;
 		for (int d = 0; d < 3; d++) {
-			x[S * n + d] = lossy ? recon->x[3 * n + d] : NAN;
-			v[S * n + d] = est ? (recon->x[3 * n + d] - frame_pos(&z, prev, n, d)) * inv : NAN;
+			const double xv = hier && lossy ? value_of(&z, d, recon->k[3 * n + d])
+			                                : recon->x[3 * n + d];
+			x[S * n + d] = lossy ? xv : NAN;
+			v[S * n + d] = est ? (xv - frame_pos(&z, prev, n, d)) * inv : NAN;
 		}
 	}
 done:

@@ -28,9 +28,9 @@
  *     β over every fourth value) keeps its predictions for the coding pass;
  *     the decoder predicts a level before reading it too, β known; both
  *     predict the finest two levels' row interiors in runs the compiler
- *     vectorizes (predict_run_all(), with ndo__codec_hier_general the node by
- *     node reference): level 7 encode 4.0 → 3.4 ms, decode 2.1 → 1.9 ms
- *     (CPU, load 3-9; docs/bench/net.md).
+ *     vectorizes (then predict_run_all(), now predict_compact(), with
+ *     ndo__codec_hier_general the node by node reference): level 7 encode
+ *     4.0 → 3.4 ms, decode 2.1 → 1.9 ms (CPU, load 3-9; docs/bench/net.md).
  *   - the encoder takes residual 0 without rounding when the prediction
  *     is within the bound, the decoder makes the slope only for a level
  *     with β > 0, the finest level stores no magnitudes or motion: level
@@ -41,6 +41,17 @@
  *     sampled ones from x), the decoder's runs predict only the nodes
  *     kept, at every level: level 7 enc + dec 0.92 of before, the same
  *     payloads (docs/bench/net.md, the fourth pass).
+ *   - each pass its own function; predictions over the coarser lattice
+ *     copied compact (predict_compact(): no values computed in vain, the
+ *     tile's edges without the general stencil's checks); the decoder's
+ *     predictions the codes themselves, so that a node whose residuals are
+ *     all 0 costs its flag alone (P_DECODE_D): level 7 enc + dec 0.87 of
+ *     c90eaed's, the same payloads (tests/bench/hier-speed c90eaed 3);
+ *     with the β costs over the sampled values alone and without branches
+ *     (collect_sampled()), int32 butterflies, the zero-residual nodes
+ *     found before the coder (encode_zeros()), the decoder's flags in
+ *     contexts kept (fc) and less around hier in codec.c: 0.67
+ *     (hier-speed c90eaed 5; docs/bench/net.md, the fifth pass).
  * No entropy coding library in Debian 12 fits (libaec is Rice coding for
  * sampled data): the range coder is LZMA's binary one, written here;
  * tests/unit/test_hier.c checks it against the ideal adaptive length, a
@@ -261,7 +272,7 @@ static const signed char stencil[3][8][2] = {
 enum { BETA_MAX = 4, BETA_IMPLIED = 4 }; /* the slope's share, in quarters */
 
 typedef struct hier {
-	int rows, cols, top, allheld, intra;
+	int rows, cols, top, allheld, alllossy, intra;
 	const uint8_t *cls;
 	int32_t *k;           /* this frame's codes, 3 a node */
 	const int32_t *k1;    /* the reference's codes (a keyframe: zeros) */
@@ -277,6 +288,9 @@ typedef struct hier {
 	                                 ball's and inscribed box's half-widths in codes */
 	int rel[3][8];        /* a level's stencils: node offsets from the node */
 	const int32_t *s1, *s2; /* the slope's references, until v is made (slope_fill()) */
+	int32_t *dc, *vc;     /* predict_compact(): dk and v on the coarser lattice, */
+	uint8_t *mc;          /* and mag; */
+	uint8_t *fc;          /* and the decoder's node flag contexts (g H_NB + nn), a node */
 	int64_t g0, g1;       /* their steps' gaps: this frame's from s1, s1's from s2 */
 	hmodel m;
 } hier;
@@ -316,9 +330,9 @@ static inline __attribute__((always_inline)) int choose(hier *h, size_t n, const
 	}
 	if (rn[0] | rn[1] | rn[2]) {
 		double R[3], rr[3];
-		for (int d = 0; d < 3; d++) {
+		for (int d = 0; d < 3; d++) { /* h->r: the bound's R / √3, made once */
 			R[d] = lim > h->m2 ? sqrt(lim / h->w2[d]) : h->R[d];
-			rr[d] = R[d] / sqrt(3.0);
+			rr[d] = lim > h->m2 ? R[d] / sqrt(3.0) : h->r[d];
 		}
 		lim = lim > h->m2 ? lim : h->m2;
 		double ea = 0, eb = 0;
@@ -444,12 +458,15 @@ static inline int64_t pred_of(int64_t base, int64_t w, int beta)
 	return (4 * base + beta * w + 32) >> 6; /* an arithmetic shift (GCC, Clang) */
 }
 
-enum { P_PREDICT, P_COLLECT, P_ENCODE, P_ENCODE1, P_DECODE, P_IMPLIED };
+enum { P_PREDICT, P_COLLECT, P_ENCODE, P_ENCODE1, P_DECODE, P_DECODE_D, P_DECODE_NZ, P_IMPLIED };
 
 typedef struct pass {
 	int beta[3];          /* this level's slope shares (one for now: all equal) */
 	int slope;            /* P_PREDICT: the slope's detail wanted */
 	int fused;            /* P_PREDICT: pb the prediction itself (β known: the decoder) */
+	int direct;           /* P_PREDICT, fused: the prediction made the code itself (k,
+	                         and the level's mag 0 and dk), for P_DECODE_D */
+	int oor;              /* P_PREDICT, direct: a prediction out of the codes' range */
 	int64_t last[3];      /* a keyframe's top level: the last node's codes */
 	uint64_t cost[BETA_MAX + 1];
 	uint64_t any, sample;
@@ -463,7 +480,10 @@ typedef struct pass {
  * P_ENCODE the codes chosen and their residuals from them, P_ENCODE1
  * both at once (a keyframe), P_DECODE the residuals read and the codes
  * made (a keyframe: predicting as it goes, else from the kept
- * predictions), P_IMPLIED the codes the predictions. */
+ * predictions), P_DECODE_D the same from the codes P_PREDICT made the
+ * predictions (ps->direct: a node whose residuals are all 0, most of the
+ * fine ones, needs only its flag read), P_IMPLIED the codes the
+ * predictions. */
 static inline __attribute__((always_inline)) void node(hier *h, const int mode, pass *ps, int i,
                                                        int j, int s, int type)
 {
@@ -474,9 +494,48 @@ static inline __attribute__((always_inline)) void node(hier *h, const int mode, 
 	int ctx[3], used = 1;
 	if (mode == P_PREDICT) {
 		pred16(h, i, j, s, type, ps->slope, base, w, ctx);
+		if (ps->direct) {
+			for (int d = 0; d < 3; d++) {
+				const size_t v = 3 * n + (size_t)d;
+				const int64_t k = pred_of(base[d], w[d], ps->beta[d]);
+				ps->oor |= k <= -CODE_MAX || k >= CODE_MAX;
+				h->k[v] = (int32_t)k, h->ctx[v] = (uint8_t)ctx[d];
+				if (s != 1)
+					h->mag[v] = 0, h->dk[v] = (int32_t)(k - h->k1[v]);
+			}
+			return;
+		}
 		for (int d = 0; d < 3; d++)
 			h->pb[3 * n + d] = ps->fused ? pred_of(base[d], w[d], ps->beta[d]) : base[d],
 			h->pw[3 * n + d] = w[d], h->ctx[3 * n + d] = (uint8_t)ctx[d];
+		return;
+	}
+	if (mode == P_DECODE_D || mode == P_DECODE_NZ) { /* the codes made; the residuals from 0
+	                                                    (P_DECODE_NZ: the node's flag read, 1) */
+		const int g = h->ctx[3 * n] >> 2;
+		const int nbs = (h->ctx[3 * n] & 3) + (h->ctx[3 * n + 1] & 3) + (h->ctx[3 * n + 2] & 3);
+		if (mode == P_DECODE_D && !rd_bit(ps->dc, &h->m.node[g][nbs == 0 ? 0 : nbs <= 2 ? 1 : 2]))
+			return;
+		int64_t res[3] = {0, 0, 0};
+		for (int d = 0; d < 3; d++) {
+			const int nb = h->ctx[3 * n + d] & 3;
+			if ((d == 2 && !(res[0] | res[1])) || rd_bit(ps->dc, &h->m.zero[g][d][nb]))
+				res[d] = get_nz(ps->dc, &h->m, g, d, nb, &ps->bad);
+		}
+		for (int d = 0; d < 3; d++) {
+			const size_t v = 3 * n + (size_t)d;
+			const int64_t r = res[d], k = h->k[v] + HIER_FINE * r;
+			if (k <= -CODE_MAX || k >= CODE_MAX) {
+				ps->bad = 1;
+				return;
+			}
+			h->k[v] = (int32_t)k;
+			if (s == 1)
+				continue;
+			const uint64_t a = r < 0 ? -(uint64_t)r : (uint64_t)r;
+			h->mag[v] = (uint8_t)(a > 255 ? 255 : a);
+			h->dk[v] = h->k[v] - h->k1[v];
+		}
 		return;
 	}
 	if (mode == P_DECODE && !h->intra) {
@@ -587,127 +646,411 @@ static inline __attribute__((always_inline)) void level(hier *h, const int mode,
 	}
 }
 
-/* Level s's rows' interiors (every stencil node held: h->allheld) in
- * bulk, the encoder's P_PREDICT values (pb, pw, ctx) for every node of
- * the row's span, those of the level's type `type` kept: the same as
- * pred16()'s 8-node case, in loops over consecutive values that the
- * compiler vectorizes. */
-enum { RUN_NODES = 128 };
-static inline __attribute__((always_inline)) void
-predict_run_all(hier *h, long n0, int nodes, int type, int step, int g, int slope, int beta)
+/* The passes, each its own function: levels() with every pass inlined
+ * was one function of ~160 kB of code, its passes' loops sharing its
+ * registers and its stack; apart (with LOCAL_CODER below), level 7 enc +
+ * dec 0.99 of before (tests/bench/hier-speed c90eaed 3, load 3.5), and
+ * a change to one pass no longer moves the others' code (one that added a
+ * pass to the decoder slowed the encoder 13 %). */
+NDO_HOT __attribute__((noinline)) static void level_predict(hier *h, pass *ps, int s)
 {
-	int64_t tb[3 * RUN_NODES], tw[3 * RUN_NODES];
-	uint8_t tc[3 * RUN_NODES];
-	long o[8];
-	for (int q = 0; q < 8; q++)
-		o[q] = 3L * h->rel[type][q];
-	for (int c0 = 0; c0 < nodes; c0 += RUN_NODES) {
-		const int nv = 3 * (nodes - c0 < RUN_NODES ? nodes - c0 : RUN_NODES);
-		const long v0 = 3 * (n0 + c0);
-		const int32_t *K1 = h->k1 + v0, *D = h->dk + v0, *VV = h->v + v0;
-		const uint8_t *M = h->mag + v0;
-		for (int v = 0; v < nv; v++)
-			tb[v] = 16 * (int64_t)K1[v] + 8 * ((int64_t)D[v + o[0]] + D[v + o[1]]) +
-			        2 * ((int64_t)D[v + o[2]] + D[v + o[3]]) -
-			        ((int64_t)D[v + o[4]] + D[v + o[5]] + D[v + o[6]] + D[v + o[7]]);
-		if (slope)
-			for (int v = 0; v < nv; v++)
-				tw[v] = 16 * (int64_t)VV[v] - 8 * ((int64_t)VV[v + o[0]] + VV[v + o[1]]) -
-				        2 * ((int64_t)VV[v + o[2]] + VV[v + o[3]]) +
-				        ((int64_t)VV[v + o[4]] + VV[v + o[5]] + VV[v + o[6]] + VV[v + o[7]]);
-		else
-			memset(tw, 0, (size_t)nv * sizeof *tw);
-		if (beta >= 0) /* the decoder's: the prediction itself */
-			for (int v = 0; v < nv; v++)
-				tb[v] = pred_of(tb[v], tw[v], beta);
-		for (int v = 0; v < nv; v++) {
-			const unsigned t = (unsigned)M[v + o[0]] + M[v + o[1]];
-			tc[v] = (uint8_t)(g + (t > 0) + (t > 2)); /* nb_of(t) */
+	level(h, P_PREDICT, ps, s);
+}
+/* predict_compact()'s runs and collect_sampled()'s: their values on the stack */
+enum { RUN_NODES = 128 };
+
+/* The coding passes run on local copies of the pass and of the range
+ * coder's state: through ps->e or ps->dc, the coder's range and code
+ * (uint32_t) might be the target of any store of a code (int32_t), and
+ * the compiler read them from memory again after each; local, whose
+ * address no store can hold, they stay in registers. */
+#define LOCAL_CODER(ps, f, stmt)                                                       \
+	do {                                                                           \
+		pass p_ = *(ps);                                                       \
+		__typeof__(*p_.f) c_ = *p_.f;                                          \
+		p_.f = &c_;                                                            \
+		stmt;                                                                  \
+		p_.f = (ps)->f;                                                        \
+		*p_.f = c_;                                                            \
+		*(ps) = p_;                                                            \
+	} while (0)
+NDO_HOT __attribute__((noinline)) static void level_collect(hier *h, pass *ps, int s)
+{
+	pass p = *ps;
+	level(h, P_COLLECT, &p, s);
+	*ps = p;
+}
+
+/* P_COLLECT over level s ≥ 1 of a tile whose every node is LOSSY
+ * (h->alllossy): every value of the level counts in ps->sample, so the
+ * sampled ones (every fourth) are known without visiting the others;
+ * node() P_COLLECT's costs of those alone, without branches. */
+NDO_HOT __attribute__((noinline)) static void collect_sampled(hier *h, pass *ps, int s)
+{
+	const int C = h->cols, R = h->rows;
+	const int64_t *const pb = h->pb, *const pw = h->pw;
+	const double *const x = h->x, *const lo = h->z->lo, *const q = h->z->q;
+	uint64_t smp = ps->sample, cost[BETA_MAX + 1];
+	memcpy(cost, ps->cost, sizeof cost);
+	for (int j = 0; j < R; j += s) {
+		/* the row's nodes: an even row of the level horizontal edges, from
+		 * i = s every 2s; an odd one every s (level()) */
+		const int i0 = j & s ? 0 : s, di = j & s ? s : 2 * s;
+		const int cnt = i0 < C ? (C - 1 - i0) / di + 1 : 0;
+		/* the row's sampled values (smp counts the values before it): their
+		 * index and nearest code, then their costs (apart, the divisions'
+		 * latency overlaps; in one loop each waited for its own) */
+		for (int v = (int)((4 - (smp & 3)) & 3), nq = v / 3, d = v % 3; v < 3 * cnt;) {
+			size_t su[RUN_NODES];
+			int64_t sk[RUN_NODES];
+			int nv = 0;
+			for (; v < 3 * cnt && nv < RUN_NODES; v += 4) {
+				const size_t u = 3 * ((size_t)j * (size_t)C + (size_t)i0 + (size_t)nq * (size_t)di) +
+				                 (size_t)d;
+				const double t = (x[u] - lo[d]) / q[d] + 0.5;
+				int64_t kq = (int64_t)t;
+				kq -= (double)kq > t;
+				su[nv] = u, sk[nv++] = kq;
+				/* 4 values on: the next node, and the next component */
+				nq++, d++;
+				if (d == 3)
+					nq++, d = 0;
+			}
+			for (int k = 0; k < nv; k++) {
+				/* node()'s cost without branches, which GCC makes of a ?: or
+				 * a product by a != 0 (|e| and a = 0 are data: mispredicted,
+				 * they cost more than the rest): for a ≥ 1 clz(a | 1) = clz(a),
+				 * for a = 0 the −4 (a − 1 wraps) cancels 2 + 2 × 1 */
+				const int64_t y = 4 * pb[su[k]] + 32, w = pw[su[k]], kq = sk[k];
+				for (int b = 0; b <= BETA_MAX; b++) {
+					const int64_t e = kq - ((y + b * w) >> 6); /* pred_of() */
+					const uint64_t sg = (uint64_t)(e >> 63), ae = ((uint64_t)e ^ sg) - sg;
+					const uint64_t a = (ae + HIER_FINE / 2) / HIER_FINE;
+					cost[b] += 2 + 2 * (uint64_t)(64 - __builtin_clzll(a | 1)) - 4 * ((a - 1) >> 63);
+				}
+			}
 		}
-		for (int v = 0; v < nv; v += 3 * step)
-			for (int d = 0; d < 3; d++)
-				h->pb[v0 + v + d] = tb[v + d], h->ctx[v0 + v + d] = tc[v + d];
-		if (beta < 0) /* the encoder's: pw too */
-			for (int v = 0; v < nv; v += 3 * step)
-				for (int d = 0; d < 3; d++)
-					h->pw[v0 + v + d] = tw[v + d];
+		smp += 3 * (uint64_t)cnt;
+	}
+	ps->sample = smp;
+	memcpy(ps->cost, cost, sizeof cost);
+}
+NDO_HOT __attribute__((noinline)) static void level_encode(hier *h, pass *ps, int s)
+{
+	LOCAL_CODER(ps, e, level(h, P_ENCODE, &p_, s));
+}
+
+/* P_ENCODE over level s ≥ 1 of a tile whose every node is LOSSY, in two
+ * loops: first each node's predictions and choose()'s first test (the
+ * prediction within the bound: residuals 0), its codes (and above level 1
+ * mag 0 and dk) made, a flag kept (zf, a byte a node); then in raster
+ * order a flagged node's flag bit alone, the others through node().  The
+ * first loop has no branch on the data and no coder: the floating point
+ * of one node overlaps the next's. */
+NDO_HOT __attribute__((noinline)) static void encode_zeros(hier *h, const pass *ps, int s,
+                                                          uint8_t *zf)
+{
+	const int C = h->cols, R = h->rows, beta = ps->beta[0], fine = s == 1;
+	const int64_t *const pb = h->pb, *const pw = h->pw;
+	const double *const x = h->x, *const lo = h->z->lo, *const iq = h->iq, *const w2 = h->w2;
+	const double m2 = h->m2;
+	const int32_t *const K1 = h->k1;
+	int32_t *const kk = h->k, *const dk = h->dk;
+	uint8_t *const mag = h->mag;
+	for (int j = 0; j < R; j += s) {
+		const int i0 = j & s ? 0 : s, di = j & s ? s : 2 * s;
+		for (int i = i0; i < C; i += di) {
+			const size_t n = (size_t)j * (size_t)C + (size_t)i;
+			int64_t p[3];
+			double lim = 0;
+			unsigned in = 1;
+			for (int d = 0; d < 3; d++) { /* as choose() */
+				const size_t u = 3 * n + (size_t)d;
+				p[d] = pred_of(pb[u], pw[u], beta);
+				const double t = (x[u] - lo[d]) * iq[d], e = t - (double)p[d];
+				lim += e * e * w2[d];
+				in &= p[d] > -CODE_MAX && p[d] < CODE_MAX;
+			}
+			const int z = (lim <= m2) & in;
+			zf[n] = (uint8_t)z;
+			if (!z)
+				continue;
+			for (int d = 0; d < 3; d++) {
+				const size_t u = 3 * n + (size_t)d;
+				kk[u] = (int32_t)p[d];
+				if (!fine)
+					mag[u] = 0, dk[u] = (int32_t)(p[d] - K1[u]);
+			}
+		}
 	}
 }
 
-/* The same, the decoder's (β known: pb the prediction itself), only the
- * nodes kept, every `step`-th of the span, one by one: decode 0.96 of
- * predict_run_all()'s, whose runs compute 2 or 4 times the values; the
- * encoder's (pw too, the slope always) 1.04 (docs/bench/net.md). */
-static inline __attribute__((always_inline)) void
-predict_run_kept(hier *h, long n0, int nodes, int type, int step, int g, int slope, int beta)
+static inline __attribute__((always_inline)) void encode_flagged(hier *h, pass *ps, int s,
+                                                                 const uint8_t *zf)
 {
-	long o[8];
-	for (int q = 0; q < 8; q++)
-		o[q] = 3L * h->rel[type][q];
-	const int32_t *K1 = h->k1, *D = h->dk, *VV = h->v;
-	const uint8_t *M = h->mag;
-	for (long v = 3 * n0, end = 3 * (n0 + nodes); v < end; v += 3L * step)
-		for (int d = 0; d < 3; d++) {
-			const long u = v + d;
-			const int64_t b = 16 * (int64_t)K1[u] + 8 * ((int64_t)D[u + o[0]] + D[u + o[1]]) +
-			                  2 * ((int64_t)D[u + o[2]] + D[u + o[3]]) -
-			                  ((int64_t)D[u + o[4]] + D[u + o[5]] + D[u + o[6]] + D[u + o[7]]);
-			const int64_t w =
-			    !slope ? 0
-			           : 16 * (int64_t)VV[u] - 8 * ((int64_t)VV[u + o[0]] + VV[u + o[1]]) -
-			                 2 * ((int64_t)VV[u + o[2]] + VV[u + o[3]]) +
-			                 ((int64_t)VV[u + o[4]] + VV[u + o[5]] + VV[u + o[6]] + VV[u + o[7]]);
-			const unsigned t = (unsigned)M[u + o[0]] + M[u + o[1]];
-			h->ctx[u] = (uint8_t)(g + (t > 0) + (t > 2)); /* nb_of(t) */
-			if (beta >= 0) /* the decoder's: the prediction itself */
-				h->pb[u] = pred_of(b, w, beta);
-			else /* the encoder's: pw too */
-				h->pb[u] = b, h->pw[u] = w;
+	const int C = h->cols, R = h->rows;
+	for (int j = 0; j < R && !ps->bad; j += s) {
+		const int i0 = j & s ? 0 : s, di = j & s ? s : 2 * s;
+		for (int i = i0; i < C; i += di) {
+			const size_t n = (size_t)j * (size_t)C + (size_t)i;
+			if (!zf[n]) {
+				node(h, P_ENCODE, ps, i, j, s, !(j & s) ? 0 : i & s ? 2 : 1);
+				continue;
+			}
+			const uint8_t *cx = h->ctx + 3 * n; /* node()'s flag, 0 */
+			const int nbs = (cx[0] & 3) + (cx[1] & 3) + (cx[2] & 3);
+			rc_bit(ps->e, &h->m.node[cx[0] >> 2][nbs == 0 ? 0 : nbs <= 2 ? 1 : 2], 0);
 		}
+	}
 }
 
-/* Levels finer than this go through the encoder's predict_run_all() (the coarser ones'
- * runs would compute mostly values not kept) */
-enum { RUN_LEVELS = 2 };
+NDO_HOT __attribute__((noinline)) static void level_encode_zf(hier *h, pass *ps, int s)
+{
+	uint8_t *const zf = h->mc; /* predict_compact()'s, free until the next level */
+	encode_zeros(h, ps, s, zf);
+	LOCAL_CODER(ps, e, encode_flagged(h, &p_, s, zf));
+}
+NDO_HOT __attribute__((noinline)) static void level_decode(hier *h, pass *ps, int s)
+{
+	LOCAL_CODER(ps, dc, level(h, P_DECODE, &p_, s));
+}
+NDO_HOT __attribute__((noinline)) static void level_decode_direct(hier *h, pass *ps, int s)
+{
+	LOCAL_CODER(ps, dc, level(h, P_DECODE_D, &p_, s));
+}
 
-/* P_PREDICT over level s (0: the top): the rows' interiors in runs where
- * every node is held, the rest node by node */
+/* P_DECODE_D over level s ≥ 1 of a tile whose every node is LOSSY and
+ * whose predictions predict_compact() made: a node's flag read in the
+ * context it kept (fc), node() only for a node with a nonzero residual. */
+static inline __attribute__((always_inline)) void decode_flagged(hier *h, pass *ps, int s)
+{
+	const int C = h->cols, R = h->rows;
+	const uint8_t *const fc = h->fc;
+	uint16_t *const pn = &h->m.node[0][0];
+	for (int j = 0; j < R && !ps->bad; j += s) {
+		const int i0 = j & s ? 0 : s, di = j & s ? s : 2 * s;
+		for (int i = i0; i < C && !ps->bad; i += di) {
+			const size_t n = (size_t)j * (size_t)C + (size_t)i;
+			if (rd_bit(ps->dc, pn + fc[n]))
+				node(h, P_DECODE_NZ, ps, i, j, s, 0);
+		}
+	}
+}
+NDO_HOT __attribute__((noinline)) static void level_decode_fc(hier *h, pass *ps, int s)
+{
+	LOCAL_CODER(ps, dc, decode_flagged(h, &p_, s));
+}
+
+/* predict_compact()'s arrays and settings, in locals: through h, any
+ * int32_t store might change them */
+typedef struct cpx {
+	int32_t *kk, *dk;
+	uint8_t *cx, *mag, *fc;
+	int64_t *pb, *pw;
+	const int32_t *K1, *V;
+	const uint8_t *cls;
+	int slope, beta, direct, fine;
+} cpx;
+
+/* m nodes' values, `step` nodes apart from node n0, from their butterflies
+ * (tb, tw: the stencils' parts of 16 × the prediction without slope and
+ * of 16 × the slope's detail) and contexts (tc), where P_PREDICT keeps
+ * them (node(), P_PREDICT); the butterflies int32_t when the stencils'
+ * values are small enough (cpx_put32), else int64_t */
+#define CPX_PUT(NAME, T)                                                               \
+static inline __attribute__((always_inline)) void                                      \
+NAME(const cpx *x, size_t n0, size_t step, int m, const T *tb, const T *tw,            \
+     const uint8_t *tc, unsigned *oor)                                                 \
+{                                                                                      \
+	const int32_t *const K1 = x->K1, *const V = x->V;                                     \
+	if (x->beta < 0) { /* the encoder's */                                                \
+		int64_t *const pb = x->pb, *const pw = x->pw;                                        \
+		uint8_t *const cx = x->cx;                                                           \
+		for (int q = 0; q < m; q++)                                                          \
+			for (int d = 0; d < 3; d++) {                                                       \
+				const size_t u = 3 * (n0 + step * (size_t)q) + (size_t)d;                          \
+				const int v = 3 * q + d;                                                           \
+				pb[u] = 16 * (int64_t)K1[u] + tb[v];                                               \
+				pw[u] = 16 * (int64_t)V[u] + tw[v];                                                \
+				cx[u] = tc[v];                                                                     \
+			}                                                                                   \
+	} else if (!x->direct) {                                                              \
+		int64_t *const pb = x->pb;                                                           \
+		uint8_t *const cx = x->cx;                                                           \
+		for (int q = 0; q < m; q++)                                                          \
+			for (int d = 0; d < 3; d++) {                                                       \
+				const size_t u = 3 * (n0 + step * (size_t)q) + (size_t)d;                          \
+				const int v = 3 * q + d;                                                           \
+				pb[u] = pred_of(16 * (int64_t)K1[u] + tb[v],                                       \
+				                x->slope ? 16 * (int64_t)V[u] + tw[v] : 0, x->beta);               \
+				cx[u] = tc[v];                                                                     \
+			}                                                                                   \
+	} else {                                                                              \
+		int32_t *const kk = x->kk, *const dk = x->dk;                                        \
+		uint8_t *const cx = x->cx, *const mag = x->mag, *const fc = x->fc;                   \
+		const uint8_t *const cls = x->cls;                                                   \
+		const int slope = x->slope, beta = x->beta, fine = x->fine;                          \
+		unsigned out = 0;                                                                    \
+		for (int q = 0; q < m; q++) {                                                        \
+			const size_t n = n0 + step * (size_t)q;                                             \
+			const int lossy = cls[n] == NDO_NODE_LOSSY;                                         \
+			const int nbs = (tc[3 * q] & 3) + (tc[3 * q + 1] & 3) + (tc[3 * q + 2] & 3);         \
+			fc[n] = (uint8_t)((tc[3 * q] >> 2) * H_NB + (nbs > 0) + (nbs > 2)); /* nb_of() */  \
+			for (int d = 0; d < 3; d++) {                                                       \
+				const size_t u = 3 * n + (size_t)d;                                                \
+				const int v = 3 * q + d;                                                           \
+				const int64_t k = pred_of(16 * (int64_t)K1[u] + tb[v],                             \
+				                          slope ? 16 * (int64_t)V[u] + tw[v] : 0, beta);           \
+				cx[u] = tc[v];                                                                     \
+				if (!lossy) /* an EXACT node's code stays */                                       \
+					continue;                                                                         \
+				out |= k <= -CODE_MAX || k >= CODE_MAX;                                            \
+				kk[u] = (int32_t)k;                                                                \
+				if (!fine)                                                                         \
+					mag[u] = 0, dk[u] = (int32_t)(k - K1[u]);                                         \
+			}                                                                                   \
+		}                                                                                    \
+		*oor |= out;                                                                         \
+	}                                                                                     \
+}
+CPX_PUT(cpx_put, int64_t)
+CPX_PUT(cpx_put32, int32_t)
+
+NDO_HOT __attribute__((noinline)) static void predict_compact(hier *h, pass *ps, int s)
+{
+	const int st = 2 * s, C = h->cols, R = h->rows;
+	const int Cc = (C - 1) / st + 1, Rc = (R - 1) / st + 1;
+	const int g = (s == 1 ? 0 : s == 2 ? 1 : s == 4 ? 2 : 3) * 4, slope = ps->slope;
+	const cpx x = {h->k, h->dk, h->ctx, h->mag, h->fc, h->pb, h->pw, h->k1, h->v, h->cls,
+	               slope, ps->fused ? ps->beta[0] : -1, ps->direct, s == 1};
+	int32_t *const Dc = h->dc, *const Vc = h->vc;
+	uint8_t *const Mc = h->mc;
+	const size_t sst = 3 * (size_t)st;
+	const uint32_t SMALL = 1u << 22;
+	uint32_t big = 0; /* the OR of value + 2^22: ≥ 2^23 for one past ±2^22 */
+	for (int J = 0; J < Rc; J++) {
+		const int32_t *ds = x.dk + sst * (size_t)J * (size_t)C,
+		              *vs = x.V + sst * (size_t)J * (size_t)C;
+		const uint8_t *ms = x.mag + sst * (size_t)J * (size_t)C;
+		int32_t *dd = Dc + 3 * (size_t)J * (size_t)Cc, *vd = Vc + 3 * (size_t)J * (size_t)Cc;
+		uint8_t *md = Mc + 3 * (size_t)J * (size_t)Cc;
+		for (int I = 0; I < Cc; I++, ds += sst, vs += sst, ms += sst, dd += 3, vd += 3, md += 3)
+			for (int d = 0; d < 3; d++) {
+				dd[d] = ds[d], vd[d] = slope ? vs[d] : 0, md[d] = ms[d];
+				big |= ((uint32_t)dd[d] + SMALL) | ((uint32_t)vd[d] + SMALL);
+			}
+	}
+	/* every value within ±2^22: the butterflies (|sum of weights| 24) in
+	 * int32_t, twice the lanes of int64_t */
+	const int narrow = big < 2 * SMALL;
+	unsigned oor = 0;
+	for (int t = 0; t < 3; t++) {
+		/* the stencil's offsets (values, compact) and its extent */
+		long c[8];
+		int imin = 0, imax = 0, jmin = 0, jmax = 0;
+		for (int q = 0; q < 8; q++) {
+			const int di = stencil[t][q][0], dj = stencil[t][q][1];
+			imin = di < imin ? di : imin, imax = di > imax ? di : imax;
+			jmin = dj < jmin ? dj : jmin, jmax = dj > jmax ? dj : jmax;
+			c[q] = 3L * ((long)dj * Cc + di);
+		}
+		const int oi = t != 1 ? s : 0, oj = t != 0 ? s : 0; /* the node, from its base */
+		for (int J = 0; J < Rc && st * J + oj < R; J++) {
+			/* the row's nodes (none when the tile is narrower than oi + 1) */
+			const int j = st * J + oj, nI = C - 1 - oi >= 0 ? (C - 1 - oi) / st + 1 : 0;
+			int a = -imin, b = Cc - 1 - imax; /* the interior: bases [a, b] */
+			b = b < nI - 1 ? b : nI - 1;
+			if (J < -jmin || J > Rc - 1 - jmax || a > b)
+				a = nI, b = nI - 1;
+			const size_t row = (size_t)j * (size_t)C + (size_t)oi;
+			/* the nodes whose stencil leaves the tile: pred16()'s general
+			 * case, every node held: the ends' mean, the one end, or none */
+			for (int I = 0; I < nI; I++) {
+				if (I == a) {
+					I = b;
+					continue;
+				}
+				int64_t tb[3], tw[3];
+				uint8_t tc[3];
+				long e[2];
+				int ne = 0;
+				for (int q = 0; q < 2; q++) {
+					const int ii = I + stencil[t][q][0], jj = J + stencil[t][q][1];
+					if (ii >= 0 && ii < Cc && jj >= 0 && jj < Rc)
+						e[ne++] = 3L * ((long)jj * Cc + ii);
+				}
+				for (int d = 0; d < 3; d++) {
+					if (ne == 2) {
+						const unsigned u = (unsigned)Mc[e[0] + d] + Mc[e[1] + d];
+						tb[d] = 8 * ((int64_t)Dc[e[0] + d] + Dc[e[1] + d]);
+						tw[d] = -8 * ((int64_t)Vc[e[0] + d] + Vc[e[1] + d]);
+						tc[d] = (uint8_t)(g + nb_of(u));
+					} else if (ne == 1) {
+						tb[d] = 16 * (int64_t)Dc[e[0] + d];
+						tw[d] = -16 * (int64_t)Vc[e[0] + d];
+						tc[d] = (uint8_t)(g + nb_of(Mc[e[0] + d]));
+					} else {
+						tb[d] = tw[d] = 0;
+						tc[d] = 4 * H_TOP;
+					}
+				}
+				cpx_put(&x, row + (size_t)st * (size_t)I, 0, 1, tb, tw, tc, &oor);
+			}
+			/* the interior's, in runs */
+			for (int I0 = a; I0 <= b; I0 += RUN_NODES) {
+				int64_t tb[3 * RUN_NODES], tw[3 * RUN_NODES];
+				uint8_t tc[3 * RUN_NODES];
+				const int m = b - I0 + 1 < RUN_NODES ? b - I0 + 1 : RUN_NODES, nv = 3 * m;
+				const long v0 = 3L * ((long)J * Cc + I0);
+				const int32_t *D = Dc + v0, *VV = Vc + v0;
+				const uint8_t *M = Mc + v0;
+				for (int v = 0; v < nv; v++) {
+					const unsigned u = (unsigned)M[v + c[0]] + M[v + c[1]];
+					tc[v] = (uint8_t)(g + (u > 0) + (u > 2)); /* nb_of(u) */
+				}
+				if (narrow) {
+					int32_t tb32[3 * RUN_NODES], tw32[3 * RUN_NODES];
+					for (int v = 0; v < nv; v++)
+						tb32[v] = 8 * (D[v + c[0]] + D[v + c[1]]) + 2 * (D[v + c[2]] + D[v + c[3]]) -
+						          (D[v + c[4]] + D[v + c[5]] + D[v + c[6]] + D[v + c[7]]);
+					for (int v = 0; v < nv; v++)
+						tw32[v] = -8 * (VV[v + c[0]] + VV[v + c[1]]) -
+						          2 * (VV[v + c[2]] + VV[v + c[3]]) +
+						          (VV[v + c[4]] + VV[v + c[5]] + VV[v + c[6]] + VV[v + c[7]]);
+					cpx_put32(&x, row + (size_t)st * (size_t)I0, (size_t)st, m, tb32, tw32, tc,
+					          &oor);
+					continue;
+				}
+				for (int v = 0; v < nv; v++)
+					tb[v] = 8 * ((int64_t)D[v + c[0]] + D[v + c[1]]) +
+					        2 * ((int64_t)D[v + c[2]] + D[v + c[3]]) -
+					        ((int64_t)D[v + c[4]] + D[v + c[5]] + D[v + c[6]] + D[v + c[7]]);
+				if (slope)
+					for (int v = 0; v < nv; v++)
+						tw[v] = -8 * ((int64_t)VV[v + c[0]] + VV[v + c[1]]) -
+						        2 * ((int64_t)VV[v + c[2]] + VV[v + c[3]]) +
+						        ((int64_t)VV[v + c[4]] + VV[v + c[5]] + VV[v + c[6]] +
+						         VV[v + c[7]]);
+				else
+					memset(tw, 0, (size_t)nv * sizeof *tw);
+				cpx_put(&x, row + (size_t)st * (size_t)I0, (size_t)st, m, tb, tw, tc, &oor);
+			}
+		}
+	}
+	ps->oor |= oor;
+}
+
+/* P_PREDICT over level s (0: the top): predict_compact() when every
+ * node is held, else node by node */
 static inline __attribute__((always_inline)) void predict_level(hier *h, pass *ps, int s)
 {
-	if (!s || !h->allheld || (s > RUN_LEVELS && !ps->fused) || ndo__codec_hier_general) {
-		level(h, P_PREDICT, ps, s);
-		return;
-	}
-	const int st = 2 * s, g = (s == 1 ? 0 : s == 2 ? 1 : s == 4 ? 2 : 3) * 4;
-	for (int j = 0; j < h->rows; j += s) {
-		const long row = (long)j * h->cols;
-		for (int type = j & s ? 1 : 0; type <= (j & s ? 2 : 0); type++) {
-			/* the type's nodes: from i0 every 2s (s when a row has one type) */
-			const int i0 = type == 1 ? 0 : s, di = 2 * s;
-			const int bj = type != 0 ? j - s : j, sh = type != 1 ? s : 0;
-			int lo = i0, hi = i0 - di; /* the interior's nodes: bi ≥ st, bi + 2st < cols */
-			if (bj >= st && bj + 2 * st < h->rows) {
-				lo = st + sh;
-				lo += ((i0 - lo) % di + di) % di;
-				hi = h->cols - 1 - 2 * st + sh;
-				hi -= ((hi - i0) % di + di) % di;
-			}
-			if (hi < lo)
-				lo = h->cols, hi = h->cols - di;
-			for (int i = i0; i < lo && i < h->cols; i += di)
-				node(h, P_PREDICT, ps, i, j, s, type);
-			if (hi >= lo && ps->fused)
-				predict_run_kept(h, row + lo, hi - lo + 1, type, di, g, ps->slope,
-				                 ps->beta[0]);
-			else if (hi >= lo)
-				predict_run_all(h, row + lo, hi - lo + 1, type, di, g, ps->slope, -1);
-			for (int i = hi + di > i0 ? hi + di : i0; i < h->cols; i += di)
-				node(h, P_PREDICT, ps, i, j, s, type);
-		}
-	}
+	if (!s || !h->allheld || ndo__codec_hier_general)
+		level_predict(h, ps, s);
+	else
+		predict_compact(h, ps, s);
 }
 
-static void slope_fill(hier *h);
+NDO_HOT static void slope_fill(hier *h);
 
 /* Every LOSSY node of the frame, the top level first; each level's slope
  * share first (3 direct bits) unless the frame is a keyframe. */
@@ -726,7 +1069,10 @@ NDO_HOT static int levels(hier *h, int mode, rcenc *e, rcdec *dc, uint64_t *any)
 			memset(ps.cost, 0, sizeof ps.cost);
 			ps.slope = 1;
 			PHASE(0, LCOL(ls), predict_level(h, &ps, ls));
-			PHASE(1, LCOL(ls), level(h, P_COLLECT, &ps, ls));
+			if (ls && h->alllossy && !ndo__codec_hier_general)
+				PHASE(1, LCOL(ls), collect_sampled(h, &ps, ls));
+			else
+				PHASE(1, LCOL(ls), level_collect(h, &ps, ls));
 			for (int b = BETA_MAX; b >= 0; b--) /* ties: the implied frames' */
 				if (ps.cost[b] < ps.cost[beta])
 					beta = b;
@@ -743,17 +1089,29 @@ NDO_HOT static int levels(hier *h, int mode, rcenc *e, rcdec *dc, uint64_t *any)
 				return -1;
 			if (beta)
 				slope_fill(h);
-			ps.slope = beta != 0, ps.fused = 1;
+			ps.slope = beta != 0, ps.fused = 1, ps.direct = 1, ps.oor = 0;
 			ps.beta[0] = ps.beta[1] = ps.beta[2] = beta;
 			PHASE(3, LCOL(ls), predict_level(h, &ps, ls));
+			if (ps.oor) { /* a prediction out of range: P_DECODE's checks, node by node */
+				ps.direct = 0;
+				PHASE(3, LCOL(ls), predict_level(h, &ps, ls));
+			}
 		}
 		ps.beta[0] = ps.beta[1] = ps.beta[2] = beta;
 		if (mode == P_ENCODE && !h->intra)
-			PHASE(2, LCOL(ls), level(h, P_ENCODE, &ps, ls));
+			PHASE(2, LCOL(ls),
+			      ls && h->alllossy && !ndo__codec_hier_stats && !ndo__codec_hier_general
+			          ? level_encode_zf(h, &ps, ls)
+			          : level_encode(h, &ps, ls));
 		else if (mode == P_ENCODE)
 			PHASE(2, LCOL(ls), level(h, P_ENCODE1, &ps, ls));
+		else if (mode == P_DECODE && ps.direct && ls && h->allheld && h->alllossy &&
+		         !ndo__codec_hier_general)
+			PHASE(4, LCOL(ls), level_decode_fc(h, &ps, ls));
+		else if (mode == P_DECODE && ps.direct)
+			PHASE(4, LCOL(ls), level_decode_direct(h, &ps, ls));
 		else if (mode == P_DECODE)
-			PHASE(4, LCOL(ls), level(h, P_DECODE, &ps, ls));
+			PHASE(4, LCOL(ls), level_decode(h, &ps, ls));
 		else
 			level(h, P_IMPLIED, &ps, ls);
 		if (ps.bad)
@@ -769,7 +1127,7 @@ NDO_HOT static int levels(hier *h, int mode, rcenc *e, rcdec *dc, uint64_t *any)
 /* The references' codes and slope for every node the frame holds; none
  * (a keyframe's zeros) when the newest lacks one of them or there is
  * none, no slope when the second lacks one. */
-static void time_refs(hier *h, const hcodes *c, int32_t *zeros)
+NDO_HOT static void time_refs(hier *h, const hcodes *c, int32_t *zeros)
 {
 	const ndo_codec_frame *r0 = c->r[0], *r1 = c->r[1];
 	const int nodes = c->rows * c->cols;
@@ -800,8 +1158,10 @@ static void time_refs(hier *h, const hcodes *c, int32_t *zeros)
 }
 
 /* The slope v from the references time_refs() kept (h->s1, h->s2), once:
- * a decoder whose levels all have β = 0 never needs it. */
-static void slope_fill(hier *h)
+ * a decoder whose levels all have β = 0 never needs it.  NDO_HOT (as
+ * time_refs()): its loops vectorized, the setups 0.7 and 0.5 of their time
+ * before (bench_codec -v 2, level 7). */
+NDO_HOT static void slope_fill(hier *h)
 {
 	if (!h->s1)
 		return;
@@ -837,17 +1197,24 @@ static void hier_init(hier *h, const hcodes *c, int32_t *k, int64_t *t, uint8_t 
 	while (2 * top < (c->rows > c->cols ? c->rows : c->cols))
 		top *= 2;
 	h->top = top;
-	/* the scratch (HIER_SCRATCH int64 a node): pb, pw; v, dk, zeros; ctx */
+	/* the scratch (HIER_SCRATCH int64 a node): pb, pw; v, dk, zeros; ctx
+	 * (11 a node); predict_compact()'s dc, vc and mc (≤ 3 values a node
+	 * each: its lattice has at most as many nodes as the tile) and fc, 3.5
+	 * a node */
 	h->pb = t, h->pw = t + N;
 	int32_t *t32 = (int32_t *)(t + 2 * N);
 	h->v = t32, h->dk = t32 + N;
 	h->ctx = (uint8_t *)(t32 + 3 * N);
+	h->dc = (int32_t *)(t + 11 * (size_t)nodes), h->vc = h->dc + N;
+	h->mc = (uint8_t *)(h->vc + N), h->fc = h->mc + N;
 	time_refs(h, c, t32 + 2 * N);
 	h->x = NULL;
 	h->allheld = !memchr(c->cls, NDO_NODE_SKIP, (size_t)nodes);
+	h->alllossy = h->allheld;
 	memset(mag, 0, N); /* an EXACT node's: no residual */
 	for (const uint8_t *e = c->cls; (e = memchr(e, NDO_NODE_EXACT, (size_t)(c->cls + nodes - e)));
 	     e++) {
+		h->alllossy = 0;
 		const size_t n = (size_t)(e - c->cls);
 		for (int d = 0; d < 3; d++)
 			h->dk[3 * n + d] = (int32_t)((int64_t)k[3 * n + d] - h->k1[3 * n + d]);

@@ -48,7 +48,7 @@ struct ndo_codec_work {
 	uint64_t *u;     /* 3 x nodes: the residuals, zigzag-coded */
 	int64_t *erow;   /* 6 x nodes: two rows' extrapolation errors (pctx) */
 	void *row;       /* the row loops' scratch (row_scratch()) */
-	double *xg;      /* 6 x nodes: strided input gathered (ndo_codec_input.stride) */
+	double *xg;      /* 3 x nodes: strided positions gathered (ndo_codec_input.stride) */
 	size_t xgcap;
 	size_t rowcap;   /* its bytes */
 	double err_max2, err_sum2; /* the last frame encoded: its LOSSY errors */
@@ -371,7 +371,7 @@ int ndo__rc_dec_direct(rcdec *d);
 
 /* A frame for the hierarchical coder: the tile, its classes, the
  * references (newest first, NULL: absent) and the step. */
-#define HIER_SCRATCH 11
+#define HIER_SCRATCH 15 /* int64 a node: codec_hier.c's hier_init() lays them out */
 #define HIER_FINE 16 /* hier's codes: steps of q / 16; its residuals: steps of q */
 typedef struct hcodes {
 	int rows, cols;

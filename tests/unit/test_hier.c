@@ -3,7 +3,7 @@
  * model (the ideal adaptive code length) and round trips, whole tiles of a
  * moving wavy grid within the error bound at every node with the
  * receiver's frame the sender's, the interior stencil against the general
- * one byte for byte, fewer bytes than predict, and hostile payloads
+ * one byte for byte (quad-tree tiles and tiles of other shapes), fewer bytes than predict, and hostile payloads
  * (every truncation, changed bytes, bytes added) as drops, never a read
  * out of bounds (the sanitizer build runs this). */
 #include "check.h"
@@ -231,6 +231,86 @@ static void interior_and_general_stencils_agree(void)
 	}
 }
 
+/* Frames of tiles of any shape (not only the quad-tree's 2^k + 1), all
+ * LOSSY and with EXACT nodes: the fast paths (predict_compact(),
+ * collect_sampled(), encode_zeros()) write the general path's payloads,
+ * and the receiver holds what the sender says.  (A 5 x 1 tile once
+ * counted a node past its one column.) */
+static void odd_shapes_agree(void)
+{
+	static const int sizes[][2] = {{13, 22}, {7, 9}, {3, 40}, {1, 5}, {2, 2}, {5, 1},
+	                               {6, 6},   {33, 17}, {9, 65}, {4, 3}};
+	for (size_t z = 0; z < sizeof sizes / sizeof *sizes; z++)
+		for (int mixed = 0; mixed < 2; mixed++) {
+			const int R = sizes[z][0], C = sizes[z][1], N = R * C;
+			ndo_codec_params p;
+			ndo_codec_parse("hier:1e-4:16", &p);
+			for (int c = 0; c < 3; c++)
+				p.lo[c] = -1.5, p.ext[c] = 3;
+			ndo_codec_hist h[2], fh[2], rh, rfh;
+			ndo_codec_frame f[2], rf;
+			for (int k = 0; k < 2; k++) {
+				ndo_codec_hist_init(&h[k], (size_t)N), ndo_codec_hist_init(&fh[k], (size_t)N);
+				f[k] = fh[k].f[0];
+			}
+			ndo_codec_hist_init(&rh, (size_t)N), ndo_codec_hist_init(&rfh, (size_t)N);
+			rf = rfh.f[0];
+			double *x = malloc(3 * (size_t)N * sizeof *x), *v = malloc(3 * (size_t)N * sizeof *v),
+			       *xo = malloc(3 * (size_t)N * sizeof *xo), *vo = malloc(3 * (size_t)N * sizeof *vo);
+			uint8_t *cls = malloc((size_t)N);
+			for (int n = 0; n < N; n++)
+				cls[n] = mixed && n % 7 == 3 ? NDO_NODE_EXACT : NDO_NODE_LOSSY;
+			int same = 1, held = 1, ok = 1;
+			for (int64_t s = 0; s < 40; s++) {
+				for (int n = 0; n < N; n++) {
+					const int i = n % C, j = n / C;
+					const double u = i / (double)(C > 1 ? C - 1 : 1),
+					             w = j / (double)(R > 1 ? R - 1 : 1), t = 0.02 * (double)s;
+					x[3 * n] = 2 * u - 1 + 0.2 * sin(3 * w + t + 0.3 * i * j);
+					x[3 * n + 1] = 2 * w - 1 + 0.2 * cos(2 * u - t);
+					x[3 * n + 2] = 0.3 * sin(4 * u) * cos(3 * w) + 0.2 * sin(5 * u + 7 * w + 2 * t);
+					v[3 * n] = v[3 * n + 1] = v[3 * n + 2] = 0.01;
+				}
+				uint8_t *data[2];
+				size_t len[2];
+				int64_t base[2];
+				int un;
+				for (int k = 0; k < 2; k++) {
+					ndo__codec_hier_general = k;
+					ndo_codec_input in = {R, C, x, v, cls, s, 0.01 * (double)s, 0, 0};
+					ok &= ndo_codec_encode(&p, NULL, &h[k], 0, &in, &data[k], &len[k], &base[k],
+					                       &f[k], &un) == 0;
+					if (base[k] < 0)
+						ndo_codec_hist_clear(&h[k]);
+					ndo_codec_hist_put(&h[k], &f[k]);
+				}
+				ndo__codec_hier_general = 0;
+				same &= len[0] == len[1] && !memcmp(data[0], data[1], len[0]);
+				ndo_drop r = ndo_codec_decode(&p, NULL, &rh, R, C, data[0], len[0], s,
+				                              0.01 * (double)s, 0, base[0], xo, vo, &rf);
+				ok &= r == NDO_DROP_NONE;
+				if (r == NDO_DROP_NONE) {
+					if (base[0] < 0)
+						ndo_codec_hist_clear(&rh);
+					ndo_codec_hist_put(&rh, &rf);
+					for (int n = 0; n < N; n++) {
+						double at[3];
+						ndo_codec_frame_position(&p, &f[0], n, at);
+						for (int d = 0; d < 3; d++)
+							held &= xo[3 * n + d] == at[d];
+					}
+				}
+				free(data[0]), free(data[1]);
+			}
+			CHECK(ok && same && held, "%d x %d, %s: the same payloads %d, held %d, decoded %d", R, C,
+			      mixed ? "mixed" : "all LOSSY", same, held, ok);
+			for (int k = 0; k < 2; k++)
+				ndo_codec_hist_free(&h[k]), ndo_codec_hist_free(&fh[k]);
+			ndo_codec_hist_free(&rh), ndo_codec_hist_free(&rfh);
+			free(x), free(v), free(xo), free(vo), free(cls);
+		}
+}
+
 static void fewer_bytes_than_predict(void)
 {
 	run h = tiles("hier:1e-4:16", 0), p = tiles("predict:1e-4:16", 0);
@@ -380,6 +460,7 @@ int main(void)
 	RUN(range_coder_round_trips);
 	RUN(tiles_within_the_bound_at_every_node);
 	RUN(interior_and_general_stencils_agree);
+	RUN(odd_shapes_agree);
 	RUN(fewer_bytes_than_predict);
 	RUN(hostile_payloads);
 	RUN(positions_at_the_codes_range);
