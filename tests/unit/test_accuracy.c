@@ -148,6 +148,27 @@ static void time_estimate_follows_the_order(void)
 	unmake(&f);
 }
 
+/* The pinned sphere poked at its pole (tests/bench/accuracy/poke.scene)
+ * at level 4. */
+static void poked(fixture *f)
+{
+	make(f, 4, "damping 0.1;pin at=0,0,-1 radius=1.6;force face at=0,0,1 radius=0.1 amplitude=0.5",
+	     bulge);
+}
+
+/* 1 s of `m` at 0.9 × its critical step at level 4. */
+static ndo_acc_config largest_step(fixture *f, ndo_method m)
+{
+	ndo_sim *s;
+	ndo_critical cr;
+	CHECK(ndo_acc_sim(f->a, 4, m, 0, &s) == NDO_OK && ndo_sim_critical(s, &cr) == NDO_OK,
+	      "critical step");
+	ndo_sim_destroy(s);
+	ndo_acc_config c = {4, m, 0, (int64_t)ceil(1 / (0.9 * cr.h_crit)), 0};
+	c.h = 1 / (double)c.steps;
+	return c;
+}
+
 /* At the largest stable step the time estimate is within 3× of the time
  * error against the same level at a twentieth of the step, on the pinned
  * sphere poked at its pole (tests/bench/accuracy/poke.scene): RK4 there
@@ -157,17 +178,10 @@ static void time_estimate_follows_the_order(void)
 static void time_estimate_at_the_largest_step(void)
 {
 	fixture f;
-	make(&f, 4, "damping 0.1;pin at=0,0,-1 radius=1.6;force face at=0,0,1 radius=0.1 amplitude=0.5",
-	     bulge);
+	poked(&f);
 	const ndo_method ms[2] = {NDO_RK4, NDO_SYMPLECTIC_EULER};
 	for (int k = 0; k < 2; k++) {
-		ndo_sim *s;
-		ndo_critical cr;
-		CHECK(ndo_acc_sim(f.a, 4, ms[k], 0, &s) == NDO_OK && ndo_sim_critical(s, &cr) == NDO_OK,
-		      "critical step");
-		ndo_sim_destroy(s);
-		ndo_acc_config c = {4, ms[k], 0, (int64_t)ceil(1 / (0.9 * cr.h_crit)), 0};
-		c.h = 1 / (double)c.steps;
+		ndo_acc_config c = largest_step(&f, ms[k]);
 		ndo_acc_config fine = {4, NDO_RK4, c.h / 20, 20 * c.steps, 0};
 		ndo_acc_result r, rf;
 		ndo_acc_estimate e;
@@ -191,17 +205,10 @@ static void time_estimate_at_the_largest_step(void)
 static void total_adds_the_fields(void)
 {
 	fixture f;
-	make(&f, 4, "damping 0.1;pin at=0,0,-1 radius=1.6;force face at=0,0,1 radius=0.1 amplitude=0.5",
-	     bulge);
+	poked(&f);
 	const ndo_method ms[2] = {NDO_SYMPLECTIC_EULER, NDO_RK4};
 	for (int k = 0; k < 2; k++) {
-		ndo_sim *s;
-		ndo_critical cr;
-		CHECK(ndo_acc_sim(f.a, 4, ms[k], 0, &s) == NDO_OK && ndo_sim_critical(s, &cr) == NDO_OK,
-		      "critical step");
-		ndo_sim_destroy(s);
-		ndo_acc_config c = {4, ms[k], 0, (int64_t)ceil(1 / (0.9 * cr.h_crit)), 0};
-		c.h = 1 / (double)c.steps;
+		ndo_acc_config c = largest_step(&f, ms[k]);
 		ndo_acc_result r;
 		ndo_acc_estimate e;
 		CHECK(ndo_acc_run(f.a, &c, &r) == NDO_OK &&
