@@ -621,7 +621,7 @@ int ndo_acc_estimate_run(ndo_acc *a, const ndo_acc_config *c, const double *u, d
 	 * follows the velocity of the moment (3-4× the truth on the poke,
 	 * whose motion is fastest early). */
 	int windowed = c->method != NDO_SYMPLECTIC_EULER || m < 1;
-	double started = cpu_now(), dmax = NAN, grown = NAN, tc = NAN, h2 = 0, *tfield = NULL;
+	double started = cpu_now(), dmax = NAN, grown = NAN, tc = NAN, h2 = 0;
 	int64_t w = 0;
 	/* Time, early: the window at the run's level. */
 	int rc = windowed ? time_window(a, c, e, &w, &dmax, &grown) : NDO_OK;
@@ -650,20 +650,17 @@ int ndo_acc_estimate_run(ndo_acc *a, const ndo_acc_config *c, const double *u, d
 			e->space_m = shared_difference(m, u, r1.u, NULL) / (RATE - 1);
 			/* the time error's field, for the total (below); without the
 			 * memory, the total is the two errors' sum */
-			tfield = malloc(3 * nodes_of(m - 1) * sizeof *tfield);
-			if (!rkf && (rc = time_coarse(a, c, &r1, e, &h2, &tc, tfield))) {
+			double *tfield = rkf ? NULL : malloc(3 * nodes_of(m - 1) * sizeof *tfield);
+			rc = rkf ? NDO_OK : time_coarse(a, c, &r1, e, &h2, &tc, tfield);
+			if (rc)
 				why(e, "time: coarse", m - 1);
-				free(tfield);
-				tfield = NULL;
-				if (rc == NDO_ENOMEM) {
-					ndo_acc_result_free(&r1);
-					return rc;
-				}
-			}
-			if (tfield && !rkf && !isnan(tc) && !(windowed && dmax > tc))
+			else if (tfield && !isnan(tc) && !(windowed && dmax > tc))
 				e->total_m = shared_difference(m, u, r1.u, tfield);
 			free(tfield);
-			tfield = NULL;
+			if (rc == NDO_ENOMEM) {
+				ndo_acc_result_free(&r1);
+				return rc;
+			}
 			ndo_acc_result_free(&r1);
 		}
 	}
