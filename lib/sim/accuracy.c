@@ -418,7 +418,7 @@ static double level_difference(int fine, const double *uf, const double *uc)
  * butterfly, the difference also held the butterfly's own interpolation
  * error, which is not the coarser run's: on the ellipsoid's free
  * vibration at level 6 the estimate was 3.1-3.3 times the truth, against
- * 2.7-2.9 times from the shared nodes (docs/bench/accuracy.md).
+ * 0.88-1.03 times from the shared nodes (docs/bench/accuracy.md).
  *   tf (3 × level m − 1's nodes, or NULL): the time error's field there
  * (time_coarse); with it, the two errors together, node by node: the
  * space error u − u* = −(u − uc) / (r − 1) plus the time error, the
