@@ -1396,12 +1396,13 @@ static int stepped(ndo_peer *p)
 	p->cur++;
 	p->tcur = ndo_sim_time(p->sim);
 	p->synced = 0;
-	for (size_t r = 0; r < p->norun; r++) {
-		int64_t *restrict n = p->nstep;
-		const int64_t cur = p->cur;
+	/* (locals: a store through p->nstep could be p->cur's, and the
+	 * compiler would reload both at every node) */
+	int64_t *restrict nstep = p->nstep;
+	const int64_t cur = p->cur;
+	for (size_t r = 0; r < p->norun; r++)
 		for (int32_t c = p->orun[2 * r]; c < p->orun[2 * r + 1]; c++)
-			n[c] = cur;
-	}
+			nstep[c] = cur;
 	if (p->blocked)
 		p->st.wait_seconds += p->now - p->block_t0;
 	p->blocked = 0;
@@ -2090,7 +2091,8 @@ void ndo_peer_destroy(ndo_peer *p, const char *message)
 	free(p->scene);
 	free(p->canon), free(p->canons), free(p->nstep), free(p->mask), free(p->halo);
 	free(p->hx), free(p->hv), free(p->xs), free(p->vs);
-	free(p->own), free(p->ownc), free(p->orun), free(p->hmark), free(p->act), free(p->dist), free(p->strip);
+	free(p->own), free(p->ownc), free(p->orun), free(p->hmark), free(p->act), free(p->dist);
+	free(p->strip);
 	free(p->hu), free(p->sbuf[0]), free(p->sbuf[1]);
 	for (size_t k = 0; k < p->nhstash; k++)
 		halo_free(&p->hstash[k]);
