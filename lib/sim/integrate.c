@@ -1472,8 +1472,9 @@ int ndo_sim_steps(ndo_sim *s, double h, int64_t k)
 	const int fits = ndo__wave_fits(s);
 	double t[17];
 	while (k > 0) {
-		int wave = fits && (s->count >= 65536 || s->wave_test || !threads_next_solo(s));
-		int m = k >= 2 && wave ? ndo__wave_batch(s) : 0;
+		const int solo = threads_next_solo(s);
+		int wave = fits && (s->count >= 65536 || s->wave_test || !solo);
+		int m = k >= 2 && wave ? ndo__wave_batch(s, solo ? 1 : ndo_pool_threads(s->pool)) : 0;
 		int rc;
 		if (m >= 2) {
 			if (m > k)
