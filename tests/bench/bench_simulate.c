@@ -116,9 +116,30 @@ static ndo_sim *thesis_scene(ndo_grid *g, ndo_method m, ndo_force **forces)
 	return thesis_scene_on(g, m, 1, forces);
 }
 
-/* Steps taking at least 0.1 s (at least one). */
+/* Calls before any timing: a simulation with threads spends its first 9
+ * calls (a step, or a run of steps that ndo_sim_steps takes as one
+ * pipeline) looking whether they pay, alternately alone and on the
+ * threads (lib/sim/integrate.c, threads_pick), and then runs the faster
+ * way.  A timed run inside that look measures the look: at level 10,
+ * where rk4's 0.1 s is two steps, 2 threads gave 0.95-1.04x one this way
+ * and 1.56x after the look (2026-11-29, the same minute).  `many`: the
+ * calls are ndo_sim_steps' runs (of 2 steps), as timed_how(many) takes
+ * them, so that the look compares what is timed. */
+enum { WARM_CALLS = 12 };
+
+static void warm(ndo_sim *s, double h, int many)
+{
+	for (int k = 0; k < WARM_CALLS; k++)
+		if (many ? ndo_sim_steps(s, h, 2) : ndo_sim_step(s, h)) {
+			fprintf(stderr, "bench_simulate: %s\n", ndo_errdetail());
+			exit(1);
+		}
+}
+
+/* Steps taking at least 0.1 s (at least one), after the warm-up. */
 static long calibrate(ndo_sim *s, double h)
 {
+	warm(s, h, 0);
 	long n = 1;
 	for (;;) {
 		double t0 = now();
@@ -208,6 +229,8 @@ static void threads(int argc, char **argv)
 			ndo_critical c;
 			ndo_sim_critical(s1, &c);
 			double h = 0.5 * c.h_crit;
+			warm(s1, h, 1); /* the first look over what is timed */
+			warm(sT, h, 1);
 			long n = calibrate(s1, h);
 			calibrate(sT, h);
 			double r1[REPS], rT[REPS], q[REPS];

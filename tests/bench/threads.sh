@@ -35,6 +35,10 @@ load1=$(cut -d' ' -f1-3 /proc/loadavg)
 	echo "any thread count (test_sim: threads_give_the_same_bits).  A simulation with threads looks now and then"
 	echo "(8 steps alternately alone and on the threads, every 0.25 s at first, up to every 16 s while the answer"
 	echo "stays: lib/sim/integrate.c, threads_pick) whether they pay, and runs alone until the next look when not."
+	echo "Each simulation takes 12 steps before it is timed, so that its first look (9 steps, from its first step)"
+	echo "is over: the tables before 2026-11-29 timed rk4 at levels 9-10 and midpoint at level 10 inside it"
+	echo "(at 0.1 s a run, 2-6 steps), half of those steps alone, and reported 1.0-1.1x where the threads give 1.6-1.9x."
+	echo "A run's first look is part of what it costs: 4 of its first 9 steps run alone."
 	echo
 	echo "Figures taken on a machine shared with other work: the load averages above say how busy it was."
 	echo "With a load above 2 on 2 cores the second thread rarely has a core of its own, and a simulation"
