@@ -391,7 +391,7 @@ int ndo__wave_fits(const ndo_sim *s);
 int ndo__wave_run(ndo_sim *s, double h, int m, const double *t);
 void ndo__wave_diag(ndo_sim *s, int j, ndo__diag *d);
 void ndo__wave_commit(ndo_sim *s, int m);
-int ndo__wave_batch(ndo_sim *s, int threads);
+int ndo__wave_batch(ndo_sim *s);
 void ndo__wave_plan_free(ndo_sim *s);
 
 /* Copy the canonical values of the stage planes to their duplicates

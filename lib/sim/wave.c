@@ -87,22 +87,15 @@ static int plan_build(ndo_sim *s)
 	return NDO_OK;
 }
 
-/* Steps a run takes at most on `threads` threads: the wavefront spans
- * (passes − 1)·L chunks.  Alone, a quarter of the chunks.  On T threads,
- * which meet across it (each pair of them at the middle of its share of
- * C/T chunks), an eighth of a share: the units near a meeting point wait
- * for the other thread's, and a deeper wave makes more of them wait
- * (midpoint at level 8 on 2 threads, 2026-11-29, a busy machine: 1.23-1.30x
- * one thread at 15 steps a run, 1.71-1.76x at 3-4; symplectic Euler
- * 1.57x at 16, 1.79-1.87x at 4).  2..16 (0: the plan could not be made). */
-int ndo__wave_batch(ndo_sim *s, int threads)
+/* Steps a run takes at most: the wavefront spans (passes − 1)·L chunks,
+ * which the two threads meet across; a quarter of the chunks keeps that
+ * part small.  2..16 (0: the plan could not be made). */
+int ndo__wave_batch(ndo_sim *s)
 {
 	if (!s->wave_plan && plan_build(s))
 		return 0;
 	const int pps = s->p.method == NDO_MIDPOINT ? 2 : 1;
-	const int span = s->wave_plan->ch.L * pps;
-	int m = threads > 1 ? s->wave_plan->ch.C / (8 * threads * span)
-	                    : s->wave_plan->ch.C / (4 * span);
+	int m = s->wave_plan->ch.C / (4 * s->wave_plan->ch.L * pps);
 	return m < 2 ? 2 : m > 16 ? 16 : m;
 }
 
