@@ -136,20 +136,30 @@ static void warm(ndo_sim *s, double h, int many)
 		}
 }
 
-/* Steps taking at least 0.1 s (at least one), after the warm-up. */
-static long calibrate(ndo_sim *s, double h)
+/* Steps taking at least 0.1 s (at least one), after the warm-up, taken
+ * as timed_how(many) takes them: a simulation with threads compares the
+ * steps on them with the look's steps alone, and steps one at a time
+ * against the look's runs would send it to look again. */
+static long calibrate_how(ndo_sim *s, double h, int many)
 {
-	warm(s, h, 0);
-	long n = 1;
+	warm(s, h, many);
+	long n = many ? 2 : 1;
 	for (;;) {
 		double t0 = now();
-		for (long k = 0; k < n; k++)
+		if (many)
+			ndo_sim_steps(s, h, n);
+		for (long k = 0; k < n && !many; k++)
 			ndo_sim_step(s, h);
 		double el = now() - t0;
 		if (el > 0.1)
 			return n;
 		n = el > 0.01 ? (long)(n * 0.12 / el) + 1 : n * 10;
 	}
+}
+
+static long calibrate(ndo_sim *s, double h)
+{
+	return calibrate_how(s, h, 0);
 }
 
 /* The step h (half the first simulation's critical step) and the steps
@@ -229,10 +239,8 @@ static void threads(int argc, char **argv)
 			ndo_critical c;
 			ndo_sim_critical(s1, &c);
 			double h = 0.5 * c.h_crit;
-			warm(s1, h, 1); /* the first look over what is timed */
-			warm(sT, h, 1);
-			long n = calibrate(s1, h);
-			calibrate(sT, h);
+			long n = calibrate_how(s1, h, 1);
+			calibrate_how(sT, h, 1);
 			double r1[REPS], rT[REPS], q[REPS];
 			for (int r = 0; r < REPS; r++) {
 				r1[r] = timed_how(s1, h, n, 1);
