@@ -50,6 +50,7 @@ load1=$(cut -d' ' -f1-3 /proc/loadavg)
 	awk -F'|' '$3 ~ /^ (7|8|9|10) $/ { n++; if ($7 + 0 >= 1.8) met++; if ($7 + 0 < 1) slow++ }
 		END { printf "Issue 19'"'"'s goal, 2 threads at least 1.8x one for rk4, symplectic Euler and midpoint at levels 7-10: **%d of %d rows** here; %d rows slower than one thread (levels 7-10).\n", met, n, slow }' "$t"
 	awk -F'|' '$3 ~ /^ (4|5|6) $/ && $7 + 0 < 1 { slow++ } END { printf "Levels 4-6 (one thread whatever is asked): %d rows below 1.00, noise.\n", slow }' "$t"
+	awk -F'|' '$2 ~ /24.00 MiB/ { printf "The memory this run had (last section): the triad over level 8'"'"'s size at %s GB/s on one thread and %s on two (%sx); a pass bound by memory there scales by no more.\n", $4 + 0, $5 + 0, $6 + 0 }' "$t-bandwidth"
 	echo
 	echo "## RK4: the four passes and the pipeline"
 	echo
