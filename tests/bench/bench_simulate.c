@@ -163,15 +163,16 @@ static long calibrate(ndo_sim *s, double h)
 }
 
 /* The step h (half the first simulation's critical step) and the steps
- * n that take it at least 0.1 s; the others stepped as long, warm. */
-static long calibrate_all(ndo_sim **s, int ns, double *h)
+ * n that take it at least 0.1 s; the others stepped as long, warm (wave:
+ * the odd ones through ndo_sim_steps, as they are timed). */
+static long calibrate_all(ndo_sim **s, int ns, double *h, int wave)
 {
 	ndo_critical c;
 	ndo_sim_critical(s[0], &c);
 	*h = 0.5 * c.h_crit;
 	long n = calibrate(s[0], *h);
 	for (int k = 1; k < ns; k++)
-		calibrate(s[k], *h);
+		calibrate_how(s[k], *h, wave && k % 2);
 	return n;
 }
 
@@ -283,7 +284,7 @@ static void pipeline(int argc, char **argv, const ndo_method *ms, int nm, const 
 			s[k]->rk4_reference = !wave && k % 2 == 0;
 		}
 		double h;
-		long n = calibrate_all(s, 4, &h);
+		long n = calibrate_all(s, 4, &h, wave);
 		double r[4][REPS], q[3][REPS];
 		for (int rep = 0; rep < REPS; rep++) {
 			for (int k = 0; k < 4; k++)
@@ -404,7 +405,7 @@ static void region(int argc, char **argv)
 			}
 		}
 		double h;
-		long n = calibrate_all(s, 5, &h);
+		long n = calibrate_all(s, 5, &h, 0);
 		double r[5][REPS], q[4][REPS];
 		for (int rep = 0; rep < REPS; rep++) {
 			for (int k = 0; k < 5; k++)
