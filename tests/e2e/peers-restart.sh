@@ -56,6 +56,10 @@ event() {
 		fail "$name" "the run did not start"
 		kill "${pids[@]}" ${victim:-} 2>/dev/null
 		wait
+		local f
+		for f in owner.err joiner1.err joiner2.err; do
+			[ ! -s $f ] || tail -4 $f | sed "s/^/    ${f%.err}: /"
+		done
 		return
 	fi
 	pause
