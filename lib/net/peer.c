@@ -1315,6 +1315,7 @@ static int all_at(const ndo_peer *p, int64_t step)
 static void go(ndo_peer *p)
 {
 	p->started = 1;
+	ndo_session_set_owner_grace(p->s, 0);
 	if (p->owner && restartable(p) && !ck_ready(p)) {
 		/* the run's first step: the owner's simulation holds it whole */
 		ck_take(p, p->ncanon, p->canons);
@@ -2063,6 +2064,8 @@ int ndo_peer_create(const ndo_peer_opts *o, ndo_net *net, ndo_grid *grid, ndo_si
 	}
 	if (owner)
 		ndo_session_set_exact_step(p->s, p->final);
+	else /* until the run starts (go()), the start timeout bounds the wait */
+		ndo_session_set_owner_grace(p->s, p->o.start_timeout);
 	if (owner && ((rc = arrays(p)) || (rc = region(p)))) {
 		ndo_peer_destroy(p, NULL);
 		return rc;

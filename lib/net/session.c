@@ -55,6 +55,7 @@ struct ndo_session {
 	size_t have_rest, have_state;
 	/* clocks */
 	double now, next_hb, owner_heard, last_ask, last_full, next_poi;
+	double owner_grace; /* joiner: the owner's silence tolerated, at least (0: none) */
 	int hb_count, full_pending;
 	int32_t poi_acked; /* the POI the owner's last partition shows for us */
 	ndo_event ev[NEV];
@@ -1031,6 +1032,19 @@ static int send_hello(ndo_session *s)
 
 int ndo_session_update(ndo_session *s, double now)
 {
+	/* Silence is counted while this peer listens: of a gap between two
+	 * updates (a process stopped or starved of the CPU, a long step) no
+	 * more than half the timeout counts against the others, so that a
+	 * peer that stalls does not drop everyone it did not hear meanwhile
+	 * (an owner stopped for 0.8 s at a timeout of 0.5 s dropped both its
+	 * joiners), while a dead peer's silence still grows by half the
+	 * timeout or more at every update. */
+	const double gap = now - s->now - 0.5 * s->o.timeout;
+	if (gap > 0) {
+		for (int i = 0; i < s->nm; i++)
+			s->m[i].heard += gap;
+		s->owner_heard += gap;
+	}
 	s->now = now;
 	if (s->ended)
 		return 0;
@@ -1079,7 +1093,7 @@ int ndo_session_update(ndo_session *s, double now)
 				return rc;
 			s->last_ask = now;
 		}
-		if (s->described && now - s->owner_heard > s->o.timeout) {
+		if (s->described && now - s->owner_heard > fmax(s->o.timeout, s->owner_grace)) {
 			char why[96];
 			snprintf(why, sizeof why, "the owner timed out (silent for %.1f s)",
 			         now - s->owner_heard);
@@ -1436,6 +1450,7 @@ void ndo_session_destroy(ndo_session *s, const char *message)
 }
 
 void ndo_session_set_exact_step(ndo_session *s, int64_t step) { s->exact_step = step; }
+void ndo_session_set_owner_grace(ndo_session *s, double seconds) { s->owner_grace = seconds; }
 void ndo_session_set_exact_halos(ndo_session *s, int on) { s->exact_halos = on != 0; }
 void ndo_session_measure_displacement(ndo_session *s, int on) { s->measure_disp = on != 0; }
 int ndo_session_send_level(const ndo_session *s) { return s->level < 0 ? -1 : s->send_level; }

@@ -209,6 +209,63 @@ static void timeout_detected_and_repartitioned(void)
 	ndo_bus_destroy(bus);
 }
 
+/* Silence is counted while a peer listens: peers that all stall for 3 s
+ * (a machine that stops everything: no update anywhere) drop nobody, and
+ * nobody ends; a joiner with an owner grace (waiting for the run to
+ * start) outlasts the owner's own stall of 3 s, one without it does not;
+ * and a peer that is silent while the others listen is still dropped. */
+static void a_stall_drops_nobody(void)
+{
+	ndo_bus *bus;
+	ndo_bus_create(&bus);
+	ndo_session *p[3] = {open_peer(bus, NDO_ROLE_OWNER, 1, -1, NULL),
+	                     open_peer(bus, NDO_ROLE_JOINER, 2, 100, NULL),
+	                     open_peer(bus, NDO_ROLE_JOINER, 3, 900, NULL)};
+	double t = 0;
+	int64_t step = 0;
+	run(p, 3, &t, &step, 60);
+	int np;
+	ndo_session_cells(p[0], &np, NULL);
+	CHECK(np == 3, "three simulating peers, got %d", np);
+	count_events(p[0], NDO_EV_LEFT, NULL);
+	t += 3; /* everyone stalls: three times the timeout */
+	run(p, 3, &t, &step, 30);
+	CHECK(count_events(p[0], NDO_EV_LEFT, NULL) == 0, "the owner dropped a peer after a stall");
+	CHECK(!ndo_session_ended(p[1]) && !ndo_session_ended(p[2]), "a joiner ended after a stall");
+	/* the owner alone stalls; joiner 2 waits with a grace of 10 s */
+	ndo_session_set_owner_grace(p[1], 10);
+	ndo_session *owner = p[0];
+	p[0] = NULL;
+	run(p, 3, &t, &step, 300);
+	CHECK(!ndo_session_ended(p[1]), "the joiner with a grace ended");
+	CHECK(ndo_session_ended(p[2]), "the joiner without a grace did not time the owner out");
+	p[0] = owner;
+	ndo_session_destroy(p[2], NULL);
+	p[2] = NULL;
+	ndo_session_set_owner_grace(p[1], 0);
+	ndo_event e = {0};
+	for (int k = 0; k < 300 && e.peer != 3; k++) /* the owner times joiner 3 out */
+		if (run(p, 3, &t, &step, 1) == 0)
+			count_events(p[0], NDO_EV_LEFT, &e);
+	CHECK(e.peer == 3, "the joiner that ended was not dropped");
+	CHECK(!ndo_session_ended(p[1]), "the joiner ended once the owner was back");
+	/* joiner 2 falls silent while the owner listens: dropped */
+	ndo_session *silent = p[1];
+	p[1] = NULL;
+	double killed = t, seen = -1;
+	for (int k = 0; k < 300 && seen < 0; k++) {
+		run(p, 3, &t, &step, 1);
+		if (count_events(p[0], NDO_EV_LEFT, &e))
+			seen = t;
+	}
+	CHECK(seen > 0 && e.peer == 2 && seen - killed <= 1.0 + 0.2,
+	      "a silent peer dropped within the timeout (peer %d after %.2f s)", e.peer, seen - killed);
+	p[1] = silent;
+	for (int i = 0; i < 3; i++)
+		ndo_session_destroy(p[i], NULL);
+	ndo_bus_destroy(bus);
+}
+
 static void late_joiner_over_lossy_link(void)
 {
 	ndo_bus *bus;
@@ -419,6 +476,7 @@ int main(void)
 	ck_program = "test_session";
 	RUN(join_share_and_reassemble);
 	RUN(timeout_detected_and_repartitioned);
+	RUN(a_stall_drops_nobody);
 	RUN(late_joiner_over_lossy_link);
 	RUN(encoded_tiles_are_no_snapshot);
 	RUN(garbage_is_counted_not_trusted);
