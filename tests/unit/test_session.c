@@ -166,37 +166,56 @@ static void join_share_and_reassemble(void)
 	ndo_bus_destroy(bus);
 }
 
-static void timeout_detected_and_repartitioned(void)
+/* A bus with an owner and joiners 2 and 3 (POIs 100 and 900) in p, run
+ * until all three simulate; the owner's events so far drained. */
+static ndo_bus *three_peers(ndo_session *p[3], double *t, int64_t *step)
 {
 	ndo_bus *bus;
 	ndo_bus_create(&bus);
-	ndo_session *p[3] = {open_peer(bus, NDO_ROLE_OWNER, 1, -1, NULL),
-	                     open_peer(bus, NDO_ROLE_JOINER, 2, 100, NULL),
-	                     open_peer(bus, NDO_ROLE_JOINER, 3, 900, NULL)};
-	double t = 0;
-	int64_t step = 0;
-	run(p, 3, &t, &step, 60);
+	p[0] = open_peer(bus, NDO_ROLE_OWNER, 1, -1, NULL);
+	p[1] = open_peer(bus, NDO_ROLE_JOINER, 2, 100, NULL);
+	p[2] = open_peer(bus, NDO_ROLE_JOINER, 3, 900, NULL);
+	run(p, 3, t, step, 60);
 	int np;
 	ndo_session_cells(p[0], &np, NULL);
 	CHECK(np == 3, "three simulating peers, got %d", np);
 	count_events(p[0], NDO_EV_LEFT, NULL);
-	/* peer 2 falls silent (killed) */
-	ndo_session *silent = p[1];
-	p[1] = NULL;
-	double killed = t;
-	ndo_event e = {0};
-	double seen = -1;
-	for (int k = 0; k < 300 && seen < 0; k++) {
-		run(p, 3, &t, &step, 1);
-		if (count_events(p[0], NDO_EV_LEFT, &e))
-			seen = t;
+	return bus;
+}
+
+/* p[k] falls silent (as if killed) while the others run: the seconds until
+ * the owner's LEFT event *e (−1: none in 3 s); p[k] is put back. */
+static double silent_until_left(ndo_session *p[3], int k, double *t, int64_t *step, ndo_event *e)
+{
+	ndo_session *silent = p[k];
+	p[k] = NULL;
+	double from = *t, seen = -1;
+	for (int q = 0; q < 300 && seen < 0; q++) {
+		run(p, 3, t, step, 1);
+		if (count_events(p[0], NDO_EV_LEFT, e))
+			seen = *t - from;
 	}
+	p[k] = silent;
+	return seen;
+}
+
+static void timeout_detected_and_repartitioned(void)
+{
+	ndo_session *p[3];
+	double t = 0;
+	int64_t step = 0;
+	ndo_bus *bus = three_peers(p, &t, &step);
+	/* peer 2 falls silent (killed) */
+	ndo_event e = {0};
+	ndo_session *silent = p[1];
+	double seen = silent_until_left(p, 1, &t, &step, &e);
 	CHECK(seen > 0 && e.peer == 2 && e.reason == NDO_LEAVE_TIMEOUT,
 	      "owner saw peer 2 time out (peer %d reason %d)", e.peer, e.reason);
-	CHECK(seen - killed <= 1.0 + 0.2, "detected within timeout + 2 heartbeats: %.2f s",
-	      seen - killed);
+	CHECK(seen <= 1.0 + 0.2, "detected within timeout + 2 heartbeats: %.2f s", seen);
+	int np;
 	ndo_session_cells(p[0], &np, NULL);
 	CHECK(np == 2, "re-partitioned among 2, got %d", np);
+	p[1] = NULL;
 	run(p, 3, &t, &step, 30);
 	ndo_session_cells(p[2], &np, NULL);
 	CHECK(np == 2, "peer 3 got the new partition (%d)", np);
@@ -216,18 +235,10 @@ static void timeout_detected_and_repartitioned(void)
  * and a peer that is silent while the others listen is still dropped. */
 static void a_stall_drops_nobody(void)
 {
-	ndo_bus *bus;
-	ndo_bus_create(&bus);
-	ndo_session *p[3] = {open_peer(bus, NDO_ROLE_OWNER, 1, -1, NULL),
-	                     open_peer(bus, NDO_ROLE_JOINER, 2, 100, NULL),
-	                     open_peer(bus, NDO_ROLE_JOINER, 3, 900, NULL)};
+	ndo_session *p[3];
 	double t = 0;
 	int64_t step = 0;
-	run(p, 3, &t, &step, 60);
-	int np;
-	ndo_session_cells(p[0], &np, NULL);
-	CHECK(np == 3, "three simulating peers, got %d", np);
-	count_events(p[0], NDO_EV_LEFT, NULL);
+	ndo_bus *bus = three_peers(p, &t, &step);
 	t += 3; /* everyone stalls: three times the timeout */
 	run(p, 3, &t, &step, 30);
 	CHECK(count_events(p[0], NDO_EV_LEFT, NULL) == 0, "the owner dropped a peer after a stall");
@@ -250,17 +261,9 @@ static void a_stall_drops_nobody(void)
 	CHECK(e.peer == 3, "the joiner that ended was not dropped");
 	CHECK(!ndo_session_ended(p[1]), "the joiner ended once the owner was back");
 	/* joiner 2 falls silent while the owner listens: dropped */
-	ndo_session *silent = p[1];
-	p[1] = NULL;
-	double killed = t, seen = -1;
-	for (int k = 0; k < 300 && seen < 0; k++) {
-		run(p, 3, &t, &step, 1);
-		if (count_events(p[0], NDO_EV_LEFT, &e))
-			seen = t;
-	}
-	CHECK(seen > 0 && e.peer == 2 && seen - killed <= 1.0 + 0.2,
-	      "a silent peer dropped within the timeout (peer %d after %.2f s)", e.peer, seen - killed);
-	p[1] = silent;
+	double seen = silent_until_left(p, 1, &t, &step, &e);
+	CHECK(seen > 0 && e.peer == 2 && seen <= 1.0 + 0.2,
+	      "a silent peer dropped within the timeout (peer %d after %.2f s)", e.peer, seen);
 	for (int i = 0; i < 3; i++)
 		ndo_session_destroy(p[i], NULL);
 	ndo_bus_destroy(bus);
