@@ -400,6 +400,9 @@ static int rc_level, rc_bands;
 static const char *rc_method;
 /* ... and how many peers simulate before the event (0: 3, a join 2) */
 static int rc_peers;
+/* ... and a second peer killed while the others go back to the first
+ * event's restart step (the owner's first restart under way) */
+static int rc_second;
 
 /* `every`: checkpoint_every (< 0: none, the reference, which must differ);
  * k: steps per halo exchange. */
@@ -439,6 +442,17 @@ static void restart_case(int what, double drop, uint64_t seed, int every, int k)
 	} else {
 		add_joiner(w, &su, POIS[1]);
 	}
+	ndo_peer *dead2 = NULL;
+	int64_t was2 = -1;
+	if (rc_second) { /* once the owner has gone back to the restart step */
+		ndo_peer_stats s0;
+		do
+			ndo_peer_stats_get(w->p[0], &s0);
+		while (s0.restarts == 0 && w->t < 30 && run(w, w->t + TICK) == 1);
+		was2 = ndo_peer_step(w->p[0]);
+		dead2 = w->p[su.peers - 2];
+		w->p[su.peers - 2] = NULL;
+	}
 	int done = run(w, 60) == 0;
 	for (int i = 0; i < w->n; i++)
 		if (w->p[i] && w->state[i] != NDO_PEER_DONE) {
@@ -462,8 +476,11 @@ static void restart_case(int what, double drop, uint64_t seed, int every, int k)
 	       np, (long long)st.restarts, (long long)st.restart_steps, (long long)st.timeouts,
 	       (long long)st.checkpoints, (double)sj.checkpoint_bytes / 1e3,
 	       (double)st.checkpoint_bytes / 1e3, (long long)st.ahead);
-	CHECK(np == su.peers + (what == JOIN ? 1 : -1), "%s: %d peers simulate at the end",
-	      WHAT[what], np);
+	if (rc_second)
+		printf("    and a second peer killed at the owner's step %lld, during the restart\n",
+		       (long long)was2);
+	CHECK(np == su.peers + (what == JOIN ? 1 : -1) - (rc_second != 0),
+	      "%s: %d peers simulate at the end", WHAT[what], np);
 	if (every < 0) {
 		CHECK(done && d > fmax(1e-6, 100 * want) && st.restarts == 0, "%s, %s without "
 		      "checkpoints: done %d, differs by %.3g (must differ), %lld restarts", method,
@@ -477,6 +494,7 @@ static void restart_case(int what, double drop, uint64_t seed, int every, int k)
 	}
 	free(x);
 	ndo_peer_destroy(dead, NULL); /* quietly: its leave finds no one to read it */
+	ndo_peer_destroy(dead2, NULL);
 	world_free(w);
 }
 
@@ -505,6 +523,13 @@ static void restarts_keep_the_single_process(void)
 	 * installed the new partition when the owner waited at R + 1. */
 	restart_case(KILL, 0.1, 134, 0, 1);
 	restart_case(KILL, 0.1, 227, 0, 1);
+	/* of 4 peers, a second killed while the others go back to the first
+	 * kill's restart step: a second restart, from a checkpoint the
+	 * survivors still hold */
+	rc_peers = 4, rc_second = 1;
+	restart_case(KILL, 0, seed + 60, 0, 1);
+	restart_case(KILL, 0.1, seed + 61, 0, 1);
+	rc_peers = 0, rc_second = 0;
 }
 
 /* The same restarts for the methods whose steps take several exchanges
@@ -815,7 +840,8 @@ int main(void)
 		 * TEST_PEER_METHOD=rkf45 (backward-euler, trapezoid) another method,
 		 * TEST_PEER_EVENT=leave (join) another event, TEST_PEER_FIRST=M
 		 * seeds M..M+N−1, TEST_PEER_LEVEL, TEST_PEER_PEERS (before the
-		 * event), TEST_PEER_CHECKPOINTS=C (no loss; −1: none) */
+		 * event), TEST_PEER_CHECKPOINTS=C (no loss; −1: none),
+		 * TEST_PEER_SECOND=1 a second peer killed during the restart */
 		int n = atoi(kills), what = KILL;
 		const char *ev = getenv("TEST_PEER_EVENT"), *first = getenv("TEST_PEER_FIRST");
 		rc_method = getenv("TEST_PEER_METHOD");
@@ -828,6 +854,7 @@ int main(void)
 		const char *np = getenv("TEST_PEER_PEERS");
 		rc_level = lv ? atoi(lv) : 0;
 		rc_peers = np ? atoi(np) : 0;
+		rc_second = getenv("TEST_PEER_SECOND") != NULL;
 		for (int i = 0; i < n; i++)
 			restart_case(what, ev2 ? 0 : 0.1, s0 + (uint64_t)i, ev2 ? atoi(ev2) : 0, 1);
 		return ck_failed_cases != 0;
