@@ -58,6 +58,17 @@ typedef struct stashed {
 	ndo_msg_solve_t m; /* copies of the arrays */
 } stashed;
 
+/* The phases a peer keeps, and sends again while it waits: a peer may be
+ * two phases ahead of another.  Every phase but a step's first (the state,
+ * from the neighbours alone) waits for every peer's sums; so a peer that
+ * has the last phase of step S from all goes on through S + 1's first
+ * without hearing from a peer that is not its neighbour, sends S + 1's
+ * second, and waits there.  A peer still waiting for S's last (its copy
+ * from that peer lost) needs it from that peer's third newest phase.
+ * With two kept, such a loss stalled the step until the step timeout and
+ * took it inexact (3 peers in bands, the trapezoid, 10 % loss). */
+#define SLOTS 3
+
 typedef struct sent {
 	int64_t key;
 	int per_node, nsums;
@@ -90,7 +101,7 @@ struct ndo__ps {
 	int nsums[NDO_MAX_PEERS];
 	stashed *stash;
 	size_t nstash, capstash;
-	sent last[2];
+	sent last[SLOTS];
 	/* rkf45: the state the step began with (abort) */
 	double *snap_u, *snap_v;
 	int32_t *all;
@@ -132,7 +143,8 @@ void ndo__ps_destroy(ndo__ps *ps)
 		free_msg(&ps->stash[k].m);
 	free(ps->stash);
 	free(ps->rkey), free(ps->rval);
-	free(ps->last[0].values), free(ps->last[1].values);
+	for (int b = 0; b < SLOTS; b++)
+		free(ps->last[b].values);
 	free(ps->snap_u), free(ps->snap_v), free(ps->all);
 	free(ps->x), free(ps->b), free(ps->rr), free(ps->z), free(ps->p), free(ps->q);
 	free(ps->u), free(ps->w), free(ps->m), free(ps->nv), free(ps->sv);
@@ -159,9 +171,9 @@ int ndo__ps_create(ndo_session *s, ndo_sim *sim, int jacobi, ndo__ps **out)
 	ps->ready = -1;
 	size_t n = ps->count;
 	int ok = (ps->rkey = malloc(n * sizeof *ps->rkey)) && (ps->rval = malloc(6 * n * sizeof(double))) &&
-	         (ps->last[0].values = malloc(6 * n * sizeof(double))) &&
-	         (ps->last[1].values = malloc(6 * n * sizeof(double))) &&
 	         (ps->tmp = malloc((8 * n + 8192) * sizeof(double)));
+	for (int b = 0; b < SLOTS && ok; b++)
+		ok = (ps->last[b].values = malloc(6 * n * sizeof(double))) != NULL;
 	if (ok && ps->method == NDO_RKF45)
 		ok = (ps->snap_u = malloc(3 * n * sizeof(double))) &&
 		     (ps->snap_v = malloc(3 * n * sizeof(double))) && (ps->all = malloc(n * sizeof(int32_t)));
@@ -182,7 +194,8 @@ int ndo__ps_create(ndo_session *s, ndo_sim *sim, int jacobi, ndo__ps **out)
 	if (ps->all)
 		for (size_t k = 0; k < n; k++)
 			ps->all[k] = (int32_t)k;
-	ps->last[0].key = ps->last[1].key = -1;
+	for (int b = 0; b < SLOTS; b++)
+		ps->last[b].key = -1;
 	*out = ps;
 	return 0;
 }
@@ -431,8 +444,8 @@ static int next_phase(ndo__ps *ps, int vpn, const double *planes, const double *
 		return ndo__fail(NDO_EDIVERGED, "step %lld takes more than %d exchanges",
 		                 (long long)ps->step, PHASE_MAX);
 	ps->phase++;
-	int b = (int)(ps->st.phases & 1); /* the older of the two (not by phase: a step's
-	                                    last and the next step's first may share it) */
+	int b = (int)(ps->st.phases % SLOTS); /* the oldest (not by phase: a step's last
+	                                        and the next step's first may share it) */
 	sent *sl = &ps->last[b];
 	sl->key = key_of(ps->step, ps->phase);
 	sl->per_node = vpn;
@@ -485,7 +498,7 @@ int ndo__ps_behind(const ndo__ps *ps, int64_t step)
 int ndo__ps_resend(ndo__ps *ps)
 {
 	int rc;
-	for (int b = 0; b < 2; b++)
+	for (int b = 0; b < SLOTS; b++)
 		if ((rc = send_slot(ps, b)))
 			return rc;
 	return 0;
@@ -515,7 +528,8 @@ void ndo__ps_set_region(ndo__ps *ps, const ndo__ps_region *r)
 	 * their key (a step started again has the same keys) */
 	for (size_t k = 0; k < ps->count; k++)
 		ps->rkey[k] = -1;
-	ps->last[0].key = ps->last[1].key = -1; /* the old strip's */
+	for (int b = 0; b < SLOTS; b++)
+		ps->last[b].key = -1; /* the old strip's */
 }
 
 /* ---- the halo's values into the simulation or a vector ---------------------- */

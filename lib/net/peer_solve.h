@@ -69,7 +69,8 @@ int ndo__ps_alone(const ndo__ps *ps);
  * does not give up: the one behind does, and catches up). */
 int ndo__ps_behind(const ndo__ps *ps, int64_t step);
 
-/* Send the last two phases again (a neighbour may have lost one). */
+/* Send the last three phases again (another peer may have lost one; SLOTS
+ * in peer_solve.c says why three). */
 int ndo__ps_resend(ndo__ps *ps);
 
 typedef struct ndo__ps_stats {
