@@ -848,7 +848,8 @@ int main(void)
 		 * TEST_PEER_EVENT=leave (join) another event, TEST_PEER_FIRST=M
 		 * seeds M..M+N−1, TEST_PEER_LEVEL, TEST_PEER_PEERS (before the
 		 * event), TEST_PEER_CHECKPOINTS=C (no loss; −1: none),
-		 * TEST_PEER_SECOND=1 a second peer killed during the restart */
+		 * TEST_PEER_SECOND=1 a second peer killed during the restart,
+		 * TEST_PEER_BANDS=1 the partition in bands */
 		int n = atoi(kills), what = KILL;
 		const char *ev = getenv("TEST_PEER_EVENT"), *first = getenv("TEST_PEER_FIRST");
 		rc_method = getenv("TEST_PEER_METHOD");
@@ -862,6 +863,7 @@ int main(void)
 		rc_level = lv ? atoi(lv) : 0;
 		rc_peers = np ? atoi(np) : 0;
 		rc_second = getenv("TEST_PEER_SECOND") != NULL;
+		rc_bands = getenv("TEST_PEER_BANDS") != NULL;
 		for (int i = 0; i < n; i++)
 			restart_case(what, ev2 ? 0 : 0.1, s0 + (uint64_t)i, ev2 ? atoi(ev2) : 0, 1);
 		return ck_failed_cases != 0;
