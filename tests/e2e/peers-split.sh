@@ -50,14 +50,19 @@ for m in rkf45 backward-euler trapezoid; do
 		fail "single process, $m"
 done
 
-# split NAME N METHOD BOUND: N peers end within BOUND (0: bit for bit)
+# split NAME N METHOD BOUND [owner options...]: N peers end within BOUND
+# (0: bit for bit) of the single process (solo-METHOD.tgrid; with RUN_TIME,
+# solo-METHOD-RUN_TIMEs.tgrid)
 split() {
-	local name=$1 n=$2 m=$3 bound=$4 out=p$2-$3.tgrid
+	local name=$1 n=$2 m=$3 bound=$4 out=p$2-$3.tgrid solo=solo-$3${RUN_TIME:+-${RUN_TIME}s}.tgrid
+	shift 4
 	SECONDS=0
-	if run_peers "$n" "$m" "$out"; then
-		read -r rel owners step sstep < <(compare "$out" "solo-$m.tgrid")
-		local how
+	if run_peers "$n" "$m" "$out" "$@"; then
+		read -r rel owners step sstep < <(compare "$out" "$solo")
+		local how loss
 		how=$(grep -o 'exact: [^;]*' owner.err | head -1)
+		loss=$(grep -o 'injected [0-9]*' owner.err | head -1)
+		[ -n "$loss" ] && how="$how; the owner: $loss dropped, $(grep -o '[0-9]* re-sends' owner.err | head -1)"
 		if awk "BEGIN{exit !($rel <= $bound)}" && [ "$owners" = "$n" ] && [ "$step" = "$sstep" ]
 		then
 			pass "$name: difference $rel (at most $bound) at step $step, $owners owners, ${SECONDS}s ($how)"
@@ -65,7 +70,7 @@ split() {
 			fail "$name" "difference $rel (at most $bound), $owners owners, step $step of $sstep"
 		fi
 	else
-		fail "$name" "a peer failed"
+		fail "$name" "a peer failed: $(tail -1 owner.err)"
 	fi
 }
 
@@ -85,20 +90,8 @@ for m in rkf45 trapezoid; do
 	# shellcheck disable=SC2046
 	simulate-peer -q wavy4.tgrid -s "$SCENE" $(RUN_TIME=2 physics "$m") -o "solo-$m-2s.tgrid" ||
 		fail "single process, $m, 2 s"
-	SECONDS=0
 	# shellcheck disable=SC2086
-	if RUN_TIME=2 JOINER_OPTS="$lossy" run_peers 3 "$m" "lossy-$m.tgrid" $lossy; then
-		read -r rel owners step sstep < <(compare "lossy-$m.tgrid" "solo-$m-2s.tgrid")
-		resends=$(grep -o '[0-9]* re-sends' owner.err | head -1)
-		drops=$(grep -o 'injected [0-9]*' owner.err | head -1)
-		if awk "BEGIN{exit !($rel <= $bound)}" && [ "$owners" = 3 ] && [ "$step" = "$sstep" ]; then
-			pass "3 peers, $m, 10% loss: difference $rel (at most $bound) at step $step, ${SECONDS}s (the owner: $drops dropped, $resends)"
-		else
-			fail "3 peers, $m, 10% loss" "difference $rel (at most $bound), $owners owners, step $step of $sstep"
-		fi
-	else
-		fail "3 peers, $m, 10% loss" "a peer failed: $(tail -1 owner.err)"
-	fi
+	RUN_TIME=2 JOINER_OPTS="$lossy" split "3 peers, $m, 2 s, 10% loss" 3 $m $bound $lossy
 done
 
 if run_peers 2 trapezoid held.tgrid --boundary hold; then
