@@ -177,29 +177,35 @@ static void lockstep_survives_loss(void)
  * the exact one. */
 static void split_steps_survive_loss(void)
 {
-	static const char *const methods[] = {"rkf45", "trapezoid"};
 	/* the quad-tree's 3 regions, each the others' neighbour; then bands,
 	 * whose outer two are not neighbours: a peer two phases ahead of one
 	 * still waiting for its last (peer_solve.c, SLOTS), which stalled
 	 * until the step timeout when two phases were kept */
-	for (int m = 0; m < 4; m++) {
-		setup su = {.integrator = methods[m % 2], .dt = m < 2 ? 0.02 : 0.05, .steps = 30,
+	static const struct {
+		const char *method, *how;
+		double dt, bound;
+		int bands;
+		ndo_faults f;
+	} cases[] = {
+		{"rkf45", "20% loss", 0.02, 0, 0, {.drop = 0.2, .delay_ms = 2, .jitter_ms = 3, .reorder = 0.1, .seed = 11}},
+		{"trapezoid", "20% loss", 0.02, 1e-10, 0, {.drop = 0.2, .delay_ms = 2, .jitter_ms = 3, .reorder = 0.1, .seed = 11}},
+		{"rkf45", "bands, 10% loss", 0.05, 0, 1, {.drop = 0.1, .delay_ms = 1, .jitter_ms = 2, .reorder = 0.05, .seed = 1}},
+		{"trapezoid", "bands, 10% loss", 0.05, 1e-10, 1, {.drop = 0.1, .delay_ms = 1, .jitter_ms = 2, .reorder = 0.05, .seed = 1}},
+	};
+	for (size_t c = 0; c < sizeof cases / sizeof *cases; c++) {
+		setup su = {.integrator = cases[c].method, .dt = cases[c].dt, .steps = 30,
 		            .clock = NDO_CLOCK_LOCKSTEP, .peers = 3, .step_timeout = 30,
-		            .bands = m >= 2};
-		su.faults = (ndo_faults){.drop = m < 2 ? 0.2 : 0.1, .delay_ms = m < 2 ? 2 : 1,
-		                         .jitter_ms = m < 2 ? 3 : 2, .reorder = m < 2 ? 0.1 : 0.05,
-		                         .seed = m < 2 ? 11 : 1};
+		            .bands = cases[c].bands, .faults = cases[c].f};
 		ndo_peer_stats st;
 		int ok;
 		double d = split_run(&su, 3, &st, &ok);
-		const char *how = m < 2 ? "20% loss" : "bands, 10% loss";
-		CHECK(ok && d <= (m % 2 ? 1e-10 : 0), "%s, %s: done %d, differs by %.3g",
-		      methods[m % 2], how, ok, d);
+		CHECK(ok && d <= cases[c].bound, "%s, %s: done %d, differs by %.3g", cases[c].method,
+		      cases[c].how, ok, d);
 		CHECK(st.resends > 0 && st.timeouts == 0, "%s, %s: %lld re-sends, %lld timeouts",
-		      methods[m % 2], how, (long long)st.resends, (long long)st.timeouts);
+		      cases[c].method, cases[c].how, (long long)st.resends, (long long)st.timeouts);
 		printf("    %s, %s, 3 peers: difference %.2g, owner waited %lld steps (%.3f s), "
-		       "%lld re-sends\n", methods[m % 2], how, d, (long long)st.waited, st.wait_seconds,
-		       (long long)st.resends);
+		       "%lld re-sends\n", cases[c].method, cases[c].how, d, (long long)st.waited,
+		       st.wait_seconds, (long long)st.resends);
 	}
 }
 
