@@ -542,8 +542,8 @@ static void restarts_keep_the_single_process(void)
 	restart_case(KILL, 0.1, 134, 0, 1);
 	restart_case(KILL, 0.1, 227, 0, 1);
 	/* of 4 peers, a second killed while the others go back to the first
-	 * kill's restart step: a second restart, from a checkpoint the
-	 * survivors still hold */
+	 * kill's restart step: dropped too, and the survivors' result still
+	 * the single process's */
 	rc_peers = 4, rc_second = 1;
 	restart_case(KILL, 0, seed + 60, 0, 1);
 	restart_case(KILL, 0.1, seed + 61, 0, 1);
