@@ -419,7 +419,9 @@ static const char *rc_method;
 /* ... and how many peers simulate before the event (0: 3, a join 2) */
 static int rc_peers;
 /* ... and a second peer killed while the others go back to the first
- * event's restart step (the owner's first restart under way) */
+ * event's restart step: 1 once the owner has gone back to it, 2 as soon
+ * as the owner has made the new partition (a restart that may still wait
+ * for that peer's checkpoint nodes) */
 static int rc_second;
 
 /* `every`: checkpoint_every (< 0: none, the reference, which must differ);
@@ -462,11 +464,14 @@ static void restart_case(int what, double drop, uint64_t seed, int every, int k)
 	}
 	ndo_peer *dead2 = NULL;
 	int64_t was2 = -1;
-	if (rc_second) { /* once the owner has gone back to the restart step */
+	if (rc_second) {
+		const ndo_session *os = ndo_peer_session(w->p[0]);
+		const int32_t epoch = ndo_session_epoch(os);
 		ndo_peer_stats s0;
 		do
 			ndo_peer_stats_get(w->p[0], &s0);
-		while (s0.restarts == 0 && w->t < 30 && run(w, w->t + TICK) == 1);
+		while ((rc_second == 1 ? s0.restarts == 0 : ndo_session_epoch(os) == epoch) &&
+		       w->t < 30 && run(w, w->t + TICK) == 1);
 		was2 = ndo_peer_step(w->p[0]);
 		dead2 = w->p[su.peers - 2];
 		w->p[su.peers - 2] = NULL;
@@ -495,8 +500,8 @@ static void restart_case(int what, double drop, uint64_t seed, int every, int k)
 	       (long long)st.checkpoints, (double)sj.checkpoint_bytes / 1e3,
 	       (double)st.checkpoint_bytes / 1e3, (long long)st.ahead);
 	if (rc_second)
-		printf("    and a second peer killed at the owner's step %lld, during the restart\n",
-		       (long long)was2);
+		printf("    and a second peer killed at the owner's step %lld, %s\n", (long long)was2,
+		       rc_second == 1 ? "during the restart" : "as the new partition came");
 	CHECK(np == su.peers + (what == JOIN ? 1 : -1) - (rc_second != 0),
 	      "%s: %d peers simulate at the end", WHAT[what], np);
 	if (every < 0) {
@@ -547,6 +552,10 @@ static void restarts_keep_the_single_process(void)
 	rc_peers = 4, rc_second = 1;
 	restart_case(KILL, 0, seed + 60, 0, 1);
 	restart_case(KILL, 0.1, seed + 61, 0, 1);
+	/* ... and as soon as the new partition is made (the restart may still
+	 * wait for the dead peer's checkpoint nodes) */
+	rc_second = 2;
+	restart_case(KILL, 0.1, seed + 62, 0, 1);
 	rc_peers = 0, rc_second = 0;
 }
 
@@ -859,7 +868,8 @@ int main(void)
 		 * TEST_PEER_EVENT=leave (join) another event, TEST_PEER_FIRST=M
 		 * seeds M..M+N−1, TEST_PEER_LEVEL, TEST_PEER_PEERS (before the
 		 * event), TEST_PEER_CHECKPOINTS=C (no loss; −1: none),
-		 * TEST_PEER_SECOND=1 a second peer killed during the restart,
+		 * TEST_PEER_SECOND=1 a second peer killed during the restart (2:
+		 * as soon as the owner made the new partition),
 		 * TEST_PEER_BANDS=1 the partition in bands */
 		int n = atoi(kills), what = KILL;
 		const char *ev = getenv("TEST_PEER_EVENT"), *first = getenv("TEST_PEER_FIRST");
@@ -873,7 +883,7 @@ int main(void)
 		const char *np = getenv("TEST_PEER_PEERS");
 		rc_level = lv ? atoi(lv) : 0;
 		rc_peers = np ? atoi(np) : 0;
-		rc_second = getenv("TEST_PEER_SECOND") != NULL;
+		rc_second = getenv("TEST_PEER_SECOND") ? atoi(getenv("TEST_PEER_SECOND")) : 0;
 		rc_bands = getenv("TEST_PEER_BANDS") != NULL;
 		for (int i = 0; i < n; i++)
 			restart_case(what, ev2 ? 0 : 0.1, s0 + (uint64_t)i, ev2 ? atoi(ev2) : 0, 1);
