@@ -210,6 +210,22 @@ int32_t ndo_msg_peek_sender(ndo_msg_type t, const void *buf, size_t len)
 	return (int32_t)read_be(b + 18, 4);
 }
 
+int32_t ndo_msg_peek_tile(const void *buf, size_t len, int64_t *seq, int64_t *step,
+                          int *channels, int *encoding)
+{
+	/* hash 8, header: version 2, object 8, sender 4, seq 8, utime 8; then
+	 * step 8, time 8, epoch 4, depth 1, i0 j0 i1 j1 16, channels 2,
+	 * encoding 1 */
+	const uint8_t *b = buf;
+	if (!buf || len < 78 || read_be(b, 8) != types[NDO_MSG_TILE].hash())
+		return 0;
+	*seq = read_be(b + 22, 8);
+	*step = read_be(b + 38, 8);
+	*channels = (int)read_be(b + 75, 2);
+	*encoding = (int)read_be(b + 77, 1);
+	return (int32_t)read_be(b + 18, 4);
+}
+
 void ndo_msg_free(ndo_msg *m)
 {
 	if (m && m->hdr) {

@@ -43,6 +43,8 @@ struct ndo_net {
 	ndo_codec *ccodec; /* tiles of the send level (NDO_TILE_COARSE), or NULL */
 	ndo_codec_params cp;
 	ndo_auth *auth; /* keyed session (ndo_net_set_key), else NULL */
+	ndo_net_tile_want_fn want; /* ndo_net_set_tile_want, else NULL */
+	void *want_user;
 	int32_t other_owner; /* the sender of another object's description */
 	ndo_net_stats st;
 	double now;
@@ -289,6 +291,37 @@ static int enqueue(ndo_net *n, ndo_msg *m)
 	return 0;
 }
 
+/* A raw tile of another sender that the receiver does not use
+ * (ndo_net_set_tile_want): 1 when passed over — its sequence number taken
+ * as seen, its counter in a keyed session as used (a replay of it is
+ * dropped as one) — 0 to decode it. */
+static int unwanted(ndo_net *n, const uint8_t *data, size_t len, int sealed,
+                    const ndo_auth_from *from)
+{
+	int64_t seq, step;
+	int channels, encoding;
+	int32_t id = ndo_msg_peek_tile(data, len, &seq, &step, &channels, &encoding);
+	if (!id || id == n->ctx.self_id || encoding != NDO_ENC_RAW ||
+	    n->want(n->want_user, id, step, channels))
+		return 0;
+	if (sealed && !ndo_auth_fresh(n->auth, id, from)) {
+		n->st.dropped[NDO_DROP_REPLAY]++;
+		return 1;
+	}
+	sender *s = find_sender(n, id, 1);
+	s->heard = n->now;
+	if (seq > s->last[NDO_MSG_TILE])
+		s->last[NDO_MSG_TILE] = seq;
+	n->st.unwanted++;
+	return 1;
+}
+
+void ndo_net_set_tile_want(ndo_net *n, ndo_net_tile_want_fn want, void *user)
+{
+	n->want = want;
+	n->want_user = user;
+}
+
 /* A message of type t whose bytes (`sealed`: authenticated, trailer
  * removed; `from`: who sealed it) are in data[0..len). */
 static void on_message(ndo_net *n, int t, const uint8_t *data, size_t len, int sealed,
@@ -301,6 +334,8 @@ static void on_message(ndo_net *n, int t, const uint8_t *data, size_t len, int s
 		n->st.own++;
 		return;
 	}
+	if (t == NDO_MSG_TILE && n->want && unwanted(n, data, len, sealed, from))
+		return;
 	ndo_drop r = ndo_msg_decode((ndo_msg_type)t, data, len, &m);
 	if (r != NDO_DROP_NONE) {
 		/* without a key: a keyed session's message says so */
@@ -589,7 +624,10 @@ void ndo_net_stats_format(const ndo_net *n, char *buf, size_t size)
 			sep = ", ";
 		}
 	if (len > 0 && (size_t)len < size)
-		snprintf(buf + len, size - (size_t)len, "%s, gaps %llu, published %llu",
-		         *sep == ',' ? ")" : "", (unsigned long long)s->gaps,
-		         (unsigned long long)s->published);
+		len += snprintf(buf + len, size - (size_t)len, "%s, gaps %llu, published %llu",
+		                *sep == ',' ? ")" : "", (unsigned long long)s->gaps,
+		                (unsigned long long)s->published);
+	if (s->unwanted && len > 0 && (size_t)len < size)
+		snprintf(buf + len, size - (size_t)len, "; %llu tiles not used here, passed over",
+		         (unsigned long long)s->unwanted);
 }

@@ -320,6 +320,79 @@ static void stale_dropped_latest_kept(void)
 	ndo_bus_destroy(bus);
 }
 
+/* The tile filter (ndo_net_set_tile_want): the fields it is asked with
+ * are the tile's (ndo_msg_peek_tile against the encoded ones), and a tile
+ * it refuses is neither decoded nor queued and leaves no gap. */
+static int want_from_step;
+static int want(void *user, int32_t sender, int64_t step, int channels)
+{
+	(void)user;
+	return sender != 7 || step >= want_from_step || channels != (NDO_TILE_POSITION | NDO_TILE_VELOCITY);
+}
+
+static void unwanted_tiles_passed_over(void)
+{
+	ndo_msg_tile_t t = make_tile(4, 2);
+	t.hdr.seq = 1234567890123;
+	t.step = 9876543210;
+	t.channels = NDO_TILE_POSITION | NDO_TILE_REST;
+	uint8_t *b;
+	size_t n;
+	ndo_msg_encode(NDO_MSG_TILE, &t, &b, &n);
+	int64_t seq, step;
+	int ch, enc;
+	int32_t id = ndo_msg_peek_tile(b, n, &seq, &step, &ch, &enc);
+	CHECK(id == 7 && seq == t.hdr.seq && step == t.step && ch == t.channels && enc == 0,
+	      "peeked sender %d seq %lld step %lld channels %d encoding %d", id, (long long)seq,
+	      (long long)step, ch, enc);
+	CHECK(ndo_msg_peek_tile(b, 77, &seq, &step, &ch, &enc) == 0, "too short: not a tile");
+	free(b);
+	ndo_msg_halo_t h = {.hdr = t.hdr, .step = 5};
+	ndo_msg_encode(NDO_MSG_HALO, &h, &b, &n);
+	CHECK(ndo_msg_peek_tile(b, n, &seq, &step, &ch, &enc) == 0, "a halo's bytes: not a tile");
+	free(b);
+
+	ndo_bus *bus;
+	ndo_bus_create(&bus);
+	ndo_link *a, *l;
+	ndo_link_open_mem(bus, &a);
+	ndo_link_open_mem(bus, &l);
+	ndo_net *rx;
+	ndo_net_create(l, "S", 1, &rx);
+	ndo_net_attach(rx, 42, 4);
+	ndo_net_keep_all_tiles(rx, 1);
+	ndo_net_set_tile_want(rx, want, NULL);
+	want_from_step = 3;
+	t.channels = NDO_TILE_POSITION | NDO_TILE_VELOCITY;
+	for (int k = 0; k < 4; k++) { /* steps 0..3: 0..2 passed over, 3 taken */
+		t.hdr.seq = k;
+		t.step = k;
+		ndo_msg_encode(NDO_MSG_TILE, &t, &b, &n);
+		ndo_link_publish(a, "S_TILE", b, n);
+		free(b);
+	}
+	ndo_net_poll(rx, 0);
+	ndo_msg m;
+	int got = 0;
+	int64_t last = -1;
+	while (ndo_net_next(rx, &m)) {
+		got++;
+		last = m.u.tile.step;
+		ndo_msg_free(&m);
+	}
+	const ndo_net_stats *st = ndo_net_stats_get(rx);
+	CHECK(got == 1 && last == 3 && st->unwanted == 3 && st->gaps == 0 && st->accepted == 1,
+	      "1 tile taken (%d, step %lld), 3 passed over (%llu), gaps %llu", got, (long long)last,
+	      (unsigned long long)st->unwanted, (unsigned long long)st->gaps);
+	char line[256];
+	ndo_net_stats_format(rx, line, sizeof line);
+	CHECK(strstr(line, "3 tiles not used here") != NULL, "the stats say so: %s", line);
+	free(t.values);
+	ndo_net_destroy(rx);
+	ndo_link_destroy(a);
+	ndo_bus_destroy(bus);
+}
+
 static void tiles_fit_one_datagram(void)
 {
 	for (int level = 0; level <= 10; level++) {
@@ -378,6 +451,7 @@ int main(void)
 	RUN(bytes_checked_before_decoding);
 	RUN(control_messages_checked);
 	RUN(stale_dropped_latest_kept);
+	RUN(unwanted_tiles_passed_over);
 	RUN(tiles_fit_one_datagram);
 	RUN(quad_codes_roundtrip);
 	return ck_failed_cases != 0;

@@ -141,6 +141,12 @@ ndo_drop ndo_msg_decode(ndo_msg_type t, const void *buf, size_t len, ndo_msg *m)
  * the hash is not t's.  Nothing else is checked: for skipping a process's
  * own messages (multicast loops them back) before their decode and copy. */
 int32_t ndo_msg_peek_sender(ndo_msg_type t, const void *buf, size_t len);
+/* The same for a tile (tile_t): its sender id (0: not a tile's bytes, or
+ * too short), sequence number, step, channels and encoding, read at their
+ * fixed offsets without decoding the rest (unchecked): for passing over
+ * tiles the receiver does not use (ndo_net_set_tile_want). */
+int32_t ndo_msg_peek_tile(const void *buf, size_t len, int64_t *seq, int64_t *step,
+                          int *channels, int *encoding);
 void ndo_msg_free(ndo_msg *m);
 
 /* What validation knows about the receiver. */

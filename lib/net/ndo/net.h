@@ -35,6 +35,7 @@ typedef struct ndo_net_stats {
 	uint64_t gaps;                 /* messages missing by sequence numbers */
 	uint64_t late;                 /* arrived after a later one (reordered) */
 	uint64_t superseded;           /* tiles replaced by a newer one before use */
+	uint64_t unwanted;             /* tiles passed over undecoded (ndo_net_set_tile_want) */
 	uint64_t published, publish_failed;
 	uint64_t bytes_in, bytes_out;
 	/* another owner on these channels, who was there first: the sender of
@@ -116,6 +117,16 @@ const ndo_codec *ndo_net_coarse_codec(const ndo_net *n);
  * its range (ndo/codec.h) is preceded by one tile per skipped step, its
  * prediction (a watch needs every step of every node). */
 void ndo_net_skipped_tiles(ndo_net *n, int on);
+
+/* Tiles the receiver does not use: want(user, sender, step, channels) is
+ * asked for every raw tile of another sender before it is decoded, and a
+ * tile it returns 0 for is passed over (counted as `unwanted`, not a drop;
+ * its sequence number still counts, and in a keyed session its counter,
+ * so a copy replayed later is still a replay).  An encoded tile is always
+ * decoded: it is the reference of the sender's next ones.  want NULL: every
+ * tile (the default). */
+typedef int (*ndo_net_tile_want_fn)(void *user, int32_t sender, int64_t step, int channels);
+void ndo_net_set_tile_want(ndo_net *n, ndo_net_tile_want_fn want, void *user);
 
 /* Forget a sender's sequence numbers and pending tiles (it left; if it
  * comes back with the same id its numbers start again). */
