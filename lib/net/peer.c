@@ -424,6 +424,21 @@ static int alive_at_cur(const ndo_peer *p, int32_t id)
 	return 0;
 }
 
+/* The net's tile filter: the others' whole-region tiles that a simulating
+ * peer in exact lock-step does not use, passed over undecoded.  Its region
+ * and halo come from its own steps, the halos and the checkpoints; of the
+ * others' nodes it keeps only their last step (the owner's gather, a
+ * joiner's -o).  So every tile before the run starts (the snapshot), the
+ * rest and pin channels, and the last step's, are taken; the frames between
+ * are not (unless the caller reads them: keep_tiles). */
+static int tile_wanted(void *user, int32_t sender, int64_t step, int channels)
+{
+	const ndo_peer *p = user;
+	(void)sender;
+	return !p->started || !p->exact || p->rb || !p->sim || (channels & ~(NDO_TILE_POSITION | NDO_TILE_VELOCITY | NDO_TILE_COARSE)) ||
+	       step >= p->final;
+}
+
 /* The session's halo_fn: another peer's halo (or checkpoint). */
 static void on_halo(void *user, const ndo_msg_halo_t *h)
 {
@@ -2066,6 +2081,8 @@ int ndo_peer_create(const ndo_peer_opts *o, ndo_net *net, ndo_grid *grid, ndo_si
 		ndo_session_set_exact_step(p->s, p->final);
 	else /* until the run starts (go()), the start timeout bounds the wait */
 		ndo_session_set_owner_grace(p->s, p->o.start_timeout);
+	if (!p->o.keep_tiles)
+		ndo_net_set_tile_want(ndo_session_net(p->s), tile_wanted, p);
 	if (owner && ((rc = arrays(p)) || (rc = region(p)))) {
 		ndo_peer_destroy(p, NULL);
 		return rc;

@@ -74,6 +74,40 @@ OWNER_OPTS="--halo-steps 4" exact "3 peers, rk4, a halo exchange every 4 steps" 
 OWNER_OPTS="--publish-every 0" \
 	exact "2 peers, midpoint, whole regions only at the end" 2 midpoint quiet.tgrid
 
+# A simulating peer takes of the others' whole regions only the last step's
+# (the owner's -o, a joiner's own -o): it passes over their frames between,
+# undecoded (the network line counts them), unless it writes frames itself.
+# Both peers' -o are the single process's.
+for jopts in "-o joined.tgrid" "-o joined.tgrid --frames jf/f%03d.tgrid --frame-every 100"; do
+	rm -f joined.tgrid
+	simulate-peer --owner wavy4.tgrid -s "$SCENE" -i rk4 -t 10 --peers 2 --start-timeout 30 \
+		-o owned.tgrid 2>owner.err &
+	pids=($!)
+	# shellcheck disable=SC2086
+	simulate-peer --join --poi 250 --start-timeout 30 $jopts 2>joiner1.err &
+	pids+=($!)
+	if wait_peers 2 "${pids[@]}"; then
+		read -r ro _ < <(compare owned.tgrid solo-rk4.tgrid)
+		read -r rj _ < <(compare joined.tgrid solo-rk4.tgrid)
+		po=$(grep -o '[0-9]* tiles not used here' owner.err | awk '{print $1}')
+		pj=$(grep -o '[0-9]* tiles not used here' joiner1.err | awk '{print $1}')
+		frames=$(find jf -name 'f*.tgrid' 2>/dev/null | wc -l)
+		# the joiner passes over the owner's frames, unless it writes its own
+		joiner_ok=0
+		case $jopts in
+		*--frames*) [ -z "$pj" ] && [ "$frames" -gt 0 ] && joiner_ok=1 ;;
+		*) [ "${pj:-0}" -gt 0 ] && joiner_ok=1 ;;
+		esac
+		if [ "$ro" = 0 ] && [ "$rj" = 0 ] && [ "${po:-0}" -gt 0 ] && [ $joiner_ok = 1 ]; then
+			pass "2 peers, rk4, a joiner with $jopts: both -o bit for bit; tiles passed over: owner ${po}, joiner ${pj:-0 (it writes frames: $frames)}"
+		else
+			fail "2 peers, rk4, a joiner with $jopts" "differences $ro / $rj, tiles passed over ${po:-0} / ${pj:-0}, $frames frames"
+		fi
+	else
+		fail "2 peers, rk4, a joiner with $jopts" "a peer failed"
+	fi
+done
+
 # Level 8: regions of many chunks step rk4 through the pipeline
 # (lib/sim/rk4.c, with held nodes) on a grid where each unit waits for others.
 remesh --shape wavy -l 8 -o wavy8.tgrid 2>/dev/null || fail "remesh level 8"

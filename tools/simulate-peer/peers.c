@@ -519,7 +519,7 @@ int peers_main(run *r)
 		.halo_steps = c->halo_steps, .checkpoint_every = c->checkpoint_every,
 		.publish_every = c->publish_every == 0 && c->publish_every_set ? -1 : c->publish_every,
 		.start_timeout = c->start_timeout, .gather_timeout = c->gather_timeout,
-		.note = on_note, .note_user = &pr};
+		.keep_tiles = r->sc.frames != NULL, .note = on_note, .note_user = &pr};
 	ndo_peer_run run_ = {owner ? ndo_scene_physics(&r->sc) : NULL, r->dt, r->steps};
 	ndo_net *net = open_net(&pr);
 	if (ndo_peer_create(&o, net, g, sim, owner ? &run_ : NULL, &pr.p))

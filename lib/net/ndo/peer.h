@@ -145,6 +145,12 @@ typedef struct ndo_peer_opts {
 	                           region's block factored by CHOLMOD (the
 	                           default): for comparison (test_peer) */
 	/* Each peer's own: */
+	int keep_tiles;         /* 1: the caller reads the others' nodes of the
+	                           grid between the first and the last step (it
+	                           writes frames of it): every tile is taken.
+	                           0: a simulating peer in exact lock-step passes
+	                           over the others' whole-region tiles between
+	                           (it needs only their last step's) */
 	double start_timeout;   /* owner: end the session (NDO_PEER_ENDED) when
 	                           `peers` have not joined within this; joiner:
 	                           end when no object arrived within it (0: 60 s) */
