@@ -276,17 +276,26 @@ static void control_messages_checked(void)
 	CHECK(roundtrip(NDO_MSG_HEARTBEAT, &hb, &c) == NDO_DROP_RANGE, "negative step");
 }
 
+/* A receiver (channels S_*, peer 1, object 42 at level 4) on a new bus,
+ * and the sender's link *a on it. */
+static ndo_net *receiver(ndo_bus **bus, ndo_link **a)
+{
+	ndo_bus_create(bus);
+	ndo_link *b;
+	ndo_link_open_mem(*bus, a);
+	ndo_link_open_mem(*bus, &b);
+	ndo_net *rx;
+	ndo_net_create(b, "S", 1, &rx);
+	ndo_net_attach(rx, 42, 4);
+	return rx;
+}
+
 /* Stale and duplicate messages through a real ndo_net on a bus. */
 static void stale_dropped_latest_kept(void)
 {
 	ndo_bus *bus;
-	ndo_bus_create(&bus);
-	ndo_link *a, *b;
-	ndo_link_open_mem(bus, &a);
-	ndo_link_open_mem(bus, &b);
-	ndo_net *rx;
-	ndo_net_create(b, "S", 1, &rx);
-	ndo_net_attach(rx, 42, 4);
+	ndo_link *a;
+	ndo_net *rx = receiver(&bus, &a);
 	ndo_msg_tile_t t = make_tile(4, 2);
 	t.hdr = (ndo_msg_header_t){NDO_PROTOCOL_VERSION, 42, 7, 0, 0};
 	uint8_t *buf[3];
@@ -353,13 +362,8 @@ static void unwanted_tiles_passed_over(void)
 	free(b);
 
 	ndo_bus *bus;
-	ndo_bus_create(&bus);
-	ndo_link *a, *l;
-	ndo_link_open_mem(bus, &a);
-	ndo_link_open_mem(bus, &l);
-	ndo_net *rx;
-	ndo_net_create(l, "S", 1, &rx);
-	ndo_net_attach(rx, 42, 4);
+	ndo_link *a;
+	ndo_net *rx = receiver(&bus, &a);
 	ndo_net_keep_all_tiles(rx, 1);
 	ndo_net_set_tile_want(rx, want, NULL);
 	want_from_step = 3;
