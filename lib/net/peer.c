@@ -434,8 +434,9 @@ static int alive_at_cur(const ndo_peer *p, int32_t id)
 static int tile_wanted(void *user, int32_t sender, int64_t step, int channels)
 {
 	const ndo_peer *p = user;
+	const int motion = NDO_TILE_POSITION | NDO_TILE_VELOCITY | NDO_TILE_COARSE;
 	(void)sender;
-	return !p->started || !p->exact || p->rb || !p->sim || (channels & ~(NDO_TILE_POSITION | NDO_TILE_VELOCITY | NDO_TILE_COARSE)) ||
+	return !p->started || !p->exact || p->rb || !p->sim || (channels & ~motion) ||
 	       step >= p->final;
 }
 
