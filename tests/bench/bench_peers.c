@@ -15,8 +15,16 @@
  *                                    a step, rkf45's attempts, the solve's
  *                                    iterations with the region's block or
  *                                    the diagonal as the preconditioner
+ *   bench_peers halo-bits [-l LEVEL] what the exact rk4 halo of 2 bands
+ *                                    holds: the bits a value left after
+ *                                    each prediction the receiver could
+ *                                    make (docs/peers.md, "Not done")
  */
 #include "../unit/peer_world.h"
+
+#include "ndo/partition.h"
+#include "ndo/quadtree.h"
+#include "ndo/topology.h"
 
 static double run_split(setup *su, int n, ndo_peer_stats *st)
 {
@@ -134,6 +142,173 @@ static void split(int level)
 				}
 }
 
+/* The length of a lossless code of t given a prediction p: the bits of
+ * |t − p| as integers (the doubles' bit patterns, which order same-signed
+ * doubles) and a sign; 64 where the signs differ.  No coder's overhead. */
+static int residual_bits(double t, double p)
+{
+	int64_t a, b;
+	memcpy(&a, &t, sizeof a);
+	memcpy(&b, &p, sizeof b);
+	if ((a < 0) != (b < 0))
+		return 64;
+	const uint64_t d = a > b ? (uint64_t)(a - b) : (uint64_t)(b - a);
+	return d ? 65 - __builtin_clzll(d) : 0;
+}
+
+/* halo_rings' BFS: ring[c] for canonical node c, the stencil distance
+ * from the nodes of peer `from` (0 for them, −1 beyond `far`) */
+static void rings_from(int level, const int32_t *own, int32_t from, int far, int *ring)
+{
+	const int N = 1 << level, w = 2 * N + 1, h = N + 1;
+	for (int j = 0; j < h; j++)
+		for (int i = 0; i < w; i++)
+			ring[ndo_node(w, i, j)] = own[ndo_canonical(level, i, j)] == from ? 0 : -1;
+	for (int d = 1; d <= far; d++)
+		for (int j = 0; j < h; j++)
+			for (int i = 0; i < w; i++) {
+				const size_t c = ndo_canonical(level, i, j);
+				if (c != ndo_node(w, i, j) || ring[c] != -1)
+					continue;
+				size_t nb[6];
+				ndo_neighbors(level, i, j, nb);
+				for (int q = 0; q < 6; q++)
+					if (ring[ndo_canonical(level, (int)(nb[q] % (size_t)w),
+					                       (int)(nb[q] / (size_t)w))] == d - 1)
+						ring[c] = d;
+			}
+}
+
+/* What an exact rk4 halo holds (docs/peers.md, "Not done": is the 10 kB
+ * goal a matter of coding?).  Two bands; the receiver holds its own rows,
+ * the sender's rings 1-2 of the step before, and the sender's rings 1-2
+ * (u and v: what the halo's 12 doubles a column carry) must come out bit
+ * for bit.  The predictions: the last exchange's values; their linear
+ * extrapolation in time; and rk4's own step of the sender's rings 1-2,
+ * from every value the receiver holds, with the rings beyond (3-4, which
+ * a step of rings 1-2 reads) guessed from rings 1-2 along the grid's
+ * columns — held, linear or quadratic — or (the check) given exactly. */
+static void halo_bits(int level)
+{
+	enum { WARM = 100, STEPS = 100, NP = 6 };
+	static const char *names[NP] = {
+	    "the last exchange's value", "linear in time (2 last − the one before)",
+	    "rk4 step, rings 3-4 held at ring 2's", "rk4 step, rings 3-4 linear across rows",
+	    "rk4 step, rings 3-4 quadratic across rows", "rk4 step, rings 3-4 exact (check: 0)"};
+	setup su = {.integrator = "rk4", .dt = 0.01, .steps = 1, .clock = NDO_CLOCK_LOCKSTEP,
+	            .level = level};
+	ndo_scene sc, sc2;
+	ndo_grid *g, *g2;
+	ndo_sim *sim = object(&su, &sc, &g), *scr = object(&su, &sc2, &g2);
+	ndo_critical crit;
+	ndo_sim_critical(sim, &crit);
+	const double h = 0.9 * crit.h_crit;
+	const int N = 1 << level, w = 2 * N + 1;
+	const size_t n = g->count;
+	int32_t *all = malloc(n * sizeof *all), *own = malloc(n * sizeof *own);
+	int32_t *cells = malloc(ndo_cell_count(level) * sizeof *cells);
+	int32_t used[2], ids[2] = {1, 2}, pois[2] = {-1, (int32_t)(ndo_triangle_count(level) / 2)};
+	for (size_t k = 0; k < n; k++)
+		all[k] = (int32_t)k;
+	ndo_partition(level, NDO_PART_BANDS, 2, pois, cells, used);
+	ndo_partition_node_owner(level, cells, ids, own);
+	int *ring = malloc(n * sizeof *ring);
+	double *s[6]; /* u, v now; u, v after the step; u, v the step before */
+	for (int k = 0; k < 6; k++)
+		s[k] = malloc(3 * n * sizeof **s);
+	double *ug = malloc(3 * n * sizeof *ug), *vg = malloc(3 * n * sizeof *vg);
+	double *up = malloc(3 * n * sizeof *up), *vp = malloc(3 * n * sizeof *vp);
+	printf("Level %d, rk4 at 0.9 of its critical step (%.4g s), 2 bands; steps %d-%d of the "
+	       "thesis scene; bits a value (u and v, 3 coordinates each) of rings 1 and 2, and "
+	       "the kB a step that many bits make (the raw halo: 8 bytes a value).\n\n",
+	       level, h, WARM + 1, WARM + STEPS);
+	printf("| sender | prediction | ring 1 | ring 2 | kB a step (raw) |\n|---|---|---:|---:|---:|\n");
+	for (int32_t from = 1; from <= 2; from++) {
+		rings_from(level, own, from, 4, ring);
+		/* the columns run away from the receiver in +j or −j */
+		int dir = 0;
+		for (size_t c = 0; c < n && !dir; c++)
+			if (ring[c] == 1 && c / (size_t)w > 0 && c / (size_t)w < (size_t)N)
+				dir = ring[ndo_canonical(level, (int)(c % (size_t)w), (int)(c / (size_t)w) - 1)] == 0
+				          ? 1
+				          : -1;
+		ndo_sim_destroy(sim);
+		ndo_grid_destroy(g);
+		ndo_scene_free(&sc);
+		sim = object(&su, &sc, &g);
+		for (int t = 0; t < WARM; t++)
+			ndo_sim_step(sim, h);
+		ndo_sim_get_nodes(sim, n, all, NULL, s[4], s[5]);
+		ndo_sim_step(sim, h);
+		double bits[NP][2] = {{0}}, values[2] = {0};
+		for (int t = 0; t < STEPS; t++) {
+			ndo_sim_get_nodes(sim, n, all, NULL, s[0], s[1]);
+			const double t0 = ndo_sim_time(sim);
+			const int64_t k0 = ndo_sim_step_count(sim);
+			ndo_sim_step(sim, h);
+			ndo_sim_get_nodes(sim, n, all, NULL, s[2], s[3]);
+			for (int m = 2; m < NP; m++) {
+				memcpy(ug, s[0], 3 * n * sizeof *ug);
+				memcpy(vg, s[1], 3 * n * sizeof *vg);
+				for (size_t c = 0; m < 5 && c < n; c++) {
+					if (ring[c] < 3)
+						continue;
+					const int i = (int)(c % (size_t)w), j = (int)(c / (size_t)w), d = ring[c];
+					const size_t a2 = ndo_canonical(level, i, j - dir * (d - 2)),
+					             a1 = ndo_canonical(level, i, j - dir * (d - 1)),
+					             a0 = ndo_canonical(level, i, j - dir * d);
+					const double e = d - 2;
+					for (int q = 0; q < 6; q++) {
+						const double *y = s[q / 3];
+						double *gq = q < 3 ? ug : vg;
+						const double y2 = y[3 * a2 + q % 3], y1 = y[3 * a1 + q % 3],
+						             y0 = y[3 * a0 + q % 3];
+						gq[3 * c + q % 3] = m == 2 ? y2
+						                    : m == 3 ? y2 + e * (y2 - y1)
+						                             : y2 + e * (y2 - y1) +
+						                                   0.5 * e * (e + 1) * (y2 - 2 * y1 + y0);
+					}
+				}
+				ndo_sim_set_displacements(scr, n, all, ug, vg);
+				ndo_sim_set_time(scr, t0, k0);
+				ndo_sim_step(scr, h);
+				ndo_sim_get_nodes(scr, n, all, NULL, up, vp);
+				for (size_t c = 0; c < n; c++)
+					if (ring[c] == 1 || ring[c] == 2)
+						for (int q = 0; q < 3; q++)
+							bits[m][ring[c] - 1] += residual_bits(s[2][3 * c + q], up[3 * c + q]) +
+							                        residual_bits(s[3][3 * c + q], vp[3 * c + q]);
+			}
+			for (size_t c = 0; c < n; c++)
+				if (ring[c] == 1 || ring[c] == 2) {
+					const int r = ring[c] - 1;
+					values[r] += 6;
+					for (int q = 0; q < 3; q++) {
+						const size_t o = 3 * c + (size_t)q;
+						bits[0][r] += residual_bits(s[2][o], s[0][o]) + residual_bits(s[3][o], s[1][o]);
+						bits[1][r] += residual_bits(s[2][o], 2 * s[0][o] - s[4][o]) +
+						              residual_bits(s[3][o], 2 * s[1][o] - s[5][o]);
+					}
+				}
+			memcpy(s[4], s[0], 3 * n * sizeof **s);
+			memcpy(s[5], s[1], 3 * n * sizeof **s);
+		}
+		for (int m = 0; m < NP; m++)
+			printf("| %d | %s | %.1f | %.1f | %.2f (%.2f) |\n", from == 1 ? 2 : 1, names[m],
+			       bits[m][0] / values[0], bits[m][1] / values[1],
+			       (bits[m][0] + bits[m][1]) / 8e3 / STEPS, 8 * (values[0] + values[1]) / 1e3 / STEPS);
+	}
+	ndo_sim_destroy(sim);
+	ndo_sim_destroy(scr);
+	ndo_grid_destroy(g);
+	ndo_grid_destroy(g2);
+	ndo_scene_free(&sc);
+	ndo_scene_free(&sc2);
+	for (int k = 0; k < 6; k++)
+		free(s[k]);
+	free(ug), free(vg), free(up), free(vp), free(ring), free(all), free(own), free(cells);
+}
+
 int main(int argc, char **argv)
 {
 	int level = argc > 3 && strcmp(argv[2], "-l") == 0 ? atoi(argv[3]) : 5;
@@ -143,8 +318,10 @@ int main(int argc, char **argv)
 		realtime(level);
 	else if (argc > 1 && strcmp(argv[1], "split") == 0)
 		split(level);
+	else if (argc > 1 && strcmp(argv[1], "halo-bits") == 0)
+		halo_bits(argc > 3 ? level : 6);
 	else {
-		fprintf(stderr, "usage: bench_peers lag|realtime|split [-l LEVEL]\n");
+		fprintf(stderr, "usage: bench_peers lag|realtime|split|halo-bits [-l LEVEL]\n");
 		return 2;
 	}
 	return 0;
