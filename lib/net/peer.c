@@ -89,6 +89,7 @@ struct ndo_peer {
 	int64_t sstep[2];
 	double stime[2];
 	int32_t sepoch[2];
+	int8_t sconf[2];       /* ... and whether it was exact (halo_t.confirmed) */
 	int synced;            /* the grid holds the region's state at cur */
 	int64_t ahead;         /* the step begun ahead of its halo (ndo_sim_step_begin), −1 */
 	ndo_msg_halo_t *hstash; /* halos for later steps or partitions */
@@ -104,7 +105,11 @@ struct ndo_peer {
 	int C;
 	ndo__ck *ck;
 	int inexact;           /* went on with older values since the last
-	                          (re)start: its checkpoints are not sent */
+	                          (re)start, here or at another peer (a halo
+	                          not confirmed): its checkpoints are not
+	                          sent, its halos say so (taint) */
+	int64_t inexact_at;    /* ... the first step whose state it holds */
+	int32_t inexact_from;  /* ... the peer it began at (0: this one) */
 	int64_t rs_step;       /* a restart waiting for checkpoint nodes, −1: none */
 	int64_t rs_from;       /* ... the step this peer was at */
 	int64_t ck_skip;       /* the step just restarted from: its checkpoint is held */
@@ -182,12 +187,16 @@ static int arrays(ndo_peer *p)
 	return 0;
 }
 
+static void taint(ndo_peer *p, int64_t step, int32_t from);
+
 /* ---- tiles in ------------------------------------------------------------ */
 /* Write a tile's values into the nodes `take` accepts. */
 /* A halo (ndo_msg_halo_t) of exact lock-step: into the halo nodes the
  * sender owns, when newer. */
 static void write_halo(ndo_peer *p, const ndo_msg_halo_t *h)
 {
+	if (!h->confirmed)
+		taint(p, h->step, h->hdr.sender_id);
 	if (!p->exact || !p->hmark)
 		return;
 	if (p->rb)
@@ -687,6 +696,7 @@ static void strip_snapshot(ndo_peer *p, int b)
 		memcpy(sb + 6 * c + 3, p->xs + 3 * k, 3 * sizeof *sb);
 	}
 	p->sstep[b] = p->cur;
+	p->sconf[b] = (int8_t)!p->inexact;
 	p->stime[b] = p->tcur;
 	p->sepoch[b] = ndo_session_epoch(p->s);
 }
@@ -702,7 +712,7 @@ static int strip_send(ndo_peer *p, int b)
 	ndo_msg_halo_t h;
 	memset(&h, 0, sizeof h);
 	h.step = p->sstep[b];
-	h.confirmed = 1; /* lock-step: every input was the true one */
+	h.confirmed = p->sconf[b]; /* every input the true one: not after a taint */
 	h.time = p->stime[b];
 	int rc = ndo_session_send_nodes(p->s, &h, p->nstrip, p->strip, p->sbuf[b], NULL, NULL,
 	                                (int32_t *)p->hx, (int32_t *)p->hv, p->xs);
@@ -711,6 +721,38 @@ static int strip_send(ndo_peer *p, int b)
 	p->st.halo_tiles += rc;
 	p->st.halo_bytes += ns->bytes_out - b0;
 	return 0;
+}
+
+/* Exact lock-step: the state from `step` on is no longer the single
+ * process's — a step taken with the halo's older values (a step timeout),
+ * a region taken over from frames (a new partition without a restart),
+ * or either at peer `from`, whose halo said so.  Until a restart this
+ * peer's halos say so too (so the taint reaches every peer: multicast),
+ * it sends no checkpoints, and the owner reports the result as not exact
+ * (ndo_peer_stats.inexact_at). */
+static void taint(ndo_peer *p, int64_t step, int32_t from)
+{
+	if (p->inexact || !p->exact || p->rb)
+		return;
+	p->inexact = 1;
+	p->inexact_at = step;
+	p->inexact_from = from;
+}
+
+/* The taint on its own (an empty halo, not confirmed), where no strip
+ * carries it: the last step, and the split steps (their phases have no
+ * such flag). */
+static int verdict_send(ndo_peer *p)
+{
+	if (!p->inexact || !p->exact || p->rb)
+		return 0;
+	ndo_msg_halo_t h;
+	memset(&h, 0, sizeof h);
+	h.step = p->cur;
+	h.time = p->tcur;
+	h.confirmed = 0;
+	int rc = ndo_session_send_halo(p->s, &h);
+	return rc < 0 ? rc : 0;
 }
 
 /* Whole-region tiles at cur (frames, the first and last steps). */
@@ -851,6 +893,8 @@ static int restart_try(ndo_peer *p)
 	p->synced = 0;
 	p->sstep[0] = p->sstep[1] = -1;
 	p->inexact = 0;
+	p->inexact_at = -1;
+	p->inexact_from = 0;
 	p->ck_skip = R;
 	p->blocked = 0;
 	p->gather_t0 = -1;
@@ -920,6 +964,9 @@ static int exact_publish(ndo_peer *p)
 	int64_t C = restartable(p) ? (p->C + p->K - 1) / p->K * p->K : 0;
 	if (C && !last && rel > 0 && rel % C == 0 && !p->inexact && p->cur != p->ck_skip &&
 	    (rc = checkpoint(p)))
+		return rc;
+	/* the taint where no strip carries it */
+	if ((last || p->ps) && (rc = verdict_send(p)))
 		return rc;
 	if (last || rel == 0 || (p->N > 0 && rel % p->N == 0))
 		return frame_send(p);
@@ -1107,6 +1154,8 @@ static int resend(ndo_peer *p)
 				return rc;
 		if (p->ps && (rc = ndo__ps_resend(p->ps)))
 			return rc;
+		if ((p->ps || p->cur >= p->final) && (rc = verdict_send(p)))
+			return rc;
 		return p->cur >= p->final || !p->started ? frame_send(p) : 0;
 	}
 	if (p->prev_valid && (rc = ndo_session_publish_from(p->s, p->prev, p->prev_step,
@@ -1268,6 +1317,8 @@ static void join_point(ndo_peer *p)
 	p->wall0 = p->now;
 	p->sched0 = p->cur;
 	p->prev_valid = 0;
+	if (p->cur > p->first) /* exact lock-step without a restart: from frames */
+		taint(p, p->cur, 0);
 }
 
 /* The first state: this peer's region at the step it starts from, sent
@@ -1635,7 +1686,9 @@ static int step_split(ndo_peer *p)
 		 * older values (the run is no longer exact), and the peers meet
 		 * again at the next one */
 		p->st.timeouts++;
-		p->inexact = 1;
+		taint(p, p->cur + 1, 0);
+		if ((rc = verdict_send(p)))
+			return rc;
 		p->st.missed += (int64_t)p->nhalo;
 		if (p->notes_missed++ < 5)
 			note(p, "step %lld: the other peers' part of the step did not come within %.2g s: "
@@ -1710,7 +1763,7 @@ static int lockstep(ndo_peer *p)
 	}
 	if (now - p->block_t0 >= p->step_timeout && !neighbours_alive(p)) {
 		p->st.timeouts++;
-		p->inexact = 1; /* no checkpoints until a restart */
+		taint(p, p->cur + 1, 0); /* no checkpoints until a restart */
 		if (p->notes_missed++ < 5) {
 			const int32_t *own = owner_channel(p);
 			char who[64] = "";
@@ -1878,8 +1931,11 @@ static int on_partition(ndo_peer *p)
 		if (restart) /* announced: started, or about to */
 			return restart_begin(p, R, was && p->started ? p->cur : R);
 		for (size_t q = 0; q < p->ncanon; q++)
-			if (p->mask[p->canons[q]] && p->nstep[p->canons[q]] < p->cur)
+			if (p->mask[p->canons[q]] && p->nstep[p->canons[q]] < p->cur) {
 				p->nstep[p->canons[q]] = p->cur;
+				if (p->started) /* taken over from older values */
+					taint(p, p->cur, 0);
+			}
 		unstash(p);
 		p->blocked = 0;
 		if (p->simulating)
@@ -2022,6 +2078,7 @@ int ndo_peer_create(const ndo_peer_opts *o, ndo_net *net, ndo_grid *grid, ndo_si
 	       : o->checkpoint_every < 0 ? 0
 	                                 : ndo_peer_checkpoint_default(grid ? grid->level : 0);
 	p->rs_step = p->ck_skip = p->ck_at = -1;
+	p->inexact_at = -1;
 	p->fill_step = -1;
 	p->max_seen = -1;
 	p->created = -1;
@@ -2144,6 +2201,8 @@ void ndo_peer_stats_get(const ndo_peer *p, ndo_peer_stats *st)
 {
 	*st = p->st;
 	st->exact = p->exact;
+	st->inexact_at = p->inexact ? p->inexact_at : -1;
+	st->inexact_peer = p->inexact ? p->inexact_from : 0;
 	st->halo_rings = p->exact ? p->W : 1;
 	if (p->ps) {
 		ndo__ps_stats ps;

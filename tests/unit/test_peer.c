@@ -44,10 +44,11 @@ static void lockstep_is_the_single_process_bit_for_bit(void)
 			CHECK(ok && d == 0, "%s, %d peers%s, %d steps per exchange: done %d, differs by "
 			      "%.3g (expected 0: bit for bit)", methods[m], n, su.bands ? " in bands" : "",
 			      su.halo_steps ? su.halo_steps : 1, ok, d);
-			CHECK(st.exact && st.timeouts == 0 && st.missed == 0 && st.ungathered == 0,
-			      "%s, %d peers: exact %d, %lld timeouts, %lld missed, %lld ungathered",
-			      methods[m], n, st.exact, (long long)st.timeouts, (long long)st.missed,
-			      (long long)st.ungathered);
+			CHECK(st.exact && st.inexact_at < 0 && st.timeouts == 0 && st.missed == 0 &&
+			          st.ungathered == 0,
+			      "%s, %d peers: exact %d (not from step %lld), %lld timeouts, %lld missed, "
+			      "%lld ungathered", methods[m], n, st.exact, (long long)st.inexact_at,
+			      (long long)st.timeouts, (long long)st.missed, (long long)st.ungathered);
 			/* the least an exact step reads: D·K rings, the outermost held (and,
 			 * for midpoint and rk4, moving along its velocity) */
 			ndo_method mm = NDO_RK4;
@@ -166,8 +167,9 @@ static void lockstep_survives_loss(void)
 	int ok;
 	double d = split_run(&su, 3, &st, &ok);
 	CHECK(ok && d < 1e-12, "20%% loss: done %d, differs by %.3g", ok, d);
-	CHECK(st.resends > 0 && st.timeouts == 0, "20%% loss: %lld re-sends, %lld timeouts",
-	      (long long)st.resends, (long long)st.timeouts);
+	CHECK(st.resends > 0 && st.timeouts == 0 && st.inexact_at < 0,
+	      "20%% loss: %lld re-sends, %lld timeouts, not exact from step %lld",
+	      (long long)st.resends, (long long)st.timeouts, (long long)st.inexact_at);
 	printf("    20%% loss, 3 peers: difference %.2g, owner waited %lld steps (%.3f s), %lld "
 	       "re-sends\n", d, (long long)st.waited, st.wait_seconds, (long long)st.resends);
 }
@@ -201,8 +203,10 @@ static void split_steps_survive_loss(void)
 		double d = split_run(&su, 3, &st, &ok);
 		CHECK(ok && d <= cases[c].bound, "%s, %s: done %d, differs by %.3g", cases[c].method,
 		      cases[c].how, ok, d);
-		CHECK(st.resends > 0 && st.timeouts == 0, "%s, %s: %lld re-sends, %lld timeouts",
-		      cases[c].method, cases[c].how, (long long)st.resends, (long long)st.timeouts);
+		CHECK(st.resends > 0 && st.timeouts == 0 && st.inexact_at < 0,
+		      "%s, %s: %lld re-sends, %lld timeouts, not exact from step %lld",
+		      cases[c].method, cases[c].how, (long long)st.resends, (long long)st.timeouts,
+		      (long long)st.inexact_at);
 		printf("    %s, %s, 3 peers: difference %.2g, owner waited %lld steps (%.3f s), "
 		       "%lld re-sends\n", cases[c].method, cases[c].how, d, (long long)st.waited,
 		       st.wait_seconds, (long long)st.resends);
@@ -378,9 +382,10 @@ static void life(const char *integrator, double dt, int64_t steps)
 	 * rk4 and rkf45 bit for bit, the trapezoid within its solve's
 	 * tolerance */
 	double want = restart_tolerance(integrator);
-	CHECK(d <= want && st.restarts >= 3, "%s: the single process (expected %s), differs by "
-	      "%.3g, %lld restarts", integrator, want > 0 ? "≤ 1e-10" : "0: bit for bit", d,
-	      (long long)st.restarts);
+	CHECK(d <= want && st.restarts >= 3 && st.inexact_at < 0, "%s: the single process "
+	      "(expected %s), differs by %.3g, %lld restarts, not exact from step %lld", integrator,
+	      want > 0 ? "≤ 1e-10" : "0: bit for bit", d, (long long)st.restarts,
+	      (long long)st.inexact_at);
 	free(x);
 	ndo_peer_destroy(dead, NULL); /* quietly: its leave finds no one to read it */
 	world_free(w);
@@ -508,7 +513,16 @@ static void restart_case(int what, double drop, uint64_t seed, int every, int k)
 		CHECK(done && d > fmax(1e-6, 100 * want) && st.restarts == 0, "%s, %s without "
 		      "checkpoints: done %d, differs by %.3g (must differ), %lld restarts", method,
 		      WHAT[what], done, d, (long long)st.restarts);
+		/* and the owner says so, though it may not have timed out itself */
+		CHECK(st.inexact_at >= 0, "%s, %s without checkpoints: the owner reports the "
+		      "result exact (%lld timeouts of its own)", method, WHAT[what],
+		      (long long)st.timeouts);
+		printf("    the owner: not exact from step %lld (%s)\n", (long long)st.inexact_at,
+		       st.inexact_peer ? "another peer's halo said so" : "its own step");
 	} else {
+		CHECK(st.inexact_at < 0, "%s, %s: exact (differs by %.3g) but reported not exact "
+		      "from step %lld (peer %d)", method, WHAT[what], d, (long long)st.inexact_at,
+		      st.inexact_peer);
 		CHECK(done && d <= want, "%s, %s at step %lld, %.0f%% loss (seed %llu): done %d, "
 		      "differs by %.3g (expected %s)", method, WHAT[what], (long long)was, 100 * drop,
 		      (unsigned long long)seed, done, d, want > 0 ? "≤ 1e-10" : "0: bit for bit");
@@ -887,7 +901,7 @@ int main(void)
 		rc_bands = getenv("TEST_PEER_BANDS") != NULL;
 		for (int i = 0; i < n; i++)
 			restart_case(what, ev2 ? 0 : 0.1, s0 + (uint64_t)i, ev2 ? atoi(ev2) : 0, 1);
-		return ck_failed_cases != 0;
+		return ck_case_failures != 0; /* no RUN() here: the checks' own count */
 	}
 	RUN(lockstep_is_the_single_process_bit_for_bit);
 	RUN(lockstep_steps_ahead_of_the_halo);

@@ -423,6 +423,15 @@ static void summary(peer_run *pr, const char *how)
 		        (double)st.halo_tiles / (double)st.steps, ahead, (long long)st.frames,
 		        (double)st.frame_bytes / 1e3 / (double)st.steps);
 	}
+	if (st.exact && st.inexact_at >= 0) {
+		char where[32] = "here";
+		if (st.inexact_peer)
+			snprintf(where, sizeof where, "at peer %d", st.inexact_peer);
+		fprintf(stderr, "%s: NOT exact: from step %lld the state holds values taken after a "
+		        "step timeout, or a region taken over from frames (%s), and no restart "
+		        "followed: the result is not the single process's\n", ndo_progname,
+		        (long long)st.inexact_at, where);
+	}
 	if (st.checkpoints || st.restarts)
 		fprintf(stderr, "%s: restarts: %lld checkpoints kept, %.3g kB of them sent; %lld "
 		        "restarts from a checkpoint (new partitions), %lld steps taken again\n",

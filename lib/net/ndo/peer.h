@@ -268,6 +268,15 @@ typedef struct ndo_peer_stats {
 	                           ended (after gather_timeout) */
 	int exact;              /* lock-step with exchanged halos: the single
 	                           process's result (0: the boundary lag) */
+	int64_t inexact_at;     /* exact lock-step: −1 when the state this peer
+	                           holds is the single process's as far as it
+	                           knows; else the first step of it that is not:
+	                           a step taken with older values after a step
+	                           timeout, or a region taken over from frames (a
+	                           new partition without a restart), here or at
+	                           a peer whose halo said so, that no restart
+	                           undid (docs/peers.md, "Exact, or not") */
+	int32_t inexact_peer;   /* ... the peer where it began (0: this one) */
 	int halo_rings;         /* the halo's width (exact) */
 	int64_t exchanges;      /* halo exchanges sent */
 	int64_t halo_tiles;     /* ... their tiles */
