@@ -110,6 +110,10 @@ struct ndo_peer {
 	                          sent, its halos say so (taint) */
 	int64_t inexact_at;    /* ... the first step whose state it holds */
 	int32_t inexact_from;  /* ... the peer it began at (0: this one) */
+	/* owner: each simulating peer's last word (an empty halo at the last
+	 * step: exact or not), of the partition in force */
+	int32_t word[NDO_MAX_PEERS];
+	int nword;
 	int64_t rs_step;       /* a restart waiting for checkpoint nodes, −1: none */
 	int64_t rs_from;       /* ... the step this peer was at */
 	int64_t ck_skip;       /* the step just restarted from: its checkpoint is held */
@@ -197,6 +201,16 @@ static void write_halo(ndo_peer *p, const ndo_msg_halo_t *h)
 {
 	if (!h->confirmed)
 		taint(p, h->step, h->hdr.sender_id);
+	if (h->nruns == 0) { /* a taint or a last word: no values */
+		if (p->owner && p->exact && !p->rb && h->step >= p->final) {
+			int k = 0;
+			while (k < p->nword && p->word[k] != h->hdr.sender_id)
+				k++;
+			if (k == p->nword && k < NDO_MAX_PEERS)
+				p->word[p->nword++] = h->hdr.sender_id;
+		}
+		return;
+	}
 	if (!p->exact || !p->hmark)
 		return;
 	if (p->rb)
@@ -498,9 +512,11 @@ static void on_halo(void *user, const ndo_msg_halo_t *h)
 		p->failed = NDO_ENOMEM;
 		return;
 	}
-	memcpy(c->start, h->start, (size_t)h->nruns * sizeof *c->start);
-	memcpy(c->len, h->len, (size_t)h->nruns * sizeof *c->len);
-	memcpy(c->values, h->values, (size_t)h->nvalues * sizeof *c->values);
+	if (h->nruns > 0) { /* an empty halo (a taint, a last word) holds none */
+		memcpy(c->start, h->start, (size_t)h->nruns * sizeof *c->start);
+		memcpy(c->len, h->len, (size_t)h->nruns * sizeof *c->len);
+		memcpy(c->values, h->values, (size_t)h->nvalues * sizeof *c->values);
+	}
 	p->nhstash++;
 	p->st.stashed++;
 }
@@ -739,18 +755,21 @@ static void taint(ndo_peer *p, int64_t step, int32_t from)
 	p->inexact_from = from;
 }
 
-/* The taint on its own (an empty halo, not confirmed), where no strip
- * carries it: the last step, and the split steps (their phases have no
- * such flag). */
+/* An empty halo: the taint on its own (not confirmed) where no strip
+ * carries it — the split steps, whose phases have no such flag — and at
+ * the last step every simulating peer's last word, exact or not, which the
+ * owner waits for with the last step's tiles (so its verdict covers a
+ * taint of the last step itself). */
 static int verdict_send(ndo_peer *p)
 {
-	if (!p->inexact || !p->exact || p->rb)
+	const int last = p->cur >= p->final;
+	if (!p->exact || p->rb || !p->simulating || (last ? p->owner : !p->inexact))
 		return 0;
 	ndo_msg_halo_t h;
 	memset(&h, 0, sizeof h);
 	h.step = p->cur;
 	h.time = p->tcur;
-	h.confirmed = 0;
+	h.confirmed = (int8_t)!p->inexact;
 	int rc = ndo_session_send_halo(p->s, &h);
 	return rc < 0 ? rc : 0;
 }
@@ -1839,6 +1858,28 @@ static int realtime(ndo_peer *p)
 	return NDO_PEER_WAITING;
 }
 
+/* Owner, exact lock-step: how many simulating peers of the partition in
+ * force have not sent their last word yet (*silent), and one of them. */
+static int32_t last_words(const ndo_peer *p, int *silent)
+{
+	int n = 0;
+	const int32_t *ids;
+	*silent = 0;
+	if (!p->exact || p->rb || !ndo_session_cells(p->s, &n, &ids))
+		return 0;
+	int32_t who = 0;
+	for (int k = 0; k < n; k++) {
+		if (ids[k] == ndo_session_self(p->s))
+			continue;
+		int j = 0;
+		while (j < p->nword && p->word[j] != ids[k])
+			j++;
+		if (j == p->nword)
+			(*silent)++, who = ids[k];
+	}
+	return who;
+}
+
 /* After the last step: the owner gathers, a joiner keeps its last steps
  * available until the owner ends the session. */
 static int finishing(ndo_peer *p)
@@ -1878,11 +1919,19 @@ static int finishing(ndo_peer *p)
 		size_t behind = 0;
 		for (size_t q = 0; q < p->ncanon; q++)
 			behind += p->nstep[p->canons[q]] < p->final;
-		if (behind == 0 || now - p->gather_t0 >= p->o.gather_timeout) {
+		int silent = 0;
+		int32_t who = last_words(p, &silent);
+		if ((behind == 0 && !silent) || now - p->gather_t0 >= p->o.gather_timeout) {
 			p->st.ungathered = (int64_t)behind;
+			p->st.unsaid = silent;
 			if (behind)
 				note(p, "step %lld: %zu nodes of the others did not arrive within %.3g s: "
 				     "the output holds their newest values", (long long)p->final, behind,
+				     p->o.gather_timeout);
+			if (silent)
+				note(p, "step %lld: %d peer%s (peer %d …) did not say within %.3g s whether "
+				     "its last step was exact: the result is exact as far as the others "
+				     "know", (long long)p->final, silent, silent == 1 ? "" : "s", who,
 				     p->o.gather_timeout);
 			p->done = 1;
 			return NDO_PEER_DONE;
@@ -1900,6 +1949,7 @@ static int on_partition(ndo_peer *p)
 		return 0; /* several events, one partition in force */
 	p->epoch_done = ndo_session_epoch(p->s);
 	p->epoch_t0 = p->now;
+	p->nword = 0; /* the last words of this partition's peers */
 	size_t before = p->nowned;
 	int was = p->simulating;
 	int rc = region(p);

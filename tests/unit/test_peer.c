@@ -45,10 +45,11 @@ static void lockstep_is_the_single_process_bit_for_bit(void)
 			      "%.3g (expected 0: bit for bit)", methods[m], n, su.bands ? " in bands" : "",
 			      su.halo_steps ? su.halo_steps : 1, ok, d);
 			CHECK(st.exact && st.inexact_at < 0 && st.timeouts == 0 && st.missed == 0 &&
-			          st.ungathered == 0,
+			          st.ungathered == 0 && st.unsaid == 0,
 			      "%s, %d peers: exact %d (not from step %lld), %lld timeouts, %lld missed, "
-			      "%lld ungathered", methods[m], n, st.exact, (long long)st.inexact_at,
-			      (long long)st.timeouts, (long long)st.missed, (long long)st.ungathered);
+			      "%lld ungathered, %d last words missing", methods[m], n, st.exact,
+			      (long long)st.inexact_at, (long long)st.timeouts, (long long)st.missed,
+			      (long long)st.ungathered, st.unsaid);
 			/* the least an exact step reads: D·K rings, the outermost held (and,
 			 * for midpoint and rk4, moving along its velocity) */
 			ndo_method mm = NDO_RK4;
@@ -520,9 +521,9 @@ static void restart_case(int what, double drop, uint64_t seed, int every, int k)
 		printf("    the owner: not exact from step %lld (%s)\n", (long long)st.inexact_at,
 		       st.inexact_peer ? "another peer's halo said so" : "its own step");
 	} else {
-		CHECK(st.inexact_at < 0, "%s, %s: exact (differs by %.3g) but reported not exact "
-		      "from step %lld (peer %d)", method, WHAT[what], d, (long long)st.inexact_at,
-		      st.inexact_peer);
+		CHECK(st.inexact_at < 0 && st.unsaid == 0, "%s, %s: exact (differs by %.3g) but "
+		      "reported not exact from step %lld (peer %d), or %d last words missing",
+		      method, WHAT[what], d, (long long)st.inexact_at, st.inexact_peer, st.unsaid);
 		CHECK(done && d <= want, "%s, %s at step %lld, %.0f%% loss (seed %llu): done %d, "
 		      "differs by %.3g (expected %s)", method, WHAT[what], (long long)was, 100 * drop,
 		      (unsigned long long)seed, done, d, want > 0 ? "≤ 1e-10" : "0: bit for bit");

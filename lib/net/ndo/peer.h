@@ -277,6 +277,9 @@ typedef struct ndo_peer_stats {
 	                           a peer whose halo said so, that no restart
 	                           undid (docs/peers.md, "Exact, or not") */
 	int32_t inexact_peer;   /* ... the peer where it began (0: this one) */
+	int unsaid;             /* owner, exact lock-step: peers whose last word
+	                           (exact or not) had not come when the run ended
+	                           (after gather_timeout) */
 	int halo_rings;         /* the halo's width (exact) */
 	int64_t exchanges;      /* halo exchanges sent */
 	int64_t halo_tiles;     /* ... their tiles */
