@@ -885,7 +885,8 @@ int main(void)
 		 * event), TEST_PEER_CHECKPOINTS=C (no loss; −1: none),
 		 * TEST_PEER_SECOND=1 a second peer killed during the restart (2:
 		 * as soon as the owner made the new partition),
-		 * TEST_PEER_BANDS=1 the partition in bands */
+		 * TEST_PEER_BANDS=1 the partition in bands, TEST_PEER_DROP=P
+		 * another loss (0..1) */
 		int n = atoi(kills), what = KILL;
 		const char *ev = getenv("TEST_PEER_EVENT"), *first = getenv("TEST_PEER_FIRST");
 		rc_method = getenv("TEST_PEER_METHOD");
@@ -900,8 +901,10 @@ int main(void)
 		rc_peers = np ? atoi(np) : 0;
 		rc_second = getenv("TEST_PEER_SECOND") ? atoi(getenv("TEST_PEER_SECOND")) : 0;
 		rc_bands = getenv("TEST_PEER_BANDS") != NULL;
+		const char *dr = getenv("TEST_PEER_DROP");
+		double drop = dr ? atof(dr) : ev2 ? 0 : 0.1;
 		for (int i = 0; i < n; i++)
-			restart_case(what, ev2 ? 0 : 0.1, s0 + (uint64_t)i, ev2 ? atoi(ev2) : 0, 1);
+			restart_case(what, drop, s0 + (uint64_t)i, ev2 ? atoi(ev2) : 0, 1);
 		return ck_case_failures != 0; /* no RUN() here: the checks' own count */
 	}
 	RUN(lockstep_is_the_single_process_bit_for_bit);
