@@ -25,6 +25,23 @@ expect_error "--checkpoint-every negative" 2 '--checkpoint-every' \
 	simulate-peer --owner s3.tgrid --checkpoint-every -1
 expect_error "a joiner choosing checkpoints" 2 '^simulate-peer: --checkpoint-every: the owner decides it' \
 	simulate-peer --join --checkpoint-every 5
+expect_error "--publish-every 0s" 2 '--publish-every: 0 is outside' \
+	simulate-peer --owner s3.tgrid --publish-every 0s
+expect_error "--publish-every in seconds without the s" 2 \
+	"--publish-every: '0.05' is not a whole number of steps \(seconds of simulated time: 0.05s\)" \
+	simulate-peer --owner s3.tgrid --publish-every 0.05
+expect_error "--publish-every not a number" 2 "--publish-every: 'x' is not a finite number" \
+	simulate-peer --owner s3.tgrid --publish-every xs
+# a rate: the nearest whole number of steps, at least one
+for case in "0.05s 5 steps" "0.034s 3 steps" "0.004s 1 step"; do
+	set -- $case
+	out=$(simulate-peer --owner s3.tgrid --dt 0.01 --publish-every "$1" --info 2>&1)
+	if grep -q "whole regions every $2 $3 " <<<"$out"; then
+		pass "--publish-every $1 at a step of 0.01 s: every $2 $3"
+	else
+		fail "--publish-every $1" "$out"
+	fi
+done
 expect_error "--partition unknown" 2 "--partition: 'spiral' is not quadtree, table41, metis or bands" \
 	simulate-peer --owner s3.tgrid --partition spiral
 expect_error "--clock unknown" 2 "--clock: 'wall' is not lockstep or realtime" \

@@ -103,7 +103,22 @@ void peer_option(peer_cli *c, const char *name, const char *arg)
 	} else if (strcmp(name, "halo-steps") == 0) {
 		c->halo_steps = (int)ndo_opt_long(opt, arg, 1, 1000);
 	} else if (strcmp(name, "publish-every") == 0) {
-		c->publish_every = (int)ndo_opt_long(opt, arg, 0, 1000000000);
+		size_t n = strlen(arg);
+		if (n > 1 && arg[n - 1] == 's') { /* seconds of simulated time: a rate */
+			char t[64];
+			if (n > sizeof t)
+				ndo_usage_error("%s: '%s' is not N steps or T seconds (Ts)", opt, arg);
+			memcpy(t, arg, n - 1);
+			t[n - 1] = '\0';
+			c->publish_seconds = ndo_opt_double(opt, t, 1e-9, 1e9);
+			c->publish_every = 0;
+		} else {
+			if (strpbrk(arg, ".eE"))
+				ndo_usage_error("%s: '%s' is not a whole number of steps (seconds of "
+				                "simulated time: %ss)", opt, arg, arg);
+			c->publish_every = (int)ndo_opt_long(opt, arg, 0, 1000000000);
+			c->publish_seconds = 0;
+		}
 		c->publish_every_set = 1;
 	} else if (strcmp(name, "checkpoint-every") == 0) {
 		/* 0: none (the library's 0 is its default, its < 0 none) */
@@ -506,6 +521,16 @@ int peers_main(run *r)
 			                "held boundary with --boundary extrapolate or hold",
 			                ndo_method_names[m]);
 		plan(r);
+		if (c->publish_seconds > 0) {
+			/* every T s: the nearest whole number of steps, at least one */
+			double q = c->publish_seconds / r->dt;
+			c->publish_every = q < 1.5 ? 1 : q > 1e9 ? 1000000000 : (int)llround(q);
+			if (!r->quiet)
+				fprintf(stderr, "%s: whole regions every %d step%s (%.6g s of simulated "
+				        "time; --publish-every %gs)\n", ndo_progname, c->publish_every,
+				        c->publish_every == 1 ? "" : "s", c->publish_every * r->dt,
+				        c->publish_seconds);
+		}
 		if (r->info) {
 			ndo_close_stdout();
 			return NDO_EXIT_OK;
