@@ -3,6 +3,7 @@
 #include "ndo/peer.h"
 #include "checkpoint.h"
 #include "peer_solve.h"
+#include "peer_test.h"
 #include "rollback.h"
 #include "ndo/scene.h"
 #include "ndo/status.h"
@@ -120,6 +121,7 @@ struct ndo_peer {
 	int64_t ck_until;      /* owner: re-sends checkpoint ck_at while waiting at
 	                          a step up to this */
 	int64_t ck_at;
+	double ck_deaf_until;  /* tests: checkpoints not heard before then */
 	int last_sent;         /* ... the last step's frame went out (confirmed,
 	                          or after gather_timeout unconfirmed) */
 	int failed;
@@ -472,10 +474,13 @@ static void on_halo(void *user, const ndo_msg_halo_t *h)
 		return;
 	}
 	if (h->checkpoint) {
-		on_checkpoint(p, h);
+		if (p->now >= p->ck_deaf_until)
+			on_checkpoint(p, h);
 		return;
 	}
 	heard(p, h->hdr.sender_id, h->epoch, h->step);
+	if (h->nruns == 0 && h->confirmed && h->step < p->final)
+		return; /* a keepalive (restart_wait): heard, nothing more */
 	if (h->epoch < ndo_session_epoch(p->s) ||
 	    (h->epoch == ndo_session_epoch(p->s) && !member(p, h->hdr.sender_id))) {
 		p->st.stale++;
@@ -1146,6 +1151,23 @@ static int publish(ndo_peer *p)
 	return rc < 0 ? rc : 0;
 }
 
+/* A restart waiting for checkpoint nodes sends nothing of the partition,
+ * and its neighbours, which wait for its halo at R, must not take it
+ * for dead meanwhile (a step they took alone after the step timeout would
+ * leave the run inexact: no partition follows to restart it).  An empty
+ * confirmed halo of the partition at R says it lives (alive_at_cur). */
+static int restart_wait(ndo_peer *p)
+{
+	if (!p->exact || p->rb || !p->simulating)
+		return 0;
+	ndo_msg_halo_t h;
+	memset(&h, 0, sizeof h);
+	h.step = p->rs_step;
+	h.confirmed = 1;
+	int rc = ndo_session_send_halo(p->s, &h);
+	return rc < 0 ? rc : 0;
+}
+
 /* The last two steps again: a neighbour that lost one of them may be
  * waiting for it (it can be one step behind or one ahead). */
 static int resend(ndo_peer *p)
@@ -1163,7 +1185,7 @@ static int resend(ndo_peer *p)
 	    (rc = ck_resend(p)))
 		return rc;
 	if (p->rs_step >= 0)
-		return 0; /* a restart waits for checkpoint nodes: nothing of this partition yet */
+		return restart_wait(p); /* nothing of this partition yet but that it lives */
 	if (p->exact) {
 		/* the strips of the last two exchanges (a neighbour waits for one
 		 * of them), the whole region at the first and last steps */
@@ -2245,6 +2267,7 @@ int64_t ndo_peer_final_step(const ndo_peer *p) { return p->final; }
 double ndo_peer_dt(const ndo_peer *p) { return p->dt; }
 ndo_clock ndo_peer_clock(const ndo_peer *p) { return p->clock; }
 const char *ndo_peer_message(const ndo_peer *p) { return p->message; }
+void ndo__peer_deaf_to_checkpoints(ndo_peer *p, double until) { p->ck_deaf_until = until; }
 int ndo_peer_simulating(const ndo_peer *p) { return p->simulating; }
 int ndo_peer_started(const ndo_peer *p) { return p->started; }
 void ndo_peer_stats_get(const ndo_peer *p, ndo_peer_stats *st)

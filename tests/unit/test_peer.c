@@ -15,6 +15,7 @@
 #include <string.h>
 
 #include "peer_world.h"
+#include "peer_test.h"
 
 #define LEVEL 4
 
@@ -580,6 +581,46 @@ static void restarts_keep_the_single_process(void)
  * restarted sub-steps are the single process's), backward Euler and the
  * trapezoid within the solve's tolerance; without checkpoints each
  * differs. */
+/* A survivor of a kill that lacks the restart step's checkpoint for longer
+ * than the peer timeout (its checkpoint messages not heard for 2.5 s,
+ * peer_test.h) sends no halo of the new partition meanwhile; its
+ * neighbour, waiting for its halo at the restart step, must not time it
+ * out (its empty halos say it lives: restart_wait), or it takes the step
+ * with older values and the run ends inexact with no restart to follow.
+ * Without restart_wait this fails (checked by hand: the owner times out
+ * and reports the run not exact). */
+static void a_peer_waiting_for_its_checkpoint_lives(void)
+{
+	static const char *const methods[] = {"rk4", "rkf45"};
+	for (int m = 0; m < 2; m++) {
+		setup su = {.integrator = methods[m], .dt = 0.02, .steps = 300,
+		            .clock = NDO_CLOCK_LOCKSTEP, .peers = 3, .step_timeout = 0.2,
+		            .extra = m == 1 ? "tol 1e-7\n" : NULL};
+		world *w = world_new();
+		CHECK(add_owner(w, &su) == 0, "owner");
+		add_joiner(w, &su, POIS[0]);
+		add_joiner(w, &su, POIS[1]);
+		run_to_step(w, 100, 30);
+		ndo_peer *dead = w->p[2];
+		w->p[2] = NULL;
+		ndo__peer_deaf_to_checkpoints(w->p[1], w->t + 2.5);
+		int done = run(w, 60) == 0;
+		double *x = solo(&su);
+		double d = difference(ndo_peer_grid(w->p[0]), x);
+		ndo_peer_stats st;
+		ndo_peer_stats_get(w->p[0], &st);
+		printf("    %s: a joiner without its checkpoint for 2.5 s after a kill: differs by %.3g; "
+		       "owner: %lld restarts, %lld timeouts, not exact from step %lld\n", methods[m], d,
+		       (long long)st.restarts, (long long)st.timeouts, (long long)st.inexact_at);
+		CHECK(done && d == 0 && st.restarts >= 1 && st.inexact_at < 0,
+		      "%s: done %d, differs by %.3g (expected 0), %lld restarts, not exact from step "
+		      "%lld", methods[m], done, d, (long long)st.restarts, (long long)st.inexact_at);
+		free(x);
+		ndo_peer_destroy(dead, NULL);
+		world_free(w);
+	}
+}
+
 static void split_restarts_keep_the_single_process(void)
 {
 	static const char *const methods[] = {"rkf45", "backward-euler", "trapezoid"};
@@ -917,6 +958,7 @@ int main(void)
 	RUN(joins_leaves_and_a_dead_peer);
 	RUN(restarts_keep_the_single_process);
 	RUN(split_restarts_keep_the_single_process);
+	RUN(a_peer_waiting_for_its_checkpoint_lives);
 	RUN(owner_quit_ends_the_others);
 	RUN(strangers_tiles_are_not_used);
 	RUN(a_replayed_log_gives_the_live_frames);

@@ -1,0 +1,14 @@
+/* peer_test.h — what test_peer reaches inside a peer (peer.c) to make a
+ * case that a network rarely makes on its own.  Not for other callers. */
+#ifndef NDO_PEER_TEST_H
+#define NDO_PEER_TEST_H
+
+#include "ndo/peer.h"
+
+/* The peer hears no checkpoint message before `until` (the clock of
+ * ndo_peer_update): after a new partition it waits that long for the
+ * checkpoint nodes of the restart step, sending no halo of the partition
+ * (restart_wait). */
+void ndo__peer_deaf_to_checkpoints(ndo_peer *p, double until);
+
+#endif
