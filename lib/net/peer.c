@@ -989,7 +989,7 @@ static int exact_publish(ndo_peer *p)
 	if (C && !last && rel > 0 && rel % C == 0 && !p->inexact && p->cur != p->ck_skip &&
 	    (rc = checkpoint(p)))
 		return rc;
-	/* the taint where no strip carries it */
+	/* the taint where no strip carries it; at the last step the last word */
 	if ((last || p->ps) && (rc = verdict_send(p)))
 		return rc;
 	if (last || rel == 0 || (p->N > 0 && rel % p->N == 0))
