@@ -765,18 +765,25 @@ static void taint(ndo_peer *p, int64_t step, int32_t from)
  * the last step every simulating peer's last word, exact or not, which the
  * owner waits for with the last step's tiles (so its verdict covers a
  * taint of the last step itself). */
+/* An empty halo of the partition in force at `step`, confirmed or not (a
+ * taint, a last word, restart_wait's sign of life). */
+static int empty_halo_send(ndo_peer *p, int64_t step, double time, int confirmed)
+{
+	ndo_msg_halo_t h;
+	memset(&h, 0, sizeof h);
+	h.step = step;
+	h.time = time;
+	h.confirmed = (int8_t)confirmed;
+	int rc = ndo_session_send_halo(p->s, &h);
+	return rc < 0 ? rc : 0;
+}
+
 static int verdict_send(ndo_peer *p)
 {
 	const int last = p->cur >= p->final;
 	if (!p->exact || p->rb || !p->simulating || (last ? p->owner : !p->inexact))
 		return 0;
-	ndo_msg_halo_t h;
-	memset(&h, 0, sizeof h);
-	h.step = p->cur;
-	h.time = p->tcur;
-	h.confirmed = (int8_t)!p->inexact;
-	int rc = ndo_session_send_halo(p->s, &h);
-	return rc < 0 ? rc : 0;
+	return empty_halo_send(p, p->cur, p->tcur, !p->inexact);
 }
 
 /* Whole-region tiles at cur (frames, the first and last steps). */
@@ -1160,12 +1167,7 @@ static int restart_wait(ndo_peer *p)
 {
 	if (!p->exact || p->rb || !p->simulating)
 		return 0;
-	ndo_msg_halo_t h;
-	memset(&h, 0, sizeof h);
-	h.step = p->rs_step;
-	h.confirmed = 1;
-	int rc = ndo_session_send_halo(p->s, &h);
-	return rc < 0 ? rc : 0;
+	return empty_halo_send(p, p->rs_step, 0, 1);
 }
 
 /* The last two steps again: a neighbour that lost one of them may be
