@@ -15,8 +15,9 @@
  *                                    a step, rkf45's attempts, the solve's
  *                                    iterations with the region's block or
  *                                    the diagonal as the preconditioner
- *   bench_peers halo-bits [-l LEVEL] what the exact rk4 halo of 2 bands
- *                                    holds: the bits a value left after
+ *   bench_peers halo-bits [-l LEVEL] (level 6 unless given; the others
+ *                                    default to 5) what the exact rk4 halo
+ *                                    of 2 bands holds: the bits a value left after
  *                                    each prediction the receiver could
  *                                    make (docs/peers.md, "Not done")
  */
@@ -321,7 +322,8 @@ int main(int argc, char **argv)
 	else if (argc > 1 && strcmp(argv[1], "halo-bits") == 0)
 		halo_bits(argc > 3 ? level : 6);
 	else {
-		fprintf(stderr, "usage: bench_peers lag|realtime|split|halo-bits [-l LEVEL]\n");
+		fprintf(stderr, "usage: bench_peers lag|realtime|split|halo-bits [-l LEVEL]  (LEVEL: 6 for "
+		                "halo-bits, 5 for the others, unless given)\n");
 		return 2;
 	}
 	return 0;
