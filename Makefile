@@ -98,6 +98,11 @@ $(OBJ)/%.c.o: %.c
 	@mkdir -p $(@D)
 	$(CC) $(CPPFLAGS) $(CFLAGS) $(call dir_cppflags,$(<D)) -c -o $@ $<
 
+# forces.c's batch of face normals vectorizes only with a sqrt that sets no
+# errno (its argument, a sum of squares, is never negative), and GCC 12
+# takes that from the command line alone, not from an optimize attribute.
+$(OBJ)/lib/sim/forces.c.o: CFLAGS += -fno-math-errno
+
 $(OBJ)/%.cpp.o: %.cpp
 	@mkdir -p $(@D)
 	$(CXX) $(CPPFLAGS) $(CXXFLAGS) $(call dir_cppflags,$(<D)) -c -o $@ $<

@@ -264,6 +264,46 @@ void ndo__forces_eval(ndo_sim *s, double t, const double *u)
 	}
 }
 
+/* Face items along their normals, FBATCH at a time: the positions
+ * gathered, then the area vectors, their lengths and the shares in one
+ * loop the compiler vectorizes (the sqrt and the divisions were most of
+ * an item's time: perf, level 6, the thesis scene).  The same operations
+ * in the same order as area_vector(), unit() and item_force(), each
+ * correctly rounded, so the same bits as ndo__forces_eval (no
+ * contraction into FMAs under -std=c11). */
+#define FBATCH 32
+typedef struct face_batch {
+	double a[3][FBATCH], b[3][FBATCH], c[3][FBATCH], each[FBATCH];
+	double add[3][FBATCH];
+} face_batch;
+
+/* O3: GCC 12's O2 vectorizes only the cheapest loops; no-trapping-math:
+ * the divisions where l is 0 are computed and not used (the Makefile
+ * compiles this file with -fno-math-errno, the sqrt's part). */
+#if defined(__GNUC__) && !defined(__clang__)
+#define FACE_OPT __attribute__((optimize("O3", "no-trapping-math")))
+#else
+#define FACE_OPT
+#endif
+FACE_OPT NDO_HOT static void face_adds(face_batch *restrict B, int m)
+{
+	for (int i = 0; i < m; i++) {
+		double e1x = B->b[0][i] - B->a[0][i], e1y = B->b[1][i] - B->a[1][i],
+		       e1z = B->b[2][i] - B->a[2][i];
+		double e2x = B->c[0][i] - B->a[0][i], e2y = B->c[1][i] - B->a[1][i],
+		       e2z = B->c[2][i] - B->a[2][i];
+		double nx = 0.5 * (e1y * e2z - e1z * e2y);
+		double ny = 0.5 * (e1z * e2x - e1x * e2z);
+		double nz = 0.5 * (e1x * e2y - e1y * e2x);
+		double l = sqrt(nx * nx + ny * ny + nz * nz);
+		/* n / l is not used where l is 0: unit() leaves n as it is */
+		double qx = nx / l, qy = ny / l, qz = nz / l;
+		B->add[0][i] = B->each[i] * (l > 0 ? qx : nx);
+		B->add[1][i] = B->each[i] * (l > 0 ? qy : ny);
+		B->add[2][i] = B->each[i] * (l > 0 ? qz : nz);
+	}
+}
+
 void ndo__forces_eval_items(ndo_sim *s, double t, const double *u, const int32_t *zero,
                             size_t nzero, const ndo__fitem *items, size_t nitems)
 {
@@ -273,19 +313,50 @@ void ndo__forces_eval_items(ndo_sim *s, double t, const double *u, const int32_t
 		for (int c = 0; c < 3; c++)
 			f[(size_t)c * cnt + (size_t)zero[k]] = 0;
 	int kval = -1;
-	double val = 0;
-	for (size_t i = 0; i < nitems; i++) {
-		const ndo__force *F = &s->forces[items[i].k];
-		if (items[i].k != kval)
-			kval = items[i].k, val = ndo_force_value(&F->f, t);
-		if (val == 0)
-			continue;
-		int32_t v[3];
-		double add[3];
-		int nv = item_force(s, F, (size_t)items[i].q, u, val, v, add);
-		for (int d = 0; d < nv; d++)
-			if (items[i].mask >> d & 1)
-				for (int e = 0; e < 3; e++)
-					f[(size_t)e * cnt + (size_t)v[d]] += add[e];
+	double val = 0, vals[FBATCH];
+	int slot[FBATCH];
+	face_batch B;
+	for (size_t i0 = 0; i0 < nitems; i0 += FBATCH) {
+		int m = nitems - i0 < FBATCH ? (int)(nitems - i0) : FBATCH, nf = 0;
+		/* the batch's values, and its face items along normals gathered */
+		for (int i = 0; i < m; i++) {
+			const ndo__fitem *it = &items[i0 + (size_t)i];
+			const ndo__force *F = &s->forces[it->k];
+			if (it->k != kval)
+				kval = it->k, val = ndo_force_value(&F->f, t);
+			vals[i] = val;
+			slot[i] = -1;
+			if (val == 0 || F->f.kind != NDO_FORCE_FACE || !F->f.normal)
+				continue;
+			for (int d = 0; d < 3; d++) {
+				double *x = d == 0 ? &B.a[0][nf] : d == 1 ? &B.b[0][nf] : &B.c[0][nf];
+				size_t p = (size_t)it->v[d];
+				for (int c = 0; c < 3; c++)
+					x[c * FBATCH] = s->X[(size_t)c * cnt + p] + u[(size_t)c * cnt + p];
+			}
+			B.each[nf] = val * F->share[it->q] / 3;
+			slot[i] = nf++;
+		}
+		face_adds(&B, nf);
+		/* the additions in the items' order */
+		for (int i = 0; i < m; i++) {
+			const ndo__fitem *it = &items[i0 + (size_t)i];
+			if (vals[i] == 0)
+				continue;
+			int32_t v[3];
+			double add[3];
+			int nv;
+			if (slot[i] >= 0) {
+				nv = 3;
+				for (int c = 0; c < 3; c++)
+					v[c] = it->v[c], add[c] = B.add[c][slot[i]];
+			} else {
+				nv = item_force(s, &s->forces[it->k], (size_t)it->q, u, vals[i], v, add);
+			}
+			for (int d = 0; d < nv; d++)
+				if (it->mask >> d & 1)
+					for (int e = 0; e < 3; e++)
+						f[(size_t)e * cnt + (size_t)v[d]] += add[e];
+		}
 	}
 }

@@ -252,6 +252,7 @@ void ndo__penalty_diag(const ndo_sim *s, const double *u, const double *v, ndo__
 typedef struct ndo__fitem {
 	int32_t k, q;
 	int32_t mask;
+	int32_t v[3]; /* the item's canonical nodes (ndo__force_item_nodes) */
 } ndo__fitem;
 
 /* ndo__forces_eval restricted: zero f at the `nzero` nodes `zero`, then

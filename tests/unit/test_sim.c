@@ -290,13 +290,20 @@ static void follower_forces_keep_the_order(void)
 }
 
 /* Two face forces and a point force on grid g (level), the faces and
- * nodes they name written to faces[8] and nodes[4]. */
+ * nodes they name written to faces[NFACES] and nodes[4].  The first,
+ * along the normals, takes 8 faces and from level 5 a run of 150 more:
+ * more than a batch of forces.c's face items (32), and items of a chunk
+ * that straddle its neighbours. */
+#define NFACES 158
 static void three_forces(const ndo_grid *g, int level, int32_t *faces, int32_t *nodes, ndo_force *f)
 {
 	static const int32_t fc[8] = {0, 1, 2, 31, 40, 41, 90, 500};
 	memcpy(faces, fc, sizeof fc);
+	for (int k = 8; k < NFACES; k++)
+		faces[k] = 1000 + 3 * k;
 	nodes[0] = 0, nodes[1] = 5, nodes[2] = (int32_t)g->count / 2, nodes[3] = (int32_t)g->count - 1;
-	f[0] = (ndo_force){NDO_FORCE_FACE, 2.4, 1, 0, 1, {0}, level > 3 ? 8 : 7, faces};
+	f[0] = (ndo_force){NDO_FORCE_FACE, 2.4, 1, 0, 1, {0}, level >= 5 ? NFACES : level > 3 ? 8 : 7,
+	                   faces};
 	f[1] = (ndo_force){NDO_FORCE_FACE, 1.1, 3, 0.5, 0, {0.2, 0.3, 1}, 3, faces + 1};
 	f[2] = (ndo_force){NDO_FORCE_POINT, 0.7, 2, 0, 1, {0}, 4, nodes};
 }
@@ -317,7 +324,7 @@ static void fast_path_is_the_passes(ndo_method method, const char *path)
 		size_t nn = 3 * g->count;
 		double *x0 = malloc(nn * sizeof *x0), *v0 = malloc(nn * sizeof *v0);
 		random_state(g, 0.01, x0, v0);
-		int32_t faces[8], nodes[4];
+		int32_t faces[NFACES], nodes[4];
 		ndo_force f[3];
 		three_forces(g, level, faces, nodes, f);
 		ndo_sim_params p;
@@ -724,7 +731,7 @@ static void steps_are_single_steps(void)
 					pin[p] = (i * 7 + j * 3) % 29 == 0 || (j == n / 2 && i > n / 3 && i < n) ||
 					         (j == 0 && i < 3) || (i == 0 && j == n / 3);
 				}
-				int32_t faces[8], nodes[4];
+				int32_t faces[NFACES], nodes[4];
 				ndo_force f[3];
 				three_forces(g, level, faces, nodes, f);
 				ndo_sim_params p;
