@@ -213,8 +213,9 @@ enum { RK4_BTERMS = 10 };
 /* The same for active border nodes (neighbour tables): bact[list[i]] for i
  * in 0..n−1, or every one (list NULL).  Stage 0's diagnostics go to d, or
  * (the pipeline) to terms, RK4_BTERMS per node. */
-static void rk4_border(const ndo_sim *s, const rk4_pass *g, int mode, const int32_t *list,
-                       size_t n, ndo__diag *d, double *terms)
+static inline __attribute__((always_inline)) void
+rk4_border_nodes(const ndo_sim *s, const rk4_pass *g, const int mode, const int32_t *list,
+                 size_t n, ndo__diag *d, double *terms)
 {
 	const size_t cnt = s->count;
 	for (size_t i = 0; i < n; i++) {
@@ -223,32 +224,40 @@ static void rk4_border(const ndo_sim *s, const rk4_pass *g, int mode, const int3
 		const int32_t *nb = s->st.bnb + 6 * b;
 		const double *cf = s->st.bc + 6 * b;
 		double *t = terms ? terms + RK4_BTERMS * k : NULL;
+		/* the three coordinates' stencil sums first, each in its own
+		 * order as before; then the coordinates one after the other, so
+		 * the diagnostics are summed in the same order */
+		double up[3], ku[3] = {0, 0, 0};
+		for (int comp = 0; comp < 3; comp++)
+			up[comp] = g->U[(size_t)comp * cnt + p];
+		for (int j = 0; j < 6; j++) {
+			size_t q = (size_t)nb[j];
+			for (int comp = 0; comp < 3; comp++)
+				ku[comp] += cf[j] * (up[comp] - g->U[(size_t)comp * cnt + q]);
+		}
 		double u2 = 0;
 		for (int comp = 0; comp < 3; comp++) {
-			size_t o = (size_t)comp * cnt, q = o + p;
+			size_t q = (size_t)comp * cnt + p;
 			size_t qs = (size_t)((ptrdiff_t)((size_t)comp * g->ss + p) + g->sd); /* vs, su, sv */
-			double up = g->U[q], ku = 0;
-			for (int j = 0; j < 6; j++)
-				ku += cf[j] * (up - g->U[o + (size_t)nb[j]]);
 			double f = g->F ? g->F[q] : 0;
 			double vp = mode == RK4_FIRST ? g->v[q] : g->vs[qs];
-			double a = s->minv[p] * (f - ku) - s->gam[p] * vp;
+			double a = s->minv[p] * (f - ku[comp]) - s->gam[p] * vp;
 			if (mode == RK4_FIRST) {
 				g->su[qs] = vp;
 				g->sv[qs] = a;
 				g->Un[q] = g->u[q] + g->c * vp;
 				g->vs[qs] = g->v[q] + g->c * a;
 				if (d) {
-					d->pe2 += up * ku;
+					d->pe2 += up[comp] * ku[comp];
 					d->ke2 += s->mass[p] * vp * vp;
 					d->power += f * vp;
 				}
 				if (t) {
-					t[comp] = up * ku;
+					t[comp] = up[comp] * ku[comp];
 					t[3 + comp] = s->mass[p] * vp * vp;
 					t[6 + comp] = f * vp;
 				}
-				u2 += up * up;
+				u2 += up[comp] * up[comp];
 			} else if (mode == RK4_MID) {
 				g->su[qs] += 2 * vp;
 				g->sv[qs] += 2 * a;
@@ -266,6 +275,19 @@ static void rk4_border(const ndo_sim *s, const rk4_pass *g, int mode, const int3
 			d->umax2 = fmax(d->umax2, u2);
 		if (t)
 			t[9] = u2;
+	}
+}
+
+/* One loop per mode (a constant in each): the mode's tests out of the
+ * node loop. */
+static void rk4_border(const ndo_sim *s, const rk4_pass *g, int mode, const int32_t *list,
+                       size_t n, ndo__diag *d, double *terms)
+{
+	switch (mode) {
+	case RK4_FIRST: rk4_border_nodes(s, g, RK4_FIRST, list, n, d, terms); break;
+	case RK4_MID: rk4_border_nodes(s, g, RK4_MID, list, n, d, terms); break;
+	case RK4_LAST: rk4_border_nodes(s, g, RK4_LAST, list, n, d, terms); break;
+	default: rk4_border_nodes(s, g, RK4_LAST_TO, list, n, d, terms);
 	}
 }
 
