@@ -190,13 +190,13 @@ int ndo__chunks_build(const ndo_sim *s, ndo__chunks *K, int what)
 		K->foff[c] = (int32_t)m;
 		for (int k = 0; k < s->nforces; k++)
 			for (size_t q = 0; q < s->forces[k].f.count; q++) {
-				int32_t v[3] = {0, 0, 0}, mask = 0;
+				int32_t v[3], mask = 0;
 				int nv = ndo__force_item_nodes(s, k, q, v);
 				for (int d = 0; d < nv; d++)
 					if (s->active[v[d]] && own[v[d]] == c)
 						mask |= 1 << d;
 				if (mask) {
-					K->fitem[m++] = (ndo__fitem){k, (int32_t)q, mask, {v[0], v[1], v[2]}};
+					K->fitem[m++] = (ndo__fitem){k, (int32_t)q, mask};
 					/* a face's nodes; a node's vertex normal, its neighbours */
 					for (int d = 0; d < nv; d++) {
 						widen(&K->a0[c], &K->a1[c], v[d] / w - (nv == 1));

@@ -108,7 +108,8 @@ int ndo__forces_resolve(ndo_sim *s, const ndo_force *forces, int nforces)
 		f->f.count = in->count;
 		if (in->kind == NDO_FORCE_FACE) {
 			f->share = malloc(in->count * sizeof *f->share);
-			if (!f->share)
+			f->nodes = malloc(3 * in->count * sizeof *f->nodes);
+			if (!f->share || !f->nodes)
 				return ndo__fail(NDO_ENOMEM, "out of memory for forces");
 			double total = 0;
 			for (size_t q = 0; q < in->count; q++) {
@@ -118,6 +119,7 @@ int ndo__forces_resolve(ndo_sim *s, const ndo_force *forces, int nforces)
 				int32_t v[3];
 				double a[3], b[3], c[3], n[3];
 				triangle_nodes(s, (size_t)in->items[q], v);
+				memcpy(f->nodes + 3 * q, v, sizeof v);
 				for (int d = 0; d < 3; d++) {
 					a[d] = s->X[(size_t)d * s->count + (size_t)v[0]];
 					b[d] = s->X[(size_t)d * s->count + (size_t)v[1]];
@@ -153,6 +155,7 @@ void ndo__forces_free(ndo_sim *s)
 	for (int k = 0; k < s->nforces; k++) {
 		free(s->forces[k].f.items);
 		free(s->forces[k].share);
+		free(s->forces[k].nodes);
 	}
 	free(s->forces);
 	free(s->fnodes);
@@ -222,48 +225,6 @@ int ndo__force_item_nodes(const ndo_sim *s, int k, size_t q, int32_t v[3])
 	return 1;
 }
 
-void ndo__forces_eval(ndo_sim *s, double t, const double *u)
-{
-	size_t cnt = s->count;
-	double *f = s->f;
-	if (s->has_pressure)
-		memset(f, 0, 3 * cnt * sizeof *f);
-	else
-		for (size_t k = 0; k < s->nfnodes; k++)
-			for (int c = 0; c < 3; c++)
-				f[(size_t)c * cnt + (size_t)s->fnodes[k]] = 0;
-	for (int k = 0; k < s->nforces; k++) {
-		const ndo__force *F = &s->forces[k];
-		double val = ndo_force_value(&F->f, t);
-		if (val == 0)
-			continue;
-		if (F->f.kind == NDO_FORCE_PRESSURE) {
-			size_t ntri = ndo_triangle_count(s->level);
-			for (size_t q = 0; q < ntri; q++) {
-				int32_t v[3];
-				double a[3], b[3], c[3], n[3];
-				triangle_nodes(s, q, v);
-				position(s, u, v[0], a);
-				position(s, u, v[1], b);
-				position(s, u, v[2], c);
-				area_vector(a, b, c, n);
-				for (int d = 0; d < 3; d++)
-					for (int e = 0; e < 3; e++)
-						f[(size_t)e * cnt + (size_t)v[d]] += val * n[e] / 3;
-			}
-			continue;
-		}
-		for (size_t q = 0; q < F->f.count; q++) {
-			int32_t v[3];
-			double add[3];
-			int nv = item_force(s, F, q, u, val, v, add);
-			for (int d = 0; d < nv; d++)
-				for (int e = 0; e < 3; e++)
-					f[(size_t)e * cnt + (size_t)v[d]] += add[e];
-		}
-	}
-}
-
 /* Face items along their normals, FBATCH at a time: the positions
  * gathered, then the area vectors, their lengths and the shares in one
  * loop the compiler vectorizes (the sqrt and the divisions were most of
@@ -304,6 +265,79 @@ FACE_OPT NDO_HOT static void face_adds(face_batch *restrict B, int m)
 	}
 }
 
+/* Slot i of B: the positions of the face's nodes v[3], and its share each. */
+static void face_gather(const ndo_sim *s, const double *u, face_batch *B, int i,
+                        const int32_t *v, double each)
+{
+	const size_t cnt = s->count;
+	for (int d = 0; d < 3; d++) {
+		double *x = d == 0 ? &B->a[0][i] : d == 1 ? &B->b[0][i] : &B->c[0][i];
+		size_t p = (size_t)v[d];
+		for (int c = 0; c < 3; c++)
+			x[c * FBATCH] = s->X[(size_t)c * cnt + p] + u[(size_t)c * cnt + p];
+	}
+	B->each[i] = each;
+}
+
+void ndo__forces_eval(ndo_sim *s, double t, const double *u)
+{
+	size_t cnt = s->count;
+	double *f = s->f;
+	if (s->has_pressure)
+		memset(f, 0, 3 * cnt * sizeof *f);
+	else
+		for (size_t k = 0; k < s->nfnodes; k++)
+			for (int c = 0; c < 3; c++)
+				f[(size_t)c * cnt + (size_t)s->fnodes[k]] = 0;
+	for (int k = 0; k < s->nforces; k++) {
+		const ndo__force *F = &s->forces[k];
+		double val = ndo_force_value(&F->f, t);
+		if (val == 0)
+			continue;
+		if (F->f.kind == NDO_FORCE_PRESSURE) {
+			size_t ntri = ndo_triangle_count(s->level);
+			for (size_t q = 0; q < ntri; q++) {
+				int32_t v[3];
+				double a[3], b[3], c[3], n[3];
+				triangle_nodes(s, q, v);
+				position(s, u, v[0], a);
+				position(s, u, v[1], b);
+				position(s, u, v[2], c);
+				area_vector(a, b, c, n);
+				for (int d = 0; d < 3; d++)
+					for (int e = 0; e < 3; e++)
+						f[(size_t)e * cnt + (size_t)v[d]] += val * n[e] / 3;
+			}
+			continue;
+		}
+		if (F->f.kind == NDO_FORCE_FACE && F->f.normal) {
+			face_batch B;
+			for (size_t q0 = 0; q0 < F->f.count; q0 += FBATCH) {
+				int m = F->f.count - q0 < FBATCH ? (int)(F->f.count - q0) : FBATCH;
+				for (int i = 0; i < m; i++)
+					face_gather(s, u, &B, i, F->nodes + 3 * (q0 + (size_t)i),
+					            val * F->share[q0 + (size_t)i] / 3);
+				face_adds(&B, m);
+				for (int i = 0; i < m; i++) {
+					const int32_t *v = F->nodes + 3 * (q0 + (size_t)i);
+					for (int d = 0; d < 3; d++)
+						for (int e = 0; e < 3; e++)
+							f[(size_t)e * cnt + (size_t)v[d]] += B.add[e][i];
+				}
+			}
+			continue;
+		}
+		for (size_t q = 0; q < F->f.count; q++) {
+			int32_t v[3];
+			double add[3];
+			int nv = item_force(s, F, q, u, val, v, add);
+			for (int d = 0; d < nv; d++)
+				for (int e = 0; e < 3; e++)
+					f[(size_t)e * cnt + (size_t)v[d]] += add[e];
+		}
+	}
+}
+
 void ndo__forces_eval_items(ndo_sim *s, double t, const double *u, const int32_t *zero,
                             size_t nzero, const ndo__fitem *items, size_t nitems)
 {
@@ -328,13 +362,7 @@ void ndo__forces_eval_items(ndo_sim *s, double t, const double *u, const int32_t
 			slot[i] = -1;
 			if (val == 0 || F->f.kind != NDO_FORCE_FACE || !F->f.normal)
 				continue;
-			for (int d = 0; d < 3; d++) {
-				double *x = d == 0 ? &B.a[0][nf] : d == 1 ? &B.b[0][nf] : &B.c[0][nf];
-				size_t p = (size_t)it->v[d];
-				for (int c = 0; c < 3; c++)
-					x[c * FBATCH] = s->X[(size_t)c * cnt + p] + u[(size_t)c * cnt + p];
-			}
-			B.each[nf] = val * F->share[it->q] / 3;
+			face_gather(s, u, &B, nf, F->nodes + 3 * (size_t)it->q, val * F->share[it->q] / 3);
 			slot[i] = nf++;
 		}
 		face_adds(&B, nf);
@@ -348,8 +376,9 @@ void ndo__forces_eval_items(ndo_sim *s, double t, const double *u, const int32_t
 			int nv;
 			if (slot[i] >= 0) {
 				nv = 3;
+				const int32_t *fv = s->forces[it->k].nodes + 3 * (size_t)it->q;
 				for (int c = 0; c < 3; c++)
-					v[c] = it->v[c], add[c] = B.add[c][slot[i]];
+					v[c] = fv[c], add[c] = B.add[c][slot[i]];
 			} else {
 				nv = item_force(s, &s->forces[it->k], (size_t)it->q, u, vals[i], v, add);
 			}

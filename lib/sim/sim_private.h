@@ -31,6 +31,7 @@ typedef struct ndo__span {
 typedef struct ndo__force {
 	ndo_force f;       /* items owned */
 	double *share;     /* face: count area fractions */
+	int32_t *nodes;    /* face: 3 × count canonical nodes (triangle_nodes) */
 } ndo__force;
 
 /* An edge from an active node p to a held node q, stiffness c. */
@@ -252,7 +253,6 @@ void ndo__penalty_diag(const ndo_sim *s, const double *u, const double *v, ndo__
 typedef struct ndo__fitem {
 	int32_t k, q;
 	int32_t mask;
-	int32_t v[3]; /* the item's canonical nodes (ndo__force_item_nodes) */
 } ndo__fitem;
 
 /* ndo__forces_eval restricted: zero f at the `nzero` nodes `zero`, then
