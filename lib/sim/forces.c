@@ -266,8 +266,8 @@ FACE_OPT NDO_HOT static void face_adds(face_batch *restrict B, int m)
 }
 
 /* Slot i of B: the positions of the face's nodes v[3], and its share each. */
-static void face_gather(const ndo_sim *s, const double *u, face_batch *B, int i,
-                        const int32_t *v, double each)
+static inline __attribute__((always_inline)) void
+face_gather(const ndo_sim *s, const double *u, face_batch *B, int i, const int32_t *v, double each)
 {
 	const size_t cnt = s->count;
 	for (int d = 0; d < 3; d++) {
