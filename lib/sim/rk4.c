@@ -196,47 +196,60 @@ rk4_interior(const ndo_sim *s, const rk4_pass *g, const int mode, const int hasF
 			const size_t o = (size_t)comp * cnt;
 			const double *restrict U = g->U + o;
 			const double *restrict F = hasF ? g->F + o : NULL;
-			double *restrict Un = mode == RK4_FIRST || mode == RK4_MID ? g->Un + o : NULL;
+			double *restrict Un = g->Un + o;
 			double *restrict u = g->u + o, *restrict v = g->v + o;
-			double *restrict uo = mode == RK4_LAST_TO ? g->uo + o : NULL;
-			double *restrict vo = mode == RK4_LAST_TO ? g->vo + o : NULL;
 			/* vs, su, sv from node lo on, indexed p − lo (rk4_pass: ss, sd);
-			 * RK4_FIRST reads v and writes vs, the others update vs in place */
+			 * RK4_FIRST reads v and writes vs */
 			const ptrdiff_t so = (ptrdiff_t)((size_t)comp * g->ss + lo) + g->sd;
 			double *restrict su = g->su + so, *restrict sv = g->sv + so;
 			double *restrict vs = g->vs + so;
-#pragma omp simd reduction(+ : pe2, ke2, pw)
-			for (size_t p = lo; p < hi; p++) {
+/* Stage 0 (only it comes here): four nodes at a time as the stages
+			 * after it, its diagnostics summed as GCC's vectorized reduction of
+			 * the omp simd loop this replaces summed them on AVX2 — one sum a
+			 * lane over the four-node steps, the last 0-3 nodes added to lane
+			 * 0, then the lanes added to the running sum in order — so the
+			 * same bits as before there. */
+			v4 P = {0, 0, 0, 0}, K = {0, 0, 0, 0}, W = {0, 0, 0, 0};
+			const v4 ga4 = {ga, ga, ga, ga}, c4 = {c, c, c, c};
+			size_t p = lo;
+			for (; p + 4 <= hi; p += 4) {
+				const size_t i = p - lo;
+				const v4 up = LD(U + p);
+				const v4 ku = LD(e0 + p) * (up - LD(U + p + 1)) + LD(e1 + p) * (up - LD(U + p + w)) +
+				              LD(e2 + p) * (up - LD(U + p + w - 1)) +
+				              LD(e0 + p - 1) * (up - LD(U + p - 1)) +
+				              LD(e1 + p - w) * (up - LD(U + p - w)) +
+				              LD(e2 + p - w + 1) * (up - LD(U + p - w + 1));
+				const v4 f = hasF ? LD(F + p) : (v4){0, 0, 0, 0}, vp = LD(v + p);
+				const v4 a = LD(minv + p) * (f - ku) - ga4 * vp;
+				ST(su + i, vp);
+				ST(sv + i, a);
+				ST(Un + p, LD(u + p) + c4 * vp);
+				ST(vs + i, LD(v + p) + c4 * a);
+				P += up * ku;
+				K += LD(mass + p) * vp * vp;
+				W += f * vp;
+			}
+			double P0 = P[0], K0 = K[0], W0 = W[0];
+			for (; p < hi; p++) {
 				const size_t i = p - lo;
 				const double up = U[p];
 				const double ku = e0[p] * (up - U[p + 1]) + e1[p] * (up - U[p + w]) +
 				                  e2[p] * (up - U[p + w - 1]) + e0[p - 1] * (up - U[p - 1]) +
 				                  e1[p - w] * (up - U[p - w]) + e2[p - w + 1] * (up - U[p - w + 1]);
-				const double f = hasF ? F[p] : 0, vp = mode == RK4_FIRST ? v[p] : vs[i];
+				const double f = hasF ? F[p] : 0, vp = v[p];
 				const double a = minv[p] * (f - ku) - ga * vp;
-				if (mode == RK4_FIRST) {
-					su[i] = vp;
-					sv[i] = a;
-					Un[p] = u[p] + c * vp;
-					vs[i] = v[p] + c * a;
-					/* always (d is never NULL here): a test on d in the loop
-					 * kept it from being vectorized */
-					pe2 += up * ku;
-					ke2 += mass[p] * vp * vp;
-					pw += f * vp;
-				} else if (mode == RK4_MID) {
-					su[i] += 2 * vp;
-					sv[i] += 2 * a;
-					Un[p] = u[p] + c * vp;
-					vs[i] = v[p] + c * a;
-				} else if (mode == RK4_LAST) {
-					u[p] += h6 * (su[i] + vp);
-					v[p] += h6 * (sv[i] + a);
-				} else {
-					uo[p] = u[p] + h6 * (su[i] + vp);
-					vo[p] = v[p] + h6 * (sv[i] + a);
-				}
+				su[i] = vp;
+				sv[i] = a;
+				Un[p] = u[p] + c * vp;
+				vs[i] = v[p] + c * a;
+				P0 += up * ku;
+				K0 += mass[p] * vp * vp;
+				W0 += f * vp;
 			}
+			pe2 += P0, pe2 += P[1], pe2 += P[2], pe2 += P[3];
+			ke2 += K0, ke2 += K[1], ke2 += K[2], ke2 += K[3];
+			pw += W0, pw += W[1], pw += W[2], pw += W[3];
 		}
 		if (d) {
 			const double *restrict ux = g->U, *restrict uy = g->U + cnt, *restrict uz = g->U + 2 * cnt;
