@@ -50,11 +50,66 @@ accel_interior(const ndo_sim *s, const double *restrict u, const double *restric
 	double pe2 = 0, ke2 = 0, pw = 0, um = 0, vku = 0;
 	for (size_t k = k0; k < k1; k++) {
 		const size_t lo = (size_t)s->ispan[k].a, hi = (size_t)s->ispan[k].b;
-		/* The planes do not overlap: without saying so, the many outputs
-		 * of an update took the compiler's alias checks past its limit,
-		 * and the loops with diagnostics were never vectorized. */
-#pragma omp simd reduction(+ : pe2, ke2, pw, vku) reduction(max : um)
-		for (size_t p = lo; p < hi; p++) {
+		/* Four nodes at a time (sim_private.h, ndo__v4), the diagnostics
+		 * summed as GCC's AVX2 reduction of the omp simd loop this
+		 * replaces summed them (a sum a lane over the four-node steps, the
+		 * last 0-3 nodes into lane 0, then the lanes into the running sum
+		 * in order; the largest |u|² likewise): the same bits as before. */
+		size_t p = lo;
+		ndo__v4 Pe = {0, 0, 0, 0}, Ke = Pe, Pw = Pe, Vk = Pe, Um = Pe;
+		const ndo__v4 ga4 = {ga, ga, ga, ga}, h4 = {h, h, h, h}, half = {0.5, 0.5, 0.5, 0.5};
+		for (; p + 4 <= hi; p += 4) {
+			const ndo__v4 c0 = V4_LD(e0 + p), c1 = V4_LD(e1 + p), c2 = V4_LD(e2 + p),
+			              c3 = V4_LD(e0 + p - 1), c4 = V4_LD(e1 + p - w),
+			              c5 = V4_LD(e2 + p - w + 1);
+#define KU(U)                                                                             \
+	(c0 * (V4_LD(U + p) - V4_LD(U + p + 1)) + c1 * (V4_LD(U + p) - V4_LD(U + p + w)) +     \
+	 c2 * (V4_LD(U + p) - V4_LD(U + p + w - 1)) + c3 * (V4_LD(U + p) - V4_LD(U + p - 1)) + \
+	 c4 * (V4_LD(U + p) - V4_LD(U + p - w)) + c5 * (V4_LD(U + p) - V4_LD(U + p - w + 1)))
+			const ndo__v4 kx = KU(ux), ky = KU(uy), kz = KU(uz);
+#undef KU
+			const ndo__v4 zero = {0, 0, 0, 0};
+			const ndo__v4 fx = hasF ? V4_LD(F + p) : zero, fy = hasF ? V4_LD(F + cnt + p) : zero,
+			              fz = hasF ? V4_LD(F + 2 * cnt + p) : zero;
+			const ndo__v4 Vx = V4_LD(vx + p), Vy = V4_LD(vy + p), Vz = V4_LD(vz + p);
+			const ndo__v4 Ux = V4_LD(ux + p), Uy = V4_LD(uy + p), Uz = V4_LD(uz + p);
+			const ndo__v4 mi = V4_LD(minv + p);
+			const ndo__v4 gx = mi * (fx - kx) - ga4 * Vx;
+			const ndo__v4 gy = mi * (fy - ky) - ga4 * Vy;
+			const ndo__v4 gz = mi * (fz - kz) - ga4 * Vz;
+			if (upd == NDO__UPD_SYMPLECTIC) {
+				const ndo__v4 nx = Vx + h4 * gx, ny = Vy + h4 * gy, nz = Vz + h4 * gz;
+				V4_ST(vox + p, nx), V4_ST(voy + p, ny), V4_ST(voz + p, nz);
+				V4_ST(uox + p, Ux + h4 * nx), V4_ST(uoy + p, Uy + h4 * ny);
+				V4_ST(uoz + p, Uz + h4 * nz);
+			} else if (upd == NDO__UPD_HALF) {
+				/* the tableau's combination: acc = 0, acc += ½ x, base + h acc */
+				const ndo__v4 sx = zero + half * Vx, sy = zero + half * Vy, sz = zero + half * Vz;
+				const ndo__v4 tx = zero + half * gx, ty = zero + half * gy, tz = zero + half * gz;
+				V4_ST(uox + p, Ux + h4 * sx), V4_ST(uoy + p, Uy + h4 * sy);
+				V4_ST(uoz + p, Uz + h4 * sz);
+				V4_ST(vox + p, Vx + h4 * tx), V4_ST(voy + p, Vy + h4 * ty);
+				V4_ST(voz + p, Vz + h4 * tz);
+			} else if (upd == NDO__UPD_FULL) {
+				V4_ST(uox + p, V4_LD(u0x + p) + h4 * Vx), V4_ST(uoy + p, V4_LD(u0y + p) + h4 * Vy);
+				V4_ST(uoz + p, V4_LD(u0z + p) + h4 * Vz);
+				V4_ST(vox + p, V4_LD(v0x + p) + h4 * gx), V4_ST(voy + p, V4_LD(v0y + p) + h4 * gy);
+				V4_ST(voz + p, V4_LD(v0z + p) + h4 * gz);
+			} else {
+				V4_ST(ax + p, gx), V4_ST(ay + p, gy), V4_ST(az + p, gz);
+			}
+			if (hasD) {
+				Pe += Ux * kx + Uy * ky + Uz * kz;
+				Ke += V4_LD(mass + p) * (Vx * Vx + Vy * Vy + Vz * Vz);
+				Pw += fx * Vx + fy * Vy + fz * Vz;
+				Vk += Vx * kx + Vy * ky + Vz * kz;
+				const ndo__v4 u2 = Ux * Ux + Uy * Uy + Uz * Uz;
+				const ndo__v4i gt = u2 > Um;
+				Um = (ndo__v4)(((ndo__v4i)u2 & gt) | ((ndo__v4i)Um & ~gt));
+			}
+		}
+		double P0 = Pe[0], K0 = Ke[0], W0 = Pw[0], V0 = Vk[0], M0 = Um[0];
+		for (; p < hi; p++) {
 			const double c0 = e0[p], c1 = e1[p], c2 = e2[p], c3 = e0[p - 1], c4 = e1[p - w],
 			             c5 = e2[p - w + 1];
 #define KU(U)                                                                             \
@@ -72,7 +127,6 @@ accel_interior(const ndo_sim *s, const double *restrict u, const double *restric
 				vox[p] = nx, voy[p] = ny, voz[p] = nz;
 				uox[p] = ux[p] + h * nx, uoy[p] = uy[p] + h * ny, uoz[p] = uz[p] + h * nz;
 			} else if (upd == NDO__UPD_HALF) {
-				/* the tableau's combination: acc = 0, acc += ½ x, base + h acc */
 				double sx = 0, sy = 0, sz = 0, tx = 0, ty = 0, tz = 0;
 				sx += 0.5 * vx[p], sy += 0.5 * vy[p], sz += 0.5 * vz[p];
 				tx += 0.5 * gx, ty += 0.5 * gy, tz += 0.5 * gz;
@@ -86,13 +140,22 @@ accel_interior(const ndo_sim *s, const double *restrict u, const double *restric
 				ax[p] = gx, ay[p] = gy, az[p] = gz;
 			}
 			if (hasD) {
-				pe2 += ux[p] * kx + uy[p] * ky + uz[p] * kz;
-				ke2 += mass[p] * (vx[p] * vx[p] + vy[p] * vy[p] + vz[p] * vz[p]);
-				pw += fx * vx[p] + fy * vy[p] + fz * vz[p];
-				vku += vx[p] * kx + vy[p] * ky + vz[p] * kz;
+				P0 += ux[p] * kx + uy[p] * ky + uz[p] * kz;
+				K0 += mass[p] * (vx[p] * vx[p] + vy[p] * vy[p] + vz[p] * vz[p]);
+				W0 += fx * vx[p] + fy * vy[p] + fz * vz[p];
+				V0 += vx[p] * kx + vy[p] * ky + vz[p] * kz;
 				const double u2 = ux[p] * ux[p] + uy[p] * uy[p] + uz[p] * uz[p];
-				um = u2 > um ? u2 : um; /* not fmax: a libm call stops vectorization */
+				M0 = u2 > M0 ? u2 : M0;
 			}
+		}
+		if (hasD) {
+			pe2 += P0, pe2 += Pe[1], pe2 += Pe[2], pe2 += Pe[3];
+			ke2 += K0, ke2 += Ke[1], ke2 += Ke[2], ke2 += Ke[3];
+			pw += W0, pw += Pw[1], pw += Pw[2], pw += Pw[3];
+			vku += V0, vku += Vk[1], vku += Vk[2], vku += Vk[3];
+			const double ml[4] = {M0, Um[1], Um[2], Um[3]};
+			for (int l = 0; l < 4; l++)
+				um = ml[l] > um ? ml[l] : um;
 		}
 	}
 	if (hasD) {

@@ -76,12 +76,10 @@ typedef struct rk4_pass {
 	ptrdiff_t sd;
 } rk4_pass;
 
-/* Four doubles, loaded and stored at any 8-byte boundary, aliasing the
- * planes' doubles (rk4_interior's stages 1-3). */
-typedef double v4 __attribute__((vector_size(32)));
-typedef double v4u __attribute__((vector_size(32), aligned(8), may_alias));
-#define LD(ptr) ((v4)(*(const v4u *)(ptr)))
-#define ST(ptr, x) (*(v4u *)(ptr) = (x))
+/* (sim_private.h: ndo__v4) */
+typedef ndo__v4 v4;
+#define LD V4_LD
+#define ST V4_ST
 
 static inline __attribute__((always_inline)) void
 rk4_interior(const ndo_sim *s, const rk4_pass *g, const int mode, const int hasF, ndo__diag *d,
@@ -118,11 +116,8 @@ rk4_interior(const ndo_sim *s, const rk4_pass *g, const int mode, const int hasF
 			RK4_PLANES(1)
 			RK4_PLANES(2)
 #undef RK4_PLANES
-			/* Four nodes at a time in GCC's vector types, every load from a
-			 * plane's base at the node's index plus a constant or a row: the
-			 * vectorizer's loop (omp simd) kept one pointer a neighbour, 40
-			 * of them spilled and reloaded every iteration.  The same
-			 * operations in the same order as the scalar tail below. */
+			/* Four nodes at a time (sim_private.h, ndo__v4), then the
+			 * scalar tail: the same operations in the same order. */
 			size_t p = lo;
 			{
 				const v4 ga4 = {ga, ga, ga, ga}, c4 = {c, c, c, c}, h64 = {h6, h6, h6, h6};
