@@ -58,7 +58,8 @@ accel_interior(const ndo_sim *s, const double *restrict u, const double *restric
 		size_t p = lo;
 		ndo__v4 Pe = {0, 0, 0, 0}, Ke = Pe, Pw = Pe, Vk = Pe, Um = Pe;
 		const ndo__v4 ga4 = {ga, ga, ga, ga}, h4 = {h, h, h, h}, half = {0.5, 0.5, 0.5, 0.5};
-		for (; p + 4 <= hi; p += 4) {
+		const size_t vend = s->scalar_loops ? lo : hi;
+		for (; p + 4 <= vend; p += 4) {
 			const ndo__v4 c0 = V4_LD(e0 + p), c1 = V4_LD(e1 + p), c2 = V4_LD(e2 + p),
 			              c3 = V4_LD(e0 + p - 1), c4 = V4_LD(e1 + p - w),
 			              c5 = V4_LD(e2 + p - w + 1);

@@ -119,9 +119,10 @@ rk4_interior(const ndo_sim *s, const rk4_pass *g, const int mode, const int hasF
 			/* Four nodes at a time (sim_private.h, ndo__v4), then the
 			 * scalar tail: the same operations in the same order. */
 			size_t p = lo;
+			const size_t vend = s->scalar_loops ? lo : hi;
 			{
 				const v4 ga4 = {ga, ga, ga, ga}, c4 = {c, c, c, c}, h64 = {h6, h6, h6, h6};
-				for (; p + 4 <= hi; p += 4) {
+				for (; p + 4 <= vend; p += 4) {
 					const size_t i = p - lo;
 					const v4 E0 = LD(e0 + p), E1 = LD(e1 + p), E2 = LD(e2 + p),
 					         E0m = LD(e0 + p - 1), E1m = LD(e1 + p - w),
@@ -207,7 +208,8 @@ rk4_interior(const ndo_sim *s, const rk4_pass *g, const int mode, const int hasF
 			v4 P = {0, 0, 0, 0}, K = {0, 0, 0, 0}, W = {0, 0, 0, 0};
 			const v4 ga4 = {ga, ga, ga, ga}, c4 = {c, c, c, c};
 			size_t p = lo;
-			for (; p + 4 <= hi; p += 4) {
+			const size_t vend = s->scalar_loops ? lo : hi;
+			for (; p + 4 <= vend; p += 4) {
 				const size_t i = p - lo;
 				const v4 up = LD(U + p);
 				const v4 ku = LD(e0 + p) * (up - LD(U + p + 1)) + LD(e1 + p) * (up - LD(U + p + w)) +

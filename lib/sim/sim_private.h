@@ -176,6 +176,9 @@ struct ndo_sim {
 	 * than ndo__accel_update's fused ones (tests compare). */
 	struct ndo__rk4_plan *rk4_plan;
 	int rk4_reference;
+	/* Tests: the stencil loops of rk4.c and accel.c run every node through
+	 * their scalar tails, not four at a time (ndo__v4), to compare. */
+	int scalar_loops;
 	/* Tests: the ring's slots per share (rk4.c, ring_layout) when fewer
 	 * than its own 3L + 1, at least the 3L − 2 below which the slots'
 	 * waits would close a cycle: a slot is then needed again before the

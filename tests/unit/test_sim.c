@@ -683,6 +683,68 @@ static void fused_passes_are_the_passes(void)
 	fast_path_is_the_passes(NDO_MIDPOINT, "fused passes");
 }
 
+/* The stencil loops four nodes at a time (rk4.c, accel.c: ndo__v4) are
+ * their scalar tails run on every node (scalar_loops), bit for bit in
+ * the state, with the energies' sums in another order: RK4's pipeline and
+ * passes, symplectic Euler's, midpoint's and Euler's fused passes and
+ * pipelines, on runs of every length mod 4 (levels 4-6, pins cutting rows),
+ * forces along the normals, fixed and on nodes, 1 and 2 threads. */
+static void vector_loops_are_the_scalar_ones(void)
+{
+	const ndo_method ms[] = {NDO_RK4, NDO_SYMPLECTIC_EULER, NDO_MIDPOINT, NDO_EULER};
+	for (int level = 4; level <= 6; level++) {
+		ndo_grid *g = shape("wavy", level);
+		size_t nn = 3 * g->count;
+		double *x0 = malloc(nn * sizeof *x0), *v0 = malloc(nn * sizeof *v0);
+		double *xa = malloc(nn * sizeof *xa), *va = malloc(nn * sizeof *va);
+		double *xb = malloc(nn * sizeof *xb), *vb = malloc(nn * sizeof *vb);
+		random_state(g, 0.01, x0, v0);
+		uint8_t *pin = calloc(g->count, 1);
+		for (size_t p = 0; p < g->count; p++) /* runs of each length mod 4 */
+			pin[p] = (p * 7) % 23 == 0;
+		int32_t faces[NFACES], nodes[4];
+		ndo_force f[3];
+		three_forces(g, level, faces, nodes, f);
+		for (size_t im = 0; im < sizeof ms / sizeof *ms; im++)
+			for (int variant = 0; variant < 4; variant++) {
+				ndo_sim_params p;
+				ndo_sim_defaults(&p);
+				p.method = ms[im];
+				p.material.damping = 0.1;
+				p.forces = f;
+				p.nforces = 3;
+				p.threads = 1 + (variant & 1);
+				const double h = ms[im] == NDO_RK4 ? 1e-3 : ms[im] == NDO_EULER ? 1e-5 : 2e-4;
+				ndo_sim *a = make(g, x0, v0, variant & 2 ? pin : NULL, &p);
+				ndo_sim *b = make(g, x0, v0, variant & 2 ? pin : NULL, &p);
+				b->scalar_loops = 1;
+				for (int k = 0; k < 6; k++) {
+					CHECK(ndo_sim_step(a, h) == 0 && ndo_sim_step(b, h) == 0, "step: %s",
+					      ndo_errdetail());
+					CHECK(ndo_sim_steps(a, h, 3) == 0 && ndo_sim_steps(b, h, 3) == 0,
+					      "steps: %s", ndo_errdetail());
+				}
+				ndo_sim_get(a, xa, va);
+				ndo_sim_get(b, xb, vb);
+				ndo_sim_energy ea, eb;
+				ndo_sim_energy_get(a, &ea);
+				ndo_sim_energy_get(b, &eb);
+				CHECK(!memcmp(xa, xb, nn * sizeof *xa) && !memcmp(va, vb, nn * sizeof *va),
+				      "%s, level %d, variant %d: four at a time differs from the scalar "
+				      "loop by %g (x), %g (v)", ndo_method_names[ms[im]], level, variant,
+				      max_diff(xa, xb, nn), max_diff(va, vb, nn));
+				double de = fabs(ea.kinetic - eb.kinetic) + fabs(ea.potential - eb.potential);
+				CHECK(de <= 1e-12 * (fabs(eb.kinetic) + fabs(eb.potential)),
+				      "%s, level %d, variant %d: energies differ by %g", ndo_method_names[ms[im]],
+				      level, variant, de);
+				ndo_sim_destroy(a);
+				ndo_sim_destroy(b);
+			}
+		free(x0), free(v0), free(xa), free(va), free(xb), free(vb), free(pin);
+		ndo_grid_destroy(g);
+	}
+}
+
 /* One simulation's result against another's: state, time, step count,
  * energies, work and statistics, bit for bit. */
 static int same_run(ndo_sim *a, ndo_sim *b, size_t nn, double *xa, double *va, double *xb,
@@ -1686,6 +1748,7 @@ int main(void)
 	RUN(rk4_ring_reused_late_enough);
 	RUN(rk4_begun_ahead_is_the_step);
 	RUN(fused_passes_are_the_passes);
+	RUN(vector_loops_are_the_scalar_ones);
 	RUN(steps_are_single_steps);
 	RUN(rkf45_in_parts_is_the_step);
 	RUN(rkf45_resumes_from_state_time_and_substep);
