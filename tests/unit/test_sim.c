@@ -308,6 +308,17 @@ static void three_forces(const ndo_grid *g, int level, int32_t *faces, int32_t *
 	f[2] = (ndo_force){NDO_FORCE_POINT, 0.7, 2, 0, 1, {0}, 4, nodes};
 }
 
+/* The parameters of the runs on three_forces(): method m, damping 0.1,
+ * the three forces f. */
+static void forced_params(ndo_sim_params *p, ndo_method m, ndo_force *f)
+{
+	ndo_sim_defaults(p);
+	p->method = m;
+	p->material.damping = 0.1;
+	p->forces = f;
+	p->nforces = 3;
+}
+
 /* A fast path against the passes, bit for bit on 1-3 threads: state,
  * energies, input work, evaluations; with forces along the normals (read
  * from the stage's positions), along a fixed direction and on nodes, at a
@@ -328,11 +339,7 @@ static void fast_path_is_the_passes(ndo_method method, const char *path)
 		ndo_force f[3];
 		three_forces(g, level, faces, nodes, f);
 		ndo_sim_params p;
-		ndo_sim_defaults(&p);
-		p.method = method;
-		p.material.damping = 0.1;
-		p.forces = f;
-		p.nforces = 3;
+		forced_params(&p, method, f);
 		const double h = method == NDO_RK4 || level == 3 ? 1e-3 : 2e-4;
 		ndo_sim *ref = make(g, x0, v0, NULL, &p);
 		ref->rk4_reference = 1;
@@ -708,11 +715,7 @@ static void vector_loops_are_the_scalar_ones(void)
 		for (size_t im = 0; im < sizeof ms / sizeof *ms; im++)
 			for (int variant = 0; variant < 4; variant++) {
 				ndo_sim_params p;
-				ndo_sim_defaults(&p);
-				p.method = ms[im];
-				p.material.damping = 0.1;
-				p.forces = f;
-				p.nforces = 3;
+				forced_params(&p, ms[im], f);
 				p.threads = 1 + (variant & 1);
 				const double h = ms[im] == NDO_RK4 ? 1e-3 : ms[im] == NDO_EULER ? 1e-5 : 2e-4;
 				ndo_sim *a = make(g, x0, v0, variant & 2 ? pin : NULL, &p);
@@ -797,11 +800,7 @@ static void steps_are_single_steps(void)
 				ndo_force f[3];
 				three_forces(g, level, faces, nodes, f);
 				ndo_sim_params p;
-				ndo_sim_defaults(&p);
-				p.method = ms[im];
-				p.material.damping = 0.1;
-				p.forces = f;
-				p.nforces = 3;
+				forced_params(&p, ms[im], f);
 				const double h = level == 3 ? 1e-3 : 2e-4;
 				const int K = 37;
 				ndo_sim *ref = make(g, x0, v0, pins ? pin : NULL, &p);
