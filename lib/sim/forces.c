@@ -188,7 +188,7 @@ static int item_force(const ndo_sim *s, const ndo__force *F, size_t q, const dou
 {
 	double dir[3];
 	if (F->f.kind == NDO_FORCE_FACE) {
-		triangle_nodes(s, (size_t)F->f.items[q], v);
+		memcpy(v, F->nodes + 3 * q, 3 * sizeof *v);
 		if (F->f.normal) {
 			double a[3], b[3], c[3];
 			position(s, u, v[0], a);
@@ -218,7 +218,7 @@ int ndo__force_item_nodes(const ndo_sim *s, int k, size_t q, int32_t v[3])
 {
 	const ndo__force *F = &s->forces[k];
 	if (F->f.kind == NDO_FORCE_FACE) {
-		triangle_nodes(s, (size_t)F->f.items[q], v);
+		memcpy(v, F->nodes + 3 * q, 3 * sizeof *v);
 		return 3;
 	}
 	v[0] = F->f.items[q];
