@@ -55,100 +55,75 @@ accel_interior(const ndo_sim *s, const double *restrict u, const double *restric
 		 * replaces summed them (a sum a lane over the four-node steps, the
 		 * last 0-3 nodes into lane 0, then the lanes into the running sum
 		 * in order; the largest |u|² likewise): the same bits as before. */
+		/* One text for the four nodes and the one (T the type, L a load,
+		 * S a store, Z T's zero), so the same operations in the same
+		 * order; the running sums Pe.. and the largest |u|² Um. */
+#define ACCEL_NODE(T, L, S, Z, Pe, Ke, Pw, Vk, UMAX)                                        \
+	do {                                                                                \
+		const T c0 = L(e0 + p), c1 = L(e1 + p), c2 = L(e2 + p), c3 = L(e0 + p - 1),     \
+		        c4 = L(e1 + p - w), c5 = L(e2 + p - w + 1);                              \
+		const T kx = ACCEL_KU(ux, L), ky = ACCEL_KU(uy, L), kz = ACCEL_KU(uz, L);        \
+		const T fx = hasF ? L(F + p) : Z, fy = hasF ? L(F + cnt + p) : Z,               \
+		        fz = hasF ? L(F + 2 * cnt + p) : Z;                                      \
+		const T Vx = L(vx + p), Vy = L(vy + p), Vz = L(vz + p);                         \
+		const T Ux = L(ux + p), Uy = L(uy + p), Uz = L(uz + p), mi = L(minv + p);       \
+		const T gx = mi * (fx - kx) - ga * Vx;                                          \
+		const T gy = mi * (fy - ky) - ga * Vy;                                          \
+		const T gz = mi * (fz - kz) - ga * Vz;                                          \
+		if (upd == NDO__UPD_SYMPLECTIC) {                                               \
+			const T nx = Vx + h * gx, ny = Vy + h * gy, nz = Vz + h * gz;               \
+			S(vox + p, nx), S(voy + p, ny), S(voz + p, nz);                             \
+			S(uox + p, Ux + h * nx), S(uoy + p, Uy + h * ny), S(uoz + p, Uz + h * nz);  \
+		} else if (upd == NDO__UPD_HALF) {                                              \
+			/* the tableau's combination: acc = 0, acc += ½ x, base + h acc */          \
+			const T sx = Z + 0.5 * Vx, sy = Z + 0.5 * Vy, sz = Z + 0.5 * Vz;            \
+			const T tx = Z + 0.5 * gx, ty = Z + 0.5 * gy, tz = Z + 0.5 * gz;            \
+			S(uox + p, Ux + h * sx), S(uoy + p, Uy + h * sy), S(uoz + p, Uz + h * sz);  \
+			S(vox + p, Vx + h * tx), S(voy + p, Vy + h * ty), S(voz + p, Vz + h * tz);  \
+		} else if (upd == NDO__UPD_FULL) {                                              \
+			S(uox + p, L(u0x + p) + h * Vx), S(uoy + p, L(u0y + p) + h * Vy);           \
+			S(uoz + p, L(u0z + p) + h * Vz);                                            \
+			S(vox + p, L(v0x + p) + h * gx), S(voy + p, L(v0y + p) + h * gy);           \
+			S(voz + p, L(v0z + p) + h * gz);                                            \
+		} else {                                                                        \
+			S(ax + p, gx), S(ay + p, gy), S(az + p, gz);                                \
+		}                                                                               \
+		if (hasD) {                                                                     \
+			Pe += Ux * kx + Uy * ky + Uz * kz;                                          \
+			Ke += L(mass + p) * (Vx * Vx + Vy * Vy + Vz * Vz);                          \
+			Pw += fx * Vx + fy * Vy + fz * Vz;                                          \
+			Vk += Vx * kx + Vy * ky + Vz * kz;                                          \
+			UMAX(Ux * Ux + Uy * Uy + Uz * Uz);                                          \
+		}                                                                               \
+	} while (0)
+#define ACCEL_KU(U, L)                                                                    \
+	(c0 * (L(U + p) - L(U + p + 1)) + c1 * (L(U + p) - L(U + p + w)) +                 \
+	 c2 * (L(U + p) - L(U + p + w - 1)) + c3 * (L(U + p) - L(U + p - 1)) +             \
+	 c4 * (L(U + p) - L(U + p - w)) + c5 * (L(U + p) - L(U + p - w + 1)))
+/* the largest |u|²: a select (a libm fmax stops vectorization) */
+#define UMAX4(u2)                                                                         \
+	do {                                                                              \
+		const ndo__v4 u2_ = (u2);                                                     \
+		const ndo__v4i gt = u2_ > Um;                                                 \
+		Um = (ndo__v4)(((ndo__v4i)u2_ & gt) | ((ndo__v4i)Um & ~gt));                  \
+	} while (0)
+#define UMAX1(u2)                                                                         \
+	do {                                                                              \
+		const double u2_ = (u2);                                                      \
+		M0 = u2_ > M0 ? u2_ : M0;                                                     \
+	} while (0)
 		size_t p = lo;
 		ndo__v4 Pe = {0, 0, 0, 0}, Ke = Pe, Pw = Pe, Vk = Pe, Um = Pe;
-		const ndo__v4 ga4 = {ga, ga, ga, ga}, h4 = {h, h, h, h}, half = {0.5, 0.5, 0.5, 0.5};
 		const size_t vend = s->scalar_loops ? lo : hi;
-		for (; p + 4 <= vend; p += 4) {
-			const ndo__v4 c0 = V4_LD(e0 + p), c1 = V4_LD(e1 + p), c2 = V4_LD(e2 + p),
-			              c3 = V4_LD(e0 + p - 1), c4 = V4_LD(e1 + p - w),
-			              c5 = V4_LD(e2 + p - w + 1);
-#define KU(U)                                                                             \
-	(c0 * (V4_LD(U + p) - V4_LD(U + p + 1)) + c1 * (V4_LD(U + p) - V4_LD(U + p + w)) +     \
-	 c2 * (V4_LD(U + p) - V4_LD(U + p + w - 1)) + c3 * (V4_LD(U + p) - V4_LD(U + p - 1)) + \
-	 c4 * (V4_LD(U + p) - V4_LD(U + p - w)) + c5 * (V4_LD(U + p) - V4_LD(U + p - w + 1)))
-			const ndo__v4 kx = KU(ux), ky = KU(uy), kz = KU(uz);
-#undef KU
-			const ndo__v4 zero = {0, 0, 0, 0};
-			const ndo__v4 fx = hasF ? V4_LD(F + p) : zero, fy = hasF ? V4_LD(F + cnt + p) : zero,
-			              fz = hasF ? V4_LD(F + 2 * cnt + p) : zero;
-			const ndo__v4 Vx = V4_LD(vx + p), Vy = V4_LD(vy + p), Vz = V4_LD(vz + p);
-			const ndo__v4 Ux = V4_LD(ux + p), Uy = V4_LD(uy + p), Uz = V4_LD(uz + p);
-			const ndo__v4 mi = V4_LD(minv + p);
-			const ndo__v4 gx = mi * (fx - kx) - ga4 * Vx;
-			const ndo__v4 gy = mi * (fy - ky) - ga4 * Vy;
-			const ndo__v4 gz = mi * (fz - kz) - ga4 * Vz;
-			if (upd == NDO__UPD_SYMPLECTIC) {
-				const ndo__v4 nx = Vx + h4 * gx, ny = Vy + h4 * gy, nz = Vz + h4 * gz;
-				V4_ST(vox + p, nx), V4_ST(voy + p, ny), V4_ST(voz + p, nz);
-				V4_ST(uox + p, Ux + h4 * nx), V4_ST(uoy + p, Uy + h4 * ny);
-				V4_ST(uoz + p, Uz + h4 * nz);
-			} else if (upd == NDO__UPD_HALF) {
-				/* the tableau's combination: acc = 0, acc += ½ x, base + h acc */
-				const ndo__v4 sx = zero + half * Vx, sy = zero + half * Vy, sz = zero + half * Vz;
-				const ndo__v4 tx = zero + half * gx, ty = zero + half * gy, tz = zero + half * gz;
-				V4_ST(uox + p, Ux + h4 * sx), V4_ST(uoy + p, Uy + h4 * sy);
-				V4_ST(uoz + p, Uz + h4 * sz);
-				V4_ST(vox + p, Vx + h4 * tx), V4_ST(voy + p, Vy + h4 * ty);
-				V4_ST(voz + p, Vz + h4 * tz);
-			} else if (upd == NDO__UPD_FULL) {
-				V4_ST(uox + p, V4_LD(u0x + p) + h4 * Vx), V4_ST(uoy + p, V4_LD(u0y + p) + h4 * Vy);
-				V4_ST(uoz + p, V4_LD(u0z + p) + h4 * Vz);
-				V4_ST(vox + p, V4_LD(v0x + p) + h4 * gx), V4_ST(voy + p, V4_LD(v0y + p) + h4 * gy);
-				V4_ST(voz + p, V4_LD(v0z + p) + h4 * gz);
-			} else {
-				V4_ST(ax + p, gx), V4_ST(ay + p, gy), V4_ST(az + p, gz);
-			}
-			if (hasD) {
-				Pe += Ux * kx + Uy * ky + Uz * kz;
-				Ke += V4_LD(mass + p) * (Vx * Vx + Vy * Vy + Vz * Vz);
-				Pw += fx * Vx + fy * Vy + fz * Vz;
-				Vk += Vx * kx + Vy * ky + Vz * kz;
-				const ndo__v4 u2 = Ux * Ux + Uy * Uy + Uz * Uz;
-				const ndo__v4i gt = u2 > Um;
-				Um = (ndo__v4)(((ndo__v4i)u2 & gt) | ((ndo__v4i)Um & ~gt));
-			}
-		}
+		for (; p + 4 <= vend; p += 4)
+			ACCEL_NODE(ndo__v4, V4_LD, V4_ST, ((ndo__v4){0, 0, 0, 0}), Pe, Ke, Pw, Vk, UMAX4);
 		double P0 = Pe[0], K0 = Ke[0], W0 = Pw[0], V0 = Vk[0], M0 = Um[0];
-		for (; p < hi; p++) {
-			const double c0 = e0[p], c1 = e1[p], c2 = e2[p], c3 = e0[p - 1], c4 = e1[p - w],
-			             c5 = e2[p - w + 1];
-#define KU(U)                                                                             \
-	(c0 * (U[p] - U[p + 1]) + c1 * (U[p] - U[p + w]) + c2 * (U[p] - U[p + w - 1]) +     \
-	 c3 * (U[p] - U[p - 1]) + c4 * (U[p] - U[p - w]) + c5 * (U[p] - U[p - w + 1]))
-			const double kx = KU(ux), ky = KU(uy), kz = KU(uz);
-#undef KU
-			const double fx = hasF ? F[p] : 0, fy = hasF ? F[cnt + p] : 0,
-			             fz = hasF ? F[2 * cnt + p] : 0;
-			const double gx = minv[p] * (fx - kx) - ga * vx[p];
-			const double gy = minv[p] * (fy - ky) - ga * vy[p];
-			const double gz = minv[p] * (fz - kz) - ga * vz[p];
-			if (upd == NDO__UPD_SYMPLECTIC) {
-				const double nx = vx[p] + h * gx, ny = vy[p] + h * gy, nz = vz[p] + h * gz;
-				vox[p] = nx, voy[p] = ny, voz[p] = nz;
-				uox[p] = ux[p] + h * nx, uoy[p] = uy[p] + h * ny, uoz[p] = uz[p] + h * nz;
-			} else if (upd == NDO__UPD_HALF) {
-				double sx = 0, sy = 0, sz = 0, tx = 0, ty = 0, tz = 0;
-				sx += 0.5 * vx[p], sy += 0.5 * vy[p], sz += 0.5 * vz[p];
-				tx += 0.5 * gx, ty += 0.5 * gy, tz += 0.5 * gz;
-				uox[p] = ux[p] + h * sx, uoy[p] = uy[p] + h * sy, uoz[p] = uz[p] + h * sz;
-				vox[p] = vx[p] + h * tx, voy[p] = vy[p] + h * ty, voz[p] = vz[p] + h * tz;
-			} else if (upd == NDO__UPD_FULL) {
-				uox[p] = u0x[p] + h * vx[p], uoy[p] = u0y[p] + h * vy[p],
-				uoz[p] = u0z[p] + h * vz[p];
-				vox[p] = v0x[p] + h * gx, voy[p] = v0y[p] + h * gy, voz[p] = v0z[p] + h * gz;
-			} else {
-				ax[p] = gx, ay[p] = gy, az[p] = gz;
-			}
-			if (hasD) {
-				P0 += ux[p] * kx + uy[p] * ky + uz[p] * kz;
-				K0 += mass[p] * (vx[p] * vx[p] + vy[p] * vy[p] + vz[p] * vz[p]);
-				W0 += fx * vx[p] + fy * vy[p] + fz * vz[p];
-				V0 += vx[p] * kx + vy[p] * ky + vz[p] * kz;
-				const double u2 = ux[p] * ux[p] + uy[p] * uy[p] + uz[p] * uz[p];
-				M0 = u2 > M0 ? u2 : M0;
-			}
-		}
+		for (; p < hi; p++)
+			ACCEL_NODE(double, V1_LD, V1_ST, 0.0, P0, K0, W0, V0, UMAX1);
+#undef UMAX1
+#undef UMAX4
+#undef ACCEL_KU
+#undef ACCEL_NODE
 		if (hasD) {
 			pe2 += P0, pe2 += Pe[1], pe2 += Pe[2], pe2 += Pe[3];
 			ke2 += K0, ke2 += Ke[1], ke2 += Ke[2], ke2 += Ke[3];

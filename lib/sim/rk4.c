@@ -116,76 +116,49 @@ rk4_interior(const ndo_sim *s, const rk4_pass *g, const int mode, const int hasF
 			RK4_PLANES(1)
 			RK4_PLANES(2)
 #undef RK4_PLANES
-			/* Four nodes at a time (sim_private.h, ndo__v4), then the
-			 * scalar tail: the same operations in the same order. */
+			/* Four nodes at a time (sim_private.h, ndo__v4), then the rest
+			 * one at a time: one text for both (RK4_NODE, T the type, L a
+			 * load, S a store, Z T's zero), so the same operations in the
+			 * same order. */
+#define RK4_COORD(comp, T, L, S, Z)                                                         \
+	do {                                                                                \
+		const double *restrict U = U##comp;                                             \
+		const T up = L(U + p);                                                          \
+		const T ku = E0 * (up - L(U + p + 1)) + E1 * (up - L(U + p + w)) +              \
+		             E2 * (up - L(U + p + w - 1)) + E0m * (up - L(U + p - 1)) +          \
+		             E1m * (up - L(U + p - w)) + E2m * (up - L(U + p - w + 1));          \
+		const T f = hasF ? L(F##comp + p) : Z, vp = L(vs##comp + i);                    \
+		const T a = mi * (f - ku) - ga * vp;                                            \
+		if (mode == RK4_MID) {                                                          \
+			S(su##comp + i, L(su##comp + i) + 2 * vp);                                  \
+			S(sv##comp + i, L(sv##comp + i) + 2 * a);                                   \
+			S(Un##comp + p, L(u##comp + p) + c * vp);                                   \
+			S(vs##comp + i, L(v##comp + p) + c * a);                                    \
+		} else if (mode == RK4_LAST) {                                                  \
+			S(u##comp + p, L(u##comp + p) + h6 * (L(su##comp + i) + vp));               \
+			S(v##comp + p, L(v##comp + p) + h6 * (L(sv##comp + i) + a));               \
+		} else {                                                                        \
+			S(uo##comp + p, L(u##comp + p) + h6 * (L(su##comp + i) + vp));              \
+			S(vo##comp + p, L(v##comp + p) + h6 * (L(sv##comp + i) + a));              \
+		}                                                                               \
+	} while (0)
+#define RK4_NODE(T, L, S, Z)                                                                \
+	do {                                                                                \
+		const size_t i = p - lo;                                                        \
+		const T E0 = L(e0 + p), E1 = L(e1 + p), E2 = L(e2 + p), E0m = L(e0 + p - 1),    \
+		        E1m = L(e1 + p - w), E2m = L(e2 + p - w + 1), mi = L(minv + p);         \
+		RK4_COORD(0, T, L, S, Z);                                                       \
+		RK4_COORD(1, T, L, S, Z);                                                       \
+		RK4_COORD(2, T, L, S, Z);                                                       \
+	} while (0)
 			size_t p = lo;
 			const size_t vend = s->scalar_loops ? lo : hi;
-			{
-				const v4 ga4 = {ga, ga, ga, ga}, c4 = {c, c, c, c}, h64 = {h6, h6, h6, h6};
-				for (; p + 4 <= vend; p += 4) {
-					const size_t i = p - lo;
-					const v4 E0 = LD(e0 + p), E1 = LD(e1 + p), E2 = LD(e2 + p),
-					         E0m = LD(e0 + p - 1), E1m = LD(e1 + p - w),
-					         E2m = LD(e2 + p - w + 1), mi = LD(minv + p);
-#define RK4_VCOORD(comp)                                                                    \
-	do {                                                                                \
-		const double *restrict U = U##comp;                                             \
-		const v4 up = LD(U + p);                                                        \
-		const v4 ku = E0 * (up - LD(U + p + 1)) + E1 * (up - LD(U + p + w)) +           \
-		              E2 * (up - LD(U + p + w - 1)) + E0m * (up - LD(U + p - 1)) +       \
-		              E1m * (up - LD(U + p - w)) + E2m * (up - LD(U + p - w + 1));       \
-		const v4 f = hasF ? LD(F##comp + p) : (v4){0, 0, 0, 0}, vp = LD(vs##comp + i);  \
-		const v4 a = mi * (f - ku) - ga4 * vp;                                          \
-		if (mode == RK4_MID) {                                                          \
-			ST(su##comp + i, LD(su##comp + i) + 2 * vp);                                \
-			ST(sv##comp + i, LD(sv##comp + i) + 2 * a);                                 \
-			ST(Un##comp + p, LD(u##comp + p) + c4 * vp);                                \
-			ST(vs##comp + i, LD(v##comp + p) + c4 * a);                                 \
-		} else if (mode == RK4_LAST) {                                                  \
-			ST(u##comp + p, LD(u##comp + p) + h64 * (LD(su##comp + i) + vp));           \
-			ST(v##comp + p, LD(v##comp + p) + h64 * (LD(sv##comp + i) + a));           \
-		} else {                                                                        \
-			ST(uo##comp + p, LD(u##comp + p) + h64 * (LD(su##comp + i) + vp));          \
-			ST(vo##comp + p, LD(v##comp + p) + h64 * (LD(sv##comp + i) + a));          \
-		}                                                                               \
-	} while (0)
-					RK4_VCOORD(0);
-					RK4_VCOORD(1);
-					RK4_VCOORD(2);
-#undef RK4_VCOORD
-				}
-			}
-			for (; p < hi; p++) {
-				const size_t i = p - lo;
-				const double E0 = e0[p], E1 = e1[p], E2 = e2[p], E0m = e0[p - 1],
-				             E1m = e1[p - w], E2m = e2[p - w + 1], mi = minv[p];
-#define RK4_COORD(comp)                                                                     \
-	do {                                                                                \
-		const double *restrict U = U##comp;                                             \
-		const double up = U[p];                                                         \
-		const double ku = E0 * (up - U[p + 1]) + E1 * (up - U[p + w]) +                 \
-		                  E2 * (up - U[p + w - 1]) + E0m * (up - U[p - 1]) +             \
-		                  E1m * (up - U[p - w]) + E2m * (up - U[p - w + 1]);             \
-		const double f = hasF ? F##comp[p] : 0, vp = vs##comp[i];                       \
-		const double a = mi * (f - ku) - ga * vp;                                       \
-		if (mode == RK4_MID) {                                                          \
-			su##comp[i] += 2 * vp;                                                      \
-			sv##comp[i] += 2 * a;                                                       \
-			Un##comp[p] = u##comp[p] + c * vp;                                          \
-			vs##comp[i] = v##comp[p] + c * a;                                           \
-		} else if (mode == RK4_LAST) {                                                  \
-			u##comp[p] += h6 * (su##comp[i] + vp);                                      \
-			v##comp[p] += h6 * (sv##comp[i] + a);                                       \
-		} else {                                                                        \
-			uo##comp[p] = u##comp[p] + h6 * (su##comp[i] + vp);                         \
-			vo##comp[p] = v##comp[p] + h6 * (sv##comp[i] + a);                          \
-		}                                                                               \
-	} while (0)
-				RK4_COORD(0);
-				RK4_COORD(1);
-				RK4_COORD(2);
+			for (; p + 4 <= vend; p += 4)
+				RK4_NODE(v4, LD, ST, ((v4){0, 0, 0, 0}));
+			for (; p < hi; p++)
+				RK4_NODE(double, V1_LD, V1_ST, 0);
+#undef RK4_NODE
 #undef RK4_COORD
-			}
 			continue;
 		}
 		for (int comp = 0; comp < 3; comp++) {
@@ -199,51 +172,40 @@ rk4_interior(const ndo_sim *s, const rk4_pass *g, const int mode, const int hasF
 			const ptrdiff_t so = (ptrdiff_t)((size_t)comp * g->ss + lo) + g->sd;
 			double *restrict su = g->su + so, *restrict sv = g->sv + so;
 			double *restrict vs = g->vs + so;
-/* Stage 0 (only it comes here): four nodes at a time as the stages
+			/* Stage 0 (only it comes here): four nodes at a time as the stages
 			 * after it, its diagnostics summed as GCC's vectorized reduction of
 			 * the omp simd loop this replaces summed them on AVX2 — one sum a
 			 * lane over the four-node steps, the last 0-3 nodes added to lane
 			 * 0, then the lanes added to the running sum in order — so the
 			 * same bits as before there. */
 			v4 P = {0, 0, 0, 0}, K = {0, 0, 0, 0}, W = {0, 0, 0, 0};
-			const v4 ga4 = {ga, ga, ga, ga}, c4 = {c, c, c, c};
+#define RK4_FIRST_NODE(T, L, S, Z, P, K, W)                                                 \
+	do {                                                                                \
+		const size_t i = p - lo;                                                        \
+		const T up = L(U + p);                                                          \
+		const T ku = L(e0 + p) * (up - L(U + p + 1)) + L(e1 + p) * (up - L(U + p + w)) + \
+		             L(e2 + p) * (up - L(U + p + w - 1)) +                               \
+		             L(e0 + p - 1) * (up - L(U + p - 1)) +                               \
+		             L(e1 + p - w) * (up - L(U + p - w)) +                               \
+		             L(e2 + p - w + 1) * (up - L(U + p - w + 1));                        \
+		const T f = hasF ? L(F + p) : Z, vp = L(v + p);                                 \
+		const T a = L(minv + p) * (f - ku) - ga * vp;                                   \
+		S(su + i, vp);                                                                  \
+		S(sv + i, a);                                                                   \
+		S(Un + p, L(u + p) + c * vp);                                                   \
+		S(vs + i, L(v + p) + c * a);                                                    \
+		P += up * ku;                                                                   \
+		K += L(mass + p) * vp * vp;                                                     \
+		W += f * vp;                                                                    \
+	} while (0)
 			size_t p = lo;
 			const size_t vend = s->scalar_loops ? lo : hi;
-			for (; p + 4 <= vend; p += 4) {
-				const size_t i = p - lo;
-				const v4 up = LD(U + p);
-				const v4 ku = LD(e0 + p) * (up - LD(U + p + 1)) + LD(e1 + p) * (up - LD(U + p + w)) +
-				              LD(e2 + p) * (up - LD(U + p + w - 1)) +
-				              LD(e0 + p - 1) * (up - LD(U + p - 1)) +
-				              LD(e1 + p - w) * (up - LD(U + p - w)) +
-				              LD(e2 + p - w + 1) * (up - LD(U + p - w + 1));
-				const v4 f = hasF ? LD(F + p) : (v4){0, 0, 0, 0}, vp = LD(v + p);
-				const v4 a = LD(minv + p) * (f - ku) - ga4 * vp;
-				ST(su + i, vp);
-				ST(sv + i, a);
-				ST(Un + p, LD(u + p) + c4 * vp);
-				ST(vs + i, LD(v + p) + c4 * a);
-				P += up * ku;
-				K += LD(mass + p) * vp * vp;
-				W += f * vp;
-			}
+			for (; p + 4 <= vend; p += 4)
+				RK4_FIRST_NODE(v4, LD, ST, ((v4){0, 0, 0, 0}), P, K, W);
 			double P0 = P[0], K0 = K[0], W0 = W[0];
-			for (; p < hi; p++) {
-				const size_t i = p - lo;
-				const double up = U[p];
-				const double ku = e0[p] * (up - U[p + 1]) + e1[p] * (up - U[p + w]) +
-				                  e2[p] * (up - U[p + w - 1]) + e0[p - 1] * (up - U[p - 1]) +
-				                  e1[p - w] * (up - U[p - w]) + e2[p - w + 1] * (up - U[p - w + 1]);
-				const double f = hasF ? F[p] : 0, vp = v[p];
-				const double a = minv[p] * (f - ku) - ga * vp;
-				su[i] = vp;
-				sv[i] = a;
-				Un[p] = u[p] + c * vp;
-				vs[i] = v[p] + c * a;
-				P0 += up * ku;
-				K0 += mass[p] * vp * vp;
-				W0 += f * vp;
-			}
+			for (; p < hi; p++)
+				RK4_FIRST_NODE(double, V1_LD, V1_ST, 0, P0, K0, W0);
+#undef RK4_FIRST_NODE
 			pe2 += P0, pe2 += P[1], pe2 += P[2], pe2 += P[3];
 			ke2 += K0, ke2 += K[1], ke2 += K[2], ke2 += K[3];
 			pw += W0, pw += W[1], pw += W[2], pw += W[3];

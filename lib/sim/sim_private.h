@@ -33,6 +33,9 @@ typedef double ndo__v4u __attribute__((vector_size(32), aligned(8), may_alias));
 typedef long long ndo__v4i __attribute__((vector_size(32)));
 #define V4_LD(ptr) ((ndo__v4)(*(const ndo__v4u *)(ptr)))
 #define V4_ST(ptr, x) (*(ndo__v4u *)(ptr) = (x))
+/* ... and one double, for the same loop bodies' scalar tails */
+#define V1_LD(ptr) (*(ptr))
+#define V1_ST(ptr, x) (*(ptr) = (x))
 
 /* A run of consecutive stored indices [a, b). */
 typedef struct ndo__span {
