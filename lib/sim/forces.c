@@ -310,7 +310,9 @@ void ndo__forces_eval(ndo_sim *s, double t, const double *u)
 			}
 			continue;
 		}
-		if (F->f.kind == NDO_FORCE_FACE && F->f.normal) {
+		/* (rk4_reference: one item at a time, the reference the tests
+		 * hold the batches to) */
+		if (F->f.kind == NDO_FORCE_FACE && F->f.normal && !s->rk4_reference) {
 			face_batch B;
 			for (size_t q0 = 0; q0 < F->f.count; q0 += FBATCH) {
 				int m = F->f.count - q0 < FBATCH ? (int)(F->f.count - q0) : FBATCH;

@@ -176,7 +176,9 @@ struct ndo_sim {
 	 * at the first step that can take it, freed when the chunks change.
 	 * rk4_reference: take the four passes instead, and symplectic Euler
 	 * and midpoint their passes through ndo__accel (integrate.c) rather
-	 * than ndo__accel_update's fused ones (tests compare). */
+	 * than ndo__accel_update's fused ones, and ndo__forces_eval the face
+	 * forces one item at a time (item_force) rather than in batches
+	 * (tests compare). */
 	struct ndo__rk4_plan *rk4_plan;
 	int rk4_reference;
 	/* Tests: the stencil loops of rk4.c and accel.c run every node through
