@@ -50,14 +50,13 @@ accel_interior(const ndo_sim *s, const double *restrict u, const double *restric
 	double pe2 = 0, ke2 = 0, pw = 0, um = 0, vku = 0;
 	for (size_t k = k0; k < k1; k++) {
 		const size_t lo = (size_t)s->ispan[k].a, hi = (size_t)s->ispan[k].b;
-		/* Four nodes at a time (sim_private.h, ndo__v4), the diagnostics
-		 * summed as GCC's AVX2 reduction of the omp simd loop this
-		 * replaces summed them (a sum a lane over the four-node steps, the
-		 * last 0-3 nodes into lane 0, then the lanes into the running sum
-		 * in order; the largest |u|² likewise): the same bits as before. */
-		/* One text for the four nodes and the one (T the type, L a load,
-		 * S a store, Z T's zero), so the same operations in the same
-		 * order; the running sums Pe.. and the largest |u|² Um. */
+		/* Four nodes at a time (sim_private.h, ndo__v4), then the rest one
+		 * at a time, one text for both (T the type, L a load, S a store, Z
+		 * T's zero); the diagnostics summed as GCC's AVX2 reduction of the
+		 * omp simd loop this replaced summed them (a sum a lane Pe.. over
+		 * the four-node steps, the last 0-3 nodes into lane 0, then the
+		 * lanes into the running sum in order; the largest |u|² Um
+		 * likewise): the same bits as before. */
 #define ACCEL_NODE(T, L, S, Z, Pe, Ke, Pw, Vk, UMAX)                                        \
 	do {                                                                                \
 		const T c0 = L(e0 + p), c1 = L(e1 + p), c2 = L(e2 + p), c3 = L(e0 + p - 1),     \

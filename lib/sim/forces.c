@@ -182,7 +182,10 @@ static void vertex_normal(const ndo_sim *s, const double *u, int32_t p, double n
 }
 
 /* Item q of face or node force F at value val: its canonical nodes (the
- * count returned) and what each of them gets, add[e] for coordinate e. */
+ * count returned) and what each of them gets, add[e] for coordinate e.
+ * Faces along their normals go through the batches below (face_adds);
+ * here only under rk4_reference, the one-at-a-time arithmetic the tests
+ * hold the batches to. */
 static int item_force(const ndo_sim *s, const ndo__force *F, size_t q, const double *u,
                       double val, int32_t v[3], double add[3])
 {

@@ -76,11 +76,6 @@ typedef struct rk4_pass {
 	ptrdiff_t sd;
 } rk4_pass;
 
-/* (sim_private.h: ndo__v4) */
-typedef ndo__v4 v4;
-#define LD V4_LD
-#define ST V4_ST
-
 static inline __attribute__((always_inline)) void
 rk4_interior(const ndo_sim *s, const rk4_pass *g, const int mode, const int hasF, ndo__diag *d,
              const size_t k0, const size_t k1)
@@ -154,7 +149,7 @@ rk4_interior(const ndo_sim *s, const rk4_pass *g, const int mode, const int hasF
 			size_t p = lo;
 			const size_t vend = s->scalar_loops ? lo : hi;
 			for (; p + 4 <= vend; p += 4)
-				RK4_NODE(v4, LD, ST, ((v4){0, 0, 0, 0}));
+				RK4_NODE(ndo__v4, V4_LD, V4_ST, ((ndo__v4){0, 0, 0, 0}));
 			for (; p < hi; p++)
 				RK4_NODE(double, V1_LD, V1_ST, 0);
 #undef RK4_NODE
@@ -178,7 +173,7 @@ rk4_interior(const ndo_sim *s, const rk4_pass *g, const int mode, const int hasF
 			 * lane over the four-node steps, the last 0-3 nodes added to lane
 			 * 0, then the lanes added to the running sum in order — so the
 			 * same bits as before there. */
-			v4 P = {0, 0, 0, 0}, K = {0, 0, 0, 0}, W = {0, 0, 0, 0};
+			ndo__v4 P = {0, 0, 0, 0}, K = {0, 0, 0, 0}, W = {0, 0, 0, 0};
 #define RK4_FIRST_NODE(T, L, S, Z, P, K, W)                                                 \
 	do {                                                                                \
 		const size_t i = p - lo;                                                        \
@@ -201,7 +196,7 @@ rk4_interior(const ndo_sim *s, const rk4_pass *g, const int mode, const int hasF
 			size_t p = lo;
 			const size_t vend = s->scalar_loops ? lo : hi;
 			for (; p + 4 <= vend; p += 4)
-				RK4_FIRST_NODE(v4, LD, ST, ((v4){0, 0, 0, 0}), P, K, W);
+				RK4_FIRST_NODE(ndo__v4, V4_LD, V4_ST, ((ndo__v4){0, 0, 0, 0}), P, K, W);
 			double P0 = P[0], K0 = K[0], W0 = W[0];
 			for (; p < hi; p++)
 				RK4_FIRST_NODE(double, V1_LD, V1_ST, 0, P0, K0, W0);
