@@ -28,7 +28,7 @@ load1=$(cut -d' ' -f1-3 /proc/loadavg)
 	echo "The thesis scene (figure 5.3) on the wavy surface, each method at half its critical step."
 	echo "Each row: 7 pairs of runs of at least 0.1 s, one thread then two, in the same process, the steps"
 	echo "through ndo_sim_steps (as simulate-peer runs those between frames: symplectic Euler and midpoint"
-	echo "as one pipeline of up to 16 steps, lib/sim/wave.c; rk4 a step at a time);"
+	echo "as one pipeline of up to six passes, lib/sim/wave.c; rk4 a step at a time);"
 	echo "steps/s are medians, the ratio is the median of the 7 pairs' ratios (a busy machine slows both"
 	echo "runs of a pair alike).  Grids under 20,000 integrated nodes (levels ≤ 6) run on one thread"
 	echo "whatever is asked, so their ratio measures only noise.  The results are the same bits on"
@@ -75,7 +75,7 @@ load1=$(cut -d' ' -f1-3 /proc/loadavg)
 	echo "## Symplectic Euler and midpoint: one step at a time and several as one pipeline"
 	echo
 	echo "\`bench_simulate wave 2 6 7 8 9 10\`: the same two methods stepped one call of ndo_sim_step at a time"
-	echo "(the fused passes, a run on the threads each) and by ndo_sim_steps (\`lib/sim/wave.c\`: up to 16 steps"
+	echo "(the fused passes, a run on the threads each) and by ndo_sim_steps (\`lib/sim/wave.c\`: up to six passes"
 	echo "as one pipeline of (pass, chunk) units, no wait between passes or steps; what simulate-peer takes"
 	echo "between frames), timed like the pipeline above.  On one thread ndo_sim_steps takes the pipeline"
 	echo "from 65,536 nodes only (levels 6-7: single steps either way).  The same bits either way"
