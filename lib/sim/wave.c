@@ -93,13 +93,14 @@ static int plan_build(ndo_sim *s)
  * wavefront, about passes · L chunks of 512 nodes, is what stays in the
  * cache from one pass of a chunk to the next.  With up to 16 steps (32
  * passes for midpoint) it did not: 6 passes against 16 steps, on 2
- * threads at levels 8 and 9, symplectic Euler 1.22x and 1.20x the steps/s,
- * midpoint 1.54x and 1.41x (one thread: 1.0x and 1.05x; level 7 1.0x);
- * rk4, not in the wave, 1.0x in the same runs (bench_simulate threads,
- * the two builds alternated, medians of 3 rounds, 2026-11-29, load 0.8-1.2).
- * 4 and 8 passes were within noise of 6, but for symplectic Euler at level
- * 9 on 2 threads, where 8 passes lost 20%.  2..6 steps (0: the plan could
- * not be made). */
+ * threads at levels 8 and 9, symplectic Euler 1.22x and 1.25x the steps/s,
+ * midpoint 1.54x and 1.41x (one thread: midpoint 1.05x and 1.21x,
+ * symplectic Euler 1.0x; level 7 1.0x); rk4, not in the wave, 1.0x in the
+ * same runs (bench_simulate threads, the two builds alternated, medians of
+ * 3-4 rounds, 2026-11-29, load 0.7-1.2: docs/simulate-peer.md).  4 and 8
+ * passes were within noise of 6, but for symplectic Euler at level 9 on 2
+ * threads, where 8 passes lost 20%.  2..6 steps (0: the plan could not be
+ * made). */
 enum { WAVE_PASSES = 6 };
 
 int ndo__wave_batch(ndo_sim *s)
