@@ -91,9 +91,13 @@ static size_t nodes_of(int level)
  * critical step, CPU time per step the median of 3 trials of ≥ 20 ms —
  * on the 2-core AMD EPYC of docs/bench/accuracy.md (2026-11-25, load
  * average 2.5); the fit is within 0.77-1.47× of every measured step
- * (docs/bench/accuracy.md, "The cost model").  Not refitted since RK4's
- * kernel became 1.14-1.19× faster (2026-11-29, docs/simulate-peer.md):
- * its constants overstate RK4's cost by about that much.  Integrated vertices are
+ * (docs/bench/accuracy.md, "The cost model").  Measured again after the
+ * kernel changes of 2026-11-29 (docs/simulate-peer.md; three runs at 10:07
+ * UTC, load 0.5): measured over the model, median 1.73-1.79 for RK4 and
+ * 1.71-1.74 for symplectic Euler — that day's machine took about 1.75
+ * times as long for everything, and the two methods' costs relative to
+ * each other, which is what a choice weighs, moved by 1-3%: not refitted.
+ * Integrated vertices are
  * the unpinned ones (pinned nodes are held, not stepped: RK4's stages
  * cost twice per node what the per-vertex passes do); A is the per-step
  * overhead that dominates at levels 2-3. */
