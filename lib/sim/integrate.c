@@ -1324,6 +1324,8 @@ static double threads_pick(ndo_sim *s, int64_t steps)
 		return 0;
 	int timed = s->picked ? s->picked - 1 : threads_choose(s, steps);
 	s->picked = 0;
+	if (s->solo)
+		s->stats.steps_alone += steps;
 	return timed ? wall_seconds() : 0;
 }
 

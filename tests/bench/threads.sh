@@ -44,6 +44,8 @@ load1=$(cut -d' ' -f1-3 /proc/loadavg)
 	echo "Figures taken on a machine shared with other work: the load averages above say how busy it was."
 	echo "With a load above 2 on 2 cores the second thread rarely has a core of its own, and a simulation"
 	echo "with threads then runs its steps alone (see above): such a run measures the guard, not the scaling."
+	echo "The last column says how much of that a row measured: the share of the timed steps the simulation"
+	echo "with threads ran on one (ndo_sim_stats.steps_alone; levels 4-6 keep one thread: 0%)."
 	echo
 	cat "$t"
 	echo

@@ -1245,6 +1245,13 @@ static void threads_give_the_same_bits(void)
 				for (int k = 0; k < 12; k++)
 					CHECK(ndo_sim_step(s, 1e-3) == 0, "%s: %s", ndo_method_names[m],
 					      ndo_errdetail());
+				/* the steps alone: none on one thread; on more, the 4 of the
+				 * first look's 8 (from the first step) and any after it */
+				ndo_sim_stats st;
+				ndo_sim_stats_get(s, &st);
+				CHECK(t == 0 ? st.steps_alone == 0 : st.steps_alone >= 4 && st.steps_alone <= 12,
+				      "%s, %d threads: %lld of %lld steps counted alone", ndo_method_names[m],
+				      t + 1, (long long)st.steps_alone, (long long)st.steps);
 				x[t] = malloc(nn * sizeof *x[t]), v[t] = malloc(nn * sizeof *v[t]);
 				ndo_sim_get(s, x[t], v[t]);
 				ndo_sim_energy_get(s, &e[t]);

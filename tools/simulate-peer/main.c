@@ -331,7 +331,10 @@ static void simulate(run *r)
 		        "node-steps/s", ndo_progname, (long long)r->steps, ndo_sim_time(r->sim), el,
 		        sps, sps * (double)ndo_vertex_count(ndo_sim_level(r->sim)));
 		if (ndo_sim_threads(r->sim) > 1)
-			fprintf(stderr, " on %d threads", ndo_sim_threads(r->sim));
+			fprintf(stderr, " on %d threads (%.0f%% of the steps on one: where the threads did "
+			        "not pay, and half of each look at whether they do)",
+			        ndo_sim_threads(r->sim),
+			        st.steps > 0 ? 100.0 * (double)st.steps_alone / (double)st.steps : 0.0);
 		if (ndo_sim_method(r->sim) == NDO_RKF45)
 			fprintf(stderr, "; %lld sub-steps, %lld rejected", (long long)st.substeps,
 			        (long long)st.rejected);

@@ -389,6 +389,10 @@ typedef struct ndo_sim_stats {
 	                          the last solve (v unchanged since) */
 	int64_t av_misses;     /* ... that tried and found v changed (the full
 	                          product instead) */
+	int64_t steps_alone;   /* with threads: steps run on one thread — the
+	                          half of each look at whether the threads pay,
+	                          and every step while they do not (a machine
+	                          busy with other work) */
 } ndo_sim_stats;
 void ndo_sim_stats_get(const ndo_sim *s, ndo_sim_stats *st);
 
