@@ -1283,12 +1283,16 @@ int ndo__step_tableau(ndo_sim *s, double h)
  * (the first one, a warm-up, not timed) — and takes the faster way until
  * the next look: after probe_period seconds and at least 8 × PROBE steps;
  * the period doubles (up to PROBE_MAX s) while the answer stays and starts
- * again at PROBE_MIN s when it changes.  Between looks the steps on the
- * threads are timed too: once 4 of them take longer on average than the
- * steps alone did in the look, it looks again at once (the load changed).
+ * again when it changes: at PROBE_MIN s after an answer "alone", so that
+ * threads that pay again are soon seen, and at PROBE_THREADS s after an
+ * answer "threads".  Between looks the steps on the threads are timed too:
+ * once 4 of them take longer on average than the steps alone did in the
+ * look, it looks again at once (the load changed), so a look while the
+ * threads pay only renews that reference, and half its steps run alone.
  * Either way the bits are the same (the chunks do not depend on the
  * thread count). */
 #define PROBE_MIN 0.25
+#define PROBE_THREADS 2.0
 #define PROBE_MAX 16.0
 
 static double wall_seconds(void)
@@ -1368,7 +1372,7 @@ static void threads_timed(ndo_sim *s, double t0, int64_t steps)
 	if (s->probe_period > 0 && solo == s->solo_last)
 		s->probe_period = fmin(2 * s->probe_period, PROBE_MAX);
 	else
-		s->probe_period = PROBE_MIN;
+		s->probe_period = solo ? PROBE_MIN : PROBE_THREADS;
 	s->solo = s->solo_last = solo;
 	s->probe_next = now + s->probe_period;
 	s->probe_steps = 0;
