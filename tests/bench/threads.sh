@@ -33,7 +33,7 @@ load1=$(cut -d' ' -f1-3 /proc/loadavg)
 	echo "runs of a pair alike).  Grids under 20,000 integrated nodes (levels ≤ 6) run on one thread"
 	echo "whatever is asked, so their ratio measures only noise.  The results are the same bits on"
 	echo "any thread count (test_sim: threads_give_the_same_bits).  A simulation with threads looks now and then"
-	echo "(8 steps alternately alone and on the threads, every 0.25 s at first, up to every 16 s while the answer"
+	echo "(8 steps alternately alone and on the threads, 0.25 s after an answer \"alone\" and 2 s after \"threads\", up to 16 s while the answer"
 	echo "stays: lib/sim/integrate.c, threads_pick) whether they pay, and runs alone until the next look when not."
 	echo "Each simulation makes 12 calls of ndo_sim_steps before it is timed, and is calibrated through it too,"
 	echo "so that its first look (9 calls, from its first) is over and compared what is timed: the tables before"
