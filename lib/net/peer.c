@@ -1381,6 +1381,7 @@ static int announce(ndo_peer *p)
 		return restart_begin(p, R, R);
 	}
 	if (p->owner) {
+		ndo_session_set_grace(p->s, 0); /* the joiners' silence counts from here */
 		if (p->sim)
 			ndo_sim_set_time(p->sim, p->tcur, p->cur);
 		for (size_t q = 0; q < p->ncanon; q++)
@@ -1425,7 +1426,7 @@ static int all_at(const ndo_peer *p, int64_t step)
 static void go(ndo_peer *p)
 {
 	p->started = 1;
-	ndo_session_set_owner_grace(p->s, 0);
+	ndo_session_set_grace(p->s, 0);
 	if (p->owner && restartable(p) && !ck_ready(p)) {
 		/* the run's first step: the owner's simulation holds it whole */
 		ck_take(p, p->ncanon, p->canons);
@@ -1454,6 +1455,18 @@ static int starting(ndo_peer *p)
 	int np = npeers(p);
 	if (!p->announced) {
 		int ready = p->owner || (p->sim && ndo_session_ready(p->s));
+		/* The owner keeps a silent joiner's place until it has its
+		 * --peers (a joiner stalled while it takes in the object); then
+		 * one silent for longer than the timeout is dropped (the next
+		 * update, without the grace) instead of counted: a partition
+		 * made after the announcement, before the start, is taken over
+		 * from frames, and one that counts a dead peer never starts. */
+		if (p->owner)
+			ndo_session_set_grace(p->s, p->o.start_timeout);
+		if (ready && np >= p->peers_needed && p->owner && ndo_session_silent(p->s)) {
+			ndo_session_set_grace(p->s, 0);
+			return NDO_PEER_WAITING;
+		}
 		if (ready && np >= p->peers_needed) {
 			int rc = announce(p);
 			if (rc)
@@ -2211,8 +2224,9 @@ int ndo_peer_create(const ndo_peer_opts *o, ndo_net *net, ndo_grid *grid, ndo_si
 	}
 	if (owner)
 		ndo_session_set_exact_step(p->s, p->final);
-	else /* until the run starts (go()), the start timeout bounds the wait */
-		ndo_session_set_owner_grace(p->s, p->o.start_timeout);
+	/* until the run starts (go(); the owner: starting()), the start
+	 * timeout bounds the wait */
+	ndo_session_set_grace(p->s, p->o.start_timeout);
 	if (!p->o.keep_tiles)
 		ndo_net_set_tile_want(ndo_session_net(p->s), tile_wanted, p);
 	if (owner && ((rc = arrays(p)) || (rc = region(p)))) {

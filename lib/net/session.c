@@ -55,7 +55,7 @@ struct ndo_session {
 	size_t have_rest, have_state;
 	/* clocks */
 	double now, next_hb, owner_heard, last_ask, last_full, next_poi;
-	double owner_grace; /* joiner: the owner's silence tolerated, at least (0: none) */
+	double grace; /* the owner's or a member's silence tolerated, at least (0: none) */
 	int hb_count, full_pending;
 	int32_t poi_acked; /* the POI the owner's last partition shows for us */
 	ndo_event ev[NEV];
@@ -1067,7 +1067,7 @@ int ndo_session_update(ndo_session *s, double now)
 	int owner = s->o.role == NDO_ROLE_OWNER;
 	if (owner) {
 		for (int i = 0; i < s->nm; i++)
-			if (now - s->m[i].heard > s->o.timeout) {
+			if (now - s->m[i].heard > fmax(s->o.timeout, s->grace)) {
 				int32_t id = s->m[i].id;
 				char why[96];
 				snprintf(why, sizeof why, "no heartbeat for %.1f s", now - s->m[i].heard);
@@ -1093,7 +1093,7 @@ int ndo_session_update(ndo_session *s, double now)
 				return rc;
 			s->last_ask = now;
 		}
-		if (s->described && now - s->owner_heard > fmax(s->o.timeout, s->owner_grace)) {
+		if (s->described && now - s->owner_heard > fmax(s->o.timeout, s->grace)) {
 			char why[96];
 			snprintf(why, sizeof why, "the owner timed out (silent for %.1f s)",
 			         now - s->owner_heard);
@@ -1450,7 +1450,15 @@ void ndo_session_destroy(ndo_session *s, const char *message)
 }
 
 void ndo_session_set_exact_step(ndo_session *s, int64_t step) { s->exact_step = step; }
-void ndo_session_set_owner_grace(ndo_session *s, double seconds) { s->owner_grace = seconds; }
+void ndo_session_set_grace(ndo_session *s, double seconds) { s->grace = seconds; }
+
+int ndo_session_silent(const ndo_session *s)
+{
+	int n = 0;
+	for (int i = 0; i < s->nm; i++)
+		n += s->now - s->m[i].heard > s->o.timeout;
+	return n;
+}
 void ndo_session_set_exact_halos(ndo_session *s, int on) { s->exact_halos = on != 0; }
 void ndo_session_measure_displacement(ndo_session *s, int on) { s->measure_disp = on != 0; }
 int ndo_session_send_level(const ndo_session *s) { return s->level < 0 ? -1 : s->send_level; }

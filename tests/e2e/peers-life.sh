@@ -205,3 +205,67 @@ else
 	fail "an owner stalled before the start" "exits $ro $r1 $r2, difference $rel, step $step of $sstep"
 	for f in owner.err j1.err j2.err; do tail -2 $f | sed "s/^/    ${f%.err}: /"; done
 fi
+
+# --- a joiner stalled before the start ---------------------------------------
+# The mirror case: the first joiner stopped for 1.5 s once it holds the
+# object, with --peer-timeout 0.5 and a second joiner still to come.  The
+# owner keeps its place until the start (the start timeout bounds the wait
+# before it, as for the joiners): nobody left, and the run equals the single
+# process (before 2026-11-29 the owner dropped it after 0.5 s and the joiner
+# ended, "the owner dropped this peer"; on a loaded machine a lossy start in
+# peers-restart.sh did so).
+simulate-peer --owner wavy4.tgrid -s "$SCENE" --dt 0.005 -t 1 --peers 3 --peer-timeout 0.5 \
+	--start-timeout 20 -o jstalled.tgrid 2>owner.err &
+owner=$!
+simulate-peer --join --poi 300 --peer-timeout 0.5 --start-timeout 20 2>j1.err &
+j1=$!
+if wait_for j1.err 'joined object' 20 >/dev/null; then
+	kill -STOP $j1
+	sleep 1.5
+	kill -CONT $j1
+fi
+simulate-peer --join --poi 900 --peer-timeout 0.5 --start-timeout 20 2>j2.err &
+j2=$!
+wait $owner; ro=$?
+wait $j1; r1=$?
+wait $j2; r2=$?
+read -r rel _ step sstep < <(compare jstalled.tgrid stall-solo.tgrid)
+if [ $ro = 0 ] && [ $r1 = 0 ] && [ $r2 = 0 ] && [ "$rel" = 0 ] && [ "$step" = "$sstep" ] &&
+	! grep -q 'left' owner.err; then
+	pass "a joiner stopped for 1.5 s before the start (timeout 0.5 s): nobody left, the run equals the single process"
+else
+	fail "a joiner stalled before the start" "exits $ro $r1 $r2, difference $rel, step $step of $sstep"
+	for f in owner.err j1.err j2.err; do tail -2 $f | sed "s/^/    ${f%.err}: /"; done
+fi
+
+# --- a joiner killed before the start ----------------------------------------
+# The owner holds a silent joiner's place only until it has its --peers:
+# the first joiner, killed once it holds the object and silent for longer
+# than --peer-timeout when the others come, is dropped then, not counted in
+# the partition, and the run starts with the two that came after it, equal
+# to the single process.
+simulate-peer --owner wavy4.tgrid -s "$SCENE" --dt 0.005 -t 1 --peers 3 --peer-timeout 0.5 \
+	--start-timeout 20 -o jkilled.tgrid 2>owner.err &
+owner=$!
+simulate-peer --join --poi 300 --peer-timeout 0.5 --start-timeout 20 2>j1.err &
+j1=$!
+wait_for j1.err 'joined object' 20 >/dev/null
+sleep 1 # it holds the object and has sent its point of interest: it counts
+kill -KILL $j1 2>/dev/null
+wait $j1 2>/dev/null
+sleep 1
+simulate-peer --join --poi 900 --peer-timeout 0.5 --start-timeout 20 2>j2.err &
+j2=$!
+simulate-peer --join --poi 100 --peer-timeout 0.5 --start-timeout 20 2>j3.err &
+j3=$!
+wait $owner; ro=$?
+wait $j2; r2=$?
+wait $j3; r3=$?
+read -r rel _ step sstep < <(compare jkilled.tgrid stall-solo.tgrid)
+if [ $ro = 0 ] && [ $r2 = 0 ] && [ $r3 = 0 ] && [ "$rel" = 0 ] && [ "$step" = "$sstep" ] &&
+	grep -q 'left: no heartbeat' owner.err && grep -q 'starting: step 0, 3 peers' owner.err; then
+	pass "a joiner killed before the start: dropped when the others came, the run equals the single process"
+else
+	fail "a joiner killed before the start" "exits $ro $r2 $r3, difference $rel, step $step of $sstep"
+	for f in owner.err j2.err j3.err; do tail -3 $f | sed "s/^/    ${f%.err}: /"; done
+fi

@@ -244,7 +244,7 @@ static void a_stall_drops_nobody(void)
 	CHECK(count_events(p[0], NDO_EV_LEFT, NULL) == 0, "the owner dropped a peer after a stall");
 	CHECK(!ndo_session_ended(p[1]) && !ndo_session_ended(p[2]), "a joiner ended after a stall");
 	/* the owner alone stalls; joiner 2 waits with a grace of 10 s */
-	ndo_session_set_owner_grace(p[1], 10);
+	ndo_session_set_grace(p[1], 10);
 	ndo_session *owner = p[0];
 	p[0] = NULL;
 	run(p, 3, &t, &step, 300);
@@ -253,7 +253,12 @@ static void a_stall_drops_nobody(void)
 	p[0] = owner;
 	ndo_session_destroy(p[2], NULL);
 	p[2] = NULL;
-	ndo_session_set_owner_grace(p[1], 0);
+	ndo_session_set_grace(p[1], 0);
+	/* an owner with a grace of 10 s keeps joiner 3, silent for 3 s */
+	ndo_session_set_grace(p[0], 10);
+	run(p, 3, &t, &step, 300);
+	CHECK(count_events(p[0], NDO_EV_LEFT, NULL) == 0, "the owner with a grace dropped a peer");
+	ndo_session_set_grace(p[0], 0);
 	ndo_event e = {0};
 	for (int k = 0; k < 300 && e.peer != 3; k++) /* the owner times joiner 3 out */
 		if (run(p, 3, &t, &step, 1) == 0)

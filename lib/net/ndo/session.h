@@ -161,11 +161,15 @@ int ndo_session_send_solve(ndo_session *s, ndo_msg_solve_t *m);
  * (the run's last step: what the owner gathers is exact); −1: none. */
 void ndo_session_set_exact_step(ndo_session *s, int64_t step);
 
-/* Joiner: the owner may be silent this long, at least, before the session
- * ends ("the owner timed out"); 0: the timeout alone.  A peer waiting for
- * the run to start sets its start timeout here, so that an owner stalled
- * for longer than the timeout before the start does not end it. */
-void ndo_session_set_owner_grace(ndo_session *s, double seconds);
+/* The silence tolerated, at least, before a joiner's session ends ("the
+ * owner timed out") or the owner drops a member ("no heartbeat"); 0: the
+ * timeout alone.  Peers waiting for the run to start set their start
+ * timeout here, so that a peer stalled for longer than the timeout before
+ * the start (an owner, or a joiner still taking in the object on a loaded
+ * machine) does not end the session or lose its place. */
+void ndo_session_set_grace(ndo_session *s, double seconds);
+/* Owner: the members silent for longer than the timeout, grace or not. */
+int ndo_session_silent(const ndo_session *s);
 
 /* The simulating peers exchange exact halos (ndo/peer.h): whole-region
  * tiles are frames only, and go at the send level even with several
