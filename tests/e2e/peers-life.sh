@@ -173,70 +173,47 @@ else
 	tail -3 obs.err | sed 's/^/    observer: /'
 fi
 
-# --- an owner stalled before the start --------------------------------------
-# Stopped (SIGSTOP) for 1.5 s once its first joiner holds the object, with
-# --peer-timeout 0.5 and a second joiner still to come: the joiner waits
-# for the start as long as its --start-timeout, the owner does not count
-# its own stall as the joiner's silence, and the run starts and ends equal
-# to the single process (before 2026-11-29 the joiner ended at 0.5 s, "the
-# owner timed out", and the owner waited for its third peer until its
-# start timeout).
+# --- an owner, or a joiner, stalled before the start -------------------------
+# stalled_start WHO (owner, or joiner: the first): stopped (SIGSTOP) for 1.5 s once
+# the first joiner holds the object, with --peer-timeout 0.5 and a second
+# joiner still to come; nobody leaves and the run equals the single process.
+# An owner: the joiner waits for the start as long as its --start-timeout,
+# and the owner does not count its own stall as the joiner's silence (before
+# 2026-11-29 the joiner ended at 0.5 s, "the owner timed out", and the owner
+# waited for its third peer until its start timeout).  A joiner: the owner
+# keeps its place until it has its --peers (before 2026-11-29 it dropped it
+# after 0.5 s and the joiner ended, "the owner dropped this peer"; on a
+# loaded machine a lossy start in peers-restart.sh did so).
 simulate-peer -q wavy4.tgrid -s "$SCENE" --dt 0.005 -t 1 -o stall-solo.tgrid 2>/dev/null
-simulate-peer --owner wavy4.tgrid -s "$SCENE" --dt 0.005 -t 1 --peers 3 --peer-timeout 0.5 \
-	--start-timeout 20 -o stalled.tgrid 2>owner.err &
-owner=$!
-simulate-peer --join --poi 300 --peer-timeout 0.5 --start-timeout 20 2>j1.err &
-j1=$!
-if wait_for j1.err 'joined object' 20 >/dev/null; then
-	kill -STOP $owner
-	sleep 1.5
-	kill -CONT $owner
-fi
-simulate-peer --join --poi 900 --peer-timeout 0.5 --start-timeout 20 2>j2.err &
-j2=$!
-wait $owner; ro=$?
-wait $j1; r1=$?
-wait $j2; r2=$?
-read -r rel _ step sstep < <(compare stalled.tgrid stall-solo.tgrid)
-if [ $ro = 0 ] && [ $r1 = 0 ] && [ $r2 = 0 ] && [ "$rel" = 0 ] && [ "$step" = "$sstep" ] &&
-	! grep -q 'left' owner.err; then
-	pass "an owner stopped for 1.5 s before the start (timeout 0.5 s): nobody left, the run equals the single process"
-else
-	fail "an owner stalled before the start" "exits $ro $r1 $r2, difference $rel, step $step of $sstep"
-	for f in owner.err j1.err j2.err; do tail -2 $f | sed "s/^/    ${f%.err}: /"; done
-fi
-
-# --- a joiner stalled before the start ---------------------------------------
-# The mirror case: the first joiner stopped for 1.5 s once it holds the
-# object, with --peer-timeout 0.5 and a second joiner still to come.  The
-# owner keeps its place until the start (the start timeout bounds the wait
-# before it, as for the joiners): nobody left, and the run equals the single
-# process (before 2026-11-29 the owner dropped it after 0.5 s and the joiner
-# ended, "the owner dropped this peer"; on a loaded machine a lossy start in
-# peers-restart.sh did so).
-simulate-peer --owner wavy4.tgrid -s "$SCENE" --dt 0.005 -t 1 --peers 3 --peer-timeout 0.5 \
-	--start-timeout 20 -o jstalled.tgrid 2>owner.err &
-owner=$!
-simulate-peer --join --poi 300 --peer-timeout 0.5 --start-timeout 20 2>j1.err &
-j1=$!
-if wait_for j1.err 'joined object' 20 >/dev/null; then
-	kill -STOP $j1
-	sleep 1.5
-	kill -CONT $j1
-fi
-simulate-peer --join --poi 900 --peer-timeout 0.5 --start-timeout 20 2>j2.err &
-j2=$!
-wait $owner; ro=$?
-wait $j1; r1=$?
-wait $j2; r2=$?
-read -r rel _ step sstep < <(compare jstalled.tgrid stall-solo.tgrid)
-if [ $ro = 0 ] && [ $r1 = 0 ] && [ $r2 = 0 ] && [ "$rel" = 0 ] && [ "$step" = "$sstep" ] &&
-	! grep -q 'left' owner.err; then
-	pass "a joiner stopped for 1.5 s before the start (timeout 0.5 s): nobody left, the run equals the single process"
-else
-	fail "a joiner stalled before the start" "exits $ro $r1 $r2, difference $rel, step $step of $sstep"
-	for f in owner.err j1.err j2.err; do tail -2 $f | sed "s/^/    ${f%.err}: /"; done
-fi
+stalled_start() {
+	local who=$1 owner j1 j2 ro r1 r2 victim
+	simulate-peer --owner wavy4.tgrid -s "$SCENE" --dt 0.005 -t 1 --peers 3 --peer-timeout 0.5 \
+		--start-timeout 20 -o stalled.tgrid 2>owner.err &
+	owner=$!
+	simulate-peer --join --poi 300 --peer-timeout 0.5 --start-timeout 20 2>j1.err &
+	j1=$!
+	if [ "$who" = owner ]; then victim=$owner; else victim=$j1; fi
+	if wait_for j1.err 'joined object' 20 >/dev/null; then
+		kill -STOP $victim
+		sleep 1.5
+		kill -CONT $victim
+	fi
+	simulate-peer --join --poi 900 --peer-timeout 0.5 --start-timeout 20 2>j2.err &
+	j2=$!
+	wait $owner; ro=$?
+	wait $j1; r1=$?
+	wait $j2; r2=$?
+	read -r rel _ step sstep < <(compare stalled.tgrid stall-solo.tgrid)
+	if [ $ro = 0 ] && [ $r1 = 0 ] && [ $r2 = 0 ] && [ "$rel" = 0 ] && [ "$step" = "$sstep" ] &&
+		! grep -q 'left' owner.err; then
+		pass "the $who stopped for 1.5 s before the start (timeout 0.5 s): nobody left, the run equals the single process"
+	else
+		fail "$who stalled before the start" "exits $ro $r1 $r2, difference $rel, step $step of $sstep"
+		for f in owner.err j1.err j2.err; do tail -2 $f | sed "s/^/    ${f%.err}: /"; done
+	fi
+}
+stalled_start owner
+stalled_start joiner
 
 # --- a joiner killed before the start ----------------------------------------
 # The owner holds a silent joiner's place only until it has its --peers:
