@@ -185,12 +185,18 @@ fi
 # after 0.5 s and the joiner ended, "the owner dropped this peer"; on a
 # loaded machine a lossy start in peers-restart.sh did so).
 simulate-peer -q wavy4.tgrid -s "$SCENE" --dt 0.005 -t 1 -o stall-solo.tgrid 2>/dev/null
+# short_owner OUT, short_joiner POI ERR: in the background ($! their pid), a
+# 1 s run of 3 peers with a peer timeout of 0.5 s (the owner's log: owner.err)
+short_owner() {
+	simulate-peer --owner wavy4.tgrid -s "$SCENE" --dt 0.005 -t 1 --peers 3 --peer-timeout 0.5 \
+		--start-timeout 20 -o "$1" 2>owner.err &
+}
+short_joiner() { simulate-peer --join --poi "$1" --peer-timeout 0.5 --start-timeout 20 2>"$2" & }
 stalled_start() {
 	local who=$1 owner j1 j2 ro r1 r2 victim
-	simulate-peer --owner wavy4.tgrid -s "$SCENE" --dt 0.005 -t 1 --peers 3 --peer-timeout 0.5 \
-		--start-timeout 20 -o stalled.tgrid 2>owner.err &
+	short_owner stalled.tgrid
 	owner=$!
-	simulate-peer --join --poi 300 --peer-timeout 0.5 --start-timeout 20 2>j1.err &
+	short_joiner 300 j1.err
 	j1=$!
 	if [ "$who" = owner ]; then victim=$owner; else victim=$j1; fi
 	if wait_for j1.err 'joined object' 20 >/dev/null; then
@@ -198,7 +204,7 @@ stalled_start() {
 		sleep 1.5
 		kill -CONT $victim
 	fi
-	simulate-peer --join --poi 900 --peer-timeout 0.5 --start-timeout 20 2>j2.err &
+	short_joiner 900 j2.err
 	j2=$!
 	wait $owner; ro=$?
 	wait $j1; r1=$?
@@ -221,19 +227,18 @@ stalled_start joiner
 # than --peer-timeout when the others come, is dropped then, not counted in
 # the partition, and the run starts with the two that came after it, equal
 # to the single process.
-simulate-peer --owner wavy4.tgrid -s "$SCENE" --dt 0.005 -t 1 --peers 3 --peer-timeout 0.5 \
-	--start-timeout 20 -o jkilled.tgrid 2>owner.err &
+short_owner jkilled.tgrid
 owner=$!
-simulate-peer --join --poi 300 --peer-timeout 0.5 --start-timeout 20 2>j1.err &
+short_joiner 300 j1.err
 j1=$!
 wait_for j1.err 'joined object' 20 >/dev/null
 sleep 1 # it holds the object and has sent its point of interest: it counts
 kill -KILL $j1 2>/dev/null
 wait $j1 2>/dev/null
 sleep 1
-simulate-peer --join --poi 900 --peer-timeout 0.5 --start-timeout 20 2>j2.err &
+short_joiner 900 j2.err
 j2=$!
-simulate-peer --join --poi 100 --peer-timeout 0.5 --start-timeout 20 2>j3.err &
+short_joiner 100 j3.err
 j3=$!
 wait $owner; ro=$?
 wait $j2; r2=$?
