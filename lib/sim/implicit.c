@@ -99,6 +99,19 @@ struct ndo__implicit {
 	int pattern_ok;  /* the symbolic analysis matches the active set */
 };
 
+/* The multigrid's hierarchy, matrix and row arrays (sized for the active
+ * rows when they were built), released. */
+static void mg_release(ndo__implicit *im)
+{
+	ndo__mg_free(im->mg);
+	im->mg = NULL;
+	cholmod_free_sparse(&im->A, &im->cm);
+	free(im->mass), free(im->b3), free(im->x3), free(im->part), free(im->aprev);
+	free(im->rsum);
+	im->mass = im->b3 = im->x3 = im->part = im->aprev = im->rsum = NULL;
+	im->aprev_ok = im->av_ok = 0;
+}
+
 void ndo__implicit_free(ndo_sim *s)
 {
 	ndo__implicit *im = s->imp;
@@ -106,14 +119,7 @@ void ndo__implicit_free(ndo_sim *s)
 		return;
 	if (im->L)
 		cholmod_free_factor(&im->L, &im->cm);
-	ndo__mg_free(im->mg);
-	cholmod_free_sparse(&im->A, &im->cm);
-	free(im->mass);
-	free(im->b3);
-	free(im->x3);
-	free(im->part);
-	free(im->aprev);
-	free(im->rsum);
+	mg_release(im);
 	cholmod_finish(&im->cm);
 	free(im->idx);
 	free(im->nodes);
@@ -640,8 +646,13 @@ static int ready(ndo_sim *s, double h, int direct)
 		im->mg_on = ndo_solver_at(s->p.solver, s->level) == NDO_SOLVER_MULTIGRID;
 	}
 	if (direct && im->mg_on) { /* a region's block solve needs the factor */
+		/* CHOLMOD's rows and analysis, not the multigrid's: a peer whose
+		 * whole-surface steps (alone) built the hierarchy wrote the next
+		 * region's rows past its arrays */
+		mg_release(im);
 		im->mg_on = 0;
 		im->valid = 0;
+		im->pattern_ok = 0;
 	}
 	int rc;
 	if ((!im->valid || im->h != h) && (rc = factor(s, im, h)))
