@@ -822,10 +822,10 @@ static int ck_ready(ndo_peer *p)
 }
 
 /* The owner: its next partitions restart from the newest step it holds
- * whole. */
+ * whole (from its announcement of the first: the run's first step). */
 static void ck_whole(ndo_peer *p)
 {
-	if (p->owner && p->ck && p->started && restartable(p))
+	if (p->owner && p->ck && p->announced && restartable(p))
 		ndo_session_set_restart(p->s, ndo__ck_whole(p->ck));
 }
 
@@ -1393,6 +1393,13 @@ static int announce(ndo_peer *p)
 	g->step = p->cur;
 	g->time = p->tcur;
 	p->announced = 1;
+	if (p->owner && restartable(p) && !ck_ready(p)) {
+		/* the run's first step, held whole by the owner's simulation: a
+		 * partition made from here on (a peer dropped before the start,
+		 * while others may have begun) restarts every peer from it */
+		ck_take(p, p->ncanon, p->canons);
+		ck_whole(p);
+	}
 	if (p->rb && (rc = rb_restart(p)))
 		return rc;
 	unstash(p); /* halos kept until the region was made */
@@ -1427,11 +1434,6 @@ static void go(ndo_peer *p)
 {
 	p->started = 1;
 	ndo_session_set_grace(p->s, 0);
-	if (p->owner && restartable(p) && !ck_ready(p)) {
-		/* the run's first step: the owner's simulation holds it whole */
-		ck_take(p, p->ncanon, p->canons);
-		ck_whole(p);
-	}
 	p->st.start_time = p->now;
 	p->wall0 = p->now;
 	p->sched0 = p->cur;
