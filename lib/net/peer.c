@@ -2019,6 +2019,14 @@ static int on_partition(ndo_peer *p)
 		}
 		if (restart) /* announced: started, or about to */
 			return restart_begin(p, R, was && p->started ? p->cur : R);
+		if (p->owner && !p->started)
+			/* no restart (none held, or none asked for): the owner holds
+			 * the first step whole, so a dead peer's first state, never
+			 * announced, is its own; else it would wait for it until its
+			 * start timeout while the others, who began, go on */
+			for (size_t q = 0; q < p->ncanon; q++)
+				if (p->nstep[p->canons[q]] < p->first)
+					p->nstep[p->canons[q]] = p->first;
 		for (size_t q = 0; q < p->ncanon; q++)
 			if (p->mask[p->canons[q]] && p->nstep[p->canons[q]] < p->cur) {
 				p->nstep[p->canons[q]] = p->cur;
