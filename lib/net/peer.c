@@ -31,6 +31,8 @@ struct ndo_peer {
 	ndo_clock clock;
 	int hold;              /* the boundary stands still during a step */
 	int peers_needed;
+	int owner_went; /* a joiner: a halo or checkpoint of the owner came, so it
+	                   has announced its partition */
 	int64_t first, final;
 	/* the object */
 	int level;
@@ -473,6 +475,10 @@ static void on_halo(void *user, const ndo_msg_halo_t *h)
 		p->failed = NDO_ENOMEM;
 		return;
 	}
+	/* (of a partition this peer holds, or an older one: a halo of a newer
+	 * one says nothing of the partition the owner announced with) */
+	if (h->hdr.sender_id == ndo_session_owner_id(p->s) && h->epoch <= ndo_session_epoch(p->s))
+		p->owner_went = 1;
 	if (h->checkpoint) {
 		if (p->now >= p->ck_deaf_until)
 			on_checkpoint(p, h);
@@ -1375,7 +1381,11 @@ static int announce(ndo_peer *p)
 	p->epoch_done = ndo_session_epoch(p->s);
 	p->epoch_t0 = p->now;
 	int64_t R = ndo_session_restart(p->s);
-	if (!p->owner && p->simulating && restartable(p) && R >= 0) {
+	/* a joiner whose object is the run's first step holds it whole: a
+	 * restart from there (a partition made before the start) needs no
+	 * checkpoint nodes */
+	int holds_R = R == p->first && p->fill_step <= p->first && p->max_seen <= p->first;
+	if (!p->owner && p->simulating && restartable(p) && R >= 0 && !holds_R) {
 		/* a run under way whose partition restarts: from its step */
 		p->announced = 1;
 		return restart_begin(p, R, R);
@@ -1469,7 +1479,10 @@ static int starting(ndo_peer *p)
 			ndo_session_set_grace(p->s, 0);
 			return NDO_PEER_WAITING;
 		}
-		if (ready && np >= p->peers_needed) {
+		/* a joiner: once the owner has announced, a partition made since
+		 * (a peer left or was dropped before the start) may count fewer
+		 * than --peers; waiting for them would hold the start for good */
+		if (ready && (np >= p->peers_needed || (!p->owner && p->owner_went))) {
 			int rc = announce(p);
 			if (rc)
 				return rc;
