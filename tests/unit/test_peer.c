@@ -978,7 +978,8 @@ int main(void)
 		 * as soon as the owner made the new partition),
 		 * TEST_PEER_BANDS=1 the partition in bands, TEST_PEER_DROP=P
 		 * another loss (0..1), TEST_PEER_AT_START=V the event as the owner
-		 * announces the first partition (a kill: peer V, 0 the last) */
+		 * announces the first partition (a kill: peer V, 0 the last),
+		 * TEST_PEER_K=K steps per halo exchange */
 		int n = atoi(kills), what = KILL;
 		const char *ev = getenv("TEST_PEER_EVENT"), *first = getenv("TEST_PEER_FIRST");
 		rc_method = getenv("TEST_PEER_METHOD");
@@ -999,7 +1000,8 @@ int main(void)
 		const char *dr = getenv("TEST_PEER_DROP");
 		double drop = dr ? atof(dr) : ev2 ? 0 : 0.1;
 		for (int i = 0; i < n; i++)
-			restart_case(what, drop, s0 + (uint64_t)i, ev2 ? atoi(ev2) : 0, 1);
+			restart_case(what, drop, s0 + (uint64_t)i, ev2 ? atoi(ev2) : 0,
+			             getenv("TEST_PEER_K") ? atoi(getenv("TEST_PEER_K")) : 1);
 		return ck_case_failures != 0; /* no RUN() here: the checks' own count */
 	}
 	RUN(lockstep_is_the_single_process_bit_for_bit);
