@@ -57,6 +57,17 @@ static double *displaced(const ndo_grid *g, double amp)
 	return x;
 }
 
+/* The wavy surface at level 6, displaced (*x), and the default
+ * parameters with damping 0.1 (*p). */
+static ndo_grid *damped_wavy(double **x, ndo_sim_params *p)
+{
+	ndo_grid *g = shape("wavy", 6);
+	*x = displaced(g, 0.01);
+	ndo_sim_defaults(p);
+	p->material.damping = 0.1;
+	return g;
+}
+
 typedef struct variant {
 	const char *name;
 	int pins;      /* 0 none, 1 projected, 2 penalty */
@@ -171,11 +182,9 @@ static void steps_equal_cholmods(void)
  * steps (found changed: the full product), and across a new step size. */
 static void trapezoid_reuses_a_v(void)
 {
-	ndo_grid *g = shape("wavy", 6);
-	double *x = displaced(g, 0.01);
+	double *x;
 	ndo_sim_params p;
-	ndo_sim_defaults(&p);
-	p.material.damping = 0.1;
+	ndo_grid *g = damped_wavy(&x, &p);
 	ndo_sim *probe = make(g, x, NULL, &p); /* RK4's limit */
 	ndo_critical c;
 	ndo_sim_critical(probe, &c);
@@ -233,11 +242,9 @@ static void trapezoid_reuses_a_v(void)
  * fresh simulation's, bit for bit. */
 static void block_solve_after_a_multigrid_step(void)
 {
-	ndo_grid *g = shape("wavy", 6);
-	double *x = displaced(g, 0.01);
+	double *x;
 	ndo_sim_params p;
-	ndo_sim_defaults(&p);
-	p.material.damping = 0.1;
+	ndo_grid *g = damped_wavy(&x, &p);
 	p.solver = NDO_SOLVER_MULTIGRID;
 	const size_t n = 3 * g->count;
 	uint8_t *small = calloc(g->count, 1), *large = calloc(g->count, 1);
