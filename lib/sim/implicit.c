@@ -647,8 +647,8 @@ static int ready(ndo_sim *s, double h, int direct)
 	}
 	if (direct && im->mg_on) { /* a region's block solve needs the factor */
 		/* CHOLMOD's rows and analysis, not the multigrid's: a peer whose
-		 * whole-surface steps (alone) built the hierarchy wrote the next
-		 * region's rows past its arrays */
+		 * timed-out step, taken alone (ndo_sim_step), built the hierarchy
+		 * wrote a larger next region's rows past its arrays */
 		mg_release(im);
 		im->mg_on = 0;
 		im->valid = 0;
