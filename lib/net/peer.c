@@ -123,6 +123,13 @@ struct ndo_peer {
 	int64_t ck_until;      /* owner: re-sends checkpoint ck_at while waiting at
 	                          a step up to this */
 	int64_t ck_at;
+	int64_t ck_last;       /* owner: its newest checkpoint step of this
+	                          partition (−1: none) */
+	double ck_ask_at, ck_ask_gap; /* owner: when it next asks for the
+	                          joiners' parts of ck_last, and the gap after */
+	double ck_answer_at;   /* joiner: no answer to an ask before then (one
+	                          per re-send gap: a small message must not
+	                          draw a region's state at any rate) */
 	double ck_deaf_until;  /* tests: checkpoints not heard before then */
 	int last_sent;         /* ... the last step's frame went out (confirmed,
 	                          or after gather_timeout unconfirmed) */
@@ -852,6 +859,8 @@ static int checkpoint(ndo_peer *p)
 	p->st.checkpoints++;
 	if (p->owner) {
 		ck_whole(p);
+		p->ck_last = p->cur;
+		p->ck_ask_gap = 0;
 		return 0;
 	}
 	return ndo__ck_send(p->ck, p->s, p->cur, p->nownc, p->ownc, &p->st.checkpoint_bytes);
@@ -879,8 +888,41 @@ static void on_checkpoint(ndo_peer *p, const ndo_msg_halo_t *h)
 		p->failed = NDO_ENOMEM;
 		return;
 	}
+	if (!p->owner && h->nruns == 0 && !h->confirmed) {
+		/* the owner lacks part of checkpoint h->step (a message lost):
+		 * this peer's part again, if it holds it (ck_ask) */
+		if (h->epoch != ndo_session_epoch(p->s) || p->now < p->ck_answer_at)
+			return;
+		p->ck_answer_at = p->now + p->o.resend;
+		if (ndo__ck_send(p->ck, p->s, h->step, p->nownc, p->ownc, &p->st.checkpoint_bytes) < 0)
+			p->failed = NDO_ENOMEM;
+		return;
+	}
 	ndo__ck_put_msg(p->ck, h);
 	ck_whole(p);
+}
+
+/* The owner: while its newest checkpoint of this partition lacks some
+ * joiner's part (one of its messages lost) two exchanges after it, it asks
+ * for the parts again (an empty, unconfirmed checkpoint halo; every joiner
+ * sends its own part), after the re-send gap, doubling up to 0.2 s.
+ * Otherwise a restart would go back to the checkpoint before it, or to the
+ * first step. */
+static int ck_ask(ndo_peer *p)
+{
+	if (!p->owner || !p->ck || !p->started || p->ck_last < 0 || !restartable(p) ||
+	    p->cur < p->ck_last + 2 * (int64_t)p->K || p->now < p->ck_ask_at ||
+	    ndo__ck_whole(p->ck) >= p->ck_last)
+		return 0;
+	p->ck_ask_gap = p->ck_ask_gap > 0 ? fmin(2 * p->ck_ask_gap, RESEND_MAX) : p->o.resend;
+	p->ck_ask_at = p->now + p->ck_ask_gap;
+	p->st.checkpoint_asks++;
+	ndo_msg_halo_t h;
+	memset(&h, 0, sizeof h);
+	h.step = p->ck_last;
+	h.checkpoint = 1;
+	int rc = ndo_session_send_halo(p->s, &h);
+	return rc < 0 ? rc : 0;
 }
 
 static int publish(ndo_peer *p);
@@ -956,6 +998,7 @@ static int restart_begin(ndo_peer *p, int64_t R, int64_t from)
 	if (rc)
 		return rc;
 	ndo__ck_drop_after(p->ck, R);
+	p->ck_last = -1; /* (this partition's checkpoints come after R) */
 	p->rs_step = R;
 	p->rs_from = from;
 	p->blocked = 0;
@@ -2115,6 +2158,8 @@ int ndo_peer_update(ndo_peer *p, double now)
 		if (p->rs_step >= 0)
 			return resend_due(p);
 	}
+	if ((rc = ck_ask(p)))
+		return rc;
 	if (!p->started)
 		return starting(p);
 	if (p->cur >= p->final)
@@ -2187,7 +2232,7 @@ int ndo_peer_create(const ndo_peer_opts *o, ndo_net *net, ndo_grid *grid, ndo_si
 	p->C = o->checkpoint_every > 0   ? o->checkpoint_every
 	       : o->checkpoint_every < 0 ? 0
 	                                 : ndo_peer_checkpoint_default(grid ? grid->level : 0);
-	p->rs_step = p->ck_skip = p->ck_at = -1;
+	p->rs_step = p->ck_skip = p->ck_at = p->ck_last = -1;
 	p->inexact_at = -1;
 	p->fill_step = -1;
 	p->max_seen = -1;

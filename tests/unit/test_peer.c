@@ -671,6 +671,44 @@ static void a_peer_waiting_for_its_checkpoint_lives(void)
 	}
 }
 
+/* A checkpoint the owner did not hold whole (the joiners' parts lost: the
+ * owner deaf to checkpoint messages around step 100, peer_test.h) is
+ * asked for again (ck_asks), so a kill at step 140 restarts from step 100,
+ * not from 50; without the asks it went back to 50 (92 steps again,
+ * checked by hand).  rk4, 3 peers, checkpoints every 50 steps. */
+static void a_lost_checkpoint_is_asked_for(void)
+{
+	setup su = {.integrator = "rk4", .dt = 0.02, .steps = 300, .clock = NDO_CLOCK_LOCKSTEP,
+	            .peers = 3, .step_timeout = 0.2, .checkpoint_every = 50};
+	world *w = world_new();
+	CHECK(add_owner(w, &su) == 0, "owner");
+	add_joiner(w, &su, POIS[0]);
+	add_joiner(w, &su, POIS[1]);
+	run_to_step(w, 95, 30);
+	ndo__peer_deaf_to_checkpoints(w->p[0], w->t + 0.015);
+	run_to_step(w, 140, 30);
+	int64_t was = ndo_peer_step(w->p[0]);
+	ndo_peer *dead = w->p[2];
+	w->p[2] = NULL;
+	int done = run(w, 60) == 0;
+	double *x = solo(&su);
+	double d = difference(ndo_peer_grid(w->p[0]), x);
+	ndo_peer_stats st;
+	ndo_peer_stats_get(w->p[0], &st);
+	printf("    checkpoint 100 lost, a kill at step %lld: differs by %.3g; owner: %lld asks, %lld "
+	       "restarts, %lld steps again\n", (long long)was, d, (long long)st.checkpoint_asks,
+	       (long long)st.restarts, (long long)st.restart_steps);
+	CHECK(done && d == 0 && st.restarts == 1 && st.inexact_at < 0, "done %d, differs by %.3g "
+	      "(expected 0), %lld restarts, not exact from step %lld", done, d,
+	      (long long)st.restarts, (long long)st.inexact_at);
+	CHECK(st.checkpoint_asks >= 1 && st.restart_steps < 50, "%lld asks, %lld steps again from "
+	      "step %lld (a restart from 100 takes fewer than 50)", (long long)st.checkpoint_asks,
+	      (long long)st.restart_steps, (long long)was);
+	free(x);
+	ndo_peer_destroy(dead, NULL);
+	world_free(w);
+}
+
 static void split_restarts_keep_the_single_process(void)
 {
 	static const char *const methods[] = {"rkf45", "backward-euler", "trapezoid"};
@@ -1016,6 +1054,7 @@ int main(void)
 	RUN(a_peer_lost_at_the_start);
 	RUN(split_restarts_keep_the_single_process);
 	RUN(a_peer_waiting_for_its_checkpoint_lives);
+	RUN(a_lost_checkpoint_is_asked_for);
 	RUN(owner_quit_ends_the_others);
 	RUN(strangers_tiles_are_not_used);
 	RUN(a_replayed_log_gives_the_live_frames);

@@ -452,6 +452,10 @@ static void summary(peer_run *pr, const char *how)
 		        "restarts from a checkpoint (new partitions), %lld steps taken again\n",
 		        ndo_progname, (long long)st.checkpoints, (double)st.checkpoint_bytes / 1e3,
 		        (long long)st.restarts, (long long)st.restart_steps);
+	if (st.checkpoint_asks)
+		fprintf(stderr, "%s: restarts: asked %lld time%s for parts of a checkpoint again (lost "
+		        "on the way)\n", ndo_progname, (long long)st.checkpoint_asks,
+		        st.checkpoint_asks == 1 ? "" : "s");
 	if (st.rollback && st.steps)
 		fprintf(stderr, "%s: rollback: %s; %lld rollbacks (the deepest %lld steps), %lld steps "
 		        "recomputed for %lld taken; %lld halo node-steps first predicted; frames shown "

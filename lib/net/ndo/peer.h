@@ -314,6 +314,8 @@ typedef struct ndo_peer_stats {
 	/* exact lock-step restarts (checkpoint_every): */
 	int64_t checkpoints;    /* checkpoint steps this peer kept */
 	uint64_t checkpoint_bytes; /* ... bytes it sent (the owner: re-sends) */
+	int64_t checkpoint_asks; /* owner: times it asked for parts of its newest
+	                            checkpoint again (one of them lost) */
 	int64_t restarts;       /* times it went back to a partition's restart step */
 	int64_t restart_steps;  /* ... the steps it took again */
 	double start_time;      /* caller's clock at the first step */
