@@ -127,9 +127,12 @@ struct ndo_peer {
 	                          partition (−1: none) */
 	double ck_ask_at, ck_ask_gap; /* owner: when it next asks for the
 	                          joiners' parts of ck_last, and the gap after */
-	double ck_answer_at;   /* joiner: no answer to an ask before then (one
-	                          per re-send gap: a small message must not
-	                          draw a region's state at any rate) */
+	double ck_answer_at, ck_answer_gap; /* joiner: no answer to an ask
+	                          before then, and the gap after: the re-send
+	                          gap, doubling up to RESEND_MAX while the asks
+	                          are for the same step (a small message must
+	                          not draw a region's state at any rate) */
+	int64_t ck_answer_step;
 	double ck_deaf_until;  /* tests: checkpoints not heard before then */
 	int last_sent;         /* ... the last step's frame went out (confirmed,
 	                          or after gather_timeout unconfirmed) */
@@ -893,13 +896,28 @@ static void on_checkpoint(ndo_peer *p, const ndo_msg_halo_t *h)
 		 * this peer's part again, if it holds it (ck_ask) */
 		if (h->epoch != ndo_session_epoch(p->s) || p->now < p->ck_answer_at)
 			return;
-		p->ck_answer_at = p->now + p->o.resend;
+		p->ck_answer_gap = h->step == p->ck_answer_step
+		                       ? fmin(2 * p->ck_answer_gap, RESEND_MAX) : p->o.resend;
+		p->ck_answer_step = h->step;
+		p->ck_answer_at = p->now + p->ck_answer_gap;
 		if (ndo__ck_send(p->ck, p->s, h->step, p->nownc, p->ownc, &p->st.checkpoint_bytes) < 0)
 			p->failed = NDO_ENOMEM;
 		return;
 	}
 	ndo__ck_put_msg(p->ck, h);
 	ck_whole(p);
+}
+
+/* An ask for checkpoint `step` (ck_ask). */
+static int ck_ask_send(ndo_peer *p, int64_t step)
+{
+	p->st.checkpoint_asks++;
+	ndo_msg_halo_t h;
+	memset(&h, 0, sizeof h);
+	h.step = step;
+	h.checkpoint = 1;
+	int rc = ndo_session_send_halo(p->s, &h);
+	return rc < 0 ? rc : 0;
 }
 
 /* The owner: while its newest checkpoint of this partition lacks some
@@ -916,13 +934,7 @@ static int ck_ask(ndo_peer *p)
 		return 0;
 	p->ck_ask_gap = p->ck_ask_gap > 0 ? fmin(2 * p->ck_ask_gap, RESEND_MAX) : p->o.resend;
 	p->ck_ask_at = p->now + p->ck_ask_gap;
-	p->st.checkpoint_asks++;
-	ndo_msg_halo_t h;
-	memset(&h, 0, sizeof h);
-	h.step = p->ck_last;
-	h.checkpoint = 1;
-	int rc = ndo_session_send_halo(p->s, &h);
-	return rc < 0 ? rc : 0;
+	return ck_ask_send(p, p->ck_last);
 }
 
 static int publish(ndo_peer *p);
@@ -2232,7 +2244,7 @@ int ndo_peer_create(const ndo_peer_opts *o, ndo_net *net, ndo_grid *grid, ndo_si
 	p->C = o->checkpoint_every > 0   ? o->checkpoint_every
 	       : o->checkpoint_every < 0 ? 0
 	                                 : ndo_peer_checkpoint_default(grid ? grid->level : 0);
-	p->rs_step = p->ck_skip = p->ck_at = p->ck_last = -1;
+	p->rs_step = p->ck_skip = p->ck_at = p->ck_last = p->ck_answer_step = -1;
 	p->inexact_at = -1;
 	p->fill_step = -1;
 	p->max_seen = -1;
@@ -2352,6 +2364,7 @@ double ndo_peer_dt(const ndo_peer *p) { return p->dt; }
 ndo_clock ndo_peer_clock(const ndo_peer *p) { return p->clock; }
 const char *ndo_peer_message(const ndo_peer *p) { return p->message; }
 void ndo__peer_deaf_to_checkpoints(ndo_peer *p, double until) { p->ck_deaf_until = until; }
+int ndo__peer_ask_checkpoint(ndo_peer *p, int64_t step) { return ck_ask_send(p, step); }
 int ndo_peer_simulating(const ndo_peer *p) { return p->simulating; }
 int ndo_peer_started(const ndo_peer *p) { return p->started; }
 void ndo_peer_stats_get(const ndo_peer *p, ndo_peer_stats *st)

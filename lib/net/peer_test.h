@@ -11,4 +11,8 @@
  * (restart_wait). */
 void ndo__peer_deaf_to_checkpoints(ndo_peer *p, double until);
 
+/* The peer sends an ask for checkpoint `step` now, whatever it holds (as
+ * the owner does for a part it lacks; from a joiner, anyone could). */
+int ndo__peer_ask_checkpoint(ndo_peer *p, int64_t step);
+
 #endif

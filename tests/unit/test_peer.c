@@ -675,7 +675,8 @@ static void a_peer_waiting_for_its_checkpoint_lives(void)
  * owner deaf to checkpoint messages around step 100, peer_test.h) is
  * asked for again (ck_asks), so a kill at step 140 restarts from step 100,
  * not from 50; without the asks it went back to 50 (92 steps again,
- * checked by hand).  rk4, 3 peers, checkpoints every 50 steps. */
+ * checked by hand).  rk4, 3 peers, checkpoints every 50 steps.  And a
+ * joiner answers asks at most once per re-send gap, doubling. */
 static void a_lost_checkpoint_is_asked_for(void)
 {
 	setup su = {.integrator = "rk4", .dt = 0.02, .steps = 300, .clock = NDO_CLOCK_LOCKSTEP,
@@ -706,6 +707,38 @@ static void a_lost_checkpoint_is_asked_for(void)
 	      (long long)st.restart_steps, (long long)was);
 	free(x);
 	ndo_peer_destroy(dead, NULL);
+	world_free(w);
+	/* a burst of asks draws at most a few answers: 40 asks for step 60 in
+	 * one tick, one answer (the re-send gap, 10 ms); then one a tick for 40
+	 * ticks, two or three (the gap doubles: 10, 20, 40 ms) — between the
+	 * checkpoints at steps 60 and 120, so that only answers are counted */
+	su.checkpoint_every = 60;
+	w = world_new();
+	CHECK(add_owner(w, &su) == 0, "owner");
+	add_joiner(w, &su, POIS[0]);
+	add_joiner(w, &su, POIS[1]);
+	run_to_step(w, 62, 30);
+	ndo_peer_stats j0, j1;
+	ndo_peer_stats_get(w->p[1], &j0);
+	for (int k = 0; k < 40; k++)
+		ndo__peer_ask_checkpoint(w->p[0], 60);
+	run(w, w->t + TICK);
+	ndo_peer_stats_get(w->p[1], &j1);
+	/* a part: what each of its checkpoints so far sent */
+	const double part = j0.checkpoints ? (double)j0.checkpoint_bytes / (double)j0.checkpoints : 0;
+	const double burst = (double)(j1.checkpoint_bytes - j0.checkpoint_bytes);
+	for (int k = 0; k < 40; k++) {
+		ndo__peer_ask_checkpoint(w->p[0], 60);
+		run(w, w->t + TICK);
+	}
+	ndo_peer_stats_get(w->p[1], &j0);
+	const double more = (double)(j0.checkpoint_bytes - j1.checkpoint_bytes);
+	printf("    40 asks at once: %.1f answers; 40 more over 40 ticks: %.1f (a part %.1f kB, at "
+	       "step %lld)\n", part > 0 ? burst / part : 0.0, part > 0 ? more / part : 0.0,
+	       part / 1e3, (long long)ndo_peer_step(w->p[0]));
+	CHECK(part > 0 && burst <= 1.5 * part && more <= 3.5 * part && ndo_peer_step(w->p[0]) < 120,
+	      "asks answered: at once %.0f bytes (one part of %.0f), over 40 ticks %.0f (at most 3 "
+	      "parts)", burst, part, more);
 	world_free(w);
 }
 
