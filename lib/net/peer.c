@@ -123,6 +123,10 @@ struct ndo_peer {
 	int64_t ck_until;      /* owner: re-sends checkpoint ck_at while waiting at
 	                          a step up to this */
 	int64_t ck_at;
+	int ck_wanted;         /* owner: a peer waiting for checkpoint ck_at's
+	                          nodes spoke since it last sent them */
+	double ck_next_at, ck_gap; /* owner: when it sends them again unasked,
+	                          and the gap after (doubling up to RESEND_MAX) */
 	int64_t ck_last;       /* owner: its newest checkpoint step of this
 	                          partition (−1: none) */
 	double ck_ask_at, ck_ask_gap; /* owner: when it next asks for the
@@ -495,8 +499,14 @@ static void on_halo(void *user, const ndo_msg_halo_t *h)
 		return;
 	}
 	heard(p, h->hdr.sender_id, h->epoch, h->step);
-	if (h->nruns == 0 && h->confirmed && h->step < p->final)
-		return; /* a keepalive (restart_wait): heard, nothing more */
+	if (h->nruns == 0 && h->confirmed && h->step < p->final) {
+		/* a keepalive (restart_wait): heard; at the restart step, it
+		 * may still lack some of its checkpoint nodes (of this partition,
+		 * or of an older one whose successor it has not yet heard of) */
+		if (p->owner && h->step == p->ck_at && h->epoch <= ndo_session_epoch(p->s))
+			p->ck_wanted = 1;
+		return;
+	}
 	if (h->epoch < ndo_session_epoch(p->s) ||
 	    (h->epoch == ndo_session_epoch(p->s) && !member(p, h->hdr.sender_id))) {
 		p->st.stale++;
@@ -1018,10 +1028,14 @@ static int restart_begin(ndo_peer *p, int64_t R, int64_t from)
 	p->next_resend = p->now + p->resend_gap;
 	if (p->owner) {
 		/* what a peer lacks of R: sent now, and again while the owner waits
-		 * near R (a peer that lacks it holds its neighbours, and so the
-		 * owner, within a few exchanges of R) */
+		 * near R when a peer says it still lacks some (its keepalive at R,
+		 * ck_wanted; such a peer holds its neighbours, and so the owner,
+		 * within a few exchanges of R) */
 		p->ck_at = R;
 		p->ck_until = R + (int64_t)p->K * (NDO_MAX_PEERS + 1);
+		p->ck_wanted = 0;
+		p->ck_gap = p->o.resend;
+		p->ck_next_at = p->now + p->ck_gap;
 		if ((rc = ck_resend(p)))
 			return rc;
 	}
@@ -1245,8 +1259,17 @@ static int resend(ndo_peer *p)
 		return !p->started || (p->cur >= p->final && p->last_sent) ? frame_send(p) : 0;
 	}
 	if (p->owner && p->ck_at >= 0 && (p->rs_step >= 0 || p->cur <= p->ck_until) &&
-	    (rc = ck_resend(p)))
-		return rc;
+	    (p->ck_wanted || p->now >= p->ck_next_at)) {
+		/* again for a peer that says it still waits for them (its
+		 * keepalive at R: restart_wait), else after a gap that doubles
+		 * (its keepalives may not reach this peer: a partition it has
+		 * not yet heard of), not at every wait near R */
+		p->ck_wanted = 0;
+		p->ck_gap = fmin(2 * p->ck_gap, RESEND_MAX);
+		p->ck_next_at = p->now + p->ck_gap;
+		if ((rc = ck_resend(p)))
+			return rc;
+	}
 	if (p->rs_step >= 0)
 		return restart_wait(p); /* nothing of this partition yet but that it lives */
 	if (p->exact) {
