@@ -31,8 +31,8 @@ struct ndo_peer {
 	ndo_clock clock;
 	int hold;              /* the boundary stands still during a step */
 	int peers_needed;
-	int owner_went; /* a joiner: a halo or checkpoint of the owner came, so it
-	                   has announced its partition */
+	int owner_went; /* a joiner: a message of the owner's run came, so it has
+	                   announced its partition (owner_spoke) */
 	int64_t first, final;
 	/* the object */
 	int level;
@@ -481,6 +481,16 @@ static int tile_wanted(void *user, int32_t sender, int64_t step, int channels)
 	       step >= p->final;
 }
 
+/* A joiner: a halo, checkpoint or part of a split step from the owner, of
+ * a partition this peer holds or an older one, says the owner has
+ * announced (one of a newer partition says nothing of the partition the
+ * owner announced with). */
+static void owner_spoke(ndo_peer *p, int32_t sender, int32_t epoch)
+{
+	if (sender == ndo_session_owner_id(p->s) && epoch <= ndo_session_epoch(p->s))
+		p->owner_went = 1;
+}
+
 /* The session's halo_fn: another peer's halo (or checkpoint). */
 static void on_halo(void *user, const ndo_msg_halo_t *h)
 {
@@ -489,10 +499,7 @@ static void on_halo(void *user, const ndo_msg_halo_t *h)
 		p->failed = NDO_ENOMEM;
 		return;
 	}
-	/* (of a partition this peer holds, or an older one: a halo of a newer
-	 * one says nothing of the partition the owner announced with) */
-	if (h->hdr.sender_id == ndo_session_owner_id(p->s) && h->epoch <= ndo_session_epoch(p->s))
-		p->owner_went = 1;
+	owner_spoke(p, h->hdr.sender_id, h->epoch);
 	if (h->checkpoint) {
 		if (p->now >= p->ck_deaf_until)
 			on_checkpoint(p, h);
@@ -595,6 +602,7 @@ static void on_solve(void *user, const ndo_msg_solve_t *m)
 {
 	ndo_peer *p = user;
 	heard(p, m->hdr.sender_id, m->epoch, m->step);
+	owner_spoke(p, m->hdr.sender_id, m->epoch);
 	if (p->ps && (m->epoch > ndo_session_epoch(p->s) || member(p, m->hdr.sender_id)))
 		ndo__ps_receive(p->ps, m);
 }
