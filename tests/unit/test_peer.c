@@ -410,6 +410,28 @@ static void run_to_step(world *w, int64_t at, double limit)
 		;
 }
 
+/* Run w to the end: whether every live peer finished, the owner's
+ * largest difference from the single process (*d) and its stats. */
+static int finish(world *w, const setup *su, double *d, ndo_peer_stats *st)
+{
+	int done = run(w, 60) == 0;
+	double *x = solo(su);
+	*d = difference(ndo_peer_grid(w->p[0]), x);
+	free(x);
+	ndo_peer_stats_get(w->p[0], st);
+	return done;
+}
+
+/* An owner and two joiners (POIS[0], POIS[1]) of the run `su`. */
+static world *owner_and_two(const setup *su)
+{
+	world *w = world_new();
+	CHECK(add_owner(w, su) == 0, "owner");
+	add_joiner(w, su, POIS[0]);
+	add_joiner(w, su, POIS[1]);
+	return w;
+}
+
 /* A partition that changes during the run restarts every peer from the
  * newest checkpoint the owner holds whole (checkpoint.h): a peer killed
  * (destroyed without a word: silent), an announced leave and a joiner,
@@ -646,26 +668,20 @@ static void a_peer_waiting_for_its_checkpoint_lives(void)
 		setup su = {.integrator = methods[m], .dt = 0.02, .steps = 300,
 		            .clock = NDO_CLOCK_LOCKSTEP, .peers = 3, .step_timeout = 0.2,
 		            .extra = m == 1 ? "tol 1e-7\n" : NULL};
-		world *w = world_new();
-		CHECK(add_owner(w, &su) == 0, "owner");
-		add_joiner(w, &su, POIS[0]);
-		add_joiner(w, &su, POIS[1]);
+		world *w = owner_and_two(&su);
 		run_to_step(w, 100, 30);
 		ndo_peer *dead = w->p[2];
 		w->p[2] = NULL;
 		ndo__peer_deaf_to_checkpoints(w->p[1], w->t + 2.5);
-		int done = run(w, 60) == 0;
-		double *x = solo(&su);
-		double d = difference(ndo_peer_grid(w->p[0]), x);
+		double d;
 		ndo_peer_stats st;
-		ndo_peer_stats_get(w->p[0], &st);
+		int done = finish(w, &su, &d, &st);
 		printf("    %s: a joiner without its checkpoint for 2.5 s after a kill: differs by %.3g; "
 		       "owner: %lld restarts, %lld timeouts, not exact from step %lld\n", methods[m], d,
 		       (long long)st.restarts, (long long)st.timeouts, (long long)st.inexact_at);
 		CHECK(done && d == 0 && st.restarts >= 1 && st.inexact_at < 0,
 		      "%s: done %d, differs by %.3g (expected 0), %lld restarts, not exact from step "
 		      "%lld", methods[m], done, d, (long long)st.restarts, (long long)st.inexact_at);
-		free(x);
 		ndo_peer_destroy(dead, NULL);
 		world_free(w);
 	}
@@ -681,21 +697,16 @@ static void a_lost_checkpoint_is_asked_for(void)
 {
 	setup su = {.integrator = "rk4", .dt = 0.02, .steps = 300, .clock = NDO_CLOCK_LOCKSTEP,
 	            .peers = 3, .step_timeout = 0.2, .checkpoint_every = 50};
-	world *w = world_new();
-	CHECK(add_owner(w, &su) == 0, "owner");
-	add_joiner(w, &su, POIS[0]);
-	add_joiner(w, &su, POIS[1]);
+	world *w = owner_and_two(&su);
 	run_to_step(w, 95, 30);
 	ndo__peer_deaf_to_checkpoints(w->p[0], w->t + 0.015);
 	run_to_step(w, 140, 30);
 	int64_t was = ndo_peer_step(w->p[0]);
 	ndo_peer *dead = w->p[2];
 	w->p[2] = NULL;
-	int done = run(w, 60) == 0;
-	double *x = solo(&su);
-	double d = difference(ndo_peer_grid(w->p[0]), x);
+	double d;
 	ndo_peer_stats st;
-	ndo_peer_stats_get(w->p[0], &st);
+	int done = finish(w, &su, &d, &st);
 	printf("    checkpoint 100 lost, a kill at step %lld: differs by %.3g; owner: %lld asks, %lld "
 	       "restarts, %lld steps again\n", (long long)was, d, (long long)st.checkpoint_asks,
 	       (long long)st.restarts, (long long)st.restart_steps);
@@ -705,7 +716,6 @@ static void a_lost_checkpoint_is_asked_for(void)
 	CHECK(st.checkpoint_asks >= 1 && st.restart_steps < 50, "%lld asks, %lld steps again from "
 	      "step %lld (a restart from 100 takes fewer than 50)", (long long)st.checkpoint_asks,
 	      (long long)st.restart_steps, (long long)was);
-	free(x);
 	ndo_peer_destroy(dead, NULL);
 	world_free(w);
 	/* a burst of asks draws at most a few answers: 40 asks for step 60 in
@@ -713,10 +723,7 @@ static void a_lost_checkpoint_is_asked_for(void)
 	 * ticks, two or three (the gap doubles: 10, 20, 40 ms) — between the
 	 * checkpoints at steps 60 and 120, so that only answers are counted */
 	su.checkpoint_every = 60;
-	w = world_new();
-	CHECK(add_owner(w, &su) == 0, "owner");
-	add_joiner(w, &su, POIS[0]);
-	add_joiner(w, &su, POIS[1]);
+	w = owner_and_two(&su);
 	run_to_step(w, 62, 30);
 	ndo_peer_stats j0, j1;
 	ndo_peer_stats_get(w->p[1], &j0);
