@@ -20,6 +20,18 @@
 #define IDLE_WAIT 0.05      /* s: the longest a caller sleeps (protocol timers) */
 #define STASH_MAX 8192      /* tiles kept for later steps or partitions */
 
+/* A repeated message's timer: the next one not before `at`, the gaps
+ * doubling from the first up to RESEND_MAX (gap 0: none sent yet). */
+typedef struct backoff {
+	double at, gap;
+} backoff;
+
+static void backoff_next(backoff *b, double now, double first)
+{
+	b->gap = b->gap > 0 ? fmin(2 * b->gap, RESEND_MAX) : first;
+	b->at = now + b->gap;
+}
+
 struct ndo_peer {
 	ndo_peer_opts o;
 	ndo_session *s;
@@ -125,17 +137,13 @@ struct ndo_peer {
 	int64_t ck_at;
 	int ck_wanted;         /* owner: a peer waiting for checkpoint ck_at's
 	                          nodes spoke since it last sent them */
-	double ck_next_at, ck_gap; /* owner: when it sends them again unasked,
-	                          and the gap after (doubling up to RESEND_MAX) */
+	backoff ck_send;       /* owner: ... and sends them again unasked */
 	int64_t ck_last;       /* owner: its newest checkpoint step of this
 	                          partition (−1: none) */
-	double ck_ask_at, ck_ask_gap; /* owner: when it next asks for the
-	                          joiners' parts of ck_last, and the gap after */
-	double ck_answer_at, ck_answer_gap; /* joiner: no answer to an ask
-	                          before then, and the gap after: the re-send
-	                          gap, doubling up to RESEND_MAX while the asks
-	                          are for the same step (a small message must
-	                          not draw a region's state at any rate) */
+	backoff ck_ask;        /* owner: asks for the joiners' parts of ck_last */
+	backoff ck_answer;     /* joiner: answers to asks, for ck_answer_step (a
+	                          small message must not draw a region's state
+	                          at any rate) */
 	int64_t ck_answer_step;
 	double ck_deaf_until;  /* tests: checkpoints not heard before then */
 	int last_sent;         /* ... the last step's frame went out (confirmed,
@@ -881,7 +889,7 @@ static int checkpoint(ndo_peer *p)
 	if (p->owner) {
 		ck_whole(p);
 		p->ck_last = p->cur;
-		p->ck_ask_gap = 0;
+		p->ck_ask = (backoff){0, 0};
 		return 0;
 	}
 	return ndo__ck_send(p->ck, p->s, p->cur, p->nownc, p->ownc, &p->st.checkpoint_bytes);
@@ -912,12 +920,12 @@ static void on_checkpoint(ndo_peer *p, const ndo_msg_halo_t *h)
 	if (!p->owner && h->nruns == 0 && !h->confirmed) {
 		/* the owner lacks part of checkpoint h->step (a message lost):
 		 * this peer's part again, if it holds it (ck_ask) */
-		if (h->epoch != ndo_session_epoch(p->s) || p->now < p->ck_answer_at)
+		if (h->epoch != ndo_session_epoch(p->s) || p->now < p->ck_answer.at)
 			return;
-		p->ck_answer_gap = h->step == p->ck_answer_step
-		                       ? fmin(2 * p->ck_answer_gap, RESEND_MAX) : p->o.resend;
+		if (h->step != p->ck_answer_step)
+			p->ck_answer.gap = 0; /* (the gaps double while the asks are for one step) */
 		p->ck_answer_step = h->step;
-		p->ck_answer_at = p->now + p->ck_answer_gap;
+		backoff_next(&p->ck_answer, p->now, p->o.resend);
 		if (ndo__ck_send(p->ck, p->s, h->step, p->nownc, p->ownc, &p->st.checkpoint_bytes) < 0)
 			p->failed = NDO_ENOMEM;
 		return;
@@ -947,11 +955,10 @@ static int ck_ask_send(ndo_peer *p, int64_t step)
 static int ck_ask(ndo_peer *p)
 {
 	if (!p->owner || !p->ck || !p->started || p->ck_last < 0 || !restartable(p) ||
-	    p->cur < p->ck_last + 2 * (int64_t)p->K || p->now < p->ck_ask_at ||
+	    p->cur < p->ck_last + 2 * (int64_t)p->K || p->now < p->ck_ask.at ||
 	    ndo__ck_whole(p->ck) >= p->ck_last)
 		return 0;
-	p->ck_ask_gap = p->ck_ask_gap > 0 ? fmin(2 * p->ck_ask_gap, RESEND_MAX) : p->o.resend;
-	p->ck_ask_at = p->now + p->ck_ask_gap;
+	backoff_next(&p->ck_ask, p->now, p->o.resend);
 	return ck_ask_send(p, p->ck_last);
 }
 
@@ -1042,8 +1049,8 @@ static int restart_begin(ndo_peer *p, int64_t R, int64_t from)
 		p->ck_at = R;
 		p->ck_until = R + (int64_t)p->K * (NDO_MAX_PEERS + 1);
 		p->ck_wanted = 0;
-		p->ck_gap = p->o.resend;
-		p->ck_next_at = p->now + p->ck_gap;
+		p->ck_send = (backoff){0, 0};
+		backoff_next(&p->ck_send, p->now, p->o.resend);
 		if ((rc = ck_resend(p)))
 			return rc;
 	}
@@ -1267,14 +1274,13 @@ static int resend(ndo_peer *p)
 		return !p->started || (p->cur >= p->final && p->last_sent) ? frame_send(p) : 0;
 	}
 	if (p->owner && p->ck_at >= 0 && (p->rs_step >= 0 || p->cur <= p->ck_until) &&
-	    (p->ck_wanted || p->now >= p->ck_next_at)) {
+	    (p->ck_wanted || p->now >= p->ck_send.at)) {
 		/* again for a peer that says it still waits for them (its
 		 * keepalive at R: restart_wait), else after a gap that doubles
 		 * (its keepalives may not reach this peer: a partition it has
 		 * not yet heard of), not at every wait near R */
 		p->ck_wanted = 0;
-		p->ck_gap = fmin(2 * p->ck_gap, RESEND_MAX);
-		p->ck_next_at = p->now + p->ck_gap;
+		backoff_next(&p->ck_send, p->now, p->o.resend);
 		if ((rc = ck_resend(p)))
 			return rc;
 	}
