@@ -32,6 +32,13 @@ static void backoff_next(backoff *b, double now, double first)
 	b->at = now + b->gap;
 }
 
+/* ... from its first gap again */
+static void backoff_start(backoff *b, double now, double first)
+{
+	b->gap = 0;
+	backoff_next(b, now, first);
+}
+
 struct ndo_peer {
 	ndo_peer_opts o;
 	ndo_session *s;
@@ -75,7 +82,8 @@ struct ndo_peer {
 	int64_t sched0;        /* realtime: the step at wall0 */
 	/* waiting and re-sending */
 	int blocked;
-	double block_t0, next_resend, resend_gap;
+	double block_t0;
+	backoff resend;         /* the halos', a split step's or the last frame's re-sends */
 	double gather_t0;
 	int notes_missed;
 	/* exact lock-step: per peer heard from, the partition of its newest
@@ -1039,8 +1047,7 @@ static int restart_begin(ndo_peer *p, int64_t R, int64_t from)
 	p->rs_step = R;
 	p->rs_from = from;
 	p->blocked = 0;
-	p->resend_gap = p->o.resend;
-	p->next_resend = p->now + p->resend_gap;
+	backoff_start(&p->resend, p->now, p->o.resend);
 	if (p->owner) {
 		/* what a peer lacks of R: sent now, and again while the owner waits
 		 * near R when a peer says it still lacks some (its keepalive at R,
@@ -1049,8 +1056,7 @@ static int restart_begin(ndo_peer *p, int64_t R, int64_t from)
 		p->ck_at = R;
 		p->ck_until = R + (int64_t)p->K * (NDO_MAX_PEERS + 1);
 		p->ck_wanted = 0;
-		p->ck_send = (backoff){0, 0};
-		backoff_next(&p->ck_send, p->now, p->o.resend);
+		backoff_start(&p->ck_send, p->now, p->o.resend);
 		if ((rc = ck_resend(p)))
 			return rc;
 	}
@@ -1310,13 +1316,12 @@ static int resend(ndo_peer *p)
  * RESEND_MAX): NDO_PEER_WAITING or a negative status. */
 static int resend_due(ndo_peer *p)
 {
-	if (p->now < p->next_resend)
+	if (p->now < p->resend.at)
 		return NDO_PEER_WAITING;
 	int rc = resend(p);
 	if (rc)
 		return rc;
-	p->resend_gap = fmin(2 * p->resend_gap, RESEND_MAX);
-	p->next_resend = p->now + p->resend_gap;
+	backoff_next(&p->resend, p->now, p->o.resend);
 	return NDO_PEER_WAITING;
 }
 
@@ -1505,8 +1510,7 @@ static int announce(ndo_peer *p)
 	if (p->rb && (rc = rb_restart(p)))
 		return rc;
 	unstash(p); /* halos kept until the region was made */
-	p->resend_gap = p->o.resend;
-	p->next_resend = p->now + p->resend_gap;
+	backoff_start(&p->resend, p->now, p->o.resend);
 	return p->simulating ? publish(p) : 0;
 }
 
@@ -1838,8 +1842,7 @@ static int step_split(ndo_peer *p)
 			 * step_timeout, and each phase may need a re-send) */
 			p->split_t0 = now;
 			p->split_phases = ps.phases;
-			p->resend_gap = p->o.resend;
-			p->next_resend = now + p->resend_gap;
+			backoff_start(&p->resend, now, p->o.resend);
 		}
 		if (now - p->split_t0 < p->step_timeout || ndo__ps_behind(p->ps, p->cur) ||
 		    members_alive(p, now - p->split_t0))
@@ -1920,8 +1923,7 @@ static int lockstep(ndo_peer *p)
 	if (!p->blocked) {
 		p->blocked = 1;
 		p->block_t0 = now + ahead; /* waiting: from the end of the work done ahead */
-		p->resend_gap = p->o.resend;
-		p->next_resend = now + p->resend_gap;
+		backoff_start(&p->resend, now, p->o.resend);
 		p->st.waited++;
 	}
 	if (now - p->block_t0 >= p->step_timeout && !neighbours_alive(p)) {
@@ -2031,8 +2033,7 @@ static int finishing(ndo_peer *p)
 	double now = p->now;
 	if (p->gather_t0 < 0) {
 		p->gather_t0 = now;
-		p->resend_gap = p->o.resend;
-		p->next_resend = now + p->resend_gap;
+		backoff_start(&p->resend, now, p->o.resend);
 	}
 	if (p->rb && !p->last_sent) {
 		/* the last step's frame (what the owner gathers) once every input
@@ -2224,7 +2225,7 @@ double ndo_peer_deadline(const ndo_peer *p)
 	if (p->done || p->ended)
 		return d;
 	if (p->rs_step >= 0)
-		return fmin(d, p->next_resend);
+		return fmin(d, p->resend.at);
 	if (!p->started)
 		return d;
 	if (p->rb)
@@ -2232,7 +2233,7 @@ double ndo_peer_deadline(const ndo_peer *p)
 	if (p->cur >= p->final) {
 		if (p->owner || (p->rb && !p->last_sent))
 			d = fmin(d, p->gather_t0 + p->o.gather_timeout);
-		return p->simulating ? fmin(d, p->next_resend) : d;
+		return p->simulating ? fmin(d, p->resend.at) : d;
 	}
 	if (!p->simulating)
 		return d;
@@ -2243,7 +2244,7 @@ double ndo_peer_deadline(const ndo_peer *p)
 	if (!p->blocked)
 		return now; /* it may step: ask again at once */
 	double t0 = p->exact && p->ps ? p->split_t0 : p->block_t0;
-	return fmin(d, fmin(p->next_resend, t0 + p->step_timeout));
+	return fmin(d, fmin(p->resend.at, t0 + p->step_timeout));
 }
 
 int ndo_peer_create(const ndo_peer_opts *o, ndo_net *net, ndo_grid *grid, ndo_sim *sim,
