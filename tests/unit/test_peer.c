@@ -458,6 +458,9 @@ static int rc_second;
 static int rc_at_start, rc_victim;
 /* ... and its steps (0: 300, a join 700) */
 static int rc_steps;
+/* ... and the realtime clock instead of lock-step: the run must end, with
+ * every peer done, but a new partition goes on unconfirmed (not exact) */
+static int rc_realtime;
 
 /* `every`: checkpoint_every (< 0: none, the reference, which must differ);
  * k: steps per halo exchange. */
@@ -471,7 +474,7 @@ static void restart_case(int what, double drop, uint64_t seed, int every, int k)
 	 * time enough) */
 	int split = strcmp(method, "rk4") != 0;
 	setup su = {.integrator = method, .dt = 0.02, .steps = rc_steps ? rc_steps : what == JOIN && !split ? 700 : 300,
-	            .clock = NDO_CLOCK_LOCKSTEP,
+	            .clock = rc_realtime ? NDO_CLOCK_REALTIME : NDO_CLOCK_LOCKSTEP,
 	            .peers = rc_peers ? rc_peers : what == JOIN ? 2 : 3,
 	            .step_timeout = 0.2, .checkpoint_every = every, .halo_steps = k,
 	            .level = rc_level, .bands = rc_bands,
@@ -551,7 +554,10 @@ static void restart_case(int what, double drop, uint64_t seed, int every, int k)
 		       rc_second == 1 ? "during the restart" : "as the new partition came");
 	CHECK(np == su.peers + (what == JOIN ? 1 : -1) - (rc_second != 0),
 	      "%s: %d peers simulate at the end", WHAT[what], np);
-	if (every < 0) {
+	if (rc_realtime) {
+		CHECK(done, "%s realtime, %s at step %lld, %.0f%% loss (seed %llu): not done", method,
+		      WHAT[what], (long long)was, 100 * drop, (unsigned long long)seed);
+	} else if (every < 0) {
 		CHECK(done && d > fmax(1e-6, 100 * want) && st.restarts == 0, "%s, %s without "
 		      "checkpoints: done %d, differs by %.3g (must differ), %lld restarts", method,
 		      WHAT[what], done, d, (long long)st.restarts);
@@ -1057,7 +1063,9 @@ int main(void)
 		 * TEST_PEER_BANDS=1 the partition in bands, TEST_PEER_DROP=P
 		 * another loss (0..1), TEST_PEER_AT_START=V the event as the owner
 		 * announces the first partition (a kill: peer V, 0 the last),
-		 * TEST_PEER_K=K steps per halo exchange */
+		 * TEST_PEER_K=K steps per halo exchange, TEST_PEER_CLOCK=realtime
+		 * that clock (the run must end; not exact), TEST_PEER_STEPS the
+		 * run's steps */
 		int n = atoi(kills), what = KILL;
 		const char *ev = getenv("TEST_PEER_EVENT"), *first = getenv("TEST_PEER_FIRST");
 		rc_method = getenv("TEST_PEER_METHOD");
@@ -1072,6 +1080,8 @@ int main(void)
 		rc_peers = np ? atoi(np) : 0;
 		rc_second = getenv("TEST_PEER_SECOND") ? atoi(getenv("TEST_PEER_SECOND")) : 0;
 		rc_bands = getenv("TEST_PEER_BANDS") != NULL;
+		rc_steps = getenv("TEST_PEER_STEPS") ? atoi(getenv("TEST_PEER_STEPS")) : 0;
+		rc_realtime = getenv("TEST_PEER_CLOCK") && strcmp(getenv("TEST_PEER_CLOCK"), "realtime") == 0;
 		const char *as = getenv("TEST_PEER_AT_START");
 		rc_at_start = as != NULL;
 		rc_victim = as ? atoi(as) : 0;
