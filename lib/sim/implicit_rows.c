@@ -92,35 +92,147 @@ int ndo_sim_implicit_begin(ndo_sim *s, double h, const int32_t *rows, size_t nro
 	return NDO_OK;
 }
 
+/* Row p of y = A x (ndo_sim_implicit_apply's reference loop). */
+static void apply_row(const ndo_sim *s, double cb, double ck, size_t p, const double *x, double *y)
+{
+	const size_t cnt = s->count;
+	if (!(s->active[p] && unknown(s, p))) {
+		for (int c = 0; c < 3; c++)
+			y[(size_t)c * cnt + p] = 0;
+		return;
+	}
+	int32_t nb[6];
+	double cf[6];
+	ndo__row_stencil(s, p, nb, cf);
+	int un[6];
+	for (int k = 0; k < 6; k++)
+		un[k] = unknown(s, (size_t)nb[k]);
+	const double dm = s->mass[p] * (1 + cb * s->gam[p]), pen = penalty_at(s, p);
+	for (int c = 0; c < 3; c++) {
+		const size_t o = (size_t)c * cnt;
+		const double xp = x[o + p];
+		double kx = pen * xp;
+		for (int k = 0; k < 6; k++)
+			kx += cf[k] * (xp - (un[k] ? x[o + (size_t)s->canon[nb[k]]] : 0));
+		y[o + p] = dm * xp + ck * kx;
+	}
+}
+
 void ndo_sim_implicit_apply(const ndo_sim *s, double h, const int32_t *rows, size_t nrows,
                             const double *x, double *y)
 {
-	const size_t cnt = s->count;
 	double cb, ck;
 	coefs(s, h, &cb, &ck);
-	for (size_t r = 0; r < nrows; r++) {
-		size_t p = (size_t)rows[r];
-		if (!(s->active[p] && unknown(s, p))) {
-			for (int c = 0; c < 3; c++)
-				y[(size_t)c * cnt + p] = 0;
-			continue;
-		}
-		int32_t nb[6];
-		double cf[6];
-		ndo__row_stencil(s, p, nb, cf);
-		int un[6];
-		for (int k = 0; k < 6; k++)
-			un[k] = unknown(s, (size_t)nb[k]);
-		const double dm = s->mass[p] * (1 + cb * s->gam[p]), pen = penalty_at(s, p);
-		for (int c = 0; c < 3; c++) {
-			const size_t o = (size_t)c * cnt;
-			const double xp = x[o + p];
-			double kx = pen * xp;
-			for (int k = 0; k < 6; k++)
-				kx += cf[k] * (xp - (un[k] ? x[o + (size_t)s->canon[nb[k]]] : 0));
-			y[o + p] = dm * xp + ck * kx;
+	for (size_t r = 0; r < nrows; r++)
+		apply_row(s, cb, ck, (size_t)rows[r], x, y);
+}
+
+/* ---- one set of rows, many products ----------------------------------------- */
+struct ndo_sim_rows {
+	double cb, ck;
+	int32_t *run;  /* nrun runs [run[2k], run[2k+1]) of regular rows (below) */
+	int32_t *rest; /* the other rows, through apply_row */
+	size_t nrun, nrest, cap;
+};
+
+/* Does row p read what the grid's interior stencil reads, as apply_row
+ * would: integrated, an unknown, no penalty spring, and its six
+ * neighbours the interior ones (ndo__row_stencil's first case), canonical
+ * and unknowns? */
+static int regular(const ndo_sim *s, size_t p)
+{
+	const size_t w = (size_t)s->w;
+	const int i = (int)(p % w), j = (int)(p / w);
+	if (!(i >= 1 && i <= 2 * s->n - 1 && j >= 1 && j <= s->n - 1) || !s->active[p] ||
+	    !unknown(s, p) || penalty_at(s, p) != 0)
+		return 0;
+	const size_t q[6] = {p + 1, p + w, p + w - 1, p - 1, p - w, p - w + 1};
+	for (int k = 0; k < 6; k++)
+		if ((size_t)s->canon[q[k]] != q[k] || !unknown(s, q[k]))
+			return 0;
+	return 1;
+}
+
+size_t ndo__rows_regular(const ndo_sim_rows *r)
+{
+	size_t n = 0;
+	for (size_t k = 0; k < r->nrun; k++)
+		n += (size_t)(r->run[2 * k + 1] - r->run[2 * k]);
+	return n;
+}
+
+void ndo_sim_rows_free(ndo_sim_rows *r)
+{
+	if (r)
+		free(r->run), free(r->rest), free(r);
+}
+
+int ndo_sim_implicit_rows(const ndo_sim *s, double h, const int32_t *rows, size_t nrows,
+                          ndo_sim_rows **out)
+{
+	ndo__clear_error();
+	ndo_sim_rows *r = *out;
+	if (!r && !(r = *out = calloc(1, sizeof *r)))
+		return ndo__fail(NDO_ENOMEM, "out of memory");
+	if (nrows > r->cap) {
+		int32_t *run = realloc(r->run, 2 * nrows * sizeof *run), *rest;
+		if (run)
+			r->run = run;
+		if (!run || !(rest = realloc(r->rest, nrows * sizeof *rest)))
+			return ndo__fail(NDO_ENOMEM, "out of memory");
+		r->rest = rest, r->cap = nrows;
+	}
+	coefs(s, h, &r->cb, &r->ck);
+	r->nrun = r->nrest = 0;
+	for (size_t k = 0; k < nrows; k++) {
+		const int32_t p = rows[k];
+		if (!regular(s, (size_t)p))
+			r->rest[r->nrest++] = p;
+		else if (r->nrun && r->run[2 * r->nrun - 1] == p)
+			r->run[2 * r->nrun - 1] = p + 1;
+		else
+			r->run[2 * r->nrun] = p, r->run[2 * r->nrun + 1] = p + 1, r->nrun++;
+	}
+	return NDO_OK;
+}
+
+/* apply_row's arithmetic, in its order, on a run of regular rows: their
+ * neighbours at fixed offsets and the coefficients as ndo__row_stencil
+ * reads them, so that the compiler can take several rows at once (the
+ * penalty's 0 · x kept: a zero's sign is apply_row's too). */
+NDO_HOT static void apply_runs(const ndo_sim *s, const ndo_sim_rows *r, const double *x,
+                               double *y)
+{
+	const size_t cnt = s->count, w = (size_t)s->w;
+	const double *const e0 = s->st.e[0], *const e1 = s->st.e[1], *const e2 = s->st.e[2];
+	const double *const mass = s->mass, *const gam = s->gam, cb = r->cb, ck = r->ck;
+	for (int c = 0; c < 3; c++) {
+		const double *restrict X = x + (size_t)c * cnt;
+		double *restrict Y = y + (size_t)c * cnt;
+		for (size_t k = 0; k < r->nrun; k++) {
+			const size_t p1 = (size_t)r->run[2 * k + 1];
+			for (size_t p = (size_t)r->run[2 * k]; p < p1; p++) {
+				const double xp = X[p];
+				double kx = 0 * xp;
+				kx += e0[p] * (xp - X[p + 1]);
+				kx += e1[p] * (xp - X[p + w]);
+				kx += e2[p] * (xp - X[p + w - 1]);
+				kx += e0[p - 1] * (xp - X[p - 1]);
+				kx += e1[p - w] * (xp - X[p - w]);
+				kx += e2[p - w + 1] * (xp - X[p - w + 1]);
+				const double dm = mass[p] * (1 + cb * gam[p]);
+				Y[p] = dm * xp + ck * kx;
+			}
 		}
 	}
+}
+
+void ndo_sim_implicit_apply_rows(const ndo_sim *s, const ndo_sim_rows *r, const double *x,
+                                 double *y)
+{
+	apply_runs(s, r, x, y);
+	for (size_t k = 0; k < r->nrest; k++)
+		apply_row(s, r->cb, r->ck, (size_t)r->rest[k], x, y);
 }
 
 int ndo_sim_implicit_rigid(const ndo_sim *s, double h, const int32_t *rows, size_t nrows,

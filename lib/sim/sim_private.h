@@ -388,6 +388,8 @@ int ndo__implicit_prepare(ndo_sim *s, double h, double **a, double **df);
 /* The stencil's 6 neighbours (stored indices) and coefficients of
  * canonical node p, as the implicit system's row p has them. */
 void ndo__row_stencil(const ndo_sim *s, size_t p, int32_t nb[6], double cf[6]);
+/* ndo_sim_implicit_rows: how many rows take the interior loop (tests) */
+size_t ndo__rows_regular(const ndo_sim_rows *r);
 /* The multigrid solver's bytes at a level: hierarchy, vectors, assembly. */
 double ndo__implicit_mg_bytes(int level);
 

@@ -1693,6 +1693,63 @@ static void implicit_factors_only_when_needed(void)
 	ndo_grid_destroy(g);
 }
 
+/* The implicit system's product on gathered rows (ndo_sim_implicit_rows,
+ * what peers solving together call many times a step) is the row by row
+ * reference's, bit for bit, zeros' signs included: every canonical row and
+ * a band, with pins held by projection or by penalty springs, a jagged
+ * active region, backward Euler and the trapezoid; most rows take the
+ * interior loop. */
+static void implicit_rows_are_the_reference_product(void)
+{
+	ndo_grid *g = shape("ellipsoid", 4);
+	const size_t cnt = g->count;
+	uint8_t *pin = calloc(cnt, 1), *mask = malloc(cnt);
+	int32_t *rows = malloc(cnt * sizeof *rows);
+	double *x = malloc(3 * cnt * sizeof *x), *y0 = malloc(3 * cnt * sizeof *y0),
+	       *y1 = malloc(3 * cnt * sizeof *y1);
+	for (size_t p = 0; p < cnt; p += 37)
+		pin[p] = 1;
+	jagged_region(g, mask);
+	ndo_sim_rows *r = NULL;
+	for (int c = 0; c < 8; c++) {
+		const int pins = c % 4, region = c >= 4; /* pins: 0 none, 1 projected, 2 penalty, 3 trapezoid */
+		ndo_sim_params p;
+		ndo_sim_defaults(&p);
+		p.method = pins == 3 ? NDO_TRAPEZOID : NDO_BACKWARD_EULER;
+		p.pin_mode = pins == 2 ? NDO_PINS_PENALTY : NDO_PINS_PROJECT;
+		ndo_sim *s = make(g, NULL, NULL, pins == 1 || pins == 2 ? pin : NULL, &p);
+		if (region)
+			ndo_sim_set_active(s, mask);
+		size_t n = 0;
+		for (size_t q = 0; q < cnt; q++) {
+			int j = (int)(q / (size_t)g->w);
+			if ((size_t)s->canon[q] == q && (!region || (j >= 3 && j <= 11) || q % 5 == 0))
+				rows[n++] = (int32_t)q;
+		}
+		for (size_t k = 0; k < 3 * cnt; k++) {
+			x[k] = uniform();
+			x[k] = k % 11 == 0 ? 0.0 : k % 13 == 0 ? -0.0 : x[k];
+		}
+		memset(y0, 0x5a, 3 * cnt * sizeof *y0);
+		memset(y1, 0x5a, 3 * cnt * sizeof *y1);
+		const double h = 0.01 * (1 + c);
+		ndo_sim_implicit_apply(s, h, rows, n, x, y0);
+		int rc = ndo_sim_implicit_rows(s, h, rows, n, &r);
+		if (!rc)
+			ndo_sim_implicit_apply_rows(s, r, x, y1);
+		size_t fast = rc ? 0 : ndo__rows_regular(r);
+		CHECK(!rc && memcmp(y0, y1, 3 * cnt * sizeof *y0) == 0,
+		      "case %d (pins %d, region %d): %zu rows, %zu through the interior loop: the "
+		      "products differ (rc %d)", c, pins, region, n, fast, rc);
+		CHECK(fast > n / 5 && fast < n, "case %d: %zu of %zu rows through the interior loop",
+		      c, fast, n);
+		ndo_sim_destroy(s);
+	}
+	ndo_sim_rows_free(r);
+	free(pin), free(mask), free(rows), free(x), free(y0), free(y1);
+	ndo_grid_destroy(g);
+}
+
 /* From a grid's channels (f32 velocity, rest, pin) and back: the state,
  * time and step survive, and a store adds f64 velocity and rest. */
 static void grid_channels_round_trip(void)
@@ -1834,6 +1891,7 @@ int main(void)
 	RUN(divergence_is_reported);
 	RUN(input_work_balances_energy);
 	RUN(implicit_factors_only_when_needed);
+	RUN(implicit_rows_are_the_reference_product);
 	RUN(grid_channels_round_trip);
 	RUN(sleeping_tiles_skip_still_parts);
 	return ck_failed_cases != 0;
