@@ -109,6 +109,9 @@ struct ndo__ps {
 	/* implicit: conjugate gradients, 3 planes each */
 	double *x, *b, *rr, *z, *p, *q, *u, *w, *m, *nv, *sv, *dinv, *tmp;
 	double gam, alpha, bb;
+	ndo_sim_rows *rows; /* the region's rows for the step's products */
+	int32_t *orun;   /* the region's rows as runs of consecutive nodes, in their */
+	size_t norun;    /* order: [orun[2k], orun[2k+1]) */
 	int jacobi;      /* precondition with the diagonal, not the region's block */
 	int peek;        /* rkf45: the state strip is the attempt's outcome */
 	int64_t ready;   /* rkf45: the step whose start the halo holds (−1: none) */
@@ -149,6 +152,8 @@ void ndo__ps_destroy(ndo__ps *ps)
 	free(ps->x), free(ps->b), free(ps->rr), free(ps->z), free(ps->p), free(ps->q);
 	free(ps->u), free(ps->w), free(ps->m), free(ps->nv), free(ps->sv);
 	free(ps->dinv), free(ps->tmp);
+	ndo_sim_rows_free(ps->rows);
+	free(ps->orun);
 	free(ps);
 }
 
@@ -184,7 +189,8 @@ int ndo__ps_create(ndo_session *s, ndo_sim *sim, int jacobi, ndo__ps **out)
 		     (ps->u = calloc(3 * n, sizeof(double))) && (ps->w = calloc(3 * n, sizeof(double))) &&
 		     (ps->m = calloc(3 * n, sizeof(double))) && (ps->nv = calloc(3 * n, sizeof(double))) &&
 		     (ps->sv = calloc(3 * n, sizeof(double))) &&
-		     (ps->dinv = calloc(n, sizeof(double)));
+		     (ps->dinv = calloc(n, sizeof(double))) &&
+		     (ps->orun = malloc(2 * n * sizeof(int32_t)));
 	if (!ok) {
 		ndo__ps_destroy(ps);
 		return ndo__fail(NDO_ENOMEM, "out of memory");
@@ -522,6 +528,14 @@ void ndo__ps_set_region(ndo__ps *ps, const ndo__ps_region *r)
 {
 	ps->r = *r;
 	members(ps);
+	ps->norun = 0;
+	for (size_t k = 0; ps->orun && k < r->nown; k++) {
+		if (ps->norun && ps->orun[2 * ps->norun - 1] == r->own[k])
+			ps->orun[2 * ps->norun - 1]++;
+		else
+			ps->orun[2 * ps->norun] = r->own[k], ps->orun[2 * ps->norun + 1] = r->own[k] + 1,
+			ps->norun++;
+	}
 	for (int k = 0; k < NDO_MAX_PEERS; k++)
 		ps->seen[k] = -1;
 	/* values of the old partition's phases are not this one's, whatever
@@ -638,13 +652,16 @@ static int rkf45_advance(ndo__ps *ps)
 }
 
 /* ---- the implicit methods: conjugate gradients --------------------------------- */
+/* Σ a·b over the rows' 3 planes, in the rows' order (the runs follow it:
+ * the same sum, bit for bit, as node by node). */
 static double dot(const ndo__ps *ps, const double *a, const double *b)
 {
 	double s = 0;
 	for (int c = 0; c < 3; c++)
-		for (size_t k = 0; k < ps->r.nown; k++) {
-			size_t q = (size_t)c * ps->count + (size_t)ps->r.own[k];
-			s += a[q] * b[q];
+		for (size_t r = 0; r < ps->norun; r++) {
+			const size_t q1 = (size_t)c * ps->count + (size_t)ps->orun[2 * r + 1];
+			for (size_t q = (size_t)c * ps->count + (size_t)ps->orun[2 * r]; q < q1; q++)
+				s += a[q] * b[q];
 		}
 	return s;
 }
@@ -653,18 +670,21 @@ static double dot(const ndo__ps *ps, const double *a, const double *b)
 static int precondition(ndo__ps *ps, const double *in, double *out)
 {
 	const size_t n = ps->count;
-	for (size_t k = 0; k < ps->r.nown; k++) {
-		size_t p = (size_t)ps->r.own[k];
-		for (int c = 0; c < 3; c++)
-			out[(size_t)c * n + p] = ps->jacobi ? ps->dinv[p] * in[(size_t)c * n + p] : 0;
-	}
+	const double *const dinv = ps->dinv;
+	for (int c = 0; c < 3; c++)
+		for (size_t r = 0; r < ps->norun; r++) {
+			const size_t p1 = (size_t)ps->orun[2 * r + 1], o = (size_t)c * n;
+			for (size_t p = (size_t)ps->orun[2 * r]; p < p1; p++)
+				out[o + p] = ps->jacobi ? dinv[p] * in[o + p] : 0;
+		}
 	return ps->jacobi ? 0 : ndo_sim_implicit_precondition(ps->sim, ps->h, in, out);
 }
 
-/* y = A x on the rows (x on the rows and the halo). */
+/* y = A x on the rows (x on the rows and the halo), the step's rows
+ * gathered once (ndo_sim_implicit_apply's bits). */
 static void apply(ndo__ps *ps, const double *x, double *y)
 {
-	ndo_sim_implicit_apply(ps->sim, ps->h, ps->r.own, ps->r.nown, x, y);
+	ndo_sim_implicit_apply_rows(ps->sim, ps->rows, x, y);
 }
 
 /* The solve is done: the momentum correction's sums when the single
@@ -685,17 +705,64 @@ static int solved(ndo__ps *ps)
 }
 
 /* The next iteration's exchange: m = M⁻¹w on the strip, with the partial
- * sums (r·u, w·u, r·r). */
-static int send_m(ndo__ps *ps)
+ * sums (r·u, w·u, r·r): `made` by cg_update (and m too with Jacobi), or
+ * NULL. */
+static int send_m(ndo__ps *ps, const double *made)
 {
-	int rc = precondition(ps, ps->w, ps->m);
+	int rc = 0;
+	if (!made || !ps->jacobi) /* (the Jacobi m came with the sums) */
+		rc = precondition(ps, ps->w, ps->m);
 	if (rc)
 		return rc;
-	double sums[3] = {dot(ps, ps->rr, ps->u), dot(ps, ps->w, ps->u), dot(ps, ps->rr, ps->rr)};
+	double sums[3];
+	if (made)
+		memcpy(sums, made, sizeof sums);
+	else
+		sums[0] = dot(ps, ps->rr, ps->u), sums[1] = dot(ps, ps->w, ps->u),
+		sums[2] = dot(ps, ps->rr, ps->rr);
 	if ((rc = next_phase(ps, 3, ps->m, sums, 3)))
 		return rc;
 	ps->state = WAIT_M;
 	return 0;
+}
+
+/* An iteration's vector updates on the rows [p0, p1) of the plane from
+ * entry o (β unused on the first: it copies), with the Jacobi
+ * preconditioner's m = D⁻¹w (dinv: the diagonal, a node's entry each;
+ * NULL for the region's block, made after) and the next
+ * exchange's sums (r·u, w·u, r·r) added in the entries' order: one pass
+ * where the updates, m and each dot product took one each, the same bits
+ * (three sums in one loop: three chains of additions side by side). */
+static void cg_update(ndo__ps *ps, size_t o, size_t p0, size_t p1, const double *dinv,
+                      double beta, double alpha, double sums[3])
+{
+	const size_t q0 = o + p0, q1 = o + p1;
+	double *restrict z = ps->z, *restrict q = ps->q, *restrict sv = ps->sv,
+	                 *restrict p = ps->p, *restrict x = ps->x, *restrict rr = ps->rr,
+	                 *restrict u = ps->u, *restrict w = ps->w, *restrict m = ps->m;
+	const double *restrict nv = ps->nv;
+	const int first = ps->iter == 1;
+	double s0 = sums[0], s1 = sums[1], s2 = sums[2];
+	for (size_t k = q0; k < q1; k++) {
+		if (first)
+			z[k] = nv[k], q[k] = m[k], sv[k] = w[k], p[k] = u[k];
+		else {
+			z[k] = nv[k] + beta * z[k];
+			q[k] = m[k] + beta * q[k];
+			sv[k] = w[k] + beta * sv[k];
+			p[k] = u[k] + beta * p[k];
+		}
+		x[k] += alpha * p[k];
+		rr[k] -= alpha * sv[k];
+		u[k] -= alpha * q[k];
+		w[k] -= alpha * z[k];
+		if (dinv)
+			m[k] = dinv[k - o] * w[k];
+		s0 += rr[k] * u[k];
+		s1 += w[k] * u[k];
+		s2 += rr[k] * rr[k];
+	}
+	sums[0] = s0, sums[1] = s1, sums[2] = s2;
 }
 
 /* Pipelined preconditioned conjugate gradients (Ghysels and Vanroose,
@@ -721,6 +788,8 @@ static int implicit_advance(ndo__ps *ps)
 				return 0;
 			halo_state(ps);
 			int rc = ndo_sim_implicit_begin(ps->sim, ps->h, own, nown, ps->b, ps->dinv);
+			if (!rc)
+				rc = ndo_sim_implicit_rows(ps->sim, ps->h, own, nown, &ps->rows);
 			if (rc)
 				return rc;
 			/* x₀ = v on the rows and the halo (the last step's solution) */
@@ -758,7 +827,7 @@ static int implicit_advance(ndo__ps *ps)
 				return solved(ps); /* x₀ solves it (a body at rest) */
 			halo_vector(ps, ps->u);
 			apply(ps, ps->u, ps->w);
-			int rc = send_m(ps);
+			int rc = send_m(ps, NULL);
 			if (rc)
 				return rc;
 			break;
@@ -791,28 +860,14 @@ static int implicit_advance(ndo__ps *ps)
 				                 (long long)ps->step, alpha);
 			ps->gam = gam;
 			ps->alpha = alpha;
-			for (int c = 0; c < 3; c++) {
-				const size_t o = (size_t)c * n;
-				for (size_t k = 0; k < nown; k++) {
-					size_t q = o + (size_t)own[k];
-					if (first) {
-						ps->z[q] = ps->nv[q];
-						ps->q[q] = ps->m[q];
-						ps->sv[q] = ps->w[q];
-						ps->p[q] = ps->u[q];
-					} else {
-						ps->z[q] = ps->nv[q] + beta * ps->z[q];
-						ps->q[q] = ps->m[q] + beta * ps->q[q];
-						ps->sv[q] = ps->w[q] + beta * ps->sv[q];
-						ps->p[q] = ps->u[q] + beta * ps->p[q];
-					}
-					ps->x[q] += alpha * ps->p[q];
-					ps->rr[q] -= alpha * ps->sv[q];
-					ps->u[q] -= alpha * ps->q[q];
-					ps->w[q] -= alpha * ps->z[q];
+			double sums[3] = {0, 0, 0};
+			for (int c = 0; c < 3; c++)
+				for (size_t r = 0; r < ps->norun; r++) {
+					cg_update(ps, (size_t)c * n, (size_t)ps->orun[2 * r],
+					          (size_t)ps->orun[2 * r + 1], ps->jacobi ? ps->dinv : NULL, beta,
+					          alpha, sums);
 				}
-			}
-			int rc = send_m(ps);
+			int rc = send_m(ps, sums);
 			if (rc)
 				return rc;
 			break;
