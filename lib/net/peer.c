@@ -1212,7 +1212,7 @@ static int region(ndo_peer *p)
 			if (!rc)
 				rc = ndo_sim_set_active(p->sim, p->act);
 			if (!rc && split && !p->ps)
-				rc = ndo__ps_create(p->s, p->sim, p->o.jacobi, &p->ps);
+				rc = ndo__ps_create(p->s, p->sim, !p->o.block, &p->ps);
 			if (!rc && split) {
 				ndo__ps_region r = {p->ownc, p->nownc, p->halo, p->nhalo, p->strip,
 				                    p->nstrip, p->mask};

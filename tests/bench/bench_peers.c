@@ -129,7 +129,7 @@ static void split(int level)
 					setup su = {.integrator = methods[m], .dt = hs[k],
 					            .steps = (int64_t)(1.0 / hs[k] + 0.5),
 					            .clock = NDO_CLOCK_LOCKSTEP, .peers = n, .level = level,
-					            .jacobi = jac,
+					            .block = !jac,
 					            .extra = m == 0 ? "tol 1e-6" : "solver cholmod"};
 					ndo_peer_stats st;
 					double d = run_split(&su, n, &st);

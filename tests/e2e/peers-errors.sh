@@ -48,6 +48,8 @@ expect_error "--clock unknown" 2 "--clock: 'wall' is not lockstep or realtime" \
 	simulate-peer --owner s3.tgrid --clock wall
 expect_error "--boundary unknown" 2 "--boundary: 'fixed' is not exact, extrapolate or hold" \
 	simulate-peer --owner s3.tgrid --boundary fixed
+expect_error "--precondition unknown" 2 "--precondition: 'ilu' is not diagonal or block" \
+	simulate-peer --join --precondition ilu
 # realtime rolls back the fixed-step explicit methods only: the others are
 # refused unless an inexact boundary is asked for
 expect_error "realtime trapezoid" 2 '^simulate-peer: --clock realtime: trapezoid does not roll back' \

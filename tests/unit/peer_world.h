@@ -40,8 +40,8 @@ typedef struct setup {
 	int halo_steps;    /* steps per halo exchange (0: 1) */
 	int publish_every; /* whole regions every N steps (0: the default) */
 	const char *extra; /* another scene line ("tol 1e-6"), or NULL */
-	int jacobi;        /* the implicit methods' solve preconditioned with the
-	                      diagonal (ndo_peer_opts.jacobi) */
+	int block;         /* the implicit methods' solve preconditioned with each
+	                      region's block (ndo_peer_opts.block) */
 	int checkpoint_every; /* ndo_peer_opts.checkpoint_every (0: the default) */
 	int bands;         /* --partition bands (0: the quad-tree) */
 } setup;
@@ -140,7 +140,7 @@ static ndo_peer_opts opts(ndo_role role, int32_t id, int32_t poi, const setup *s
 	                               .heartbeat = 0.1, .timeout = 1.0, .retry = 0.3},
 	                   .clock = su->clock, .peers = su->peers, .hold_boundary = su->hold,
 	                   .halo_steps = su->halo_steps, .publish_every = su->publish_every,
-	                   .step_timeout = su->step_timeout, .jacobi = su->jacobi,
+	                   .step_timeout = su->step_timeout, .block = su->block,
 	                   .checkpoint_every = su->checkpoint_every, .note = on_note,
 	                   .note_user = (void *)(intptr_t)index};
 	if (su->bands)

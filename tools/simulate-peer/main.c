@@ -148,6 +148,11 @@ static __attribute__((noreturn)) void usage(void)
 	    "                          step the owner holds whole: the result stays the\n"
 	    "                          single process's (0: not exact after them, and\n"
 	    "                          the owner says NOT exact)\n"
+	    "      --precondition P    lockstep backward-euler and trapezoid: this peer's\n"
+	    "                          rows of the solve over the peers preconditioned\n"
+	    "                          by the diagonal (default) or block (its region's\n"
+	    "                          block, factored by CHOLMOD: fewer iterations,\n"
+	    "                          each a block solve, slower from level 5)\n"
 	    "      --send-level L      owner: whole-region state (observers, render-frame,\n"
 	    "                          frames) travels at level L, 0..the simulated\n"
 	    "                          level (default: the simulated level), every\n"
@@ -411,6 +416,7 @@ static void options(run *r, int argc, char **argv)
 		{"publish-every", required_argument, 0, OPT_PEER},
 		{"send-level", required_argument, 0, OPT_PEER},
 		{"checkpoint-every", required_argument, 0, OPT_PEER},
+		{"precondition", required_argument, 0, OPT_PEER},
 		{"encoding", required_argument, 0, OPT_PEER},
 		{"step-timeout", required_argument, 0, OPT_PEER},
 		{"peer-timeout", required_argument, 0, OPT_PEER},

@@ -125,6 +125,10 @@ void peer_option(peer_cli *c, const char *name, const char *arg)
 		c->checkpoint_every = (int)ndo_opt_long(opt, arg, 0, 1000000000);
 		if (c->checkpoint_every == 0)
 			c->checkpoint_every = -1;
+	} else if (strcmp(name, "precondition") == 0) {
+		if (strcmp(arg, "diagonal") != 0 && strcmp(arg, "block") != 0)
+			ndo_usage_error("--precondition: '%s' is not diagonal or block", arg);
+		c->block = strcmp(arg, "block") == 0;
 	} else if (strcmp(name, "send-level") == 0) {
 		c->send_level = (int)ndo_opt_long(opt, arg, 0, NDO_MAX_LEVEL);
 	} else if (strcmp(name, "encoding") == 0) {
@@ -554,7 +558,7 @@ int peers_main(run *r)
 		            .coarse_levels = owner && c->send_level >= 0 ? g->level - c->send_level : 0},
 		.clock = c->clock, .step_timeout = c->step_timeout, .speed = c->speed,
 		.peers = c->peers, .hold_boundary = c->hold_boundary,
-		.halo_steps = c->halo_steps, .checkpoint_every = c->checkpoint_every,
+		.halo_steps = c->halo_steps, .checkpoint_every = c->checkpoint_every, .block = c->block,
 		.publish_every = c->publish_every == 0 && c->publish_every_set ? -1 : c->publish_every,
 		.start_timeout = c->start_timeout, .gather_timeout = c->gather_timeout,
 		.keep_tiles = r->sc.frames != NULL, .note = on_note, .note_user = &pr};

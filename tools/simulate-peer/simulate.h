@@ -22,6 +22,7 @@ typedef struct peer_cli {
 	double speed, step_timeout, peer_timeout, start_timeout, gather_timeout;
 	int peers, hold_boundary, boundary_inexact; /* --boundary extrapolate or hold */
 	int halo_steps, publish_every, publish_every_set, checkpoint_every;
+	int block;             /* --precondition block */
 	double publish_seconds; /* --publish-every Ts: every T s of simulated time */
 	int send_level; /* −1: the simulated level */
 	ndo_codec_params codec; /* --encoding (raw by default) */

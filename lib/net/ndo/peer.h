@@ -139,11 +139,12 @@ typedef struct ndo_peer_opts {
 	                           ndo_peer_checkpoint_default(); < 0: none,
 	                           the new partition takes over from the newest
 	                           values held, not exact) */
-	int jacobi;             /* exact backward Euler and trapezoid: this peer
-	                           preconditions the distributed solve with the
-	                           system's diagonal (Jacobi) instead of its
-	                           region's block factored by CHOLMOD (the
-	                           default): for comparison (test_peer) */
+	int block;              /* exact backward Euler and trapezoid: this peer
+	                           preconditions the distributed solve with its
+	                           region's block of the system, factored by
+	                           CHOLMOD, instead of the diagonal (Jacobi, the
+	                           default): fewer iterations, each a block
+	                           solve (docs/peers.md: slower from level 5) */
 	/* Each peer's own: */
 	int keep_tiles;         /* 1: the caller reads the others' nodes of the
 	                           grid between the first and the last step (it
