@@ -110,8 +110,8 @@ with \`--precondition block\` on both peers (each region's block, factored by CH
 | level | method | one process, steps/s | 2 peers, steps/s | × one process | exchanges a step | halo kB a step (owner) | difference | 2 peers, block, steps/s | its exchanges a step |
 |---|---|---:|---:|---:|---:|---:|---:|---:|---:|
 $rows
-Reading: exactness costs these methods speed, less than it did.  rkf45 pays one round of
-messages per attempted sub-step (2 a step here) and a 4-ring halo; the implicit methods replace
+Reading: rkf45 pays one round of messages per attempted sub-step (2–3 a step here) and a
+4-ring halo, and 2 peers still outrun one process; the implicit methods replace
 the single process's solve by conjugate gradients over the peers, each iteration a round of
 messages that every peer waits for: with the diagonal an iteration costs a product over the
 region's rows and one pass over its vectors, with the region's block also a solve with its
