@@ -8,7 +8,7 @@
 #      preconditioner (bench_peers split -l 6);
 #   2. over real LCM in a private network namespace, 2 peers (each one
 #      thread) against one single-threaded process, thesis scene, level
-#      SPLIT_LEVELS (default "5 6"): the steps per second of the stepping,
+#      SPLIT_LEVELS (default "5 6 7"): the steps per second of the stepping,
 #      medians of SPLIT_RUNS (default 3) runs, and the difference.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
@@ -21,7 +21,7 @@ work=build/bench/split
 rm -rf "$work" && mkdir -p "$work"
 SCENE=samples/thesis-fig5.3.scene
 RUNS=${SPLIT_RUNS:-3}
-LEVELS=${SPLIT_LEVELS:-5 6}
+LEVELS=${SPLIT_LEVELS:-5 6 7}
 
 counts_cmd="build/tests/bench_peers split -l 6"
 counts=$($counts_cmd)
