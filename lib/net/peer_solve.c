@@ -25,11 +25,12 @@
  *           |r| ≤ 1e-13 |b| (pipelined conjugate gradients: one exchange
  *           per iteration); then, for an object without pins, the
  *           momentum correction's sums → [(7 sums)] → the step ends.
- *           Preconditioned with each region's block of A, factored by
- *           CHOLMOD (block Jacobi: the solve is exact within a region,
- *           and only the coupling across the cut is iterated), or with
- *           A's diagonal (Jacobi, for comparison); the result is the single process's
- *           CHOLMOD solution to the solve's tolerance, not bit for bit. */
+ *           Preconditioned with A's diagonal (Jacobi, the default), or
+ *           with each region's block of A factored by CHOLMOD (block
+ *           Jacobi, --precondition block: the solve is exact within a
+ *           region, and only the coupling across the cut is iterated);
+ *           the result is the single process's CHOLMOD solution to the
+ *           solve's tolerance, not bit for bit. */
 #include "peer_solve.h"
 #include "ndo/status.h"
 
@@ -37,6 +38,12 @@
 #include <float.h>
 #include <stdlib.h>
 #include <string.h>
+
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(__SANITIZE_ADDRESS__)
+#define NDO_PS_HOT __attribute__((target_clones("arch=x86-64-v3", "default"), optimize("O3")))
+#else
+#define NDO_PS_HOT
+#endif
 
 #define CG_TOL 1e-13       /* |r| ≤ CG_TOL |b| (2-norms over every unknown) */
 #define CG_MAX 20000       /* iterations before the solve gives up */
@@ -727,14 +734,13 @@ static int send_m(ndo__ps *ps, const double *made)
 }
 
 /* An iteration's vector updates on the rows [p0, p1) of the plane from
- * entry o (β unused on the first: it copies), with the Jacobi
- * preconditioner's m = D⁻¹w (dinv: the diagonal, a node's entry each;
- * NULL for the region's block, made after) and the next
- * exchange's sums (r·u, w·u, r·r) added in the entries' order: one pass
- * where the updates, m and each dot product took one each, the same bits
- * (three sums in one loop: three chains of additions side by side). */
-static void cg_update(ndo__ps *ps, size_t o, size_t p0, size_t p1, const double *dinv,
-                      double beta, double alpha, double sums[3])
+ * entry o (β unused on the first: it copies), preconditioned with the
+ * region's block (m = M⁻¹w is made after), and the next exchange's sums
+ * (r·u, w·u, r·r) added in the entries' order: one pass where the updates
+ * and each dot product took one each, the same bits (three sums in one
+ * loop: three chains of additions side by side). */
+static void cg_update(ndo__ps *ps, size_t o, size_t p0, size_t p1, double beta,
+                      double alpha, double sums[3])
 {
 	const size_t q0 = o + p0, q1 = o + p1;
 	double *restrict z = ps->z, *restrict q = ps->q, *restrict sv = ps->sv,
@@ -756,14 +762,66 @@ static void cg_update(ndo__ps *ps, size_t o, size_t p0, size_t p1, const double 
 		rr[k] -= alpha * sv[k];
 		u[k] -= alpha * q[k];
 		w[k] -= alpha * z[k];
-		if (dinv)
-			m[k] = dinv[k - o] * w[k];
 		s0 += rr[k] * u[k];
 		s1 += w[k] * u[k];
 		s2 += rr[k] * rr[k];
 	}
 	sums[0] = s0, sums[1] = s1, sums[2] = s2;
 }
+
+/* cg_update with the diagonal as preconditioner: there u = D⁻¹r, q = D⁻¹s
+ * and m = D⁻¹w (in exact arithmetic; the recurrences u −= αq, q = m + βq
+ * keep them so), so u and q are made from r where they are needed instead
+ * of kept as vectors of their own, and m is written, not read: 8 streams
+ * read and 7 written an entry, where the general update reads 11 and
+ * writes 9.  The sums go in four lanes, entry k of a run in lane k mod 4
+ * (a run's rest in lane 0), added at the end as (l0 + l1) + (l2 + l3):
+ * not the entries' order, but the same on every peer for a given
+ * partition, so every peer still reduces the same bits. */
+#define LANES 4
+/* One entry e of cg_update_jacobi into lane l (first: β = 0 and the
+ * directions not read, as they hold nothing yet). */
+#define JACOBI_ENTRY(e, l, first)                                                  \
+	do {                                                                           \
+		const double u_ = d[e] * rr[e];                                            \
+		const double z_ = (first) ? nv[e] : nv[e] + beta * z[e];                   \
+		const double s_ = (first) ? w[e] : w[e] + beta * sv[e];                    \
+		const double p_ = (first) ? u_ : u_ + beta * p[e];                         \
+		z[e] = z_, sv[e] = s_, p[e] = p_;                                          \
+		x[e] += alpha * p_;                                                        \
+		const double r_ = rr[e] - alpha * s_, w_ = w[e] - alpha * z_;              \
+		const double v_ = d[e] * r_;                                               \
+		rr[e] = r_, w[e] = w_, m[e] = d[e] * w_;                                   \
+		a0[l] += r_ * v_, a1[l] += w_ * v_, a2[l] += r_ * r_;                      \
+	} while (0)
+static NDO_PS_HOT void cg_update_jacobi(ndo__ps *ps, size_t o, size_t p0, size_t p1,
+                                        double beta, double alpha, double lanes[3][LANES])
+{
+	const size_t q0 = o + p0, len = p1 - p0, body = len - len % LANES;
+	double *restrict z = ps->z + q0, *restrict sv = ps->sv + q0, *restrict p = ps->p + q0,
+	                 *restrict x = ps->x + q0, *restrict rr = ps->rr + q0,
+	                 *restrict w = ps->w + q0, *restrict m = ps->m + q0;
+	const double *restrict nv = ps->nv + q0, *restrict d = ps->dinv + p0;
+	double a0[LANES], a1[LANES], a2[LANES];
+	for (int l = 0; l < LANES; l++)
+		a0[l] = lanes[0][l], a1[l] = lanes[1][l], a2[l] = lanes[2][l];
+	if (ps->iter == 1) {
+		for (size_t k = 0; k < body; k += LANES)
+			for (int l = 0; l < LANES; l++)
+				JACOBI_ENTRY(k + (size_t)l, l, 1);
+		for (size_t k = body; k < len; k++)
+			JACOBI_ENTRY(k, 0, 1);
+	} else {
+		for (size_t k = 0; k < body; k += LANES)
+			for (int l = 0; l < LANES; l++)
+				JACOBI_ENTRY(k + (size_t)l, l, 0);
+		for (size_t k = body; k < len; k++)
+			JACOBI_ENTRY(k, 0, 0);
+	}
+	for (int l = 0; l < LANES; l++)
+		lanes[0][l] = a0[l], lanes[1][l] = a1[l], lanes[2][l] = a2[l];
+}
+#undef JACOBI_ENTRY
 
 /* Pipelined preconditioned conjugate gradients (Ghysels and Vanroose,
  * 2014, algorithm 4): one exchange per iteration carries both the vector
@@ -860,13 +918,17 @@ static int implicit_advance(ndo__ps *ps)
 				                 (long long)ps->step, alpha);
 			ps->gam = gam;
 			ps->alpha = alpha;
-			double sums[3] = {0, 0, 0};
+			double sums[3] = {0, 0, 0}, lanes[3][LANES] = {{0}};
 			for (int c = 0; c < 3; c++)
 				for (size_t r = 0; r < ps->norun; r++) {
-					cg_update(ps, (size_t)c * n, (size_t)ps->orun[2 * r],
-					          (size_t)ps->orun[2 * r + 1], ps->jacobi ? ps->dinv : NULL, beta,
-					          alpha, sums);
+					size_t p0 = (size_t)ps->orun[2 * r], p1 = (size_t)ps->orun[2 * r + 1];
+					if (ps->jacobi)
+						cg_update_jacobi(ps, (size_t)c * n, p0, p1, beta, alpha, lanes);
+					else
+						cg_update(ps, (size_t)c * n, p0, p1, beta, alpha, sums);
 				}
+			for (int i = 0; ps->jacobi && i < 3; i++)
+				sums[i] = (lanes[i][0] + lanes[i][1]) + (lanes[i][2] + lanes[i][3]);
 			int rc = send_m(ps, sums);
 			if (rc)
 				return rc;
