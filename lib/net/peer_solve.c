@@ -32,6 +32,7 @@
  *           the result is the single process's CHOLMOD solution to the
  *           solve's tolerance, not bit for bit. */
 #include "peer_solve.h"
+#include "peer_test.h"
 #include "ndo/status.h"
 
 #include <math.h>
@@ -119,7 +120,9 @@ struct ndo__ps {
 	ndo_sim_rows *rows; /* the region's rows for the step's products */
 	int32_t *orun;   /* the region's rows as runs of consecutive nodes, in their */
 	size_t norun;    /* order: [orun[2k], orun[2k+1]) */
-	int jacobi;      /* precondition with the diagonal, not the region's block */
+	int jacobi;      /* precondition with the diagonal (1; 2: through the general
+	                  * recurrences, cg_update's: the fast path's reference), not the
+	                  * region's block (0) */
 	int peek;        /* rkf45: the state strip is the attempt's outcome */
 	int64_t ready;   /* rkf45: the step whose start the halo holds (−1: none) */
 	ndo__ps_stats st;
@@ -164,6 +167,8 @@ void ndo__ps_destroy(ndo__ps *ps)
 	free(ps);
 }
 
+int ndo__ps_reference;
+
 int ndo__ps_create(ndo_session *s, ndo_sim *sim, int jacobi, ndo__ps **out)
 {
 	ndo__clear_error();
@@ -175,7 +180,7 @@ int ndo__ps_create(ndo_session *s, ndo_sim *sim, int jacobi, ndo__ps **out)
 	ps->sim = sim;
 	ps->method = ndo_sim_method(sim);
 	ps->implicit = ndo_method_is_implicit(ps->method);
-	ps->jacobi = jacobi;
+	ps->jacobi = jacobi && ndo__ps_reference ? 2 : jacobi;
 	ps->count = g->count;
 	ps->step = -1;
 	ps->phase = -1;
@@ -717,7 +722,7 @@ static int solved(ndo__ps *ps)
 static int send_m(ndo__ps *ps, const double *made)
 {
 	int rc = 0;
-	if (!made || !ps->jacobi) /* (the Jacobi m came with the sums) */
+	if (!made || ps->jacobi != 1) /* (the Jacobi m came with the sums) */
 		rc = precondition(ps, ps->w, ps->m);
 	if (rc)
 		return rc;
@@ -779,21 +784,32 @@ static void cg_update(ndo__ps *ps, size_t o, size_t p0, size_t p1, double beta,
  * not the entries' order, but the same on every peer for a given
  * partition, so every peer still reduces the same bits. */
 #define LANES 4
+/* Four doubles as one value: element by element the same operations as on
+ * a double (no fused ones), so the lanes are the same bits on any
+ * instruction set; read and written where they lie (aligned as a double). */
+typedef double v4d __attribute__((vector_size(4 * sizeof(double))));
+typedef double v4d_mem __attribute__((vector_size(4 * sizeof(double)), aligned(sizeof(double)),
+                                      may_alias));
+#define LD4(a) ((v4d)(*(const v4d_mem *)(a)))
+#define ST4(a, v) (*(v4d_mem *)(a) = (v4d_mem)(v))
 /* One entry e of cg_update_jacobi into lane l (first: β = 0 and the
- * directions not read, as they hold nothing yet). */
-#define JACOBI_ENTRY(e, l, first)                                                  \
+ * directions not read, as they hold nothing yet); T: double, or v4d with
+ * LD and ST the vector loads and stores for four entries, one a lane. */
+#define JACOBI_ENTRY(T, LD, ST, e, A0, A1, A2, first)                              \
 	do {                                                                           \
-		const double u_ = d[e] * rr[e];                                            \
-		const double z_ = (first) ? nv[e] : nv[e] + beta * z[e];                   \
-		const double s_ = (first) ? w[e] : w[e] + beta * sv[e];                    \
-		const double p_ = (first) ? u_ : u_ + beta * p[e];                         \
-		z[e] = z_, sv[e] = s_, p[e] = p_;                                          \
-		x[e] += alpha * p_;                                                        \
-		const double r_ = rr[e] - alpha * s_, w_ = w[e] - alpha * z_;              \
-		const double v_ = d[e] * r_;                                               \
-		rr[e] = r_, w[e] = w_, m[e] = d[e] * w_;                                   \
-		a0[l] += r_ * v_, a1[l] += w_ * v_, a2[l] += r_ * r_;                      \
+		const T u_ = LD(d + (e)) * LD(rr + (e));                                   \
+		const T z_ = (first) ? LD(nv + (e)) : LD(nv + (e)) + beta * LD(z + (e));   \
+		const T s_ = (first) ? LD(w + (e)) : LD(w + (e)) + beta * LD(sv + (e));    \
+		const T p_ = (first) ? u_ : u_ + beta * LD(p + (e));                       \
+		ST(z + (e), z_), ST(sv + (e), s_), ST(p + (e), p_);                        \
+		ST(x + (e), LD(x + (e)) + alpha * p_);                                     \
+		const T r_ = LD(rr + (e)) - alpha * s_, w_ = LD(w + (e)) - alpha * z_;     \
+		const T v_ = LD(d + (e)) * r_;                                             \
+		ST(rr + (e), r_), ST(w + (e), w_), ST(m + (e), LD(d + (e)) * w_);          \
+		A0 += r_ * v_, A1 += w_ * v_, A2 += r_ * r_;                               \
 	} while (0)
+#define LD1(a) (*(a))
+#define ST1(a, v) (*(a) = (v))
 static NDO_PS_HOT void cg_update_jacobi(ndo__ps *ps, size_t o, size_t p0, size_t p1,
                                         double beta, double alpha, double lanes[3][LANES])
 {
@@ -802,26 +818,27 @@ static NDO_PS_HOT void cg_update_jacobi(ndo__ps *ps, size_t o, size_t p0, size_t
 	                 *restrict x = ps->x + q0, *restrict rr = ps->rr + q0,
 	                 *restrict w = ps->w + q0, *restrict m = ps->m + q0;
 	const double *restrict nv = ps->nv + q0, *restrict d = ps->dinv + p0;
-	double a0[LANES], a1[LANES], a2[LANES];
-	for (int l = 0; l < LANES; l++)
-		a0[l] = lanes[0][l], a1[l] = lanes[1][l], a2[l] = lanes[2][l];
+	v4d a0 = LD4(lanes[0]), a1 = LD4(lanes[1]), a2 = LD4(lanes[2]);
+	double t0 = 0, t1 = 0, t2 = 0; /* the rest, lane 0's */
 	if (ps->iter == 1) {
 		for (size_t k = 0; k < body; k += LANES)
-			for (int l = 0; l < LANES; l++)
-				JACOBI_ENTRY(k + (size_t)l, l, 1);
+			JACOBI_ENTRY(v4d, LD4, ST4, k, a0, a1, a2, 1);
 		for (size_t k = body; k < len; k++)
-			JACOBI_ENTRY(k, 0, 1);
+			JACOBI_ENTRY(double, LD1, ST1, k, t0, t1, t2, 1);
 	} else {
 		for (size_t k = 0; k < body; k += LANES)
-			for (int l = 0; l < LANES; l++)
-				JACOBI_ENTRY(k + (size_t)l, l, 0);
+			JACOBI_ENTRY(v4d, LD4, ST4, k, a0, a1, a2, 0);
 		for (size_t k = body; k < len; k++)
-			JACOBI_ENTRY(k, 0, 0);
+			JACOBI_ENTRY(double, LD1, ST1, k, t0, t1, t2, 0);
 	}
-	for (int l = 0; l < LANES; l++)
-		lanes[0][l] = a0[l], lanes[1][l] = a1[l], lanes[2][l] = a2[l];
+	a0[0] += t0, a1[0] += t1, a2[0] += t2;
+	ST4(lanes[0], a0), ST4(lanes[1], a1), ST4(lanes[2], a2);
 }
 #undef JACOBI_ENTRY
+#undef LD1
+#undef ST1
+#undef LD4
+#undef ST4
 
 /* Pipelined preconditioned conjugate gradients (Ghysels and Vanroose,
  * 2014, algorithm 4): one exchange per iteration carries both the vector
@@ -922,12 +939,12 @@ static int implicit_advance(ndo__ps *ps)
 			for (int c = 0; c < 3; c++)
 				for (size_t r = 0; r < ps->norun; r++) {
 					size_t p0 = (size_t)ps->orun[2 * r], p1 = (size_t)ps->orun[2 * r + 1];
-					if (ps->jacobi)
+					if (ps->jacobi == 1)
 						cg_update_jacobi(ps, (size_t)c * n, p0, p1, beta, alpha, lanes);
 					else
 						cg_update(ps, (size_t)c * n, p0, p1, beta, alpha, sums);
 				}
-			for (int i = 0; ps->jacobi && i < 3; i++)
+			for (int i = 0; ps->jacobi == 1 && i < 3; i++)
 				sums[i] = (lanes[i][0] + lanes[i][1]) + (lanes[i][2] + lanes[i][3]);
 			int rc = send_m(ps, sums);
 			if (rc)

@@ -15,4 +15,11 @@ void ndo__peer_deaf_to_checkpoints(ndo_peer *p, double until);
  * the owner does for a part it lacks; from a joiner, anyone could). */
 int ndo__peer_ask_checkpoint(ndo_peer *p, int64_t step);
 
+/* Non-zero: peers created from now on whose implicit solve is
+ * preconditioned with the diagonal take the general recurrences
+ * (peer_solve.c's cg_update, u and q kept as vectors, the sums in the
+ * entries' order) instead of the fast path (cg_update_jacobi): the
+ * reference that test_peer compares it with. */
+extern int ndo__ps_reference;
+
 #endif

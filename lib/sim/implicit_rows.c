@@ -132,7 +132,8 @@ struct ndo_sim_rows {
 	double cb, ck;
 	int32_t *run;  /* nrun runs [run[2k], run[2k+1]) of regular rows (below) */
 	int32_t *rest; /* the other rows, through apply_row */
-	size_t nrun, nrest, cap;
+	double *dm;    /* per stored node: mass (1 + cb γ) of the runs' rows */
+	size_t nrun, nrest, cap, ndm;
 };
 
 /* Does row p read what the grid's interior stencil reads, as apply_row
@@ -164,7 +165,7 @@ size_t ndo__rows_regular(const ndo_sim_rows *r)
 void ndo_sim_rows_free(ndo_sim_rows *r)
 {
 	if (r)
-		free(r->run), free(r->rest), free(r);
+		free(r->run), free(r->rest), free(r->dm), free(r);
 }
 
 int ndo_sim_implicit_rows(const ndo_sim *s, double h, const int32_t *rows, size_t nrows,
@@ -182,6 +183,12 @@ int ndo_sim_implicit_rows(const ndo_sim *s, double h, const int32_t *rows, size_
 			return ndo__fail(NDO_ENOMEM, "out of memory");
 		r->rest = rest, r->cap = nrows;
 	}
+	if (r->ndm < s->count) {
+		double *dm = realloc(r->dm, s->count * sizeof *dm);
+		if (!dm)
+			return ndo__fail(NDO_ENOMEM, "out of memory");
+		r->dm = dm, r->ndm = s->count;
+	}
 	coefs(s, h, &r->cb, &r->ck);
 	r->nrun = r->nrest = 0;
 	for (size_t k = 0; k < nrows; k++) {
@@ -193,39 +200,50 @@ int ndo_sim_implicit_rows(const ndo_sim *s, double h, const int32_t *rows, size_
 		else
 			r->run[2 * r->nrun] = p, r->run[2 * r->nrun + 1] = p + 1, r->nrun++;
 	}
+	for (size_t k = 0; k < r->nrun; k++)
+		for (int32_t p = r->run[2 * k]; p < r->run[2 * k + 1]; p++)
+			r->dm[p] = s->mass[p] * (1 + r->cb * s->gam[p]);
 	return NDO_OK;
 }
 
 /* apply_row's arithmetic, in its order, on a run of regular rows: their
  * neighbours at fixed offsets and the coefficients as ndo__row_stencil
  * reads them, so that the compiler can take several rows at once (the
- * penalty's 0 · x kept: a zero's sign is apply_row's too). */
+ * penalty's 0 · x kept: a zero's sign is apply_row's too).  The three
+ * planes in one pass, so that a row's coefficients and mass term are
+ * read once, not once a plane. */
+#define RUN_PLANE(X, Y)                                                                \
+	do {                                                                               \
+		const double xp = X[p];                                                        \
+		double kx = 0 * xp;                                                            \
+		kx += a0 * (xp - X[p + 1]);                                                    \
+		kx += a1 * (xp - X[p + w]);                                                    \
+		kx += a2 * (xp - X[p + w - 1]);                                                \
+		kx += a3 * (xp - X[p - 1]);                                                    \
+		kx += a4 * (xp - X[p - w]);                                                    \
+		kx += a5 * (xp - X[p - w + 1]);                                                \
+		Y[p] = dm * xp + ck * kx;                                                      \
+	} while (0)
 NDO_HOT static void apply_runs(const ndo_sim *s, const ndo_sim_rows *r, const double *x,
                                double *y)
 {
 	const size_t cnt = s->count, w = (size_t)s->w;
 	const double *const e0 = s->st.e[0], *const e1 = s->st.e[1], *const e2 = s->st.e[2];
-	const double *const mass = s->mass, *const gam = s->gam, cb = r->cb, ck = r->ck;
-	for (int c = 0; c < 3; c++) {
-		const double *restrict X = x + (size_t)c * cnt;
-		double *restrict Y = y + (size_t)c * cnt;
-		for (size_t k = 0; k < r->nrun; k++) {
-			const size_t p1 = (size_t)r->run[2 * k + 1];
-			for (size_t p = (size_t)r->run[2 * k]; p < p1; p++) {
-				const double xp = X[p];
-				double kx = 0 * xp;
-				kx += e0[p] * (xp - X[p + 1]);
-				kx += e1[p] * (xp - X[p + w]);
-				kx += e2[p] * (xp - X[p + w - 1]);
-				kx += e0[p - 1] * (xp - X[p - 1]);
-				kx += e1[p - w] * (xp - X[p - w]);
-				kx += e2[p - w + 1] * (xp - X[p - w + 1]);
-				const double dm = mass[p] * (1 + cb * gam[p]);
-				Y[p] = dm * xp + ck * kx;
-			}
+	const double *restrict const dmr = r->dm, ck = r->ck;
+	const double *restrict X0 = x, *restrict X1 = x + cnt, *restrict X2 = x + 2 * cnt;
+	double *restrict Y0 = y, *restrict Y1 = y + cnt, *restrict Y2 = y + 2 * cnt;
+	for (size_t k = 0; k < r->nrun; k++) {
+		const size_t p1 = (size_t)r->run[2 * k + 1];
+		for (size_t p = (size_t)r->run[2 * k]; p < p1; p++) {
+			const double a0 = e0[p], a1 = e1[p], a2 = e2[p], a3 = e0[p - 1],
+			             a4 = e1[p - w], a5 = e2[p - w + 1], dm = dmr[p];
+			RUN_PLANE(X0, Y0);
+			RUN_PLANE(X1, Y1);
+			RUN_PLANE(X2, Y2);
 		}
 	}
 }
+#undef RUN_PLANE
 
 void ndo_sim_implicit_apply_rows(const ndo_sim *s, const ndo_sim_rows *r, const double *x,
                                  double *y)

@@ -42,6 +42,8 @@ typedef struct setup {
 	const char *extra; /* another scene line ("tol 1e-6"), or NULL */
 	int block;         /* the implicit methods' solve preconditioned with each
 	                      region's block (ndo_peer_opts.block) */
+	double *keep;      /* split_run: the owner's positions at the end, 3 × the
+	                      grid's nodes, or NULL */
 	int checkpoint_every; /* ndo_peer_opts.checkpoint_every (0: the default) */
 	int bands;         /* --partition bands (0: the quad-tree) */
 } setup;
@@ -246,7 +248,10 @@ static double split_run(const setup *su, int n, ndo_peer_stats *owner_stats, int
 			*ok = 0;
 		}
 	double *x = solo(su);
-	double d = difference(ndo_peer_grid(w->p[0]), x);
+	ndo_grid *g = ndo_peer_grid(w->p[0]);
+	double d = difference(g, x);
+	if (su->keep)
+		memcpy(su->keep, ndo_grid_f64(g, NDO_CH_POSITION, 3), 3 * g->count * sizeof(double));
 	ndo_peer_stats_get(w->p[0], owner_stats);
 	int np = 0;
 	ndo_session_cells(ndo_peer_session(w->p[0]), &np, NULL);
