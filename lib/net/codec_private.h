@@ -16,6 +16,7 @@
 #define NDO_CODEC_PRIVATE_H
 
 #include "ndo/codec.h"
+#include "ndo/simd.h"
 
 #include <stdint.h>
 #include <stdlib.h>
@@ -24,16 +25,11 @@
 #include <zstd.h>
 
 /* The hot loops are compiled for x86-64 and x86-64-v3 (AVX2), at -O3 so
- * that they vectorize; the loader picks what the CPU runs (lib/sim/sim_private.h's
- * NDO_HOT).  Integer results, and double operations without fused ones
- * (C11 mode): the same on both.  Under AddressSanitizer one variant: the
- * sanitizers check the source, not the instruction set, and the clones
- * of codec_hier.c's levels() took 138 s to compile there (20 s with one). */
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__SANITIZE_ADDRESS__)
-#define NDO_HOT __attribute__((target_clones("arch=x86-64-v3", "default"), optimize("O3")))
-#else
-#define NDO_HOT
-#endif
+ * that they vectorize (ndo/simd.h).  Integer results, and double
+ * operations without fused ones (C11 mode): the same on both.  Under
+ * AddressSanitizer one variant: the clones of codec_hier.c's levels() took
+ * 138 s to compile there (20 s with one). */
+#define NDO_HOT NDO_HOT_O3
 
 enum { KIND_INTRA = 0, KIND_PRED = 1, F_ZSTD = 4, F_WIDE = 8, F_NOREF = 16 };
 #define CODE_MAX (1 << 30)

@@ -33,18 +33,13 @@
  *           solve's tolerance, not bit for bit. */
 #include "peer_solve.h"
 #include "peer_test.h"
+#include "ndo/simd.h"
 #include "ndo/status.h"
 
 #include <math.h>
 #include <float.h>
 #include <stdlib.h>
 #include <string.h>
-
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && !defined(__SANITIZE_ADDRESS__)
-#define NDO_PS_HOT __attribute__((target_clones("arch=x86-64-v3", "default"), optimize("O3")))
-#else
-#define NDO_PS_HOT
-#endif
 
 #define CG_TOL 1e-13       /* |r| ≤ CG_TOL |b| (2-norms over every unknown) */
 #define CG_MAX 20000       /* iterations before the solve gives up */
@@ -116,6 +111,7 @@ struct ndo__ps {
 	int snapped;
 	/* implicit: conjugate gradients, 3 planes each */
 	double *x, *b, *rr, *z, *p, *q, *u, *w, *m, *nv, *sv, *dinv, *tmp;
+	double *m2;      /* the diagonal's fused iteration: the next m, while m is read */
 	double gam, alpha, bb;
 	ndo_sim_rows *rows; /* the region's rows for the step's products */
 	int32_t *orun;   /* the region's rows as runs of consecutive nodes, in their */
@@ -160,7 +156,7 @@ void ndo__ps_destroy(ndo__ps *ps)
 		free(ps->last[b].values);
 	free(ps->snap_u), free(ps->snap_v), free(ps->all);
 	free(ps->x), free(ps->b), free(ps->rr), free(ps->z), free(ps->p), free(ps->q);
-	free(ps->u), free(ps->w), free(ps->m), free(ps->nv), free(ps->sv);
+	free(ps->u), free(ps->w), free(ps->m), free(ps->m2), free(ps->nv), free(ps->sv);
 	free(ps->dinv), free(ps->tmp);
 	ndo_sim_rows_free(ps->rows);
 	free(ps->orun);
@@ -199,7 +195,8 @@ int ndo__ps_create(ndo_session *s, ndo_sim *sim, int jacobi, ndo__ps **out)
 		     (ps->rr = calloc(3 * n, sizeof(double))) && (ps->z = calloc(3 * n, sizeof(double))) &&
 		     (ps->p = calloc(3 * n, sizeof(double))) && (ps->q = calloc(3 * n, sizeof(double))) &&
 		     (ps->u = calloc(3 * n, sizeof(double))) && (ps->w = calloc(3 * n, sizeof(double))) &&
-		     (ps->m = calloc(3 * n, sizeof(double))) && (ps->nv = calloc(3 * n, sizeof(double))) &&
+		     (ps->m = calloc(3 * n, sizeof(double))) && (ps->m2 = calloc(3 * n, sizeof(double))) &&
+		     (ps->nv = calloc(3 * n, sizeof(double))) &&
 		     (ps->sv = calloc(3 * n, sizeof(double))) &&
 		     (ps->dinv = calloc(n, sizeof(double))) &&
 		     (ps->orun = malloc(2 * n * sizeof(int32_t)));
@@ -784,17 +781,10 @@ static void cg_update(ndo__ps *ps, size_t o, size_t p0, size_t p1, double beta,
  * not the entries' order, but the same on every peer for a given
  * partition, so every peer still reduces the same bits. */
 #define LANES 4
-/* Four doubles as one value: element by element the same operations as on
- * a double (no fused ones), so the lanes are the same bits on any
- * instruction set; read and written where they lie (aligned as a double). */
-typedef double v4d __attribute__((vector_size(4 * sizeof(double))));
-typedef double v4d_mem __attribute__((vector_size(4 * sizeof(double)), aligned(sizeof(double)),
-                                      may_alias));
-#define LD4(a) ((v4d)(*(const v4d_mem *)(a)))
-#define ST4(a, v) (*(v4d_mem *)(a) = (v4d_mem)(v))
-/* One entry e of cg_update_jacobi into lane l (first: β = 0 and the
- * directions not read, as they hold nothing yet); T: double, or v4d with
- * LD and ST the vector loads and stores for four entries, one a lane. */
+/* Entry e of cg_update_jacobi (first: β = 0 and the directions not read,
+ * as they hold nothing yet); T: double, or ndo__v4 for four entries, one
+ * a lane (ndo/simd.h: the same bits), with LD and ST its loads and
+ * stores. */
 #define JACOBI_ENTRY(T, LD, ST, e, A0, A1, A2, first)                              \
 	do {                                                                           \
 		const T u_ = LD(d + (e)) * LD(rr + (e));                                   \
@@ -810,35 +800,67 @@ typedef double v4d_mem __attribute__((vector_size(4 * sizeof(double)), aligned(s
 	} while (0)
 #define LD1(a) (*(a))
 #define ST1(a, v) (*(a) = (v))
-static NDO_PS_HOT void cg_update_jacobi(ndo__ps *ps, size_t o, size_t p0, size_t p1,
-                                        double beta, double alpha, double lanes[3][LANES])
+static NDO_HOT_O3 void cg_update_jacobi(ndo__ps *ps, size_t o, size_t p0, size_t p1,
+                                        const double *nvp, double *mout, double beta,
+                                        double alpha, double lanes[3][LANES])
 {
 	const size_t q0 = o + p0, len = p1 - p0, body = len - len % LANES;
 	double *restrict z = ps->z + q0, *restrict sv = ps->sv + q0, *restrict p = ps->p + q0,
 	                 *restrict x = ps->x + q0, *restrict rr = ps->rr + q0,
-	                 *restrict w = ps->w + q0, *restrict m = ps->m + q0;
-	const double *restrict nv = ps->nv + q0, *restrict d = ps->dinv + p0;
-	v4d a0 = LD4(lanes[0]), a1 = LD4(lanes[1]), a2 = LD4(lanes[2]);
+	                 *restrict w = ps->w + q0, *restrict m = mout + q0;
+	const double *restrict nv = nvp, *restrict d = ps->dinv + p0;
+	ndo__v4 a0 = V4_LD(lanes[0]), a1 = V4_LD(lanes[1]), a2 = V4_LD(lanes[2]);
 	double t0 = 0, t1 = 0, t2 = 0; /* the rest, lane 0's */
 	if (ps->iter == 1) {
 		for (size_t k = 0; k < body; k += LANES)
-			JACOBI_ENTRY(v4d, LD4, ST4, k, a0, a1, a2, 1);
+			JACOBI_ENTRY(ndo__v4, V4_LD, V4_ST, k, a0, a1, a2, 1);
 		for (size_t k = body; k < len; k++)
-			JACOBI_ENTRY(double, LD1, ST1, k, t0, t1, t2, 1);
+			JACOBI_ENTRY(double, V1_LD, V1_ST, k, t0, t1, t2, 1);
 	} else {
 		for (size_t k = 0; k < body; k += LANES)
-			JACOBI_ENTRY(v4d, LD4, ST4, k, a0, a1, a2, 0);
+			JACOBI_ENTRY(ndo__v4, V4_LD, V4_ST, k, a0, a1, a2, 0);
 		for (size_t k = body; k < len; k++)
-			JACOBI_ENTRY(double, LD1, ST1, k, t0, t1, t2, 0);
+			JACOBI_ENTRY(double, V1_LD, V1_ST, k, t0, t1, t2, 0);
 	}
 	a0[0] += t0, a1[0] += t1, a2[0] += t2;
-	ST4(lanes[0], a0), ST4(lanes[1], a1), ST4(lanes[2], a2);
+	V4_ST(lanes[0], a0), V4_ST(lanes[1], a1), V4_ST(lanes[2], a2);
 }
 #undef JACOBI_ENTRY
-#undef LD1
-#undef ST1
-#undef LD4
-#undef ST4
+
+/* An iteration with the diagonal: block by block of the region's nodes,
+ * n = A m on the block (ndo_sim_implicit_apply_range, into a buffer that
+ * stays in the cache) and at once the updates that read it; the new m goes
+ * to the other buffer (m2), as the next blocks' products still read this
+ * one's neighbours, and the two are swapped at the end.  The sums as
+ * cg_update_jacobi's lanes, block by block: the same on every peer for a
+ * given partition. */
+#define BLOCK 512
+static void jacobi_iteration(ndo__ps *ps, double beta, double alpha, double sums[3])
+{
+	const size_t n = ps->count;
+	double lanes[3][LANES] = {{0}}, nvb[3 * BLOCK];
+	size_t r0 = 0; /* the first run that ends after the block's start */
+	const size_t end = ps->norun ? (size_t)ps->orun[2 * ps->norun - 1] : 0;
+	for (size_t lo = ps->norun ? (size_t)ps->orun[0] : 0; lo < end; lo += BLOCK) {
+		const size_t hi = lo + BLOCK < end ? lo + BLOCK : end;
+		while (r0 < ps->norun && (size_t)ps->orun[2 * r0 + 1] <= lo)
+			r0++;
+		if (r0 == ps->norun || (size_t)ps->orun[2 * r0] >= hi)
+			continue; /* no row of the region in this block */
+		ndo_sim_implicit_apply_range(ps->sim, ps->rows, ps->m, nvb, BLOCK, lo, hi);
+		for (int c = 0; c < 3; c++)
+			for (size_t r = r0; r < ps->norun && (size_t)ps->orun[2 * r] < hi; r++) {
+				size_t a = (size_t)ps->orun[2 * r], b = (size_t)ps->orun[2 * r + 1];
+				a = a > lo ? a : lo, b = b < hi ? b : hi;
+				cg_update_jacobi(ps, (size_t)c * n, a, b, nvb + (size_t)c * BLOCK + (a - lo),
+				                 ps->m2, beta, alpha, lanes);
+			}
+	}
+	double *t = ps->m;
+	ps->m = ps->m2, ps->m2 = t;
+	for (int i = 0; i < 3; i++)
+		sums[i] = (lanes[i][0] + lanes[i][1]) + (lanes[i][2] + lanes[i][3]);
+}
 
 /* Pipelined preconditioned conjugate gradients (Ghysels and Vanroose,
  * 2014, algorithm 4): one exchange per iteration carries both the vector
@@ -919,7 +941,6 @@ static int implicit_advance(ndo__ps *ps)
 				                 "side)", (long long)ps->step, CG_MAX, sqrt(rr / ps->bb));
 			ps->st.iterations++;
 			halo_vector(ps, ps->m);
-			apply(ps, ps->m, ps->nv);
 			double alpha, beta;
 			int first = ps->iter == 1;
 			if (first) {
@@ -935,17 +956,16 @@ static int implicit_advance(ndo__ps *ps)
 				                 (long long)ps->step, alpha);
 			ps->gam = gam;
 			ps->alpha = alpha;
-			double sums[3] = {0, 0, 0}, lanes[3][LANES] = {{0}};
-			for (int c = 0; c < 3; c++)
-				for (size_t r = 0; r < ps->norun; r++) {
-					size_t p0 = (size_t)ps->orun[2 * r], p1 = (size_t)ps->orun[2 * r + 1];
-					if (ps->jacobi == 1)
-						cg_update_jacobi(ps, (size_t)c * n, p0, p1, beta, alpha, lanes);
-					else
-						cg_update(ps, (size_t)c * n, p0, p1, beta, alpha, sums);
-				}
-			for (int i = 0; ps->jacobi == 1 && i < 3; i++)
-				sums[i] = (lanes[i][0] + lanes[i][1]) + (lanes[i][2] + lanes[i][3]);
+			double sums[3] = {0, 0, 0};
+			if (ps->jacobi == 1 && ndo_sim_rows_sorted(ps->rows))
+				jacobi_iteration(ps, beta, alpha, sums);
+			else {
+				apply(ps, ps->m, ps->nv);
+				for (int c = 0; c < 3; c++)
+					for (size_t r = 0; r < ps->norun; r++)
+						cg_update(ps, (size_t)c * n, (size_t)ps->orun[2 * r],
+						          (size_t)ps->orun[2 * r + 1], beta, alpha, sums);
+			}
 			int rc = send_m(ps, sums);
 			if (rc)
 				return rc;

@@ -133,7 +133,14 @@ struct ndo_sim_rows {
 	int32_t *run;  /* nrun runs [run[2k], run[2k+1]) of regular rows (below) */
 	int32_t *rest; /* the other rows, through apply_row */
 	double *dm;    /* per stored node: mass (1 + cb γ) of the runs' rows */
+	/* the other rows' stencils as apply_row reads them: per rest row, 6
+	 * neighbours (the canonical node, −1 where it is not an unknown) and
+	 * their coefficients, the mass term and the penalty (a row that is
+	 * not an unknown: dm = NAN, its y is 0) */
+	int32_t *rnb;
+	double *rcf, *rdm, *rpen;
 	size_t nrun, nrest, cap, ndm;
+	int sorted; /* the rows were given in ascending order */
 };
 
 /* Does row p read what the grid's interior stencil reads, as apply_row
@@ -165,7 +172,8 @@ size_t ndo__rows_regular(const ndo_sim_rows *r)
 void ndo_sim_rows_free(ndo_sim_rows *r)
 {
 	if (r)
-		free(r->run), free(r->rest), free(r->dm), free(r);
+		free(r->run), free(r->rest), free(r->dm), free(r->rnb), free(r->rcf), free(r->rdm),
+		        free(r->rpen), free(r);
 }
 
 int ndo_sim_implicit_rows(const ndo_sim *s, double h, const int32_t *rows, size_t nrows,
@@ -176,12 +184,23 @@ int ndo_sim_implicit_rows(const ndo_sim *s, double h, const int32_t *rows, size_
 	if (!r && !(r = *out = calloc(1, sizeof *r)))
 		return ndo__fail(NDO_ENOMEM, "out of memory");
 	if (nrows > r->cap) {
-		int32_t *run = realloc(r->run, 2 * nrows * sizeof *run), *rest;
+		int32_t *run = realloc(r->run, 2 * nrows * sizeof *run), *rest = NULL, *rnb = NULL;
+		double *rcf = NULL, *rdm = NULL, *rpen = NULL;
 		if (run)
 			r->run = run;
-		if (!run || !(rest = realloc(r->rest, nrows * sizeof *rest)))
+		if (run && (rest = realloc(r->rest, nrows * sizeof *rest)))
+			r->rest = rest;
+		if (rest && (rnb = realloc(r->rnb, 6 * nrows * sizeof *rnb)))
+			r->rnb = rnb;
+		if (rnb && (rcf = realloc(r->rcf, 6 * nrows * sizeof *rcf)))
+			r->rcf = rcf;
+		if (rcf && (rdm = realloc(r->rdm, nrows * sizeof *rdm)))
+			r->rdm = rdm;
+		if (rdm && (rpen = realloc(r->rpen, nrows * sizeof *rpen)))
+			r->rpen = rpen;
+		if (!rpen)
 			return ndo__fail(NDO_ENOMEM, "out of memory");
-		r->rest = rest, r->cap = nrows;
+		r->cap = nrows;
 	}
 	if (r->ndm < s->count) {
 		double *dm = realloc(r->dm, s->count * sizeof *dm);
@@ -191,6 +210,9 @@ int ndo_sim_implicit_rows(const ndo_sim *s, double h, const int32_t *rows, size_
 	}
 	coefs(s, h, &r->cb, &r->ck);
 	r->nrun = r->nrest = 0;
+	r->sorted = 1;
+	for (size_t k = 1; k < nrows; k++)
+		r->sorted &= rows[k - 1] < rows[k];
 	for (size_t k = 0; k < nrows; k++) {
 		const int32_t p = rows[k];
 		if (!regular(s, (size_t)p))
@@ -203,6 +225,19 @@ int ndo_sim_implicit_rows(const ndo_sim *s, double h, const int32_t *rows, size_
 	for (size_t k = 0; k < r->nrun; k++)
 		for (int32_t p = r->run[2 * k]; p < r->run[2 * k + 1]; p++)
 			r->dm[p] = s->mass[p] * (1 + r->cb * s->gam[p]);
+	for (size_t k = 0; k < r->nrest; k++) {
+		const size_t p = (size_t)r->rest[k];
+		if (!(s->active[p] && unknown(s, p))) {
+			r->rdm[k] = NAN;
+			continue;
+		}
+		int32_t nb[6];
+		ndo__row_stencil(s, p, nb, r->rcf + 6 * k);
+		for (int j = 0; j < 6; j++)
+			r->rnb[6 * k + j] = unknown(s, (size_t)nb[j]) ? s->canon[nb[j]] : -1;
+		r->rdm[k] = s->mass[p] * (1 + r->cb * s->gam[p]);
+		r->rpen[k] = penalty_at(s, p);
+	}
 	return NDO_OK;
 }
 
@@ -212,45 +247,109 @@ int ndo_sim_implicit_rows(const ndo_sim *s, double h, const int32_t *rows, size_
  * penalty's 0 · x kept: a zero's sign is apply_row's too).  The three
  * planes in one pass, so that a row's coefficients and mass term are
  * read once, not once a plane. */
-#define RUN_PLANE(X, Y)                                                                \
+#define RUN_PLANE(T, LD, ST, X, Y)                                                     \
 	do {                                                                               \
-		const double xp = X[p];                                                        \
-		double kx = 0 * xp;                                                            \
-		kx += a0 * (xp - X[p + 1]);                                                    \
-		kx += a1 * (xp - X[p + w]);                                                    \
-		kx += a2 * (xp - X[p + w - 1]);                                                \
-		kx += a3 * (xp - X[p - 1]);                                                    \
-		kx += a4 * (xp - X[p - w]);                                                    \
-		kx += a5 * (xp - X[p - w + 1]);                                                \
-		Y[p] = dm * xp + ck * kx;                                                      \
+		const T xp = LD(X + p);                                                        \
+		T kx = 0 * xp;                                                                 \
+		kx += a0 * (xp - LD(X + p + 1));                                               \
+		kx += a1 * (xp - LD(X + p + w));                                               \
+		kx += a2 * (xp - LD(X + p + w - 1));                                           \
+		kx += a3 * (xp - LD(X + p - 1));                                               \
+		kx += a4 * (xp - LD(X + p - w));                                               \
+		kx += a5 * (xp - LD(X + p - w + 1));                                           \
+		ST(Y + (p - lo), dm * xp + ck * kx);                                           \
 	} while (0)
-NDO_HOT static void apply_runs(const ndo_sim *s, const ndo_sim_rows *r, const double *x,
-                               double *y)
+#define RUN_ROWS(T, LD, ST)                                                                \
+	do {                                                                               \
+		const T a0 = LD(e0 + p), a1 = LD(e1 + p), a2 = LD(e2 + p), a3 = LD(e0 + p - 1),  \
+		        a4 = LD(e1 + p - w), a5 = LD(e2 + p - w + 1), dm = LD(dmr + p);        \
+		RUN_PLANE(T, LD, ST, X0, Y0);                                                  \
+		RUN_PLANE(T, LD, ST, X1, Y1);                                                  \
+		RUN_PLANE(T, LD, ST, X2, Y2);                                                  \
+	} while (0)
+NDO_HOT static void apply_runs(const ndo_sim *s, const ndo_sim_rows *r, size_t k0,
+                               const double *x, double *y, size_t stride, size_t lo, size_t hi)
 {
 	const size_t cnt = s->count, w = (size_t)s->w;
 	const double *const e0 = s->st.e[0], *const e1 = s->st.e[1], *const e2 = s->st.e[2];
-	const double *restrict const dmr = r->dm, ck = r->ck;
-	const double *restrict X0 = x, *restrict X1 = x + cnt, *restrict X2 = x + 2 * cnt;
-	double *restrict Y0 = y, *restrict Y1 = y + cnt, *restrict Y2 = y + 2 * cnt;
-	for (size_t k = 0; k < r->nrun; k++) {
-		const size_t p1 = (size_t)r->run[2 * k + 1];
-		for (size_t p = (size_t)r->run[2 * k]; p < p1; p++) {
-			const double a0 = e0[p], a1 = e1[p], a2 = e2[p], a3 = e0[p - 1],
-			             a4 = e1[p - w], a5 = e2[p - w + 1], dm = dmr[p];
-			RUN_PLANE(X0, Y0);
-			RUN_PLANE(X1, Y1);
-			RUN_PLANE(X2, Y2);
+	const double *const dmr = r->dm, ck = r->ck;
+	const double *X0 = x, *X1 = x + cnt, *X2 = x + 2 * cnt;
+	/* Y_c[p] is y[c·stride + p − lo]: the offset is taken from p, not from
+	 * the pointers, which stay within y */
+	double *Y0 = y, *Y1 = y + stride, *Y2 = y + 2 * stride;
+	for (size_t k = k0; k < r->nrun && (size_t)r->run[2 * k] < hi; k++) {
+		const size_t p1 = (size_t)r->run[2 * k + 1] < hi ? (size_t)r->run[2 * k + 1] : hi;
+		size_t p = (size_t)r->run[2 * k] > lo ? (size_t)r->run[2 * k] : lo;
+		for (; p + 4 <= p1; p += 4)
+			RUN_ROWS(ndo__v4, V4_LD, V4_ST);
+		for (; p < p1; p++)
+			RUN_ROWS(double, V1_LD, V1_ST);
+	}
+}
+#undef RUN_ROWS
+#undef RUN_PLANE
+
+/* The rest rows k0.. below hi, apply_row's arithmetic from the stencils
+ * gathered once, at y[c·stride + p − lo]. */
+static void apply_rest(const ndo_sim *s, const ndo_sim_rows *r, size_t k0, const double *x,
+                       double *y, size_t stride, size_t lo, size_t hi)
+{
+	const size_t cnt = s->count;
+	for (size_t k = k0; k < r->nrest && (size_t)r->rest[k] < hi; k++) {
+		const size_t p = (size_t)r->rest[k];
+		const int32_t *nb = r->rnb + 6 * k;
+		const double *cf = r->rcf + 6 * k, dm = r->rdm[k], pen = r->rpen[k];
+		for (int c = 0; c < 3; c++) {
+			const size_t o = (size_t)c * cnt, out = (size_t)c * stride + p - lo;
+			if (isnan(dm)) {
+				y[out] = 0;
+				continue;
+			}
+			const double xp = x[o + p];
+			double kx = pen * xp;
+			for (int j = 0; j < 6; j++)
+				kx += cf[j] * (xp - (nb[j] >= 0 ? x[o + (size_t)nb[j]] : 0));
+			y[out] = dm * xp + r->ck * kx;
 		}
 	}
 }
-#undef RUN_PLANE
 
 void ndo_sim_implicit_apply_rows(const ndo_sim *s, const ndo_sim_rows *r, const double *x,
                                  double *y)
 {
-	apply_runs(s, r, x, y);
-	for (size_t k = 0; k < r->nrest; k++)
-		apply_row(s, r->cb, r->ck, (size_t)r->rest[k], x, y);
+	apply_runs(s, r, 0, x, y, s->count, 0, s->count);
+	apply_rest(s, r, 0, x, y, s->count, 0, s->count);
+}
+
+int ndo_sim_rows_sorted(const ndo_sim_rows *r)
+{
+	return r->sorted;
+}
+
+void ndo_sim_implicit_apply_range(const ndo_sim *s, const ndo_sim_rows *r, const double *x,
+                                  double *y, size_t stride, size_t lo, size_t hi)
+{
+	if (!r->sorted || lo >= hi)
+		return;
+	/* the first run that ends after lo, the first rest row from lo */
+	size_t a = 0, b = r->nrun;
+	while (a < b) {
+		size_t mid = a + (b - a) / 2;
+		if ((size_t)r->run[2 * mid + 1] <= lo)
+			a = mid + 1;
+		else
+			b = mid;
+	}
+	apply_runs(s, r, a, x, y, stride, lo, hi);
+	a = 0, b = r->nrest;
+	while (a < b) {
+		size_t mid = a + (b - a) / 2;
+		if ((size_t)r->rest[mid] < lo)
+			a = mid + 1;
+		else
+			b = mid;
+	}
+	apply_rest(s, r, a, x, y, stride, lo, hi);
 }
 
 int ndo_sim_implicit_rigid(const ndo_sim *s, double h, const int32_t *rows, size_t nrows,

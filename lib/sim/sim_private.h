@@ -4,6 +4,7 @@
 #define NDO_SIM_PRIVATE_H
 
 #include "ndo/machine.h"
+#include "ndo/simd.h"
 #include "ndo/membrane.h"
 #include "ndo/sim.h"
 
@@ -21,21 +22,11 @@
 #define NDO_HOT
 #endif
 
-/* Four doubles, loaded and stored at any 8-byte boundary and aliasing the
- * planes' doubles: the stencil loops written four nodes at a time in
- * GCC's vector types (rk4.c, accel.c), every plane's neighbours read from
+/* The stencil loops are written four nodes at a time in GCC's vector
+ * types (ndo/simd.h; rk4.c, accel.c): every plane's neighbours read from
  * its base at the node's index plus a row or a constant.  (GCC's own
  * vectorizer kept a pointer for each neighbour of each plane, about 40,
- * spilled and reloaded at every iteration.)  Each lane's operations are
- * the scalar code's, correctly rounded, so the same bits. */
-typedef double ndo__v4 __attribute__((vector_size(32)));
-typedef double ndo__v4u __attribute__((vector_size(32), aligned(8), may_alias));
-typedef long long ndo__v4i __attribute__((vector_size(32)));
-#define V4_LD(ptr) ((ndo__v4)(*(const ndo__v4u *)(ptr)))
-#define V4_ST(ptr, x) (*(ndo__v4u *)(ptr) = (x))
-/* ... and one double, for the same loop bodies' scalar tails */
-#define V1_LD(ptr) (*(ptr))
-#define V1_ST(ptr, x) (*(ptr) = (x))
+ * spilled and reloaded at every iteration.) */
 
 /* A run of consecutive stored indices [a, b). */
 typedef struct ndo__span {

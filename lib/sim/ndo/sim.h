@@ -357,6 +357,14 @@ int ndo_sim_implicit_rows(const ndo_sim *s, double h, const int32_t *rows, size_
                           ndo_sim_rows **r);
 void ndo_sim_implicit_apply_rows(const ndo_sim *s, const ndo_sim_rows *r, const double *x,
                                  double *y);
+/* The rows lo ≤ p < hi alone, written at y[c·stride + p − lo] (a block of
+ * a caller's, stride ≥ hi − lo): a solver that uses each block at once,
+ * while it is in the cache.  The same bits as ndo_sim_implicit_apply_rows;
+ * the rows must have been given in ascending order (ndo_sim_rows_sorted;
+ * else nothing is written). */
+int ndo_sim_rows_sorted(const ndo_sim_rows *r);
+void ndo_sim_implicit_apply_range(const ndo_sim *s, const ndo_sim_rows *r, const double *x,
+                                  double *y, size_t stride, size_t lo, size_t hi);
 void ndo_sim_rows_free(ndo_sim_rows *r);
 int ndo_sim_implicit_rigid(const ndo_sim *s, double h, const int32_t *rows, size_t n,
                            const double *x, double sums[7], double *gamma);
