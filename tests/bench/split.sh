@@ -44,7 +44,7 @@ for level in $LEVELS; do
 		one=() two=() blk=() d=""
 		for ((r = 0; r < RUNS; r++)); do
 			# shellcheck disable=SC2046
-			simulate-peer "$grid" -s "$SCENE" $(physics "$m") -o "$work/one.tgrid" \
+			simulate-peer --threads 1 "$grid" -s "$SCENE" $(physics "$m") -o "$work/one.tgrid" \
 				2>"$work/one.err"
 			one+=("$(grep -o '[0-9.]* steps/s' "$work/one.err" | head -1 | cut -d' ' -f1)")
 			# the implicit methods twice: preconditioned by the diagonal (the
@@ -100,7 +100,7 @@ $counts
 ## 2. Speed over LCM (2 peers in a private network namespace, one thread each)
 
 Steps per second of the stepping (the owner's report), against one single-threaded process
-in the same run, medians of $RUNS; rkf45 at --dt 0.02 for 2 s, the implicit methods at
+(\`--threads 1\`) in the same run, medians of $RUNS; rkf45 at --dt 0.02 for 2 s, the implicit methods at
 --dt 0.05 for 5 s; the difference is the last run's, against the single process as a user
 runs it (\`--solver auto\`: multigrid from level 6, to a relative residual of 10⁻¹² a step,
 so from level 6 it includes the multigrid's own error).  The implicit methods' solve over the
@@ -112,11 +112,14 @@ with \`--precondition block\` on both peers (each region's block, factored by CH
 $rows
 Reading: rkf45 pays one round of messages per attempted sub-step (2–3 a step here) and a
 4-ring halo, and 2 peers still outrun one process; the implicit methods replace
-the single process's solve by conjugate gradients over the peers, each iteration a round of
-messages that every peer waits for: with the diagonal an iteration costs a product over the
-region's rows and one pass over its vectors, with the region's block also a solve with its
-CHOLMOD factor (three right-hand sides, mostly BLAS), which takes longer than the rounds it
-saves.  Split exactly, the implicit methods give the single process's result on several
-peers at a fraction of its speed.
+the single process's solve (multigrid or CHOLMOD) by conjugate gradients over the peers,
+each iteration a round of messages that every peer waits for: with the diagonal an
+iteration costs a product over the region's rows and one pass over its vectors (block by
+block, while the product's block is in the cache), with the region's block also a solve
+with its CHOLMOD factor (three right-hand sides, mostly BLAS), which takes longer than the
+rounds it saves.  So the split implicit methods gain where a region's rows take longer to
+compute than a round of messages and lose where they take less: compare the levels above
+(the single process's solver also needs fewer iterations than Jacobi's, the peers more
+rounds as h grows, §1).
 EOF
 cat "$out"
