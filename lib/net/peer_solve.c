@@ -714,12 +714,12 @@ static int solved(ndo__ps *ps)
 }
 
 /* The next iteration's exchange: m = M⁻¹w on the strip, with the partial
- * sums (r·u, w·u, r·r): `made` by cg_update (and m too with Jacobi), or
- * NULL. */
-static int send_m(ndo__ps *ps, const double *made)
+ * sums (r·u, w·u, r·r): `made` by the update, or NULL; m_made: the update
+ * made m too (jacobi_iteration). */
+static int send_m(ndo__ps *ps, const double *made, int m_made)
 {
 	int rc = 0;
-	if (!made || ps->jacobi != 1) /* (the Jacobi m came with the sums) */
+	if (!m_made)
 		rc = precondition(ps, ps->w, ps->m);
 	if (rc)
 		return rc;
@@ -798,8 +798,6 @@ static void cg_update(ndo__ps *ps, size_t o, size_t p0, size_t p1, double beta,
 		ST(rr + (e), r_), ST(w + (e), w_), ST(m + (e), LD(d + (e)) * w_);          \
 		A0 += r_ * v_, A1 += w_ * v_, A2 += r_ * r_;                               \
 	} while (0)
-#define LD1(a) (*(a))
-#define ST1(a, v) (*(a) = (v))
 static NDO_HOT_O3 void cg_update_jacobi(ndo__ps *ps, size_t o, size_t p0, size_t p1,
                                         const double *nvp, double *mout, double beta,
                                         double alpha, double lanes[3][LANES])
@@ -924,7 +922,7 @@ static int implicit_advance(ndo__ps *ps)
 				return solved(ps); /* x₀ solves it (a body at rest) */
 			halo_vector(ps, ps->u);
 			apply(ps, ps->u, ps->w);
-			int rc = send_m(ps, NULL);
+			int rc = send_m(ps, NULL, 0);
 			if (rc)
 				return rc;
 			break;
@@ -957,7 +955,8 @@ static int implicit_advance(ndo__ps *ps)
 			ps->gam = gam;
 			ps->alpha = alpha;
 			double sums[3] = {0, 0, 0};
-			if (ps->jacobi == 1 && ndo_sim_rows_sorted(ps->rows))
+			const int fast = ps->jacobi == 1 && ndo_sim_rows_sorted(ps->rows);
+			if (fast)
 				jacobi_iteration(ps, beta, alpha, sums);
 			else {
 				apply(ps, ps->m, ps->nv);
@@ -966,7 +965,7 @@ static int implicit_advance(ndo__ps *ps)
 						cg_update(ps, (size_t)c * n, (size_t)ps->orun[2 * r],
 						          (size_t)ps->orun[2 * r + 1], beta, alpha, sums);
 			}
-			int rc = send_m(ps, sums);
+			int rc = send_m(ps, sums, fast);
 			if (rc)
 				return rc;
 			break;
