@@ -134,9 +134,9 @@ struct ndo_sim_rows {
 	int32_t *rest; /* the other rows, through apply_row */
 	double *dm;    /* per stored node: mass (1 + cb γ) of the runs' rows */
 	/* the other rows' stencils as apply_row reads them: per rest row, 6
-	 * neighbours (the canonical node, −1 where it is not an unknown) and
-	 * their coefficients, the mass term and the penalty (a row that is
-	 * not an unknown: dm = NAN, its y is 0) */
+	 * neighbours (the canonical node, −1 where it is not an unknown; −2 in
+	 * the first for a row that is not an unknown: its y is 0) and their
+	 * coefficients, the mass term and the penalty */
 	int32_t *rnb;
 	double *rcf, *rdm, *rpen;
 	size_t nrun, nrest, cap, ndm;
@@ -228,7 +228,7 @@ int ndo_sim_implicit_rows(const ndo_sim *s, double h, const int32_t *rows, size_
 	for (size_t k = 0; k < r->nrest; k++) {
 		const size_t p = (size_t)r->rest[k];
 		if (!(s->active[p] && unknown(s, p))) {
-			r->rdm[k] = NAN;
+			r->rnb[6 * k] = -2;
 			continue;
 		}
 		int32_t nb[6];
@@ -301,7 +301,7 @@ static void apply_rest(const ndo_sim *s, const ndo_sim_rows *r, size_t k0, const
 		const double *cf = r->rcf + 6 * k, dm = r->rdm[k], pen = r->rpen[k];
 		for (int c = 0; c < 3; c++) {
 			const size_t o = (size_t)c * cnt, out = (size_t)c * stride + p - lo;
-			if (isnan(dm)) {
+			if (nb[0] == -2) {
 				y[out] = 0;
 				continue;
 			}
