@@ -131,7 +131,7 @@ void ndo_sim_implicit_apply(const ndo_sim *s, double h, const int32_t *rows, siz
 struct ndo_sim_rows {
 	double cb, ck;
 	int32_t *run;  /* nrun runs [run[2k], run[2k+1]) of regular rows (below) */
-	int32_t *rest; /* the other rows, through apply_row */
+	int32_t *rest; /* the other rows (apply_rest, from the stencils below) */
 	double *dm;    /* per stored node: mass (1 + cb γ) of the runs' rows */
 	/* the other rows' stencils as apply_row reads them: per rest row, 6
 	 * neighbours (the canonical node, −1 where it is not an unknown; −2 in
