@@ -8,6 +8,7 @@
 #include "multigrid.h"
 
 #include "ndo/grid.h"
+#include "ndo/simd.h"
 #include "ndo/status.h"
 #include "ndo/topology.h"
 
@@ -182,6 +183,61 @@ static inline void stencil_rows(const mg_stencil *S, enum op op, const double *x
 	s[0] = s0, s[1] = s1, s[2] = s2, s[3] = s3, s[4] = s4, s[5] = s5;
 }
 
+/* OP_UPDATE over rows a..e − 1: x += c∘p, r −= c∘q, s[0..2] += |r|² and
+ * (with dinv) s[3..5] += r·(dinv∘r), per column.  Four rows at a time as
+ * three vectors of four doubles (the columns repeat as 0 1 2 0 | 1 2 0 1 |
+ * 2 0 1 2, and so do the coefficients), the sums in lanes: every value
+ * the same bits as a row at a time, the sums in another (fixed) order —
+ * the scalar sums were three chains of dependent additions that set the
+ * pace of the pass.  dv: J->dinv, or NULL (a constant where inlined). */
+static inline void update_rows(const job *J, size_t a, size_t e, double s[6], const double *dv)
+{
+	const double a0 = J->c[0], a1 = J->c[1], a2 = J->c[2];
+	const double *i1 = J->i1, *i2 = J->i2;
+	double *o1 = J->o1, *o2 = J->o2;
+	const ndo__v4 A0 = {a0, a1, a2, a0}, A1 = {a1, a2, a0, a1}, A2 = {a2, a0, a1, a2};
+	const ndo__v4i M0 = {0, 0, 0, 1}, M1 = {1, 1, 2, 2}, M2 = {2, 3, 3, 3};
+	ndo__v4 s0 = {0, 0, 0, 0}, s1 = s0, s2 = s0, t0 = s0, t1 = s0, t2 = s0;
+	size_t r = a;
+	for (; r + 4 <= e; r += 4) {
+		const double *pr = i1 + 3 * r, *qr = i2 + 3 * r;
+		double *xr = o1 + 3 * r, *rr = o2 + 3 * r;
+		V4_ST(xr, V4_LD(xr) + A0 * V4_LD(pr));
+		V4_ST(xr + 4, V4_LD(xr + 4) + A1 * V4_LD(pr + 4));
+		V4_ST(xr + 8, V4_LD(xr + 8) + A2 * V4_LD(pr + 8));
+		const ndo__v4 r0 = V4_LD(rr) - A0 * V4_LD(qr), r1 = V4_LD(rr + 4) - A1 * V4_LD(qr + 4),
+		              r2 = V4_LD(rr + 8) - A2 * V4_LD(qr + 8);
+		V4_ST(rr, r0), V4_ST(rr + 4, r1), V4_ST(rr + 8, r2);
+		s0 += r0 * r0, s1 += r1 * r1, s2 += r2 * r2;
+		if (dv) {
+			const ndo__v4 d = V4_LD(dv + r);
+			t0 += r0 * (__builtin_shuffle(d, M0) * r0);
+			t1 += r1 * (__builtin_shuffle(d, M1) * r1);
+			t2 += r2 * (__builtin_shuffle(d, M2) * r2);
+		}
+	}
+	/* each column's lanes: 0 in s0[0], s0[3], s1[2], s2[1]; 1 in s0[1],
+	 * s1[0], s1[3], s2[2]; 2 in s0[2], s1[1], s2[0], s2[3] */
+	s[0] += (s0[0] + s0[3]) + (s1[2] + s2[1]);
+	s[1] += (s0[1] + s1[0]) + (s1[3] + s2[2]);
+	s[2] += (s0[2] + s1[1]) + (s2[0] + s2[3]);
+	s[3] += (t0[0] + t0[3]) + (t1[2] + t2[1]);
+	s[4] += (t0[1] + t1[0]) + (t1[3] + t2[2]);
+	s[5] += (t0[2] + t1[1]) + (t2[0] + t2[3]);
+	for (; r < e; r++) {
+		const double *pr = i1 + 3 * r, *qr = i2 + 3 * r;
+		double *xr = o1 + 3 * r, *rr = o2 + 3 * r;
+		xr[0] += a0 * pr[0], xr[1] += a1 * pr[1], xr[2] += a2 * pr[2];
+		const double r0 = rr[0] - a0 * qr[0], r1 = rr[1] - a1 * qr[1], r2 = rr[2] - a2 * qr[2];
+		rr[0] = r0, rr[1] = r1, rr[2] = r2;
+		s[0] += r0 * r0, s[1] += r1 * r1, s[2] += r2 * r2;
+		if (dv) {
+			const double z0 = dv[r] * r0, z1 = dv[r] * r1, z2 = dv[r] * r2;
+			s[3] += r0 * z0, s[4] += r1 * z1, s[5] += r2 * z2;
+		}
+	}
+}
+
 NDO_MG_HOT static void run_chunk(void *ctx, int k)
 {
 	const job *J = ctx;
@@ -262,25 +318,12 @@ NDO_MG_HOT static void run_chunk(void *ctx, int k)
 				o2[q] = J->fresh ? d : o2[q] + d;
 			}
 		break;
-	case OP_UPDATE: {
-		/* The coefficients in locals: the stores below may not change
-		 * them (the compiler could not know). */
-		const double a0 = J->c[0], a1 = J->c[1], a2 = J->c[2], *dv = J->dinv;
-		for (size_t r = a; r < e; r++) {
-			const double *pr = i1 + 3 * r, *qr = i2 + 3 * r;
-			double *xr = o1 + 3 * r, *rr = o2 + 3 * r;
-			xr[0] += a0 * pr[0], xr[1] += a1 * pr[1], xr[2] += a2 * pr[2];
-			const double r0 = rr[0] - a0 * qr[0], r1 = rr[1] - a1 * qr[1],
-			             r2 = rr[2] - a2 * qr[2];
-			rr[0] = r0, rr[1] = r1, rr[2] = r2;
-			s[0] += r0 * r0, s[1] += r1 * r1, s[2] += r2 * r2;
-			if (dv) {
-				const double z0 = dv[r] * r0, z1 = dv[r] * r1, z2 = dv[r] * r2;
-				s[3] += r0 * z0, s[4] += r1 * z1, s[5] += r2 * z2;
-			}
-		}
+	case OP_UPDATE:
+		if (J->dinv)
+			update_rows(J, a, e, s, J->dinv);
+		else
+			update_rows(J, a, e, s, NULL);
 		break;
-	}
 	case OP_DOT:
 		for (size_t r = a; r < e; r++)
 			for (int c = 0; c < 3; c++)
