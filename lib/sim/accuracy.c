@@ -11,6 +11,7 @@
 #include "ndo/topology.h"
 
 #include <math.h>
+#include <pthread.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -32,6 +33,7 @@ struct ndo_acc {
 	                                        level (omega 0: not yet estimated) */
 	double crit[NDO_MAX_LEVEL + 1][NDO_METHOD_COUNT]; /* critical steps (0: not yet) */
 	size_t max_memory; /* ndo_acc_set_max_memory; 0: what is free */
+	int threads;       /* ndo_acc_set_threads */
 	double active[NDO_MAX_LEVEL + 1]; /* ndo_acc_active (0: not yet counted) */
 	double umax;     /* ndo_acc_sample */
 	double *scratch; /* x at the input level */
@@ -185,6 +187,11 @@ void ndo_acc_set_critical(ndo_acc *a, int level, double omega_max, double gamma)
 void ndo_acc_set_max_memory(ndo_acc *a, size_t bytes)
 {
 	a->max_memory = bytes;
+}
+
+void ndo_acc_set_threads(ndo_acc *a, int threads)
+{
+	a->threads = threads;
 }
 
 /* The input restricted to `level` (made on first use). */
@@ -614,6 +621,57 @@ static void why(ndo_acc_estimate *e, const char *what, int level)
 	         ndo_errdetail());
 }
 
+/* The time window (time_window) as a job that may run on a thread of its
+ * own: its cost and what it could not do go to e, its error's detail
+ * (thread-local) to why. */
+typedef struct window_job {
+	ndo_acc *a;
+	const ndo_acc_config *c;
+	ndo_acc_estimate e;
+	int64_t w;
+	double dmax, grown;
+	int rc;
+} window_job;
+
+static void *window_run(void *arg)
+{
+	window_job *j = arg;
+	j->rc = time_window(j->a, j->c, &j->e, &j->w, &j->dmax, &j->grown);
+	if (j->rc)
+		why(&j->e, "time: window at", j->c->level);
+	return NULL;
+}
+
+/* Whether the window may run beside the coarse companions: threads for
+ * it, and the memory for both at once (a simulation of the run's size and
+ * the window's three fields; one of the level below and its fields). */
+static int window_beside(ndo_acc *a, const ndo_acc_config *c)
+{
+	if (a->threads < 2 || c->level < 1 || ensure_level(a, c->level) ||
+	    ensure_level(a, c->level - 1))
+		return 0;
+	ndo_sim_params prm = a->sc->sim;
+	prm.method = c->method;
+	size_t run = ndo_sim_memory(c->level, &prm),
+	       need = run + 3 * 3 * nodes_of(c->level) * sizeof(double) +
+	              ndo_sim_memory(c->level - 1, &prm) +
+	              3 * 3 * nodes_of(c->level - 1) * sizeof(double);
+	return need <= ndo_memory_available() && !(a->max_memory && run + need > a->max_memory);
+}
+
+/* The window's part of the estimate into e (as if it had run first). */
+static int window_merge(ndo_acc_estimate *e, const window_job *j)
+{
+	e->node_evals += j->e.node_evals;
+	if (*j->e.why) {
+		char both[2 * sizeof e->why + 2];
+		snprintf(both, sizeof both, "%s%s%s", j->e.why, *e->why ? "; " : "", e->why);
+		memcpy(e->why, both, sizeof e->why - 1);
+		e->why[sizeof e->why - 1] = '\0';
+	}
+	return j->rc;
+}
+
 int ndo_acc_estimate_run(ndo_acc *a, const ndo_acc_config *c, const double *u, double umax,
                          ndo_acc_estimate *e)
 {
@@ -627,62 +685,71 @@ int ndo_acc_estimate_run(ndo_acc *a, const ndo_acc_config *c, const double *u, d
 	 * follows the velocity of the moment (3-4× the truth on the poke,
 	 * whose motion is fastest early). */
 	int windowed = c->method != NDO_SYMPLECTIC_EULER || m < 1;
-	double started = cpu_now(), dmax = NAN, grown = NAN, tc = NAN, h2 = 0;
-	int64_t w = 0;
-	/* Time, early: the window at the run's level. */
-	int rc = windowed ? time_window(a, c, e, &w, &dmax, &grown) : NDO_OK;
-	if (rc) {
-		why(e, "time: window at", m);
+	double started = cpu_now(), tc = NAN, h2 = 0;
+	/* Time, early: the window at the run's level, on a thread of its own
+	 * beside the space part where it may, else first. */
+	window_job wj = {.a = a, .c = c, .dmax = NAN, .grown = NAN};
+	pthread_t th;
+	int beside = windowed && window_beside(a, c) &&
+	             pthread_create(&th, NULL, window_run, &wj) == 0;
+	int rc = NDO_OK;
+	if (windowed && !beside) {
+		window_run(&wj);
+		rc = window_merge(e, &wj);
 		if (rc == NDO_ENOMEM)
-			return rc;
+			return ndo__fail(rc, "%s", wj.e.why);
 	}
 	/* Space: level m−1 at the run's step (stable: the critical step about
 	 * doubles per level coarser), D_m = (r − 1) e_m; time over the run. */
 	ndo_acc_result r1 = {0};
+	ndo_acc_config c1 = *c;
+	c1.level = m - 1;
+	double *tfield = NULL;
 	if (m < 1) {
 		snprintf(e->why + strlen(e->why), sizeof e->why - strlen(e->why),
 		         "%slevel 0 has no coarser level", *e->why ? "; " : "");
+	} else if ((rc = ndo_acc_run(a, &c1, &r1))) {
+		why(e, "space:", m - 1);
 	} else {
-		ndo_acc_config c1 = *c;
-		c1.level = m - 1;
-		rc = ndo_acc_run(a, &c1, &r1);
-		if (rc) {
-			why(e, "space:", m - 1);
-			if (rc == NDO_ENOMEM)
-				return rc;
-		} else {
-			add_cost(e, &r1);
-			e->rate = RATE;
-			e->space_m = shared_difference(m, u, r1.u, NULL) / (RATE - 1);
-			/* the time error's field, for the total (below); without the
-			 * memory, the total is the two errors' sum */
-			double *tfield = rkf ? NULL : malloc(3 * nodes_of(m - 1) * sizeof *tfield);
-			rc = rkf ? NDO_OK : time_coarse(a, c, &r1, e, &h2, &tc, tfield);
-			if (rc)
-				why(e, "time: coarse", m - 1);
-			else if (tfield && !isnan(tc) && !(windowed && dmax > tc))
-				e->total_m = shared_difference(m, u, r1.u, tfield);
-			free(tfield);
-			if (rc == NDO_ENOMEM) {
-				ndo_acc_result_free(&r1);
-				return rc;
-			}
-			ndo_acc_result_free(&r1);
-		}
+		add_cost(e, &r1);
+		e->rate = RATE;
+		e->space_m = shared_difference(m, u, r1.u, NULL) / (RATE - 1);
+		/* the time error's field, for the total (below); without the
+		 * memory, the total is the two errors' sum */
+		tfield = rkf ? NULL : malloc(3 * nodes_of(m - 1) * sizeof *tfield);
+		rc = rkf ? NDO_OK : time_coarse(a, c, &r1, e, &h2, &tc, tfield);
+		if (rc)
+			why(e, "time: coarse", m - 1);
 	}
+	if (beside) {
+		pthread_join(th, NULL);
+		int wrc = window_merge(e, &wj);
+		if (wrc == NDO_ENOMEM && rc != NDO_ENOMEM)
+			rc = ndo__fail(wrc, "%s", wj.e.why);
+	}
+	if (rc == NDO_ENOMEM) {
+		free(tfield);
+		ndo_acc_result_free(&r1);
+		return rc;
+	}
+	if (tfield && !isnan(tc) && !(windowed && wj.dmax > tc))
+		e->total_m = shared_difference(m, u, r1.u, tfield);
+	free(tfield);
+	ndo_acc_result_free(&r1);
 	/* The larger of the two: the window sees the top modes only level m
 	 * has (RK4 at its largest step damps them: most of its error there),
 	 * the coarse companion the error that grows over the whole run. */
 	if (rkf) {
-		e->time_m = grown;
+		e->time_m = wj.grown;
 		snprintf(e->time_how, sizeof e->time_how, "level %d, %lld of %lld steps at tolerance %.3g, "
-		         "carried to the end", m, (long long)w, (long long)c->steps, c->tol / 100);
+		         "carried to the end", m, (long long)wj.w, (long long)c->steps, c->tol / 100);
 	} else {
+		double dmax = wj.dmax;
 		e->time_m = isnan(tc) ? dmax : isnan(dmax) ? tc : fmax(dmax, tc);
 		if (windowed && !isnan(dmax))
 			snprintf(e->time_how, sizeof e->time_how, "the larger of level %d, %lld of %lld "
-			         "steps at %.4g s (%.3g m), and level %d at %.4g s (%.3g m)", m, (long long)w,
-			         (long long)c->steps, c->h / 2, dmax, m - 1, h2, tc);
+			         "steps at %.4g s (%.3g m), and level %d at %.4g s (%.3g m)", m,
+			         (long long)wj.w, (long long)c->steps, c->h / 2, dmax, m - 1, h2, tc);
 		else
 			snprintf(e->time_how, sizeof e->time_how, "level %d at %.4g s against %.4g s", m - 1,
 			         h2, c->h);

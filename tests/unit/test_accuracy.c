@@ -223,6 +223,38 @@ static void total_adds_the_fields(void)
 	unmake(&f);
 }
 
+/* With two threads the window runs beside the coarse companions
+ * (ndo_acc_set_threads): the same estimate, number for number, as one
+ * after the other — rk4 (the window's bound), rkf45 (its growth carried to
+ * the end) and symplectic Euler (no window). */
+static void the_window_beside_is_the_same_estimate(void)
+{
+	fixture f;
+	poked(&f);
+	const ndo_method ms[3] = {NDO_RK4, NDO_RKF45, NDO_SYMPLECTIC_EULER};
+	for (int k = 0; k < 3; k++) {
+		ndo_acc_config c = ms[k] == NDO_RKF45 ? (ndo_acc_config){4, NDO_RKF45, 0.05, 20, 1e-6}
+		                                      : largest_step(&f, ms[k]);
+		ndo_acc_result r;
+		ndo_acc_estimate e[2];
+		CHECK(ndo_acc_run(f.a, &c, &r) == NDO_OK, "run");
+		for (int t = 0; t < 2; t++) {
+			ndo_acc_set_threads(f.a, 2 - t);
+			CHECK(ndo_acc_estimate_run(f.a, &c, r.u, r.umax, &e[t]) == NDO_OK, "estimate");
+		}
+		CHECK(isfinite(e[0].time_m) && e[0].space_m > 0 && e[0].time_m == e[1].time_m &&
+		      e[0].space_m == e[1].space_m && e[0].total_m == e[1].total_m &&
+		      e[0].node_evals == e[1].node_evals && !strcmp(e[0].time_how, e[1].time_how) &&
+		      !strcmp(e[0].why, e[1].why),
+		      "%s: two threads time %.17g m, space %.17g m, total %.17g m, %.17g evaluations "
+		      "(%s; '%s'), one %.17g, %.17g, %.17g, %.17g (%s; '%s')", ndo_method_names[ms[k]],
+		      e[0].time_m, e[0].space_m, e[0].total_m, e[0].node_evals, e[0].time_how, e[0].why,
+		      e[1].time_m, e[1].space_m, e[1].total_m, e[1].node_evals, e[1].time_how, e[1].why);
+		ndo_acc_result_free(&r);
+	}
+	unmake(&f);
+}
+
 static void bad_targets_are_refused(void)
 {
 	fixture f;
@@ -379,6 +411,7 @@ int main(void)
 	RUN(time_estimate_follows_the_order);
 	RUN(time_estimate_at_the_largest_step);
 	RUN(total_adds_the_fields);
+	RUN(the_window_beside_is_the_same_estimate);
 	RUN(bad_targets_are_refused);
 	RUN(finer_levels_that_cannot_win_are_not_analysed);
 	RUN(known_mode_and_memory_limit);
