@@ -46,6 +46,9 @@ static void make_acc(run *r)
 	 * (nor a second simulation of the input's size) for it. */
 	ndo_acc_set_critical(r->acc, r->g->level, r->crit.omega_max, r->crit.gamma);
 	ndo_acc_set_max_memory(r->acc, r->max_memory);
+	/* the estimate's window beside its coarse companions where the run
+	 * may have the cores (as run.c gives the run its threads) */
+	ndo_acc_set_threads(r->acc, r->threads ? r->threads : r->net.role ? 1 : ndo_cpu_count());
 }
 
 void accuracy_plan(run *r)
