@@ -1586,7 +1586,15 @@ static int starting(ndo_peer *p)
 	}
 	if (p->announced) {
 		int late = !p->owner && (p->max_seen > p->first || p->fill_step > p->first);
-		if (late || !p->simulating || all_at(p, p->first)) {
+		/* A joiner announces a partition of --peers as soon as it has one,
+		 * but the owner may not (a silent peer in it, dropped first): in
+		 * exact runs it starts once the owner has spoken in its partition
+		 * or an older one (owner_spoke), not with one the owner replaced
+		 * before the start — its first step would hold the old region's
+		 * values (the others' halos of the step before come from the
+		 * snapshot, so nothing else holds it back). */
+		int owner_in = p->owner || !p->exact || p->owner_went;
+		if (late || !p->simulating || (owner_in && all_at(p, p->first))) {
 			go(p);
 			return NDO_PEER_WAITING;
 		}
