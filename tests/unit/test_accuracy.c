@@ -352,6 +352,14 @@ static void known_mode_and_memory_limit(void)
 	CHECK(!*e0.why && strstr(e1.why, "window") && strstr(e1.why, "allowed") &&
 	      isfinite(e1.time_m) && e1.time_m <= e0.time_m && e1.space_m == e0.space_m,
 	      "1000 bytes: '%s', time %g m (unlimited %g m, '%s')", e1.why, e1.time_m, e0.time_m, e0.why);
+	/* with two threads too: the window does not fit beside the companions
+	 * either, and is left out the same way */
+	ndo_acc_estimate e2;
+	ndo_acc_set_threads(f.a, 2);
+	CHECK(ndo_acc_estimate_run(f.a, &rc, r.u, r.umax, &e2) == NDO_OK && !strcmp(e2.why, e1.why) &&
+	      e2.time_m == e1.time_m && e2.space_m == e1.space_m,
+	      "1000 bytes, 2 threads: '%s', time %g m (one thread '%s', %g m)", e2.why, e2.time_m,
+	      e1.why, e1.time_m);
 	ndo_acc_result_free(&r);
 	unmake(&f), unmake(&g), unmake(&h);
 }
