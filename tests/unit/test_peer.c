@@ -736,10 +736,10 @@ static void a_peer_waiting_for_its_checkpoint_lives(void)
  * replaces before the start (a silent peer in it: the owner drops it
  * instead of announcing) starts with the owner's partition, not its own:
  * joiner A holds the object and dies; B comes, gets the partition of the
- * owner, A and B and announces it; the owner drops A; C comes and the
- * owner announces the owner, B and C.  Before 2026-11-29 B started on the
- * partition without A at once (its halo of step 0 is the snapshot's) and
- * stepped a region the owner never announced: the run ended not exact
+ * owner, A and B and announces it; the owner drops A; C comes and the owner
+ * announces the owner, B and C.  Until the evening of 2026-11-29 B started
+ * on the partition without A at once (its halo of step 0 is the snapshot's)
+ * and stepped a region the owner never announced: the run ended not exact
  * (peers-life.sh, "a joiner killed before the start", now and then under
  * load; here every time: differs by 0.017, not exact from step 2).  Bands
  * and the POIs of that test, where B's halo holds the snapshot's step. */
@@ -764,7 +764,7 @@ static void a_joiner_starts_with_the_owners_partition(void)
 	ndo_peer_stats st, sb;
 	int done = finish(w, &su, &d, &st);
 	ndo_peer_stats_get(w->p[b], &sb);
-	printf("    B announced a partition the owner replaced: differs by %.3g; owner: not exact from "
+	printf("    B came after a dead joiner, C after its drop: differs by %.3g; owner: not exact from "
 	       "step %lld; B: %lld repartitions\n", d, (long long)st.inexact_at,
 	       (long long)sb.repartitions);
 	CHECK(done && d == 0 && st.inexact_at < 0 && sb.repartitions == 0,
