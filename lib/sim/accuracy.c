@@ -315,18 +315,22 @@ void ndo_acc_sample_reset(ndo_acc *a)
 	a->umax = 0;
 }
 
-void ndo_acc_sample(ndo_acc *a, const ndo_sim *s)
+/* The largest displacement of s's nodes, m; buf: 3 × its level's nodes. */
+static double largest(const ndo_acc *a, const ndo_sim *s, double *buf)
 {
-	int level = ndo_sim_level(s);
-	if (!a->lv[level].rest)
-		return;
-	ndo_acc_displacement(a, s, a->scratch);
+	ndo_acc_displacement(a, s, buf);
 	double m = 0;
-	for (size_t p = 0; p < nodes_of(level); p++) {
-		const double *u = a->scratch + 3 * p;
+	for (size_t p = 0; p < nodes_of(ndo_sim_level(s)); p++) {
+		const double *u = buf + 3 * p;
 		m = fmax(m, u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
 	}
-	a->umax = fmax(a->umax, sqrt(m));
+	return sqrt(m);
+}
+
+void ndo_acc_sample(ndo_acc *a, const ndo_sim *s)
+{
+	if (a->lv[ndo_sim_level(s)].rest)
+		a->umax = fmax(a->umax, largest(a, s, a->scratch));
 }
 
 double ndo_acc_sampled(const ndo_acc *a)
@@ -346,21 +350,19 @@ int ndo_acc_run(ndo_acc *a, const ndo_acc_config *c, ndo_acc_result *r)
 		ndo_sim_destroy(s);
 		return ndo__fail(NDO_ENOMEM, "out of memory");
 	}
+	/* sampled into r->u (its final value comes last): two runs may go
+	 * side by side (ndo_acc_estimate_run) */
 	int64_t every = c->steps / 64 > 1 ? c->steps / 64 : 1;
-	double saved = a->umax;
-	a->umax = 0;
-	double t0 = cpu_now();
+	double umax = 0, t0 = cpu_now();
 	for (int64_t k = 1; k <= c->steps && rc == NDO_OK; k++) {
 		rc = ndo_sim_step(s, c->h);
 		if (rc == NDO_OK && k % every == 0)
-			ndo_acc_sample(a, s);
+			umax = fmax(umax, largest(a, s, r->u));
 	}
 	if (rc == NDO_OK)
 		rc = ndo_sim_check(s);
 	r->cpu = cpu_now() - t0;
-	ndo_acc_sample(a, s);
-	r->umax = a->umax;
-	a->umax = saved;
+	r->umax = fmax(umax, largest(a, s, r->u));
 	ndo_sim_stats st;
 	ndo_sim_stats_get(s, &st);
 	r->node_evals = (double)st.evaluations * (double)ndo_vertex_count(c->level);
@@ -433,7 +435,7 @@ static double level_difference(int fine, const double *uf, const double *uc)
  * vibration at level 6 the estimate was 3.1-3.3 times the truth, against
  * 0.88-1.03 times from the shared nodes (docs/bench/accuracy.md).
  *   tf (3 × level m − 1's nodes, or NULL): the time error's field there
- * (time_coarse); with it, the two errors together, node by node: the
+ * (coarse_finish); with it, the two errors together, node by node: the
  * space error u − u* = −(u − uc) / (r − 1) plus the time error, the
  * largest node's — where the two point in opposite directions they
  * cancel, as the true errors do, and their sum (time_m + space_m) is only
@@ -573,44 +575,67 @@ static int time_window(ndo_acc *a, const ndo_acc_config *c, ndo_acc_estimate *e,
 	return rc;
 }
 
+typedef struct coarse_job {
+	ndo_acc *a;
+	ndo_acc_config c2;  /* level m−1 at twice the step, or half of it */
+	int twice;
+	double factor;
+	ndo_acc_result r2;
+	int rc;
+	char detail[256];   /* the run's error, from its thread */
+} coarse_job;
+
 /* The time error over the whole run, by Richardson one level coarser:
  * level m−1 at twice the step against r1, its run at the step (half the
  * step when twice is beyond that level's critical step): what the motion
- * every level carries accumulates (a phase error grows with time).
- * field (3 × level m−1's nodes, or NULL): the error itself, r1 − u*, node
- * by node. */
-static int time_coarse(ndo_acc *a, const ndo_acc_config *c, const ndo_acc_result *r1,
-                       ndo_acc_estimate *e, double *h2, double *out, double *field)
+ * every level carries accumulates (a phase error grows with time).  Made
+ * in three parts, so that its run can go beside r1's: coarse_plan (the
+ * configuration), coarse_run, coarse_finish (against r1). */
+static void coarse_plan(ndo_acc *a, const ndo_acc_config *c, coarse_job *j)
 {
 	double p = richardson_order(c->method);
-	double T = c->h * (double)c->steps, factor;
-	ndo_acc_config c2 = *c;
-	c2.level = c->level - 1;
-	int twice = c->steps >= 2;
-	if (twice) {
-		c2.steps = (c->steps + 1) / 2;
-		c2.h = T / (double)c2.steps;
+	double T = c->h * (double)c->steps;
+	*j = (coarse_job){.a = a, .c2 = *c};
+	j->c2.level = c->level - 1;
+	j->twice = c->steps >= 2;
+	if (j->twice) {
+		j->c2.steps = (c->steps + 1) / 2;
+		j->c2.h = T / (double)j->c2.steps;
 		if (!ndo_method_is_implicit(c->method))
-			twice = c2.h <= SAFETY * critical_at(a, c2.level, c->method);
+			j->twice = j->c2.h <= SAFETY * critical_at(a, j->c2.level, c->method);
 	}
-	if (twice) {
-		factor = 1 / (pow(c2.h / c->h, p) - 1);
+	if (j->twice) {
+		j->factor = 1 / (pow(j->c2.h / c->h, p) - 1);
 	} else {
-		c2.steps = 2 * c->steps;
-		c2.h = T / (double)c2.steps;
-		factor = 1 / (1 - pow(0.5, p));
+		j->c2.steps = 2 * c->steps;
+		j->c2.h = T / (double)j->c2.steps;
+		j->factor = 1 / (1 - pow(0.5, p));
 	}
-	*h2 = c2.h;
-	ndo_acc_result r2;
-	int rc = ndo_acc_run(a, &c2, &r2);
-	if (rc)
-		return rc;
-	add_cost(e, &r2);
-	*out = factor * ndo_acc_distance(c2.level, r2.u, r1->u);
+}
+
+static void *coarse_run(void *arg)
+{
+	coarse_job *j = arg;
+	j->rc = ndo_acc_run(j->a, &j->c2, &j->r2);
+	if (j->rc)
+		snprintf(j->detail, sizeof j->detail, "%s", ndo_errdetail());
+	return NULL;
+}
+
+/* field (3 × level m−1's nodes, or NULL): the error itself, r1 − u*, node
+ * by node.  The run's error (in this thread) when it failed. */
+static int coarse_finish(coarse_job *j, const ndo_acc_result *r1, ndo_acc_estimate *e,
+                         double *h2, double *out, double *field)
+{
+	*h2 = j->c2.h;
+	if (j->rc)
+		return ndo__fail(j->rc, "%s", j->detail);
+	add_cost(e, &j->r2);
+	*out = j->factor * ndo_acc_distance(j->c2.level, j->r2.u, r1->u);
 	/* u(h) − u* = (u(2h) − u(h)) / (2^p − 1), or (u(h) − u(h/2)) / (1 − 2^−p) */
-	for (size_t q = 0; field && q < 3 * nodes_of(c2.level); q++)
-		field[q] = factor * (twice ? r2.u[q] - r1->u[q] : r1->u[q] - r2.u[q]);
-	ndo_acc_result_free(&r2);
+	for (size_t q = 0; field && q < 3 * nodes_of(j->c2.level); q++)
+		field[q] = j->factor * (j->twice ? j->r2.u[q] - r1->u[q] : r1->u[q] - j->r2.u[q]);
+	ndo_acc_result_free(&j->r2);
 	return NDO_OK;
 }
 
@@ -642,21 +667,33 @@ static void *window_run(void *arg)
 	return NULL;
 }
 
-/* Whether the window may run beside the coarse companions: threads for
- * it, and the memory for both at once (a simulation of the run's size and
- * the window's three fields; one of the level below and its fields). */
-static int window_beside(ndo_acc *a, const ndo_acc_config *c)
+/* Whether two parts of the estimate may run side by side: threads for
+ * them, and `bytes` for both at once beside the run's own simulation
+ * (what is free now, and ndo_acc_set_max_memory's limit). */
+static int beside_fits(ndo_acc *a, const ndo_acc_config *c, size_t bytes)
 {
-	if (a->threads < 2 || c->level < 1 || ensure_level(a, c->level) ||
-	    ensure_level(a, c->level - 1))
-		return 0;
 	ndo_sim_params prm = a->sc->sim;
 	prm.method = c->method;
-	size_t run = ndo_sim_memory(c->level, &prm),
-	       need = run + 3 * 3 * nodes_of(c->level) * sizeof(double) +
-	              ndo_sim_memory(c->level - 1, &prm) +
-	              3 * 3 * nodes_of(c->level - 1) * sizeof(double);
-	return need <= ndo_memory_available() && !(a->max_memory && run + need > a->max_memory);
+	size_t run = ndo_sim_memory(c->level, &prm);
+	return a->threads >= 2 && bytes <= ndo_memory_available() &&
+	       !(a->max_memory && run + bytes > a->max_memory);
+}
+
+/* A simulation at `level` and three fields of its size (a companion). */
+static size_t companion_bytes(ndo_acc *a, const ndo_acc_config *c, int level)
+{
+	ndo_sim_params prm = a->sc->sim;
+	prm.method = c->method;
+	return ndo_sim_memory(level, &prm) + 3 * 3 * nodes_of(level) * sizeof(double);
+}
+
+/* The window beside the companions one level coarser (the levels
+ * restricted first: the threads then only read them). */
+static int window_beside(ndo_acc *a, const ndo_acc_config *c)
+{
+	return c->level >= 1 && !ensure_level(a, c->level) && !ensure_level(a, c->level - 1) &&
+	       beside_fits(a, c, companion_bytes(a, c, c->level) +
+	                             companion_bytes(a, c, c->level - 1));
 }
 
 /* The window's part of the estimate into e (as if it had run first). */
@@ -699,27 +736,47 @@ int ndo_acc_estimate_run(ndo_acc *a, const ndo_acc_config *c, const double *u, d
 		if (rc == NDO_ENOMEM)
 			return ndo__fail(rc, "%s", wj.e.why);
 	}
+	/* Time over the run, one level coarser (not rkf45): without the
+	 * window (symplectic Euler) its run goes beside the space companion's
+	 * where it may, else after it. */
+	coarse_job cj;
+	pthread_t th2;
+	int coarse = !rkf && m >= 1, cbeside = 0;
+	if (coarse) {
+		coarse_plan(a, c, &cj);
+		cbeside = !beside && !ensure_level(a, m - 1) &&
+		          beside_fits(a, c, 2 * companion_bytes(a, c, m - 1)) &&
+		          pthread_create(&th2, NULL, coarse_run, &cj) == 0;
+	}
 	/* Space: level m−1 at the run's step (stable: the critical step about
-	 * doubles per level coarser), D_m = (r − 1) e_m; time over the run. */
+	 * doubles per level coarser), D_m = (r − 1) e_m. */
 	ndo_acc_result r1 = {0};
 	ndo_acc_config c1 = *c;
 	c1.level = m - 1;
 	double *tfield = NULL;
+	int rc1 = NDO_OK;
 	if (m < 1) {
 		snprintf(e->why + strlen(e->why), sizeof e->why - strlen(e->why),
 		         "%slevel 0 has no coarser level", *e->why ? "; " : "");
-	} else if ((rc = ndo_acc_run(a, &c1, &r1))) {
+	} else if ((rc = rc1 = ndo_acc_run(a, &c1, &r1))) {
 		why(e, "space:", m - 1);
 	} else {
 		add_cost(e, &r1);
 		e->rate = RATE;
 		e->space_m = shared_difference(m, u, r1.u, NULL) / (RATE - 1);
+	}
+	if (cbeside)
+		pthread_join(th2, NULL);
+	if (coarse && rc1 == NDO_OK) {
+		if (!cbeside)
+			coarse_run(&cj);
 		/* the time error's field, for the total (below); without the
 		 * memory, the total is the two errors' sum */
-		tfield = rkf ? NULL : malloc(3 * nodes_of(m - 1) * sizeof *tfield);
-		rc = rkf ? NDO_OK : time_coarse(a, c, &r1, e, &h2, &tc, tfield);
-		if (rc)
+		tfield = malloc(3 * nodes_of(m - 1) * sizeof *tfield);
+		if ((rc = coarse_finish(&cj, &r1, e, &h2, &tc, tfield)))
 			why(e, "time: coarse", m - 1);
+	} else if (cbeside) {
+		ndo_acc_result_free(&cj.r2); /* no space companion to compare it with */
 	}
 	if (beside) {
 		pthread_join(th, NULL);

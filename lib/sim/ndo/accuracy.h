@@ -92,8 +92,10 @@ void ndo_acc_set_critical(ndo_acc *a, int level, double omega_max, double gamma)
 void ndo_acc_set_max_memory(ndo_acc *a, size_t bytes);
 /* The threads the estimate may use (1, the default, or more): with two or
  * more, ndo_acc_estimate_run runs its time window (at the run's level)
- * on a thread of its own beside the companions one level coarser, when
- * both fit in the memory at once; the same estimate either way. */
+ * on a thread of its own beside the companions one level coarser, or,
+ * without a window (symplectic Euler), those two companions side by side,
+ * when both parts fit in the memory at once; the same estimate either
+ * way. */
 void ndo_acc_set_threads(ndo_acc *a, int threads);
 
 /* One configuration: level (≤ the input's), method, step h and steps
