@@ -196,7 +196,6 @@ static inline void update_rows(const job *J, size_t a, size_t e, double s[6], co
 	const double *i1 = J->i1, *i2 = J->i2;
 	double *o1 = J->o1, *o2 = J->o2;
 	const ndo__v4 A0 = {a0, a1, a2, a0}, A1 = {a1, a2, a0, a1}, A2 = {a2, a0, a1, a2};
-	const ndo__v4i M0 = {0, 0, 0, 1}, M1 = {1, 1, 2, 2}, M2 = {2, 3, 3, 3};
 	ndo__v4 s0 = {0, 0, 0, 0}, s1 = s0, s2 = s0, t0 = s0, t1 = s0, t2 = s0;
 	size_t r = a;
 	for (; r + 4 <= e; r += 4) {
@@ -210,10 +209,11 @@ static inline void update_rows(const job *J, size_t a, size_t e, double s[6], co
 		V4_ST(rr, r0), V4_ST(rr + 4, r1), V4_ST(rr + 8, r2);
 		s0 += r0 * r0, s1 += r1 * r1, s2 += r2 * r2;
 		if (dv) {
-			const ndo__v4 d = V4_LD(dv + r);
-			t0 += r0 * (__builtin_shuffle(d, M0) * r0);
-			t1 += r1 * (__builtin_shuffle(d, M1) * r1);
-			t2 += r2 * (__builtin_shuffle(d, M2) * r2);
+			const double d0 = dv[r], d1 = dv[r + 1], d2 = dv[r + 2], d3 = dv[r + 3];
+			const ndo__v4 D0 = {d0, d0, d0, d1}, D1 = {d1, d1, d2, d2}, D2 = {d2, d3, d3, d3};
+			t0 += r0 * (D0 * r0);
+			t1 += r1 * (D1 * r1);
+			t2 += r2 * (D2 * r2);
 		}
 	}
 	/* each column's lanes: 0 in s0[0], s0[3], s1[2], s2[1]; 1 in s0[1],
