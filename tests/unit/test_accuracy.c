@@ -223,10 +223,11 @@ static void total_adds_the_fields(void)
 	unmake(&f);
 }
 
-/* With two threads the window runs beside the coarse companions
+/* With two threads the estimate's parts run side by side
  * (ndo_acc_set_threads): the same estimate, number for number, as one
- * after the other — rk4 (the window's bound), rkf45 (its growth carried to
- * the end) and symplectic Euler (no window). */
+ * after the other — rk4 (the window beside the coarse companions), rkf45
+ * (its window's growth carried to the end) and symplectic Euler (no
+ * window: its two coarse companions beside each other). */
 static void the_window_beside_is_the_same_estimate(void)
 {
 	fixture f;
