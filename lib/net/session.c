@@ -58,6 +58,11 @@ struct ndo_session {
 	double grace; /* the owner's or a member's silence tolerated, at least (0: none) */
 	int hb_count, full_pending;
 	int32_t poi_acked; /* the POI the owner's last partition shows for us */
+	/* succession (ndo_session_set_succession): on, and the owners that
+	 * fell silent and the peers that left (never followed) */
+	int succession;
+	int32_t lost[NDO_MAX_PEERS];
+	int nlost;
 	ndo_event ev[NEV];
 	int evhead, evcount;
 	ndo_msg force;
@@ -711,14 +716,111 @@ static int drop_member(ndo_session *s, int32_t id, int reason, const char *why)
 	return rc;
 }
 
+/* ---- succession ------------------------------------------------------- */
+static int lost(const ndo_session *s, int32_t id)
+{
+	for (int k = 0; k < s->nlost; k++)
+		if (s->lost[k] == id)
+			return 1;
+	return 0;
+}
+
+static void lose(ndo_session *s, int32_t id)
+{
+	if (!lost(s, id) && s->nlost < NDO_MAX_PEERS)
+		s->lost[s->nlost++] = id;
+}
+
+/* Who owns the session when the owner falls silent: the first simulating
+ * peer of the partition in force other than the owner, the owners lost
+ * before it and the peers this one heard leave — the same peer everywhere
+ * that partition is (not the peer list: a joiner may not have had one
+ * yet when the owner died).  0: none (no succession, no partition, nobody
+ * left). */
+static int32_t successor(ndo_session *s)
+{
+	if (!s->succession || !s->cells)
+		return 0;
+	for (int p = 0; p < s->npeers; p++) {
+		int32_t id = s->peers[p];
+		if (id != s->owner_id && !lost(s, id))
+			return id;
+	}
+	return 0;
+}
+
+/* This peer owns the session now: the owner's partitions (without the
+ * lost owner, restarting from restart_next), description and peer list
+ * at once, and the owner's duties from here on. */
+static int take_over(ndo_session *s)
+{
+	s->o.role = NDO_ROLE_OWNER;
+	s->owner_id = s->self;
+	s->full_pending = 1;
+	for (int i = 0; i < s->nm; i++) /* a lost successor is not a member any more */
+		if (lost(s, s->m[i].id))
+			s->m[i--] = s->m[--s->nm];
+	/* every simulating peer of the partition is one (its point of
+	 * interest as the partition gives it), whether or not a peer list
+	 * said so: one that is gone too is dropped after the timeout */
+	for (int p = 0; p < s->npeers; p++) {
+		int32_t id = s->peers[p];
+		member *m = id == s->self || lost(s, id) ? NULL : find_member(s, id);
+		if (m)
+			m->poi = s->pois[p];
+		else if (id != s->self && !lost(s, id))
+			add_member(s, id, s->pois[p]);
+	}
+	int rc = repartition(s);
+	if (!rc)
+		rc = publish_description(s);
+	if (!rc)
+		rc = publish_partition(s);
+	if (!rc)
+		rc = publish_peers(s);
+	return rc;
+}
+
+/* The owner is lost (`how`): `next` (successor()) owns the session. */
+static int succeed(ndo_session *s, int32_t next, const char *how)
+{
+	char why[200];
+	int32_t gone = s->owner_id;
+	lose(s, gone);
+	snprintf(why, sizeof why, "the owner (peer %d) %s: peer %d owns the session now%s", gone,
+	         how, next, next == s->self ? " (this one)" : "");
+	ndo_net_forget(s->net, gone);
+	s->owner_id = next;
+	s->owner_heard = s->now;
+	event(s, NDO_EV_OWNER, next, 0, why);
+	return next == s->self ? take_over(s) : 0;
+}
+
+/* A message of the owner's kind from `from`, not the owner, for a newer
+ * partition than the one in force (`epoch`): the successor, which took
+ * the owner for dead before this peer did, is followed at once; anyone
+ * else is counted (an authority drop).  1: follow it now; 0: dropped;
+ * negative: a status. */
+static int successor_speaks(ndo_session *s, int32_t from, int32_t epoch)
+{
+	if (s->o.role != NDO_ROLE_OWNER && epoch > s->epoch && from == successor(s)) {
+		int rc = succeed(s, from, "is silent to its successor");
+		return rc ? rc : 1;
+	}
+	count_authority(s);
+	return 0;
+}
+
 /* ---- receiving --------------------------------------------------------- */
 static int on_description(ndo_session *s, const ndo_msg_description_t *d)
 {
 	if (s->o.role == NDO_ROLE_OWNER)
 		return 0;
 	if (s->described) {
-		if (d->hdr.sender_id != s->owner_id)
-			count_authority(s);
+		if (d->hdr.sender_id != s->owner_id) {
+			int rc = successor_speaks(s, d->hdr.sender_id, d->epoch);
+			return rc < 0 ? rc : 0;
+		}
 		return 0;
 	}
 	if (s->o.object_id && d->hdr.object_id != s->o.object_id)
@@ -792,9 +894,22 @@ static int on_description(ndo_session *s, const ndo_msg_description_t *d)
 
 static int on_partition(ndo_session *s, const ndo_msg_partition_t *p)
 {
-	if (p->hdr.sender_id != s->owner_id) {
-		count_authority(s);
+	int32_t from = p->hdr.sender_id;
+	if (from != s->owner_id && s->o.role == NDO_ROLE_OWNER && s->succession &&
+	    p->epoch > s->epoch && simulates(s, from)) {
+		/* a successor: the others took this owner for dead (it was
+		 * silent for the timeout) and went on without it */
+		char why[200];
+		snprintf(why, sizeof why, "peer %d owns the session now: the others took this owner "
+		         "for lost (silent for longer than the timeout)", from);
+		s->ended = 1;
+		event(s, NDO_EV_ENDED, from, NDO_LEAVE_TIMEOUT, why);
 		return 0;
+	}
+	if (from != s->owner_id) {
+		int rc = successor_speaks(s, from, p->epoch);
+		if (rc <= 0)
+			return rc;
 	}
 	if (s->o.role == NDO_ROLE_OWNER || !s->described || p->epoch <= s->epoch)
 		return 0; /* old news (it is re-sent every heartbeat) */
@@ -811,7 +926,8 @@ static int on_partition(ndo_session *s, const ndo_msg_partition_t *p)
 static void on_peers(ndo_session *s, const ndo_msg_peers_t *p)
 {
 	if (p->hdr.sender_id != s->owner_id) {
-		count_authority(s);
+		if (p->hdr.sender_id != successor(s)) /* (followed with its partition) */
+			count_authority(s);
 		return;
 	}
 	if (s->o.role == NDO_ROLE_OWNER)
@@ -821,14 +937,20 @@ static void on_peers(ndo_session *s, const ndo_msg_peers_t *p)
 		for (int k = 0; k < p->npeers; k++)
 			there |= p->peers[k] == s->m[i].id;
 		if (!there) {
+			lose(s, s->m[i].id);
 			event(s, NDO_EV_LEFT, s->m[i].id, NDO_LEAVE_QUIT, NULL);
 			ndo_net_forget(s->net, s->m[i].id);
 			s->m[i--] = s->m[--s->nm];
 		}
 	}
 	for (int k = 0; k < p->npeers; k++)
-		if (p->peers[k] != s->self && p->peers[k] != s->owner_id && !find_member(s, p->peers[k]))
-			add_member(s, p->peers[k], p->pois[k]);
+		if (p->peers[k] != s->self && p->peers[k] != s->owner_id) {
+			member *m = find_member(s, p->peers[k]);
+			if (m) /* its POI as the owner knows it now (the partitions of a successor) */
+				m->poi = p->pois[k];
+			else
+				add_member(s, p->peers[k], p->pois[k]);
+		}
 }
 
 static int on_leave(ndo_session *s, const ndo_msg_leave_t *l)
@@ -859,6 +981,7 @@ static int on_leave(ndo_session *s, const ndo_msg_leave_t *l)
 		count_authority(s);
 		return 0;
 	}
+	lose(s, l->peer); /* never the owner's successor */
 	member *m = find_member(s, l->peer);
 	if (m) {
 		*m = s->m[--s->nm];
@@ -1095,6 +1218,11 @@ int ndo_session_update(ndo_session *s, double now)
 		}
 		if (s->described && now - s->owner_heard > fmax(s->o.timeout, s->grace)) {
 			char why[96];
+			int32_t next = successor(s);
+			if (next) {
+				snprintf(why, sizeof why, "timed out (silent for %.1f s)", now - s->owner_heard);
+				return succeed(s, next, why);
+			}
 			snprintf(why, sizeof why, "the owner timed out (silent for %.1f s)",
 			         now - s->owner_heard);
 			s->ended = 1;
@@ -1450,6 +1578,7 @@ void ndo_session_destroy(ndo_session *s, const char *message)
 }
 
 void ndo_session_set_exact_step(ndo_session *s, int64_t step) { s->exact_step = step; }
+void ndo_session_set_succession(ndo_session *s, int on) { s->succession = on != 0; }
 void ndo_session_set_grace(ndo_session *s, double seconds) { s->grace = seconds; }
 
 int ndo_session_silent(const ndo_session *s)

@@ -219,9 +219,31 @@ static epoch_map *find_epoch(ndo_watch *w, int32_t epoch)
 	return NULL;
 }
 
+/* A partition newer than every one held from a peer that simulates in
+ * the newest: the owner's successor (ndo/session.h, succession), which
+ * owns the session once the owner fell silent. */
+static int successor(const ndo_watch *w, const ndo_msg_partition_t *p)
+{
+	const epoch_map *newest = NULL;
+	for (int k = 0; k < EPOCHS; k++)
+		if (w->maps[k].epoch >= 0 && (!newest || w->maps[k].epoch > newest->epoch))
+			newest = &w->maps[k];
+	if (!newest || p->epoch <= newest->epoch)
+		return 0;
+	for (size_t k = 0; k < w->count; k++)
+		if (newest->owner[k] == p->hdr.sender_id)
+			return 1;
+	return 0;
+}
+
 static int on_partition(ndo_watch *w, const ndo_msg_partition_t *p)
 {
-	if (p->hdr.sender_id != w->owner_id || find_epoch(w, p->epoch))
+	if (p->hdr.sender_id != w->owner_id) {
+		if (!successor(w, p))
+			return 0;
+		w->owner_id = p->hdr.sender_id;
+	}
+	if (find_epoch(w, p->epoch))
 		return 0;
 	epoch_map *m = &w->maps[0]; /* replace the oldest */
 	for (int k = 1; k < EPOCHS; k++)

@@ -93,7 +93,10 @@ typedef enum ndo_event_type {
 	NDO_EV_JOINED,      /* peer `peer` joined */
 	NDO_EV_LEFT,        /* peer `peer` left (reason: NDO_LEAVE_*) */
 	NDO_EV_FORCE,       /* forces from a peer: force.faces/forces */
-	NDO_EV_ENDED        /* the session is over (owner quit, timed out, ...) */
+	NDO_EV_ENDED,       /* the session is over (owner quit, timed out, ...) */
+	NDO_EV_OWNER        /* the owner fell silent: peer `peer` owns the session
+	                       now (ndo_session_set_succession; this one when
+	                       `peer` is ndo_session_self) */
 } ndo_event_type;
 
 typedef struct ndo_event {
@@ -168,6 +171,16 @@ void ndo_session_set_exact_step(ndo_session *s, int64_t step);
  * the start (an owner, or a joiner still taking in the object on a loaded
  * machine) does not end the session or lose its place. */
 void ndo_session_set_grace(ndo_session *s, double seconds);
+/* Succession (exact lock-step with checkpoints, docs/peers.md "The
+ * owner's death"): when the owner falls silent for the timeout, the first
+ * simulating peer of the partition in force after it that this peer still
+ * counts (itself, or a member) owns the session: a joiner or observer
+ * follows it (NDO_EV_OWNER), the successor itself becomes the owner —
+ * partitions without the silent owner, restarting from the step
+ * ndo_session_set_restart names — and an owner that hears a newer
+ * partition of its object from another peer gives way (NDO_EV_ENDED).
+ * Without it (the default) the owner's silence ends the session. */
+void ndo_session_set_succession(ndo_session *s, int on);
 /* Owner: the members silent for longer than the timeout, grace or not. */
 int ndo_session_silent(const ndo_session *s);
 
