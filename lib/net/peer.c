@@ -872,10 +872,13 @@ static int ck_ready(ndo_peer *p)
 }
 
 /* The owner: its next partitions restart from the newest step it holds
- * whole (from its announcement of the first: the run's first step). */
+ * whole (from its announcement of the first: the run's first step).  A
+ * joiner keeps every simulating peer's checkpoints too, and names the
+ * step the same way: the partitions it makes if it succeeds the owner
+ * (ndo_session_set_succession). */
 static void ck_whole(ndo_peer *p)
 {
-	if (p->owner && p->ck && p->announced && restartable(p))
+	if (p->ck && p->announced && restartable(p))
 		ndo_session_set_restart(p->s, ndo__ck_whole(p->ck));
 }
 
@@ -885,6 +888,8 @@ static void ck_take(ndo_peer *p, size_t n, const int32_t *nodes)
 	ndo_sim_get_nodes(p->sim, n, nodes, NULL, p->xs, p->vs);
 	ndo__ck_put(p->ck, p->cur, p->tcur, ndo_sim_rkf45_substep(p->sim), n, nodes, p->xs, p->vs);
 }
+
+static int npeers(const ndo_peer *p);
 
 /* A checkpoint step: the region's state kept, and sent to the owner. */
 static int checkpoint(ndo_peer *p)
@@ -898,7 +903,9 @@ static int checkpoint(ndo_peer *p)
 		ck_whole(p);
 		p->ck_last = p->cur;
 		p->ck_ask = (backoff){0, 0};
-		return 0;
+		if (npeers(p) < 2)
+			return 0;
+		/* its own part goes out too: a successor restarts from it */
 	}
 	return ndo__ck_send(p->ck, p->s, p->cur, p->nownc, p->ownc, &p->st.checkpoint_bytes);
 }
@@ -910,14 +917,16 @@ static int ck_resend(ndo_peer *p)
 	return ndo__ck_send(p->ck, p->s, p->ck_at, p->ncanon, p->canons, &p->st.checkpoint_bytes);
 }
 
-/* A checkpoint message: the owner keeps every member's, a joiner the
+/* A checkpoint message: every simulating peer keeps every member's (the
+ * owner to restart from; a joiner to restart from if it succeeds the
+ * owner, and its region's part of a restart step), and a joiner the
  * owner's re-sends; messages of an older partition are not used (their
  * steps after its restart step may have been computed with older values). */
 static void on_checkpoint(ndo_peer *p, const ndo_msg_halo_t *h)
 {
 	int32_t from = h->hdr.sender_id;
-	if (h->epoch < ndo_session_epoch(p->s) ||
-	    (p->owner ? !member(p, from) : from != ndo_session_owner_id(p->s) || !p->sim)) {
+	int from_owner = !p->owner && from == ndo_session_owner_id(p->s);
+	if (h->epoch < ndo_session_epoch(p->s) || !p->sim || !(from_owner || member(p, from))) {
 		p->st.stale++;
 		return;
 	}
@@ -925,7 +934,7 @@ static void on_checkpoint(ndo_peer *p, const ndo_msg_halo_t *h)
 		p->failed = NDO_ENOMEM;
 		return;
 	}
-	if (!p->owner && h->nruns == 0 && !h->confirmed) {
+	if (from_owner && h->nruns == 0 && !h->confirmed) {
 		/* the owner lacks part of checkpoint h->step (a message lost):
 		 * this peer's part again, if it holds it (ck_ask) */
 		if (h->epoch != ndo_session_epoch(p->s) || p->now < p->ck_answer.at)
@@ -1500,10 +1509,13 @@ static int announce(ndo_peer *p)
 	g->step = p->cur;
 	g->time = p->tcur;
 	p->announced = 1;
-	if (p->owner && restartable(p) && !ck_ready(p)) {
-		/* the run's first step, held whole by the owner's simulation: a
-		 * partition made from here on (a peer dropped before the start,
-		 * while others may have begun) restarts every peer from it */
+	if ((p->owner || (p->cur == p->first && p->fill_step <= p->first &&
+	                  p->max_seen <= p->first)) && restartable(p) && !ck_ready(p)) {
+		/* the run's first step, held whole by the owner's simulation (and
+		 * a joiner's that starts there, from the snapshot): a partition
+		 * made from here on (a peer dropped before the start, while
+		 * others may have begun; a joiner's if it succeeds the owner)
+		 * restarts every peer from it */
 		ck_take(p, p->ncanon, p->canons);
 		ck_whole(p);
 	}
@@ -1540,6 +1552,10 @@ static void go(ndo_peer *p)
 {
 	p->started = 1;
 	ndo_session_set_grace(p->s, 0);
+	/* the owner's death costs a restart, not the session, where every
+	 * simulating peer keeps the checkpoints (ndo_session_set_succession;
+	 * ndo_peer_update keeps it for runs under way) */
+	ndo_session_set_succession(p->s, restartable(p));
 	p->st.start_time = p->now;
 	p->wall0 = p->now;
 	p->sched0 = p->cur;
@@ -2111,6 +2127,15 @@ static int on_partition(ndo_peer *p)
 	int np = npeers(p);
 	int64_t R = ndo_session_restart(p->s);
 	int restart = R >= 0 && p->simulating && restartable(p);
+	if (R >= 0 && !p->simulating && restartable(p)) {
+		/* an observer: every simulating peer goes back to R, a step
+		 * computed exactly, so a taint it heard of is undone (before
+		 * 2026-11-29 an observer of a kill said "NOT exact" of an exact
+		 * run) */
+		p->inexact = 0;
+		p->inexact_at = -1;
+		p->inexact_from = 0;
+	}
 	if (p->announced && !was && p->simulating && !p->owner && restart) {
 		note(p, "simulating from step %lld: %zu of %zu nodes (partition %d, %d peers)",
 		     (long long)R, p->nowned, p->ncanon, ndo_session_epoch(p->s), np);
@@ -2174,6 +2199,17 @@ static int events(ndo_peer *p)
 		case NDO_EV_LEFT:
 			note(p, "peer %d left%s%s", e.peer, *e.message ? ": " : "", e.message);
 			break;
+		case NDO_EV_OWNER:
+			/* the owner fell silent (the session's succession): this peer
+			 * owns the session if it is the successor; the partition that
+			 * restarts every peer without the lost owner comes next */
+			note(p, "%s", e.message);
+			if (e.peer == ndo_session_self(p->s)) {
+				p->owner = 1;
+				p->ck_last = -1;
+				p->st.took_over = 1;
+			}
+			break;
 		case NDO_EV_ENDED:
 			p->ended = 1;
 			snprintf(p->message, sizeof p->message, "%s", e.message);
@@ -2202,6 +2238,9 @@ int ndo_peer_update(ndo_peer *p, double now)
 		return ndo__fail(p->failed, "out of memory");
 	if ((rc = events(p)))
 		return rc;
+	if (p->started) /* the owner's death restarts a run under way; after it, it ends it */
+		ndo_session_set_succession(p->s, restartable(p) &&
+		                                     (p->simulating ? p->cur : p->max_seen) < p->final);
 	if (p->ended) {
 		int complete = p->started && (p->simulating ? p->cur >= p->final : p->max_seen >= p->final);
 		if (complete) {

@@ -732,6 +732,120 @@ static void a_peer_waiting_for_its_checkpoint_lives(void)
 	}
 }
 
+/* The owner killed during the run (silent: no leave) costs a restart, not
+ * the session: when it has been silent for the timeout, the first joiner
+ * of its partition owns the session (ndo_session_set_succession), makes a
+ * partition without it that restarts every peer from the newest step it
+ * holds whole (every simulating peer keeps every peer's checkpoints, the
+ * owner's own among them), and gathers the last step: the single
+ * process's result, bit for bit (rk4, rkf45) or to the solve's tolerance
+ * (backward Euler).  `second`: the first successor dies with the owner (4
+ * peers: the next one takes over); `back`: the owner was only stopped, and
+ * comes back once the successor has restarted: it hears the newer
+ * partition and gives way (ends), and the run is still the successor's. */
+static void owner_killed_case(const char *method, double drop, uint64_t seed, int second,
+                              int back)
+{
+	setup su = {.integrator = method, .dt = 0.02, .steps = 300, .clock = NDO_CLOCK_LOCKSTEP,
+	            .peers = second ? 4 : 3, .step_timeout = 0.2,
+	            .extra = strcmp(method, "rkf45") == 0 ? "tol 1e-7\n" : NULL};
+	if (drop > 0)
+		su.faults = (ndo_faults){.drop = drop, .delay_ms = 2, .jitter_ms = 2, .seed = seed};
+	uint64_t r = seed * 6364136223846793005ull + 1442695040888963407ull;
+	int64_t at = 10 + (int64_t)((r >> 33) % 250);
+	world *w = world_new();
+	CHECK(add_owner(w, &su) == 0, "owner");
+	for (int i = 1; i < su.peers; i++)
+		add_joiner(w, &su, POIS[i - 1]);
+	run_to_step(w, at, 30);
+	int64_t was = ndo_peer_step(w->p[0]);
+	/* the successors: the partition's joiners in its order (joiner i is
+	 * peer 10 + i) */
+	int np = 0;
+	const int32_t *ids = NULL;
+	ndo_session_cells(ndo_peer_session(w->p[0]), &np, &ids);
+	int next = np > 1 ? ids[1] - 10 : -1, after = np > 2 ? ids[2] - 10 : -1;
+	ndo_peer *dead = w->p[0], *dead2 = NULL;
+	w->p[0] = NULL;
+	if (second && next > 0) {
+		dead2 = w->p[next];
+		w->p[next] = NULL;
+		next = after;
+	}
+	int heir = -1, done;
+	if (back) { /* until the successor has gone back to its restart step */
+		ndo_peer_stats sh;
+		memset(&sh, 0, sizeof sh);
+		while (sh.restarts == 0 && w->t < 30 && run(w, w->t + TICK) == 1)
+			for (int i = 1; i < w->n; i++)
+				if (w->p[i] && ndo_session_owner_id(ndo_peer_session(w->p[i])) ==
+				                   ndo_session_self(ndo_peer_session(w->p[i])))
+					ndo_peer_stats_get(w->p[i], &sh);
+		w->p[0] = dead;
+		dead = NULL;
+	}
+	done = run(w, 60) == 0;
+	for (int i = 0; i < w->n; i++) {
+		if (!w->p[i])
+			continue;
+		const ndo_session *ps = ndo_peer_session(w->p[i]);
+		if (i > 0 && ndo_session_owner_id(ps) == ndo_session_self(ps))
+			heir = i;
+		if (w->state[i] != (i == 0 ? NDO_PEER_ENDED : NDO_PEER_DONE)) {
+			printf("    peer %d ended in state %d at step %lld: %s\n", i, w->state[i],
+			       (long long)ndo_peer_step(w->p[i]), ndo_peer_message(w->p[i]));
+			done = 0;
+		}
+	}
+	CHECK(heir > 0 && heir == next, "%s, the owner%s killed at step %lld: peer %d owns the "
+	      "session at the end (expected the first live joiner of the partition, %d)", method,
+	      second ? " and its successor" : "", (long long)was, heir, next);
+	if (heir < 0) {
+		ndo_peer_destroy(dead, NULL);
+		ndo_peer_destroy(dead2, NULL);
+		world_free(w);
+		return;
+	}
+	if (back)
+		CHECK(strstr(ndo_peer_message(w->p[0]), "owns the session now") != NULL, "the owner "
+		      "back after its successor took over: '%s' (expected to give way)",
+		      ndo_peer_message(w->p[0]));
+	double *x = solo(&su);
+	double d = difference(ndo_peer_grid(w->p[heir]), x);
+	free(x);
+	ndo_peer_stats st;
+	ndo_peer_stats_get(w->p[heir], &st);
+	ndo_session_cells(ndo_peer_session(w->p[heir]), &np, NULL);
+	double want = restart_tolerance(method);
+	printf("    %s, the owner%s killed at step %lld (%.0f%% loss%s): peer %d took over; differs "
+	       "by %.3g; %d peers at the end; its %lld restarts, %lld steps again, %.1f kB of "
+	       "checkpoints sent\n", method, second ? " and its successor" : "", (long long)was,
+	       100 * drop, back ? ", the owner back after the restart" : "", heir, d, np,
+	       (long long)st.restarts, (long long)st.restart_steps,
+	       (double)st.checkpoint_bytes / 1e3);
+	CHECK(done && st.took_over && np == su.peers - 1 - (second != 0) && st.restarts >= 1,
+	      "%s: done %d, took over %d, %d peers at the end, %lld restarts", method, done,
+	      st.took_over, np, (long long)st.restarts);
+	CHECK(d <= want && st.inexact_at < 0 && st.unsaid == 0, "%s, the owner killed at step "
+	      "%lld, %.0f%% loss (seed %llu): differs by %.3g (expected %s); not exact from step "
+	      "%lld; %d last words missing", method, (long long)was, 100 * drop,
+	      (unsigned long long)seed, d, want > 0 ? "≤ 1e-10" : "0: bit for bit",
+	      (long long)st.inexact_at, st.unsaid);
+	ndo_peer_destroy(dead, NULL);
+	ndo_peer_destroy(dead2, NULL);
+	world_free(w);
+}
+
+static void the_owners_death_costs_a_restart(void)
+{
+	owner_killed_case("rk4", 0, 41, 0, 0);
+	owner_killed_case("rk4", 0.1, 42, 0, 0);
+	owner_killed_case("rk4", 0.1, 43, 1, 0);
+	owner_killed_case("rk4", 0, 44, 0, 1);
+	owner_killed_case("rkf45", 0, 45, 0, 0);
+	owner_killed_case("backward-euler", 0, 46, 0, 0);
+}
+
 /* A joiner that announces a partition of --peers which the owner then
  * replaces before the start (a silent peer in it: the owner drops it
  * instead of announcing) starts with the owner's partition, not its own:
@@ -1189,6 +1303,7 @@ int main(void)
 	RUN(a_peer_waiting_for_its_checkpoint_lives);
 	RUN(a_lost_checkpoint_is_asked_for);
 	RUN(a_joiner_starts_with_the_owners_partition);
+	RUN(the_owners_death_costs_a_restart);
 	RUN(owner_quit_ends_the_others);
 	RUN(strangers_tiles_are_not_used);
 	RUN(a_replayed_log_gives_the_live_frames);

@@ -399,8 +399,12 @@ static void wait_for(peer_run *pr)
 
 static const char *role_name(const ndo_peer *p, int role)
 {
+	ndo_peer_stats st;
+	ndo_peer_stats_get(p, &st);
 	if (role == NDO_ROLE_OWNER)
 		return "owner";
+	if (st.took_over)
+		return "successor of the owner";
 	return ndo_peer_simulating(p) ? "peer" : "observer";
 }
 
@@ -662,8 +666,11 @@ int peers_main(run *r)
 			leave(&pr, NDO_EXIT_FAIL, "%s", why);
 		}
 	}
-	if (!r->quiet)
-		summary(&pr, owner ? "run complete" : ndo_peer_message(pr.p));
+	if (!r->quiet) {
+		ndo_peer_stats st;
+		ndo_peer_stats_get(pr.p, &st);
+		summary(&pr, owner || st.took_over ? "run complete" : ndo_peer_message(pr.p));
+	}
 	ndo_peer_destroy(pr.p, NULL);
 	ndo_watch_destroy(pr.watch);
 	ndo_grid_destroy(pr.last);

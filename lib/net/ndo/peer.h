@@ -267,6 +267,9 @@ typedef struct ndo_peer_stats {
 	                           the first */
 	int64_t ungathered;     /* owner: nodes not at the last step when the run
 	                           ended (after gather_timeout) */
+	int took_over;          /* a joiner that succeeded the owner when it fell
+	                           silent (ndo_session_set_succession): the owner
+	                           since */
 	int exact;              /* lock-step with exchanged halos: the single
 	                           process's result (0: the boundary lag) */
 	int64_t inexact_at;     /* exact lock-step: −1 when the state this peer
