@@ -1,0 +1,84 @@
+#!/usr/bin/env bash
+# The owner's death over real LCM in a private network namespace
+# (docs/peers.md, "The owner's death"): the owner and 2 joiners, lock-step
+# rk4, the thesis' scene (figure 5.3) at level 4, the owner killed with
+# SIGKILL at a random moment of the run: the first joiner of its partition
+# succeeds it, restarts the others from a checkpoint and writes its -o, the
+# single process's bit for bit, with and without 10 % loss; an observer
+# follows the successor.  (peers-restart.sh kills joiners.)
+. "$(dirname "$0")/netns.bash"
+. "$(dirname "$0")/lib.sh"
+. "$(dirname "$0")/peers.bash"
+
+SCENE=$NDO_ROOT/samples/thesis-fig5.3.scene
+remesh --shape wavy -l 4 -o wavy4.tgrid 2>/dev/null || fail "remesh"
+RUN=(-s "$SCENE" --dt 0.005 -t 80)
+SOLO=solo.tgrid
+simulate-peer -q wavy4.tgrid "${RUN[@]}" -o $SOLO 2>solo.err || fail "single process"
+
+# a random pause of 0.05..0.4 s after the first step (the run takes 1.1 s
+# or more: the kill falls within it)
+pause() { sleep "$(awk -v r=$RANDOM 'BEGIN{printf "%.2f", 0.05 + 0.35 * r / 32767}')"; }
+
+# owner_killed NAME [options for every peer...]: the owner and 2 joiners
+# (each joiner with its own -o), the owner sent SIGKILL after a pause: the
+# first joiner of its partition owns the session once the owner has been
+# silent for --peer-timeout, restarts every survivor from the newest step it
+# holds whole (every simulating peer keeps every peer's checkpoints), gathers
+# the last step and writes its -o: the single process's bit for bit; the
+# other joiner ends with exit status 0 when the successor quits.  An
+# observer (no --poi) follows the successor too: its -o is the same.
+owner_killed() {
+	local name=$1 owner j1 j2 obs
+	shift
+	rm -f heir1.tgrid heir2.tgrid observed.tgrid owner.err joiner1.err joiner2.err obs.err
+	simulate-peer --owner wavy4.tgrid "${RUN[@]}" --peers 3 --peer-timeout 1 --step-timeout 0.2 \
+		--start-timeout 30 -o peers.tgrid "$@" 2>owner.err &
+	owner=$!
+	simulate-peer --join --poi 300 --peer-timeout 1 --start-timeout 30 -o heir1.tgrid "$@" \
+		2>joiner1.err &
+	j1=$!
+	simulate-peer --join --poi 900 --peer-timeout 1 --start-timeout 30 -o heir2.tgrid "$@" \
+		2>joiner2.err &
+	j2=$!
+	simulate-peer --join --peer-timeout 1 --start-timeout 30 -o observed.tgrid "$@" 2>obs.err &
+	obs=$!
+	if ! wait_for owner.err 'starting: step' 30 >/dev/null; then
+		fail "$name" "the run did not start"
+		kill $owner $j1 $j2 $obs 2>/dev/null
+		wait
+		return
+	fi
+	pause
+	{ kill -KILL $owner && wait $owner; } 2>/dev/null
+	local r1 r2 ro heir= same ostep
+	wait $j1; r1=$?
+	wait $j2; r2=$?
+	wait $obs; ro=$?
+	grep -q 'owns the session now (this one)' joiner1.err && heir=1
+	grep -q 'owns the session now (this one)' joiner2.err && heir=${heir:+both}${heir:-2}
+	local at rel owners step sstep
+	if [ "$heir" = 1 ] || [ "$heir" = 2 ]; then
+		at=$(grep -o 'restarting from step [0-9]*.*again' joiner$heir.err | tail -1)
+		read -r rel owners step sstep < <(compare heir$heir.tgrid "$SOLO")
+		read -r same _ ostep _ < <(compare observed.tgrid heir$heir.tgrid)
+	fi
+	if [ $r1 = 0 ] && [ $r2 = 0 ] && [ "${rel:-}" = 0 ] && [ "$step" = "$sstep" ] &&
+		! grep -q 'NOT exact' joiner$heir.err && [ $ro = 0 ] && [ "${same:-}" = 0 ] &&
+		[ "$ostep" = "$sstep" ]; then
+		pass "$name: joiner $heir took over, ${at:-no restart}; its -o differs from the single process by $rel ($owners owners at the end), the observer's -o from it by $same"
+	else
+		fail "$name" "joiner exits $r1 $r2, observer $ro, successor ${heir:-none}, difference ${rel:-?}, step ${step:-?} of ${sstep:-?}, the observer's -o from the successor's ${same:-?}"
+		tail -4 joiner1.err | sed 's/^/    joiner 1: /'
+		tail -4 joiner2.err | sed 's/^/    joiner 2: /'
+		tail -3 obs.err | sed 's/^/    observer: /'
+	fi
+}
+owner_killed "SIGKILL on the owner"
+# (under loss a lost halo costs a re-send, 10 ms: 16000 steps took 40 s, 4000
+# still take 5 s or more, long enough for the kill to come first)
+RUN=(-s "$SCENE" --dt 0.005 -t 20)
+SOLO=solo20.tgrid
+simulate-peer -q wavy4.tgrid "${RUN[@]}" -o $SOLO 2>>solo.err || fail "single process, 20 s"
+owner_killed "SIGKILL on the owner, 10% loss" --drop 0.1
+
