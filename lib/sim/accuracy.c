@@ -77,6 +77,13 @@ static double cpu_now(void)
 	return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
 }
 
+static double wall_now(void)
+{
+	struct timespec t;
+	clock_gettime(CLOCK_MONOTONIC, &t);
+	return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
 static size_t nodes_of(int level)
 {
 	size_t n = (size_t)1 << level;
@@ -843,6 +850,38 @@ static double against(int q, int top, const double *u, const double *ustar)
 	return d;
 }
 
+/* A level's two measured runs (ndo_acc_choose: symplectic Euler and RK4
+ * at 0.9 × their critical steps) as a job that may run on a thread of its
+ * own beside that level's pilot: they read only the level's restriction,
+ * made before.  A run whose critical step is not known is not made here
+ * (rc NDO_EINVAL: made again, in order, where it is needed). */
+typedef struct measure_job {
+	ndo_acc *a;
+	ndo_acc_config c[2];
+	ndo_acc_result r[2];
+	int rc[2];
+} measure_job;
+
+static void *measure_run(void *arg)
+{
+	measure_job *j = arg;
+	for (int k = 0; k < 2; k++)
+		j->rc[k] = j->c[k].steps > 0 ? ndo_acc_run(j->a, &j->c[k], &j->r[k]) : NDO_EINVAL;
+	return NULL;
+}
+
+/* The measured run of method ms at level q for T s: its configuration. */
+static ndo_acc_config measured_config(ndo_acc *a, int q, ndo_method ms, double T)
+{
+	double hc = critical_at(a, q, ms);
+	ndo_acc_config c = {q, ms, 0, 0, 0};
+	if (hc > 0) {
+		c.steps = steps_for(T, SAFETY * hc);
+		c.h = T / (double)c.steps;
+	}
+	return c;
+}
+
 int ndo_acc_choose(ndo_acc *a, double target, int metres, double T, ndo_acc_choice *ch)
 {
 	memset(ch, 0, sizeof *ch);
@@ -860,7 +899,15 @@ int ndo_acc_choose(ndo_acc *a, double target, int metres, double T, ndo_acc_choi
 	double *pu[L] = {0}, ph[L] = {0}, D[L] = {0}, es[L] = {0};
 	double umax = 0, r = RATE, target_m = 0, *ustar = NULL;
 	int top = p0, qmin = -1;
-	double started = cpu_now();
+	double started = cpu_now(), started_wall = wall_now();
+	const ndo_method ms[2] = {NDO_SYMPLECTIC_EULER, NDO_RK4};
+	/* each level's measured runs, made beside its pilot where two threads
+	 * and the memory allow: the pilots stop at a level only its run
+	 * decides, and the runs at the last one are always wanted (those at
+	 * coarser levels than the candidates' are not: a few per cent more
+	 * CPU, the levels being 4 times smaller each) */
+	measure_job mj[L];
+	memset(mj, 0, sizeof mj);
 	/* ES(q): the space error of a level above the pilots, from D[top]. */
 #define ES(q) (D[top] / (r - 1) * pow(r, (double)(top - (q))))
 	for (int p = p0;; p++) {
@@ -871,8 +918,19 @@ int ndo_acc_choose(ndo_acc *a, double target, int metres, double T, ndo_acc_choi
 		}
 		ndo_acc_config c = {p, NDO_RK4, 0, steps_for(T, PILOT_FRACTION * hc), 0};
 		c.h = T / (double)c.steps;
+		measure_job *j = &mj[p];
+		*j = (measure_job){.a = a, .rc = {NDO_EINVAL, NDO_EINVAL}};
+		for (int k = 0; a->threads >= 2 && k < 2; k++)
+			j->c[k] = measured_config(a, p, ms[k], T);
+		pthread_t th;
+		int beside = a->threads >= 2 && !ensure_level(a, p) &&
+		             beside_fits(a, &c, 2 * companion_bytes(a, &j->c[1], p)) &&
+		             pthread_create(&th, NULL, measure_run, j) == 0;
 		ndo_acc_result res;
-		if ((rc = ndo_acc_run(a, &c, &res)))
+		rc = ndo_acc_run(a, &c, &res);
+		if (beside)
+			pthread_join(th, NULL);
+		if (rc)
 			goto out;
 		pu[p] = res.u, ph[p] = c.h, umax = res.umax, top = p;
 		if (p == p0)
@@ -926,16 +984,17 @@ int ndo_acc_choose(ndo_acc *a, double target, int metres, double T, ndo_acc_choi
 	 * time-error constant C in e = C h^p (against the pilot), and at the
 	 * top its force evaluations per step (the cost is counted by
 	 * ndo_acc_work, not timed: the same choice on any load). */
-	const ndo_method ms[2] = {NDO_SYMPLECTIC_EULER, NDO_RK4};
 	double C[L][2], tot[L][2], evals_per_step[2] = {0, 0};
 	int lo = qmin >= 0 && qmin < top ? qmin : top;
 	for (int q = lo; q <= top; q++)
 		for (int k = 0; k < 2; k++) {
-			double hc = critical_at(a, q, ms[k]);
-			ndo_acc_config c = {q, ms[k], 0, steps_for(T, SAFETY * hc), 0};
-			c.h = T / (double)c.steps;
+			ndo_acc_config c = measured_config(a, q, ms[k], T);
 			ndo_acc_result res;
-			if (!(hc > 0) || (rc = ndo_acc_run(a, &c, &res))) {
+			if (mj[q].rc[k] == NDO_OK) { /* made beside the pilot */
+				res = mj[q].r[k];
+				mj[q].r[k].u = NULL;
+				mj[q].rc[k] = NDO_EINVAL;
+			} else if (!(c.steps > 0) || (rc = ndo_acc_run(a, &c, &res))) {
 				rc = rc ? rc : ndo__fail(NDO_EDIVERGED, "%s: no critical step",
 				                         ndo_method_names[ms[k]]);
 				goto out;
@@ -1012,8 +1071,13 @@ int ndo_acc_choose(ndo_acc *a, double target, int metres, double T, ndo_acc_choi
 out:
 #undef ES
 	ch->pilot_cpu = cpu_now() - started;
-	for (int l = 0; l <= NDO_MAX_LEVEL; l++)
+	ch->pilot_wall = wall_now() - started_wall;
+	for (int l = 0; l <= NDO_MAX_LEVEL; l++) {
 		free(pu[l]);
+		for (int k = 0; k < 2; k++)
+			if (mj[l].rc[k] == NDO_OK)
+				ndo_acc_result_free(&mj[l].r[k]);
+	}
 	free(ustar);
 	return rc;
 }

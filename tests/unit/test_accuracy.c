@@ -369,6 +369,48 @@ static void known_mode_and_memory_limit(void)
  * the same scene choose the same configuration at the same predicted cost;
  * the work grows with the steps and the integrated (unpinned) vertices,
  * and only the two candidates have a model. */
+/* With two threads each level's measured runs go beside its pilot
+ * (ndo_acc_choose): the same choice, number for number, as one after the
+ * other — at a target where the candidates start below the pilots' top
+ * level (runs at several levels taken from the threads) and at one where
+ * only the top's are. */
+static void the_measured_runs_beside_are_the_same_choice(void)
+{
+	const char *sc = "damping 0.1;force face at=0,0,1 radius=0.3 amplitude=1 frequency=1";
+	const double E[2] = {0.05, 0.2};
+	for (int e = 0; e < 2; e++) {
+		fixture f[2];
+		ndo_acc_choice ch[2];
+		for (int t = 0; t < 2; t++) {
+			make(&f[t], 5, sc, bulge);
+			ndo_acc_set_threads(f[t].a, 2 - t);
+			CHECK(ndo_acc_choose(f[t].a, E[e], 0, 1, &ch[t]) == NDO_OK && ch[t].reachable,
+			      "E %g, %d thread(s): %s", E[e], 2 - t, ndo_errdetail());
+		}
+		int same = ch[0].c.level == ch[1].c.level && ch[0].c.method == ch[1].c.method &&
+		           ch[0].c.steps == ch[1].c.steps && ch[0].c.h == ch[1].c.h &&
+		           ch[0].error_m == ch[1].error_m && ch[0].time_m == ch[1].time_m &&
+		           ch[0].space_m == ch[1].space_m && ch[0].node_evals == ch[1].node_evals &&
+		           ch[0].umax == ch[1].umax && ch[0].pilot_top == ch[1].pilot_top;
+		for (int q = 0; q <= NDO_MAX_LEVEL; q++)
+			same &= ch[0].level_m[q] == ch[1].level_m[q] ||
+			        (isinf(ch[0].level_m[q]) && isinf(ch[1].level_m[q]));
+		CHECK(same, "E %g: two threads level %d, %s, %lld steps, error %.17g m (time %.17g, "
+		      "space %.17g), %.17g evaluations; one level %d, %s, %lld steps, error %.17g m "
+		      "(time %.17g, space %.17g), %.17g evaluations", E[e], ch[0].c.level,
+		      ndo_method_names[ch[0].c.method], (long long)ch[0].c.steps, ch[0].error_m,
+		      ch[0].time_m, ch[0].space_m, ch[0].node_evals, ch[1].c.level,
+		      ndo_method_names[ch[1].c.method], (long long)ch[1].c.steps, ch[1].error_m,
+		      ch[1].time_m, ch[1].space_m, ch[1].node_evals);
+		printf("    E %g: level %d, %s (pilots to level %d); choosing %.3f s CPU, %.3f s wall "
+		       "on two threads, %.3f s on one\n", E[e], ch[0].c.level,
+		       ndo_method_names[ch[0].c.method], ch[0].pilot_top, ch[0].pilot_cpu,
+		       ch[0].pilot_wall, ch[1].pilot_wall);
+		unmake(&f[0]);
+		unmake(&f[1]);
+	}
+}
+
 static void cost_is_counted(void)
 {
 	const char *sc = "damping 0.1;force face at=0,0,1 radius=0.3 amplitude=1 frequency=1";
@@ -425,5 +467,6 @@ int main(void)
 	RUN(finer_levels_that_cannot_win_are_not_analysed);
 	RUN(known_mode_and_memory_limit);
 	RUN(cost_is_counted);
+	RUN(the_measured_runs_beside_are_the_same_choice);
 	return ck_failed_cases != 0;
 }

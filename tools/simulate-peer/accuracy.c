@@ -91,11 +91,11 @@ void accuracy_plan(run *r)
 		fprintf(stderr, "%s: --accuracy %g%s = %.3g m (largest displacement %.3g m, predicted): "
 		        "level %d, %s, step %.4g s, %lld steps; predicted error %.3g m (%.3g: time %.3g m, "
 		        "space %.3g m), cost %.3g node-evaluations, about %.3g s CPU; choosing took %.3g "
-		        "s (pilots at levels up to %d)\n",
+		        "s (%.3g s CPU; pilots at levels up to %d)\n",
 		        ndo_progname, r->accuracy, want, ch.target_m, ch.umax, ch.c.level,
 		        ndo_method_names[ch.c.method], ch.c.h, (long long)ch.c.steps, pred,
-		        pred / ch.umax, ch.time_m, ch.space_m, ch.node_evals, ch.cpu, ch.pilot_cpu,
-		        ch.pilot_top);
+		        pred / ch.umax, ch.time_m, ch.space_m, ch.node_evals, ch.cpu, ch.pilot_wall,
+		        ch.pilot_cpu, ch.pilot_top);
 		if (ch.c.level < n)
 			fprintf(stderr, "%s: level %d is subdivided to the input's level %d for the output "
 			        "and the frames\n", ndo_progname, ch.c.level, n);

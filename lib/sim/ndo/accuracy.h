@@ -215,7 +215,11 @@ typedef struct ndo_acc_choice {
 	double cpu;             /* predicted CPU seconds of the run (ndo_acc_work: counted
 	                           work, the same on any load) */
 	double node_evals;      /* predicted force evaluations × vertices */
-	double pilot_cpu;       /* what choosing cost (pilots, critical steps), CPU s */
+	double pilot_cpu;       /* what choosing cost (pilots, critical steps), CPU s
+	                           (every thread's) */
+	double pilot_wall;      /* ... and its wall time, s: with ndo_acc_set_threads
+	                           ≥ 2 each level's two measured runs go beside its
+	                           pilot */
 	int pilot_top;          /* the finest pilot level */
 	int critical_top;       /* the finest level whose critical step was computed:
 	                           finer ones cannot beat the choice even at twice the
