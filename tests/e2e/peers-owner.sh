@@ -16,10 +16,6 @@ RUN=(-s "$SCENE" --dt 0.005 -t 80)
 SOLO=solo.tgrid
 simulate-peer -q wavy4.tgrid "${RUN[@]}" -o $SOLO 2>solo.err || fail "single process"
 
-# a random pause of 0.05..0.4 s after the first step (the run takes 1.1 s
-# or more: the kill falls within it)
-pause() { sleep "$(awk -v r=$RANDOM 'BEGIN{printf "%.2f", 0.05 + 0.35 * r / 32767}')"; }
-
 # owner_killed NAME [options for every peer...]: the owner and 2 joiners
 # (each joiner with its own -o), the owner sent SIGKILL after a pause: the
 # first joiner of its partition owns the session once the owner has been

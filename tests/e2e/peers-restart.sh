@@ -27,10 +27,6 @@ remesh --shape wavy -l 4 -o wavy4.tgrid 2>/dev/null || fail "remesh"
 RUN=(-s "$SCENE" --dt 0.005 -t 80)
 simulate-peer -q wavy4.tgrid "${RUN[@]}" -o solo.tgrid 2>solo.err || fail "single process"
 
-# a random pause of 0.05..0.4 s after the first step (the run takes 1.1 s
-# or more: the event falls within it, and a joiner has time to come)
-pause() { sleep "$(awk -v r=$RANDOM 'BEGIN{printf "%.2f", 0.05 + 0.35 * r / 32767}')"; }
-
 # event NAME KIND EXPECT [options for every peer...]: owner + 2 joiners (for
 # KIND join: 1, the second comes after a pause); KIND kill|leave: after a
 # pause the second joiner is sent SIGKILL|SIGINT.  EXPECT exact (bit for

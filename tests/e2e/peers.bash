@@ -1,7 +1,11 @@
 # tests/e2e/peers.bash — sourced by the scripts that run peers over LCM and
 # compare a multi-peer run with a single process (peers-run.sh,
-# peers-split.sh, peers-realtime.sh, peers-restart.sh) or wait for what a
-# peer says (peers-life.sh).
+# peers-split.sh, peers-realtime.sh, peers-restart.sh, peers-owner.sh) or
+# wait for what a peer says (peers-life.sh).
+
+# pause: a random 0.05..0.4 s (an event at a random moment of a run that
+# takes 1.1 s or more after its first step).
+pause() { sleep "$(awk -v r=$RANDOM 'BEGIN{printf "%.2f", 0.05 + 0.35 * r / 32767}')"; }
 
 # compare A B: the largest position difference of A from B over B's largest
 # displacement, the number of peers in A's owner channel, A's and B's step.
