@@ -891,7 +891,8 @@ static void ck_take(ndo_peer *p, size_t n, const int32_t *nodes)
 
 static int npeers(const ndo_peer *p);
 
-/* A checkpoint step: the region's state kept, and sent to the owner. */
+/* A checkpoint step: the region's state kept, and sent to the others
+ * (the owner's too when another peer simulates: a successor's). */
 static int checkpoint(ndo_peer *p)
 {
 	int rc = ck_ready(p);
@@ -1552,10 +1553,6 @@ static void go(ndo_peer *p)
 {
 	p->started = 1;
 	ndo_session_set_grace(p->s, 0);
-	/* the owner's death costs a restart, not the session, where every
-	 * simulating peer keeps the checkpoints (ndo_session_set_succession;
-	 * ndo_peer_update keeps it for runs under way) */
-	ndo_session_set_succession(p->s, restartable(p));
 	p->st.start_time = p->now;
 	p->wall0 = p->now;
 	p->sched0 = p->cur;
@@ -2238,7 +2235,10 @@ int ndo_peer_update(ndo_peer *p, double now)
 		return ndo__fail(p->failed, "out of memory");
 	if ((rc = events(p)))
 		return rc;
-	if (p->started) /* the owner's death restarts a run under way; after it, it ends it */
+	/* the owner's death costs a restart, not the session, while the run is
+	 * under way, where every simulating peer keeps the checkpoints
+	 * (ndo_session_set_succession); before and after, it ends it */
+	if (p->started)
 		ndo_session_set_succession(p->s, restartable(p) &&
 		                                     (p->simulating ? p->cur : p->max_seen) < p->final);
 	if (p->ended) {

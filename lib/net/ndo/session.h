@@ -173,13 +173,14 @@ void ndo_session_set_exact_step(ndo_session *s, int64_t step);
 void ndo_session_set_grace(ndo_session *s, double seconds);
 /* Succession (exact lock-step with checkpoints, docs/peers.md "The
  * owner's death"): when the owner falls silent for the timeout, the first
- * simulating peer of the partition in force after it that this peer still
- * counts (itself, or a member) owns the session: a joiner or observer
- * follows it (NDO_EV_OWNER), the successor itself becomes the owner —
- * partitions without the silent owner, restarting from the step
+ * simulating peer of the partition in force other than it (skipping owners
+ * lost before and peers heard to leave) owns the session: a joiner or
+ * observer follows it (NDO_EV_OWNER), the successor itself becomes the
+ * owner — partitions without the silent owner, restarting from the step
  * ndo_session_set_restart names — and an owner that hears a newer
- * partition of its object from another peer gives way (NDO_EV_ENDED).
- * Without it (the default) the owner's silence ends the session. */
+ * partition of its object from a peer that simulates in its own gives
+ * way (NDO_EV_ENDED).  Without it (the default) the owner's silence ends
+ * the session. */
 void ndo_session_set_succession(ndo_session *s, int on);
 /* Owner: the members silent for longer than the timeout, grace or not. */
 int ndo_session_silent(const ndo_session *s);
