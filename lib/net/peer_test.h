@@ -15,6 +15,12 @@ void ndo__peer_deaf_to_checkpoints(ndo_peer *p, double until);
  * the owner does for a part it lacks; from a joiner, anyone could). */
 int ndo__peer_ask_checkpoint(ndo_peer *p, int64_t step);
 
+/* The session forgets every member, as a joiner that had not yet had a
+ * peer list when the owner died (session.c): the owner's successor is
+ * still the partition's (a successor chosen among the members was every
+ * such joiner itself). */
+void ndo__session_forget_members(ndo_session *s);
+
 /* Non-zero: peers created from now on whose implicit solve is
  * preconditioned with the diagonal take the general recurrences
  * (peer_solve.c's cg_update, u and q kept as vectors, the sums in the

@@ -1,6 +1,7 @@
 /* session.c — one peer of a shared object (ndo/session.h; thesis §4.4,
  * figure 4.14). */
 #include "ndo/session.h"
+#include "peer_test.h"
 #include "ndo/levels.h"
 #include "ndo/partition.h"
 #include "ndo/restrict.h"
@@ -1578,6 +1579,7 @@ void ndo_session_destroy(ndo_session *s, const char *message)
 }
 
 void ndo_session_set_exact_step(ndo_session *s, int64_t step) { s->exact_step = step; }
+void ndo__session_forget_members(ndo_session *s) { s->nm = 0; }
 void ndo_session_set_succession(ndo_session *s, int on) { s->succession = on != 0; }
 void ndo_session_set_grace(ndo_session *s, double seconds) { s->grace = seconds; }
 
