@@ -5,7 +5,8 @@
 # SIGKILL at a random moment of the run: the first joiner of its partition
 # succeeds it, restarts the others from a checkpoint and writes its -o, the
 # single process's bit for bit, with and without 10 % loss; an observer
-# follows the successor.  (peers-restart.sh kills joiners.)
+# follows the successor; a successor without -o says the result has nowhere
+# to go.  (peers-restart.sh kills joiners.)
 . "$(dirname "$0")/netns.bash"
 . "$(dirname "$0")/lib.sh"
 . "$(dirname "$0")/peers.bash"
@@ -78,3 +79,33 @@ SOLO=solo20.tgrid
 simulate-peer -q wavy4.tgrid "${RUN[@]}" -o $SOLO 2>>solo.err || fail "single process, 20 s"
 owner_killed "SIGKILL on the owner, 10% loss" --drop 0.1
 
+
+# joiners without -o: the successor gathers the result and says it has nowhere
+# to write it (exit 0), the other joiner ends with exit 0
+RUN=(-s "$SCENE" --dt 0.005 -t 80)
+rm -f owner.err joiner1.err joiner2.err
+simulate-peer --owner wavy4.tgrid "${RUN[@]}" --peers 3 --peer-timeout 1 --step-timeout 0.2 \
+	--start-timeout 30 -o peers.tgrid 2>owner.err &
+owner=$!
+simulate-peer --join --poi 300 --peer-timeout 1 --start-timeout 30 2>joiner1.err &
+j1=$!
+simulate-peer --join --poi 900 --peer-timeout 1 --start-timeout 30 2>joiner2.err &
+j2=$!
+if wait_for owner.err 'starting: step' 30 >/dev/null; then
+	pause
+	{ kill -KILL $owner && wait $owner; } 2>/dev/null
+	wait $j1; r1=$?
+	wait $j2; r2=$?
+	said=$(grep -l 'has no -o to write it to' joiner1.err joiner2.err | wc -l)
+	if [ $r1 = 0 ] && [ $r2 = 0 ] && [ "$said" = 1 ]; then
+		pass "the owner killed, no joiner with -o: the successor says the result has nowhere to go"
+	else
+		fail "the owner killed, no joiner with -o" "exits $r1 $r2, $said successors said so"
+		tail -3 joiner1.err | sed 's/^/    joiner 1: /'
+		tail -3 joiner2.err | sed 's/^/    joiner 2: /'
+	fi
+else
+	fail "the owner killed, no joiner with -o" "the run did not start"
+	kill $owner $j1 $j2 2>/dev/null
+	wait
+fi

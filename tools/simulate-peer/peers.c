@@ -666,11 +666,13 @@ int peers_main(run *r)
 			leave(&pr, NDO_EXIT_FAIL, "%s", why);
 		}
 	}
-	if (!r->quiet) {
-		ndo_peer_stats st;
-		ndo_peer_stats_get(pr.p, &st);
+	ndo_peer_stats st;
+	ndo_peer_stats_get(pr.p, &st);
+	if (!r->quiet)
 		summary(&pr, owner || st.took_over ? "run complete" : ndo_peer_message(pr.p));
-	}
+	if (st.took_over && !r->sc.output) /* what the owner's -o would have held */
+		fprintf(stderr, "%s: this peer succeeded the owner and gathered the result, but has no "
+		        "-o to write it to (give every joiner -o)\n", ndo_progname);
 	ndo_peer_destroy(pr.p, NULL);
 	ndo_watch_destroy(pr.watch);
 	ndo_grid_destroy(pr.last);
