@@ -2239,7 +2239,7 @@ int ndo_peer_update(ndo_peer *p, double now)
 	 * under way, where every simulating peer keeps the checkpoints
 	 * (ndo_session_set_succession); before and after, it ends it */
 	if (p->started)
-		ndo_session_set_succession(p->s, restartable(p) &&
+		ndo_session_set_succession(p->s, p->sim &&
 		                                     (p->simulating ? p->cur : p->max_seen) < p->final);
 	if (p->ended) {
 		int complete = p->started && (p->simulating ? p->cur >= p->final : p->max_seen >= p->final);

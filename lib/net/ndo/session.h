@@ -171,8 +171,8 @@ void ndo_session_set_exact_step(ndo_session *s, int64_t step);
  * the start (an owner, or a joiner still taking in the object on a loaded
  * machine) does not end the session or lose its place. */
 void ndo_session_set_grace(ndo_session *s, double seconds);
-/* Succession (exact lock-step with checkpoints, docs/peers.md "The
- * owner's death"): when the owner falls silent for the timeout, the first
+/* Succession (docs/peers.md "The owner's death"; ndo/peer.h turns it on
+ * while a run is under way): when the owner falls silent for the timeout, the first
  * simulating peer of the partition in force other than it (skipping owners
  * lost before and peers heard to leave) owns the session: a joiner or
  * observer follows it (NDO_EV_OWNER), the successor itself becomes the
