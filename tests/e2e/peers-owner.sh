@@ -7,7 +7,8 @@
 # single process's bit for bit, with and without 10 % loss; an observer
 # follows the successor (and, like it, does not say "NOT exact": a taint
 # it heard was undone by the restart); a successor without -o says the result has nowhere
-# to go.  (peers-restart.sh kills joiners.)
+# to go; render-frame --lcm follows the successor to the last step.
+# (peers-restart.sh kills joiners.)
 . "$(dirname "$0")/netns.bash"
 . "$(dirname "$0")/lib.sh"
 . "$(dirname "$0")/peers.bash"
@@ -108,5 +109,37 @@ if wait_for owner.err 'starting: step' 30 >/dev/null; then
 else
 	fail "the owner killed, no joiner with -o" "the run did not start"
 	kill $owner $j1 $j2 2>/dev/null
+	wait
+fi
+
+# render-frame --lcm follows the successor: drawing every 2000th step live, it
+# draws the last one (16000) and ends when the successor ends the session
+mkdir -p live
+render-frame --lcm default --every 2000 -s 64x48 -o 'live/f%05d.png' 2>live.err &
+live=$!
+sleep 0.3 # listening before the owner speaks
+rm -f owner.err joiner1.err joiner2.err
+simulate-peer --owner wavy4.tgrid "${RUN[@]}" --peers 3 --peer-timeout 1 --step-timeout 0.2 \
+	--start-timeout 30 2>owner.err &
+owner=$!
+simulate-peer --join --poi 300 --peer-timeout 1 --start-timeout 30 -o heir1.tgrid 2>joiner1.err &
+j1=$!
+simulate-peer --join --poi 900 --peer-timeout 1 --start-timeout 30 -o heir2.tgrid 2>joiner2.err &
+j2=$!
+if wait_for owner.err 'starting: step' 30 >/dev/null; then
+	pause
+	{ kill -KILL $owner && wait $owner; } 2>/dev/null
+	wait $j1; r1=$?
+	wait $j2; r2=$?
+	wait $live; rl=$?
+	if [ $r1 = 0 ] && [ $r2 = 0 ] && [ $rl = 0 ] && [ -s live/f16000.png ]; then
+		pass "render-frame --lcm follows the owner's successor: $(ls live | wc -l) frames, the last step's among them"
+	else
+		fail "render-frame through the owner's death" "joiner exits $r1 $r2, render-frame $rl, frames: $(ls live | tr '\n' ' ')"
+		tail -3 live.err | sed 's/^/    render-frame: /'
+	fi
+else
+	fail "render-frame through the owner's death" "the run did not start"
+	kill $owner $j1 $j2 $live 2>/dev/null
 	wait
 fi
