@@ -19,6 +19,42 @@ RUN=(-s "$SCENE" --dt 0.005 -t 80)
 SOLO=solo.tgrid
 simulate-peer -q wavy4.tgrid "${RUN[@]}" -o $SOLO 2>solo.err || fail "single process"
 
+# start3 OUT1 OUT2 [options for every peer...]: the owner and 2 joiners in
+# the background (pids: owner, j1, j2), joiner k with -o OUTk where OUTk is
+# not empty.
+start3() {
+	local o1=$1 o2=$2
+	shift 2
+	rm -f owner.err joiner1.err joiner2.err
+	simulate-peer --owner wavy4.tgrid "${RUN[@]}" --peers 3 --peer-timeout 1 --step-timeout 0.2 \
+		--start-timeout 30 -o peers.tgrid "$@" 2>owner.err &
+	owner=$!
+	simulate-peer --join --poi 300 --peer-timeout 1 --start-timeout 30 ${o1:+-o "$o1"} "$@" \
+		2>joiner1.err &
+	j1=$!
+	simulate-peer --join --poi 900 --peer-timeout 1 --start-timeout 30 ${o2:+-o "$o2"} "$@" \
+		2>joiner2.err &
+	j2=$!
+}
+
+# kill_owner NAME [PID...]: once the run has started, SIGKILL on the owner after
+# a pause, and the joiners' exit statuses (r1, r2).  When the run does not
+# start: NAME fails, every peer and PID is killed, status 1.
+kill_owner() {
+	local name=$1
+	shift
+	if ! wait_for owner.err 'starting: step' 30 >/dev/null; then
+		fail "$name" "the run did not start"
+		kill $owner $j1 $j2 "$@" 2>/dev/null
+		wait
+		return 1
+	fi
+	pause
+	{ kill -KILL $owner && wait $owner; } 2>/dev/null
+	wait $j1; r1=$?
+	wait $j2; r2=$?
+}
+
 # owner_killed NAME [options for every peer...]: the owner and 2 joiners
 # (each joiner with its own -o), the owner sent SIGKILL after a pause: the
 # first joiner of its partition owns the session once the owner has been
@@ -28,31 +64,14 @@ simulate-peer -q wavy4.tgrid "${RUN[@]}" -o $SOLO 2>solo.err || fail "single pro
 # other joiner ends with exit status 0 when the successor quits.  An
 # observer (no --poi) follows the successor too: its -o is the same.
 owner_killed() {
-	local name=$1 owner j1 j2 obs
+	local name=$1 obs
 	shift
-	rm -f heir1.tgrid heir2.tgrid observed.tgrid owner.err joiner1.err joiner2.err obs.err
-	simulate-peer --owner wavy4.tgrid "${RUN[@]}" --peers 3 --peer-timeout 1 --step-timeout 0.2 \
-		--start-timeout 30 -o peers.tgrid "$@" 2>owner.err &
-	owner=$!
-	simulate-peer --join --poi 300 --peer-timeout 1 --start-timeout 30 -o heir1.tgrid "$@" \
-		2>joiner1.err &
-	j1=$!
-	simulate-peer --join --poi 900 --peer-timeout 1 --start-timeout 30 -o heir2.tgrid "$@" \
-		2>joiner2.err &
-	j2=$!
+	rm -f heir1.tgrid heir2.tgrid observed.tgrid obs.err
+	start3 heir1.tgrid heir2.tgrid "$@"
 	simulate-peer --join --peer-timeout 1 --start-timeout 30 -o observed.tgrid "$@" 2>obs.err &
 	obs=$!
-	if ! wait_for owner.err 'starting: step' 30 >/dev/null; then
-		fail "$name" "the run did not start"
-		kill $owner $j1 $j2 $obs 2>/dev/null
-		wait
-		return
-	fi
-	pause
-	{ kill -KILL $owner && wait $owner; } 2>/dev/null
-	local r1 r2 ro heir= same ostep
-	wait $j1; r1=$?
-	wait $j2; r2=$?
+	kill_owner "$name" $obs || return
+	local ro heir= same ostep
 	wait $obs; ro=$?
 	grep -q 'owns the session now (this one)' joiner1.err && heir=1
 	grep -q 'owns the session now (this one)' joiner2.err && heir=${heir:+both}${heir:-2}
@@ -81,65 +100,36 @@ SOLO=solo20.tgrid
 simulate-peer -q wavy4.tgrid "${RUN[@]}" -o $SOLO 2>>solo.err || fail "single process, 20 s"
 owner_killed "SIGKILL on the owner, 10% loss" --drop 0.1
 
-
 # joiners without -o: the successor gathers the result and says it has nowhere
 # to write it (exit 0), the other joiner ends with exit 0
 RUN=(-s "$SCENE" --dt 0.005 -t 80)
-rm -f owner.err joiner1.err joiner2.err
-simulate-peer --owner wavy4.tgrid "${RUN[@]}" --peers 3 --peer-timeout 1 --step-timeout 0.2 \
-	--start-timeout 30 -o peers.tgrid 2>owner.err &
-owner=$!
-simulate-peer --join --poi 300 --peer-timeout 1 --start-timeout 30 2>joiner1.err &
-j1=$!
-simulate-peer --join --poi 900 --peer-timeout 1 --start-timeout 30 2>joiner2.err &
-j2=$!
-if wait_for owner.err 'starting: step' 30 >/dev/null; then
-	pause
-	{ kill -KILL $owner && wait $owner; } 2>/dev/null
-	wait $j1; r1=$?
-	wait $j2; r2=$?
+name="the owner killed, no joiner with -o"
+start3 "" ""
+if kill_owner "$name"; then
 	said=$(grep -l 'has no -o to write it to' joiner1.err joiner2.err | wc -l)
 	if [ $r1 = 0 ] && [ $r2 = 0 ] && [ "$said" = 1 ]; then
-		pass "the owner killed, no joiner with -o: the successor says the result has nowhere to go"
+		pass "$name: the successor says the result has nowhere to go"
 	else
-		fail "the owner killed, no joiner with -o" "exits $r1 $r2, $said successors said so"
+		fail "$name" "exits $r1 $r2, $said successors said so"
 		tail -3 joiner1.err | sed 's/^/    joiner 1: /'
 		tail -3 joiner2.err | sed 's/^/    joiner 2: /'
 	fi
-else
-	fail "the owner killed, no joiner with -o" "the run did not start"
-	kill $owner $j1 $j2 2>/dev/null
-	wait
 fi
 
 # render-frame --lcm follows the successor: drawing every 2000th step live, it
 # draws the last one (16000) and ends when the successor ends the session
+name="render-frame through the owner's death"
 mkdir -p live
 render-frame --lcm default --every 2000 -s 64x48 -o 'live/f%05d.png' 2>live.err &
 live=$!
 sleep 0.3 # listening before the owner speaks
-rm -f owner.err joiner1.err joiner2.err
-simulate-peer --owner wavy4.tgrid "${RUN[@]}" --peers 3 --peer-timeout 1 --step-timeout 0.2 \
-	--start-timeout 30 2>owner.err &
-owner=$!
-simulate-peer --join --poi 300 --peer-timeout 1 --start-timeout 30 -o heir1.tgrid 2>joiner1.err &
-j1=$!
-simulate-peer --join --poi 900 --peer-timeout 1 --start-timeout 30 -o heir2.tgrid 2>joiner2.err &
-j2=$!
-if wait_for owner.err 'starting: step' 30 >/dev/null; then
-	pause
-	{ kill -KILL $owner && wait $owner; } 2>/dev/null
-	wait $j1; r1=$?
-	wait $j2; r2=$?
+start3 heir1.tgrid heir2.tgrid
+if kill_owner "$name" $live; then
 	wait $live; rl=$?
 	if [ $r1 = 0 ] && [ $r2 = 0 ] && [ $rl = 0 ] && [ -s live/f16000.png ]; then
 		pass "render-frame --lcm follows the owner's successor: $(ls live | wc -l) frames, the last step's among them"
 	else
-		fail "render-frame through the owner's death" "joiner exits $r1 $r2, render-frame $rl, frames: $(ls live | tr '\n' ' ')"
+		fail "$name" "joiner exits $r1 $r2, render-frame $rl, frames: $(ls live | tr '\n' ' ')"
 		tail -3 live.err | sed 's/^/    render-frame: /'
 	fi
-else
-	fail "render-frame through the owner's death" "the run did not start"
-	kill $owner $j1 $j2 $live 2>/dev/null
-	wait
 fi
