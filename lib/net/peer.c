@@ -2235,9 +2235,11 @@ int ndo_peer_update(ndo_peer *p, double now)
 		return ndo__fail(p->failed, "out of memory");
 	if ((rc = events(p)))
 		return rc;
-	/* the owner's death costs a restart, not the session, while the run is
-	 * under way, where every simulating peer keeps the checkpoints
-	 * (ndo_session_set_succession); before and after, it ends it */
+	/* while the run is under way the owner's death does not end the
+	 * session: its successor restarts every peer from a checkpoint (every
+	 * simulating peer keeps them all) or, without checkpoints, takes the
+	 * regions over from frames (ndo_session_set_succession); before and
+	 * after, it ends it */
 	if (p->started)
 		ndo_session_set_succession(p->s, p->sim &&
 		                                     (p->simulating ? p->cur : p->max_seen) < p->final);
