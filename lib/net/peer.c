@@ -2404,18 +2404,24 @@ int ndo_peer_create(const ndo_peer_opts *o, ndo_net *net, ndo_grid *grid, ndo_si
 	return 0;
 }
 
+void ndo_peer_leave(ndo_peer *p, const char *message)
+{
+	if (!p || !p->s)
+		return;
+	char msg[128];
+	if (!message && p->owner && p->done)
+		snprintf(msg, sizeof msg, "run complete at step %lld", (long long)p->final);
+	else
+		snprintf(msg, sizeof msg, "%s", message ? message : "");
+	ndo_session_leave(p->s, msg);
+}
+
 void ndo_peer_destroy(ndo_peer *p, const char *message)
 {
 	if (!p)
 		return;
-	if (p->s) {
-		char msg[128];
-		if (!message && p->owner && p->done)
-			snprintf(msg, sizeof msg, "run complete at step %lld", (long long)p->final);
-		else
-			snprintf(msg, sizeof msg, "%s", message ? message : "");
-		ndo_session_destroy(p->s, msg);
-	}
+	ndo_peer_leave(p, message);
+	ndo_session_destroy(p->s, NULL);
 	ndo_sim_destroy(p->sim);
 	ndo_grid_destroy(p->prev);
 	for (size_t k = 0; k < p->nstash; k++)

@@ -1541,22 +1541,29 @@ int ndo_session_create(const ndo_session_opts *o, ndo_net *net, ndo_grid *grid,
 	return 0;
 }
 
+void ndo_session_leave(ndo_session *s, const char *message)
+{
+	if (!s || !s->described || s->ended)
+		return;
+	int owner = s->o.role == NDO_ROLE_OWNER;
+	ndo_msg_leave_t l = {.peer = s->self,
+	                     .reason = (int8_t)(owner ? NDO_LEAVE_OWNER_QUIT : NDO_LEAVE_QUIT),
+	                     .message = (char *)(message ? message : "")};
+	char buf[NDO_MAX_TEXT + 1];
+	snprintf(buf, sizeof buf, "%s", l.message);
+	l.message = buf;
+	/* twice: a lost leave costs the others a timeout (after the last
+	 * step, a successor's restart and gather: docs/peers.md) */
+	ndo_net_publish(s->net, NDO_MSG_LEAVE, &l);
+	ndo_net_publish(s->net, NDO_MSG_LEAVE, &l);
+	s->ended = 1;
+}
+
 void ndo_session_destroy(ndo_session *s, const char *message)
 {
 	if (!s)
 		return;
-	if (s->described && !s->ended) {
-		int owner = s->o.role == NDO_ROLE_OWNER;
-		ndo_msg_leave_t l = {.peer = s->self,
-		                     .reason = (int8_t)(owner ? NDO_LEAVE_OWNER_QUIT : NDO_LEAVE_QUIT),
-		                     .message = (char *)(message ? message : "")};
-		char buf[NDO_MAX_TEXT + 1];
-		snprintf(buf, sizeof buf, "%s", l.message);
-		l.message = buf;
-		/* twice: a lost leave costs the others a timeout */
-		ndo_net_publish(s->net, NDO_MSG_LEAVE, &l);
-		ndo_net_publish(s->net, NDO_MSG_LEAVE, &l);
-	}
+	ndo_session_leave(s, message);
 	if (s->holding_force)
 		ndo_msg_free(&s->force);
 	ndo_net_destroy(s->net);

@@ -192,6 +192,10 @@ static int run(world *w, double until)
 				return r;
 			}
 			w->state[i] = r;
+			/* done: it leaves, as simulate-peer does once its -o is written
+			 * (the owner ends the session for everyone) */
+			if (r == NDO_PEER_DONE)
+				ndo_peer_leave(w->p[i], NULL);
 			busy |= r != NDO_PEER_DONE && r != NDO_PEER_ENDED;
 		}
 		if (on_tick)

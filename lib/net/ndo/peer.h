@@ -197,6 +197,13 @@ int ndo_peer_checkpoint_default(int level);
  * free.  Accepts NULL. */
 void ndo_peer_destroy(ndo_peer *p, const char *message);
 
+/* Leave now, as ndo_peer_destroy does, keeping the peer readable (its
+ * grid, step and stats): a caller that writes the owner's output first
+ * and announces the end after it.  Until the owner's end is heard, the
+ * others of an exact lock-step run take its silence after the last step
+ * for a death, and its successor gathers the result again. */
+void ndo_peer_leave(ndo_peer *p, const char *message);
+
 typedef enum ndo_peer_state {
 	NDO_PEER_WAITING = 0, /* nothing to report: call again by the deadline */
 	NDO_PEER_STEPPED,     /* one step taken (state at ndo_peer_step()) */

@@ -123,6 +123,11 @@ int ndo_session_create(const ndo_session_opts *o, ndo_net *net, ndo_grid *grid,
  * message may be NULL.  Accepts NULL. */
 void ndo_session_destroy(ndo_session *s, const char *message);
 
+/* Announce leaving now, as ndo_session_destroy does, and keep the session
+ * (its grid and state stay readable; it takes part in nothing more, and
+ * destroy announces nothing again).  Accepts NULL. */
+void ndo_session_leave(ndo_session *s, const char *message);
+
 /* One step of protocol: drain the network, handle hellos, POIs, leaves,
  * partitions, descriptions; apply the newest tiles of other peers to the
  * nodes they own; send heartbeats (and the owner's periodic partition,
