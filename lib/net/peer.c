@@ -2238,13 +2238,19 @@ int ndo_peer_update(ndo_peer *p, double now)
 	/* while the run is under way the owner's death does not end the
 	 * session: its successor restarts every peer from a checkpoint (every
 	 * simulating peer keeps them all) or, without checkpoints, takes the
-	 * regions over from frames (ndo_session_set_succession); before and
-	 * after, it ends it */
+	 * regions over from frames (ndo_session_set_succession).  Before the
+	 * start it ends it; after this peer's last step too, unless a restart
+	 * can redo what the owner had not gathered (it may not even have taken
+	 * its own last step): until its leave, its silence is a death */
 	if (p->started)
 		ndo_session_set_succession(p->s, p->sim &&
-		                                     (p->simulating ? p->cur : p->max_seen) < p->final);
+		                                     ((p->simulating ? p->cur : p->max_seen) < p->final ||
+		                                      restartable(p)));
 	if (p->ended) {
-		int complete = p->started && (p->simulating ? p->cur >= p->final : p->max_seen >= p->final);
+		/* an owner ends only by gathering (done, above): ended, it gave
+		 * way to a successor (after its last step too: it had not gathered) */
+		int complete = !p->owner && p->started &&
+		               (p->simulating ? p->cur >= p->final : p->max_seen >= p->final);
 		if (complete) {
 			p->done = 1;
 			return NDO_PEER_DONE;

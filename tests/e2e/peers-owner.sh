@@ -133,3 +133,45 @@ if kill_owner "$name" $live; then
 		tail -3 live.err | sed 's/^/    render-frame: /'
 	fi
 fi
+
+# After the joiners' last step, before the owner gathered: the owner hears
+# the others 1.5 s late (--delay, on what it receives), so the joiners finish
+# 4 steps while it still waits for their third; the kill comes once joiner
+# 1's frame of the last step is written.  Its successor restarts from a
+# checkpoint (the first step, level 4: every 20), gathers and writes the
+# single process's -o.  Until 2026-11-30 the joiners took the silence there
+# for the session's end (exit 0) and the result died with the owner.
+name="the owner killed after the joiners' last step"
+RUN=(-s "$SCENE" --dt 0.005 -t 0.02)
+simulate-peer -q wavy4.tgrid "${RUN[@]}" -o solo4.tgrid 2>>solo.err || fail "single process, 4 steps"
+rm -rf late heir1.tgrid heir2.tgrid
+simulate-peer --owner wavy4.tgrid "${RUN[@]}" --peers 3 --delay 1500 --peer-timeout 3 \
+	--step-timeout 5 --start-timeout 30 -o peers.tgrid 2>owner.err &
+owner=$!
+simulate-peer --join --poi 300 --peer-timeout 3 --start-timeout 30 -o heir1.tgrid \
+	--frames 'late/f%03d.tgrid' 2>joiner1.err &
+j1=$!
+simulate-peer --join --poi 900 --peer-timeout 3 --start-timeout 30 -o heir2.tgrid 2>joiner2.err &
+j2=$!
+if ! wait_for late/f004.tgrid '' 30 >/dev/null; then
+	fail "$name" "joiner 1 did not write its last step's frame"
+	kill $owner $j1 $j2 2>/dev/null
+	wait
+else
+	{ kill -KILL $owner && wait $owner; } 2>/dev/null
+	wait $j1; r1=$?
+	wait $j2; r2=$?
+	heir=
+	grep -q 'owns the session now (this one)' joiner1.err && heir=1
+	grep -q 'owns the session now (this one)' joiner2.err && heir=${heir:+both}${heir:-2}
+	gathered=$(grep -c 'done' owner.err)
+	read -r rel _ step sstep < <(compare heir${heir:-1}.tgrid solo4.tgrid)
+	if [ "$gathered" = 0 ] && [ $r1 = 0 ] && [ $r2 = 0 ] && { [ "$heir" = 1 ] || [ "$heir" = 2 ]; } &&
+		[ "${rel:-}" = 0 ] && [ "$step" = "$sstep" ]; then
+		pass "$name: joiner $heir took over, $(grep -o 'restarting from step [0-9]*' joiner$heir.err | tail -1); its -o differs from the single process by $rel"
+	else
+		fail "$name" "the owner done before the kill: $gathered; joiner exits $r1 $r2, successor ${heir:-none}, difference ${rel:-?}, step ${step:-?} of ${sstep:-?}"
+		tail -4 joiner1.err | sed 's/^/    joiner 1: /'
+		tail -4 joiner2.err | sed 's/^/    joiner 2: /'
+	fi
+fi

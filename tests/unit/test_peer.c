@@ -747,6 +747,7 @@ static int ok_nolist; /* the joiners forget their peer lists as the owner dies *
 static int ok_every;  /* checkpoint_every (< 0: none) */
 static ndo_clock ok_clock; /* 0: lock-step */
 static int ok_hold;        /* the thesis' held boundary */
+static int64_t ok_at;      /* the owner's step at the kill (0: from the seed) */
 static void owner_killed_case(const char *method, double drop, uint64_t seed, int second,
                               int back)
 {
@@ -759,6 +760,8 @@ static void owner_killed_case(const char *method, double drop, uint64_t seed, in
 		su.faults = (ndo_faults){.drop = drop, .delay_ms = 2, .jitter_ms = 2, .seed = seed};
 	uint64_t r = seed * 6364136223846793005ull + 1442695040888963407ull;
 	int64_t at = 10 + (int64_t)((r >> 33) % 250);
+	if (ok_at)
+		at = ok_at;
 	world *w = world_new();
 	CHECK(add_owner(w, &su) == 0, "owner");
 	for (int i = 1; i < su.peers; i++)
@@ -880,6 +883,19 @@ static void the_owners_death_costs_a_restart(void)
 	ok_clock = 0, ok_hold = 1;
 	owner_killed_case("rk4", 0, 51, 0, 0);
 	ok_hold = 0;
+	/* at the end of the run (the last step is 300): the owner one step
+	 * behind its joiners' last step, and the owner at the last step
+	 * before it gathered — until 2026-11-30 the joiners took its silence
+	 * there for the session's end and the result was lost with it */
+	ok_at = 299;
+	owner_killed_case("rk4", 0, 52, 0, 0);
+	owner_killed_case("rk4", 0.1, 53, 0, 0);
+	ok_at = 300;
+	owner_killed_case("rk4", 0, 54, 0, 0);
+	owner_killed_case("rk4", 0.1, 55, 1, 0);
+	owner_killed_case("rk4", 0, 56, 0, 1);
+	owner_killed_case("backward-euler", 0, 57, 0, 0);
+	ok_at = 0;
 }
 
 /* A joiner that announces a partition of --peers which the owner then
