@@ -10,7 +10,14 @@
 #include <string.h>
 #include <time.h>
 
-#define MEMORY_MAX ((size_t)256 << 20) /* history kept for all tiles: LRU beyond */
+/* The history kept for all tiles, least used forgotten beyond it: the
+ * object's twice over (the senders of a new partition's tiles beside the
+ * old ones), and at least MEMORY_MIN.  Until 2026-11-30 it was a fixed
+ * 256 MB, below a level-10 object's history alone (2.1 M nodes × 160
+ * bytes, 336 MB): each tile was forgotten just before its next frame, so
+ * every frame of every tile was a keyframe (4.8 bits a node against 0.5
+ * at level 9, encode + decode 219 ms against 11). */
+#define MEMORY_MIN ((size_t)256 << 20)
 #define CACHED 2                       /* frames kept per tile to send again */
 
 typedef struct cached {
@@ -39,7 +46,7 @@ struct ndo_codec {
 	int level;
 	ndo_codec_work *w;
 	entry **e;
-	size_t n, cap, memory;
+	size_t n, cap, memory, memory_max;
 	uint64_t clock;
 	ndo_codec_stats st;
 	double *x, *v;      /* a tile's values, scratch */
@@ -86,6 +93,10 @@ static double mono(void)
 	return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
 }
 
+/* A tile's history in bytes (ndo_codec_hist: NDO_CODEC_HISTORY frames of
+ * x, k and have, 37 bytes a node). */
+static size_t entry_size(int nodes) { return (size_t)nodes * 40 * NDO_CODEC_HISTORY; }
+
 int ndo_codec_create(const ndo_codec_params *p, int level, ndo_codec **out)
 {
 	ndo__clear_error();
@@ -101,6 +112,10 @@ int ndo_codec_create(const ndo_codec_params *p, int level, ndo_codec **out)
 	}
 	c->p = *p;
 	c->level = level;
+	const size_t count = (size_t)((2 << level) + 1) * (size_t)((1 << level) + 1);
+	c->memory_max = 2 * entry_size((int)count);
+	if (c->memory_max < MEMORY_MIN)
+		c->memory_max = MEMORY_MIN;
 	*out = c;
 	return 0;
 }
@@ -114,8 +129,6 @@ static void entry_free(entry *e)
 		free(e->c[k].data);
 	free(e);
 }
-
-static size_t entry_size(int nodes) { return (size_t)nodes * 40 * NDO_CODEC_HISTORY; }
 
 void ndo_codec_destroy(ndo_codec *c)
 {
@@ -165,7 +178,7 @@ static entry *get(ndo_codec *c, int32_t sender, int32_t code, int nodes)
 			c->e[k]->used = ++c->clock;
 			return c->e[k];
 		}
-	while (c->memory + entry_size(nodes) > MEMORY_MAX && c->n) { /* forget the least used */
+	while (c->memory + entry_size(nodes) > c->memory_max && c->n) { /* forget the least used */
 		size_t lru = 0;
 		for (size_t k = 1; k < c->n; k++)
 			if (c->e[k]->used < c->e[lru]->used)

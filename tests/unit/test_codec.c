@@ -546,6 +546,59 @@ static void tiles_in_place(void)
 	ndo_grid_destroy(g);
 }
 
+/* Every tile of a level-10 object keeps its history: after the first step's
+ * keyframes, the next step's frames are predicted.  Until 2026-11-30 the
+ * history of all tiles was capped at 256 MB, below a level-10 object's
+ * (336 MB): each tile was forgotten just before its next frame, and every
+ * frame was a keyframe (bench_codec -l 10: 4.8 bits a node, 0.4 after). */
+static void a_level_10_object_keeps_every_tiles_history(void)
+{
+	const int level = 10;
+	ndo_grid *g;
+	CHECK(ndo_shape_make("wavy", level, NULL, &g) == 0, "level-10 wavy");
+	ndo_grid_add(g, NDO_CH_VELOCITY, NDO_F64, 3, NULL);
+	ndo_codec_params p;
+	ndo_codec_parse("predict", &p);
+	double *x = ndo_grid_f64(g, NDO_CH_POSITION, 3);
+	ndo_codec_box(x, g->count, p.lo, p.ext);
+	ndo_codec *tx;
+	CHECK(ndo_codec_create(&p, level, &tx) == 0, "created");
+	uint8_t *cls = malloc(g->count);
+	memset(cls, NDO_NODE_LOSSY, g->count);
+	const int depth = ndo_tile_depth(level, NDO_TILE_POSITION | NDO_TILE_VELOCITY, "NDO_TILE");
+	int cols, rows;
+	ndo_quad_dims(depth, &cols, &rows);
+	size_t tiles = 0, failed = 0;
+	for (int64_t s = 0; s < 2; s++) {
+		for (size_t k = 0; k < 3 * g->count; k++) /* every tile moves */
+			x[k] += 1e-3 * sin((double)k + (double)s);
+		for (int qj = 0; qj < rows; qj++)
+			for (int qi = 0; qi < cols; qi++) {
+				ndo_quad q = {depth, qi, qj};
+				ndo_msg_tile_t t;
+				memset(&t, 0, sizeof t);
+				t.hdr.sender_id = 5;
+				t.step = s;
+				t.time = 0.1 * (double)s;
+				int i0, j0, i1, j1;
+				ndo_quad_range(level, q, &i0, &j0, &i1, &j1);
+				t.depth = (int8_t)depth, t.i0 = i0, t.j0 = j0, t.i1 = i1, t.j1 = j1;
+				t.channels = NDO_TILE_POSITION | NDO_TILE_VELOCITY;
+				failed += ndo_codec_encode_tile(tx, 5, g, cls, q, 0, &t) != 0;
+				free(t.values), free(t.data);
+				tiles += s == 0;
+			}
+	}
+	ndo_codec_stats st;
+	ndo_codec_stats_get(tx, &st);
+	CHECK(failed == 0 && tiles >= 256 && st.encoded == 2 * tiles && st.keyframes == tiles,
+	      "level 10: %zu tiles, %zu failed, %llu frames, %llu keyframes (expected one a tile)",
+	      tiles, failed, (unsigned long long)st.encoded, (unsigned long long)st.keyframes);
+	ndo_codec_destroy(tx);
+	free(cls);
+	ndo_grid_destroy(g);
+}
+
 static void specs_and_description_lines(void)
 {
 	ndo_codec_params p;
@@ -617,6 +670,7 @@ int main(void)
 	RUN(fast_and_general_predictors_agree);
 	RUN(hostile_predicted_payloads);
 	RUN(tiles_in_place);
+	RUN(a_level_10_object_keeps_every_tiles_history);
 	RUN(specs_and_description_lines);
 	return ck_failed_cases != 0;
 }
