@@ -486,6 +486,21 @@ static void hostile_predicted_payloads(void)
 	side_free(&tx), side_free(&rx);
 }
 
+/* The header of sender 5's position and velocity tile q at step s. */
+static ndo_msg_tile_t state_tile(int level, ndo_quad q, int64_t s)
+{
+	ndo_msg_tile_t t;
+	memset(&t, 0, sizeof t);
+	t.hdr.sender_id = 5;
+	t.step = s;
+	t.time = 0.1 * (double)s;
+	int i0, j0, i1, j1;
+	ndo_quad_range(level, q, &i0, &j0, &i1, &j1);
+	t.depth = (int8_t)q.depth, t.i0 = i0, t.j0 = j0, t.i1 = i1, t.j1 = j1;
+	t.channels = NDO_TILE_POSITION | NDO_TILE_VELOCITY;
+	return t;
+}
+
 /* Whole tiles through the stateful layer: encode from a grid, decode in
  * place, skipped steps filled in. */
 static void tiles_in_place(void)
@@ -507,15 +522,7 @@ static void tiles_in_place(void)
 		if (s < 10)
 			for (size_t k = 0; k < 3 * g->count; k++)
 				x[k] += 1e-3 * sin((double)k + 0.1 * (double)s);
-		ndo_msg_tile_t t;
-		memset(&t, 0, sizeof t);
-		t.hdr.sender_id = 5;
-		t.step = s;
-		t.time = 0.1 * (double)s;
-		int i0, j0, i1, j1;
-		ndo_quad_range(4, q, &i0, &j0, &i1, &j1);
-		t.depth = 1, t.i0 = i0, t.j0 = j0, t.i1 = i1, t.j1 = j1;
-		t.channels = NDO_TILE_POSITION | NDO_TILE_VELOCITY;
+		ndo_msg_tile_t t = state_tile(4, q, s);
 		int rc = ndo_codec_encode_tile(tx, 5, g, cls, q, 0, &t);
 		if (rc == 1) {
 			skipped++;
@@ -575,15 +582,7 @@ static void a_level_10_object_keeps_every_tiles_history(void)
 		for (int qj = 0; qj < rows; qj++)
 			for (int qi = 0; qi < cols; qi++) {
 				ndo_quad q = {depth, qi, qj};
-				ndo_msg_tile_t t;
-				memset(&t, 0, sizeof t);
-				t.hdr.sender_id = 5;
-				t.step = s;
-				t.time = 0.1 * (double)s;
-				int i0, j0, i1, j1;
-				ndo_quad_range(level, q, &i0, &j0, &i1, &j1);
-				t.depth = (int8_t)depth, t.i0 = i0, t.j0 = j0, t.i1 = i1, t.j1 = j1;
-				t.channels = NDO_TILE_POSITION | NDO_TILE_VELOCITY;
+				ndo_msg_tile_t t = state_tile(level, q, s);
 				failed += ndo_codec_encode_tile(tx, 5, g, cls, q, 0, &t) != 0;
 				free(t.values), free(t.data);
 				tiles += s == 0;
