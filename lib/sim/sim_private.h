@@ -422,6 +422,10 @@ int ndo__restiffen_due(ndo_sim *s);
  * degree, or −1 for a method that is not one (integrate.c). */
 int ndo__stability_poly(ndo_method m, double r[7]);
 
+/* ndo_stable_step (fast 1: what it runs) or the same with every mode's scan
+ * in full (0): the slow reference test_sim checks it against (stability.c). */
+double ndo__stable_step_scan(ndo_method m, double omega, double gamma, int *bound, int fast);
+
 /* One step of the simulation's explicit Runge–Kutta method through the
  * generic tableau path (the reference the fused RK4 kernel is tested
  * against). */

@@ -120,16 +120,20 @@ double ndo_amplification(ndo_method m, double omega, double gamma, double h)
  * below it a method counts as stable. */
 #define UNSTABLE 1e-12
 
-/* The smallest h > 0 at which the method turns unstable on one mode. */
-static double mode_limit(ndo_method m, double omega, double gamma)
+/* The smallest h > 0 at which the method turns unstable on one mode (R:
+ * poly_of(m)); or, once every step up to `above` or beyond is stable, a
+ * step at least that large (the limit is then not below it). */
+static double mode_limit_above(ndo_method m, const poly *R, double omega, double gamma,
+                               double above)
 {
-	poly R = poly_of(m);
 	double ref = fmax(omega, gamma);
 	if (!(ref > 0))
 		return INFINITY;
 	double h = 1e-9 / ref, prev = 0;
 	while (h < 1e4 / ref) {
-		if (radius(one_step(m, &R, omega, gamma, h)) > 1 + UNSTABLE)
+		if (prev >= above)
+			return prev; /* the limit is at least prev: not below `above` */
+		if (radius(one_step(m, R, omega, gamma, h)) > 1 + UNSTABLE)
 			break;
 		prev = h;
 		h *= 1.02;
@@ -141,12 +145,19 @@ static double mode_limit(ndo_method m, double omega, double gamma)
 	double lo = prev, hi = h;
 	for (int k = 0; k < 100 && hi - lo > 1e-15 * hi; k++) {
 		double mid = 0.5 * (lo + hi);
-		if (radius(one_step(m, &R, omega, gamma, mid)) > 1 + UNSTABLE)
+		if (radius(one_step(m, R, omega, gamma, mid)) > 1 + UNSTABLE)
 			hi = mid;
 		else
 			lo = mid;
 	}
 	return lo;
+}
+
+/* The smallest h > 0 at which the method turns unstable on one mode. */
+static double mode_limit(ndo_method m, double omega, double gamma)
+{
+	poly R = poly_of(m);
+	return mode_limit_above(m, &R, omega, gamma, INFINITY);
 }
 
 double ndo_stability_interval(ndo_method m, int imaginary)
@@ -160,19 +171,27 @@ double ndo_stability_interval(ndo_method m, int imaginary)
 	return mode_limit(m, 0, 1);
 }
 
-double ndo_stable_step(ndo_method m, double omega, double gamma, int *bound)
+/* ndo_stable_step, its modes' limits found in full (`fast` 0) or each
+ * mode's scan stopped once its steps pass the least limit so far, which it
+ * then cannot undercut (1): the same minimum, the same mode, the same bits
+ * (test_sim: the_stable_step_is_its_full_scan).  A mode's scan is about a
+ * thousand steps of 2 %; RK4's 201 modes at level 6 (ω 134, γ 0.1) took
+ * 5.4 ms a call in full and take 4.0 (symplectic Euler 2.6 and 1.8), and
+ * the scans were half of choosing an accuracy (ndo/accuracy.h). */
+double ndo__stable_step_scan(ndo_method m, double omega, double gamma, int *bound, int fast)
 {
 	if (ndo_method_is_implicit(m)) {
 		if (bound)
 			*bound = NDO_BOUND_NONE;
 		return INFINITY;
 	}
+	const poly R = poly_of(m);
 	/* The modes lie anywhere in (0, ω]; lower ones can bind when damping
 	 * is heavy.  Scan ω geometrically down to 10⁻⁴ ω_max. */
 	double best = INFINITY, at = omega;
 	for (int k = 0; k <= 200; k++) {
 		double w = omega * pow(1e-4, k / 200.0);
-		double hm = mode_limit(m, w, gamma);
+		double hm = mode_limit_above(m, &R, w, gamma, fast ? best : INFINITY);
 		if (hm < best) {
 			best = hm;
 			at = w;
@@ -204,6 +223,11 @@ double ndo_stable_step(ndo_method m, double omega, double gamma, int *bound)
 		return 0;
 	}
 	return best;
+}
+
+double ndo_stable_step(ndo_method m, double omega, double gamma, int *bound)
+{
+	return ndo__stable_step_scan(m, omega, gamma, bound, 1);
 }
 
 /* ---- λ_max(M⁻¹K) by power iteration ---------------------------------------- */

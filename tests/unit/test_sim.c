@@ -75,6 +75,32 @@ static void tableaux_are_consistent(void)
 	}
 }
 
+/* ndo_stable_step stops each mode's scan once its steps pass the least
+ * limit found so far: the same step, bit for bit, and the same bound as
+ * the full scans of every mode, for every explicit method, lightly and
+ * heavily damped. */
+static void the_stable_step_is_its_full_scan(void)
+{
+	const ndo_method ms[] = {NDO_EULER, NDO_SYMPLECTIC_EULER, NDO_MIDPOINT, NDO_RK4, NDO_RKF45};
+	const double omegas[] = {1, 268}, gammas[] = {0, 0.1, 10, 1e3};
+	int cases = 0, same = 0;
+	for (size_t i = 0; i < sizeof ms / sizeof *ms; i++)
+		for (size_t j = 0; j < 2; j++)
+			for (size_t k = 0; k < 4; k++) {
+				int b0 = -1, b1 = -1;
+				double full = ndo__stable_step_scan(ms[i], omegas[j], gammas[k], &b0, 0);
+				double fast = ndo_stable_step(ms[i], omegas[j], gammas[k], &b1);
+				cases++;
+				if (memcmp(&full, &fast, sizeof full) == 0 && b0 == b1)
+					same++;
+				else
+					printf("    %s, omega %g, gamma %g: %.17g (bound %d) against the full scan's "
+					       "%.17g (%d)\n", ndo_method_names[ms[i]], omegas[j], gammas[k], fast, b1,
+					       full, b0);
+			}
+	CHECK(same == cases, "%d of %d stable steps as the full scan's", same, cases);
+}
+
 static void stability_intervals_are_the_textbook_ones(void)
 {
 	CHECK_NEAR(ndo_stability_interval(NDO_RK4, 1), 2 * sqrt(2), 1e-9, "rk4 imaginary interval");
@@ -1890,6 +1916,7 @@ int main(void)
 	ck_program = "test_sim";
 	RUN(tableaux_are_consistent);
 	RUN(stability_intervals_are_the_textbook_ones);
+	RUN(the_stable_step_is_its_full_scan);
 	RUN(integrators_converge_to_the_exact_solution);
 	RUN(follower_forces_keep_the_order);
 	RUN(fused_rk4_equals_the_tableau);
