@@ -426,6 +426,10 @@ int ndo__stability_poly(ndo_method m, double r[7]);
  * in full (0): the slow reference test_sim checks it against (stability.c). */
 double ndo__stable_step_scan(ndo_method m, double omega, double gamma, int *bound, int fast);
 
+/* ndo_sim_critical (fast 1: what it runs) or the same with the power
+ * iteration's passes one after the other (0): the reference (stability.c). */
+int ndo__sim_critical(ndo_sim *s, ndo_critical *c, int fast);
+
 /* One step of the simulation's explicit Runge–Kutta method through the
  * generic tableau path (the reference the fused RK4 kernel is tested
  * against). */

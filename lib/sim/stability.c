@@ -289,7 +289,47 @@ static double unit_max(double *x, size_t n)
 	return m;
 }
 
-int ndo_sim_critical(ndo_sim *s, ndo_critical *c)
+/* One power iteration's passes after y = M̂⁻¹(K + P) x, fused: the
+ * Rayleigh quotient and |y|'s largest entry in one pass, ‖y/m‖_M̂ in a
+ * second, x = (y/m)/‖y/m‖ in a third — the same operations on the same
+ * values, in the same order, as mnorm2, unit_max, mnorm2 and the division
+ * one after the other (5 passes, and a libm fmax call an entry), so the
+ * same bits (test_sim: the_critical_step_is_its_reference).  Returns 0 where
+ * those would have ended the iteration (no largest entry, or no norm). */
+static int power_passes(const scaled *sc, double *x, const double *y, double *lambda)
+{
+	const ndo_sim *s = sc->s;
+	const size_t cnt = s->count;
+	const double *mhat = sc->mhat;
+	const int32_t *canon = s->canon;
+	double sum = 0, m = 0;
+	for (size_t p = 0; p < cnt; p++) {
+		if (canon[p] == (int32_t)p)
+			sum += mhat[p] * x[p] * y[p];
+		const double a = fabs(y[p]);
+		m = a > m ? a : m; /* fmax's: a NaN entry is passed over */
+	}
+	*lambda = sum;
+	if (!(m > 0))
+		return 0;
+	const int div = isfinite(m); /* unit_max divides by a finite largest entry only */
+	double n2 = 0;
+	for (size_t p = 0; p < cnt; p++)
+		if (canon[p] == (int32_t)p) {
+			const double t = div ? y[p] / m : y[p];
+			n2 += mhat[p] * t * t;
+		}
+	const double ny = sqrt(n2);
+	if (!(ny > 0))
+		return 0;
+	for (size_t p = 0; p < cnt; p++)
+		x[p] = (div ? y[p] / m : y[p]) / ny;
+	return 1;
+}
+
+/* ndo_sim_critical with the power iteration's passes fused (fast 1) or one
+ * after the other as before (0: the reference test_sim compares it with). */
+int ndo__sim_critical(ndo_sim *s, ndo_critical *c, int fast)
 {
 	ndo__clear_error();
 	memset(c, 0, sizeof *c);
@@ -333,14 +373,19 @@ int ndo_sim_critical(ndo_sim *s, ndo_critical *c)
 		apply_mk(&sc, x, y);
 		/* Rayleigh quotient in the M̂ inner product (M̂⁻¹K is self-adjoint
 		 * there): xᵀK x / xᵀM̂ x with ‖x‖_M̂ = 1. */
-		lambda = mnorm2(&sc, x, y);
-		if (!(unit_max(y, cnt) > 0))
-			break;
-		double ny = sqrt(mnorm2(&sc, y, y));
-		if (!(ny > 0))
-			break;
-		for (size_t p = 0; p < cnt; p++)
-			x[p] = y[p] / ny;
+		if (fast) {
+			if (!power_passes(&sc, x, y, &lambda))
+				break;
+		} else {
+			lambda = mnorm2(&sc, x, y);
+			if (!(unit_max(y, cnt) > 0))
+				break;
+			double ny = sqrt(mnorm2(&sc, y, y));
+			if (!(ny > 0))
+				break;
+			for (size_t p = 0; p < cnt; p++)
+				x[p] = y[p] / ny;
+		}
 		double old = hist[it % 10];
 		hist[it % 10] = lambda;
 		if (it >= 100) {
@@ -366,3 +411,5 @@ int ndo_sim_critical(ndo_sim *s, ndo_critical *c)
 	c->h_crit = ndo_stable_step(s->p.method, c->omega_max, c->gamma, &c->bound);
 	return NDO_OK;
 }
+
+int ndo_sim_critical(ndo_sim *s, ndo_critical *c) { return ndo__sim_critical(s, c, 1); }

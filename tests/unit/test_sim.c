@@ -101,6 +101,40 @@ static void the_stable_step_is_its_full_scan(void)
 	CHECK(same == cases, "%d of %d stable steps as the full scan's", same, cases);
 }
 
+/* ndo_sim_critical's power iteration with its passes fused gives the
+ * reference's (the passes one after the other) numbers bit for bit: free,
+ * with pins held, and with penalty pins (the iteration's extra term). */
+static void the_critical_step_is_its_reference(void)
+{
+	ndo_grid *g = shape("wavy", 4);
+	uint8_t *pin = calloc(g->count, 1);
+	for (size_t q = 0; q < g->count; q += 11)
+		pin[q] = 1;
+	for (int k = 0; k < 3; k++) {
+		ndo_sim_params p;
+		ndo_sim_defaults(&p);
+		p.material.mass_damping = 0.3;
+		if (k == 2)
+			p.pin_mode = NDO_PINS_PENALTY;
+		ndo_sim *s = make(g, NULL, NULL, k ? pin : NULL, &p);
+		ndo_critical ref, fast;
+		CHECK(ndo__sim_critical(s, &ref, 0) == 0 && ndo__sim_critical(s, &fast, 1) == 0,
+		      "critical steps");
+		CHECK(ref.iterations == fast.iterations &&
+		          memcmp(&ref.lambda_max, &fast.lambda_max, sizeof ref.lambda_max) == 0 &&
+		          memcmp(&ref.gamma, &fast.gamma, sizeof ref.gamma) == 0 &&
+		          memcmp(&ref.converged, &fast.converged, sizeof ref.converged) == 0 &&
+		          memcmp(&ref.h_crit, &fast.h_crit, sizeof ref.h_crit) == 0,
+		      "%s: lambda_max %.17g against %.17g, %d iterations against %d, damping %.17g "
+		      "against %.17g, step %.17g against %.17g", k == 0 ? "free" : k == 1 ? "pins" :
+		      "penalty pins", fast.lambda_max, ref.lambda_max, fast.iterations, ref.iterations,
+		      fast.gamma, ref.gamma, fast.h_crit, ref.h_crit);
+		ndo_sim_destroy(s);
+	}
+	free(pin);
+	ndo_grid_destroy(g);
+}
+
 static void stability_intervals_are_the_textbook_ones(void)
 {
 	CHECK_NEAR(ndo_stability_interval(NDO_RK4, 1), 2 * sqrt(2), 1e-9, "rk4 imaginary interval");
@@ -1917,6 +1951,7 @@ int main(void)
 	RUN(tableaux_are_consistent);
 	RUN(stability_intervals_are_the_textbook_ones);
 	RUN(the_stable_step_is_its_full_scan);
+	RUN(the_critical_step_is_its_reference);
 	RUN(integrators_converge_to_the_exact_solution);
 	RUN(follower_forces_keep_the_order);
 	RUN(fused_rk4_equals_the_tableau);
