@@ -52,6 +52,7 @@ static int level_of(const setup *su) { return su->level ? su->level : 4; }
 
 static world *W; /* for the note callback */
 static void (*on_tick)(world *w); /* called every round, when set */
+static int leave_lost = -1;        /* this peer, done, leaves unheard (its LEAVEs lost) */
 
 static void on_note(void *user, const char *msg)
 {
@@ -194,7 +195,7 @@ static int run(world *w, double until)
 			w->state[i] = r;
 			/* done: it leaves, as simulate-peer does once its -o is written
 			 * (the owner ends the session for everyone) */
-			if (r == NDO_PEER_DONE)
+			if (r == NDO_PEER_DONE && i != leave_lost)
 				ndo_peer_leave(w->p[i], NULL);
 			busy |= r != NDO_PEER_DONE && r != NDO_PEER_ENDED;
 		}

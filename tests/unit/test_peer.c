@@ -859,6 +859,41 @@ static void owner_killed_case(const char *method, double drop, uint64_t seed, in
 	world_free(w);
 }
 
+/* The owner done, its -o written, and its leave lost (both copies): its
+ * joiners cannot tell that from a death after the last step, so the first of
+ * them succeeds it, restarts from a checkpoint and ends with the same
+ * result — the single process's, bit for bit — and the owner stays done. */
+static void a_done_owners_lost_leave_costs_a_gather(void)
+{
+	setup su = {.integrator = "rk4", .dt = 0.02, .steps = 120, .clock = NDO_CLOCK_LOCKSTEP,
+	            .peers = 3, .step_timeout = 0.2};
+	world *w = owner_and_two(&su);
+	leave_lost = 0; /* the owner's */
+	int done = run(w, 60) == 0;
+	leave_lost = -1;
+	int heir = -1, heirs = 0;
+	for (int i = 1; i < w->n; i++) {
+		const ndo_session *ps = ndo_peer_session(w->p[i]);
+		if (ndo_session_owner_id(ps) == ndo_session_self(ps))
+			heir = i, heirs++;
+	}
+	double *x = solo(&su);
+	double d0 = difference(ndo_peer_grid(w->p[0]), x);
+	double d = heir > 0 ? difference(ndo_peer_grid(w->p[heir]), x) : -1;
+	free(x);
+	ndo_peer_stats st;
+	memset(&st, 0, sizeof st);
+	if (heir > 0)
+		ndo_peer_stats_get(w->p[heir], &st);
+	printf("    the owner done, its leave lost: peer %d took over; its result differs by %g, the "
+	       "owner's by %g; %lld steps again\n", heir, d, d0, (long long)st.restart_steps);
+	CHECK(done && w->state[0] == NDO_PEER_DONE && w->state[1] == NDO_PEER_DONE &&
+	          w->state[2] == NDO_PEER_DONE && heirs == 1 && st.took_over && d == 0 && d0 == 0,
+	      "done %d, states %d %d %d, %d successors, differences %g and %g", done, w->state[0],
+	      w->state[1], w->state[2], heirs, d, d0);
+	world_free(w);
+}
+
 static void the_owners_death_costs_a_restart(void)
 {
 	owner_killed_case("rk4", 0, 41, 0, 0);
@@ -1356,6 +1391,7 @@ int main(void)
 	RUN(a_lost_checkpoint_is_asked_for);
 	RUN(a_joiner_starts_with_the_owners_partition);
 	RUN(the_owners_death_costs_a_restart);
+	RUN(a_done_owners_lost_leave_costs_a_gather);
 	RUN(owner_quit_ends_the_others);
 	RUN(strangers_tiles_are_not_used);
 	RUN(a_replayed_log_gives_the_live_frames);
