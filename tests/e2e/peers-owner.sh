@@ -7,8 +7,9 @@
 # single process's bit for bit, with and without 10 % loss; an observer
 # follows the successor (and, like it, does not say "NOT exact": a taint
 # it heard was undone by the restart); a successor without -o says the result has nowhere
-# to go; render-frame --lcm follows the successor to the last step.
-# (peers-restart.sh kills joiners.)
+# to go; render-frame --lcm follows the successor to the last step; and
+# the owner killed after its joiners' last step, before it gathered, is
+# succeeded all the same.  (peers-restart.sh kills joiners.)
 . "$(dirname "$0")/netns.bash"
 . "$(dirname "$0")/lib.sh"
 . "$(dirname "$0")/peers.bash"

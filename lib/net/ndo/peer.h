@@ -200,8 +200,9 @@ void ndo_peer_destroy(ndo_peer *p, const char *message);
 /* Leave now, as ndo_peer_destroy does, keeping the peer readable (its
  * grid, step and stats): a caller that writes the owner's output first
  * and announces the end after it.  Until the owner's end is heard, the
- * others of an exact lock-step run take its silence after the last step
- * for a death, and its successor gathers the result again. */
+ * others of an exact lock-step run with checkpoints take its silence
+ * after the last step for a death, and its successor gathers the result
+ * again. */
 void ndo_peer_leave(ndo_peer *p, const char *message);
 
 typedef enum ndo_peer_state {
