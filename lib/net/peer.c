@@ -875,7 +875,15 @@ static int ck_ready(ndo_peer *p)
  * whole (from its announcement of the first: the run's first step).  A
  * joiner keeps every simulating peer's checkpoints too, and names the
  * step the same way: the partitions it makes if it succeeds the owner
- * (ndo_session_set_succession). */
+ * (ndo_session_set_succession).  Called after every change of the store:
+ * the step named must be the one the store keeps from eviction (the
+ * newest whole).  Until 2026-11-30 a joiner named it only when a message
+ * came, not when its own part made a step whole: the owner's part of
+ * step s came first (it was whole only later), the owner's next parts
+ * were lost, the store evicted the step still named to keep s, and a
+ * successor that had to restart after the owner's last step went back to
+ * a step nobody held (restart_begin drops the newer ones) and waited for
+ * it for ever (test_peer, split_restarts_keep_the_single_process: seed 56). */
 static void ck_whole(ndo_peer *p)
 {
 	if (p->ck && p->announced && restartable(p))
@@ -900,8 +908,8 @@ static int checkpoint(ndo_peer *p)
 		return rc;
 	ck_take(p, p->nownc, p->ownc);
 	p->st.checkpoints++;
+	ck_whole(p);
 	if (p->owner) {
-		ck_whole(p);
 		p->ck_last = p->cur;
 		p->ck_ask = (backoff){0, 0};
 		if (npeers(p) < 2)
@@ -1053,6 +1061,7 @@ static int restart_begin(ndo_peer *p, int64_t R, int64_t from)
 	if (rc)
 		return rc;
 	ndo__ck_drop_after(p->ck, R);
+	ck_whole(p); /* (a joiner may have held a newer step whole) */
 	p->ck_last = -1; /* (this partition's checkpoints come after R) */
 	p->rs_step = R;
 	p->rs_from = from;

@@ -500,6 +500,9 @@ static int rc_block;
 /* ... and the realtime clock instead of lock-step: the run must end, with
  * every peer done, but a new partition goes on unconfirmed (not exact) */
 static int rc_realtime;
+/* ... and the first joiner must have succeeded the owner (its leave lost
+ * after its last step) and restarted from a checkpoint it held whole */
+static int rc_successor;
 
 /* `every`: checkpoint_every (< 0: none, the reference, which must differ);
  * k: steps per halo exchange. */
@@ -591,6 +594,10 @@ static void restart_case(int what, double drop, uint64_t seed, int every, int k)
 	if (rc_second)
 		printf("    and a second peer killed at the owner's step %lld, %s\n", (long long)was2,
 		       rc_second == 1 ? "during the restart" : "as the new partition came");
+	if (rc_successor)
+		CHECK(sj.took_over && sj.restarts >= 2, "the first joiner: succeeded the owner %d, "
+		      "%lld restarts (expected 2: the event's and its own)", sj.took_over,
+		      (long long)sj.restarts);
 	CHECK(np == su.peers + (what == JOIN ? 1 : -1) - (rc_second != 0),
 	      "%s: %d peers simulate at the end", WHAT[what], np);
 	if (rc_realtime) {
@@ -1063,7 +1070,15 @@ static void split_restarts_keep_the_single_process(void)
 	 * it (behind) while it waited for them (alive, a step ahead) */
 	rc_method = "rkf45", rc_peers = 0;
 	restart_case(JOIN, 0.1, 288, 0, 1);
-	rc_method = NULL;
+	/* the owner done, its leave lost, the joiner its successor after the
+	 * last step: until 2026-11-30 the step the joiner named for a restart
+	 * lagged its store (its own part made a newer step whole, the owner's
+	 * next parts were lost, the named one was evicted), and the successor
+	 * went back to a step it no longer held and waited for it for ever
+	 * (found by the TEST_PEER_KILLS sweep: 1 seed in 180) */
+	rc_method = "backward-euler", rc_successor = 1;
+	restart_case(LEAVE, 0.1, 56, 0, 1);
+	rc_method = NULL, rc_successor = 0;
 }
 
 static void owner_quit_ends_the_others(void)
