@@ -1552,10 +1552,12 @@ void ndo_session_leave(ndo_session *s, const char *message)
 	char buf[NDO_MAX_TEXT + 1];
 	snprintf(buf, sizeof buf, "%s", l.message);
 	l.message = buf;
-	/* twice: a lost leave costs the others a timeout (after the last
-	 * step, a successor's restart and gather: docs/peers.md) */
-	ndo_net_publish(s->net, NDO_MSG_LEAVE, &l);
-	ndo_net_publish(s->net, NDO_MSG_LEAVE, &l);
+	/* three times: a lost leave costs the others a timeout (after the
+	 * last step, a successor's restart and gather: docs/peers.md; with two
+	 * copies 1 joiner in 100 under 10 % loss, in test_peer's
+	 * TEST_PEER_OWNER sweep 3 runs in 150 ended with two heirs) */
+	for (int k = 0; k < 3; k++)
+		ndo_net_publish(s->net, NDO_MSG_LEAVE, &l);
 	s->ended = 1;
 }
 
