@@ -1375,13 +1375,20 @@ int main(void)
 		 * step and its losses; TEST_PEER_METHOD, TEST_PEER_DROP as below;
 		 * TEST_PEER_SECOND=1 its successor killed too (4 peers);
 		 * TEST_PEER_LATE=1 the kill in the last 11 steps (290..300, from
-		 * the seed), where the joiners may have taken their last step */
+		 * the seed), where the joiners may have taken their last step;
+		 * TEST_PEER_CHECKPOINTS=-1 none, TEST_PEER_CLOCK=realtime,
+		 * TEST_PEER_HOLD=1 the thesis' held boundary (the session lives
+		 * on, not exact) */
 		int n = atoi(owners);
 		const char *first = getenv("TEST_PEER_FIRST"), *dr = getenv("TEST_PEER_DROP");
 		const char *m = getenv("TEST_PEER_METHOD");
 		uint64_t s0 = first ? strtoull(first, NULL, 10) : 1;
 		int late = getenv("TEST_PEER_LATE") != NULL;
 		int second = getenv("TEST_PEER_SECOND") != NULL;
+		const char *ck = getenv("TEST_PEER_CHECKPOINTS"), *clock = getenv("TEST_PEER_CLOCK");
+		ok_every = ck ? atoi(ck) : 0;
+		ok_clock = clock && strcmp(clock, "realtime") == 0 ? NDO_CLOCK_REALTIME : 0;
+		ok_hold = getenv("TEST_PEER_HOLD") != NULL;
 		for (int i = 0; i < n; i++) {
 			uint64_t seed = s0 + (uint64_t)i;
 			ok_at = late ? 290 + (int64_t)(seed % 11) : 0;
