@@ -1482,7 +1482,11 @@ static void join_point(ndo_peer *p)
 	p->wall0 = p->now;
 	p->sched0 = p->cur;
 	p->prev_valid = 0;
-	if (p->cur > p->first) /* exact lock-step without a restart: from frames */
+	/* exact lock-step without a restart: a region from frames — a
+	 * simulating peer's; an observer computes nothing, and what it holds
+	 * at the end is what the peers computed (their halos carry their
+	 * taints) */
+	if (p->cur > p->first && p->simulating)
 		taint(p, p->cur, 0);
 }
 

@@ -383,6 +383,11 @@ static void life(const char *integrator, double dt, int64_t steps)
 	ndo_session_cells(ndo_peer_session(w->p[0]), &np, NULL);
 	CHECK(np == 3 && ndo_peer_simulating(w->p[1]) && ndo_peer_simulating(w->p[2]) &&
 	      !ndo_peer_simulating(w->p[3]), "3 simulate, the observer not: %d", np);
+	ndo_peer_stats so;
+	ndo_peer_stats_get(w->p[3], &so);
+	CHECK(ndo_peer_started(w->p[3]) && so.inexact_at < 0, "the observer, come at step > 0: "
+	      "started %d, says not exact from step %lld", ndo_peer_started(w->p[3]),
+	      (long long)so.inexact_at);
 	/* peer 1 leaves (announced): the owner re-partitions at once */
 	int64_t at = ndo_peer_step(w->p[0]);
 	ndo_peer_destroy(w->p[1], "bye");
@@ -424,6 +429,16 @@ static void life(const char *integrator, double dt, int64_t steps)
 	      "(expected %s), differs by %.3g, %lld restarts, not exact from step %lld", integrator,
 	      want > 0 ? "≤ 1e-10" : "0: bit for bit", d, (long long)st.restarts,
 	      (long long)st.inexact_at);
+	/* the observer came when the run was under way: what it saw is what
+	 * the peers computed, and it says the run is exact as the owner does
+	 * (until 2026-11-30 a late observer took its own first state, from the
+	 * frames, for a region taken over and said "NOT exact") */
+	ndo_peer_stats_get(w->p[3], &so);
+	double dobs = difference(ndo_peer_grid(w->p[3]), x);
+	printf("    the observer (came at step > 0): differs by %.3g, not exact from step %lld\n",
+	       dobs, (long long)so.inexact_at);
+	CHECK(dobs <= want && so.inexact_at < 0, "%s: the late observer differs by %.3g, says "
+	      "not exact from step %lld", integrator, dobs, (long long)so.inexact_at);
 	free(x);
 	ndo_peer_destroy(dead, NULL); /* quietly: its leave finds no one to read it */
 	world_free(w);
@@ -466,6 +481,42 @@ static world *owner_and_two(const setup *su)
 	add_joiner(w, su, POIS[0]);
 	add_joiner(w, su, POIS[1]);
 	return w;
+}
+
+/* An observer that comes when the run is under way, with no new partition
+ * after it (an observer does not change the partition): what it holds at
+ * the end is what the peers computed, and it says the run is exact, as the
+ * owner does.  Until 2026-11-30 it took its own first state (the frames it
+ * started from) for a region taken over without a restart and said "NOT
+ * exact" of an exact run (peers-owner.sh, under load: the observer came
+ * after the successor's restart). */
+static void a_late_observer_says_what_the_peers_say(void)
+{
+	/* (an observer takes ~0.3 s of fake time to come, the peers a step a
+	 * tick meanwhile) */
+	setup su = {.integrator = "rk4", .dt = 0.02, .steps = 700, .clock = NDO_CLOCK_LOCKSTEP,
+	            .peers = 3, .step_timeout = 0.2};
+	world *w = owner_and_two(&su);
+	run_to_step(w, 60, 30);
+	int64_t at = ndo_peer_step(w->p[0]);
+	add_joiner(w, &su, -1); /* an observer */
+	const int o = w->n - 1;
+	double d;
+	ndo_peer_stats st, so;
+	int done = finish(w, &su, &d, &st);
+	ndo_peer_stats_get(w->p[o], &so);
+	double *x = solo(&su);
+	double dobs = ndo_peer_grid(w->p[o]) ? difference(ndo_peer_grid(w->p[o]), x) : INFINITY;
+	free(x);
+	printf("    an observer come at step %lld: differs by %.3g, says not exact from step %lld "
+	       "(the owner: %lld; %lld repartitions)\n", (long long)at, dobs,
+	       (long long)so.inexact_at, (long long)st.inexact_at, (long long)st.repartitions);
+	CHECK(done && w->state[o] == NDO_PEER_DONE && d == 0 && dobs == 0 && st.inexact_at < 0 &&
+	          so.inexact_at < 0,
+	      "done %d (observer %d), differs by %.3g (observer %.3g), not exact from step %lld "
+	      "(observer %lld)", done, w->state[o], d, dobs, (long long)st.inexact_at,
+	      (long long)so.inexact_at);
+	world_free(w);
 }
 
 /* A partition that changes during the run restarts every peer from the
@@ -1455,6 +1506,7 @@ int main(void)
 	RUN(realtime_rolls_back_to_the_single_process);
 	RUN(realtime_without_the_pace_stops);
 	RUN(joins_leaves_and_a_dead_peer);
+	RUN(a_late_observer_says_what_the_peers_say);
 	RUN(restarts_keep_the_single_process);
 	RUN(a_peer_lost_at_the_start);
 	RUN(split_restarts_keep_the_single_process);
