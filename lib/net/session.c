@@ -1698,6 +1698,7 @@ int ndo_session_ended(const ndo_session *s) { return s->ended; }
 int32_t ndo_session_self(const ndo_session *s) { return s->self; }
 int64_t ndo_session_object(const ndo_session *s) { return s->object; }
 int32_t ndo_session_owner_id(const ndo_session *s) { return s->owner_id; }
+int32_t ndo_session_successor(ndo_session *s) { return successor(s); }
 const char *ndo_session_scene(const ndo_session *s) { return s->scene; }
 int32_t ndo_session_epoch(const ndo_session *s) { return s->epoch; }
 int64_t ndo_session_restart(const ndo_session *s) { return s->restart; }

@@ -812,12 +812,14 @@ static int ok_every;  /* checkpoint_every (< 0: none) */
 static ndo_clock ok_clock; /* 0: lock-step */
 static int ok_hold;        /* the thesis' held boundary */
 static int64_t ok_at;      /* the owner's step at the kill (0: from the seed) */
+static int ok_level, ok_bands; /* the level (0: 4) and the partition in bands */
+static int64_t ok_again;        /* > 0: the successor takes at most this many steps again */
 static void owner_killed_case(const char *method, double drop, uint64_t seed, int second,
                               int back)
 {
 	setup su = {.integrator = method, .dt = 0.02, .steps = 300,
 	            .clock = ok_clock ? ok_clock : NDO_CLOCK_LOCKSTEP, .checkpoint_every = ok_every,
-	            .hold = ok_hold,
+	            .hold = ok_hold, .level = ok_level, .bands = ok_bands,
 	            .peers = second ? 4 : 3, .step_timeout = 0.2,
 	            .extra = strcmp(method, "rkf45") == 0 ? "tol 1e-7\n" : NULL};
 	if (drop > 0)
@@ -918,6 +920,10 @@ static void owner_killed_case(const char *method, double drop, uint64_t seed, in
 	       (long long)st.restarts, (long long)st.restart_steps,
 	       (double)st.checkpoint_bytes / 1e3);
 	int restarts = ok_every >= 0 && !ok_clock && !ok_hold;
+	if (ok_again > 0)
+		CHECK(st.restart_steps <= ok_again, "%s, the owner killed at step %lld: the successor "
+		      "took %lld steps again (at most %lld: its newest checkpoint held whole)", method,
+		      (long long)was, (long long)st.restart_steps, (long long)ok_again);
 	CHECK(done && st.took_over && np == su.peers - 1 - (second != 0) &&
 	          (restarts ? st.restarts >= 1 : st.restarts == 0),
 	      "%s: done %d, took over %d, %d peers at the end, %lld restarts", method, done,
@@ -1007,6 +1013,13 @@ static void the_owners_death_costs_a_restart(void)
 	ok_at = 299;
 	owner_killed_case("rk4", 0, 52, 0, 0);
 	owner_killed_case("rk4", 0.1, 53, 0, 0);
+	/* level 6 in bands, a checkpoint every 80 steps: under 10 % loss the
+	 * successor asks for the parts it lacks, as the owner does; until
+	 * 2026-11-30 it did not, and seed 120 (the owner killed at step 247)
+	 * went back to step 80: 169 steps again instead of 9 */
+	ok_at = 0, ok_level = 6, ok_bands = 1, ok_again = ndo_peer_checkpoint_default(6);
+	owner_killed_case("rk4", 0.1, 120, 0, 0);
+	ok_level = 0, ok_bands = 0, ok_again = 0;
 	ok_at = 300;
 	owner_killed_case("rk4", 0, 54, 0, 0);
 	owner_killed_case("rk4", 0.1, 55, 1, 0);
@@ -1433,7 +1446,7 @@ int main(void)
 		 * the seed), where the joiners may have taken their last step;
 		 * TEST_PEER_CHECKPOINTS=-1 none, TEST_PEER_CLOCK=realtime,
 		 * TEST_PEER_HOLD=1 the thesis' held boundary (the session lives
-		 * on, not exact) */
+		 * on, not exact); TEST_PEER_LEVEL, TEST_PEER_BANDS=1 */
 		int n = atoi(owners);
 		const char *first = getenv("TEST_PEER_FIRST"), *dr = getenv("TEST_PEER_DROP");
 		const char *m = getenv("TEST_PEER_METHOD");
@@ -1444,6 +1457,8 @@ int main(void)
 		ok_every = ck ? atoi(ck) : 0;
 		ok_clock = clock && strcmp(clock, "realtime") == 0 ? NDO_CLOCK_REALTIME : 0;
 		ok_hold = getenv("TEST_PEER_HOLD") != NULL;
+		ok_level = getenv("TEST_PEER_LEVEL") ? atoi(getenv("TEST_PEER_LEVEL")) : 0;
+		ok_bands = getenv("TEST_PEER_BANDS") != NULL;
 		for (int i = 0; i < n; i++) {
 			uint64_t seed = s0 + (uint64_t)i;
 			ok_at = late ? 290 + (int64_t)(seed % 11) : 0;

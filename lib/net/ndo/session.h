@@ -258,6 +258,10 @@ int ndo_session_ended(const ndo_session *s);
 int32_t ndo_session_self(const ndo_session *s);
 int64_t ndo_session_object(const ndo_session *s);
 int32_t ndo_session_owner_id(const ndo_session *s);
+/* Who would own the session if the owner fell silent now (the first
+ * simulating peer of the partition in force after it; with succession on,
+ * ndo_session_set_succession), 0: none. */
+int32_t ndo_session_successor(ndo_session *s);
 const char *ndo_session_scene(const ndo_session *s); /* the description's text */
 /* The current partition: epoch, peers (ids) and the cell slots (2N × N,
  * ndo/partition.h); NULL before one is known. */
