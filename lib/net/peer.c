@@ -2264,6 +2264,16 @@ int ndo_peer_update(ndo_peer *p, double now)
 		ndo_session_set_succession(p->s, p->sim &&
 		                                     ((p->simulating ? p->cur : p->max_seen) < p->final ||
 		                                      restartable(p)));
+	else if (!p->owner && !p->simulating)
+		/* not started and outside the partition (an observer, a joiner
+		 * on its way in): it cannot be the successor, and follows one.
+		 * Until 2026-11-30 an observer that had the description but not
+		 * yet the whole object when the owner died took the successor
+		 * for a stranger (its rest tiles too: they come from the owner
+		 * only) and waited for the dead owner until its start timeout
+		 * (peers-owner.sh under load; test_peer
+		 * an_observer_on_its_way_follows_the_successor) */
+		ndo_session_set_succession(p->s, 1);
 	if (p->ended) {
 		/* an owner ends only by gathering (done, above): ended, it gave
 		 * way to a successor (after its last step too: it had not gathered) */

@@ -804,7 +804,14 @@ static int succeed(ndo_session *s, int32_t next, const char *how)
  * negative: a status. */
 static int successor_speaks(ndo_session *s, int32_t from, int32_t epoch)
 {
-	if (s->o.role != NDO_ROLE_OWNER && epoch > s->epoch && from == successor(s)) {
+	/* without a partition yet (an observer that came during the run and
+	 * lost the owner before its partition arrived) the successor cannot be
+	 * named: a member the owner listed is followed once the owner has been
+	 * silent for the timeout, as long as the successor waits before it
+	 * takes over */
+	int unnamed = !s->cells && s->succession && find_member(s, from) &&
+	              s->now - s->owner_heard >= s->o.timeout;
+	if (s->o.role != NDO_ROLE_OWNER && epoch > s->epoch && (from == successor(s) || unnamed)) {
 		int rc = succeed(s, from, "is silent to its successor");
 		return rc ? rc : 1;
 	}
