@@ -149,7 +149,7 @@ struct ndo_peer {
 	int64_t ck_last;       /* its newest checkpoint step of this
 	                          partition (−1: none) */
 	backoff ck_ask;        /* owner, successor: asks for the others' parts of ck_last */
-	backoff ck_answer;     /* joiner: answers to asks, for ck_answer_step (a
+	backoff ck_answer;     /* answers to asks (ck_ask), for ck_answer_step (a
 	                          small message must not draw a region's state
 	                          at any rate) */
 	int64_t ck_answer_step;
@@ -883,7 +883,8 @@ static int ck_ready(ndo_peer *p)
  * were lost, the store evicted the step still named to keep s, and a
  * successor that had to restart after the owner's last step went back to
  * a step nobody held (restart_begin drops the newer ones) and waited for
- * it for ever (test_peer, split_restarts_keep_the_single_process: seed 56). */
+ * it for ever (test_peer, split_restarts_keep_the_single_process: seed 10,
+ * the owner's leaves lost). */
 static void ck_whole(ndo_peer *p)
 {
 	if (p->ck && p->announced && restartable(p))
