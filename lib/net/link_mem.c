@@ -108,6 +108,15 @@ static int mem_poll(ndo_link *base, double now, ndo_link_fn fn, void *user)
 	return n;
 }
 
+void ndo_link_mem_lose(ndo_link *base)
+{
+	if (!base || base->poll != mem_poll)
+		return;
+	mem_link *l = (mem_link *)base;
+	l->next = l->bus->count;
+	compact(l->bus);
+}
+
 static void mem_destroy(ndo_link *base)
 {
 	mem_link *l = (mem_link *)base;

@@ -800,17 +800,24 @@ static int succeed(ndo_session *s, int32_t next, const char *how)
 /* A message of the owner's kind from `from`, not the owner, for a newer
  * partition than the one in force (`epoch`): the successor, which took
  * the owner for dead before this peer did, is followed at once; anyone
- * else is counted (an authority drop).  1: follow it now; 0: dropped;
- * negative: a status. */
-static int successor_speaks(ndo_session *s, int32_t from, int32_t epoch)
+ * else is counted (an authority drop).  `listed`: the message itself names
+ * `from` among the simulating peers (a partition).  1: follow it now; 0:
+ * dropped; negative: a status. */
+static int successor_speaks(ndo_session *s, int32_t from, int32_t epoch, int listed)
 {
-	/* without a partition yet (an observer that came during the run and
-	 * lost the owner before its partition arrived) the successor cannot be
-	 * named: a member the owner listed is followed once the owner has been
-	 * silent for the timeout, as long as the successor waits before it
-	 * takes over */
-	int unnamed = !s->cells && s->succession && find_member(s, from) &&
-	              s->now - s->owner_heard >= s->o.timeout;
+	/* a peer outside its partition (an observer; a joiner not yet in it)
+	 * may hold none, or an old one that does not name the successor: the
+	 * owner's first, before the joiners came, the newer ones lost.  It
+	 * follows a member the owner listed, or one the partition it sends
+	 * lists, once the owner has been silent for the timeout, as long as
+	 * the successor waits before it takes over.  Until 2026-11-30 such a
+	 * peer holding a partition followed only the successor it named (none:
+	 * an observer in peers-owner.sh timed the dead owner out only at its
+	 * start timeout; test_peer
+	 * an_observer_with_an_old_partition_follows_the_successor) */
+	int outsider = !s->cells || !simulates(s, s->self);
+	int unnamed = outsider && s->succession && !lost(s, from) &&
+	              (listed || find_member(s, from)) && s->now - s->owner_heard >= s->o.timeout;
 	if (s->o.role != NDO_ROLE_OWNER && epoch > s->epoch && (from == successor(s) || unnamed)) {
 		int rc = succeed(s, from, "is silent to its successor");
 		return rc ? rc : 1;
@@ -826,7 +833,7 @@ static int on_description(ndo_session *s, const ndo_msg_description_t *d)
 		return 0;
 	if (s->described) {
 		if (d->hdr.sender_id != s->owner_id) {
-			int rc = successor_speaks(s, d->hdr.sender_id, d->epoch);
+			int rc = successor_speaks(s, d->hdr.sender_id, d->epoch, 0);
 			return rc < 0 ? rc : 0;
 		}
 		return 0;
@@ -915,7 +922,10 @@ static int on_partition(ndo_session *s, const ndo_msg_partition_t *p)
 		return 0;
 	}
 	if (from != s->owner_id) {
-		int rc = successor_speaks(s, from, p->epoch);
+		int listed = 0;
+		for (int k = 0; k < p->npeers; k++)
+			listed |= p->peers[k] == from;
+		int rc = successor_speaks(s, from, p->epoch, listed);
 		if (rc <= 0)
 			return rc;
 	}

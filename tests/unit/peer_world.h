@@ -20,6 +20,8 @@ typedef struct world {
 	ndo_bus *bus;
 	ndo_peer *p[8];
 	int state[8];
+	ndo_link *link[8]; /* each peer's in-memory link (owned by its net) */
+	int deaf[8];       /* this peer loses everything sent to it (ndo_link_mem_lose) */
 	int n;
 	double t;
 	/* notes, for the timing tests */
@@ -127,6 +129,7 @@ static ndo_net *net(world *w, int32_t id, const setup *su, int index)
 	ndo_net *n;
 	if (ndo_link_open_mem(w->bus, &l))
 		return NULL;
+	w->link[index] = l;
 	if (su->faults.drop > 0 || su->faults.delay_ms > 0) {
 		ndo_faults f = su->faults;
 		f.seed += (uint64_t)index * 7919;
@@ -186,6 +189,8 @@ static int run(world *w, double until)
 		for (int i = 0; i < w->n; i++) {
 			if (!w->p[i] || w->state[i] == NDO_PEER_DONE || w->state[i] == NDO_PEER_ENDED)
 				continue;
+			if (w->deaf[i])
+				ndo_link_mem_lose(w->link[i]);
 			/* at most one step per peer per round: a step takes a tick */
 			int r = ndo_peer_update(w->p[i], w->t);
 			if (r < 0) {

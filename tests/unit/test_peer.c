@@ -566,6 +566,61 @@ static void an_observer_on_its_way_follows_the_successor(void)
 	world_free(w);
 }
 
+/* An observer that holds the object and a partition that does not name
+ * the successor — the owner's first, before any joiner came, all the newer
+ * ones lost — when the owner dies follows the successor all the same, and
+ * ends with the run.  Until 2026-11-30 it could name no successor from its
+ * partition (only the owner was in it) and, holding one, did not follow an
+ * unnamed member either: it took the successor's partitions for a
+ * stranger's and timed the dead owner out only at its start timeout
+ * (peers-owner.sh, 10 % loss, 1 run in about 13: "joined object", never
+ * "observing from step", exit 4). */
+static void an_observer_with_an_old_partition_follows_the_successor(void)
+{
+	setup su = {.integrator = "rk4", .dt = 0.02, .steps = 400, .clock = NDO_CLOCK_LOCKSTEP,
+	            .peers = 3, .step_timeout = 0.2};
+	world *w = world_new();
+	CHECK(add_owner(w, &su) == 0, "owner");
+	add_joiner(w, &su, -1); /* an observer, before the joiners */
+	const ndo_session *os = ndo_peer_session(w->p[1]);
+	while (!ndo_session_ready(os) && w->t < 30 && run(w, w->t + TICK) == 1)
+		;
+	int n = 0;
+	int ready = ndo_session_ready(os) && ndo_session_cells(os, &n, NULL) && n == 1;
+	/* from here on it hears nothing until the owner is dead */
+	w->deaf[1] = 1;
+	add_joiner(w, &su, POIS[0]);
+	add_joiner(w, &su, POIS[1]);
+	run_to_step(w, 60, 30);
+	int64_t at = ndo_peer_step(w->p[0]);
+	int started = ndo_peer_started(w->p[1]);
+	ndo_peer *dead = w->p[0];
+	w->p[0] = NULL;
+	w->deaf[1] = 0;
+	int done = run(w, 60) == 0;
+	int32_t heir = 0;
+	for (int i = 2; i < w->n; i++) {
+		const ndo_session *ps = ndo_peer_session(w->p[i]);
+		if (ndo_session_owner_id(ps) == ndo_session_self(ps))
+			heir = ndo_session_self(ps);
+	}
+	int32_t followed = ndo_session_owner_id(os);
+	double *x = solo(&su);
+	double dobs = ndo_peer_grid(w->p[1]) ? difference(ndo_peer_grid(w->p[1]), x) : INFINITY;
+	free(x);
+	printf("    the observer ready with a partition of %d peer%s, started %d; the owner killed "
+	       "at step %lld: the observer ends in state %d following peer %d (the successor: "
+	       "%d), %.3g from the single process: %s\n", n, n == 1 ? "" : "s", started,
+	       (long long)at, w->state[1], followed, heir, dobs, ndo_peer_message(w->p[1]));
+	CHECK(ready && !started, "the observer: ready %d with %d peers, started %d", ready, n,
+	      started);
+	CHECK(done && heir && followed == heir && w->state[1] == NDO_PEER_DONE && dobs == 0,
+	      "done %d, the observer in state %d follows peer %d, the successor %d; it holds "
+	      "%.3g from the single process", done, w->state[1], followed, heir, dobs);
+	ndo_peer_destroy(dead, NULL);
+	world_free(w);
+}
+
 /* A partition that changes during the run restarts every peer from the
  * newest checkpoint the owner holds whole (checkpoint.h): a peer killed
  * (destroyed without a word: silent), an announced leave and a joiner,
@@ -1573,6 +1628,7 @@ int main(void)
 	RUN(joins_leaves_and_a_dead_peer);
 	RUN(a_late_observer_says_what_the_peers_say);
 	RUN(an_observer_on_its_way_follows_the_successor);
+	RUN(an_observer_with_an_old_partition_follows_the_successor);
 	RUN(restarts_keep_the_single_process);
 	RUN(a_peer_lost_at_the_start);
 	RUN(split_restarts_keep_the_single_process);

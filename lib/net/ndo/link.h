@@ -49,6 +49,10 @@ typedef struct ndo_bus ndo_bus;
 int ndo_bus_create(ndo_bus **out);
 void ndo_bus_destroy(ndo_bus *b);
 int ndo_link_open_mem(ndo_bus *b, ndo_link **out);
+/* Everything published on the bus that the in-memory link `l` has not
+ * read is lost to it (a test's burst of loss: what this link would have
+ * received until now).  Nothing for a link of another kind. */
+void ndo_link_mem_lose(ndo_link *l);
 
 /* Fault injection on the receiving side (the application's netem): each
  * message is dropped with probability `drop`; the others are held for
