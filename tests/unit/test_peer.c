@@ -597,8 +597,13 @@ static void an_observer_on_its_way_follows_the_successor(void)
  * "observing from step", exit 4). */
 static void an_observer_with_an_old_partition_follows_the_successor(void)
 {
+	/* OLD_SEED=N: the same under 10 % loss (a sweep) */
+	const char *oseed = getenv("OLD_SEED");
 	setup su = {.integrator = "rk4", .dt = 0.02, .steps = 400, .clock = NDO_CLOCK_LOCKSTEP,
 	            .peers = 3, .step_timeout = 0.2};
+	if (oseed)
+		su.faults = (ndo_faults){.drop = 0.1, .delay_ms = 2, .jitter_ms = 2,
+		                         .seed = strtoull(oseed, NULL, 10)};
 	world *w = world_new();
 	CHECK(add_owner(w, &su) == 0, "owner");
 	add_joiner(w, &su, -1); /* an observer, before the joiners */
