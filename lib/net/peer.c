@@ -1342,6 +1342,8 @@ static int resend(ndo_peer *p)
 	                                                    p->prev_time)) < 0)
 		return rc;
 	p->st.resends++;
+	if (p->started && p->cur >= p->final)
+		p->last_resends++;
 	return publish(p);
 }
 

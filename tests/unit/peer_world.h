@@ -22,6 +22,9 @@ typedef struct world {
 	int state[8];
 	ndo_link *link[8]; /* each peer's in-memory link (owned by its net) */
 	int deaf[8];       /* this peer loses everything sent to it (ndo_link_mem_lose) */
+	int64_t last_step[8];
+	double step_at[8]; /* when its step last changed (fake time) */
+	double done_at[8]; /* when it was first DONE (0: not yet) */
 	int n;
 	double t;
 	/* notes, for the timing tests */
@@ -198,6 +201,12 @@ static int run(world *w, double until)
 				return r;
 			}
 			w->state[i] = r;
+			if (ndo_peer_step(w->p[i]) != w->last_step[i]) {
+				w->last_step[i] = ndo_peer_step(w->p[i]);
+				w->step_at[i] = w->t;
+			}
+			if (r == NDO_PEER_DONE && w->done_at[i] == 0)
+				w->done_at[i] = w->t;
 			/* done: it leaves, as simulate-peer does once its -o is written
 			 * (the owner ends the session for everyone) */
 			if (r == NDO_PEER_DONE && i != leave_lost)

@@ -74,6 +74,35 @@ static void lockstep_is_the_single_process_bit_for_bit(void)
 	      "differs by %.3g (expected the lag's error)", ok, st.exact, d);
 }
 
+/* The owner leaves soon after its last step, once its last frame went out
+ * three times (the re-sends at 0.01 and 0.03 s): exact lock-step and the
+ * thesis' held boundary alike.  The first version counted the re-sends of
+ * the exact modes only: a held-boundary owner waited out its gather
+ * timeout (10 s), re-sending its whole region all the while
+ * (peers-replay.sh's log grew fourfold). */
+static void the_owner_leaves_soon_after_its_last_step(void)
+{
+	for (int hold = 0; hold <= 1; hold++) {
+		setup su = {.integrator = "rk4", .dt = 0.02, .steps = 20,
+		            .clock = NDO_CLOCK_LOCKSTEP, .peers = 2, .hold = hold};
+		world *w = world_new();
+		CHECK(add_owner(w, &su) == 0, "owner");
+		add_joiner(w, &su, POIS[0]);
+		int done = run(w, 60) == 0;
+		ndo_peer_stats st;
+		ndo_peer_stats_get(w->p[0], &st);
+		double after = w->done_at[0] - w->step_at[0];
+		printf("    %s: the owner done %.3f s after its last step, %lld re-sends\n",
+		       hold ? "held boundary" : "exact lock-step", after, (long long)st.resends);
+		CHECK(done && w->state[0] == NDO_PEER_DONE && w->last_step[0] == su.steps &&
+		          after >= 0.025 && after < 0.2 && st.resends >= 2,
+		      "%s: done %d, the owner at step %lld done %.3f s after it (%lld re-sends)",
+		      hold ? "held" : "exact", done, (long long)w->last_step[0], after,
+		      (long long)st.resends);
+		world_free(w);
+	}
+}
+
 /* rk4 over a delayed link (2 peers, bands, level 6: several chunks of
  * units a region): a peer waiting for its halo runs the units of the step
  * that read none of it (ndo_sim_step_begin) and the rest once it came; the
@@ -1644,6 +1673,7 @@ int main(void)
 		return ck_case_failures != 0; /* no RUN() here: the checks' own count */
 	}
 	RUN(lockstep_is_the_single_process_bit_for_bit);
+	RUN(the_owner_leaves_soon_after_its_last_step);
 	RUN(lockstep_steps_ahead_of_the_halo);
 	RUN(split_steps_are_the_single_process);
 	RUN(lockstep_survives_loss);
