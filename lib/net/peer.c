@@ -2341,6 +2341,19 @@ int ndo_peer_update(ndo_peer *p, double now)
 		return rc;
 	if (!p->started)
 		return starting(p);
+	/* an observer of an exact lock-step run that holds every node's last
+	 * step has all it will get: those values are the run's (a restart
+	 * after a lost owner computes them again bit for bit), so it does not
+	 * wait for the owner's leave, whose three copies may all be lost
+	 * (test_peer OBS_SEED 187: it waited a timeout for the successor and
+	 * another for the next peer) */
+	if (!p->owner && !p->simulating && p->exact && p->clock == NDO_CLOCK_LOCKSTEP &&
+	    holds_last(p)) {
+		snprintf(p->message, sizeof p->message, "run complete at step %lld",
+		         (long long)p->final);
+		p->done = 1;
+		return NDO_PEER_DONE;
+	}
 	if (p->cur >= p->final)
 		return finishing(p);
 	if (!p->simulating)
