@@ -15,6 +15,37 @@
 #include <stdatomic.h>
 #include <stdint.h>
 #include <stdlib.h>
+#if defined(__x86_64__) || defined(__SSE2__)
+#include <xmmintrin.h>
+#define NDO_HAVE_MXCSR 1
+#endif
+
+unsigned ndo_fp_get(void)
+{
+#ifdef NDO_HAVE_MXCSR
+	return _mm_getcsr();
+#else
+	return 0;
+#endif
+}
+
+void ndo_fp_set(unsigned control)
+{
+#ifdef NDO_HAVE_MXCSR
+	_mm_setcsr(control);
+#else
+	(void)control;
+#endif
+}
+
+unsigned ndo_fp_flush(void)
+{
+	unsigned before = ndo_fp_get();
+#ifdef NDO_HAVE_MXCSR
+	ndo_fp_set(before | 0x8040u); /* FTZ (bit 15) and DAZ (bit 6) */
+#endif
+	return before;
+}
 
 struct ndo_pool {
 	int threads;
@@ -27,6 +58,7 @@ struct ndo_pool {
 	void (*fn)(void *, int);
 	void *ctx;
 	int n;
+	unsigned fp;             /* the caller's floating-point control */
 	_Atomic uint64_t claim;  /* gen << 32 | the next chunk */
 	_Atomic int finished;    /* chunks of this loop finished */
 };
@@ -65,8 +97,12 @@ static void *worker(void *arg)
 		void (*fn)(void *, int) = p->fn;
 		void *ctx = p->ctx;
 		int n = p->n;
+		unsigned fp = p->fp;
 		pthread_mutex_unlock(&p->lock);
+		const unsigned mine = ndo_fp_get();
+		ndo_fp_set(fp);
 		run_chunks(p, seen, fn, ctx, n);
+		ndo_fp_set(mine);
 		pthread_mutex_lock(&p->lock);
 	}
 	pthread_mutex_unlock(&p->lock);
@@ -134,6 +170,7 @@ void ndo_pool_run(ndo_pool *p, int n, void (*fn)(void *ctx, int k), void *ctx)
 		p->gen = 1;
 	uint32_t g = p->gen;
 	p->fn = fn, p->ctx = ctx, p->n = n;
+	p->fp = ndo_fp_get();
 	atomic_store_explicit(&p->finished, 0, memory_order_relaxed);
 	atomic_store_explicit(&p->claim, (uint64_t)g << 32, memory_order_release);
 	pthread_cond_broadcast(&p->go);

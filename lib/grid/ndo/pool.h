@@ -32,8 +32,23 @@ int ndo_pool_threads(const ndo_pool *p);
 
 /* fn(ctx, k) for every k in 0..n−1, once each, on the caller and the
  * workers; returns when all have returned.  p may be NULL (the caller runs
- * them in order).  Not reentrant: fn must not call ndo_pool_run on the same
- * pool, and one thread at a time runs loops on a pool. */
+ * them in order).  A worker runs the chunks in the caller's floating-point
+ * control (ndo_fp_get: subnormals flushed or not, the rounding), so a
+ * chunk gives the same bits whichever thread takes it.  Not reentrant: fn
+ * must not call ndo_pool_run on the same pool, and one thread at a time
+ * runs loops on a pool. */
 void ndo_pool_run(ndo_pool *p, int n, void (*fn)(void *ctx, int k), void *ctx);
+
+/* The calling thread's floating-point control (x86-64: MXCSR; elsewhere
+ * 0 and nothing is changed), set back with ndo_fp_set. */
+unsigned ndo_fp_get(void);
+void ndo_fp_set(unsigned control);
+/* Subnormal numbers flushed to zero, as results and as operands (x86-64:
+ * MXCSR's FTZ and DAZ), in the calling thread from now on; returns the
+ * control before, for ndo_fp_set.  An arithmetic operation on a subnormal
+ * costs a hundred cycles or more on x86: a simulation started from rest
+ * carries a front of them outwards from the force (lib/sim flushes them
+ * while it computes: docs/simulate-peer.md, "Speed"). */
+unsigned ndo_fp_flush(void);
 
 #endif
