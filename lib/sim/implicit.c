@@ -660,7 +660,7 @@ static int ready(ndo_sim *s, double h, int direct)
 	return NDO_OK;
 }
 
-int ndo_sim_implicit_precondition(ndo_sim *s, double h, const double *r, double *z)
+static int sim_implicit_precondition(ndo_sim *s, double h, const double *r, double *z)
 {
 	ndo__clear_error();
 	if (s->p.method != NDO_BACKWARD_EULER && s->p.method != NDO_TRAPEZOID)
@@ -688,6 +688,14 @@ int ndo_sim_implicit_precondition(ndo_sim *s, double h, const double *r, double 
 			z[(size_t)c * cnt + (size_t)im->nodes[r0]] = xv[(size_t)c * im->na + r0];
 	cholmod_free_dense(&X, &im->cm);
 	return NDO_OK;
+}
+
+int ndo_sim_implicit_precondition(ndo_sim *s, double h, const double *r, double *z)
+{
+	const unsigned fp = ndo_fp_flush();
+	int rc = sim_implicit_precondition(s, h, r, z);
+	ndo_fp_set(fp);
+	return rc;
 }
 
 /* The force difference's elementwise passes, in chunks of PREP_ELEMS

@@ -36,8 +36,8 @@ static void coefs(const ndo_sim *s, double h, double *cb, double *ck)
 	*ck = trap ? h * h / 4 : h * h;
 }
 
-int ndo_sim_implicit_begin(ndo_sim *s, double h, const int32_t *rows, size_t nrows, double *b,
-                           double *dinv)
+static int sim_implicit_begin(ndo_sim *s, double h, const int32_t *rows, size_t nrows, double *b,
+                              double *dinv)
 {
 	ndo__clear_error();
 	if (!ndo_method_is_implicit(s->p.method))
@@ -92,6 +92,15 @@ int ndo_sim_implicit_begin(ndo_sim *s, double h, const int32_t *rows, size_t nro
 	return NDO_OK;
 }
 
+int ndo_sim_implicit_begin(ndo_sim *s, double h, const int32_t *rows, size_t nrows, double *b,
+                           double *dinv)
+{
+	const unsigned fp = ndo_fp_flush();
+	int rc = sim_implicit_begin(s, h, rows, nrows, b, dinv);
+	ndo_fp_set(fp);
+	return rc;
+}
+
 /* Row p of y = A x (ndo_sim_implicit_apply's reference loop). */
 static void apply_row(const ndo_sim *s, double cb, double ck, size_t p, const double *x, double *y)
 {
@@ -118,13 +127,21 @@ static void apply_row(const ndo_sim *s, double cb, double ck, size_t p, const do
 	}
 }
 
-void ndo_sim_implicit_apply(const ndo_sim *s, double h, const int32_t *rows, size_t nrows,
-                            const double *x, double *y)
+static void sim_implicit_apply(const ndo_sim *s, double h, const int32_t *rows, size_t nrows,
+                               const double *x, double *y)
 {
 	double cb, ck;
 	coefs(s, h, &cb, &ck);
 	for (size_t r = 0; r < nrows; r++)
 		apply_row(s, cb, ck, (size_t)rows[r], x, y);
+}
+
+void ndo_sim_implicit_apply(const ndo_sim *s, double h, const int32_t *rows, size_t nrows,
+                            const double *x, double *y)
+{
+	const unsigned fp = ndo_fp_flush();
+	sim_implicit_apply(s, h, rows, nrows, x, y);
+	ndo_fp_set(fp);
 }
 
 /* ---- one set of rows, many products ----------------------------------------- */
@@ -314,11 +331,19 @@ static void apply_rest(const ndo_sim *s, const ndo_sim_rows *r, size_t k0, const
 	}
 }
 
-void ndo_sim_implicit_apply_rows(const ndo_sim *s, const ndo_sim_rows *r, const double *x,
-                                 double *y)
+static void sim_implicit_apply_rows(const ndo_sim *s, const ndo_sim_rows *r, const double *x,
+                                    double *y)
 {
 	apply_runs(s, r, 0, x, y, s->count, 0, s->count);
 	apply_rest(s, r, 0, x, y, s->count, 0, s->count);
+}
+
+void ndo_sim_implicit_apply_rows(const ndo_sim *s, const ndo_sim_rows *r, const double *x,
+                                 double *y)
+{
+	const unsigned fp = ndo_fp_flush();
+	sim_implicit_apply_rows(s, r, x, y);
+	ndo_fp_set(fp);
 }
 
 int ndo_sim_rows_sorted(const ndo_sim_rows *r)
@@ -326,8 +351,8 @@ int ndo_sim_rows_sorted(const ndo_sim_rows *r)
 	return r->sorted;
 }
 
-void ndo_sim_implicit_apply_range(const ndo_sim *s, const ndo_sim_rows *r, const double *x,
-                                  double *y, size_t stride, size_t lo, size_t hi)
+static void sim_implicit_apply_range(const ndo_sim *s, const ndo_sim_rows *r, const double *x,
+                                     double *y, size_t stride, size_t lo, size_t hi)
 {
 	if (!r->sorted || lo >= hi)
 		return;
@@ -352,8 +377,16 @@ void ndo_sim_implicit_apply_range(const ndo_sim *s, const ndo_sim_rows *r, const
 	apply_rest(s, r, a, x, y, stride, lo, hi);
 }
 
-int ndo_sim_implicit_rigid(const ndo_sim *s, double h, const int32_t *rows, size_t nrows,
-                           const double *x, double sums[7], double *gamma)
+void ndo_sim_implicit_apply_range(const ndo_sim *s, const ndo_sim_rows *r, const double *x,
+                                  double *y, size_t stride, size_t lo, size_t hi)
+{
+	const unsigned fp = ndo_fp_flush();
+	sim_implicit_apply_range(s, r, x, y, stride, lo, hi);
+	ndo_fp_set(fp);
+}
+
+static int sim_implicit_rigid(const ndo_sim *s, double h, const int32_t *rows, size_t nrows,
+                              const double *x, double sums[7], double *gamma)
 {
 	for (size_t q = 0; q < s->count; q++)
 		if (s->pin[q])
@@ -382,7 +415,16 @@ int ndo_sim_implicit_rigid(const ndo_sim *s, double h, const int32_t *rows, size
 	return 1;
 }
 
-int ndo_sim_implicit_end(ndo_sim *s, double h, const double *x)
+int ndo_sim_implicit_rigid(const ndo_sim *s, double h, const int32_t *rows, size_t nrows,
+                           const double *x, double sums[7], double *gamma)
+{
+	const unsigned fp = ndo_fp_flush();
+	int rc = sim_implicit_rigid(s, h, rows, nrows, x, sums, gamma);
+	ndo_fp_set(fp);
+	return rc;
+}
+
+static int sim_implicit_end(ndo_sim *s, double h, const double *x)
 {
 	const size_t cnt = s->count;
 	const int trap = s->p.method == NDO_TRAPEZOID;
@@ -403,4 +445,12 @@ int ndo_sim_implicit_end(ndo_sim *s, double h, const double *x)
 	s->step++;
 	s->stats.steps++;
 	return NDO_OK;
+}
+
+int ndo_sim_implicit_end(ndo_sim *s, double h, const double *x)
+{
+	const unsigned fp = ndo_fp_flush();
+	int rc = sim_implicit_end(s, h, x);
+	ndo_fp_set(fp);
+	return rc;
 }

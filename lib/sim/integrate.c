@@ -1381,7 +1381,7 @@ static void threads_timed(ndo_sim *s, double t0, int64_t steps)
 	s->run_sum = 0, s->run_n = 0;
 }
 
-int ndo_sim_step(ndo_sim *s, double h)
+static int sim_step(ndo_sim *s, double h)
 {
 	ndo__clear_error();
 	if (!(h > 0) || !isfinite(h))
@@ -1417,6 +1417,14 @@ int ndo_sim_step(ndo_sim *s, double h)
 			return rc;
 	}
 	return NDO_OK;
+}
+
+int ndo_sim_step(ndo_sim *s, double h)
+{
+	const unsigned fp = ndo_fp_flush();
+	int rc = sim_step(s, h);
+	ndo_fp_set(fp);
+	return rc;
 }
 
 /* m steps of the wave (wave.c) from steps run at times t[0..m): each
@@ -1459,7 +1467,7 @@ static int steps_wave(ndo_sim *s, double h, int m, double *t)
 	return NDO_OK;
 }
 
-int ndo_sim_steps(ndo_sim *s, double h, int64_t k)
+static int sim_steps(ndo_sim *s, double h, int64_t k)
 {
 	ndo__clear_error();
 	if (!(h > 0) || !isfinite(h))
@@ -1502,7 +1510,15 @@ int ndo_sim_steps(ndo_sim *s, double h, int64_t k)
 	return NDO_OK;
 }
 
-int ndo_sim_step_begin(ndo_sim *s, double h, size_t n, const int32_t *pending)
+int ndo_sim_steps(ndo_sim *s, double h, int64_t k)
+{
+	const unsigned fp = ndo_fp_flush();
+	int rc = sim_steps(s, h, k);
+	ndo_fp_set(fp);
+	return rc;
+}
+
+static int sim_step_begin(ndo_sim *s, double h, size_t n, const int32_t *pending)
 {
 	ndo__clear_error();
 	s->ahead = 0;
@@ -1518,8 +1534,16 @@ int ndo_sim_step_begin(ndo_sim *s, double h, size_t n, const int32_t *pending)
 	return ndo__rk4_begin(s, h, n, pending);
 }
 
+int ndo_sim_step_begin(ndo_sim *s, double h, size_t n, const int32_t *pending)
+{
+	const unsigned fp = ndo_fp_flush();
+	int rc = sim_step_begin(s, h, n, pending);
+	ndo_fp_set(fp);
+	return rc;
+}
+
 /* ---- rkf45 in parts (ndo/sim.h) ---------------------------------------------- */
-int ndo_sim_rkf45_begin(ndo_sim *s, double h)
+static int sim_rkf45_begin(ndo_sim *s, double h)
 {
 	ndo__clear_error();
 	if (s->p.method != NDO_RKF45)
@@ -1534,7 +1558,15 @@ int ndo_sim_rkf45_begin(ndo_sim *s, double h)
 	return NDO_OK;
 }
 
-int ndo_sim_rkf45_attempt(ndo_sim *s, const uint8_t *rows, double *err, double *h)
+int ndo_sim_rkf45_begin(ndo_sim *s, double h)
+{
+	const unsigned fp = ndo_fp_flush();
+	int rc = sim_rkf45_begin(s, h);
+	ndo_fp_set(fp);
+	return rc;
+}
+
+static int sim_rkf45_attempt(ndo_sim *s, const uint8_t *rows, double *err, double *h)
 {
 	ndo__clear_error();
 	int rc = rkf45_attempt(s, rows, err);
@@ -1543,7 +1575,15 @@ int ndo_sim_rkf45_attempt(ndo_sim *s, const uint8_t *rows, double *err, double *
 	return rc;
 }
 
-int ndo_sim_rkf45_decide(ndo_sim *s, double err)
+int ndo_sim_rkf45_attempt(ndo_sim *s, const uint8_t *rows, double *err, double *h)
+{
+	const unsigned fp = ndo_fp_flush();
+	int rc = sim_rkf45_attempt(s, rows, err, h);
+	ndo_fp_set(fp);
+	return rc;
+}
+
+static int sim_rkf45_decide(ndo_sim *s, double err)
 {
 	ndo__clear_error();
 	int rc = rkf45_decide(s, err);
@@ -1554,7 +1594,15 @@ int ndo_sim_rkf45_decide(ndo_sim *s, double err)
 	return rc;
 }
 
-void ndo_sim_rkf45_peek(const ndo_sim *s, size_t n, const int32_t *nodes, double *u, double *v)
+int ndo_sim_rkf45_decide(ndo_sim *s, double err)
+{
+	const unsigned fp = ndo_fp_flush();
+	int rc = sim_rkf45_decide(s, err);
+	ndo_fp_set(fp);
+	return rc;
+}
+
+static void sim_rkf45_peek(const ndo_sim *s, size_t n, const int32_t *nodes, double *u, double *v)
 {
 	/* rk_finish's arithmetic, node by node, in its order (no contraction
 	 * into fused multiply-adds under -std=c11: the same bits) */
@@ -1580,6 +1628,13 @@ void ndo_sim_rkf45_peek(const ndo_sim *s, size_t n, const int32_t *nodes, double
 			v[3 * k + c] = vv;
 		}
 	}
+}
+
+void ndo_sim_rkf45_peek(const ndo_sim *s, size_t n, const int32_t *nodes, double *u, double *v)
+{
+	const unsigned fp = ndo_fp_flush();
+	sim_rkf45_peek(s, n, nodes, u, v);
+	ndo_fp_set(fp);
 }
 
 double ndo_sim_rkf45_substep(const ndo_sim *s) { return s->h_sub; }

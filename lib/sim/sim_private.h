@@ -4,6 +4,7 @@
 #define NDO_SIM_PRIVATE_H
 
 #include "ndo/machine.h"
+#include "ndo/pool.h"
 #include "ndo/simd.h"
 #include "ndo/membrane.h"
 #include "ndo/sim.h"
