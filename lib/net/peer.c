@@ -1303,14 +1303,16 @@ static int restart_wait(ndo_peer *p)
 static int resend(ndo_peer *p)
 {
 	int rc;
+	/* every way below sends the last step's frame again once it went out
+	 * (finishing counts the copies) */
+	if (p->started && p->cur >= p->final && (!p->rb || p->last_sent) && p->rs_step < 0)
+		p->last_resends++;
 	if (p->rb) {
 		/* the strips a neighbour may lack, the whole region at the first
 		 * step and the last (once it went out) */
 		p->st.resends++;
 		if ((rc = ndo__rb_resend(p->rb, p->now, 1)))
 			return rc;
-		if (p->cur >= p->final && p->last_sent)
-			p->last_resends++;
 		return !p->started || (p->cur >= p->final && p->last_sent) ? frame_send(p) : 0;
 	}
 	if (p->owner && p->ck_at >= 0 && (p->rs_step >= 0 || p->cur <= p->ck_until) &&
@@ -1337,16 +1339,12 @@ static int resend(ndo_peer *p)
 			return rc;
 		if ((p->ps || p->cur >= p->final) && (rc = verdict_send(p)))
 			return rc;
-		if (p->started && p->cur >= p->final)
-			p->last_resends++;
 		return p->cur >= p->final || !p->started ? frame_send(p) : 0;
 	}
 	if (p->prev_valid && (rc = ndo_session_publish_from(p->s, p->prev, p->prev_step,
 	                                                    p->prev_time)) < 0)
 		return rc;
 	p->st.resends++;
-	if (p->started && p->cur >= p->final)
-		p->last_resends++;
 	return publish(p);
 }
 
