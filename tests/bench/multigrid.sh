@@ -15,13 +15,18 @@ load0=$(cut -d' ' -f1-3 /proc/loadavg)
 # memory, which the load does not change, are taken from the last run's
 # files under build/bench/ when present)
 want() { [[ " ${MG_PARTS:-speed iters memory} " == *" $1 "* ]] || [ ! -s "$t-$1.md" ]; }
+ran="" # the parts this run measured
 if want speed || [ ! -s "$t-speed2.md" ]; then
 	"$B/bench_multigrid" speed 5 6 7 8 >"$t-speed.md"
 	"$B/bench_multigrid" -t 2 speed 8 >"$t-speed2.md"
 	echo "$load0 at the start and $(cut -d' ' -f1-3 /proc/loadavg) at the end" >"$t-speed.load"
+	ran="$ran speed"
 fi
-want iters && "$B/bench_multigrid" iters 0.01 0.1 1.0 4 5 6 7 8 9 10 >"$t-iters.md"
-want memory && {
+if want iters; then
+	"$B/bench_multigrid" iters 0.01 0.1 1.0 4 5 6 7 8 9 10 >"$t-iters.md"
+	ran="$ran iters"
+fi
+want memory && ran="$ran memory" && {
 	echo "| level | nodes | method | solver | step (s) | peak RSS (MiB) | estimate (MiB) | s/step | iterations/solve |"
 	echo "|---:|---:|---|---|---:|---:|---:|---:|---:|"
 	for l in 8 9 10; do
@@ -31,10 +36,11 @@ want memory && {
 	done
 } >"$t-memory.md.new" && mv "$t-memory.md.new" "$t-memory.md"
 load1=$(cut -d' ' -f1-3 /proc/loadavg)
-# the tables this run did not measure, and when they were
+# the tables this run did not measure (MG_PARTS left them out and their
+# files were there), and when they were
 old=""
 for p in speed iters memory; do
-	[[ " ${MG_PARTS:-speed iters memory} " == *" $p "* ]] ||
+	[[ "$ran " == *" $p "* ]] ||
 		old="$old${old:+; }the $p table from $(date -u -r "$t-$p.md" '+%F %H:%M UTC')$(
 			[ $p != speed ] || [ ! -s "$t-speed.load" ] || echo ", load average $(cat "$t-speed.load")")"
 done
