@@ -72,6 +72,7 @@ struct ndo_peer {
 	double prev_time;
 	/* where this peer is */
 	int announced, started, simulating, ended, done;
+	int end_reason;   /* the session's end (NDO_EV_ENDED): NDO_LEAVE_* */
 	int32_t epoch_done;    /* the partition the region was last made for */
 	double epoch_t0;       /* ... when (split steps: the others' time to
 	                          show up under it, members_alive) */
@@ -2077,6 +2078,24 @@ static int32_t last_words(const ndo_peer *p, int *silent)
 	return who;
 }
 
+/* The canonical nodes this peer holds at a step before the last. */
+static size_t behind_last(const ndo_peer *p)
+{
+	size_t behind = 0;
+	for (size_t q = 0; q < p->ncanon; q++)
+		behind += p->nstep[p->canons[q]] < p->final;
+	return behind;
+}
+
+/* This peer holds the last step: every node's value of it.  One tile of
+ * it is not enough: a lost one leaves its nodes older (until 2026-11-30
+ * an observer that had one said DONE and held 0.74 of the motion off:
+ * test_peer an_observer_on_its_way_follows_the_successor, seed 187). */
+static int holds_last(const ndo_peer *p)
+{
+	return p->max_seen >= p->final && behind_last(p) == 0;
+}
+
 /* After the last step: the owner gathers, a joiner keeps its last steps
  * available until the owner ends the session. */
 static int finishing(ndo_peer *p)
@@ -2112,9 +2131,7 @@ static int finishing(ndo_peer *p)
 			return rc;
 	}
 	if (p->owner) {
-		size_t behind = 0;
-		for (size_t q = 0; q < p->ncanon; q++)
-			behind += p->nstep[p->canons[q]] < p->final;
+		size_t behind = behind_last(p);
 		int silent = 0;
 		int32_t who = last_words(p, &silent);
 		/* gathered, it leaves once its last frame went out LAST_COPIES
@@ -2257,26 +2274,13 @@ static int events(ndo_peer *p)
 			break;
 		case NDO_EV_ENDED:
 			p->ended = 1;
+			p->end_reason = e.reason;
 			snprintf(p->message, sizeof p->message, "%s", e.message);
 			break;
 		default: break;
 		}
 	}
 	return rc;
-}
-
-/* An observer holds the last step: every node's value of it.  One tile of
- * it is not enough: a lost one leaves its nodes older (until 2026-11-30
- * an observer that had one said DONE and held 0.74 of the motion off:
- * test_peer an_observer_on_its_way_follows_the_successor, seed 187). */
-static int holds_last(const ndo_peer *p)
-{
-	if (p->max_seen < p->final)
-		return 0;
-	for (size_t q = 0; q < p->ncanon; q++)
-		if (p->nstep[p->canons[q]] < p->final)
-			return 0;
-	return 1;
 }
 
 /* ---- the public calls ----------------------------------------------------------- */
@@ -2321,8 +2325,24 @@ int ndo_peer_update(ndo_peer *p, double now)
 	if (p->ended) {
 		/* an owner ends only by gathering (done, above): ended, it gave
 		 * way to a successor (after its last step too: it had not gathered) */
+		/* a simulating joiner past its last step whose owner fell silent
+		 * (a run that cannot restart: no successor) holds the owner's
+		 * region of the last step only if its last frame came: until
+		 * 2026-12-01 it ended done with those nodes at older steps, 0.9
+		 * of the largest displacement off, and wrote them to -o (test_peer
+		 * a_joiner_without_the_owners_last_step_writes_nothing).  The
+		 * owner's leave after it gathered keeps the old rule: the run
+		 * completed, and -o is the object as this peer holds it */
 		int complete = !p->owner && p->started &&
-		               (p->simulating ? p->cur >= p->final : holds_last(p));
+		               (p->simulating ? p->cur >= p->final &&
+		                                    (p->end_reason != NDO_LEAVE_TIMEOUT || holds_last(p))
+		                              : holds_last(p));
+		if (!complete && p->simulating && p->cur >= p->final) {
+			size_t n = strlen(p->message);
+			snprintf(p->message + n, sizeof p->message - n,
+			         "; %zu nodes of step %lld never arrived here: no result",
+			         behind_last(p), (long long)p->final);
+		}
 		if (complete) {
 			p->done = 1;
 			return NDO_PEER_DONE;
