@@ -114,6 +114,16 @@ expect_error "an owner whose peers do not come" 4 'only 1 of 2 peers came within
 	simulate-peer -q --owner wavy4.tgrid -s "$SCENE" -t 0.1 --peers 2 --start-timeout 0.5 -o x.tgrid
 expect_error "a joiner that finds no owner" 4 'no object was described within 0.5 s' \
 	simulate-peer -q --join --start-timeout 0.5
+# one joiner of two: the owner's start timeout reaches it with the reason,
+# once (it read "the session ended at step 0: the owner quit: the session
+# ended at step 0: only 2 of 3 peers came within 1 s" until 2026-12-01)
+simulate-peer -q --owner wavy4.tgrid -s "$SCENE" -t 0.1 --peers 3 --start-timeout 1 -o x.tgrid \
+	2>few-owner.err &
+owner=$!
+expect_error "a joiner hears why the owner's peers did not come" 4 \
+	'^simulate-peer: the session ended at step 0: the owner quit: only 2 of 3 peers came within 1 s$' \
+	simulate-peer -q --join --poi 300 --start-timeout 5
+wait $owner
 
 # --- refusals that name their cause (issue 16) ---------------------------------------
 # a face beyond the object: the joiner says so and leaves; the owner hears why

@@ -421,14 +421,21 @@ static void summary(peer_run *pr, const char *how)
 	int np = 0;
 	ndo_session_cells(ndo_peer_session(p), &np, NULL);
 	clear_progress(pr);
-	fprintf(stderr, "%s: %s %d done (%s): %s, %d peer%s at the end; %lld steps to step %lld "
-	        "in %.3g s (computing %.3g s, waiting %.3g s in %lld steps, %lld timed out); "
-	        "boundary lag %.3g steps on average, %.3g at most; %lld re-sends\n",
-	        ndo_progname, role_name(p, r->net.role), ndo_session_self(ndo_peer_session(p)), how,
-	        ndo_clock_name(ndo_peer_clock(p)), np, np == 1 ? "" : "s", (long long)st.steps,
-	        (long long)(pr->last ? pr->last->step : ndo_peer_step(p)), el, st.compute_seconds, st.wait_seconds,
-	        (long long)st.waited, (long long)st.timeouts,
-	        st.steps ? st.lag_sum / (double)st.steps : 0.0, st.lag_max, (long long)st.resends);
+	const long long to = (long long)(pr->last ? pr->last->step : ndo_peer_step(p));
+	if (!st.steps && !ndo_peer_simulating(p)) /* an observer: no step of its own */
+		fprintf(stderr, "%s: %s %d done (%s): %s, %d peer%s at the end; watched to step %lld "
+		        "in %.3g s\n", ndo_progname, role_name(p, r->net.role),
+		        ndo_session_self(ndo_peer_session(p)), how, ndo_clock_name(ndo_peer_clock(p)), np,
+		        np == 1 ? "" : "s", to, el);
+	else
+		fprintf(stderr, "%s: %s %d done (%s): %s, %d peer%s at the end; %lld steps to step %lld "
+		        "in %.3g s (computing %.3g s, waiting %.3g s in %lld steps, %lld timed out); "
+		        "boundary lag %.3g steps on average, %.3g at most; %lld re-sends\n",
+		        ndo_progname, role_name(p, r->net.role), ndo_session_self(ndo_peer_session(p)),
+		        how, ndo_clock_name(ndo_peer_clock(p)), np, np == 1 ? "" : "s",
+		        (long long)st.steps, to, el, st.compute_seconds, st.wait_seconds,
+		        (long long)st.waited, (long long)st.timeouts,
+		        st.steps ? st.lag_sum / (double)st.steps : 0.0, st.lag_max, (long long)st.resends);
 	if (st.ungathered)
 		fprintf(stderr, "%s: %lld nodes of the output are not of the last step (their peers' "
 		        "last tiles did not arrive)\n", ndo_progname, (long long)st.ungathered);
@@ -498,7 +505,10 @@ static void summary(peer_run *pr, const char *how)
 	        st.steps ? (double)ns->bytes_out / 1e3 / (double)st.steps : 0.0);
 }
 
-static __attribute__((noreturn)) void leave(peer_run *pr, int code, const char *fmt, ...)
+/* Print the message, say `said` to the others with this peer's leave (NULL:
+ * the message itself) and exit with code. */
+static __attribute__((noreturn, format(printf, 4, 5))) void
+leave_saying(peer_run *pr, int code, const char *said, const char *fmt, ...)
 {
 	char msg[300];
 	va_list ap;
@@ -509,10 +519,11 @@ static __attribute__((noreturn)) void leave(peer_run *pr, int code, const char *
 	fprintf(stderr, "%s: %s\n", ndo_progname, msg);
 	if (pr->r->logging && ndo_out_commit(&pr->r->log))
 		ndo_warn("%s: %s", pr->r->sc.log, ndo_errdetail());
-	ndo_peer_destroy(pr->p, msg);
+	ndo_peer_destroy(pr->p, said ? said : msg);
 	ndo_close_stdout();
 	exit(code);
 }
+#define leave(pr, code, ...) leave_saying(pr, code, NULL, __VA_ARGS__)
 
 int peers_main(run *r)
 {
@@ -634,8 +645,13 @@ int peers_main(run *r)
 		if (state == NDO_PEER_DONE)
 			break;
 		if (state == NDO_PEER_ENDED)
-			leave(&pr, EXIT_ENDED, "the session ended at step %lld: %s",
-			      (long long)ndo_peer_step(pr.p), ndo_peer_message(pr.p));
+			/* the others hear the reason, not this peer's "the session
+			 * ended at step N" (an owner's start timeout read "the session
+			 * ended at step 0: the owner quit: the session ended at step
+			 * 0: only 2 of 3 peers came within 60 s") */
+			leave_saying(&pr, EXIT_ENDED, ndo_peer_message(pr.p),
+			             "the session ended at step %lld: %s",
+			             (long long)ndo_peer_step(pr.p), ndo_peer_message(pr.p));
 		wait_for(&pr);
 	}
 	if (r->logging && ndo_out_commit(&r->log))
