@@ -2344,6 +2344,10 @@ int ndo_peer_update(ndo_peer *p, double now)
 			         behind_last(p), (long long)p->final);
 		}
 		if (complete) {
+			/* what -o holds of older steps: the others' last tiles lost
+			 * (every copy) before the owner's leave */
+			if (p->simulating)
+				p->st.ungathered = (int64_t)behind_last(p);
 			p->done = 1;
 			return NDO_PEER_DONE;
 		}

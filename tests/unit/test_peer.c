@@ -1193,6 +1193,52 @@ static void a_done_owners_lost_leave_costs_a_gather(void)
 	world_free(w);
 }
 
+/* A joiner that lost every copy of the others' last tiles (deaf from the
+ * owner's last step until its copies went out) and then heard the owner's
+ * leave ends done, as the run did, and says how many nodes it holds at
+ * older steps (ndo_peer_stats.ungathered; simulate-peer prints it beside
+ * -o).  Until 2026-12-01 it said nothing of them. */
+static int64_t deaf_final = -1;
+static double deaf_until = -1;
+static void deaf_after_last(world *w)
+{
+	if (deaf_until < 0 && w->p[0] && ndo_peer_step(w->p[0]) >= deaf_final)
+		deaf_until = w->t + 0.035, w->deaf[1] = 1;
+	if (deaf_until >= 0 && w->t >= deaf_until)
+		w->deaf[1] = 0;
+}
+
+static void a_joiner_says_what_it_lacks_of_the_last_step(void)
+{
+	setup su = {.integrator = "rk4", .dt = 0.02, .steps = 60, .clock = NDO_CLOCK_LOCKSTEP,
+	            .peers = 3, .step_timeout = 0.2};
+	world *w = owner_and_two(&su);
+	deaf_final = su.steps - 1, deaf_until = -1; /* deaf from the next round on */
+	on_tick = deaf_after_last;
+	int ok = run(w, 30) == 0;
+	on_tick = NULL;
+	ndo_peer_stats s0, s1, s2;
+	ndo_peer_stats_get(w->p[0], &s0);
+	ndo_peer_stats_get(w->p[1], &s1);
+	ndo_peer_stats_get(w->p[2], &s2);
+	double *x = solo(&su);
+	double d0 = difference(ndo_peer_grid(w->p[0]), x), d1 = difference(ndo_peer_grid(w->p[1]), x);
+	free(x);
+	printf("    joiner deaf for the last tiles: states %d %d %d; it holds %lld nodes of older "
+	       "steps (differs by %.3g), the other joiner %lld, the owner %lld (differs by %g)\n",
+	       w->state[0], w->state[1], w->state[2], (long long)s1.ungathered, d1,
+	       (long long)s2.ungathered, (long long)s0.ungathered, d0);
+	CHECK(ok && w->state[0] == NDO_PEER_DONE && w->state[1] == NDO_PEER_DONE &&
+	          w->state[2] == NDO_PEER_DONE && deaf_until >= 0,
+	      "done %d, states %d %d %d, deaf from %g", ok, w->state[0], w->state[1], w->state[2],
+	      deaf_until);
+	CHECK(s1.ungathered > 0 && d1 > 0 && s2.ungathered == 0 && s0.ungathered == 0 && d0 == 0,
+	      "ungathered: the deaf joiner %lld (differs by %g), the other %lld, the owner %lld "
+	      "(differs by %g)", (long long)s1.ungathered, d1, (long long)s2.ungathered,
+	      (long long)s0.ungathered, d0);
+	world_free(w);
+}
+
 static void the_owners_death_costs_a_restart(void)
 {
 	owner_killed_case("rk4", 0, 41, 0, 0);
@@ -1753,6 +1799,7 @@ int main(void)
 	RUN(a_lost_checkpoint_is_asked_for);
 	RUN(a_joiner_starts_with_the_owners_partition);
 	RUN(the_owners_death_costs_a_restart);
+	RUN(a_joiner_says_what_it_lacks_of_the_last_step);
 	RUN(a_done_owners_lost_leave_costs_a_gather);
 	RUN(owner_quit_ends_the_others);
 	RUN(strangers_tiles_are_not_used);

@@ -211,11 +211,15 @@ typedef enum ndo_peer_state {
 	NDO_PEER_DONE,        /* the run is complete: owner, every node of the
 	                         last step gathered (or gather_timeout passed:
 	                         see ndo_peer_stats.ungathered); joiner, the
-	                         owner ended the session after its last step */
+	                         owner ended the session after its last step
+	                         (ungathered: the nodes it holds at older
+	                         steps), or it holds every node's last step */
 	NDO_PEER_ENDED        /* the session ended before the run completed
 	                         (owner quit or fell silent, this peer was
-	                         dropped, the owner's peers did not come):
-	                         ndo_peer_message() says why */
+	                         dropped, the owner's peers did not come; a
+	                         joiner past its last step whose silent owner
+	                         nobody succeeds, without every node's last
+	                         step): ndo_peer_message() says why */
 } ndo_peer_state;
 
 /* Do what is due at `now`: the session's protocol, the others' tiles, at
@@ -273,8 +277,10 @@ typedef struct ndo_peer_stats {
 	int64_t stashed;        /* tiles kept for a later step or partition */
 	int64_t repartitions;   /* partitions this peer simulated under, after
 	                           the first */
-	int64_t ungathered;     /* owner: nodes not at the last step when the run
-	                           ended (after gather_timeout) */
+	int64_t ungathered;     /* nodes not at the last step when the run ended:
+	                           the owner's after gather_timeout; a joiner's
+	                           when the owner's leave came first (the
+	                           others' last tiles lost) */
 	int took_over;          /* a joiner that succeeded the owner when it fell
 	                           silent (ndo_session_set_succession): the owner
 	                           since */
