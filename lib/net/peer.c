@@ -2328,7 +2328,7 @@ int ndo_peer_update(ndo_peer *p, double now)
 		/* a simulating joiner past its last step whose owner fell silent
 		 * (a run that cannot restart: no successor) holds the owner's
 		 * region of the last step only if its last frame came: until
-		 * 2026-12-01 it ended done with those nodes at older steps, 0.9
+		 * 2026-11-30 it ended done with those nodes at older steps, 0.9
 		 * of the largest displacement off, and wrote them to -o (test_peer
 		 * a_joiner_without_the_owners_last_step_writes_nothing).  The
 		 * owner's leave after it gathered keeps the old rule: the run

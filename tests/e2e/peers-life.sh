@@ -116,7 +116,7 @@ expect_error "a joiner that finds no owner" 4 'no object was described within 0.
 	simulate-peer -q --join --start-timeout 0.5
 # one joiner of two: the owner's start timeout reaches it with the reason,
 # once (it read "the session ended at step 0: the owner quit: the session
-# ended at step 0: only 2 of 3 peers came within 1 s" until 2026-12-01)
+# ended at step 0: only 2 of 3 peers came within 1 s" until 2026-11-30)
 simulate-peer -q --owner wavy4.tgrid -s "$SCENE" -t 0.1 --peers 3 --start-timeout 1 -o x.tgrid \
 	2>few-owner.err &
 owner=$!

@@ -1075,7 +1075,7 @@ static void owner_killed_case(const char *method, double drop, uint64_t seed, in
 	/* a run that cannot restart, its owner lost after the joiners' last
 	 * step: nobody succeeds it (there is nothing to redo), and a joiner
 	 * without the owner's region of the last step ends without a result
-	 * — until 2026-12-01 it ended done, its grid (and -o) 0.9 of the
+	 * — until 2026-11-30 it ended done, its grid (and -o) 0.9 of the
 	 * largest displacement off */
 	int orphans = 0;
 	for (int i = 1; i < w->n; i++)
@@ -1197,7 +1197,7 @@ static void a_done_owners_lost_leave_costs_a_gather(void)
  * owner's last step until its copies went out) and then heard the owner's
  * leave ends done, as the run did, and says how many nodes it holds at
  * older steps (ndo_peer_stats.ungathered; simulate-peer prints it beside
- * -o).  Until 2026-12-01 it said nothing of them. */
+ * -o).  Until 2026-11-30 it said nothing of them. */
 static int64_t deaf_final = -1;
 static double deaf_until = -1;
 static void deaf_after_last(world *w)
