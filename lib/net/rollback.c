@@ -50,6 +50,8 @@ struct ndo__rb {
 	slot *w;
 	int win;
 	int64_t base, cur, fr, roll;
+	int64_t mark[2][2]; /* (cur, fr) at two earlier steps, a quarter window
+	                     * apart at least: the recent rate of confirmation */
 	int exact;
 	double h;        /* the step size (predictions of the held ring) */
 	nb nbs[NB_MAX];
@@ -77,6 +79,7 @@ int ndo__rb_create(ndo_session *s, ndo_sim *sim, size_t count, double resend, nd
 	ndo__rb *rb = calloc(1, sizeof *rb);
 	if (!rb)
 		return ndo__fail(NDO_ENOMEM, "out of memory");
+	rb->mark[0][0] = rb->mark[1][0] = -1;
 	rb->s = s;
 	rb->sim = sim;
 	rb->count = count;
@@ -254,6 +257,7 @@ int ndo__rb_restart(ndo__rb *rb, int64_t step, int exact)
 	for (int k = 0; k < rb->win; k++)
 		rb->w[k].step = -1;
 	rb->base = rb->cur = rb->fr = step;
+	rb->mark[0][0] = rb->mark[1][0] = -1;
 	rb->roll = INT64_MAX;
 	rb->exact = exact;
 	rb->st.exact = exact;
@@ -457,14 +461,44 @@ int ndo__rb_catch_up(ndo__rb *rb)
 	return n;
 }
 
+/* Why the window filled, from the confirmations of the last quarter
+ * window or more: none (a neighbour starved or gone), or fewer than the
+ * steps taken — a network delay of more than --halo-steps steps, which K
+ * steps an exchange would cover (K steps are confirmed a delay at best). */
+static void window_why(const ndo__rb *rb, char *why, size_t n)
+{
+	const int64_t dc = rb->cur - rb->mark[0][0], dfr = rb->fr - rb->mark[0][1];
+	*why = 0;
+	if (rb->mark[0][0] < 0 || dc <= 0)
+		return;
+	const double rho = (double)dfr / (double)dc;
+	if (rho < 0.05)
+		snprintf(why, n, "; %lld steps confirmed in the last %lld taken (a neighbour starved "
+		         "or gone)", (long long)dfr, (long long)dc);
+	else if (rho < 0.95) /* a tenth more: K/rho kept up only just (test_peer) */
+		snprintf(why, n, "; %.2f steps confirmed a step taken lately: the network's delay is "
+		         "longer than %d step%s of the pace (--halo-steps %d), and --halo-steps %d or "
+		         "more would keep up", rho, rb->r.K, rb->r.K == 1 ? "" : "s", rb->r.K,
+		         (int)ceil(1.1 * rb->r.K / rho));
+}
+
 int ndo__rb_step(ndo__rb *rb, double h)
 {
 	rb->h = h;
 	slide(rb);
-	if (rb->cur + 1 >= rb->base + rb->win)
+	if (rb->cur + 1 >= rb->base + rb->win) {
+		char why[200];
+		window_why(rb, why, sizeof why);
 		return ndo__fail(NDO_EPACE, "%d steps taken since step %lld, the newest that all "
-		                 "its inputs confirmed: the rollback window is full",
-		                 rb->win - 1, (long long)rb->base);
+		                 "its inputs confirmed: the rollback window is full%s",
+		                 rb->win - 1, (long long)rb->base, why);
+	}
+	if (rb->mark[1][0] < 0 || rb->cur - rb->mark[1][0] >= rb->win / 4) {
+		rb->mark[0][0] = rb->mark[1][0], rb->mark[0][1] = rb->mark[1][1];
+		rb->mark[1][0] = rb->cur, rb->mark[1][1] = rb->fr;
+		if (rb->mark[0][0] < 0)
+			rb->mark[0][0] = rb->cur, rb->mark[0][1] = rb->fr;
+	}
 	int rc = one_step(rb, rb->cur, 1);
 	if (rc)
 		return rc;
