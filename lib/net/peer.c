@@ -2324,15 +2324,16 @@ int ndo_peer_update(ndo_peer *p, double now)
 		ndo_session_set_succession(p->s, 1);
 	if (p->ended) {
 		/* an owner ends only by gathering (done, above): ended, it gave
-		 * way to a successor (after its last step too: it had not gathered) */
-		/* a simulating joiner past its last step whose owner fell silent
-		 * (a run that cannot restart: no successor) holds the owner's
-		 * region of the last step only if its last frame came: until
-		 * 2026-11-30 it ended done with those nodes at older steps, 0.9
-		 * of the largest displacement off, and wrote them to -o (test_peer
-		 * a_joiner_without_the_owners_last_step_writes_nothing).  The
-		 * owner's leave after it gathered keeps the old rule: the run
-		 * completed, and -o is the object as this peer holds it */
+		 * way to a successor (after its last step too: it had not
+		 * gathered).  A simulating joiner past its last step whose owner
+		 * fell silent (a run that cannot restart: no successor) holds the
+		 * owner's region of the last step only if its last frame came:
+		 * until 2026-11-30 it ended done with those nodes at older steps,
+		 * 0.9 of the largest displacement off, and wrote them to -o
+		 * (test_peer the_owners_death_costs_a_restart, the owner killed at
+		 * step 296 of 300 without checkpoints).  The owner's leave after
+		 * it gathered keeps the old rule: the run completed, and -o is the
+		 * object as this peer holds it (ungathered counts what is older) */
 		int complete = !p->owner && p->started &&
 		               (p->simulating ? p->cur >= p->final &&
 		                                    (p->end_reason != NDO_LEAVE_TIMEOUT || holds_last(p))
