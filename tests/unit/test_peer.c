@@ -1110,10 +1110,6 @@ static void owner_killed_case(const char *method, double drop, uint64_t seed, in
 			done = 0;
 		}
 	}
-	/* the successor, done, leaves, and all its leaves may be lost to the
-	 * others (docs/peers.md, "After the last step"): one of them takes it
-	 * for dead too, gathers again and ends with the same result, its own
-	 * -o (TEST_PEER_OWNER sweeps meet it; its result is checked below) */
 	/* a run that cannot restart, its owner lost after the joiners' last
 	 * step: nobody succeeds it (there is nothing to redo), and a joiner
 	 * without the owner's region of the last step ends without a result
@@ -1134,6 +1130,10 @@ static void owner_killed_case(const char *method, double drop, uint64_t seed, in
 	CHECK(!ok_noheir, "%s, the owner killed at step %lld: %d heirs, joiners in states %d, %d "
 	      "(expected none, every joiner without a result)", method, (long long)was, heirs,
 	      w->state[1], w->n > 2 ? w->state[2] : -1);
+	/* the successor, done, leaves, and all its leaves may be lost to the
+	 * others (docs/peers.md, "After the last step"): one of them takes it
+	 * for dead too, gathers again and ends with the same result, its own
+	 * -o (TEST_PEER_OWNER sweeps meet it; its result is checked below) */
 	CHECK(heir == next && (heirs == 1 || (heirs == 2 && other > 0)), "%s, the owner%s killed at "
 	      "step %lld%s: %d peers own the session at the end, peer %d (expected the first live "
 	      "joiner of the partition, %d, alone, or after it a second heir)", method,
