@@ -2410,8 +2410,15 @@ double ndo_peer_deadline(const ndo_peer *p)
 		                                                     p->dt / p->speed);
 	if (!p->blocked)
 		return now; /* it may step: ask again at once */
-	double t0 = p->exact && p->ps ? p->split_t0 : p->block_t0;
-	return fmin(d, fmin(p->resend.at, t0 + p->step_timeout));
+	/* the step timeout, until it has passed: after it a peer that waits
+	 * on for a neighbour still alive (neighbours_alive, members_alive)
+	 * sleeps until a message, a re-send or IDLE_WAIT.  Until 2026-11-30
+	 * the passed timeout stayed the deadline, and such a peer spun: 7
+	 * joiners of a level-9 run on 2 cores, restarting after their owner
+	 * was taken for lost, each burnt 30 % of a core for minutes in
+	 * lockstep()'s checks (tests/bench/peers.sh, 8 peers) */
+	double t0 = p->exact && p->ps ? p->split_t0 : p->block_t0, to = t0 + p->step_timeout;
+	return fmin(d, to > now ? fmin(p->resend.at, to) : p->resend.at);
 }
 
 int ndo_peer_create(const ndo_peer_opts *o, ndo_net *net, ndo_grid *grid, ndo_sim *sim,

@@ -533,6 +533,40 @@ static void run_to_step(world *w, int64_t at, double limit)
 		;
 }
 
+/* A peer that waits past its step timeout for a neighbour still alive
+ * (heard within the peer timeout: with restarts it waits on rather than
+ * go on with older values) sleeps: its deadline is a re-send or IDLE_WAIT
+ * ahead, never the passed timeout.  Until 2026-11-30 the deadline stayed
+ * at the passed timeout and simulate-peer called it again at once: 7
+ * level-9 joiners restarting on 2 cores spun at 30 % of a core each. */
+static void a_peer_waiting_on_a_live_neighbour_sleeps(void)
+{
+	setup su = {.integrator = "rk4", .dt = 0.02, .steps = 200, .clock = NDO_CLOCK_LOCKSTEP,
+	            .peers = 2, .step_timeout = 0.2};
+	world *w = world_new();
+	CHECK(add_owner(w, &su) == 0 && add_joiner(w, &su, POIS[0]) == 0, "two peers");
+	run_to_step(w, 20, 30);
+	/* the joiner stops (alive to the owner for the peer timeout, 1 s) */
+	const double t0 = w->t;
+	int calls = 0, at_once = 0, rc = 0;
+	for (; w->t < t0 + 0.8 && rc >= 0; w->t += TICK) {
+		if (w->t < t0 + 0.3)
+			continue; /* past the step timeout from here on */
+		rc = ndo_peer_update(w->p[0], w->t);
+		calls++;
+		/* (a step taken asks at once for the next: not a wait) */
+		at_once += rc == NDO_PEER_WAITING && ndo_peer_deadline(w->p[0]) <= w->t;
+	}
+	ndo_peer_stats st;
+	ndo_peer_stats_get(w->p[0], &st);
+	printf("    the owner waiting 0.3-0.8 s for a live joiner: %d calls, %d of its waits asked to "
+	       "be called again at once; %lld timeouts\n", calls, at_once, (long long)st.timeouts);
+	CHECK(rc == NDO_PEER_WAITING && at_once == 0 && st.timeouts == 0,
+	      "status %d, %d of %d calls with a deadline now or past, %lld timeouts", rc, at_once,
+	      calls, (long long)st.timeouts);
+	world_free(w);
+}
+
 /* Run w to the end: whether every live peer finished, the owner's
  * largest difference from the single process (*d) and its stats. */
 static int finish(world *w, const setup *su, double *d, ndo_peer_stats *st)
@@ -1831,6 +1865,7 @@ int main(void)
 	RUN(realtime_rolls_back_to_the_single_process);
 	RUN(realtime_without_the_pace_stops);
 	RUN(realtime_names_the_halo_steps_it_needs);
+	RUN(a_peer_waiting_on_a_live_neighbour_sleeps);
 	RUN(joins_leaves_and_a_dead_peer);
 	RUN(a_late_observer_says_what_the_peers_say);
 	RUN(an_observer_on_its_way_follows_the_successor);
