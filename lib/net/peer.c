@@ -2338,7 +2338,8 @@ int ndo_peer_update(ndo_peer *p, double now)
 		               (p->simulating ? p->cur >= p->final &&
 		                                    (p->end_reason != NDO_LEAVE_TIMEOUT || holds_last(p))
 		                              : holds_last(p));
-		if (!complete && p->simulating && p->cur >= p->final) {
+		if (!complete && !p->owner && p->simulating && p->cur >= p->final &&
+		    p->end_reason == NDO_LEAVE_TIMEOUT) {
 			size_t n = strlen(p->message);
 			snprintf(p->message + n, sizeof p->message - n,
 			         "; %zu nodes of step %lld never arrived here: no result",
