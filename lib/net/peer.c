@@ -751,13 +751,8 @@ static void sync_own(ndo_peer *p)
 	if (!p->exact || p->synced || !p->sim || !p->nown)
 		return;
 	ndo_grid *g = ndo_session_grid(p->s);
-	double *x = ndo_grid_f64(g, NDO_CH_POSITION, 3), *v = ndo_grid_f64(g, NDO_CH_VELOCITY, 3);
-	ndo_sim_get_nodes(p->sim, p->nown, p->own, p->xs, NULL, p->vs);
-	for (size_t k = 0; k < p->nown; k++) {
-		size_t n = (size_t)p->own[k];
-		memcpy(x + 3 * n, p->xs + 3 * k, 3 * sizeof *x);
-		memcpy(v + 3 * n, p->vs + 3 * k, 3 * sizeof *v);
-	}
+	ndo_sim_get_nodes_at(p->sim, p->nown, p->own, ndo_grid_f64(g, NDO_CH_POSITION, 3),
+	                     ndo_grid_f64(g, NDO_CH_VELOCITY, 3));
 	p->synced = 1;
 }
 

@@ -711,17 +711,44 @@ void ndo_sim_set(ndo_sim *s, size_t n, const int32_t *nodes, const double *x,
 void ndo_sim_get_nodes(const ndo_sim *s, size_t n, const int32_t *nodes, double *x, double *u,
                        double *v)
 {
+	/* one loop an array asked for: a whole region's frame goes through
+	 * here, and a test a value cost as much as the copy */
 	const size_t cnt = s->count;
+	const double *restrict X = s->X, *restrict U = s->u, *restrict V = s->v;
+	const int32_t *restrict canon = s->canon;
+	if (x)
+		for (size_t k = 0; k < n; k++) {
+			const size_t p = (size_t)canon[nodes[k]];
+			for (int c = 0; c < 3; c++)
+				x[3 * k + c] = X[(size_t)c * cnt + p] + U[(size_t)c * cnt + p];
+		}
+	if (u)
+		for (size_t k = 0; k < n; k++) {
+			const size_t p = (size_t)canon[nodes[k]];
+			for (int c = 0; c < 3; c++)
+				u[3 * k + c] = U[(size_t)c * cnt + p];
+		}
+	if (v)
+		for (size_t k = 0; k < n; k++) {
+			const size_t p = (size_t)canon[nodes[k]];
+			for (int c = 0; c < 3; c++)
+				v[3 * k + c] = V[(size_t)c * cnt + p];
+		}
+}
+
+void ndo_sim_get_nodes_at(const ndo_sim *s, size_t n, const int32_t *nodes, double *x,
+                          double *v)
+{
+	const size_t cnt = s->count;
+	const double *restrict X = s->X, *restrict U = s->u, *restrict V = s->v;
+	const int32_t *restrict canon = s->canon;
 	for (size_t k = 0; k < n; k++) {
-		size_t p = (size_t)s->canon[nodes[k]];
+		const size_t p = (size_t)canon[nodes[k]], o = 3 * (size_t)nodes[k];
 		for (int c = 0; c < 3; c++) {
-			size_t q = (size_t)c * cnt + p;
 			if (x)
-				x[3 * k + c] = s->X[q] + s->u[q];
-			if (u)
-				u[3 * k + c] = s->u[q];
+				x[o + c] = X[(size_t)c * cnt + p] + U[(size_t)c * cnt + p];
 			if (v)
-				v[3 * k + c] = s->v[q];
+				v[o + c] = V[(size_t)c * cnt + p];
 		}
 	}
 }

@@ -1,7 +1,8 @@
 /* test_msg — hostile input to the message layer: malformed, truncated,
  * oversized, out-of-range, non-finite, stale and foreign messages are each
  * dropped under their reason, never trusted (ndo/msg.h, ndo/net.h); tiles
- * fit one datagram at every level; the quad tree's codes round-trip. */
+ * fit one datagram at every level and pack as the node-by-node reference;
+ * the quad tree's codes round-trip. */
 #include "check.h"
 #include "ndo/codec.h"
 #include "ndo/msg.h"
@@ -424,6 +425,84 @@ static void tiles_fit_one_datagram(void)
 	}
 }
 
+/* The reference for ndo_tile_pack: node by node over the range, each
+ * asked channel's values in bit order (position, velocity, rest: three
+ * each; pin: 1 or 0), a missing channel as zeros. */
+static double *pack_reference(const ndo_grid *g, ndo_quad q, int channels, size_t *n)
+{
+	int i0, j0, i1, j1;
+	ndo_quad_range(g->level, q, &i0, &j0, &i1, &j1);
+	const char *names[3] = {NDO_CH_POSITION, NDO_CH_VELOCITY, NDO_CH_REST};
+	double *v = malloc((size_t)(i1 - i0 + 1) * (size_t)(j1 - j0 + 1) * 10 * sizeof *v);
+	size_t k = 0;
+	for (int j = j0; j <= j1; j++)
+		for (int i = i0; i <= i1; i++) {
+			size_t node = (size_t)j * (size_t)g->w + (size_t)i;
+			for (int c = 0; c < 3; c++) {
+				if (!(channels & (1 << c)))
+					continue;
+				const ndo_channel *ch = ndo_grid_find(g, names[c]);
+				for (int d = 0; d < 3; d++)
+					v[k++] = ch ? ((const double *)ch->data)[3 * node + d] : 0;
+			}
+			if (channels & NDO_TILE_PIN) {
+				const ndo_channel *ch = ndo_grid_find(g, NDO_CH_PIN);
+				v[k++] = ch && ((const uint8_t *)ch->data)[node] ? 1 : 0;
+			}
+		}
+	*n = k;
+	return v;
+}
+
+/* Every tile of a level-4 grid at every depth, for the channel sets a
+ * session sends (a frame's position and velocity take a loop of their
+ * own, tile.c), equal to the reference value for value; and without a
+ * velocity channel, zeros in its place. */
+static void tiles_pack_as_the_reference(void)
+{
+	ndo_grid *g;
+	CHECK(ndo_grid_create(4, &g) == 0, "a level-4 grid");
+	ndo_channel *ch;
+	double *x = g->ch[0].data;
+	for (size_t k = 0; k < 3 * g->count; k++)
+		x[k] = 0.5 + (double)k;
+	for (int pass = 0; pass < 2; pass++) {
+		if (pass == 1) {
+			ndo_grid_add(g, NDO_CH_VELOCITY, NDO_F64, 3, &ch);
+			for (size_t k = 0; k < 3 * g->count; k++)
+				((double *)ch->data)[k] = -0.25 - (double)k;
+			ndo_grid_add(g, NDO_CH_PIN, NDO_U8, 1, &ch);
+			for (size_t k = 0; k < g->count; k++)
+				((uint8_t *)ch->data)[k] = k % 3 == 0;
+		}
+		const int sets[] = {NDO_TILE_POSITION | NDO_TILE_VELOCITY,
+		                    NDO_TILE_POSITION | NDO_TILE_VELOCITY | NDO_TILE_COARSE,
+		                    NDO_TILE_POSITION, NDO_TILE_REST | NDO_TILE_PIN, NDO_TILE_ALL};
+		int tiles = 0, bad = 0;
+		for (size_t s = 0; s < sizeof sets / sizeof *sets; s++)
+			for (int d = 0; d <= g->level + 1; d++) {
+				int cols, rows;
+				ndo_quad_dims(d, &cols, &rows);
+				for (int qj = 0; qj < rows; qj++)
+					for (int qi = 0; qi < cols; qi++) {
+						ndo_quad q = {d, qi, qj};
+						ndo_msg_tile_t t;
+						size_t n;
+						double *ref = pack_reference(g, q, sets[s], &n);
+						CHECK(ndo_tile_pack(g, q, sets[s], &t) == 0, "pack");
+						bad += (size_t)t.nvalues != n || t.channels != sets[s] ||
+						       memcmp(t.values, ref, n * sizeof *ref) != 0;
+						tiles++;
+						free(t.values);
+						free(ref);
+					}
+			}
+		CHECK(bad == 0, "%s velocity: %d of %d tiles differ from the reference",
+		      pass ? "with" : "without", bad, tiles);
+	}
+	ndo_grid_destroy(g);
+}
+
 static void quad_codes_roundtrip(void)
 {
 	int level = 5, bad = 0;
@@ -457,6 +536,7 @@ int main(void)
 	RUN(stale_dropped_latest_kept);
 	RUN(unwanted_tiles_passed_over);
 	RUN(tiles_fit_one_datagram);
+	RUN(tiles_pack_as_the_reference);
 	RUN(quad_codes_roundtrip);
 	return ck_failed_cases != 0;
 }

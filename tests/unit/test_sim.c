@@ -839,6 +839,45 @@ static int same_run(ndo_sim *a, ndo_sim *b, size_t nn, double *xa, double *va, d
  * the same state.  And the test can fail: units that wait only for their
  * own chunk's pass before, not their neighbours' (wave_test 3), give
  * other bits. */
+/* ndo_sim_get_nodes_at (a peer's frames write the grid through it) puts
+ * each asked node's position and velocity where ndo_sim_get_nodes gives
+ * them, at the node's own index, duplicates too, and leaves the rest. */
+static void nodes_at_are_get_nodes(void)
+{
+	ndo_grid *g = shape("sphere", 4);
+	const size_t nn = 3 * g->count;
+	double *x = malloc(nn * sizeof *x), *v = malloc(nn * sizeof *v);
+	random_state(g, 0.01, x, v);
+	ndo_sim_params p;
+	ndo_sim_defaults(&p);
+	ndo_sim *s = make(g, x, v, NULL, &p);
+	for (int k = 0; k < 3; k++)
+		ndo_sim_step(s, 1e-3);
+	size_t n = 0;
+	int32_t *nodes = malloc(g->count * sizeof *nodes);
+	for (size_t k = 0; k < g->count; k++)
+		if (k % 3 != 1)
+			nodes[n++] = (int32_t)(g->count - 1 - k);
+	double *xs = malloc(3 * n * sizeof *xs), *vs = malloc(3 * n * sizeof *vs);
+	ndo_sim_get_nodes(s, n, nodes, xs, NULL, vs);
+	for (size_t k = 0; k < nn; k++)
+		x[k] = v[k] = -7;
+	ndo_sim_get_nodes_at(s, n, nodes, x, v);
+	size_t bad = 0, kept = 0;
+	for (size_t k = 0; k < n; k++)
+		bad += memcmp(x + 3 * (size_t)nodes[k], xs + 3 * k, 3 * sizeof *x) != 0 ||
+		       memcmp(v + 3 * (size_t)nodes[k], vs + 3 * k, 3 * sizeof *v) != 0;
+	for (size_t k = 0; k < g->count; k++)
+		if ((g->count - 1 - k) % 3 == 1)
+			kept += x[3 * k] == -7 && x[3 * k + 2] == -7 && v[3 * k + 1] == -7;
+	CHECK(bad == 0, "%zu of %zu nodes differ from ndo_sim_get_nodes", bad, n);
+	CHECK(kept == g->count - n, "%zu of %zu nodes not asked for were left", kept, g->count - n);
+	ndo_sim_get_nodes_at(s, n, nodes, NULL, v); /* positions skipped */
+	ndo_sim_destroy(s);
+	ndo_grid_destroy(g);
+	free(x), free(v), free(xs), free(vs), free(nodes);
+}
+
 static void steps_are_single_steps(void)
 {
 	const ndo_method ms[2] = {NDO_SYMPLECTIC_EULER, NDO_MIDPOINT};
@@ -2024,6 +2063,7 @@ int main(void)
 	RUN(rk4_begun_ahead_is_the_step);
 	RUN(fused_passes_are_the_passes);
 	RUN(vector_loops_are_the_scalar_ones);
+	RUN(nodes_at_are_get_nodes);
 	RUN(steps_are_single_steps);
 	RUN(results_are_pinned_across_versions);
 	RUN(rkf45_in_parts_is_the_step);

@@ -473,6 +473,12 @@ void ndo_sim_set(ndo_sim *s, size_t n, const int32_t *nodes, const double *x,
 void ndo_sim_get_nodes(const ndo_sim *s, size_t n, const int32_t *nodes, double *x, double *u,
                        double *v);
 
+/* The same into arrays indexed by node (a grid's channels): node
+ * nodes[k]'s position at x[3 nodes[k] ..], its velocity at v[3 nodes[k] ..]
+ * (NULL to skip); the other entries are left as they are. */
+void ndo_sim_get_nodes_at(const ndo_sim *s, size_t n, const int32_t *nodes, double *x,
+                          double *v);
+
 /* Overwrite the displacement u and velocity v (n × 3 doubles each, either
  * NULL to keep it) of n nodes: ndo_sim_set for the integrated state
  * itself, bit for bit. */
