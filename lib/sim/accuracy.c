@@ -12,6 +12,7 @@
 
 #include <math.h>
 #include <pthread.h>
+#include <stdatomic.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -37,6 +38,8 @@ struct ndo_acc {
 	double active[NDO_MAX_LEVEL + 1]; /* ndo_acc_active (0: not yet counted) */
 	double umax;     /* ndo_acc_sample */
 	double *scratch; /* x at the input level */
+	struct ndo__acc_est *pending; /* ndo_acc_estimate_begin's companions, running */
+	_Atomic int cancel;           /* ndo_acc_estimate_cancel: the companions stop */
 };
 
 /* The budget's share a configuration may use (ndo_acc_choose): the
@@ -170,6 +173,7 @@ void ndo_acc_destroy(ndo_acc *a)
 {
 	if (!a)
 		return;
+	ndo_acc_estimate_cancel(a);
 	for (int l = 0; l <= NDO_MAX_LEVEL; l++) {
 		free(a->lv[l].x), free(a->lv[l].v), free(a->lv[l].rest), free(a->lv[l].pin);
 	}
@@ -362,6 +366,10 @@ int ndo_acc_run(ndo_acc *a, const ndo_acc_config *c, ndo_acc_result *r)
 	int64_t every = c->steps / 64 > 1 ? c->steps / 64 : 1;
 	double umax = 0, t0 = cpu_now();
 	for (int64_t k = 1; k <= c->steps && rc == NDO_OK; k++) {
+		if (atomic_load_explicit(&a->cancel, memory_order_relaxed)) {
+			rc = ndo__fail(NDO_EINVAL, "cancelled");
+			break;
+		}
 		rc = ndo_sim_step(s, c->h);
 		if (rc == NDO_OK && k % every == 0)
 			umax = fmax(umax, largest(a, s, r->u));
@@ -551,6 +559,10 @@ static int time_window(ndo_acc *a, const ndo_acc_config *c, ndo_acc_estimate *e,
 		ndo_sim *s = NULL;
 		rc = ndo_acc_sim(a, c->level, c->method, pass && rkf ? c->tol / 100 : c->tol, &s);
 		for (int64_t k = 1, j = 0; !rc && k <= w; k++) {
+			if (atomic_load_explicit(&a->cancel, memory_order_relaxed)) {
+				rc = ndo__fail(NDO_EINVAL, "cancelled");
+				break;
+			}
 			if (pass == 0 || rkf)
 				rc = ndo_sim_step(s, c->h);
 			else if (!(rc = ndo_sim_step(s, c->h / 2)))
@@ -589,6 +601,7 @@ typedef struct coarse_job {
 	double factor;
 	ndo_acc_result r2;
 	int rc;
+	double cpu;         /* its thread's CPU seconds (run on a thread of its own) */
 	char detail[256];   /* the run's error, from its thread */
 } coarse_job;
 
@@ -620,12 +633,21 @@ static void coarse_plan(ndo_acc *a, const ndo_acc_config *c, coarse_job *j)
 	}
 }
 
+static double thread_cpu(void)
+{
+	struct timespec t;
+	clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+	return (double)t.tv_sec + 1e-9 * (double)t.tv_nsec;
+}
+
 static void *coarse_run(void *arg)
 {
 	coarse_job *j = arg;
+	double t0 = thread_cpu();
 	j->rc = ndo_acc_run(j->a, &j->c2, &j->r2);
 	if (j->rc)
 		snprintf(j->detail, sizeof j->detail, "%s", ndo_errdetail());
+	j->cpu = thread_cpu() - t0;
 	return NULL;
 }
 
@@ -663,26 +685,29 @@ typedef struct window_job {
 	int64_t w;
 	double dmax, grown;
 	int rc;
+	double cpu; /* its thread's CPU seconds */
 } window_job;
 
 static void *window_run(void *arg)
 {
 	window_job *j = arg;
+	double t0 = thread_cpu();
 	j->rc = time_window(j->a, j->c, &j->e, &j->w, &j->dmax, &j->grown);
 	if (j->rc)
 		why(&j->e, "time: window at", j->c->level);
+	j->cpu = thread_cpu() - t0;
 	return NULL;
 }
 
-/* Whether two parts of the estimate may run side by side: threads for
+/* Whether two parts of the estimate may run side by side: `threads` for
  * them, and `bytes` for both at once beside the run's own simulation
  * (what is free now, and ndo_acc_set_max_memory's limit). */
-static int beside_fits(ndo_acc *a, const ndo_acc_config *c, size_t bytes)
+static int beside_fits(ndo_acc *a, const ndo_acc_config *c, int threads, size_t bytes)
 {
 	ndo_sim_params prm = a->sc->sim;
 	prm.method = c->method;
 	size_t run = ndo_sim_memory(c->level, &prm);
-	return a->threads >= 2 && bytes <= ndo_memory_available() &&
+	return threads >= 2 && bytes <= ndo_memory_available() &&
 	       !(a->max_memory && run + bytes > a->max_memory);
 }
 
@@ -696,11 +721,11 @@ static size_t companion_bytes(ndo_acc *a, const ndo_acc_config *c, int level)
 
 /* The window beside the companions one level coarser (the levels
  * restricted first: the threads then only read them). */
-static int window_beside(ndo_acc *a, const ndo_acc_config *c)
+static int window_beside(ndo_acc *a, const ndo_acc_config *c, int threads)
 {
 	return c->level >= 1 && !ensure_level(a, c->level) && !ensure_level(a, c->level - 1) &&
-	       beside_fits(a, c, companion_bytes(a, c, c->level) +
-	                             companion_bytes(a, c, c->level - 1));
+	       beside_fits(a, c, threads,
+	                   companion_bytes(a, c, c->level) + companion_bytes(a, c, c->level - 1));
 }
 
 /* The window's part of the estimate into e (as if it had run first). */
@@ -716,112 +741,246 @@ static int window_merge(ndo_acc_estimate *e, const window_job *j)
 	return j->rc;
 }
 
-int ndo_acc_estimate_run(ndo_acc *a, const ndo_acc_config *c, const double *u, double umax,
-                         ndo_acc_estimate *e)
+/* An estimate in two parts: its companions (the window, level m − 1 at
+ * the run's step and at twice it), which need nothing of the run, then
+ * (est_finish) their comparisons with the run's result.  The companions
+ * may go on a thread of their own while the caller steps its run
+ * (ndo_acc_estimate_begin). */
+struct ndo__acc_est {
+	ndo_acc *a;
+	ndo_acc_config c;
+	int threads;          /* the threads the companions may use */
+	ndo_acc_estimate e;   /* their costs and what they could not do */
+	window_job wj;
+	int windowed;
+	coarse_job cj;
+	int coarse;
+	ndo_acc_result r1;    /* level m − 1 at the run's step */
+	int rc1;
+	double *tfield, tc, h2;
+	int rc;               /* NDO_ENOMEM: no estimate (detail below) */
+	char detail[256];
+	double cpu;           /* the companions' threads' CPU seconds */
+	pthread_t th;         /* ndo_acc_estimate_begin's thread */
+	int background;
+};
+
+/* What the companions need that they would otherwise make on their
+ * threads (the restricted levels, level m − 1's critical step: a's
+ * caches), so that those only read a. */
+static void est_prepare(ndo_acc *a, const ndo_acc_config *c, int threads, struct ndo__acc_est *E)
 {
-	memset(e, 0, sizeof *e);
-	e->time_m = e->space_m = e->total_m = NAN;
-	e->umax = umax;
-	e->rate = NAN;
-	int m = c->level, rkf = c->method == NDO_RKF45;
+	memset(E, 0, sizeof *E);
+	E->a = a;
+	E->c = *c;
+	E->threads = threads;
+	E->e.time_m = E->e.space_m = E->e.total_m = NAN;
+	E->e.rate = NAN;
+	E->tc = NAN;
+	int m = c->level;
 	/* Symplectic Euler damps no mode: the window (for the top modes a
 	 * method damps) would only see its bounded first-order offset, which
 	 * follows the velocity of the moment (3-4× the truth on the poke,
 	 * whose motion is fastest early). */
-	int windowed = c->method != NDO_SYMPLECTIC_EULER || m < 1;
-	double started = cpu_now(), tc = NAN, h2 = 0;
+	E->windowed = c->method != NDO_SYMPLECTIC_EULER || m < 1;
+	E->wj = (window_job){.a = a, .c = &E->c, .dmax = NAN, .grown = NAN};
+	E->coarse = c->method != NDO_RKF45 && m >= 1;
+	ensure_level(a, m);
+	if (m >= 1)
+		ensure_level(a, m - 1);
+	if (E->coarse)
+		coarse_plan(a, &E->c, &E->cj);
+}
+
+static void est_companions(struct ndo__acc_est *E)
+{
+	ndo_acc *a = E->a;
+	const ndo_acc_config *c = &E->c;
+	ndo_acc_estimate *e = &E->e;
+	int m = c->level;
+	double t0 = thread_cpu();
 	/* Time, early: the window at the run's level, on a thread of its own
 	 * beside the space part where it may, else first. */
-	window_job wj = {.a = a, .c = c, .dmax = NAN, .grown = NAN};
 	pthread_t th;
-	int beside = windowed && window_beside(a, c) &&
-	             pthread_create(&th, NULL, window_run, &wj) == 0;
+	int beside = E->windowed && window_beside(a, c, E->threads) &&
+	             pthread_create(&th, NULL, window_run, &E->wj) == 0;
 	int rc = NDO_OK;
-	if (windowed && !beside) {
-		window_run(&wj);
-		rc = window_merge(e, &wj);
-		if (rc == NDO_ENOMEM)
-			return ndo__fail(rc, "%s", wj.e.why);
+	if (E->windowed && !beside) {
+		window_run(&E->wj);
+		rc = window_merge(e, &E->wj);
+		if (rc == NDO_ENOMEM) {
+			E->rc = rc;
+			snprintf(E->detail, sizeof E->detail, "%s", E->wj.e.why);
+			E->cpu = thread_cpu() - t0;
+			return;
+		}
 	}
 	/* Time over the run, one level coarser (not rkf45): without the
 	 * window (symplectic Euler) its run goes beside the space companion's
 	 * where it may, else after it. */
-	coarse_job cj;
 	pthread_t th2;
-	int coarse = !rkf && m >= 1, cbeside = 0;
-	if (coarse) {
-		coarse_plan(a, c, &cj);
-		cbeside = !beside && !ensure_level(a, m - 1) &&
-		          beside_fits(a, c, 2 * companion_bytes(a, c, m - 1)) &&
-		          pthread_create(&th2, NULL, coarse_run, &cj) == 0;
-	}
+	int cbeside = E->coarse && !beside && !ensure_level(a, m - 1) &&
+	              beside_fits(a, c, E->threads, 2 * companion_bytes(a, c, m - 1)) &&
+	              pthread_create(&th2, NULL, coarse_run, &E->cj) == 0;
 	/* Space: level m−1 at the run's step (stable: the critical step about
-	 * doubles per level coarser), D_m = (r − 1) e_m. */
-	ndo_acc_result r1 = {0};
+	 * doubles per level coarser), D_m = (r − 1) e_m; compared with the
+	 * run in est_finish. */
 	ndo_acc_config c1 = *c;
 	c1.level = m - 1;
-	double *tfield = NULL;
-	int rc1 = NDO_OK;
+	E->rc1 = NDO_OK;
 	if (m < 1) {
 		snprintf(e->why + strlen(e->why), sizeof e->why - strlen(e->why),
 		         "%slevel 0 has no coarser level", *e->why ? "; " : "");
-	} else if ((rc = rc1 = ndo_acc_run(a, &c1, &r1))) {
+	} else if ((rc = E->rc1 = ndo_acc_run(a, &c1, &E->r1))) {
 		why(e, "space:", m - 1);
 	} else {
-		add_cost(e, &r1);
+		add_cost(e, &E->r1);
 		e->rate = RATE;
-		e->space_m = shared_difference(m, u, r1.u, NULL) / (RATE - 1);
 	}
-	if (cbeside)
+	if (cbeside) {
 		pthread_join(th2, NULL);
-	if (coarse && rc1 == NDO_OK) {
+		E->cpu += E->cj.cpu;
+	}
+	if (E->coarse && E->rc1 == NDO_OK) {
 		if (!cbeside)
-			coarse_run(&cj);
-		/* the time error's field, for the total (below); without the
+			coarse_run(&E->cj);
+		/* the time error's field, for the total (est_finish); without the
 		 * memory, the total is the two errors' sum */
-		tfield = malloc(3 * nodes_of(m - 1) * sizeof *tfield);
-		if ((rc = coarse_finish(&cj, &r1, e, &h2, &tc, tfield)))
+		E->tfield = malloc(3 * nodes_of(m - 1) * sizeof *E->tfield);
+		if ((rc = coarse_finish(&E->cj, &E->r1, e, &E->h2, &E->tc, E->tfield)))
 			why(e, "time: coarse", m - 1);
 	} else if (cbeside) {
-		ndo_acc_result_free(&cj.r2); /* no space companion to compare it with */
+		ndo_acc_result_free(&E->cj.r2); /* no space companion to compare it with */
 	}
 	if (beside) {
 		pthread_join(th, NULL);
-		int wrc = window_merge(e, &wj);
-		if (wrc == NDO_ENOMEM && rc != NDO_ENOMEM)
-			rc = ndo__fail(wrc, "%s", wj.e.why);
+		E->cpu += E->wj.cpu;
+		int wrc = window_merge(e, &E->wj);
+		if (wrc == NDO_ENOMEM && rc != NDO_ENOMEM) {
+			rc = wrc;
+			snprintf(E->detail, sizeof E->detail, "%s", E->wj.e.why);
+		}
 	}
 	if (rc == NDO_ENOMEM) {
-		free(tfield);
-		ndo_acc_result_free(&r1);
-		return rc;
+		E->rc = rc;
+		if (!*E->detail)
+			snprintf(E->detail, sizeof E->detail, "%s", ndo_errdetail());
 	}
-	if (tfield && !isnan(tc) && !(windowed && wj.dmax > tc))
-		e->total_m = shared_difference(m, u, r1.u, tfield);
-	free(tfield);
-	ndo_acc_result_free(&r1);
+	E->cpu += thread_cpu() - t0;
+}
+
+/* The estimate from the companions and the run's result u (level m) and
+ * largest displacement umax; E's results freed. */
+static int est_finish(struct ndo__acc_est *E, const double *u, double umax, ndo_acc_estimate *e)
+{
+	double t0 = thread_cpu();
+	int m = E->c.level, rkf = E->c.method == NDO_RKF45;
+	if (E->rc) {
+		free(E->tfield);
+		ndo_acc_result_free(&E->r1);
+		E->tfield = NULL;
+		return ndo__fail(E->rc, "%s", E->detail);
+	}
+	*e = E->e;
+	e->umax = umax;
+	if (m >= 1 && E->rc1 == NDO_OK)
+		e->space_m = shared_difference(m, u, E->r1.u, NULL) / (RATE - 1);
+	const window_job *wj = &E->wj;
+	double tc = E->tc, h2 = E->h2;
+	if (E->tfield && !isnan(tc) && !(E->windowed && wj->dmax > tc))
+		e->total_m = shared_difference(m, u, E->r1.u, E->tfield);
+	free(E->tfield);
+	E->tfield = NULL;
+	ndo_acc_result_free(&E->r1);
 	/* The larger of the two: the window sees the top modes only level m
 	 * has (RK4 at its largest step damps them: most of its error there),
 	 * the coarse companion the error that grows over the whole run. */
 	if (rkf) {
-		e->time_m = wj.grown;
+		e->time_m = wj->grown;
 		snprintf(e->time_how, sizeof e->time_how, "level %d, %lld of %lld steps at tolerance %.3g, "
-		         "carried to the end", m, (long long)wj.w, (long long)c->steps, c->tol / 100);
+		         "carried to the end", m, (long long)wj->w, (long long)E->c.steps, E->c.tol / 100);
 	} else {
-		double dmax = wj.dmax;
+		double dmax = wj->dmax;
 		e->time_m = isnan(tc) ? dmax : isnan(dmax) ? tc : fmax(dmax, tc);
-		if (windowed && !isnan(dmax))
+		if (E->windowed && !isnan(dmax))
 			snprintf(e->time_how, sizeof e->time_how, "the larger of level %d, %lld of %lld "
 			         "steps at %.4g s (%.3g m), and level %d at %.4g s (%.3g m)", m,
-			         (long long)wj.w, (long long)c->steps, c->h / 2, dmax, m - 1, h2, tc);
+			         (long long)wj->w, (long long)E->c.steps, E->c.h / 2, dmax, m - 1, h2, tc);
 		else
 			snprintf(e->time_how, sizeof e->time_how, "level %d at %.4g s against %.4g s", m - 1,
-			         h2, c->h);
+			         h2, E->c.h);
 	}
 	if (isnan(e->total_m))
 		e->total_m = e->time_m + e->space_m;
-	e->cpu = cpu_now() - started;
+	e->cpu = E->cpu + (thread_cpu() - t0);
 	return NDO_OK;
+}
+
+int ndo_acc_estimate_run(ndo_acc *a, const ndo_acc_config *c, const double *u, double umax,
+                         ndo_acc_estimate *e)
+{
+	struct ndo__acc_est E;
+	double t0 = thread_cpu();
+	est_prepare(a, c, a->threads, &E);
+	E.cpu = thread_cpu() - t0;
+	est_companions(&E);
+	return est_finish(&E, u, umax, e);
+}
+
+static void *est_thread(void *arg)
+{
+	est_companions(arg);
+	return NULL;
+}
+
+int ndo_acc_estimate_begin(ndo_acc *a, const ndo_acc_config *c)
+{
+	ndo_acc_estimate_cancel(a);
+	if (a->threads < 2)
+		return NDO_OK; /* no core beside the run's: after it (ndo_acc_estimate_end) */
+	struct ndo__acc_est *E = malloc(sizeof *E);
+	if (!E)
+		return ndo__fail(NDO_ENOMEM, "out of memory");
+	double t0 = thread_cpu();
+	/* the run has one of the threads */
+	est_prepare(a, c, a->threads - 1, E);
+	E->cpu = thread_cpu() - t0;
+	if (pthread_create(&E->th, NULL, est_thread, E) != 0) {
+		free(E);
+		return NDO_OK; /* after the run, then */
+	}
+	E->background = 1;
+	a->pending = E;
+	return NDO_OK;
+}
+
+int ndo_acc_estimate_end(ndo_acc *a, const ndo_acc_config *c, const double *u, double umax,
+                         ndo_acc_estimate *e)
+{
+	struct ndo__acc_est *E = a->pending;
+	if (!E || memcmp(&E->c, c, sizeof *c) != 0) {
+		ndo_acc_estimate_cancel(a);
+		return ndo_acc_estimate_run(a, c, u, umax, e);
+	}
+	pthread_join(E->th, NULL);
+	a->pending = NULL;
+	int rc = est_finish(E, u, umax, e);
+	free(E);
+	return rc;
+}
+
+void ndo_acc_estimate_cancel(ndo_acc *a)
+{
+	struct ndo__acc_est *E = a ? a->pending : NULL;
+	if (!E)
+		return;
+	atomic_store(&a->cancel, 1);
+	pthread_join(E->th, NULL);
+	atomic_store(&a->cancel, 0);
+	a->pending = NULL;
+	free(E->tfield);
+	ndo_acc_result_free(&E->r1);
+	free(E);
 }
 
 /* ---- choosing ----------------------------------------------------------- */
@@ -924,7 +1083,7 @@ int ndo_acc_choose(ndo_acc *a, double target, int metres, double T, ndo_acc_choi
 			j->c[k] = measured_config(a, p, ms[k], T);
 		pthread_t th;
 		int beside = a->threads >= 2 && !ensure_level(a, p) &&
-		             beside_fits(a, &c, 2 * companion_bytes(a, &j->c[1], p)) &&
+		             beside_fits(a, &c, a->threads, 2 * companion_bytes(a, &j->c[1], p)) &&
 		             pthread_create(&th, NULL, measure_run, j) == 0;
 		ndo_acc_result res;
 		rc = ndo_acc_run(a, &c, &res);

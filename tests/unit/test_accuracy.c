@@ -256,6 +256,65 @@ static void the_window_beside_is_the_same_estimate(void)
 	unmake(&f);
 }
 
+static int same_estimate(const ndo_acc_estimate *a, const ndo_acc_estimate *b)
+{
+	return a->time_m == b->time_m && a->space_m == b->space_m && a->total_m == b->total_m &&
+	       a->umax == b->umax && a->node_evals == b->node_evals &&
+	       !strcmp(a->time_how, b->time_how) && !strcmp(a->why, b->why);
+}
+
+/* ndo_acc_estimate_begin's companions, on a thread of their own while
+ * this thread makes the run, give ndo_acc_estimate_run's estimate number
+ * for number (with 2 threads, and with 3, where its window also goes
+ * beside); _end for another configuration than the one begun makes that
+ * one's; a cancelled begin leaves nothing behind, nor does a destroy
+ * while the companions run (ASan in make test). */
+static void the_estimate_begun_beside_the_run_is_the_same(void)
+{
+	fixture f;
+	poked(&f);
+	const ndo_method ms[3] = {NDO_RK4, NDO_RKF45, NDO_SYMPLECTIC_EULER};
+	for (int k = 0; k < 3; k++) {
+		ndo_acc_config c = ms[k] == NDO_RKF45 ? (ndo_acc_config){4, NDO_RKF45, 0.05, 20, 1e-6}
+		                                      : largest_step(&f, ms[k]);
+		ndo_acc_set_threads(f.a, 1);
+		ndo_acc_result r;
+		ndo_acc_estimate ref, e;
+		CHECK(ndo_acc_run(f.a, &c, &r) == NDO_OK, "run");
+		CHECK(ndo_acc_estimate_run(f.a, &c, r.u, r.umax, &ref) == NDO_OK, "estimate");
+		for (int t = 2; t <= 3; t++) {
+			ndo_acc_set_threads(f.a, t);
+			ndo_acc_result r2;
+			CHECK(ndo_acc_estimate_begin(f.a, &c) == NDO_OK, "begin");
+			CHECK(ndo_acc_run(f.a, &c, &r2) == NDO_OK, "the run beside the companions");
+			CHECK(ndo_acc_estimate_end(f.a, &c, r2.u, r2.umax, &e) == NDO_OK, "end");
+			CHECK(same_estimate(&ref, &e) && e.cpu > 0,
+			      "%s, %d threads: time %.17g m, space %.17g m, total %.17g m (%s; '%s'), one "
+			      "after the other %.17g, %.17g, %.17g (%s; '%s'); %g s CPU",
+			      ndo_method_names[ms[k]], t, e.time_m, e.space_m, e.total_m, e.time_how, e.why,
+			      ref.time_m, ref.space_m, ref.total_m, ref.time_how, ref.why, e.cpu);
+			ndo_acc_result_free(&r2);
+		}
+		/* begun for a shorter run, ended for this one: this one's */
+		ndo_acc_config shorter = c;
+		shorter.steps = c.steps / 2;
+		CHECK(ndo_acc_estimate_begin(f.a, &shorter) == NDO_OK, "begin");
+		CHECK(ndo_acc_estimate_end(f.a, &c, r.u, r.umax, &e) == NDO_OK && same_estimate(&ref, &e),
+		      "%s: ended for another configuration than begun", ndo_method_names[ms[k]]);
+		/* cancelled: nothing pending, and the next end computes */
+		CHECK(ndo_acc_estimate_begin(f.a, &c) == NDO_OK, "begin");
+		ndo_acc_estimate_cancel(f.a);
+		ndo_acc_estimate_cancel(f.a);
+		CHECK(ndo_acc_estimate_end(f.a, &c, r.u, r.umax, &e) == NDO_OK && same_estimate(&ref, &e),
+		      "%s: after a cancel", ndo_method_names[ms[k]]);
+		ndo_acc_result_free(&r);
+	}
+	CHECK(ndo_acc_estimate_begin(f.a, &(ndo_acc_config){4, NDO_RK4, 0.001, 100000, 0}) ==
+	          NDO_OK,
+	      "a long estimate begun");
+	unmake(&f); /* destroyed while its companions run: stopped within a step */
+}
+
 static void bad_targets_are_refused(void)
 {
 	fixture f;
@@ -463,6 +522,7 @@ int main(void)
 	RUN(time_estimate_at_the_largest_step);
 	RUN(total_adds_the_fields);
 	RUN(the_window_beside_is_the_same_estimate);
+	RUN(the_estimate_begun_beside_the_run_is_the_same);
 	RUN(bad_targets_are_refused);
 	RUN(finer_levels_that_cannot_win_are_not_analysed);
 	RUN(known_mode_and_memory_limit);

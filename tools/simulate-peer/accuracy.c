@@ -188,6 +188,41 @@ int64_t accuracy_next(const run *r, int64_t k)
 /* The estimate's line, printed after the run's summary (accuracy_print). */
 static char report[1024];
 
+/* The estimate's companions running beside the run (accuracy_begin): an
+ * exit on any path (a divergence, an error, an interrupt) stops them
+ * first. */
+static ndo_acc *running;
+
+static void stop_running(void)
+{
+	ndo_acc_estimate_cancel(running);
+	running = NULL;
+}
+
+/* The estimate's configuration: the run as simulated. */
+static ndo_acc_config estimated(const run *r)
+{
+	return (ndo_acc_config){ndo_sim_level(r->sim), ndo_sim_method(r->sim), r->dt, r->steps,
+	                        r->sc.sim.tol};
+}
+
+void accuracy_begin(run *r)
+{
+	/* A run that steps on one thread (levels up to 6, a single process)
+	 * leaves the other cores to the estimate's companions, which need
+	 * nothing of it: they run beside it rather than after it (the same
+	 * figures; ndo_acc_estimate_begin).  A run on the threads keeps the
+	 * cores, and the estimate comes after it, as before. */
+	if (!r->acc || (r->quiet && !r->logging) || ndo_sim_threads(r->sim) > 1)
+		return;
+	ndo_acc_config c = estimated(r);
+	if (ndo_acc_estimate_begin(r->acc, &c))
+		ndo_die("error estimate: %s", ndo_errdetail());
+	if (!running)
+		atexit(stop_running);
+	running = r->acc;
+}
+
 void accuracy_print(void)
 {
 	fputs(report, stderr);
@@ -201,7 +236,7 @@ void accuracy_report(run *r)
 	if (!r->acc || (r->quiet && !r->logging))
 		return;
 	int level = ndo_sim_level(r->sim);
-	ndo_acc_config c = {level, ndo_sim_method(r->sim), r->dt, r->steps, r->sc.sim.tol};
+	ndo_acc_config c = estimated(r);
 	size_t bytes = 3 * sizeof(double) * (size_t)((2 << level) + 1) * (size_t)((1 << level) + 1);
 	double *u = r->coarse = malloc(bytes);
 	if (!u)
@@ -209,7 +244,7 @@ void accuracy_report(run *r)
 	ndo_acc_displacement(r->acc, r->sim, u);
 	double umax = ndo_acc_sampled(r->acc);
 	ndo_acc_estimate e;
-	if (ndo_acc_estimate_run(r->acc, &c, u, umax, &e))
+	if (ndo_acc_estimate_end(r->acc, &c, u, umax, &e))
 		ndo_die("error estimate: %s", ndo_errdetail());
 	free(u);
 	r->coarse = NULL;
@@ -277,6 +312,8 @@ int accuracy_store(run *r, ndo_grid *g)
 
 void accuracy_free(run *r)
 {
+	if (running == r->acc)
+		running = NULL;
 	ndo_acc_destroy(r->acc);
 	r->acc = NULL;
 }

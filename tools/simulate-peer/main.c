@@ -94,8 +94,10 @@ static __attribute__((noreturn)) void usage(void)
 	    "                          20,000 nodes (level 6 and below) run on one\n"
 	    "                          thread, and steps run alone while the threads do\n"
 	    "                          not pay (timed every few seconds); 2 or more:\n"
-	    "                          the error estimate's two parts side by side, and\n"
-	    "                          --accuracy's measured runs beside its pilots\n"
+	    "                          the error estimate's runs beside a run on one\n"
+	    "                          thread, else after it with its two parts side\n"
+	    "                          by side, and --accuracy's measured runs beside\n"
+	    "                          its pilots\n"
 	    "      --accuracy E[m]     choose the level (up to the input's), integrator\n"
 	    "                          and step that meet the error E at the least\n"
 	    "                          predicted cost: E a share of the largest\n"
@@ -279,6 +281,7 @@ static void simulate(run *r)
 	sa.sa_handler = on_signal;
 	sigaction(SIGINT, &sa, NULL);
 	sigaction(SIGTERM, &sa, NULL);
+	accuracy_begin(r);
 	/* Between the steps that log, write a frame or sample the accuracy,
 	 * the steps run with nothing between them: ndo_sim_steps (symplectic
 	 * Euler and midpoint then pipeline several steps; the same bits), at

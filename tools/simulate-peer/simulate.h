@@ -87,6 +87,9 @@ void accuracy_plan(run *r);
 void accuracy_sample(run *r, int64_t k);
 /* The next step after k that accuracy_sample() samples at (INT64_MAX: none). */
 int64_t accuracy_next(const run *r, int64_t k);
+/* The error estimate's companions started beside the run where it steps on
+ * one thread (before its first step); accuracy_report takes them. */
+void accuracy_begin(run *r);
 void accuracy_report(run *r);
 void accuracy_print(void);
 int accuracy_store(run *r, ndo_grid *g);

@@ -165,6 +165,19 @@ typedef struct ndo_acc_estimate {
 int ndo_acc_estimate_run(ndo_acc *a, const ndo_acc_config *c, const double *u, double umax,
                          ndo_acc_estimate *e);
 
+/* The same estimate in two calls, its companion runs (they need nothing
+ * of the run) beside the caller's run: _begin starts them on a thread of
+ * their own when ndo_acc_set_threads gave 2 or more (the run keeps one;
+ * with 3 or more they also go side by side as above), and returns;
+ * _end(c, u, umax) waits for them and compares — the same figures as
+ * ndo_acc_estimate_run, which _end does itself when nothing was begun for
+ * c.  cpu counts the companions' threads only.  _cancel stops them
+ * (within a step) and drops what they made; ndo_acc_destroy cancels. */
+int ndo_acc_estimate_begin(ndo_acc *a, const ndo_acc_config *c);
+int ndo_acc_estimate_end(ndo_acc *a, const ndo_acc_config *c, const double *u, double umax,
+                         ndo_acc_estimate *e);
+void ndo_acc_estimate_cancel(ndo_acc *a);
+
 /* The predicted CPU seconds of `steps` steps of `method` at `level` of
  * this scene: a count of work, not a measurement (the same every time, on
  * any load), steps × (A + B × vertices + C × integrated vertices — the
