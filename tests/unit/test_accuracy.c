@@ -223,6 +223,24 @@ static void total_adds_the_fields(void)
 	unmake(&f);
 }
 
+/* The estimates compared below: the same figures and texts. */
+static int same_estimate(const ndo_acc_estimate *a, const ndo_acc_estimate *b)
+{
+	return a->time_m == b->time_m && a->space_m == b->space_m && a->total_m == b->total_m &&
+	       a->umax == b->umax && a->node_evals == b->node_evals &&
+	       !strcmp(a->time_how, b->time_how) && !strcmp(a->why, b->why);
+}
+
+/* The three kinds of estimate (the window and the coarse companions; the
+ * window carried to the end; the coarse companions alone) at a step of
+ * each: rk4 and symplectic Euler at their largest, rkf45 at 1e-6. */
+static const ndo_method beside_methods[3] = {NDO_RK4, NDO_RKF45, NDO_SYMPLECTIC_EULER};
+
+static ndo_acc_config beside_config(fixture *f, ndo_method m)
+{
+	return m == NDO_RKF45 ? (ndo_acc_config){4, NDO_RKF45, 0.05, 20, 1e-6} : largest_step(f, m);
+}
+
 /* With two threads the estimate's parts run side by side
  * (ndo_acc_set_threads): the same estimate, number for number, as one
  * after the other — rk4 (the window beside the coarse companions), rkf45
@@ -232,10 +250,9 @@ static void the_window_beside_is_the_same_estimate(void)
 {
 	fixture f;
 	poked(&f);
-	const ndo_method ms[3] = {NDO_RK4, NDO_RKF45, NDO_SYMPLECTIC_EULER};
+	const ndo_method *ms = beside_methods;
 	for (int k = 0; k < 3; k++) {
-		ndo_acc_config c = ms[k] == NDO_RKF45 ? (ndo_acc_config){4, NDO_RKF45, 0.05, 20, 1e-6}
-		                                      : largest_step(&f, ms[k]);
+		ndo_acc_config c = beside_config(&f, ms[k]);
 		ndo_acc_result r;
 		ndo_acc_estimate e[2];
 		CHECK(ndo_acc_run(f.a, &c, &r) == NDO_OK, "run");
@@ -243,10 +260,7 @@ static void the_window_beside_is_the_same_estimate(void)
 			ndo_acc_set_threads(f.a, 2 - t);
 			CHECK(ndo_acc_estimate_run(f.a, &c, r.u, r.umax, &e[t]) == NDO_OK, "estimate");
 		}
-		CHECK(isfinite(e[0].time_m) && e[0].space_m > 0 && e[0].time_m == e[1].time_m &&
-		      e[0].space_m == e[1].space_m && e[0].total_m == e[1].total_m &&
-		      e[0].node_evals == e[1].node_evals && !strcmp(e[0].time_how, e[1].time_how) &&
-		      !strcmp(e[0].why, e[1].why),
+		CHECK(isfinite(e[0].time_m) && e[0].space_m > 0 && same_estimate(&e[0], &e[1]),
 		      "%s: two threads time %.17g m, space %.17g m, total %.17g m, %.17g evaluations "
 		      "(%s; '%s'), one %.17g, %.17g, %.17g, %.17g (%s; '%s')", ndo_method_names[ms[k]],
 		      e[0].time_m, e[0].space_m, e[0].total_m, e[0].node_evals, e[0].time_how, e[0].why,
@@ -254,13 +268,6 @@ static void the_window_beside_is_the_same_estimate(void)
 		ndo_acc_result_free(&r);
 	}
 	unmake(&f);
-}
-
-static int same_estimate(const ndo_acc_estimate *a, const ndo_acc_estimate *b)
-{
-	return a->time_m == b->time_m && a->space_m == b->space_m && a->total_m == b->total_m &&
-	       a->umax == b->umax && a->node_evals == b->node_evals &&
-	       !strcmp(a->time_how, b->time_how) && !strcmp(a->why, b->why);
 }
 
 /* ndo_acc_estimate_begin's companions, on a thread of their own while
@@ -273,10 +280,9 @@ static void the_estimate_begun_beside_the_run_is_the_same(void)
 {
 	fixture f;
 	poked(&f);
-	const ndo_method ms[3] = {NDO_RK4, NDO_RKF45, NDO_SYMPLECTIC_EULER};
+	const ndo_method *ms = beside_methods;
 	for (int k = 0; k < 3; k++) {
-		ndo_acc_config c = ms[k] == NDO_RKF45 ? (ndo_acc_config){4, NDO_RKF45, 0.05, 20, 1e-6}
-		                                      : largest_step(&f, ms[k]);
+		ndo_acc_config c = beside_config(&f, ms[k]);
 		ndo_acc_set_threads(f.a, 1);
 		ndo_acc_result r;
 		ndo_acc_estimate ref, e;
