@@ -19,7 +19,8 @@
 
 /* The loops are compiled for x86-64 and x86-64-v3 (AVX2, FMA), as the
  * stencil kernels are (sim_private.h). */
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && \
+    !defined(__SANITIZE_THREAD__)
 #define NDO_MG_HOT __attribute__((target_clones("arch=x86-64-v3", "default")))
 #else
 #define NDO_MG_HOT

@@ -17,7 +17,8 @@
  * multi-versioning): about twice the speed where AVX2 exists, while the
  * library still runs on any x86-64.  Sanitizer builds compile one variant
  * (see lib/net/codec_private.h). */
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__SANITIZE_ADDRESS__)
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && \
+    !defined(__SANITIZE_ADDRESS__) && !defined(__SANITIZE_THREAD__)
 #define NDO_HOT __attribute__((target_clones("arch=x86-64-v3", "default")))
 #else
 #define NDO_HOT

@@ -17,7 +17,10 @@
 #ifndef NDO_SIMD_H
 #define NDO_SIMD_H
 
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__SANITIZE_ADDRESS__)
+/* (Not under ASan or TSan: TSan's runtime is not yet set up when the
+ * loader calls the clones' resolvers, and the program dies before main.) */
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && \
+    !defined(__SANITIZE_ADDRESS__) && !defined(__SANITIZE_THREAD__)
 #define NDO_HOT_O3 __attribute__((target_clones("arch=x86-64-v3", "default"), optimize("O3")))
 #else
 #define NDO_HOT_O3
