@@ -2,7 +2,8 @@
 #
 #   make            build lib/libndo.a and every tool into bin/
 #   make deps       install the Debian packages ndo needs (only those missing)
-#   make test       build with ASan + UBSan under build/asan/ and run every test
+#   make test       build with ASan + UBSan under build/asan/ (and the threaded
+#                   unit tests with TSan under build/tsan/) and run every test
 #   make bench      build optimized and run the speed benchmarks (docs/bench/)
 #   make report     regenerate every figure and table in docs/ (minutes)
 #   make demo       the main job, end to end (output in build/demo/)
@@ -22,7 +23,7 @@ CXX := g++
 
 # Debian packages (make deps).  Grouped by who needs them.
 DEBS_BUILD := build-essential pkg-config zlib1g-dev libzstd-dev libassimp-dev iproute2
-DEBS_TEST := python3 python3-numpy clang libclang-rt-14-dev libopenmesh-dev
+DEBS_TEST := python3 python3-numpy clang libclang-rt-14-dev libopenmesh-dev libtsan2
 # Recursive: the tools' build.mk fragments, included below, add DEBS_TOOLS.
 DEBS = $(DEBS_BUILD) $(DEBS_TEST) $(DEBS_TOOLS)
 
@@ -48,13 +49,20 @@ OPTFLAGS := -O1 -g1 -fno-omit-frame-pointer \
 # still stops at a null dereference, with the stack; ndo's own C++ has no
 # virtual classes.
 SAN_CXXFLAGS := -fno-sanitize=null,alignment,vptr
+else ifeq ($(SAN),thread)
+# SAN=thread: the library and the unit tests whose threads share work
+# (TSAN_PROGS) with ThreadSanitizer, under build/tsan/, which
+# tests/e2e/threads-tsan.sh runs (`make test` builds them).
+OUT := build/tsan
+LIBNDO := build/tsan/lib/libndo.a
+OPTFLAGS := -O1 -g1 -fno-omit-frame-pointer -fsanitize=thread
 else
 OUT := build
 LIBNDO := lib/libndo.a
 OPTFLAGS := -O2 -g
 endif
 OBJ := $(OUT)/obj
-BIN := $(if $(filter 1,$(SAN)),build/asan/bin,bin)
+BIN := $(if $(filter 1,$(SAN)),build/asan/bin,$(if $(filter thread,$(SAN)),build/tsan/bin,bin))
 TBIN := $(OUT)/tests
 
 WARN := -Wall -Wextra -Wno-unused-parameter
@@ -97,7 +105,7 @@ $(BIN)/$(1): $$($(1)_OBJS) $(LIBNDO)
 endef
 $(foreach t,$(TOOLS),$(eval $(call tool_rules,$(t))))
 
-.PHONY: all deps test check-build bench bench-progs report demo install clean help
+.PHONY: all deps test check-build tsan-build bench bench-progs report demo install clean help
 all: $(LIBNDO) $(TOOLS:%=$(BIN)/%)
 
 $(LIBNDO): $(LIB_OBJS)
@@ -137,12 +145,20 @@ deps:
 	$$apt install --no-install-recommends $$missing \
 	  || { $$apt update && $$apt install --no-install-recommends $$missing; }
 
-# The test suite runs against the sanitizer build.
+# The test suite runs against the sanitizer build (and, for the threads'
+# shared work, the ThreadSanitizer one: tests/e2e/threads-tsan.sh).
 test: deps
 	$(MAKE) -j$(shell nproc) SAN=1 check-build
+	$(MAKE) -j$(shell nproc) SAN=thread tsan-build
 	tests/run build/asan
 
 check-build: all $(TEST_PROGS)
+
+# The unit tests whose threads share work: the pool, the steps on the
+# threads (test_sim), the error estimate's and the choice's runs beside
+# each other and beside a run (test_accuracy).
+TSAN_PROGS := $(addprefix $(TBIN)/,test_pool test_sim test_accuracy)
+tsan-build: $(LIBNDO) $(TSAN_PROGS)
 
 # The speed benchmarks; `make report` runs them and every study too.
 BENCH_SPEED := subdivide render simulate threads
@@ -192,6 +208,6 @@ clean:
 	rm -rf build bin lib/libndo.a
 
 help:
-	@sed -n '3,11s/^# //p' Makefile
+	@sed -n '3,12s/^# //p' Makefile
 
 -include $(ALL_OBJS:.o=.d) $(TEST_OBJS:.o=.d)
