@@ -20,7 +20,7 @@
 #define IDLE_WAIT 0.05      /* s: the longest a caller sleeps (protocol timers) */
 #define STASH_MAX 8192      /* tiles kept for later steps or partitions */
 #define LAST_COPIES 3       /* the owner leaves once its last frame went out this often */
-#define LAST_GAPS 4         /* ... and this many first re-send gaps after it gathered */
+#define LAST_GAPS 16        /* ... and this many first re-send gaps after it gathered */
 
 /* A repeated message's timer: the next one not before `at`, the gaps
  * doubling from the first up to RESEND_MAX (gap 0: none sent yet). */
