@@ -28,8 +28,9 @@ int ndo_tile_pack(const ndo_grid *g, ndo_quad q, int channels, ndo_msg_tile_t *t
 	const int body = NDO_TILE_POSITION | NDO_TILE_VELOCITY | NDO_TILE_REST | NDO_TILE_PIN;
 	if ((channels & body) == (NDO_TILE_POSITION | NDO_TILE_VELOCITY) && vec[0] && vec[1]) {
 		/* a frame's tile, position and velocity: a node's six values
-		 * copied as they lie, no test a value (the loop below is the
-		 * reference: test_session tiles_pack_as_the_general_loop) */
+		 * copied as they lie, no test a value (test_msg
+		 * tiles_pack_as_the_reference checks both loops against a
+		 * node-by-node packer) */
 		const size_t row = (size_t)(i1 - i0 + 1);
 		for (int j = j0; j <= j1; j++) {
 			const double *restrict x = vec[0] + 3 * ndo_node(g->w, i0, j);

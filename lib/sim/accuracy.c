@@ -762,7 +762,6 @@ struct ndo__acc_est {
 	char detail[256];
 	double cpu;           /* the companions' threads' CPU seconds */
 	pthread_t th;         /* ndo_acc_estimate_begin's thread */
-	int background;
 };
 
 /* What the companions need that they would otherwise make on their
@@ -811,7 +810,7 @@ static void est_companions(struct ndo__acc_est *E)
 		if (rc == NDO_ENOMEM) {
 			E->rc = rc;
 			snprintf(E->detail, sizeof E->detail, "%s", E->wj.e.why);
-			E->cpu = thread_cpu() - t0;
+			E->cpu += thread_cpu() - t0;
 			return;
 		}
 	}
@@ -949,16 +948,21 @@ int ndo_acc_estimate_begin(ndo_acc *a, const ndo_acc_config *c)
 		free(E);
 		return NDO_OK; /* after the run, then */
 	}
-	E->background = 1;
 	a->pending = E;
 	return NDO_OK;
+}
+
+static int same_config(const ndo_acc_config *a, const ndo_acc_config *b)
+{
+	return a->level == b->level && a->method == b->method && a->h == b->h &&
+	       a->steps == b->steps && a->tol == b->tol;
 }
 
 int ndo_acc_estimate_end(ndo_acc *a, const ndo_acc_config *c, const double *u, double umax,
                          ndo_acc_estimate *e)
 {
 	struct ndo__acc_est *E = a->pending;
-	if (!E || memcmp(&E->c, c, sizeof *c) != 0) {
+	if (!E || !same_config(&E->c, c)) {
 		ndo_acc_estimate_cancel(a);
 		return ndo_acc_estimate_run(a, c, u, umax, e);
 	}
