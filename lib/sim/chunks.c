@@ -56,7 +56,58 @@ void ndo__chunks_free(ndo__chunks *K)
 	free(K->r0), free(K->r1), free(K->a0), free(K->a1), free(K->lo), free(K->hi);
 	free(K->boff), free(K->blist), free(K->zoff), free(K->zlist), free(K->foff), free(K->fitem);
 	free(K->doff), free(K->dlist), free(K->eoff), free(K->elist);
+	free(K->cfit), free(K->coff), free(K->cnode), free(K->fci), free(K->zci);
 	*K = (ndo__chunks){0};
+}
+
+/* The compact force items (ndo__chunks: cfit, coff, cnode, fci, zci):
+ * each chunk's distinct item nodes in the order its items meet them. */
+static int compact(const ndo_sim *s, ndo__chunks *K)
+{
+	const int C = K->C;
+	const size_t m = (size_t)K->foff[C];
+	K->cfit = calloc((size_t)C + 1, 1);
+	K->coff = calloc((size_t)C + 1, sizeof *K->coff);
+	K->cnode = malloc((3 * m + 1) * sizeof *K->cnode);
+	K->fci = malloc((3 * m + 1) * sizeof *K->fci);
+	K->zci = malloc(((size_t)K->zoff[C] + 1) * sizeof *K->zci);
+	int32_t *idx = malloc((s->count + 1) * sizeof *idx); /* node → compact index, −1 */
+	if (!K->cfit || !K->coff || !K->cnode || !K->fci || !K->zci || !idx) {
+		free(idx);
+		return NDO_ENOMEM;
+	}
+	for (size_t p = 0; p < s->count; p++)
+		idx[p] = -1;
+	int32_t n = 0;
+	for (int c = 0; c < C; c++) {
+		const int32_t n0 = n;
+		int fit = 1;
+		for (int32_t i = K->foff[c]; i < K->foff[c + 1] && fit; i++) {
+			const ndo__force *F = &s->forces[K->fitem[i].k];
+			fit = F->f.kind == NDO_FORCE_FACE && F->f.normal;
+			for (int d = 0; fit && d < 3; d++) {
+				int32_t p = F->nodes[3 * (size_t)K->fitem[i].q + (size_t)d];
+				if (idx[p] < 0) {
+					idx[p] = n - n0;
+					K->cnode[n++] = p;
+				}
+				K->fci[3 * (size_t)i + (size_t)d] = idx[p];
+			}
+		}
+		for (int32_t i = K->zoff[c]; i < K->zoff[c + 1] && fit; i++) {
+			fit = idx[K->zlist[i]] >= 0; /* (each is some item's node) */
+			K->zci[i] = idx[K->zlist[i]];
+		}
+		fit = fit && n - n0 <= NDO__CF_MAX && K->foff[c + 1] > K->foff[c];
+		for (int32_t i = n0; i < n; i++)
+			idx[K->cnode[i]] = -1;
+		if (!fit)
+			n = n0; /* the chunk keeps the general path */
+		K->cfit[c] = (uint8_t)fit;
+		K->coff[c + 1] = n;
+	}
+	free(idx);
+	return NDO_OK;
 }
 
 /* Without held nodes every interior row is one run, so a chunk is whole
@@ -206,6 +257,8 @@ int ndo__chunks_build(const ndo_sim *s, ndo__chunks *K, int what)
 			}
 	}
 	K->foff[C] = (int32_t)m;
+	if (compact(s, K))
+		goto oom;
 	/* What each chunk waits for: the chunks whose writes meet its reads
 	 * or whose reads meet its writes. */
 	K->L = 2;

@@ -6,6 +6,7 @@
 #include "ndo/topology.h"
 
 #include <math.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -237,7 +238,8 @@ int ndo__force_item_nodes(const ndo_sim *s, int k, size_t q, int32_t v[3])
  * contraction into FMAs under -std=c11). */
 #define FBATCH 32
 typedef struct face_batch {
-	double a[3][FBATCH], b[3][FBATCH], c[3][FBATCH], each[FBATCH];
+	double a[3][FBATCH], b[3][FBATCH], c[3][FBATCH];
+	double each[FBATCH]; /* val · share: face_adds() divides by 3, vectorized */
 	double add[3][FBATCH];
 } face_batch;
 
@@ -262,13 +264,14 @@ FACE_OPT NDO_HOT static void face_adds(face_batch *restrict B, int m)
 		double l = sqrt(nx * nx + ny * ny + nz * nz);
 		/* n / l is not used where l is 0: unit() leaves n as it is */
 		double qx = nx / l, qy = ny / l, qz = nz / l;
-		B->add[0][i] = B->each[i] * (l > 0 ? qx : nx);
-		B->add[1][i] = B->each[i] * (l > 0 ? qy : ny);
-		B->add[2][i] = B->each[i] * (l > 0 ? qz : nz);
+		const double each = B->each[i] / 3; /* item_force()'s val · share / 3 */
+		B->add[0][i] = each * (l > 0 ? qx : nx);
+		B->add[1][i] = each * (l > 0 ? qy : ny);
+		B->add[2][i] = each * (l > 0 ? qz : nz);
 	}
 }
 
-/* Slot i of B: the positions of the face's nodes v[3], and its share each. */
+/* Slot i of B: the positions of the face's nodes v[3], and val · share. */
 static inline __attribute__((always_inline)) void
 face_gather(const ndo_sim *s, const double *u, face_batch *B, int i, const int32_t *v, double each)
 {
@@ -321,7 +324,7 @@ void ndo__forces_eval(ndo_sim *s, double t, const double *u)
 				int m = F->f.count - q0 < FBATCH ? (int)(F->f.count - q0) : FBATCH;
 				for (int i = 0; i < m; i++)
 					face_gather(s, u, &B, i, F->nodes + 3 * (q0 + (size_t)i),
-					            val * F->share[q0 + (size_t)i] / 3);
+					            val * F->share[q0 + (size_t)i]);
 				face_adds(&B, m);
 				for (int i = 0; i < m; i++) {
 					const int32_t *v = F->nodes + 3 * (q0 + (size_t)i);
@@ -367,7 +370,7 @@ void ndo__forces_eval_items(ndo_sim *s, double t, const double *u, const int32_t
 			slot[i] = -1;
 			if (val == 0 || F->f.kind != NDO_FORCE_FACE || !F->f.normal)
 				continue;
-			face_gather(s, u, &B, nf, F->nodes + 3 * (size_t)it->q, val * F->share[it->q] / 3);
+			face_gather(s, u, &B, nf, F->nodes + 3 * (size_t)it->q, val * F->share[it->q]);
 			slot[i] = nf++;
 		}
 		face_adds(&B, nf);
@@ -393,4 +396,74 @@ void ndo__forces_eval_items(ndo_sim *s, double t, const double *u, const int32_t
 						f[(size_t)e * cnt + (size_t)v[d]] += add[e];
 		}
 	}
+}
+
+_Atomic long ndo__forces_compact_units;
+
+void ndo__forces_eval_chunk(ndo_sim *s, double t, const double *u, const ndo__chunks *K, int c)
+{
+	const int32_t *zero = K->zlist + K->zoff[c];
+	const size_t nzero = (size_t)(K->zoff[c + 1] - K->zoff[c]);
+	const ndo__fitem *items = K->fitem + K->foff[c];
+	const size_t nitems = (size_t)(K->foff[c + 1] - K->foff[c]);
+	if (!K->cfit[c]) {
+		ndo__forces_eval_items(s, t, u, zero, nzero, items, nitems);
+		return;
+	}
+	atomic_fetch_add_explicit(&ndo__forces_compact_units, 1, memory_order_relaxed);
+	/* x = X + u at each node once (the same sums face_gather() makes),
+	 * and each node's sum in acc, f written at the end: the same
+	 * additions in the same order as ndo__forces_eval_items, so the same
+	 * bits */
+	const size_t cnt = s->count, nc = (size_t)(K->coff[c + 1] - K->coff[c]);
+	const int32_t *cn = K->cnode + K->coff[c], *ci = K->fci + 3 * (size_t)K->foff[c];
+	const int32_t *zc = K->zci + K->zoff[c];
+	double x[3 * NDO__CF_MAX], acc[3 * NDO__CF_MAX];
+	for (size_t i = 0; i < nc; i++)
+		for (int e = 0; e < 3; e++)
+			x[3 * i + (size_t)e] = s->X[(size_t)e * cnt + (size_t)cn[i]] +
+			                       u[(size_t)e * cnt + (size_t)cn[i]];
+	/* every node's sums from 0, the others' too: each item adds at its
+	 * three nodes without a test of its mask (a mispredicted branch cost
+	 * more than the additions); a node not this chunk's is never written
+	 * to f, and a node of the chunk's gets its items' additions alone, as
+	 * the mask would have it (every item of the node has its bit) */
+	memset(acc, 0, 3 * nc * sizeof *acc);
+	int kval = -1;
+	double val = 0;
+	int slot[FBATCH];
+	face_batch B;
+	for (size_t i0 = 0; i0 < nitems; i0 += FBATCH) {
+		int m = nitems - i0 < FBATCH ? (int)(nitems - i0) : FBATCH, nf = 0;
+		for (int i = 0; i < m; i++) {
+			const ndo__fitem *it = &items[i0 + (size_t)i];
+			const ndo__force *F = &s->forces[it->k];
+			if (it->k != kval)
+				kval = it->k, val = ndo_force_value(&F->f, t);
+			slot[i] = -1;
+			if (val == 0)
+				continue;
+			const int32_t *v = ci + 3 * (i0 + (size_t)i);
+			for (int e = 0; e < 3; e++) {
+				B.a[e][nf] = x[3 * (size_t)v[0] + (size_t)e];
+				B.b[e][nf] = x[3 * (size_t)v[1] + (size_t)e];
+				B.c[e][nf] = x[3 * (size_t)v[2] + (size_t)e];
+			}
+			B.each[nf] = val * F->share[it->q];
+			slot[i] = nf++;
+		}
+		face_adds(&B, nf);
+		for (int i = 0; i < m; i++) {
+			if (slot[i] < 0)
+				continue;
+			const int32_t *v = ci + 3 * (i0 + (size_t)i);
+			for (int d = 0; d < 3; d++)
+				for (int e = 0; e < 3; e++)
+					acc[3 * (size_t)v[d] + (size_t)e] += B.add[e][slot[i]];
+		}
+	}
+	double *f = s->f;
+	for (size_t k = 0; k < nzero; k++)
+		for (int e = 0; e < 3; e++)
+			f[(size_t)e * cnt + (size_t)zero[k]] = acc[3 * (size_t)zc[k] + (size_t)e];
 }

@@ -666,9 +666,7 @@ static void unit_run(rk4_pipe *J, int k, int c)
 	const ndo__chunks *K = &P->ch;
 	const rk4_pass *g = &J->g[k];
 	if (s->has_forces)
-		ndo__forces_eval_items(s, J->t[k], g->U, K->zlist + K->zoff[c],
-		                       (size_t)(K->zoff[c + 1] - K->zoff[c]), K->fitem + K->foff[c],
-		                       (size_t)(K->foff[c + 1] - K->foff[c]));
+		ndo__forces_eval_chunk(s, J->t[k], g->U, K, c);
 	ndo__diag *d = NULL;
 	if (k == 0) {
 		d = &s->cdiag[c];

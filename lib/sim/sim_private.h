@@ -302,7 +302,15 @@ typedef struct ndo__chunks {
 	int32_t *boff, *blist, *zoff, *zlist, *foff;
 	ndo__fitem *fitem;
 	int32_t *doff, *dlist, *eoff, *elist;
+	/* The force items compact (ndo__forces_eval_chunk): for a chunk c
+	 * with cfit[c] (every item a face along its normal, the items' nodes
+	 * at most NDO__CF_MAX), those nodes cnode[coff[c]..coff[c+1]), each
+	 * item's three as indices into them (fci[3i + d], i as fitem's) and
+	 * each active force node's (zci[i], i as zlist's). */
+	uint8_t *cfit;
+	int32_t *coff, *cnode, *fci, *zci;
 } ndo__chunks;
+#define NDO__CF_MAX 1024
 enum { NDO__CHUNKS_DUPS = 1, NDO__CHUNKS_EDGES = 2 };
 /* Build K for s's chunks (what: NDO__CHUNKS_ flags); NDO_ENOMEM with K
  * empty when out of memory (the caller says what for).  Freed by
@@ -312,6 +320,14 @@ void ndo__chunks_free(ndo__chunks *K);
 /* Chunk c's seam duplicates (NDO__CHUNKS_DUPS) copied from their
  * canonical nodes in the 3 planes x (a pass's output, the rows it wrote). */
 void ndo__chunks_copy_dups(const ndo_sim *s, const ndo__chunks *K, int c, double *x);
+/* ndo__forces_eval_items for chunk c of K, the same bits: where the
+ * chunk's items are faces along their normals (K->cfit[c]) the positions
+ * of their nodes made once, not once a face, and the sums kept in a
+ * compact array, not in f's planes, until the end. */
+void ndo__forces_eval_chunk(ndo_sim *s, double t, const double *u, const ndo__chunks *K,
+                            int c);
+/* Units that took the compact path (for the tests: that they ran it). */
+extern _Atomic long ndo__forces_compact_units;
 
 /* f ← external forces at time t with displacements u (forces.c). */
 void ndo__forces_eval(ndo_sim *s, double t, const double *u);

@@ -154,9 +154,7 @@ static void unit_run(wave_run *J, int p, int c)
 		up.u0 = J->xu[a], up.v0 = J->xv[a];
 	}
 	if (s->has_forces)
-		ndo__forces_eval_items(s, t, u, K->zlist + K->zoff[c],
-		                       (size_t)(K->zoff[c + 1] - K->zoff[c]), K->fitem + K->foff[c],
-		                       (size_t)(K->foff[c + 1] - K->foff[c]));
+		ndo__forces_eval_chunk(s, t, u, K, c);
 	ndo__diag *d = NULL;
 	double *bt = NULL;
 	if (!second) {

@@ -9,6 +9,7 @@
 
 #include <float.h>
 #include <math.h>
+#include <stdatomic.h>
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
@@ -829,6 +830,71 @@ static int same_run(ndo_sim *a, ndo_sim *b, size_t nn, double *xa, double *va, d
 	       ea.kinetic == eb.kinetic && ea.potential == eb.potential && ea.work == eb.work &&
 	       sa.evaluations == sb.evaluations && sa.steps == sb.steps &&
 	       sa.substeps == sb.substeps;
+}
+
+/* Force items of faces along their normals only, across many chunks
+ * (ndo__forces_eval_chunk's compact path: each node's position made once,
+ * the sums apart until the end) against the reference: rk4's pipeline
+ * against the passes (rk4_reference), ndo_sim_steps of symplectic Euler
+ * and midpoint (wave.c) against single steps; on 1-3 threads, bit for
+ * bit.  Two forces whose faces overlap, so that nodes take items of both
+ * in the forces' order; a scattered set of faces over 20 cell rows and a
+ * patch that crosses them.  The compact path must have run. */
+static void compact_force_items_are_the_items(void)
+{
+	const int level = 7;
+	ndo_grid *g = shape("wavy", level);
+	const size_t nn = 3 * g->count;
+	const int w = 2 << level; /* cells a row */
+	double *x0 = malloc(nn * sizeof *x0), *v0 = malloc(nn * sizeof *v0);
+	double *xa = malloc(nn * sizeof *xa), *va = malloc(nn * sizeof *va);
+	double *xb = malloc(nn * sizeof *xb), *vb = malloc(nn * sizeof *vb);
+	random_state(g, 0.01, x0, v0);
+	int32_t fa[700], fb[2 * 12 * 12];
+	size_t na = 0, nb = 0;
+	for (int j = 20; j < 40; j++)
+		for (int i = j % 7; i < w && na < 700; i += 7)
+			fa[na++] = 2 * (j * w + i) + (i & 1);
+	for (int j = 26; j < 38; j++)
+		for (int i = 100; i < 112; i++)
+			fb[nb++] = 2 * (j * w + i), fb[nb++] = 2 * (j * w + i) + 1;
+	ndo_force f[2] = {{NDO_FORCE_FACE, 2.4, 1, 0, 1, {0}, na, fa},
+	                  {NDO_FORCE_FACE, 0.7, 3, 0.5, 1, {0}, nb, fb}};
+	const ndo_method ms[3] = {NDO_RK4, NDO_SYMPLECTIC_EULER, NDO_MIDPOINT};
+	for (int im = 0; im < 3; im++) {
+		const char *name = ndo_method_names[ms[im]];
+		ndo_sim_params p;
+		ndo_sim_defaults(&p);
+		p.method = ms[im];
+		p.material.damping = 0.1;
+		p.forces = f;
+		p.nforces = 2;
+		const double h = ms[im] == NDO_RK4 ? 1e-3 : 2e-4;
+		const int K = 23;
+		ndo_sim *ref = make(g, x0, v0, NULL, &p);
+		ref->rk4_reference = 1;
+		for (int k = 0; k < K; k++)
+			CHECK(ndo_sim_step(ref, h) == 0, "%s, reference: %s", name, ndo_errdetail());
+		for (int t = 1; t <= 3; t++) {
+			p.threads = t;
+			ndo_sim *s = make(g, x0, v0, NULL, &p);
+			s->wave_test = 4; /* the wave on one thread too (below 65,536 nodes) */
+			long before = atomic_load(&ndo__forces_compact_units);
+			int rc = ms[im] == NDO_RK4 ? 0 : ndo_sim_steps(s, h, K);
+			for (int k = 0; ms[im] == NDO_RK4 && k < K && rc == 0; k++)
+				rc = ndo_sim_step(s, h);
+			CHECK(rc == 0, "%s: %s", name, ndo_errdetail());
+			CHECK(atomic_load(&ndo__forces_compact_units) > before,
+			      "%s, %d threads: the compact path did not run", name, t);
+			CHECK(same_run(ref, s, nn, xa, va, xb, vb),
+			      "%s, %d threads: the compact force items differ from the reference by %g",
+			      name, t, fmax(max_diff(xa, xb, nn), max_diff(va, vb, nn)));
+			ndo_sim_destroy(s);
+		}
+		ndo_sim_destroy(ref);
+	}
+	free(x0), free(v0), free(xa), free(va), free(xb), free(vb);
+	ndo_grid_destroy(g);
 }
 
 /* ndo_sim_steps (symplectic Euler and midpoint: several steps as one
@@ -2065,6 +2131,7 @@ int main(void)
 	RUN(vector_loops_are_the_scalar_ones);
 	RUN(nodes_at_are_get_nodes);
 	RUN(steps_are_single_steps);
+	RUN(compact_force_items_are_the_items);
 	RUN(results_are_pinned_across_versions);
 	RUN(rkf45_in_parts_is_the_step);
 	RUN(rkf45_resumes_from_state_time_and_substep);
