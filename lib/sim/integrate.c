@@ -691,6 +691,7 @@ void ndo_sim_set(ndo_sim *s, size_t n, const int32_t *nodes, const double *x,
                  const double *v)
 {
 	size_t cnt = s->count;
+	s->udrift = 0; /* a drift is the state's: the size test measures again */
 	if (!nodes)
 		n = cnt;
 	for (size_t k = 0; k < n; k++) {
@@ -757,6 +758,8 @@ void ndo_sim_set_displacements(ndo_sim *s, size_t n, const int32_t *nodes, const
                                const double *v)
 {
 	const size_t cnt = s->count;
+	if (u)
+		s->udrift = 0; /* as ndo_sim_set */
 	for (size_t k = 0; k < n; k++) {
 		if ((size_t)nodes[k] >= cnt)
 			continue;
@@ -783,6 +786,7 @@ int ndo_sim_set_active(ndo_sim *s, const uint8_t *mask)
 	if (s->sleep)
 		return ndo__fail(NDO_EINVAL, "a region and sleeping tiles do not go together");
 	s->ext_active = mask != NULL;
+	s->udrift = 0; /* another set of nodes: the size test measures again */
 	int rc = set_active(s, mask);
 	ndo__implicit_invalidate(s, 1);
 	/* The energy bound is over the integrated nodes: a new region starts
@@ -1457,9 +1461,13 @@ int ndo_sim_step(ndo_sim *s, double h)
 /* m steps of the wave (wave.c) from steps run at times t[0..m): each
  * step's divergence test and accounting in order, as ndo_sim_step makes
  * them; at a step that fails, the run again up to it (the state it
- * started from is still there). */
-static int steps_wave(ndo_sim *s, double h, int m, double *t)
+ * started from is still there).  *done: the steps taken — fewer than m
+ * when the size test must see a step's state (ndo__size_needs_state):
+ * the run again up to that step, whose state is then seen as a single
+ * step sees it, and the caller goes on from there. */
+static int steps_wave(ndo_sim *s, double h, int m, double *t, int *done)
 {
+	*done = 0;
 	double w0 = threads_pick(s, m);
 	t[0] = s->t;
 	for (int j = 1; j <= m; j++)
@@ -1474,6 +1482,18 @@ static int steps_wave(ndo_sim *s, double h, int m, double *t)
 		ndo__wave_diag(s, j, &d);
 		if (s->p.method == NDO_SYMPLECTIC_EULER)
 			s->h_mod = h;
+		if (ndo__size_needs_state(s, &d)) {
+			int again = j > 0 ? ndo__wave_run(s, h, j, t) : NDO_OK;
+			if (again)
+				return again;
+			ndo__wave_commit(s, j);
+			*done = j;
+			if (ndo__size_is_drift(s, &d))
+				return NDO_OK; /* step j again from its state, tested as a drift */
+			s->stats.evaluations++;
+			s->last_power = d.power;
+			return ndo__diverged(s, &d, 1);
+		}
 		s->stats.evaluations++;
 		s->last_power = d.power;
 		if ((rc = ndo__diverged(s, &d, 1))) {
@@ -1491,6 +1511,7 @@ static int steps_wave(ndo_sim *s, double h, int m, double *t)
 		s->stats.steps++;
 	}
 	ndo__wave_commit(s, m);
+	*done = m;
 	return NDO_OK;
 }
 
@@ -1525,7 +1546,7 @@ static int sim_steps(ndo_sim *s, double h, int64_t k)
 			 * among runs reads as the threads slowing down. */
 			if (k <= m + 1)
 				m = (int)k;
-			rc = steps_wave(s, h, m, t);
+			rc = steps_wave(s, h, m, t, &m);
 		} else {
 			m = 1;
 			rc = ndo_sim_step(s, h);

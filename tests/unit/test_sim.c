@@ -832,6 +832,75 @@ static int same_run(ndo_sim *a, ndo_sim *b, size_t nn, double *xa, double *va, d
 	       sa.substeps == sb.substeps;
 }
 
+/* The size test measures the shape, not where the body is: a free body
+ * moving at 100 m/s (no force, no damping) goes 1,000 m — about 290 × its
+ * size — in 10 s without "diverging", with each of the seven methods, and ndo_sim_steps gives single steps' bits on 1-3
+ * threads (the wave runs again up to the step whose state the test must
+ * see, then goes on); a node 400 sizes from the others (energy test off)
+ * still diverges, with the body moving and at rest. */
+static void a_drifting_body_is_not_diverging(void)
+{
+	const int level = 4;
+	ndo_grid *g = shape("wavy", level);
+	const size_t nn = 3 * g->count;
+	double *v0 = malloc(nn * sizeof *v0), *xa = malloc(nn * sizeof *xa);
+	double *va = malloc(nn * sizeof *va), *xb = malloc(nn * sizeof *xb);
+	double *vb = malloc(nn * sizeof *vb);
+	for (size_t p = 0; p < g->count; p++)
+		v0[3 * p] = 0, v0[3 * p + 1] = 0, v0[3 * p + 2] = 100;
+	const ndo_method ms[7] = {NDO_EULER,  NDO_SYMPLECTIC_EULER, NDO_MIDPOINT, NDO_RK4,
+	                          NDO_RKF45, NDO_BACKWARD_EULER,   NDO_TRAPEZOID};
+	for (int im = 0; im < 7; im++) {
+		const char *name = ndo_method_names[ms[im]];
+		ndo_sim_params p;
+		ndo_sim_defaults(&p);
+		p.method = ms[im];
+		p.material.damping = 0;
+		p.solver = NDO_SOLVER_CHOLMOD;
+		const double h = 0.02;
+		const int K = 500;
+		ndo_sim *a = make(g, NULL, v0, NULL, &p);
+		int rc = 0;
+		for (int k = 0; k < K && rc == 0; k++)
+			rc = ndo_sim_step(a, h);
+		CHECK(rc == 0, "%s: %s at step %lld", name, ndo_errdetail(),
+		      (long long)ndo_sim_step_count(a));
+		ndo_sim_get(a, xa, va);
+		double zmin = INFINITY;
+		for (size_t q = 0; q < g->count; q++)
+			zmin = fmin(zmin, xa[3 * q + 2] - ((const double *)g->ch[0].data)[3 * q + 2]);
+		CHECK(zmin > 900, "%s: the body went %g m, not about 1,000", name, zmin);
+		for (int t = 1; t <= 3 && ms[im] != NDO_BACKWARD_EULER && ms[im] != NDO_TRAPEZOID; t++) {
+			p.threads = t;
+			ndo_sim *b = make(g, NULL, v0, NULL, &p);
+			b->wave_test = 4;
+			rc = ndo_sim_steps(b, h, K);
+			CHECK(rc == 0 && same_run(a, b, nn, xa, va, xb, vb),
+			      "%s, %d threads: ndo_sim_steps (%d, %s) differs from single steps", name, t,
+			      rc, rc ? ndo_errdetail() : "");
+			ndo_sim_destroy(b);
+		}
+		ndo_sim_destroy(a);
+		/* a node 400 sizes off: the size test, the energy test off */
+		p.threads = 1;
+		p.energy_bound = 0;
+		for (int moving = 0; moving <= 1; moving++) {
+			ndo_sim *c = make(g, NULL, moving ? v0 : NULL, NULL, &p);
+			double size = c->rest_size;
+			ndo_sim_get(c, xa, va);
+			xa[3 * (g->count / 2) + 2] += 400 * size;
+			ndo_sim_set(c, 0, NULL, xa, NULL);
+			rc = ndo_sim_step(c, h);
+			CHECK(rc == NDO_EDIVERGED && strstr(ndo_errdetail(), "mean displacement"),
+			      "%s, %s: a node 400 sizes off: %d (%s)", name, moving ? "moving" : "at rest",
+			      rc, ndo_errdetail());
+			ndo_sim_destroy(c);
+		}
+	}
+	free(v0), free(xa), free(va), free(xb), free(vb);
+	ndo_grid_destroy(g);
+}
+
 /* Force items of faces along their normals only, across many chunks
  * (ndo__forces_eval_chunk's compact path: each node's position made once,
  * the sums apart until the end) against the reference: rk4's pipeline
@@ -2132,6 +2201,7 @@ int main(void)
 	RUN(nodes_at_are_get_nodes);
 	RUN(steps_are_single_steps);
 	RUN(compact_force_items_are_the_items);
+	RUN(a_drifting_body_is_not_diverging);
 	RUN(results_are_pinned_across_versions);
 	RUN(rkf45_in_parts_is_the_step);
 	RUN(rkf45_resumes_from_state_time_and_substep);

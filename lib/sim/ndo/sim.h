@@ -246,8 +246,10 @@ int ndo_sim_threads(const ndo_sim *s);
  *
  * Every step first checks the state it starts from: NaN or Inf, an energy
  * beyond energy_bound × (initial energy + input work), or a node further
- * than 100 × the rest shape's bounding-box diagonal from its rest
- * position mean divergence.  Then the step returns NDO_EDIVERGED, leaves
+ * than 100 × the rest shape's bounding-box diagonal from where the
+ * integrated nodes' mass-weighted mean displacement puts it (from its
+ * rest position moved with the body: a free body that drifts whole does
+ * not diverge) mean divergence.  Then the step returns NDO_EDIVERGED, leaves
  * the state as it is (the first bad state, at ndo_sim_time) and records
  * what was wrong in ndo_errdetail().  Call ndo_sim_check() to test the
  * state after the last step.  Other errors: NDO_EINVAL (h not positive
