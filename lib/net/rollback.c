@@ -3,6 +3,7 @@
 #include "rollback.h"
 #include "ndo/net.h"
 #include "ndo/status.h"
+#include "ndo/topology.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -46,6 +47,9 @@ struct ndo__rb {
 	int32_t *hidx;   /* per canonical node: its index in the halo, −1 */
 	int32_t *hown;   /* per halo node: its peer */
 	uint8_t *hheld;  /* per halo node: the outermost ring (held in a step) */
+	int32_t *hnoff, *hnl; /* per halo node k of that ring, its integrated lattice
+	                       * neighbours hnl[hnoff[k]..hnoff[k+1]) (canonical) */
+	double *nu, *nv; /* scratch: 3 · their count */
 	int32_t *sidx;   /* per strip node: its index in r.own */
 	slot *w;
 	int win;
@@ -101,6 +105,7 @@ void ndo__rb_destroy(ndo__rb *rb)
 		return;
 	slots_free(rb);
 	free(rb->hidx), free(rb->hown), free(rb->hheld), free(rb->sidx);
+	free(rb->hnoff), free(rb->hnl), free(rb->nu), free(rb->nv);
 	free(rb->bu), free(rb->bv), free(rb->vals), free(rb->rs), free(rb->rl);
 	free(rb);
 }
@@ -112,6 +117,8 @@ int ndo__rb_set_region(ndo__rb *rb, const ndo__rb_region *r)
 		rb->hidx[k] = -1;
 	slots_free(rb);
 	free(rb->hown), free(rb->hheld), free(rb->sidx);
+	free(rb->hnoff), free(rb->hnl), free(rb->nu), free(rb->nv);
+	rb->hnoff = rb->hnl = NULL, rb->nu = rb->nv = NULL;
 	free(rb->bu), free(rb->bv), free(rb->vals), free(rb->rs), free(rb->rl);
 	rb->r = *r;
 	size_t nh = r->nhalo ? r->nhalo : 1, ns = r->nstrip ? r->nstrip : 1;
@@ -139,6 +146,29 @@ int ndo__rb_set_region(ndo__rb *rb, const ndo__rb_region *r)
 		if (!known && rb->nnb < NB_MAX)
 			rb->nbs[rb->nnb++] = (nb){.id = r->owner[c]};
 	}
+	/* the held ring's integrated neighbours, which its predictions follow */
+	const int level = ndo_sim_level(rb->sim), W = (2 << level) + 1;
+	rb->hnoff = malloc((nh + 1) * sizeof *rb->hnoff);
+	rb->hnl = malloc((6 * nh + 1) * sizeof *rb->hnl);
+	rb->nu = malloc((18 * nh + 1) * sizeof *rb->nu);
+	rb->nv = malloc((18 * nh + 1) * sizeof *rb->nv);
+	if (!rb->hnoff || !rb->hnl || !rb->nu || !rb->nv)
+		return ndo__fail(NDO_ENOMEM, "out of memory");
+	int32_t nn = 0;
+	for (size_t k = 0; k < r->nhalo; k++) {
+		rb->hnoff[k] = nn;
+		if (!rb->hheld[k])
+			continue;
+		size_t nb[6];
+		ndo_neighbors(level, (int)((size_t)r->halo[k] % (size_t)W),
+		              (int)((size_t)r->halo[k] / (size_t)W), nb);
+		for (int d = 0; d < 6; d++) {
+			int32_t c = r->canon[nb[d]];
+			if (r->act[c])
+				rb->hnl[nn++] = c;
+		}
+	}
+	rb->hnoff[r->nhalo] = nn;
 	/* the strip's nodes in the region's list (canonical ones: the strip) */
 	int32_t *at = malloc(rb->count * sizeof *at);
 	if (!at)
@@ -341,14 +371,30 @@ static void halo_in(ndo__rb *rb, slot *S, int first)
 	}
 	if (need) {
 		ndo_sim_get_nodes(rb->sim, nh, rb->r.halo, NULL, rb->bu, rb->bv);
+		const int32_t nn = rb->hnoff[nh];
+		if (nn)
+			ndo_sim_get_nodes(rb->sim, (size_t)nn, rb->hnl, NULL, rb->nu, rb->nv);
 		for (size_t k = 0; k < nh; k++) {
 			if (S->hs[k] > H_PREDICTED)
 				continue;
 			double *in = S->hin + 6 * k;
+			/* rings 1..W−1: as the simulation integrated them; the held
+			 * ring moves on by a step at its integrated neighbours' mean
+			 * velocity (until 2026-11-30 at its own last velocity, which
+			 * nothing updates while it is predicted: without confirmation,
+			 * hundreds of predicted steps carried it off in a straight
+			 * line and tore the region, docs/peers.md) */
+			const int32_t a = rb->hnoff[k], b = rb->hnoff[k + 1];
 			for (int d = 0; d < 3; d++) {
-				in[d] = rb->bv[3 * k + (size_t)d];
-				in[3 + d] = rb->bu[3 * k + (size_t)d] +
-				            (rb->hheld[k] ? rb->h * rb->bv[3 * k + (size_t)d] : 0);
+				double v = rb->bv[3 * k + (size_t)d];
+				if (rb->hheld[k] && b > a) {
+					double sv = 0;
+					for (int32_t i = a; i < b; i++)
+						sv += rb->nv[3 * (size_t)i + (size_t)d];
+					v = sv / (double)(b - a);
+				}
+				in[d] = v;
+				in[3 + d] = rb->bu[3 * k + (size_t)d] + (rb->hheld[k] ? rb->h * v : 0);
 			}
 			rb->st.predicted += first && S->hs[k] == H_NONE;
 			S->hs[k] = H_PREDICTED;
