@@ -49,7 +49,7 @@ struct ndo__rb {
 	uint8_t *hheld;  /* per halo node: the outermost ring (held in a step) */
 	int32_t *hnoff, *hnl; /* per halo node k of that ring, its integrated lattice
 	                       * neighbours hnl[hnoff[k]..hnoff[k+1]) (canonical) */
-	double *nu, *nv; /* scratch: 3 · their count */
+	double *nv;      /* scratch: their velocities, 3 · their count */
 	int32_t *sidx;   /* per strip node: its index in r.own */
 	slot *w;
 	int win;
@@ -105,7 +105,7 @@ void ndo__rb_destroy(ndo__rb *rb)
 		return;
 	slots_free(rb);
 	free(rb->hidx), free(rb->hown), free(rb->hheld), free(rb->sidx);
-	free(rb->hnoff), free(rb->hnl), free(rb->nu), free(rb->nv);
+	free(rb->hnoff), free(rb->hnl), free(rb->nv);
 	free(rb->bu), free(rb->bv), free(rb->vals), free(rb->rs), free(rb->rl);
 	free(rb);
 }
@@ -117,8 +117,8 @@ int ndo__rb_set_region(ndo__rb *rb, const ndo__rb_region *r)
 		rb->hidx[k] = -1;
 	slots_free(rb);
 	free(rb->hown), free(rb->hheld), free(rb->sidx);
-	free(rb->hnoff), free(rb->hnl), free(rb->nu), free(rb->nv);
-	rb->hnoff = rb->hnl = NULL, rb->nu = rb->nv = NULL;
+	free(rb->hnoff), free(rb->hnl), free(rb->nv);
+	rb->hnoff = rb->hnl = NULL, rb->nv = NULL;
 	free(rb->bu), free(rb->bv), free(rb->vals), free(rb->rs), free(rb->rl);
 	rb->r = *r;
 	size_t nh = r->nhalo ? r->nhalo : 1, ns = r->nstrip ? r->nstrip : 1;
@@ -150,9 +150,8 @@ int ndo__rb_set_region(ndo__rb *rb, const ndo__rb_region *r)
 	const int level = ndo_sim_level(rb->sim), W = (2 << level) + 1;
 	rb->hnoff = malloc((nh + 1) * sizeof *rb->hnoff);
 	rb->hnl = malloc((6 * nh + 1) * sizeof *rb->hnl);
-	rb->nu = malloc((18 * nh + 1) * sizeof *rb->nu);
 	rb->nv = malloc((18 * nh + 1) * sizeof *rb->nv);
-	if (!rb->hnoff || !rb->hnl || !rb->nu || !rb->nv)
+	if (!rb->hnoff || !rb->hnl || !rb->nv)
 		return ndo__fail(NDO_ENOMEM, "out of memory");
 	int32_t nn = 0;
 	for (size_t k = 0; k < r->nhalo; k++) {
@@ -373,7 +372,7 @@ static void halo_in(ndo__rb *rb, slot *S, int first)
 		ndo_sim_get_nodes(rb->sim, nh, rb->r.halo, NULL, rb->bu, rb->bv);
 		const int32_t nn = rb->hnoff[nh];
 		if (nn)
-			ndo_sim_get_nodes(rb->sim, (size_t)nn, rb->hnl, NULL, rb->nu, rb->nv);
+			ndo_sim_get_nodes(rb->sim, (size_t)nn, rb->hnl, NULL, NULL, rb->nv);
 		for (size_t k = 0; k < nh; k++) {
 			if (S->hs[k] > H_PREDICTED)
 				continue;
