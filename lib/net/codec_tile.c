@@ -420,7 +420,8 @@ ndo_drop ndo_codec_decode_tile(ndo_codec *c, ndo_msg_tile_t *t)
 	return NDO_DROP_NONE;
 }
 
-/* The entry a just-decoded tile came from. */
+/* The entry of a tile's sender and range, or NULL (none yet, or a range
+ * that is no node of the tree). */
 static entry *entry_of(const ndo_codec *c, const ndo_msg_tile_t *t)
 {
 	ndo_quad q;
@@ -431,6 +432,23 @@ static entry *entry_of(const ndo_codec *c, const ndo_msg_tile_t *t)
 		if (c->e[k]->sender == t->hdr.sender_id && c->e[k]->code == code)
 			return c->e[k];
 	return NULL;
+}
+
+int ndo_codec_base_state(const ndo_codec *c, const ndo_msg_tile_t *t)
+{
+	if (t->encoding == NDO_ENC_RAW || t->encoding != c->p.encoding || t->base_step < 0)
+		return NDO_BASE_READY;
+	ndo_quad q;
+	if (ndo_quad_from_range(c->level, t->depth, t->i0, t->j0, t->i1, t->j1, &q) != 0)
+		return NDO_BASE_READY; /* the decode drops it as range */
+	const entry *e = entry_of(c, t);
+	if (!e || t->epoch > e->epoch)
+		return NDO_BASE_PENDING;
+	if (t->epoch < e->epoch)
+		return NDO_BASE_GONE;
+	if (ndo_codec_hist_find(&e->h, t->base_step))
+		return NDO_BASE_READY;
+	return t->base_step > e->dec_step ? NDO_BASE_PENDING : NDO_BASE_GONE;
 }
 
 int ndo_codec_skipped(const ndo_codec *c, const ndo_msg_tile_t *t)

@@ -10,6 +10,11 @@
 #include <sys/time.h>
 
 #define MAX_SENDERS 64
+/* Tiles held for their reference (struct ndo_net's held): at most this
+ * many at once (the oldest goes first, as `nobase`), each at most this
+ * long — a reference lost, not late, is replaced by the next keyframe. */
+#define HOLD_MAX 64
+#define HOLD_SECONDS 1.0
 
 typedef struct sender {
 	int32_t id;
@@ -57,6 +62,14 @@ struct ndo_net {
 		size_t len;
 	} *park;
 	size_t npark, parkcap, parkbytes;
+	/* encoded tiles that came before their reference frame (reordered):
+	 * held, undecoded, until it is decoded (then they are), it can no
+	 * longer come, or HOLD_SECONDS pass (then they are `nobase`) */
+	struct held {
+		ndo_msg m;
+		double since;
+	} held[HOLD_MAX];
+	int nheld;
 };
 
 #define PARK_MAX_BYTES (32u << 20)
@@ -93,6 +106,21 @@ static void clear_tiles(ndo_net *n)
 		}
 }
 
+/* Drop held tile k as `nobase`. */
+static void unhold(ndo_net *n, int k, int count)
+{
+	ndo_msg_free(&n->held[k].m);
+	n->held[k] = n->held[--n->nheld];
+	if (count)
+		n->st.dropped[NDO_DROP_NOBASE]++;
+}
+
+static void unhold_all(ndo_net *n, int count)
+{
+	while (n->nheld)
+		unhold(n, n->nheld - 1, count);
+}
+
 static void unpark_all(ndo_net *n)
 {
 	for (size_t k = 0; k < n->npark; k++)
@@ -106,6 +134,7 @@ void ndo_net_destroy(ndo_net *n)
 		return;
 	unpark_all(n);
 	free(n->park);
+	unhold_all(n, 0);
 	ndo_auth_destroy(n->auth);
 	ndo_codec_destroy(n->codec);
 	ndo_codec_destroy(n->ccodec);
@@ -125,6 +154,7 @@ const ndo_codec *ndo_net_codec(const ndo_net *n) { return n->codec; }
 
 int ndo_net_set_codec(ndo_net *n, const ndo_codec_params *p, int level)
 {
+	unhold_all(n, 1);
 	ndo_codec_destroy(n->codec);
 	ndo_codec_destroy(n->ccodec);
 	n->codec = n->ccodec = NULL;
@@ -137,6 +167,7 @@ int ndo_net_set_codec(ndo_net *n, const ndo_codec_params *p, int level)
 
 int ndo_net_set_send_level(ndo_net *n, int send_level, int level)
 {
+	unhold_all(n, 1);
 	ndo_codec_destroy(n->ccodec);
 	n->ccodec = NULL;
 	n->ctx.coarse = 0;
@@ -322,6 +353,176 @@ void ndo_net_set_tile_want(ndo_net *n, ndo_net_tile_want_fn want, void *user)
 	n->want_user = user;
 }
 
+/* An accepted message (a tile decoded), by its sender's sequence numbers:
+ * queued, or a tile kept as its range's newest; freed when stale. */
+static void accept(ndo_net *n, int t, ndo_msg *m)
+{
+	sender *s = find_sender(n, m->hdr->sender_id, 1);
+	s->heard = n->now;
+	int64_t seq = m->hdr->seq;
+	if (seq > s->last[t] + 1 && s->last[t] >= 0)
+		n->st.gaps += (uint64_t)(seq - s->last[t] - 1);
+	else if (seq < s->last[t] && n->st.gaps > 0) {
+		n->st.gaps--; /* a gap filled late: it was reordered, not lost */
+		n->st.late++;
+	}
+	if ((t == NDO_MSG_TILE && n->keep_all) || t == NDO_MSG_HALO || t == NDO_MSG_SOLVE) {
+		/* the caller orders tiles by their step: a tile sent again (an
+		 * older step after a newer one) is not stale here; nor are halos
+		 * and split steps' phases (ndo/peer.h orders them by step and
+		 * phase): a re-sent strip overtaken by a later message — the next
+		 * strip of the same re-send, a checkpoint — was dropped, and a
+		 * lock-step peer waited for it until its step timeout */
+		if (seq > s->last[t])
+			s->last[t] = seq;
+		if (enqueue(n, m) != 0) {
+			ndo_msg_free(m);
+			return;
+		}
+		n->st.accepted++;
+		return;
+	}
+	if (t == NDO_MSG_TILE) {
+		ndo_quad q;
+		/* a tile of the send level: a node of the coarser grid's tree */
+		int level = n->ctx.level - ((m->u.tile.channels & NDO_TILE_COARSE) ? n->ctx.coarse : 0);
+		ndo_quad_from_range(level, m->u.tile.depth, m->u.tile.i0, m->u.tile.j0, m->u.tile.i1,
+		                    m->u.tile.j1, &q);
+		tile_slot *slot = find_slot(n, m->hdr->sender_id, ndo_quad_code(q), m->u.tile.channels);
+		ndo_msg *keep = malloc(sizeof *keep);
+		if (!slot || !keep) {
+			free(keep);
+			ndo_msg_free(m);
+			return;
+		}
+		if (seq <= slot->seq) {
+			free(keep);
+			n->st.dropped[NDO_DROP_STALE]++;
+			ndo_msg_free(m);
+			return;
+		}
+		if (seq > s->last[t])
+			s->last[t] = seq;
+		slot->seq = seq;
+		if (slot->pending) {
+			n->st.superseded++;
+			ndo_msg_free(slot->pending);
+			free(slot->pending);
+		}
+		*keep = *m;
+		keep->hdr = (const ndo_msg_header_t *)&keep->u;
+		slot->pending = keep;
+		n->st.accepted++;
+		return;
+	}
+	if (seq <= s->last[t]) {
+		n->st.dropped[NDO_DROP_STALE]++;
+		ndo_msg_free(m);
+		return;
+	}
+	s->last[t] = seq;
+	if (enqueue(n, m) != 0) {
+		ndo_msg_free(m);
+		return;
+	}
+	n->st.accepted++;
+}
+
+/* An encoded tile decoded in place (and checked against the box), the
+ * steps skipped before it queued (ndo_net_skipped_tiles): 0, or it was
+ * dropped (counted, freed). */
+static int decode_encoded(ndo_net *n, ndo_msg *m)
+{
+	/* decoded here, in arrival order: each frame is a reference for
+	 * the next ones, whoever uses it */
+	ndo_codec *codec = (m->u.tile.channels & NDO_TILE_COARSE) ? n->ccodec : n->codec;
+	ndo_drop r = codec ? ndo_codec_decode_tile(codec, &m->u.tile) : NDO_DROP_ENCODING;
+	if (r == NDO_DROP_NONE) /* the decoded state, against the box */
+		r = ndo_msg_check_box(&m->u.tile, &n->ctx);
+	if (r != NDO_DROP_NONE) {
+		n->st.dropped[r]++;
+		ndo_msg_free(m);
+		return -1;
+	}
+	m->decoded = 1;
+	int skipped = n->skipped && n->keep_all ? ndo_codec_skipped(codec, &m->u.tile) : 0;
+	for (int k = 0; k < skipped; k++) {
+		ndo_msg sk;
+		memset(&sk, 0, sizeof sk);
+		sk.type = NDO_MSG_TILE;
+		sk.decoded = 1;
+		if (ndo_codec_skipped_tile(codec, &m->u.tile, k, &sk.u.tile) != 0)
+			break;
+		sk.hdr = (const ndo_msg_header_t *)&sk.u;
+		if (enqueue(n, &sk) != 0) {
+			ndo_msg_free(&sk);
+			break;
+		}
+	}
+	return 0;
+}
+
+/* An encoded tile whose reference has not come yet, but may (a frame
+ * overtaken by the next): 1 when held, undecoded, until release_held()
+ * decodes it.  Decoding it now would drop it, and with it every frame
+ * predicted from it up to the next keyframe. */
+static int hold(ndo_net *n, ndo_msg *m)
+{
+	const ndo_codec *codec = (m->u.tile.channels & NDO_TILE_COARSE) ? n->ccodec : n->codec;
+	if (!codec || ndo_codec_base_state(codec, &m->u.tile) != NDO_BASE_PENDING)
+		return 0;
+	if (n->nheld == HOLD_MAX) { /* the oldest goes */
+		int old = 0;
+		for (int k = 1; k < n->nheld; k++)
+			if (n->held[k].since < n->held[old].since)
+				old = k;
+		unhold(n, old, 1);
+	}
+	n->held[n->nheld] = (struct held){*m, n->now};
+	n->held[n->nheld].m.hdr = (const ndo_msg_header_t *)&n->held[n->nheld].m.u;
+	n->nheld++;
+	n->st.held++;
+	return 1;
+}
+
+/* After a tile was decoded: every held tile whose reference is now here
+ * decoded and accepted, in step order (each may be the next one's); one
+ * whose reference can no longer come dropped as `nobase`. */
+static void release_held(ndo_net *n)
+{
+	for (int again = 1; again && n->nheld;) {
+		again = 0;
+		int pick = -1;
+		for (int k = 0; k < n->nheld; k++) {
+			const ndo_msg_tile_t *tl = &n->held[k].m.u.tile;
+			const ndo_codec *c = (tl->channels & NDO_TILE_COARSE) ? n->ccodec : n->codec;
+			int st = c ? ndo_codec_base_state(c, tl) : NDO_BASE_GONE;
+			if (st == NDO_BASE_GONE) {
+				unhold(n, k--, 1);
+				continue;
+			}
+			if (st == NDO_BASE_READY && (pick < 0 || tl->step < n->held[pick].m.u.tile.step))
+				pick = k;
+		}
+		if (pick >= 0) {
+			ndo_msg m = n->held[pick].m;
+			n->held[pick] = n->held[--n->nheld];
+			m.hdr = (const ndo_msg_header_t *)&m.u;
+			if (decode_encoded(n, &m) == 0)
+				accept(n, NDO_MSG_TILE, &m);
+			again = 1;
+		}
+	}
+}
+
+/* Held tiles past HOLD_SECONDS: their reference was lost, not late. */
+static void expire_held(ndo_net *n)
+{
+	for (int k = 0; k < n->nheld; k++)
+		if (n->now - n->held[k].since > HOLD_SECONDS)
+			unhold(n, k--, 1);
+}
+
 /* A message of type t whose bytes (`sealed`: authenticated, trailer
  * removed; `from`: who sealed it) are in data[0..len). */
 static void on_message(ndo_net *n, int t, const uint8_t *data, size_t len, int sealed,
@@ -404,102 +605,13 @@ static void on_message(ndo_net *n, int t, const uint8_t *data, size_t len, int s
 		return;
 	}
 	if (t == NDO_MSG_TILE && m.u.tile.encoding != NDO_ENC_RAW) {
-		/* decoded here, in arrival order: each frame is a reference for
-		 * the next ones, whoever uses it */
-		ndo_codec *codec = (m.u.tile.channels & NDO_TILE_COARSE) ? n->ccodec : n->codec;
-		r = codec ? ndo_codec_decode_tile(codec, &m.u.tile) : NDO_DROP_ENCODING;
-		if (r == NDO_DROP_NONE) /* the decoded state, against the box */
-			r = ndo_msg_check_box(&m.u.tile, &n->ctx);
-		if (r != NDO_DROP_NONE) {
-			n->st.dropped[r]++;
-			ndo_msg_free(&m);
+		if (hold(n, &m) || decode_encoded(n, &m))
 			return;
-		}
-		m.decoded = 1;
-		int skipped = n->skipped && n->keep_all ? ndo_codec_skipped(codec, &m.u.tile) : 0;
-		for (int k = 0; k < skipped; k++) {
-			ndo_msg sk;
-			memset(&sk, 0, sizeof sk);
-			sk.type = NDO_MSG_TILE;
-			sk.decoded = 1;
-			if (ndo_codec_skipped_tile(codec, &m.u.tile, k, &sk.u.tile) != 0)
-				break;
-			sk.hdr = (const ndo_msg_header_t *)&sk.u;
-			if (enqueue(n, &sk) != 0) {
-				ndo_msg_free(&sk);
-				break;
-			}
-		}
-	}
-	sender *s = find_sender(n, m.hdr->sender_id, 1);
-	s->heard = n->now;
-	int64_t seq = m.hdr->seq;
-	if (seq > s->last[t] + 1 && s->last[t] >= 0)
-		n->st.gaps += (uint64_t)(seq - s->last[t] - 1);
-	else if (seq < s->last[t] && n->st.gaps > 0) {
-		n->st.gaps--; /* a gap filled late: it was reordered, not lost */
-		n->st.late++;
-	}
-	if ((t == NDO_MSG_TILE && n->keep_all) || t == NDO_MSG_HALO || t == NDO_MSG_SOLVE) {
-		/* the caller orders tiles by their step: a tile sent again (an
-		 * older step after a newer one) is not stale here; nor are halos
-		 * and split steps' phases (ndo/peer.h orders them by step and
-		 * phase): a re-sent strip overtaken by a later message — the next
-		 * strip of the same re-send, a checkpoint — was dropped, and a
-		 * lock-step peer waited for it until its step timeout */
-		if (seq > s->last[t])
-			s->last[t] = seq;
-		if (enqueue(n, &m) != 0) {
-			ndo_msg_free(&m);
-			return;
-		}
-		n->st.accepted++;
+		accept(n, t, &m);
+		release_held(n);
 		return;
 	}
-	if (t == NDO_MSG_TILE) {
-		ndo_quad q;
-		/* a tile of the send level: a node of the coarser grid's tree */
-		int level = n->ctx.level - ((m.u.tile.channels & NDO_TILE_COARSE) ? n->ctx.coarse : 0);
-		ndo_quad_from_range(level, m.u.tile.depth, m.u.tile.i0, m.u.tile.j0, m.u.tile.i1,
-		                    m.u.tile.j1, &q);
-		tile_slot *slot = find_slot(n, m.hdr->sender_id, ndo_quad_code(q), m.u.tile.channels);
-		ndo_msg *keep = malloc(sizeof *keep);
-		if (!slot || !keep) {
-			free(keep);
-			ndo_msg_free(&m);
-			return;
-		}
-		if (seq <= slot->seq) {
-			free(keep);
-			n->st.dropped[NDO_DROP_STALE]++;
-			ndo_msg_free(&m);
-			return;
-		}
-		if (seq > s->last[t])
-			s->last[t] = seq;
-		slot->seq = seq;
-		if (slot->pending) {
-			n->st.superseded++;
-			ndo_msg_free(slot->pending);
-			free(slot->pending);
-		}
-		*keep = m;
-		keep->hdr = (const ndo_msg_header_t *)&keep->u;
-		slot->pending = keep;
-		n->st.accepted++;
-		return;
-	}
-	if (seq <= s->last[t]) {
-		n->st.dropped[NDO_DROP_STALE]++;
-		ndo_msg_free(&m);
-		return;
-	}
-	s->last[t] = seq;
-	if (enqueue(n, &m) != 0) {
-		ndo_msg_free(&m);
-		return;
-	}
-	n->st.accepted++;
+	accept(n, t, &m);
 }
 
 static void on_bytes(void *user, const char *channel, const void *data, size_t len)
@@ -531,6 +643,7 @@ int ndo_net_poll(ndo_net *n, double now)
 	n->now = now;
 	uint64_t before = n->st.accepted;
 	int rc = ndo_link_poll(n->link, now, on_bytes, n);
+	expire_held(n);
 	n->st.dropped[NDO_DROP_INJECTED] = ndo_link_injected_drops(n->link);
 	if (rc < 0)
 		return rc;
@@ -627,6 +740,8 @@ void ndo_net_stats_format(const ndo_net *n, char *buf, size_t size)
 		len += snprintf(buf + len, size - (size_t)len, "%s, gaps %llu, published %llu",
 		                *sep == ',' ? ")" : "", (unsigned long long)s->gaps,
 		                (unsigned long long)s->published);
+	if (s->held && len > 0 && (size_t)len < size)
+		len += snprintf(buf + len, size - (size_t)len, ", held %llu", (unsigned long long)s->held);
 	if (s->unwanted && len > 0 && (size_t)len < size)
 		snprintf(buf + len, size - (size_t)len, "; %llu tiles not used here, passed over",
 		         (unsigned long long)s->unwanted);

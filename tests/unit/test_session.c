@@ -479,6 +479,106 @@ static void send_level_frames_and_error(void)
 	}
 }
 
+/* Encoded frames overtaken by the next (multicast reorders): a frame that
+ * comes before its reference is held until the reference is decoded, not
+ * dropped — dropped, it took every frame predicted from it with it up to
+ * the next keyframe (before 2026-11-30: with 5 % of the messages late, 166
+ * of 300 frames reached the watch and 134 tiles were `nobase`).  With loss
+ * too, a held frame whose reference was lost goes as `nobase` once it can
+ * no longer come, and the stream recovers at the next keyframe.  Every
+ * frame the watch gives is within the bound of the owner's positions at
+ * its step. */
+static void reordered_frames_are_held(void)
+{
+	const char *specs[] = {"predict:1e-4", "hier:1e-4"};
+	for (int e = 0; e < 4; e++) {
+		const int lossy = e >= 2;
+		ndo_bus *bus;
+		ndo_bus_create(&bus);
+		ndo_codec_params cp;
+		ndo_codec_parse(specs[e % 2], &cp);
+		ndo_link *l, *lw;
+		ndo_net *n, *nw;
+		ndo_grid *g;
+		ndo_link_open_mem(bus, &l);
+		ndo_net_create(l, "T", 11, &n);
+		ndo_shape_make("wavy", 5, NULL, &g);
+		ndo_channel *rest;
+		ndo_grid_add(g, NDO_CH_REST, NDO_F64, 3, &rest);
+		memcpy(rest->data, g->ch[0].data, 3 * g->count * sizeof(double));
+		ndo_session_opts o = {.role = NDO_ROLE_OWNER, .poi = -1, .self_id = 11, .object_id = 79,
+		                      .scene = "", .heartbeat = 0.1, .codec = &cp};
+		ndo_session *s = NULL;
+		CHECK(ndo_session_create(&o, n, g, &s) == 0, "owner: %s", ndo_errdetail());
+		ndo_link_open_mem(bus, &lw);
+		ndo_faults f = {.reorder = 0.05, .drop = lossy ? 0.05 : 0, .delay_ms = 2, .jitter_ms = 2,
+		                .seed = 3};
+		ndo_link_faults(lw, &f, &lw);
+		ndo_net_create(lw, "T", 12, &nw);
+		ndo_watch *w;
+		ndo_watch_opts wo = {0};
+		ndo_watch_create(nw, &wo, &w);
+		ndo_grid *og = ndo_session_grid(s);
+		double *x = ndo_grid_f64(og, NDO_CH_POSITION, 3);
+		const double *x0 = ndo_grid_f64(og, NDO_CH_REST, 3);
+		double lo[3], ext[3];
+		ndo_codec_box(x0, og->count, lo, ext);
+		const double diag = sqrt(ext[0] * ext[0] + ext[1] * ext[1] + ext[2] * ext[2]);
+		double t = 0, worst = 0;
+		int frames = 0;
+		int64_t last = -1;
+		const int steps = 300;
+		ndo_session_update(s, t);
+		ndo_watch_update(w, t);
+		for (int64_t step = 0; step < steps + 20; step++) {
+			if (step < steps) {
+				for (size_t k = 0; k < og->count; k++)
+					for (int d = 0; d < 3; d++)
+						x[3 * k + d] = x0[3 * k + d] +
+						               0.01 * (double)step * sin(3 * x0[3 * k + (d + 1) % 3]);
+				ndo_grid_sync(og);
+				ndo_session_publish(s, step, 0.01 * (double)step);
+			}
+			t += 0.01;
+			ndo_session_update(s, t);
+			ndo_watch_update(w, t);
+			ndo_grid *fr;
+			while (ndo_watch_next(w, &fr) == 1) {
+				frames++;
+				last = fr->step > last ? fr->step : last;
+				const double *fx = ndo_grid_f64(fr, NDO_CH_POSITION, 3);
+				const double st = (double)fr->step;
+				for (size_t k = 0; k < fr->count; k++)
+					for (int d = 0; d < 3; d++) {
+						double want = x0[3 * k + d] + 0.01 * st * sin(3 * x0[3 * k + (d + 1) % 3]);
+						worst = fmax(worst, fabs(fx[3 * k + d] - want) / diag);
+					}
+				ndo_grid_destroy(fr);
+			}
+		}
+		const ndo_net_stats *ns = ndo_net_stats_get(nw);
+		char buf[600];
+		ndo_net_stats_format(nw, buf, sizeof buf);
+		printf("    %s%s: %d frames of %d, the last of step %lld; %s\n", specs[e % 2],
+		       lossy ? ", 5 % lost" : "", frames, steps, (long long)last, buf);
+		CHECK(ns->held > 0, "%s: no frame was held", specs[e % 2]);
+		if (!lossy)
+			CHECK(frames == steps && ns->dropped[NDO_DROP_NOBASE] == 0,
+			      "%s: %d frames of %d, nobase %llu", specs[e % 2], frames, steps,
+			      (unsigned long long)ns->dropped[NDO_DROP_NOBASE]);
+		else /* the lost references' frames dropped, the stream live up to the last
+		      * keyframe; the reordered ones kept (without holding: 149 frames) */
+			CHECK(frames >= 160 && ns->dropped[NDO_DROP_NOBASE] > 0 && last >= steps - 32,
+			      "%s, lossy: %d frames of %d, the last of step %lld, nobase %llu",
+			      specs[e % 2], frames, steps, (long long)last,
+			      (unsigned long long)ns->dropped[NDO_DROP_NOBASE]);
+		CHECK(worst <= 1e-4 * (1 + 1e-9), "%s: a frame %.3g of the diagonal off", specs[e % 2], worst);
+		ndo_session_destroy(s, NULL);
+		ndo_watch_destroy(w);
+		ndo_bus_destroy(bus);
+	}
+}
+
 int main(void)
 {
 	ck_program = "test_session";
@@ -489,5 +589,6 @@ int main(void)
 	RUN(encoded_tiles_are_no_snapshot);
 	RUN(garbage_is_counted_not_trusted);
 	RUN(send_level_frames_and_error);
+	RUN(reordered_frames_are_held);
 	return ck_failed_cases != 0;
 }

@@ -351,6 +351,17 @@ void ndo_codec_forget_tile(ndo_codec *c, int32_t self, ndo_quad q);
  * freed).  A raw tile is left as it is.  NDO_DROP_NONE or the reason. */
 ndo_drop ndo_codec_decode_tile(ndo_codec *c, ndo_msg_tile_t *t);
 
+/* Before ndo_codec_decode_tile(): whether a validated tile's reference
+ * frame is here.  NDO_BASE_READY: a raw tile, a keyframe, a predicted one
+ * whose base step this receiver decoded (of its epoch), or one that cannot
+ * decode for another reason (the decode says which); NDO_BASE_PENDING: a
+ * predicted frame whose base is newer than every frame of its tile decoded
+ * here, or of a newer epoch than theirs (a reordered frame: its reference
+ * may still arrive); NDO_BASE_GONE: older than that (it never will).  No
+ * side effect. */
+enum { NDO_BASE_READY, NDO_BASE_PENDING, NDO_BASE_GONE };
+int ndo_codec_base_state(const ndo_codec *c, const ndo_msg_tile_t *t);
+
 /* After ndo_codec_decode_tile() of a predicted tile t: the steps skipped
  * before it (0 when none) and the tile of the k-th of them (0-based,
  * oldest first) into *out (raw, values malloc'd; header copied from t).

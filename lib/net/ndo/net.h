@@ -35,6 +35,9 @@ typedef struct ndo_net_stats {
 	uint64_t gaps;                 /* messages missing by sequence numbers */
 	uint64_t late;                 /* arrived after a later one (reordered) */
 	uint64_t superseded;           /* tiles replaced by a newer one before use */
+	uint64_t held;                 /* encoded tiles that came before their reference
+	                                  frame, held for it (decoded once it came; `nobase`
+	                                  when it cannot come any more, or after 1 s) */
 	uint64_t unwanted;             /* tiles passed over undecoded (ndo_net_set_tile_want) */
 	uint64_t published, publish_failed;
 	uint64_t bytes_in, bytes_out;
