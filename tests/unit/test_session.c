@@ -390,6 +390,42 @@ static void garbage_is_counted_not_trusted(void)
  * (raw: exactly; predict: within the encoding's bound), and the error the
  * owner reports at level 5 is that of the watch's frames refined by
  * ndo_subdivide_levels against the owner's state, computed here apart. */
+/* An owner of the wavy level-5 surface (its rest shape the position) in
+ * encoding cp, sending at `coarse_levels` below, and a watch on the bus
+ * whose link has faults f (or none), its net in *wnet (or NULL); the box's
+ * diagonal. */
+static void wavy_owner_and_watch(ndo_bus *bus, const ndo_codec_params *cp, int64_t object,
+                                 int coarse_levels, const ndo_faults *f, ndo_session **s,
+                                 ndo_watch **w, ndo_net **wnet, double *diag)
+{
+	ndo_link *l, *lw;
+	ndo_net *n, *nw;
+	ndo_grid *g;
+	ndo_link_open_mem(bus, &l);
+	ndo_net_create(l, "T", 11, &n);
+	ndo_shape_make("wavy", 5, NULL, &g);
+	ndo_channel *rest;
+	ndo_grid_add(g, NDO_CH_REST, NDO_F64, 3, &rest);
+	memcpy(rest->data, g->ch[0].data, 3 * g->count * sizeof(double));
+	ndo_session_opts o = {.role = NDO_ROLE_OWNER, .poi = -1, .self_id = 11, .object_id = object,
+	                      .scene = "", .heartbeat = 0.1, .codec = cp,
+	                      .coarse_levels = coarse_levels};
+	*s = NULL;
+	CHECK(ndo_session_create(&o, n, g, s) == 0, "owner: %s", ndo_errdetail());
+	ndo_link_open_mem(bus, &lw);
+	if (f)
+		ndo_link_faults(lw, f, &lw);
+	ndo_net_create(lw, "T", 12, &nw);
+	ndo_watch_opts wo = {0};
+	ndo_watch_create(nw, &wo, w);
+	if (wnet)
+		*wnet = nw;
+	const double *x0 = ndo_grid_f64(ndo_session_grid(*s), NDO_CH_REST, 3);
+	double lo[3], ext[3];
+	ndo_codec_box(x0, ndo_session_grid(*s)->count, lo, ext);
+	*diag = sqrt(ext[0] * ext[0] + ext[1] * ext[1] + ext[2] * ext[2]);
+}
+
 static void send_level_frames_and_error(void)
 {
 	const char *specs[] = {"raw", "predict:1e-4"};
@@ -398,31 +434,14 @@ static void send_level_frames_and_error(void)
 		ndo_bus_create(&bus);
 		ndo_codec_params cp;
 		ndo_codec_parse(specs[e], &cp);
-		ndo_link *l, *lw;
-		ndo_net *n, *nw;
-		ndo_grid *g;
-		ndo_link_open_mem(bus, &l);
-		ndo_net_create(l, "T", 11, &n);
-		ndo_shape_make("wavy", 5, NULL, &g);
-		ndo_channel *rest;
-		ndo_grid_add(g, NDO_CH_REST, NDO_F64, 3, &rest);
-		memcpy(rest->data, g->ch[0].data, 3 * g->count * sizeof(double));
-		ndo_session_opts o = {.role = NDO_ROLE_OWNER, .poi = -1, .self_id = 11, .object_id = 78,
-		                      .scene = "", .heartbeat = 0.1, .codec = &cp, .coarse_levels = 2};
-		ndo_session *s = NULL;
-		CHECK(ndo_session_create(&o, n, g, &s) == 0, "owner: %s", ndo_errdetail());
-		ndo_session_measure_displacement(s, 1);
-		ndo_link_open_mem(bus, &lw);
-		ndo_net_create(lw, "T", 12, &nw);
+		ndo_session *s;
 		ndo_watch *w;
-		ndo_watch_opts wo = {0};
-		ndo_watch_create(nw, &wo, &w);
+		double diag;
+		wavy_owner_and_watch(bus, &cp, 78, 2, NULL, &s, &w, NULL, &diag);
+		ndo_session_measure_displacement(s, 1);
 		ndo_grid *og = ndo_session_grid(s);
 		double *x = ndo_grid_f64(og, NDO_CH_POSITION, 3);
 		const double *x0 = ndo_grid_f64(og, NDO_CH_REST, 3);
-		double lo[3], ext[3];
-		ndo_codec_box(x0, og->count, lo, ext);
-		const double diag = sqrt(ext[0] * ext[0] + ext[1] * ext[1] + ext[2] * ext[2]);
 		double t = 0, worst = 0;
 		int frames = 0, coarse_ok = 1, level_ok = 1;
 		ndo_session_update(s, t);
@@ -497,33 +516,16 @@ static void reordered_frames_are_held(void)
 		ndo_bus_create(&bus);
 		ndo_codec_params cp;
 		ndo_codec_parse(specs[e % 2], &cp);
-		ndo_link *l, *lw;
-		ndo_net *n, *nw;
-		ndo_grid *g;
-		ndo_link_open_mem(bus, &l);
-		ndo_net_create(l, "T", 11, &n);
-		ndo_shape_make("wavy", 5, NULL, &g);
-		ndo_channel *rest;
-		ndo_grid_add(g, NDO_CH_REST, NDO_F64, 3, &rest);
-		memcpy(rest->data, g->ch[0].data, 3 * g->count * sizeof(double));
-		ndo_session_opts o = {.role = NDO_ROLE_OWNER, .poi = -1, .self_id = 11, .object_id = 79,
-		                      .scene = "", .heartbeat = 0.1, .codec = &cp};
-		ndo_session *s = NULL;
-		CHECK(ndo_session_create(&o, n, g, &s) == 0, "owner: %s", ndo_errdetail());
-		ndo_link_open_mem(bus, &lw);
 		ndo_faults f = {.reorder = 0.05, .drop = lossy ? 0.05 : 0, .delay_ms = 2, .jitter_ms = 2,
 		                .seed = 3};
-		ndo_link_faults(lw, &f, &lw);
-		ndo_net_create(lw, "T", 12, &nw);
+		ndo_session *s;
 		ndo_watch *w;
-		ndo_watch_opts wo = {0};
-		ndo_watch_create(nw, &wo, &w);
+		double diag;
+		ndo_net *nw;
+		wavy_owner_and_watch(bus, &cp, 79, 0, &f, &s, &w, &nw, &diag);
 		ndo_grid *og = ndo_session_grid(s);
 		double *x = ndo_grid_f64(og, NDO_CH_POSITION, 3);
 		const double *x0 = ndo_grid_f64(og, NDO_CH_REST, 3);
-		double lo[3], ext[3];
-		ndo_codec_box(x0, og->count, lo, ext);
-		const double diag = sqrt(ext[0] * ext[0] + ext[1] * ext[1] + ext[2] * ext[2]);
 		double t = 0, worst = 0;
 		int frames = 0;
 		int64_t last = -1;
