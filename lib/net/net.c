@@ -485,16 +485,28 @@ static int hold(ndo_net *n, ndo_msg *m)
 	return 1;
 }
 
-/* After a tile was decoded: every held tile whose reference is now here
- * decoded and accepted, in step order (each may be the next one's); one
- * whose reference can no longer come dropped as `nobase`. */
-static void release_held(ndo_net *n)
+/* The same sender's tile of the same range and level: only a frame of its
+ * own tile is a held tile's reference. */
+static int same_tile(const ndo_msg_tile_t *a, const ndo_msg_tile_t *b)
+{
+	return a->hdr.sender_id == b->hdr.sender_id && a->depth == b->depth && a->i0 == b->i0 &&
+	       a->j0 == b->j0 && a->i1 == b->i1 && a->j1 == b->j1 &&
+	       (a->channels & NDO_TILE_COARSE) == (b->channels & NDO_TILE_COARSE);
+}
+
+/* After tile `t` was decoded: every held tile of the same tile whose
+ * reference is now here decoded and accepted, in step order (each may be
+ * the next one's); one whose reference can no longer come dropped as
+ * `nobase`. */
+static void release_held(ndo_net *n, const ndo_msg_tile_t *t)
 {
 	for (int again = 1; again && n->nheld;) {
 		again = 0;
 		int pick = -1;
 		for (int k = 0; k < n->nheld; k++) {
 			const ndo_msg_tile_t *tl = &n->held[k].m.u.tile;
+			if (!same_tile(tl, t))
+				continue;
 			const ndo_codec *c = (tl->channels & NDO_TILE_COARSE) ? n->ccodec : n->codec;
 			int st = c ? ndo_codec_base_state(c, tl) : NDO_BASE_GONE;
 			if (st == NDO_BASE_GONE) {
@@ -607,8 +619,10 @@ static void on_message(ndo_net *n, int t, const uint8_t *data, size_t len, int s
 	if (t == NDO_MSG_TILE && m.u.tile.encoding != NDO_ENC_RAW) {
 		if (hold(n, &m) || decode_encoded(n, &m))
 			return;
+		const ndo_msg_tile_t done = m.u.tile; /* its header and range (accept() may free
+		                                          its arrays), for release_held() */
 		accept(n, t, &m);
-		release_held(n);
+		release_held(n, &done);
 		return;
 	}
 	accept(n, t, &m);

@@ -390,12 +390,12 @@ static void garbage_is_counted_not_trusted(void)
  * (raw: exactly; predict: within the encoding's bound), and the error the
  * owner reports at level 5 is that of the watch's frames refined by
  * ndo_subdivide_levels against the owner's state, computed here apart. */
-/* An owner of the wavy level-5 surface (its rest shape the position) in
+/* An owner of the wavy surface at `level` (its rest shape the position) in
  * encoding cp, sending at `coarse_levels` below, and a watch on the bus
  * whose link has faults f (or none), its net in *wnet (or NULL); the box's
  * diagonal. */
 static void wavy_owner_and_watch(ndo_bus *bus, const ndo_codec_params *cp, int64_t object,
-                                 int coarse_levels, const ndo_faults *f, ndo_session **s,
+                                 int level, int coarse_levels, const ndo_faults *f, ndo_session **s,
                                  ndo_watch **w, ndo_net **wnet, double *diag)
 {
 	ndo_link *l, *lw;
@@ -403,7 +403,7 @@ static void wavy_owner_and_watch(ndo_bus *bus, const ndo_codec_params *cp, int64
 	ndo_grid *g;
 	ndo_link_open_mem(bus, &l);
 	ndo_net_create(l, "T", 11, &n);
-	ndo_shape_make("wavy", 5, NULL, &g);
+	ndo_shape_make("wavy", level, NULL, &g);
 	ndo_channel *rest;
 	ndo_grid_add(g, NDO_CH_REST, NDO_F64, 3, &rest);
 	memcpy(rest->data, g->ch[0].data, 3 * g->count * sizeof(double));
@@ -437,7 +437,7 @@ static void send_level_frames_and_error(void)
 		ndo_session *s;
 		ndo_watch *w;
 		double diag;
-		wavy_owner_and_watch(bus, &cp, 78, 2, NULL, &s, &w, NULL, &diag);
+		wavy_owner_and_watch(bus, &cp, 78, 5, 2, NULL, &s, &w, NULL, &diag);
 		ndo_session_measure_displacement(s, 1);
 		ndo_grid *og = ndo_session_grid(s);
 		double *x = ndo_grid_f64(og, NDO_CH_POSITION, 3);
@@ -501,12 +501,12 @@ static void send_level_frames_and_error(void)
 /* Encoded frames overtaken by the next (multicast reorders): a frame that
  * comes before its reference is held until the reference is decoded, not
  * dropped — dropped, it took every frame predicted from it with it up to
- * the next keyframe (before 2026-11-30: with 5 % of the messages late, 166
- * of 300 frames reached the watch and 134 tiles were `nobase`).  With loss
- * too, a held frame whose reference was lost goes as `nobase` once it can
- * no longer come, and the stream recovers at the next keyframe.  Every
- * frame the watch gives is within the bound of the owner's positions at
- * its step. */
+ * its tile's next keyframe (before 2026-11-30, level 6, two tiles a frame,
+ * 5 % of the messages late: 81 of 300 frames reached the watch, 287 tiles
+ * `nobase`; now 298).  With loss too, a held frame whose reference was
+ * lost goes as `nobase` once it can no longer come (33 frames before, 90
+ * now).  Every frame the watch gives is within the bound of the owner's
+ * positions at its step. */
 static void reordered_frames_are_held(void)
 {
 	const char *specs[] = {"predict:1e-4", "hier:1e-4"};
@@ -522,14 +522,15 @@ static void reordered_frames_are_held(void)
 		ndo_watch *w;
 		double diag;
 		ndo_net *nw;
-		wavy_owner_and_watch(bus, &cp, 79, 0, &f, &s, &w, &nw, &diag);
+		wavy_owner_and_watch(bus, &cp, 79, 6, 0, &f, &s, &w, &nw, &diag);
 		ndo_grid *og = ndo_session_grid(s);
 		double *x = ndo_grid_f64(og, NDO_CH_POSITION, 3);
 		const double *x0 = ndo_grid_f64(og, NDO_CH_REST, 3);
 		double t = 0, worst = 0;
 		int frames = 0;
 		int64_t last = -1;
-		const int steps = 300;
+		enum { steps = 300 };
+		uint8_t seen[steps] = {0};
 		ndo_session_update(s, t);
 		ndo_watch_update(w, t);
 		for (int64_t step = 0; step < steps + 20; step++) {
@@ -548,6 +549,8 @@ static void reordered_frames_are_held(void)
 			while (ndo_watch_next(w, &fr) == 1) {
 				frames++;
 				last = fr->step > last ? fr->step : last;
+				if (fr->step >= 0 && fr->step < steps)
+					seen[fr->step] = 1;
 				const double *fx = ndo_grid_f64(fr, NDO_CH_POSITION, 3);
 				const double st = (double)fr->step;
 				for (size_t k = 0; k < fr->count; k++)
@@ -564,16 +567,21 @@ static void reordered_frames_are_held(void)
 		printf("    %s%s: %d frames of %d, the last of step %lld; %s\n", specs[e % 2],
 		       lossy ? ", 5 % lost" : "", frames, steps, (long long)last, buf);
 		CHECK(ns->held > 0, "%s: no frame was held", specs[e % 2]);
+		/* without loss, the only frames missing are those a keyframe (every
+		 * 32 steps) overtook: one step or two before it, older than a frame
+		 * the watch already gave */
+		int other = 0;
+		for (int k = 0; k < steps; k++)
+			other += !seen[k] && (k + 1) % 32 != 0 && (k + 2) % 32 != 0;
 		if (!lossy)
-			CHECK(frames == steps && ns->dropped[NDO_DROP_NOBASE] == 0,
-			      "%s: %d frames of %d, nobase %llu", specs[e % 2], frames, steps,
+			CHECK(frames >= steps - 2 * (steps / 32 + 1) && other == 0,
+			      "%s: %d frames of %d, %d missing not before a keyframe, nobase %llu",
+			      specs[e % 2], frames, steps, other,
 			      (unsigned long long)ns->dropped[NDO_DROP_NOBASE]);
-		else /* the lost references' frames dropped, the stream live up to the last
-		      * keyframe; the reordered ones kept (without holding: 149 frames) */
-			CHECK(frames >= 160 && ns->dropped[NDO_DROP_NOBASE] > 0 && last >= steps - 32,
-			      "%s, lossy: %d frames of %d, the last of step %lld, nobase %llu",
-			      specs[e % 2], frames, steps, (long long)last,
-			      (unsigned long long)ns->dropped[NDO_DROP_NOBASE]);
+		else /* the lost references' frames dropped, the reordered ones kept */
+			CHECK(frames >= 80 && ns->dropped[NDO_DROP_NOBASE] > 0,
+			      "%s, lossy: %d frames of %d (33 without holding), nobase %llu", specs[e % 2],
+			      frames, steps, (unsigned long long)ns->dropped[NDO_DROP_NOBASE]);
 		CHECK(worst <= 1e-4 * (1 + 1e-9), "%s: a frame %.3g of the diagonal off", specs[e % 2], worst);
 		ndo_session_destroy(s, NULL);
 		ndo_watch_destroy(w);
