@@ -8,8 +8,9 @@
 # sanitizer report or a round-trip mismatch fails the case and leaves the
 # input in the log.
 . "$(dirname "$0")/lib.sh"
-# 10 s a target keeps `make test` under its ten minutes (a clean run took
-# 9 min 28 s with 20 s, 2026-11-30); longer runs: NDO_FUZZ_SECONDS=600.
+# 10 s a target keeps `make test` under its ten minutes (with its sanitizer
+# builds remade it took 9 min 28 s with 20 s, 8 min 48 s with 10, on
+# 2026-11-30); longer runs: NDO_FUZZ_SECONDS=600.
 secs=${NDO_FUZZ_SECONDS:-10}
 # record_messages DIR PREFIX FORM: every message of four short owner runs
 # (written by LCM's file provider, no network; whole regions every step),
