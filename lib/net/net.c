@@ -111,6 +111,7 @@ static void unhold(ndo_net *n, int k, int count)
 {
 	ndo_msg_free(&n->held[k].m);
 	n->held[k] = n->held[--n->nheld];
+	n->st.holding = (uint64_t)n->nheld;
 	if (count)
 		n->st.dropped[NDO_DROP_NOBASE]++;
 }
@@ -428,6 +429,12 @@ static void accept(ndo_net *n, int t, ndo_msg *m)
 	n->st.accepted++;
 }
 
+/* The decoder of a tile: the send level's (NDO_TILE_COARSE) or the object's. */
+static ndo_codec *codec_of(const ndo_net *n, const ndo_msg_tile_t *t)
+{
+	return (t->channels & NDO_TILE_COARSE) ? n->ccodec : n->codec;
+}
+
 /* An encoded tile decoded in place (and checked against the box), the
  * steps skipped before it queued (ndo_net_skipped_tiles): 0, or it was
  * dropped (counted, freed). */
@@ -435,7 +442,7 @@ static int decode_encoded(ndo_net *n, ndo_msg *m)
 {
 	/* decoded here, in arrival order: each frame is a reference for
 	 * the next ones, whoever uses it */
-	ndo_codec *codec = (m->u.tile.channels & NDO_TILE_COARSE) ? n->ccodec : n->codec;
+	ndo_codec *codec = codec_of(n, &m->u.tile);
 	ndo_drop r = codec ? ndo_codec_decode_tile(codec, &m->u.tile) : NDO_DROP_ENCODING;
 	if (r == NDO_DROP_NONE) /* the decoded state, against the box */
 		r = ndo_msg_check_box(&m->u.tile, &n->ctx);
@@ -468,7 +475,7 @@ static int decode_encoded(ndo_net *n, ndo_msg *m)
  * predicted from it up to the next keyframe. */
 static int hold(ndo_net *n, ndo_msg *m)
 {
-	const ndo_codec *codec = (m->u.tile.channels & NDO_TILE_COARSE) ? n->ccodec : n->codec;
+	const ndo_codec *codec = codec_of(n, &m->u.tile);
 	if (!codec || ndo_codec_base_state(codec, &m->u.tile) != NDO_BASE_PENDING)
 		return 0;
 	if (n->nheld == HOLD_MAX) { /* the oldest goes */
@@ -482,6 +489,7 @@ static int hold(ndo_net *n, ndo_msg *m)
 	n->held[n->nheld].m.hdr = (const ndo_msg_header_t *)&n->held[n->nheld].m.u;
 	n->nheld++;
 	n->st.held++;
+	n->st.holding = (uint64_t)n->nheld;
 	return 1;
 }
 
@@ -507,7 +515,7 @@ static void release_held(ndo_net *n, const ndo_msg_tile_t *t)
 			const ndo_msg_tile_t *tl = &n->held[k].m.u.tile;
 			if (!same_tile(tl, t))
 				continue;
-			const ndo_codec *c = (tl->channels & NDO_TILE_COARSE) ? n->ccodec : n->codec;
+			const ndo_codec *c = codec_of(n, tl);
 			int st = c ? ndo_codec_base_state(c, tl) : NDO_BASE_GONE;
 			if (st == NDO_BASE_GONE) {
 				unhold(n, k--, 1);
@@ -519,6 +527,7 @@ static void release_held(ndo_net *n, const ndo_msg_tile_t *t)
 		if (pick >= 0) {
 			ndo_msg m = n->held[pick].m;
 			n->held[pick] = n->held[--n->nheld];
+			n->st.holding = (uint64_t)n->nheld;
 			m.hdr = (const ndo_msg_header_t *)&m.u;
 			if (decode_encoded(n, &m) == 0)
 				accept(n, NDO_MSG_TILE, &m);

@@ -589,6 +589,98 @@ static void reordered_frames_are_held(void)
 	}
 }
 
+/* What a spy on the bus saw of one channel: the last message's bytes. */
+typedef struct spied {
+	const char *channel;
+	uint8_t buf[1 << 16];
+	size_t len;
+	int n;
+} spied;
+
+static void spy(void *user, const char *channel, const void *data, size_t len)
+{
+	spied *sp = user;
+	if (strcmp(channel, sp->channel) != 0 || len > sizeof sp->buf)
+		return;
+	memcpy(sp->buf, data, len);
+	sp->len = len;
+	sp->n++;
+}
+
+/* Predicted tiles whose reference never comes (a hostile or broken
+ * sender): held at most 64 at once (the oldest `nobase` first), each at
+ * most 1 s, and the owner's frames still reach the watch. */
+static void unreferenced_frames_are_bounded(void)
+{
+	ndo_bus *bus;
+	ndo_bus_create(&bus);
+	ndo_codec_params cp;
+	ndo_codec_parse("predict:1e-4", &cp);
+	ndo_link *spyl, *evil;
+	ndo_link_open_mem(bus, &spyl);
+	ndo_link_open_mem(bus, &evil);
+	ndo_session *s;
+	ndo_watch *w;
+	ndo_net *nw;
+	double diag, t = 0;
+	wavy_owner_and_watch(bus, &cp, 80, 5, 0, NULL, &s, &w, &nw, &diag);
+	ndo_grid *og = ndo_session_grid(s);
+	double *x = ndo_grid_f64(og, NDO_CH_POSITION, 3);
+	spied sp = {.channel = "T_TILE"};
+	int frames = 0;
+	for (int64_t step = 0; step < 40; step++) {
+		if (step == 20) { /* the flood: 100 frames predicted from steps never sent */
+			ndo_msg m;
+			CHECK(sp.n > 0 && ndo_msg_decode(NDO_MSG_TILE, sp.buf, sp.len, &m) == NDO_DROP_NONE,
+			      "no tile seen (%d)", sp.n);
+			for (int k = 0; k < 100; k++) {
+				m.u.tile.step = 1000 + k;
+				m.u.tile.base_step = 999 + k;
+				uint8_t *buf;
+				size_t len;
+				if (ndo_msg_encode(NDO_MSG_TILE, &m.u.tile, &buf, &len) == 0) {
+					ndo_link_publish(evil, "T_TILE", buf, len);
+					free(buf);
+				}
+			}
+			ndo_msg_free(&m);
+			ndo_watch_update(w, t);
+			const ndo_net_stats *ns = ndo_net_stats_get(nw);
+			CHECK(ns->held == 100 && ns->holding == 64 && ns->dropped[NDO_DROP_NOBASE] == 36,
+			      "after the flood: held %llu, holding %llu, nobase %llu (100, 64, 36)",
+			      (unsigned long long)ns->held, (unsigned long long)ns->holding,
+			      (unsigned long long)ns->dropped[NDO_DROP_NOBASE]);
+			frames = 0;
+		}
+		for (size_t k = 0; k < og->count; k++)
+			x[3 * k] += 0.001;
+		ndo_grid_sync(og);
+		ndo_session_publish(s, step, 0.1 * (double)step);
+		t += 0.1;
+		ndo_session_update(s, t);
+		ndo_link_poll(spyl, t, spy, &sp);
+		ndo_watch_update(w, t);
+		ndo_grid *fr;
+		while (ndo_watch_next(w, &fr) == 1) {
+			frames++;
+			ndo_grid_destroy(fr);
+		}
+	}
+	const ndo_net_stats *ns = ndo_net_stats_get(nw);
+	char buf[600];
+	ndo_net_stats_format(nw, buf, sizeof buf);
+	printf("    after the flood and 2 s: %d frames of 20; %s\n", frames, buf);
+	CHECK(ns->holding == 0 && ns->dropped[NDO_DROP_NOBASE] == 100 && frames >= 19,
+	      "2 s later: holding %llu, nobase %llu (100), %d frames of 20",
+	      (unsigned long long)ns->holding, (unsigned long long)ns->dropped[NDO_DROP_NOBASE],
+	      frames);
+	ndo_session_destroy(s, NULL);
+	ndo_watch_destroy(w);
+	ndo_link_destroy(spyl);
+	ndo_link_destroy(evil);
+	ndo_bus_destroy(bus);
+}
+
 int main(void)
 {
 	ck_program = "test_session";
@@ -600,5 +692,6 @@ int main(void)
 	RUN(garbage_is_counted_not_trusted);
 	RUN(send_level_frames_and_error);
 	RUN(reordered_frames_are_held);
+	RUN(unreferenced_frames_are_bounded);
 	return ck_failed_cases != 0;
 }

@@ -37,7 +37,9 @@ typedef struct ndo_net_stats {
 	uint64_t superseded;           /* tiles replaced by a newer one before use */
 	uint64_t held;                 /* encoded tiles that came before their reference
 	                                  frame, held for it (decoded once it came; `nobase`
-	                                  when it cannot come any more, or after 1 s) */
+	                                  when it cannot come any more, after 1 s, or the
+	                                  oldest of 64 held) */
+	uint64_t holding;              /* of those, held now */
 	uint64_t unwanted;             /* tiles passed over undecoded (ndo_net_set_tile_want) */
 	uint64_t published, publish_failed;
 	uint64_t bytes_in, bytes_out;
