@@ -33,7 +33,9 @@ typedef struct ndo_net_stats {
 	uint64_t own;                  /* our own, looped back (not drops) */
 	uint64_t dropped[NDO_DROP_N];  /* by reason; [NDO_DROP_INJECTED] from faults */
 	uint64_t gaps;                 /* messages missing by sequence numbers */
-	uint64_t late;                 /* arrived after a later one (reordered) */
+	uint64_t late;                 /* arrived after a later one (reordered; an encoded
+	                                  tile overtaken by the frame it is the reference
+	                                  of counts in `held` instead) */
 	uint64_t superseded;           /* tiles replaced by a newer one before use */
 	uint64_t held;                 /* encoded tiles that came before their reference
 	                                  frame, held for it (decoded once it came; `nobase`
