@@ -106,11 +106,13 @@ static void clear_tiles(ndo_net *n)
 		}
 }
 
-/* Drop held tile k as `nobase`. */
+/* Drop held tile k, counted `nobase` when `count`; the last one takes its
+ * place (its header pointing at its own copy, as every held one's does). */
 static void unhold(ndo_net *n, int k, int count)
 {
 	ndo_msg_free(&n->held[k].m);
 	n->held[k] = n->held[--n->nheld];
+	n->held[k].m.hdr = (const ndo_msg_header_t *)&n->held[k].m.u;
 	n->st.holding = (uint64_t)n->nheld;
 	if (count)
 		n->st.dropped[NDO_DROP_NOBASE]++;
@@ -526,9 +528,10 @@ static void release_held(ndo_net *n, const ndo_msg_tile_t *t)
 		}
 		if (pick >= 0) {
 			ndo_msg m = n->held[pick].m;
-			n->held[pick] = n->held[--n->nheld];
-			n->st.holding = (uint64_t)n->nheld;
 			m.hdr = (const ndo_msg_header_t *)&m.u;
+			n->held[pick] = n->held[--n->nheld];
+			n->held[pick].m.hdr = (const ndo_msg_header_t *)&n->held[pick].m.u;
+			n->st.holding = (uint64_t)n->nheld;
 			if (decode_encoded(n, &m) == 0)
 				accept(n, NDO_MSG_TILE, &m);
 			again = 1;

@@ -7,7 +7,7 @@
 # decoded (lib/net/net.c): the observer's network line counts them `held`,
 # and only the few overtaken by their tile's keyframe are `nobase` (before
 # holding, 2026-11-30: 77 and 74 of 243 messages `nobase` in the same
-# runs); its -o is the owner's last step (exact: the last step travels raw).
+# runs); its -o is the owner's last step, which travels exact.
 . "$(dirname "$0")/netns.bash"
 . "$(dirname "$0")/lib.sh"
 
