@@ -45,6 +45,7 @@ static const typeops types[NDO_MSG_NTYPES] = {
 	[NDO_MSG_FORCE] = OPS(force_t, "FORCE"),
 	[NDO_MSG_HALO] = OPS(halo_t, "HALO"),
 	[NDO_MSG_SOLVE] = OPS(solve_t, "SOLVE"),
+	[NDO_MSG_KEY_REQUEST] = OPS(key_request_t, "KEY_REQUEST"),
 };
 /* The one nested type. */
 static const typeops header_ops = OPS(header_t, "");
@@ -387,7 +388,7 @@ static int needs_level(ndo_msg_type t)
 {
 	return t == NDO_MSG_TILE || t == NDO_MSG_POI || t == NDO_MSG_PARTITION ||
 	       t == NDO_MSG_PEERS || t == NDO_MSG_FORCE || t == NDO_MSG_HALO ||
-	       t == NDO_MSG_SOLVE;
+	       t == NDO_MSG_SOLVE || t == NDO_MSG_KEY_REQUEST;
 }
 
 /* The nodes in runs of node indices (halo_t, solve_t): −1 unless the runs
@@ -541,6 +542,22 @@ ndo_drop ndo_msg_validate(const ndo_msg *m, const ndo_msg_ctx *c)
 		return finite_all(h->values, h->nvalues) && finite_all(h->sums, h->nsums)
 		               ? NDO_DROP_NONE
 		               : NDO_DROP_NONFINITE;
+	}
+	case NDO_MSG_KEY_REQUEST: {
+		const ndo_msg_key_request_t *k = &m->u.key_request;
+		if (k->sender == 0 || (k->coarse != 0 && k->coarse != 1) || k->ntiles < 1 ||
+		    k->ntiles > NDO_MAX_KEY_TILES)
+			return NDO_DROP_RANGE;
+		if (k->coarse) { /* of the send level's grid */
+			if (c->coarse < 1 || c->coarse > L)
+				return NDO_DROP_RANGE;
+			L -= c->coarse;
+		}
+		ndo_quad q;
+		for (int j = 0; j < k->ntiles; j++)
+			if (ndo_quad_decode(L, k->codes[j], &q) != 0)
+				return NDO_DROP_RANGE;
+		return NDO_DROP_NONE;
 	}
 	case NDO_MSG_FORCE: {
 		const ndo_msg_force_t *f = &m->u.force;

@@ -17,7 +17,7 @@ secs=${NDO_FUZZ_SECONDS:-10}
 # one per tile encoding, as seeds in DIR: PREFIX (hex, fuzz_auth's flags
 # byte), then the bytes that pick the type and, for a tile, the receiver's
 # level-3 decoder of that encoding — FORM msg: fuzz_msg.c's (129, then 12,
-# 13, 14 or 15 for a tile), auth: fuzz_auth.c's one byte (37 with 12 message
+# 13, 14 or 15 for a tile), auth: fuzz_auth.c's one byte (40 with 13 message
 # types: a tile, level 3; the encoding is in PREFIX's bits 2-3, 0-3 for
 # float32, fixed, predict and hier) — then the message.  For fuzz_msg a fifth run sends at level 2 (predict,
 # --send-level 2): its tiles go through the receiver's coarse decoder.
@@ -35,7 +35,7 @@ record_messages() {
 	}
 	/usr/bin/python3 - "$1" "$2" "$3" <<'PY' || fail "$(basename "$1") seeds" "no recorded messages"
 import struct, sys
-suffixes = "DESC TILE POI PARTITION HELLO PEERS LEAVE HEARTBEAT DESC_REQUEST FORCE HALO SOLVE".split()
+suffixes = "DESC TILE POI PARTITION HELLO PEERS LEAVE HEARTBEAT DESC_REQUEST FORCE HALO SOLVE KEY_REQUEST".split()
 if sys.argv[3] == "msg":  # 129 then b: level b / 4 = 3, encoding 1 + b % 4
     tile = {"float32": bytes([129, 12]), "fixed": bytes([129, 13]), "predict": bytes([129, 14]),
             "hier": bytes([129, 15]), "coarse": bytes([129, 14])}  # the receiver's send level is 2

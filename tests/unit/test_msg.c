@@ -200,6 +200,41 @@ static void solves_checked(void)
 	CHECK(roundtrip(NDO_MSG_SOLVE, &h, &unknown) == NDO_DROP_UNKNOWN, "before the description");
 }
 
+/* A keyframe request (key_request_t): a nonzero sender, 1..64 tiles, each
+ * a quad-tree code of the object's level (or of the send level's, coarse). */
+static void key_requests_checked(void)
+{
+	ndo_msg_ctx c = {.object_id = 42, .level = 4, .self_id = 1};
+	ndo_quad q = {.depth = 4, .qi = 3, .qj = 1}; /* depth 4: levels 3 and up */
+	int32_t codes[NDO_MAX_KEY_TILES + 1] = {0, ndo_quad_code(q)};
+	ndo_msg_key_request_t k = {.hdr = {NDO_PROTOCOL_VERSION, 42, 7, 0, 0}, .sender = 9,
+	                           .ntiles = 2, .codes = codes};
+	CHECK(roundtrip(NDO_MSG_KEY_REQUEST, &k, &c) == NDO_DROP_NONE, "a good request passes");
+	k.sender = 0;
+	CHECK(roundtrip(NDO_MSG_KEY_REQUEST, &k, &c) == NDO_DROP_RANGE, "sender 0");
+	k.sender = 9, k.ntiles = 0;
+	CHECK(roundtrip(NDO_MSG_KEY_REQUEST, &k, &c) == NDO_DROP_RANGE, "no tile");
+	k.ntiles = NDO_MAX_KEY_TILES + 1;
+	CHECK(roundtrip(NDO_MSG_KEY_REQUEST, &k, &c) == NDO_DROP_RANGE, "65 tiles");
+	k.ntiles = NDO_MAX_KEY_TILES;
+	CHECK(roundtrip(NDO_MSG_KEY_REQUEST, &k, &c) == NDO_DROP_NONE, "64 tiles");
+	k.ntiles = 2, codes[1] = -1;
+	CHECK(roundtrip(NDO_MSG_KEY_REQUEST, &k, &c) == NDO_DROP_RANGE, "a negative code");
+	codes[1] = 1 << 30;
+	CHECK(roundtrip(NDO_MSG_KEY_REQUEST, &k, &c) == NDO_DROP_RANGE, "a code beyond the level's");
+	codes[1] = ndo_quad_code(q), k.coarse = 1;
+	CHECK(roundtrip(NDO_MSG_KEY_REQUEST, &k, &c) == NDO_DROP_RANGE, "coarse with no send level");
+	c.coarse = 1;
+	CHECK(roundtrip(NDO_MSG_KEY_REQUEST, &k, &c) == NDO_DROP_NONE, "coarse, of level 3");
+	c.coarse = 2; /* level 2's tree is 3 deep */
+	CHECK(roundtrip(NDO_MSG_KEY_REQUEST, &k, &c) == NDO_DROP_RANGE, "a code beyond the send level's");
+	k.coarse = 2;
+	CHECK(roundtrip(NDO_MSG_KEY_REQUEST, &k, &c) == NDO_DROP_RANGE, "coarse neither 0 nor 1");
+	k.coarse = 0;
+	ndo_msg_ctx unknown = {.object_id = 0, .level = -1, .self_id = 1};
+	CHECK(roundtrip(NDO_MSG_KEY_REQUEST, &k, &unknown) == NDO_DROP_UNKNOWN, "before the description");
+}
+
 static void bytes_checked_before_decoding(void)
 {
 	ndo_msg_tile_t t = make_tile(4, 2);
@@ -531,6 +566,7 @@ int main(void)
 	RUN(coarse_tiles_checked);
 	RUN(halos_checked);
 	RUN(solves_checked);
+	RUN(key_requests_checked);
 	RUN(bytes_checked_before_decoding);
 	RUN(control_messages_checked);
 	RUN(stale_dropped_latest_kept);

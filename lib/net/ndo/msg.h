@@ -25,6 +25,7 @@
 #include "ndo_msg/ndo_msg_halo_t.h"
 #include "ndo_msg/ndo_msg_heartbeat_t.h"
 #include "ndo_msg/ndo_msg_hello_t.h"
+#include "ndo_msg/ndo_msg_key_request_t.h"
 #include "ndo_msg/ndo_msg_leave_t.h"
 #include "ndo_msg/ndo_msg_partition_t.h"
 #include "ndo_msg/ndo_msg_peers_t.h"
@@ -44,6 +45,7 @@ extern "C" {
 #define NDO_MAX_NAME 63       /* bytes of a hello's name */
 #define NDO_MAX_TEXT 255      /* bytes of a leave's message */
 #define NDO_MAX_SUMS 16       /* partial sums in one solve_t */
+#define NDO_MAX_KEY_TILES 64  /* tiles in one key_request_t */
 
 /* LCM 1.3.1 sends a message as one datagram when channel + 1 (NUL) +
  * payload ≤ 65,499 bytes (plus its 8-byte header: 65,507, the largest
@@ -70,6 +72,7 @@ typedef enum ndo_msg_type {
 	NDO_MSG_FORCE,
 	NDO_MSG_HALO,
 	NDO_MSG_SOLVE,
+	NDO_MSG_KEY_REQUEST,
 	NDO_MSG_NTYPES
 } ndo_msg_type;
 
@@ -127,6 +130,7 @@ typedef struct ndo_msg {
 		ndo_msg_force_t force;
 		ndo_msg_halo_t halo;
 		ndo_msg_solve_t solve;
+		ndo_msg_key_request_t key_request;
 	} u;
 } ndo_msg;
 
