@@ -34,6 +34,8 @@ typedef struct entry {
 	int64_t last_key;   /* encoder: step of the last keyframe */
 	int64_t last_sent;  /* encoder: step of the last frame sent (or skipped) */
 	int skips;          /* encoder: steps skipped in a row */
+	int since_key;      /* encoder: frames sent since the last keyframe */
+	int want_key;       /* encoder: a receiver asked for a keyframe */
 	cached c[CACHED];   /* encoder: the last frames sent */
 	uint64_t used;
 	/* decoder: the last frame decoded (for ndo_codec_skipped) */
@@ -218,7 +220,7 @@ static void forget(entry *e, int32_t epoch)
 	ndo_codec_hist_clear(&e->h);
 	e->epoch = epoch;
 	e->last_key = e->last_sent = -1;
-	e->skips = 0;
+	e->skips = e->since_key = e->want_key = 0;
 	for (int k = 0; k < CACHED; k++) {
 		free(e->c[k].data);
 		e->c[k].data = NULL;
@@ -279,8 +281,11 @@ int ndo_codec_encode_tile(ndo_codec *c, int32_t self, const ndo_grid *g, const u
 	                      t->step, t->time, t->epoch,      g->w};
 	/* a keyframe when one is due — but not right after skipped steps: the
 	 * frame after them tells receivers what they were (the next is the key) */
-	int due = e->last_key < 0 || t->step <= e->last_sent || e->h.f[0].step < 0 ||
-	          (t->step - e->last_key >= c->p.keyframe && e->skips == 0);
+	int periodic = e->last_key < 0 || t->step <= e->last_sent || e->h.f[0].step < 0 ||
+	               (t->step - e->last_key >= c->p.keyframe && e->skips == 0);
+	/* or one a receiver asked for, at most one in NDO_CODEC_KEY_GAP frames */
+	int asked = !periodic && e->want_key && e->since_key + 1 >= NDO_CODEC_KEY_GAP && e->skips == 0;
+	int due = periodic || asked;
 	int intra = standalone ? 2 : due ? 1 : 0;
 	uint8_t *data;
 	size_t len;
@@ -318,8 +323,13 @@ int ndo_codec_encode_tile(ndo_codec *c, int32_t self, const ndo_grid *g, const u
 			c->frnodes = nodes; /* c->fr now has the dropped frame's arrays */
 		e->skips = 0;
 		e->last_sent = t->step;
-		if (base < 0)
+		e->since_key++;
+		if (base < 0) {
 			e->last_key = t->step;
+			e->since_key = 0;
+			c->st.keys_forced += (uint64_t)asked;
+			e->want_key = 0;
+		}
 		free(e->c[CACHED - 1].data);
 		memmove(&e->c[1], &e->c[0], (CACHED - 1) * sizeof e->c[0]);
 		e->c[0] = (cached){t->step, base, data, len};
@@ -345,6 +355,17 @@ int ndo_codec_last_positions(const ndo_codec *c, double *x)
 		return ndo__fail(NDO_EINVAL, "codec: no frame encoded");
 	for (int n = 0; n < c->last_nodes; n++)
 		ndo_codec_frame_position(&c->p, c->last, n, x + 3 * n);
+	return 0;
+}
+
+int ndo_codec_want_key(ndo_codec *c, int32_t self, int32_t code)
+{
+	for (size_t k = 0; k < c->n; k++)
+		if (c->e[k]->sender == self && c->e[k]->code == code) {
+			c->st.keys_asked++;
+			c->e[k]->want_key = c->e[k]->last_key >= 0; /* none sent yet: the first is one */
+			return 1;
+		}
 	return 0;
 }
 

@@ -4,10 +4,14 @@
 #include "ndo/quadtree.h"
 #include "ndo/status.h"
 
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/random.h>
 #include <sys/time.h>
+#include <time.h>
+#include <unistd.h>
 
 #define MAX_SENDERS 64
 /* Tiles held for their reference (struct ndo_net's held): at most this
@@ -15,12 +19,20 @@
  * long — a reference lost, not late, is replaced by the next keyframe. */
 #define HOLD_MAX 64
 #define HOLD_SECONDS 1.0
+/* Tiles whose keyframe was asked for lately, by this receiver or another
+ * (ndo_net_ask_keys): the oldest forgotten beyond this many. */
+#define ASKED_MAX 256
 
 typedef struct sender {
 	int32_t id;
 	int64_t last[NDO_MSG_NTYPES]; /* last accepted seq, −1 none */
+	int64_t seen[NDO_MSG_NTYPES]; /* newest seq arrived (held or not), −1 none */
 	double heard;
 } sender;
+
+/* Sequence numbers found missing (a later one arrived first), to time the
+ * ones that come late: how late reordered messages are here. */
+#define GAPS_MAX 32
 
 typedef struct tile_slot {
 	int32_t sender;  /* 0: empty */
@@ -70,6 +82,22 @@ struct ndo_net {
 		double since;
 	} held[HOLD_MAX];
 	int nheld;
+	int ask;         /* ndo_net_ask_keys */
+	double ask_wait; /* s from a request to its keyframe, smoothed */
+	double late;     /* s a reordered message came after its gap was seen (decaying max) */
+	struct gap {
+		int32_t sender;
+		int type;
+		int64_t lo, hi; /* missing seqs lo..hi */
+		double at;      /* when found missing */
+	} gaps[GAPS_MAX];
+	int ngaps, gapnext;
+	struct asked {
+		int32_t sender, code;
+		int coarse;
+		double at;
+	} asked[ASKED_MAX];
+	int nasked;
 };
 
 #define PARK_MAX_BYTES (32u << 20)
@@ -261,7 +289,7 @@ static sender *find_sender(ndo_net *n, int32_t id, int create)
 	}
 	n->senders[k].id = id;
 	for (int t = 0; t < NDO_MSG_NTYPES; t++)
-		n->senders[k].last[t] = -1;
+		n->senders[k].last[t] = n->senders[k].seen[t] = -1;
 	return &n->senders[k];
 }
 
@@ -431,6 +459,70 @@ static void accept(ndo_net *n, int t, ndo_msg *m)
 	n->st.accepted++;
 }
 
+/* A validated message's place in its sender's sequence, as it arrives
+ * (held or not): a gap it opens is remembered, and a message that fills one
+ * times how late reordered messages come here (n->late, a maximum that
+ * decays by a tenth of the difference at each sample). */
+static void note_order(ndo_net *n, int t, const ndo_msg_header_t *h)
+{
+	sender *s = find_sender(n, h->sender_id, 1);
+	int64_t seq = h->seq, seen = s->seen[t];
+	if (seq > seen) {
+		s->seen[t] = seq;
+		if (seen >= 0 && seq > seen + 1) {
+			n->gaps[n->gapnext] = (struct gap){h->sender_id, t, seen + 1, seq - 1, n->now};
+			n->gapnext = (n->gapnext + 1) % GAPS_MAX;
+			n->ngaps += n->ngaps < GAPS_MAX;
+		}
+		return;
+	}
+	for (int k = 0; k < n->ngaps; k++) {
+		const struct gap *g = &n->gaps[k];
+		if (g->sender == h->sender_id && g->type == t && seq >= g->lo && seq <= g->hi) {
+			double late = n->now - g->at;
+			n->late = late > n->late ? late : n->late + 0.1 * (late - n->late);
+			return;
+		}
+	}
+}
+
+/* The quad-tree code of a tile (of the send level's grid when coarse), or
+ * −1 (a range that validated always has one). */
+static int32_t tile_code(const ndo_net *n, const ndo_msg_tile_t *t)
+{
+	int level = n->ctx.level - ((t->channels & NDO_TILE_COARSE) ? n->ctx.coarse : 0);
+	ndo_quad q;
+	if (ndo_quad_from_range(level, t->depth, t->i0, t->j0, t->i1, t->j1, &q) != 0)
+		return -1;
+	return ndo_quad_code(q);
+}
+
+/* The entry of a tile asked for lately (NULL: none, or the oldest's slot
+ * when `make`). */
+static struct asked *asked_of(ndo_net *n, int32_t sender, int32_t code, int coarse, int make)
+{
+	int old = 0;
+	for (int k = 0; k < n->nasked; k++) {
+		struct asked *a = &n->asked[k];
+		if (a->sender == sender && a->code == code && a->coarse == coarse)
+			return a;
+		if (a->at < n->asked[old].at)
+			old = k;
+	}
+	if (!make)
+		return NULL;
+	struct asked *a = n->nasked < ASKED_MAX ? &n->asked[n->nasked++] : &n->asked[old];
+	*a = (struct asked){sender, code, coarse, -1e300};
+	return a;
+}
+
+/* Another receiver's request: those tiles count as asked for, here too. */
+static void heard_ask(ndo_net *n, const ndo_msg_key_request_t *k)
+{
+	for (int j = 0; j < k->ntiles; j++)
+		asked_of(n, k->sender, k->codes[j], k->coarse, 1)->at = n->now;
+}
+
 /* The decoder of a tile: the send level's (NDO_TILE_COARSE) or the object's. */
 static ndo_codec *codec_of(const ndo_net *n, const ndo_msg_tile_t *t)
 {
@@ -445,6 +537,7 @@ static int decode_encoded(ndo_net *n, ndo_msg *m)
 	/* decoded here, in arrival order: each frame is a reference for
 	 * the next ones, whoever uses it */
 	ndo_codec *codec = codec_of(n, &m->u.tile);
+	const int key = m->u.tile.base_step < 0;
 	ndo_drop r = codec ? ndo_codec_decode_tile(codec, &m->u.tile) : NDO_DROP_ENCODING;
 	if (r == NDO_DROP_NONE) /* the decoded state, against the box */
 		r = ndo_msg_check_box(&m->u.tile, &n->ctx);
@@ -454,6 +547,16 @@ static int decode_encoded(ndo_net *n, ndo_msg *m)
 		return -1;
 	}
 	m->decoded = 1;
+	if (n->nasked) { /* its frames decode again: a loss asks again at once */
+		int32_t code = tile_code(n, &m->u.tile);
+		struct asked *a = asked_of(n, m->u.tile.hdr.sender_id, code,
+		                           (m->u.tile.channels & NDO_TILE_COARSE) != 0, 0);
+		if (a && a->at > -1e299) {
+			if (key) /* the time from a request to its keyframe, smoothed */
+				n->ask_wait += 0.125 * (n->now - a->at - n->ask_wait);
+			a->at = -1e300;
+		}
+	}
 	int skipped = n->skipped && n->keep_all ? ndo_codec_skipped(codec, &m->u.tile) : 0;
 	for (int k = 0; k < skipped; k++) {
 		ndo_msg sk;
@@ -537,6 +640,65 @@ static void release_held(ndo_net *n, const ndo_msg_tile_t *t)
 			again = 1;
 		}
 	}
+}
+
+void ndo_net_ask_keys(ndo_net *n, int on)
+{
+	n->ask = on != 0;
+	if (n->ask_wait <= 0)
+		n->ask_wait = NDO_NET_ASK_MIN;
+}
+
+int32_t ndo_net_new_id(void)
+{
+	uint32_t r = 0;
+	if (getrandom(&r, sizeof r, GRND_NONBLOCK) != (ssize_t)sizeof r) {
+		struct timespec ts; /* no entropy yet (early boot): the clock and the pid */
+		clock_gettime(CLOCK_REALTIME, &ts);
+		uint64_t h = ((uint64_t)ts.tv_nsec ^ (uint64_t)ts.tv_sec << 30 ^ (uint64_t)getpid() << 20) *
+		             0x9e3779b97f4a7c15ull;
+		r = (uint32_t)(h >> 32);
+	}
+	return (int32_t)((r & 0x7ffffffe) | 1);
+}
+
+/* At the end of a poll, the link drained: ask the senders of the tiles
+ * still held for keyframes — one request per (sender, grid), tiles asked
+ * for lately left out.  A request that cannot be sent is counted (published failed), not
+ * an error: the tile's next periodic keyframe still comes. */
+static void ask_keys(ndo_net *n)
+{
+	ndo_msg_key_request_t r[HOLD_MAX];
+	int32_t codes[HOLD_MAX][HOLD_MAX];
+	int nr = 0;
+	/* asked again when twice the usual wait for a keyframe passed without
+	 * one (the request or the keyframe lost) */
+	const double again = fmin(NDO_NET_ASK_AGAIN, fmax(NDO_NET_ASK_MIN, 2 * n->ask_wait));
+	/* and not before a reordered reference would have come */
+	const double wait = fmin(NDO_NET_ASK_AGAIN, 1.5 * n->late);
+	for (int k = 0; k < n->nheld; k++) {
+		const ndo_msg_tile_t *t = &n->held[k].m.u.tile;
+		if (n->now - n->held[k].since < wait)
+			continue;
+		int32_t code = tile_code(n, t);
+		if (code < 0)
+			continue;
+		int coarse = (t->channels & NDO_TILE_COARSE) != 0;
+		struct asked *a = asked_of(n, t->hdr.sender_id, code, coarse, 1);
+		if (n->now - a->at < again)
+			continue;
+		a->at = n->now;
+		int g = 0;
+		while (g < nr && !(r[g].sender == t->hdr.sender_id && r[g].coarse == coarse))
+			g++;
+		if (g == nr)
+			r[nr++] = (ndo_msg_key_request_t){.sender = t->hdr.sender_id,
+			                                  .coarse = (int8_t)coarse, .codes = codes[g]};
+		r[g].codes[r[g].ntiles++] = code;
+	}
+	for (int g = 0; g < nr; g++)
+		if (ndo_net_publish(n, NDO_MSG_KEY_REQUEST, &r[g]) == 0)
+			n->st.keys_asked += (uint64_t)r[g].ntiles;
 }
 
 /* Held tiles past HOLD_SECONDS: their reference was lost, not late. */
@@ -628,6 +790,9 @@ static void on_message(ndo_net *n, int t, const uint8_t *data, size_t len, int s
 		ndo_msg_free(&m);
 		return;
 	}
+	note_order(n, t, m.hdr);
+	if (t == NDO_MSG_KEY_REQUEST)
+		heard_ask(n, &m.u.key_request);
 	if (t == NDO_MSG_TILE && m.u.tile.encoding != NDO_ENC_RAW) {
 		if (hold(n, &m) || decode_encoded(n, &m))
 			return;
@@ -670,6 +835,8 @@ int ndo_net_poll(ndo_net *n, double now)
 	uint64_t before = n->st.accepted;
 	int rc = ndo_link_poll(n->link, now, on_bytes, n);
 	expire_held(n);
+	if (n->ask && n->nheld)
+		ask_keys(n);
 	n->st.dropped[NDO_DROP_INJECTED] = ndo_link_injected_drops(n->link);
 	if (rc < 0)
 		return rc;
@@ -768,6 +935,9 @@ void ndo_net_stats_format(const ndo_net *n, char *buf, size_t size)
 		                (unsigned long long)s->published);
 	if (s->held && len > 0 && (size_t)len < size)
 		len += snprintf(buf + len, size - (size_t)len, ", held %llu", (unsigned long long)s->held);
+	if (s->keys_asked && len > 0 && (size_t)len < size)
+		len += snprintf(buf + len, size - (size_t)len, ", keyframes asked %llu",
+		                (unsigned long long)s->keys_asked);
 	if (s->unwanted && len > 0 && (size_t)len < size)
 		snprintf(buf + len, size - (size_t)len, "; %llu tiles not used here, passed over",
 		         (unsigned long long)s->unwanted);

@@ -1034,6 +1034,14 @@ static int handle(ndo_session *s, ndo_msg *m)
 			s->full_pending = 1;
 		}
 		return 0;
+	case NDO_MSG_KEY_REQUEST: {
+		/* a receiver lost a frame of tiles this peer sends */
+		const ndo_msg_key_request_t *k = &m->u.key_request;
+		ndo_codec *c = k->coarse ? s->cenc : s->enc;
+		for (int j = 0; c && k->sender == s->self && j < k->ntiles; j++)
+			ndo_codec_want_key(c, s->self, k->codes[j]);
+		return 0;
+	}
 	case NDO_MSG_HEARTBEAT:
 		if (owner && !mem)
 			add_member(s, from, -1); /* its hello was lost */
@@ -1515,6 +1523,7 @@ int ndo_session_create(const ndo_session_opts *o, ndo_net *net, ndo_grid *grid,
 	s->grid = grid;
 	if (o->tile_fn)
 		ndo_net_keep_all_tiles(net, 1);
+	ndo_net_ask_keys(net, 1); /* for the encoded tiles other peers send */
 	s->level = -1;
 	s->send_level = NDO_MAX_LEVEL + 1; /* none below the object's until known */
 	s->epoch = 0;
@@ -1700,6 +1709,12 @@ void ndo_session_codec_stats(const ndo_session *s, ndo_codec_stats *enc, ndo_cod
 		memset(enc, 0, sizeof *enc);
 		if (s->enc)
 			ndo_codec_stats_get(s->enc, enc);
+		if (s->cenc) {
+			ndo_codec_stats c;
+			ndo_codec_stats_get(s->cenc, &c);
+			enc->keys_asked += c.keys_asked;
+			enc->keys_forced += c.keys_forced;
+		}
 	}
 	if (dec) {
 		memset(dec, 0, sizeof *dec);

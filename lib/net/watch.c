@@ -95,6 +95,10 @@ int ndo_watch_create(ndo_net *net, const ndo_watch_opts *o, ndo_watch **out)
 	for (int k = 0; k < EPOCHS; k++)
 		w->maps[k].epoch = -1;
 	ndo_net_keep_all_tiles(net, 1);
+	if (!o->passive) {
+		ndo_net_ctx(net)->self_id = ndo_net_new_id();
+		ndo_net_ask_keys(net, 1);
+	}
 	*out = w;
 	return 0;
 }

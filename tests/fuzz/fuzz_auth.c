@@ -43,6 +43,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 		ndo_link_open_mem(bus, &tx);
 		ndo_link_open_mem(bus, &l);
 		ndo_net_create(l, "F", 99, &rx);
+		ndo_net_ask_keys(rx, 1); /* held tiles: keyframe requests published */
 		ndo_net_set_key(rx, &key);
 		ndo_auth_create(&key, &sealer);
 	}

@@ -55,6 +55,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 		ndo_link_open_mem(bus, &l);
 		ndo_net_create(l, "F", 99, &rx);
 		ndo_net_set_tile_want(rx, even_steps, NULL);
+		ndo_net_ask_keys(rx, 1); /* held tiles: keyframe requests published */
 	}
 	char ch[32];
 	strcpy(ch, "F_");

@@ -304,6 +304,9 @@ typedef struct ndo_codec ndo_codec;
 typedef struct ndo_codec_stats {
 	uint64_t encoded, skipped, keyframes, raw_fallbacks;
 	uint64_t decoded, implied, corrupt, nobase;
+	/* encoder: tiles receivers asked a keyframe of (ndo_codec_want_key),
+	 * and keyframes sent early because of it */
+	uint64_t keys_asked, keys_forced;
 	double encode_seconds, decode_seconds; /* CLOCK_MONOTONIC */
 	uint64_t payload_bytes;                /* data[] bytes encoded */
 	/* encoder: the position error it introduced (LOSSY nodes of every
@@ -342,6 +345,16 @@ int ndo_codec_encode_tile(ndo_codec *c, int32_t self, const ndo_grid *g, const u
  * nodes × 3, row-major over the tile; NaN where the frame holds none).
  * 0, or NDO_EINVAL when there is no such frame. */
 int ndo_codec_last_positions(const ndo_codec *c, double *x);
+
+/* Receivers lost a frame of (self, tile `code`) and ask for a keyframe
+ * (ndo_msg_key_request_t): its next frame is one, unless fewer than
+ * NDO_CODEC_KEY_GAP frames of it were sent since its last keyframe — then
+ * the first frame after that many is.  So however many receivers ask, and
+ * however often, at most one frame in NDO_CODEC_KEY_GAP of a tile is a
+ * keyframe they asked for.  1 when the tile is one this encoder sends, 0
+ * otherwise (nothing changes). */
+#define NDO_CODEC_KEY_GAP 4
+int ndo_codec_want_key(ndo_codec *c, int32_t self, int32_t code);
 
 /* Forget the history of (self, q): a tile that was encoded but not sent. */
 void ndo_codec_forget_tile(ndo_codec *c, int32_t self, ndo_quad q);

@@ -42,6 +42,8 @@ typedef struct ndo_net_stats {
 	                                  when it cannot come any more, after 1 s, or the
 	                                  oldest of 64 held) */
 	uint64_t holding;              /* of those, held now */
+	uint64_t keys_asked;           /* tiles this receiver asked a keyframe of
+	                                  (ndo_net_ask_keys) */
 	uint64_t unwanted;             /* tiles passed over undecoded (ndo_net_set_tile_want) */
 	uint64_t published, publish_failed;
 	uint64_t bytes_in, bytes_out;
@@ -134,6 +136,29 @@ void ndo_net_skipped_tiles(ndo_net *n, int on);
  * tile (the default). */
 typedef int (*ndo_net_tile_want_fn)(void *user, int32_t sender, int64_t step, int channels);
 void ndo_net_set_tile_want(ndo_net *n, ndo_net_tile_want_fn want, void *user);
+
+/* Ask for keyframes (on ≠ 0; off by default): a tile still held (above)
+ * when a poll has drained the link — its reference lost, or late by more
+ * than the burst it came in — has its keyframe asked of its sender in a
+ * key_request_t (ndo/msg.h; the sender's session answers it, ndo/codec.h
+ * ndo_codec_want_key).  A tile is asked for again — counting the
+ * requests other receivers made, which are multicast too — only when no
+ * frame of it decoded since and twice the usual wait from a request to its
+ * keyframe has passed (smoothed over the keyframes that came, as TCP times
+ * its round trips; within NDO_NET_ASK_MIN..NDO_NET_ASK_AGAIN seconds): the
+ * request or the keyframe was lost.  A tile lost then costs the frames of a
+ * round trip, not those up to its next periodic keyframe; a reference that
+ * was only late costs a keyframe.  Off: the receiver publishes nothing of
+ * its own accord (a recorded log, a silent observer). */
+#define NDO_NET_ASK_MIN 0.01
+#define NDO_NET_ASK_AGAIN 0.25
+void ndo_net_ask_keys(ndo_net *n, int on);
+
+/* A random nonzero sender id (from the system's entropy): a receiver that
+ * publishes (above) needs one of its own — a keyed session counts each
+ * sender's messages (ndo/auth.h), so two receivers with one id would drop
+ * each other's as replays. */
+int32_t ndo_net_new_id(void);
 
 /* Forget a sender's sequence numbers and pending tiles (it left; if it
  * comes back with the same id its numbers start again). */

@@ -46,6 +46,11 @@ typedef struct ndo_watch_opts {
 	                      (0: never) */
 	int hold_lost;     /* 1: hand out incomplete frames, the lost nodes held
 	                      at their last values */
+	int passive;       /* 1: publish nothing (a recorded log; a silent
+	                      observer); 0: ask the senders of encoded tiles
+	                      for the keyframes of the frames lost
+	                      (ndo_net_ask_keys), under a random sender id of
+	                      the watch's own (ndo_net_new_id) */
 } ndo_watch_opts;
 
 typedef struct ndo_watch ndo_watch;
