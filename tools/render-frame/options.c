@@ -88,6 +88,10 @@ static __attribute__((noreturn)) void usage(void)
 	       "      --hold-lost       draw a step whose tiles were lost too, its missing\n"
 	       "                        nodes at the last frame's values (the share held is\n"
 	       "                        printed for each such frame; default: skip it)\n"
+	       "      --passive         live: publish nothing; by default a tile whose frame\n"
+	       "                        was lost has its keyframe asked of its sender\n"
+	       "                        (encoded sessions; docs/protocol.md), which a\n"
+	       "                        passive watch waits for its next periodic one\n"
 	       "      --lcm-timeout S   live: stop after S seconds without traffic, 0..1e6\n"
 	       "                        (default 30; 0: wait for ever); it also stops when the\n"
 	       "                        owner ends the session (it follows the owner's\n"
@@ -232,7 +236,8 @@ void rf_options_parse(int argc, char **argv, rf_options *o)
 	       OPT_DISTANCE, OPT_FOV, OPT_EYE, OPT_CENTER, OPT_UP, OPT_NO_CULL, OPT_REFIT, OPT_LIGHT,
 	       OPT_BACKGROUND, OPT_COLOR, OPT_MATERIAL, OPT_COLOR_BY, OPT_RANGE, OPT_NO_COLORBAR,
 	       OPT_FONT, OPT_FLAT, OPT_CLOTH, OPT_CLOTH_THREADS, OPT_WIREFRAME, OPT_WIRE_WIDTH, OPT_BACKEND,
-	       OPT_VERSION, OPT_LCM, OPT_LCM_CHANNEL, OPT_EVERY, OPT_LCM_TIMEOUT, OPT_KEY, OPT_HOLD_LOST };
+	       OPT_VERSION, OPT_LCM, OPT_LCM_CHANNEL, OPT_EVERY, OPT_LCM_TIMEOUT, OPT_KEY, OPT_HOLD_LOST,
+	       OPT_PASSIVE };
 	static const struct option opts[] = {
 		{"output", required_argument, 0, 'o'},
 		{"start-number", required_argument, 0, OPT_START},
@@ -269,6 +274,7 @@ void rf_options_parse(int argc, char **argv, rf_options *o)
 		{"every", required_argument, 0, OPT_EVERY},
 		{"lcm-timeout", required_argument, 0, OPT_LCM_TIMEOUT},
 		{"hold-lost", no_argument, 0, OPT_HOLD_LOST},
+		{"passive", no_argument, 0, OPT_PASSIVE},
 		{"verbose", no_argument, 0, 'v'},
 		{"help", no_argument, 0, 'h'},
 		{"version", no_argument, 0, OPT_VERSION},
@@ -363,6 +369,7 @@ void rf_options_parse(int argc, char **argv, rf_options *o)
 			break;
 		case OPT_KEY: o->lcm.key = optarg; break;
 		case OPT_HOLD_LOST: o->lcm.hold_lost = 1; break;
+		case OPT_PASSIVE: o->lcm.passive = 1; break;
 		case OPT_EVERY: o->lcm.every = ndo_opt_long("--every", optarg, 1, 1000000000); break;
 		case OPT_LCM_TIMEOUT: o->lcm.timeout = ndo_opt_double("--lcm-timeout", optarg, 0, 1e6); break;
 		case 'v': o->verbose = 1; break;
@@ -380,9 +387,9 @@ void rf_options_parse(int argc, char **argv, rf_options *o)
 		ndo_usage_error("'%s': --lcm draws the peers' state; no input files with it",
 		                o->inputs[0]);
 	if (!o->use_lcm && (o->lcm.prefix || o->lcm.every || o->lcm.timeout >= 0 || o->lcm.key ||
-	                    o->lcm.hold_lost))
-		ndo_usage_error("--lcm-channel, --every, --hold-lost, --lcm-timeout and --key go with "
-		                "--lcm");
+	                    o->lcm.hold_lost || o->lcm.passive))
+		ndo_usage_error("--lcm-channel, --every, --hold-lost, --passive, --lcm-timeout and "
+		                "--key go with --lcm");
 	if (!o->lcm.prefix)
 		o->lcm.prefix = "NDO";
 	if (o->lcm.timeout < 0)

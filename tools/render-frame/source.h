@@ -41,6 +41,7 @@ typedef struct rf_lcm_options {
 	int64_t object_id;
 	const char *key;   /* --key FILE, NULL: $NDO_KEY or none */
 	int hold_lost;     /* --hold-lost: draw frames with lost tiles, held */
+	int passive;       /* --passive: ask for no keyframe (a log never does) */
 } rf_lcm_options;
 int rf_source_lcm(const rf_lcm_options *o, rf_source **out);
 /* "12 frames of object …, 0 skipped incomplete (lost tiles); the owner quit" */

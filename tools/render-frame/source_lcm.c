@@ -89,7 +89,8 @@ int rf_source_lcm(const rf_lcm_options *o, rf_source **out)
 	}
 	s->link = l;
 	ndo_net *n;
-	/* a sender id of its own, never used: the watch publishes nothing */
+	/* a placeholder sender id: a live watch takes a random one of its own
+	 * for its keyframe requests, a log's publishes nothing */
 	if ((rc = ndo_net_create(l, o->prefix, 0x7ffffffe, &n))) {
 		free(s);
 		return rc;
@@ -108,7 +109,8 @@ int rf_source_lcm(const rf_lcm_options *o, rf_source **out)
 	}
 	s->net = n;
 	ndo_watch_opts wo = {.object_id = o->object_id, .every = o->every,
-	                     .timeout = s->log ? 0 : o->timeout, .hold_lost = o->hold_lost};
+	                     .timeout = s->log ? 0 : o->timeout, .hold_lost = o->hold_lost,
+	                     .passive = s->log || o->passive};
 	if ((rc = ndo_watch_create(n, &wo, &s->watch))) {
 		free(s);
 		return rc;

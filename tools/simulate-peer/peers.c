@@ -499,6 +499,13 @@ static void summary(peer_run *pr, const char *how)
 		        pr->last ? (long long)pr->last->step : -1LL, (long long)pr->frames,
 		        (long long)ws.incomplete);
 	}
+	ndo_codec_stats enc, dec;
+	ndo_session_codec_stats(ndo_peer_session(p), &enc, &dec);
+	if (enc.keys_asked)
+		fprintf(stderr, "%s: receivers that lost frames asked for the keyframes of %lld tiles; "
+		        "%lld keyframes sent early for them (of %lld keyframes in %lld tiles sent)\n",
+		        ndo_progname, (long long)enc.keys_asked, (long long)enc.keys_forced,
+		        (long long)enc.keyframes, (long long)enc.encoded);
 	const ndo_net_stats *ns = ndo_net_stats_get(ndo_session_net(ndo_peer_session(p)));
 	fprintf(stderr, "%s: network: %s; sent %.3g MB (%.3g kB a step)\n", ndo_progname, net,
 	        (double)ns->bytes_out / 1e6,
