@@ -395,14 +395,17 @@ static void garbage_is_counted_not_trusted(void)
  * whose link has faults f (or none), its net in *wnet (or NULL); the box's
  * diagonal. */
 static void wavy_owner_and_watch(ndo_bus *bus, const ndo_codec_params *cp, int64_t object,
-                                 int level, int coarse_levels, const ndo_faults *f, ndo_session **s,
-                                 ndo_watch **w, ndo_net **wnet, double *diag)
+                                 int level, int coarse_levels, const ndo_faults *f,
+                                 const ndo_key *key, ndo_session **s, ndo_watch **w,
+                                 ndo_net **wnet, double *diag)
 {
 	ndo_link *l, *lw;
 	ndo_net *n, *nw;
 	ndo_grid *g;
 	ndo_link_open_mem(bus, &l);
 	ndo_net_create(l, "T", 11, &n);
+	if (key)
+		ndo_net_set_key(n, key);
 	ndo_shape_make("wavy", level, NULL, &g);
 	ndo_channel *rest;
 	ndo_grid_add(g, NDO_CH_REST, NDO_F64, 3, &rest);
@@ -416,6 +419,8 @@ static void wavy_owner_and_watch(ndo_bus *bus, const ndo_codec_params *cp, int64
 	if (f)
 		ndo_link_faults(lw, f, &lw);
 	ndo_net_create(lw, "T", 12, &nw);
+	if (key)
+		ndo_net_set_key(nw, key);
 	ndo_watch_opts wo = {0};
 	ndo_watch_create(nw, &wo, w);
 	if (wnet)
@@ -437,7 +442,7 @@ static void send_level_frames_and_error(void)
 		ndo_session *s;
 		ndo_watch *w;
 		double diag;
-		wavy_owner_and_watch(bus, &cp, 78, 5, 2, NULL, &s, &w, NULL, &diag);
+		wavy_owner_and_watch(bus, &cp, 78, 5, 2, NULL, NULL, &s, &w, NULL, &diag);
 		ndo_session_measure_displacement(s, 1);
 		ndo_grid *og = ndo_session_grid(s);
 		double *x = ndo_grid_f64(og, NDO_CH_POSITION, 3);
@@ -513,7 +518,8 @@ typedef struct streamed {
 	ndo_codec_stats enc;    /* the owner's encoder */
 } streamed;
 
-static void stream_to_watch(const char *spec, const ndo_faults *f, int ask, streamed *out)
+static void stream_to_watch(const char *spec, const ndo_faults *f, int ask, const ndo_key *key,
+                            streamed *out)
 {
 	memset(out, 0, sizeof *out);
 	out->last = -1;
@@ -525,7 +531,7 @@ static void stream_to_watch(const char *spec, const ndo_faults *f, int ask, stre
 	ndo_watch *w;
 	double diag;
 	ndo_net *nw;
-	wavy_owner_and_watch(bus, &cp, 79, 6, 0, f, &s, &w, &nw, &diag);
+	wavy_owner_and_watch(bus, &cp, 79, 6, 0, f, key, &s, &w, &nw, &diag);
 	ndo_net_ask_keys(nw, ask);
 	ndo_grid *og = ndo_session_grid(s);
 	double *x = ndo_grid_f64(og, NDO_CH_POSITION, 3);
@@ -598,7 +604,7 @@ static void reordered_frames_are_held(void)
 		ndo_faults f = {.reorder = 0.05, .drop = lossy ? 0.05 : 0, .delay_ms = 2, .jitter_ms = 2,
 		                .seed = 3};
 		streamed r;
-		stream_to_watch(spec, &f, ask, &r);
+		stream_to_watch(spec, &f, ask, NULL, &r);
 		CHECK(r.net.held > 0, "%s: no frame was held", spec);
 		/* without loss, the only frames missing are those a keyframe (every
 		 * 32 steps) overtook: one step or two before it, older than a frame
@@ -641,8 +647,8 @@ static void lost_frames_ask_for_keyframes(void)
 		for (int seed = 5; seed < 5 + seeds; seed++) {
 			ndo_faults f = {.drop = 0.05, .delay_ms = 2, .jitter_ms = 2, .seed = (uint64_t)seed};
 			streamed ask, silent;
-			stream_to_watch(specs[e], &f, 1, &ask);
-			stream_to_watch(specs[e], &f, 0, &silent);
+			stream_to_watch(specs[e], &f, 1, NULL, &ask);
+			stream_to_watch(specs[e], &f, 0, NULL, &silent);
 			fa += ask.frames, fs += silent.frames;
 			CHECK(ask.net.keys_asked > 0 && ask.enc.keys_asked == ask.net.keys_asked &&
 			          ask.enc.keys_forced > 0 && silent.enc.keys_forced == 0,
@@ -653,6 +659,20 @@ static void lost_frames_ask_for_keyframes(void)
 			CHECK(ask.worst <= 1e-4 * (1 + 1e-9), "%s: a frame %.3g of the diagonal off",
 			      specs[e], ask.worst);
 		}
+		/* in a keyed session the watch's requests are sealed under its own
+		 * random id, and the owner answers them */
+		ndo_key key;
+		ndo_key_parse("00112233445566778899aabbccddeeff00112233445566778899aabbccddeeff", 64,
+		              &key);
+		ndo_faults f = {.drop = 0.05, .delay_ms = 2, .jitter_ms = 2, .seed = 5};
+		streamed keyed;
+		stream_to_watch(specs[e], &f, 1, &key, &keyed);
+		CHECK(keyed.net.keys_asked > 0 && keyed.enc.keys_asked == keyed.net.keys_asked &&
+		          keyed.enc.keys_forced > 0 && keyed.net.dropped[NDO_DROP_REPLAY] == 0,
+		      "%s, keyed: the watch asked %llu, the owner heard %llu and sent %llu early",
+		      specs[e], (unsigned long long)keyed.net.keys_asked,
+		      (unsigned long long)keyed.enc.keys_asked,
+		      (unsigned long long)keyed.enc.keys_forced);
 		/* the frames lost asking at most half those lost not asking (16
 		 * seeds: 0.37) */
 		int total = seeds * STREAM_STEPS;
@@ -695,7 +715,7 @@ static void unreferenced_frames_are_bounded(void)
 	ndo_watch *w;
 	ndo_net *nw;
 	double diag, t = 0;
-	wavy_owner_and_watch(bus, &cp, 80, 5, 0, NULL, &s, &w, &nw, &diag);
+	wavy_owner_and_watch(bus, &cp, 80, 5, 0, NULL, NULL, &s, &w, &nw, &diag);
 	ndo_grid *og = ndo_session_grid(s);
 	double *x = ndo_grid_f64(og, NDO_CH_POSITION, 3);
 	spied sp = {.channel = "T_TILE"};
@@ -764,7 +784,13 @@ static void collect_codes(void *user, const char *channel, const void *data, siz
 {
 	tile_codes *tc = user;
 	ndo_msg m;
-	if (strcmp(channel, "T_TILE") != 0 || ndo_msg_decode(NDO_MSG_TILE, data, len, &m) != NDO_DROP_NONE)
+	if (strcmp(channel, "T_TILE") != 0)
+		return;
+	/* sealed in a keyed session: the message before the trailer (the spy
+	 * reads it; it does not check it) */
+	if (ndo_msg_decode(NDO_MSG_TILE, data, len, &m) != NDO_DROP_NONE &&
+	    (len < NDO_AUTH_TRAILER ||
+	     ndo_msg_decode(NDO_MSG_TILE, data, len - NDO_AUTH_TRAILER, &m) != NDO_DROP_NONE))
 		return;
 	ndo_quad q;
 	if (m.hdr->sender_id == 11 && (m.u.tile.channels & NDO_TILE_POSITION) &&
@@ -787,8 +813,12 @@ static void collect_codes(void *user, const char *channel, const void *data, siz
 static void key_requests_are_bounded(void)
 {
 	const int steps = 64;
-	uint64_t bytes[2] = {0, 0};
-	for (int flood = 0; flood < 2; flood++) {
+	uint64_t bytes[3] = {0, 0, 0};
+	ndo_key key;
+	ndo_key_parse("00112233445566778899aabbccddeeff00112233445566778899aabbccddeeff", 64, &key);
+	/* 0: no flood; 1: a flood; 2: the same flood on a keyed session, the
+	 * rogue without the key (its requests dropped unread) */
+	for (int flood = 0; flood < 3; flood++) {
 		ndo_bus *bus;
 		ndo_bus_create(&bus);
 		ndo_codec_params cp;
@@ -803,7 +833,8 @@ static void key_requests_are_bounded(void)
 		ndo_watch *w;
 		ndo_net *nw;
 		double diag, t = 0;
-		wavy_owner_and_watch(bus, &cp, 81, 5, 0, NULL, &s, &w, &nw, &diag);
+		wavy_owner_and_watch(bus, &cp, 81, 5, 0, NULL, flood == 2 ? &key : NULL, &s, &w, &nw,
+		                     &diag);
 		ndo_grid *og = ndo_session_grid(s);
 		double *x = ndo_grid_f64(og, NDO_CH_POSITION, 3);
 		tile_codes tc = {.n = 0};
@@ -834,11 +865,21 @@ static void key_requests_are_bounded(void)
 		bytes[flood] = enc.payload_bytes;
 		printf("    %s: %d tiles, %d frames of %d; the owner heard %llu tiles asked for, sent "
 		       "%llu keyframes, %llu of them asked for; %llu bytes of payload\n",
-		       flood ? "asked for every tile every step" : "not asked", tc.n, frames, steps,
+		       flood == 2   ? "keyed, asked by a rogue without the key"
+		       : flood == 1 ? "asked for every tile every step"
+		                    : "not asked",
+		       tc.n, frames, steps,
 		       (unsigned long long)enc.keys_asked, (unsigned long long)enc.keyframes,
 		       (unsigned long long)enc.keys_forced, (unsigned long long)enc.payload_bytes);
 		CHECK(tc.n > 0 && frames >= steps - 1, "%d tiles, %d frames of %d", tc.n, frames, steps);
-		if (flood) {
+		if (flood == 2) {
+			const ndo_net_stats *os = ndo_net_stats_get(ndo_session_net(s));
+			CHECK(enc.keys_asked == 0 && enc.keys_forced == 0 &&
+			          os->dropped[NDO_DROP_UNSIGNED] >= (uint64_t)steps,
+			      "keyed: %llu tiles asked of the owner, %llu keyframes forced, %llu unsigned",
+			      (unsigned long long)enc.keys_asked, (unsigned long long)enc.keys_forced,
+			      (unsigned long long)os->dropped[NDO_DROP_UNSIGNED]);
+		} else if (flood) {
 			uint64_t most = (uint64_t)tc.n * (1 + (uint64_t)steps / NDO_CODEC_KEY_GAP);
 			CHECK(enc.keyframes <= most && enc.keys_forced + 3 * (uint64_t)tc.n >= most &&
 			          enc.keys_asked <= (uint64_t)(steps * tc.n) &&
