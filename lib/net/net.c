@@ -466,6 +466,7 @@ static void accept(ndo_net *n, int t, ndo_msg *m)
 static void note_order(ndo_net *n, int t, const ndo_msg_header_t *h)
 {
 	sender *s = find_sender(n, h->sender_id, 1);
+	s->heard = n->now;
 	int64_t seq = h->seq, seen = s->seen[t];
 	if (seq > seen) {
 		s->seen[t] = seq;
@@ -663,9 +664,10 @@ int32_t ndo_net_new_id(void)
 }
 
 /* At the end of a poll, the link drained: ask the senders of the tiles
- * still held for keyframes — one request per (sender, grid), tiles asked
- * for lately left out.  A request that cannot be sent is counted (published failed), not
- * an error: the tile's next periodic keyframe still comes. */
+ * held longer than reordered messages come late for keyframes — one request
+ * per (sender, grid), tiles asked for lately left out.  A request that
+ * cannot be sent is counted (publish_failed), not an error: the tile's next
+ * periodic keyframe still comes. */
 static void ask_keys(ndo_net *n)
 {
 	ndo_msg_key_request_t r[HOLD_MAX];

@@ -138,17 +138,19 @@ typedef int (*ndo_net_tile_want_fn)(void *user, int32_t sender, int64_t step, in
 void ndo_net_set_tile_want(ndo_net *n, ndo_net_tile_want_fn want, void *user);
 
 /* Ask for keyframes (on ≠ 0; off by default): a tile still held (above)
- * when a poll has drained the link — its reference lost, or late by more
- * than the burst it came in — has its keyframe asked of its sender in a
- * key_request_t (ndo/msg.h; the sender's session answers it, ndo/codec.h
+ * when a poll has drained the link, and held longer than reordered messages
+ * come late here (1.5 times the longest lateness of a message that filled a
+ * gap in its sender's sequence numbers, decaying toward later ones; at most
+ * NDO_NET_ASK_AGAIN; 0 until the network reorders anything) — its reference
+ * lost, not late — has its keyframe asked of its sender in a key_request_t
+ * (ndo/msg.h; the sender's session answers it, ndo/codec.h
  * ndo_codec_want_key).  A tile is asked for again — counting the
  * requests other receivers made, which are multicast too — only when no
  * frame of it decoded since and twice the usual wait from a request to its
  * keyframe has passed (smoothed over the keyframes that came, as TCP times
  * its round trips; within NDO_NET_ASK_MIN..NDO_NET_ASK_AGAIN seconds): the
  * request or the keyframe was lost.  A tile lost then costs the frames of a
- * round trip, not those up to its next periodic keyframe; a reference that
- * was only late costs a keyframe.  Off: the receiver publishes nothing of
+ * round trip, not those up to its next periodic keyframe.  Off: the receiver publishes nothing of
  * its own accord (a recorded log, a silent observer). */
 #define NDO_NET_ASK_MIN 0.01
 #define NDO_NET_ASK_AGAIN 0.25
