@@ -347,11 +347,10 @@ int ndo_codec_encode_tile(ndo_codec *c, int32_t self, const ndo_grid *g, const u
 int ndo_codec_last_positions(const ndo_codec *c, double *x);
 
 /* Receivers lost a frame of (self, tile `code`) and ask for a keyframe
- * (ndo_msg_key_request_t): its next frame is one, unless fewer than
- * NDO_CODEC_KEY_GAP frames of it were sent since its last keyframe — then
- * the first frame after that many is.  So however many receivers ask, and
- * however often, at most one frame in NDO_CODEC_KEY_GAP of a tile is a
- * keyframe they asked for.  1 when the tile is one this encoder sends, 0
+ * (ndo_msg_key_request_t): its next frame is one, unless its last keyframe
+ * is fewer than NDO_CODEC_KEY_GAP frames back — then the frame that many
+ * after it is.  So however many receivers ask, and however often, at most
+ * one frame in NDO_CODEC_KEY_GAP of a tile is a keyframe they asked for.  1 when the tile is one this encoder sends, 0
  * otherwise (nothing changes). */
 #define NDO_CODEC_KEY_GAP 4
 int ndo_codec_want_key(ndo_codec *c, int32_t self, int32_t code);
