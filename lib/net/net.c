@@ -31,8 +31,11 @@ typedef struct sender {
 } sender;
 
 /* Sequence numbers found missing (a later one arrived first), to time the
- * ones that come late: how late reordered messages are here. */
+ * ones that come late: how late reordered messages are here, remembered
+ * over LATE_MEMORY seconds (many messages a little late — jitter — must
+ * not make a receiver forget the few that come much later). */
 #define GAPS_MAX 32
+#define LATE_MEMORY 10.0
 
 typedef struct tile_slot {
 	int32_t sender;  /* 0: empty */
@@ -84,7 +87,9 @@ struct ndo_net {
 	int nheld;
 	int ask;         /* ndo_net_ask_keys */
 	double ask_wait; /* s from a request to its keyframe, smoothed */
-	double late;     /* s a reordered message came after its gap was seen (decaying max) */
+	double late;     /* s a reordered message came after its gap was seen: the
+	                    largest, decaying by e every LATE_MEMORY s since late_at */
+	double late_at;
 	struct gap {
 		int32_t sender;
 		int type;
@@ -459,10 +464,16 @@ static void accept(ndo_net *n, int t, ndo_msg *m)
 	n->st.accepted++;
 }
 
+/* How late reordered messages come here now: the largest lateness seen,
+ * decayed over the time since. */
+static double late_now(const ndo_net *n)
+{
+	return n->late > 0 ? n->late * exp(-(n->now - n->late_at) / LATE_MEMORY) : 0;
+}
+
 /* A validated message's place in its sender's sequence, as it arrives
  * (held or not): a gap it opens is remembered, and a message that fills one
- * times how late reordered messages come here (n->late, a maximum that
- * decays by a tenth of the difference at each sample). */
+ * times how late reordered messages come here (late_now). */
 static void note_order(ndo_net *n, int t, const ndo_msg_header_t *h)
 {
 	sender *s = find_sender(n, h->sender_id, 1);
@@ -480,8 +491,11 @@ static void note_order(ndo_net *n, int t, const ndo_msg_header_t *h)
 	for (int k = 0; k < n->ngaps; k++) {
 		const struct gap *g = &n->gaps[k];
 		if (g->sender == h->sender_id && g->type == t && seq >= g->lo && seq <= g->hi) {
-			double late = n->now - g->at;
-			n->late = late > n->late ? late : n->late + 0.1 * (late - n->late);
+			double late = n->now - g->at, was = late_now(n);
+			if (late >= was) {
+				n->late = late;
+				n->late_at = n->now;
+			}
 			return;
 		}
 	}
@@ -677,7 +691,7 @@ static void ask_keys(ndo_net *n)
 	 * one (the request or the keyframe lost) */
 	const double again = fmin(NDO_NET_ASK_AGAIN, fmax(NDO_NET_ASK_MIN, 2 * n->ask_wait));
 	/* and not before a reordered reference would have come */
-	const double wait = fmin(NDO_NET_ASK_AGAIN, 1.5 * n->late);
+	const double wait = fmin(NDO_NET_ASK_AGAIN, 1.5 * late_now(n));
 	for (int k = 0; k < n->nheld; k++) {
 		const ndo_msg_tile_t *t = &n->held[k].m.u.tile;
 		if (n->now - n->held[k].since < wait)

@@ -15,6 +15,13 @@
  *                                    a step, rkf45's attempts, the solve's
  *                                    iterations with the region's block or
  *                                    the diagonal as the preconditioner
+ *   bench_peers keyframes            a watch that asks for the keyframes of
+ *                                    the tiles it lost a frame of, and one
+ *                                    that does not (level 6, hier:1e-4, 300
+ *                                    steps, 16 seeds a row): frames, bytes,
+ *                                    keyframes asked for, by loss; and with
+ *                                    reordering alone (docs/protocol.md,
+ *                                    "Keyframe requests")
  *   bench_peers halo-bits [-l LEVEL] (level 6 unless given; the others
  *                                    default to 5) what the exact rk4 halo
  *                                    of 2 bands holds: the bits a value left after
@@ -22,6 +29,7 @@
  *                                    make (docs/peers.md, "Not done")
  */
 #include "../unit/peer_world.h"
+#include "../unit/watch_stream.h"
 
 #include "ndo/partition.h"
 #include "ndo/quadtree.h"
@@ -310,6 +318,54 @@ static void halo_bits(int level)
 	free(ug), free(vg), free(up), free(vp), free(ring), free(all), free(own), free(cells);
 }
 
+/* One row: `seeds` streams asking and as many not, with faults f (its seed
+ * 1, 2, ...), polled every dt seconds. */
+static void keyframes_row(const char *what, ndo_faults f, double dt, int seeds)
+{
+	double fa = 0, fs = 0, bytes = 0, forced = 0, nobase[2] = {0, 0};
+	int n = 0;
+	for (int seed = 1; seed <= seeds; seed++) {
+		f.seed = (uint64_t)seed;
+		streamed a, b;
+		if (stream_to_watch("hier:1e-4", &f, 1, NULL, dt, 1, &a) ||
+		    stream_to_watch("hier:1e-4", &f, 0, NULL, dt, 1, &b))
+			continue;
+		fa += a.frames, fs += b.frames, forced += (double)a.enc.keys_forced;
+		bytes += (double)a.enc.payload_bytes / (double)b.enc.payload_bytes;
+		nobase[0] += (double)a.net.dropped[NDO_DROP_NOBASE];
+		nobase[1] += (double)b.net.dropped[NDO_DROP_NOBASE];
+		n++;
+	}
+	if (!n)
+		return;
+	printf("| %s | %.1f | %.1f | %.1f | %.1f | %.1f | %.3f |\n", what, fa / n, fs / n,
+	       nobase[0] / n, nobase[1] / n, forced / n, bytes / n);
+}
+
+static void keyframes(void)
+{
+	enum { SEEDS = 16 };
+	printf("A level-6 owner streaming hier:1e-4 to a watch, every step a frame (two tiles), "
+	       "%d steps; the means over %d seeds of the faults (the same for both watches of a "
+	       "seed): frames the watch gave, tiles dropped as nobase, keyframes the owner sent "
+	       "because the watch asked, and the owner's payload asking over not.\n\n",
+	       STREAM_STEPS, SEEDS);
+	printf("| faults (the watch's link; delay 2 ms + 0-2 ms) | frames, asking | frames, not "
+	       "asking | nobase, asking | nobase, not | keyframes asked for | bytes, asking / not "
+	       "|\n|---|---:|---:|---:|---:|---:|---:|\n");
+	const double drops[] = {0, 0.01, 0.05, 0.2};
+	for (int k = 0; k < 4; k++) {
+		char what[64];
+		snprintf(what, sizeof what, "%g %% lost, polled every 10 ms", 100 * drops[k]);
+		keyframes_row(what, (ndo_faults){.drop = drops[k], .delay_ms = 2, .jitter_ms = 2},
+		              0.01, SEEDS);
+	}
+	/* reordered messages 13-17 ms late, polled every 2 ms: a frame waits held
+	 * over several polls for its late reference */
+	keyframes_row("5 % late (13-17 ms), polled every 2 ms",
+	              (ndo_faults){.reorder = 0.05, .delay_ms = 2, .jitter_ms = 2}, 0.002, SEEDS);
+}
+
 int main(int argc, char **argv)
 {
 	int level = argc > 3 && strcmp(argv[2], "-l") == 0 ? atoi(argv[3]) : 5;
@@ -319,10 +375,13 @@ int main(int argc, char **argv)
 		realtime(level);
 	else if (argc > 1 && strcmp(argv[1], "split") == 0)
 		split(level);
+	else if (argc > 1 && strcmp(argv[1], "keyframes") == 0)
+		keyframes();
 	else if (argc > 1 && strcmp(argv[1], "halo-bits") == 0)
 		halo_bits(argc > 3 ? level : 6);
 	else {
-		fprintf(stderr, "usage: bench_peers lag|realtime|split|halo-bits [-l LEVEL]  (LEVEL: 6 for "
+		fprintf(stderr, "usage: bench_peers lag|realtime|split|keyframes|halo-bits [-l LEVEL]  "
+		                "(LEVEL: 6 for "
 		                "halo-bits, 5 for the others, unless given)\n");
 		return 2;
 	}
