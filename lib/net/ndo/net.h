@@ -140,7 +140,7 @@ void ndo_net_set_tile_want(ndo_net *n, ndo_net_tile_want_fn want, void *user);
 /* Ask for keyframes (on ≠ 0; off by default): a tile still held (above)
  * when a poll has drained the link, and held longer than reordered messages
  * come late here (1.5 times the longest lateness of a message that filled a
- * gap in its sender's sequence numbers, decaying toward later ones; at most
+ * gap in its sender's sequence numbers, fading by e every 10 s; at most
  * NDO_NET_ASK_AGAIN; 0 until the network reorders anything) — its reference
  * lost, not late — has its keyframe asked of its sender in a key_request_t
  * (ndo/msg.h; the sender's session answers it, ndo/codec.h
