@@ -116,11 +116,15 @@ else
 fi
 
 # 4. the observer decodes: render-frame --lcm draws predict and hier tiles as it
-# draws raw ones
+# draws raw ones (predict's with --passive: nothing is lost here, so asking
+# for keyframes or not, the same frames)
 URL='udpm://239.255.76.67:7667?ttl=0&recv_buf_size=4194304'
 for enc in raw predict hier; do
 	mkdir -p "f-$enc"
-	render-frame --lcm "$URL" --lcm-timeout 3 -s 96x72 -o "f-$enc/f%04d.png" 2>"rf-$enc.err" &
+	passive=()
+	[ $enc = predict ] && passive=(--passive)
+	render-frame --lcm "$URL" --lcm-timeout 3 "${passive[@]}" -s 96x72 -o "f-$enc/f%04d.png" \
+		2>"rf-$enc.err" &
 	rf=$!
 	sleep 0.5
 	simulate-peer --lcm "$URL" --owner w5.tgrid -s "$SCENE" --dt 0.01 -t 0.2 --encoding "$enc" \

@@ -67,6 +67,8 @@ expect_error "%s in OUT" 2 "--output: 'f%s.png': only %d, %0Nd and %% may follow
 expect_error "two %d in OUT" 2 "has 2 %d conversions" render-frame a.tgrid -o 'f%d-%d.png'
 expect_error "two inputs, no %d" 2 "--output: 'x.png' has no %d to number the frames of 2 inputs" render-frame a.tgrid b.tgrid -o x.png
 expect_error "subdivide 11" 2 "--subdivide: 11 is outside 0\.\.10" render-frame -k 11 a.tgrid -o x.png
+expect_error "--passive without --lcm" 2 "--passive, --lcm-timeout and --key go with --lcm" \
+	render-frame --passive a.tgrid -o x.png
 
 # Bad input, output or installation: one line, exit 1, nothing written.
 head -c 300 a.tgrid > short.tgrid
