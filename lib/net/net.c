@@ -531,9 +531,13 @@ static struct asked *asked_of(ndo_net *n, int32_t sender, int32_t code, int coar
 	return a;
 }
 
-/* Another receiver's request: those tiles count as asked for, here too. */
+/* Another receiver's request: those tiles count as asked for, here too —
+ * unless they are this peer's own, which it never holds (a sender flooded
+ * with requests does not scan its table for each). */
 static void heard_ask(ndo_net *n, const ndo_msg_key_request_t *k)
 {
+	if (k->sender == n->ctx.self_id)
+		return;
 	for (int j = 0; j < k->ntiles; j++)
 		asked_of(n, k->sender, k->codes[j], k->coarse, 1)->at = n->now;
 }
