@@ -497,8 +497,8 @@ static double critical_at(ndo_acc *a, int level, ndo_method method)
 			return 0;
 		a->omega[level] = cr.omega_max, a->gamma[level] = cr.gamma;
 	}
-	/* ndo_stable_step scans the modes (2–4 ms for RK4): once per level
-	 * and method. */
+	/* ndo_stable_step scans the modes (0.3–0.4 ms for RK4): once per
+	 * level and method. */
 	if (!(a->crit[level][method] > 0))
 		a->crit[level][method] = ndo_stable_step(method, a->omega[level], a->gamma[level], NULL);
 	return a->crit[level][method];

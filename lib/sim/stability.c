@@ -120,32 +120,78 @@ double ndo_amplification(ndo_method m, double omega, double gamma, double h)
  * below it a method counts as stable. */
 #define UNSTABLE 1e-12
 
+static int unstable(ndo_method m, const poly *R, double omega, double gamma, double h)
+{
+	return radius(one_step(m, R, omega, gamma, h)) > 1 + UNSTABLE;
+}
+
+/* A mode's trial steps: h_k = h_(k−1) · 1.02 from 10⁻⁹/ref (ref = max(ω,
+ * γ)) while below 10⁴/ref, about 1,150 of them.  The scan (strided 1)
+ * tries every STRIDE-th of them and, past the first that is unstable, the ones of the stride before it one by one: the same
+ * first unstable trial step as trying them all, unless a run of unstable
+ * steps shorter than a stride (an 88 % range of h) lay between two stable
+ * trial steps — and then all of them (strided 0) would still miss one
+ * shorter than 2 %.  For Euler, midpoint, RK4 and symplectic Euler the
+ * stable steps of a mode are one interval [0, limit): the two scans gave
+ * the same step, bit for bit, at 13 ω from 0.01 to 10⁴ × 62 damping rates
+ * from 0 to 1.7·10⁴ ω (806 cases a method; test_sim's
+ * the_stable_step_is_its_full_scan compares 39 more).  Not for rkf45 as
+ * propagated: its growth on the imaginary axis comes and goes, so on a
+ * lightly damped mode (γ/ω ≈ 0.004) a run of unstable steps lies between
+ * stable ones, and strided it missed that in 26 of the 806 (a step 2-3
+ * times too large).  About 100 trial steps instead of 1,150, with the
+ * bisection below. */
+#define STRIDE 32
+
 /* The smallest h > 0 at which the method turns unstable on one mode (R:
  * poly_of(m)); or, once every step up to `above` or beyond is stable, a
- * step at least that large (the limit is then not below it). */
+ * step at least that large (the limit is then not below it).  strided 0:
+ * every trial step tried (the reference). */
 static double mode_limit_above(ndo_method m, const poly *R, double omega, double gamma,
-                               double above)
+                               double above, int strided)
 {
 	double ref = fmax(omega, gamma);
 	if (!(ref > 0))
 		return INFINITY;
+	const double end = 1e4 / ref;
 	double h = 1e-9 / ref, prev = 0;
-	while (h < 1e4 / ref) {
+	if (strided && !unstable(m, R, omega, gamma, h)) {
+		/* Every STRIDE-th trial step until one is unstable (or past
+		 * `above`, or the end); then back to the stable one before it. */
+		double base = h, at;
+		for (;;) {
+			at = base;
+			int k = 0;
+			for (; k < STRIDE && at < end; k++)
+				at *= 1.02;
+			if (at >= end || base >= above || unstable(m, R, omega, gamma, at))
+				break;
+			base = at;
+		}
+		if (base >= above)
+			return base; /* stable, and not below `above` */
+		/* The trial steps after base one by one, as below, from the
+		 * stable base: base is h_k for some k, so the sequence and its
+		 * rounding are the unstrided scan's. */
+		prev = base;
+		h = base * 1.02;
+	}
+	while (h < end) {
 		if (prev >= above)
 			return prev; /* the limit is at least prev: not below `above` */
-		if (radius(one_step(m, R, omega, gamma, h)) > 1 + UNSTABLE)
+		if (unstable(m, R, omega, gamma, h))
 			break;
 		prev = h;
 		h *= 1.02;
 	}
-	if (h >= 1e4 / ref)
+	if (h >= end)
 		return INFINITY;
 	if (prev == 0)
 		return 0;
 	double lo = prev, hi = h;
 	for (int k = 0; k < 100 && hi - lo > 1e-15 * hi; k++) {
 		double mid = 0.5 * (lo + hi);
-		if (radius(one_step(m, R, omega, gamma, mid)) > 1 + UNSTABLE)
+		if (unstable(m, R, omega, gamma, mid))
 			hi = mid;
 		else
 			lo = mid;
@@ -154,10 +200,10 @@ static double mode_limit_above(ndo_method m, const poly *R, double omega, double
 }
 
 /* The smallest h > 0 at which the method turns unstable on one mode. */
-static double mode_limit(ndo_method m, double omega, double gamma)
+static double mode_limit(ndo_method m, double omega, double gamma, int strided)
 {
 	poly R = poly_of(m);
-	return mode_limit_above(m, &R, omega, gamma, INFINITY);
+	return mode_limit_above(m, &R, omega, gamma, INFINITY, strided);
 }
 
 double ndo_stability_interval(ndo_method m, int imaginary)
@@ -165,19 +211,22 @@ double ndo_stability_interval(ndo_method m, int imaginary)
 	if (ndo_method_is_implicit(m))
 		return INFINITY;
 	if (imaginary)
-		return mode_limit(m, 1, 0); /* hω on an undamped mode */
+		return mode_limit(m, 1, 0, 1); /* hω on an undamped mode */
 	/* The negative real axis: a pure decay u' = −λu is the mode ω → 0 of
 	 * u'' + γu' = 0, whose nonzero eigenvalue is −γ. */
-	return mode_limit(m, 0, 1);
+	return mode_limit(m, 0, 1, 1);
 }
 
-/* ndo_stable_step, its modes' limits found in full (`fast` 0) or each
- * mode's scan stopped once its steps pass the least limit so far, which it
- * then cannot undercut (1): the same minimum, the same mode, the same bits
- * (test_sim: the_stable_step_is_its_full_scan).  A mode's scan is about a
- * thousand steps of 2 %; RK4's 201 modes at level 6 (ω 134, γ 0.1) took
- * 5.4 ms a call in full and take 4.0 (symplectic Euler 2.6 and 1.8), and
- * the scans were half of choosing an accuracy (ndo/accuracy.h). */
+/* ndo_stable_step, its modes' limits found in full, every trial step
+ * tried (`fast` 0), or each mode's scan strided (mode_limit_above) and
+ * stopped once its steps pass the least limit so far, which it then cannot
+ * undercut (1): the same minimum, the same mode, the same bits (test_sim:
+ * the_stable_step_is_its_full_scan).  A mode's scan is about a thousand
+ * steps of 2 %; RK4's 201 modes at level 6 (ω 134, γ 0.1) took 5.4 ms a
+ * call in full and 4.0 stopped early (symplectic Euler 2.6 and 1.8), the
+ * scans half of choosing an accuracy (ndo/accuracy.h); strided as well
+ * (not rkf45), at ω 268, γ 0.1: RK4 2.65 → 0.33 ms, symplectic Euler 1.35
+ * → 0.30, Euler 0.69 → 0.17, midpoint 1.38 → 0.26 (2026-11-30, load 1). */
 double ndo__stable_step_scan(ndo_method m, double omega, double gamma, int *bound, int fast)
 {
 	if (ndo_method_is_implicit(m)) {
@@ -186,12 +235,13 @@ double ndo__stable_step_scan(ndo_method m, double omega, double gamma, int *boun
 		return INFINITY;
 	}
 	const poly R = poly_of(m);
+	const int strided = fast && m != NDO_RKF45; /* see mode_limit_above */
 	/* The modes lie anywhere in (0, ω]; lower ones can bind when damping
 	 * is heavy.  Scan ω geometrically down to 10⁻⁴ ω_max. */
 	double best = INFINITY, at = omega;
 	for (int k = 0; k <= 200; k++) {
 		double w = omega * pow(1e-4, k / 200.0);
-		double hm = mode_limit_above(m, &R, w, gamma, fast ? best : INFINITY);
+		double hm = mode_limit_above(m, &R, w, gamma, fast ? best : INFINITY, strided);
 		if (hm < best) {
 			best = hm;
 			at = w;
@@ -199,7 +249,7 @@ double ndo__stable_step_scan(ndo_method m, double omega, double gamma, int *boun
 	}
 	/* ω → 0: the pure decay −γ. */
 	if (gamma > 0) {
-		double hm = mode_limit(m, 0, gamma);
+		double hm = mode_limit(m, 0, gamma, strided);
 		if (hm < best) {
 			best = hm;
 			at = 0;

@@ -78,18 +78,21 @@ static void tableaux_are_consistent(void)
 	}
 }
 
-/* ndo_stable_step stops each mode's scan once its steps pass the least
- * limit found so far: the same step, bit for bit, and the same bound as
- * the full scans of every mode, for every explicit method, lightly and
- * heavily damped. */
+/* ndo_stable_step tries every 32nd trial step of each mode and stops the
+ * mode's scan once its steps pass the least limit found so far: the same
+ * step, bit for bit, and the same bound as the full scans of every mode,
+ * every trial step tried, for every explicit method, undamped to
+ * overdamped (γ/ω from 0 to 10⁴). */
 static void the_stable_step_is_its_full_scan(void)
 {
 	const ndo_method ms[] = {NDO_EULER, NDO_SYMPLECTIC_EULER, NDO_MIDPOINT, NDO_RK4, NDO_RKF45};
-	const double omegas[] = {1, 268}, gammas[] = {0, 0.1, 10, 1e3};
+	const double omegas[] = {1, 268, 2e4},
+	             gammas[] = {0, 1e-4, 1e-2, 0.1, 0.5, 1, 2, 5, 10, 30, 100, 1e3, 1e4};
+	const size_t nw = sizeof omegas / sizeof *omegas, ng = sizeof gammas / sizeof *gammas;
 	int cases = 0, same = 0;
 	for (size_t i = 0; i < sizeof ms / sizeof *ms; i++)
-		for (size_t j = 0; j < 2; j++)
-			for (size_t k = 0; k < 4; k++) {
+		for (size_t j = 0; j < nw; j++)
+			for (size_t k = 0; k < ng; k++) {
 				int b0 = -1, b1 = -1;
 				double full = ndo__stable_step_scan(ms[i], omegas[j], gammas[k], &b0, 0);
 				double fast = ndo_stable_step(ms[i], omegas[j], gammas[k], &b1);
