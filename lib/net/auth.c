@@ -16,7 +16,6 @@
 #include <unistd.h>
 
 #define MAGIC "nda1"
-#define SENDERS 64
 
 typedef struct window {
 	int32_t sender; /* 0: empty */
@@ -24,13 +23,14 @@ typedef struct window {
 	uint64_t top; /* newest counter seen + 1 (0: none yet) */
 	uint64_t bits[NDO_REPLAY_WINDOW / 64]; /* bit c % W: counter c seen */
 	uint64_t used; /* for evicting the least recently used */
+	double heard;  /* when a fresh message last came */
 } window;
 
 struct ndo_auth {
 	ndo_key key;
 	uint8_t instance[16];
 	uint64_t counter;
-	window w[SENDERS];
+	window w[NDO_AUTH_SENDERS];
 	uint64_t clock;
 };
 
@@ -246,18 +246,27 @@ ndo_drop ndo_auth_open(const ndo_auth *a, const char *channel, const uint8_t *bu
 	return NDO_DROP_NONE;
 }
 
-int ndo_auth_fresh(ndo_auth *a, int32_t sender, const ndo_auth_from *from)
+/* A window that may go to another sender or instance: empty, or its
+ * sender silent for longer than NDO_AUTH_KEEP. */
+static int may_go(const window *w, double now)
 {
-	window *w = NULL, *lru = &a->w[0];
-	for (int k = 0; k < SENDERS && !w; k++) {
+	return w->sender == 0 || !(now - w->heard <= NDO_AUTH_KEEP);
+}
+
+int ndo_auth_fresh(ndo_auth *a, int32_t sender, const ndo_auth_from *from, double now)
+{
+	window *w = NULL, *lru = NULL;
+	for (int k = 0; k < NDO_AUTH_SENDERS && !w; k++) {
 		if (a->w[k].sender == sender)
 			w = &a->w[k];
-		else if (a->w[k].used < lru->used)
-			lru = &a->w[k];
+		else if (may_go(&a->w[k], now) && (!lru || a->w[k].used < lru->used))
+			lru = &a->w[k]; /* empty slots have used == 0: taken first */
 	}
 	if (!w || memcmp(w->instance, from->instance, 16) != 0) {
-		if (!w)
-			w = lru; /* empty slots have used == 0: taken first */
+		if (w && !may_go(w, now))
+			return 0; /* another instance of a sender heard lately */
+		if (!w && !(w = lru))
+			return 0; /* every window's sender heard lately */
 		memset(w, 0, sizeof *w);
 		w->sender = sender;
 		memcpy(w->instance, from->instance, 16);
@@ -277,6 +286,7 @@ int ndo_auth_fresh(ndo_auth *a, int32_t sender, const ndo_auth_from *from)
 				w->bits[q % (NDO_REPLAY_WINDOW / 64)] = 0;
 		w->top = c + 1;
 		*word |= bit;
+		w->heard = now;
 		return 1;
 	}
 	if (w->top - c > NDO_REPLAY_WINDOW - 64)
@@ -284,5 +294,6 @@ int ndo_auth_fresh(ndo_auth *a, int32_t sender, const ndo_auth_from *from)
 	if (*word & bit)
 		return 0;
 	*word |= bit;
+	w->heard = now;
 	return 1;
 }

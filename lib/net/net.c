@@ -371,7 +371,7 @@ static int unwanted(ndo_net *n, const uint8_t *data, size_t len, int sealed,
 	if (!id || id == n->ctx.self_id || encoding != NDO_ENC_RAW ||
 	    n->want(n->want_user, id, step, channels))
 		return 0;
-	if (sealed && !ndo_auth_fresh(n->auth, id, from)) {
+	if (sealed && !ndo_auth_fresh(n->auth, id, from, n->now)) {
 		n->st.dropped[NDO_DROP_REPLAY]++;
 		return 1;
 	}
@@ -757,7 +757,7 @@ static void on_message(ndo_net *n, int t, const uint8_t *data, size_t len, int s
 	/* a replay is one whatever else is wrong with it (a replayed copy of
 	 * our own message too); a parked message was checked here already
 	 * and comes back unsealed */
-	if (sealed && !ndo_auth_fresh(n->auth, m.hdr->sender_id, from)) {
+	if (sealed && !ndo_auth_fresh(n->auth, m.hdr->sender_id, from, n->now)) {
 		n->st.dropped[NDO_DROP_REPLAY]++;
 		ndo_msg_free(&m);
 		return;

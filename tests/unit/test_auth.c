@@ -102,32 +102,63 @@ static void seal_open(void)
 
 	/* the replay window: new, repeated, reordered within, too old */
 	ndo_auth_from f = from;
-	CHECK(ndo_auth_fresh(b, 5, &f) == 1, "first: fresh");
-	CHECK(ndo_auth_fresh(b, 5, &f) == 0, "again: a replay");
+	CHECK(ndo_auth_fresh(b, 5, &f, 0) == 1, "first: fresh");
+	CHECK(ndo_auth_fresh(b, 5, &f, 0) == 0, "again: a replay");
 	f.counter = 10;
-	CHECK(ndo_auth_fresh(b, 5, &f) == 1, "a jump: fresh");
+	CHECK(ndo_auth_fresh(b, 5, &f, 0) == 1, "a jump: fresh");
 	f.counter = 4;
-	CHECK(ndo_auth_fresh(b, 5, &f) == 1, "a late one within the window: fresh");
-	CHECK(ndo_auth_fresh(b, 5, &f) == 0, "and once only");
-	CHECK(ndo_auth_fresh(b, 6, &f) == 1, "another sender has its own window");
+	CHECK(ndo_auth_fresh(b, 5, &f, 0) == 1, "a late one within the window: fresh");
+	CHECK(ndo_auth_fresh(b, 5, &f, 0) == 0, "and once only");
+	CHECK(ndo_auth_fresh(b, 6, &f, 0) == 1, "another sender has its own window");
 	f.counter = 10 + NDO_REPLAY_WINDOW;
-	CHECK(ndo_auth_fresh(b, 5, &f) == 1, "a window further: fresh");
+	CHECK(ndo_auth_fresh(b, 5, &f, 0) == 1, "a window further: fresh");
 	f.counter = 11;
-	CHECK(ndo_auth_fresh(b, 5, &f) == 0, "older than the window: refused");
+	CHECK(ndo_auth_fresh(b, 5, &f, 0) == 0, "older than the window: refused");
 	for (uint64_t q = 20000; q < 20000 + 3 * NDO_REPLAY_WINDOW; q += 3) {
 		f.counter = q;
-		if (!ndo_auth_fresh(b, 5, &f)) {
+		if (!ndo_auth_fresh(b, 5, &f, 0)) {
 			CHECK(0, "counter %llu refused", (unsigned long long)q);
 			break;
 		}
 	}
 	f.counter = 20000 + 3 * NDO_REPLAY_WINDOW - 3 - 600; /* seen: q steps by 3 from 20000 */
-	CHECK(ndo_auth_fresh(b, 5, &f) == 0, "seen within the window after wrapping: refused");
+	CHECK(ndo_auth_fresh(b, 5, &f, 0) == 0, "seen within the window after wrapping: refused");
 	f.counter += 1;
-	CHECK(ndo_auth_fresh(b, 5, &f) == 1, "not seen within the window after wrapping: fresh");
+	CHECK(ndo_auth_fresh(b, 5, &f, 0) == 1, "not seen within the window after wrapping: fresh");
 	f.instance[0] ^= 1;
 	f.counter = 0;
-	CHECK(ndo_auth_fresh(b, 5, &f) == 1, "a restarted sender (new instance): a new window");
+	CHECK(ndo_auth_fresh(b, 5, &f, 1) == 0,
+	      "another instance of a sender heard within NDO_AUTH_KEEP: refused");
+	CHECK(ndo_auth_fresh(b, 5, &f, NDO_AUTH_KEEP + 1) == 1,
+	      "a restarted sender (new instance), silent NDO_AUTH_KEEP: a new window");
+	/* a live sender's window survives a flood of other senders' messages
+	 * (replays of old sealed messages of many ids, as one without the key
+	 * could send): the table takes as many as it has room for, refuses
+	 * the rest while its senders are heard, and 5's replay stays one */
+	ndo_auth_from g = f;
+	g.counter = 100;
+	const double t0 = 2 * NDO_AUTH_KEEP;
+	CHECK(ndo_auth_fresh(b, 5, &g, t0) == 1, "5 heard at t0");
+	int took = 0;
+	for (int32_t id = 1000; id < 1000 + 2 * NDO_AUTH_SENDERS; id++) {
+		ndo_auth_from o = g;
+		o.counter = 1;
+		took += ndo_auth_fresh(b, id, &o, t0 + 1);
+	}
+	CHECK(took == NDO_AUTH_SENDERS - 1,
+	      "%d of %d new senders took a window beside 5's (6's among them: silent since 0)",
+	      took, 2 * NDO_AUTH_SENDERS);
+	CHECK(ndo_auth_fresh(b, 5, &g, t0 + 2) == 0, "5's replay after the flood: still refused");
+	g.counter = 101;
+	CHECK(ndo_auth_fresh(b, 5, &g, t0 + 2) == 1, "5's next message: fresh");
+	/* once the flood's senders are silent NDO_AUTH_KEEP, a new one takes
+	 * the least recently heard window */
+	ndo_auth_from o = g;
+	o.counter = 1;
+	CHECK(ndo_auth_fresh(b, 77777, &o, t0 + 2) == 0, "a new sender while the table is full of "
+	      "senders heard lately: refused");
+	CHECK(ndo_auth_fresh(b, 77777, &o, t0 + 2 + NDO_AUTH_KEEP) == 1,
+	      "a new sender once they are silent: a window");
 	ndo_auth_destroy(a);
 	ndo_auth_destroy(b);
 	ndo_auth_destroy(c);

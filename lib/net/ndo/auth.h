@@ -99,12 +99,21 @@ ndo_drop ndo_auth_open(const ndo_auth *a, const char *channel, const uint8_t *bu
 int ndo_auth_looks_sealed(const uint8_t *buf, size_t len);
 
 /* The replay check, for a message from `sender` (its header's sender id)
- * that ndo_auth_open accepted: 1 and the counter marked as seen when it
- * is new (newer than any, or within the window and not seen), 0 for a
- * replay or a counter older than the window.  Keeps the last 64 senders'
- * windows.  A sender seen with another instance starts a new window (a
- * restarted process with the same id). */
-int ndo_auth_fresh(ndo_auth *a, int32_t sender, const ndo_auth_from *from);
+ * that ndo_auth_open accepted, at `now` (seconds, any monotonic origin): 1
+ * and the counter marked as seen when it is new (newer than any, or within
+ * the window and not seen), 0 for a replay or a counter older than the
+ * window.  Keeps up to NDO_AUTH_SENDERS senders' windows.  A sender's
+ * window, once it has been heard within the last NDO_AUTH_KEEP seconds, is
+ * neither evicted for a new sender nor restarted by another instance of
+ * the same id: such a message gets 0 (replays of old sealed messages of
+ * many other ids, or of another process's, would otherwise clear a live
+ * sender's window, and a replay of its own messages would then pass).  A
+ * sender silent longer may lose its window to a new one (the least
+ * recently heard first), and one seen with another instance starts a new
+ * window (a restarted process with the same id). */
+#define NDO_AUTH_SENDERS 256
+#define NDO_AUTH_KEEP 10.0
+int ndo_auth_fresh(ndo_auth *a, int32_t sender, const ndo_auth_from *from, double now);
 
 #ifdef __cplusplus
 }
