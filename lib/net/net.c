@@ -531,12 +531,16 @@ static struct asked *asked_of(ndo_net *n, int32_t sender, int32_t code, int coar
 	return a;
 }
 
-/* Another receiver's request: those tiles count as asked for, here too —
- * unless they are this peer's own, which it never holds (a sender flooded
- * with requests does not scan its table for each). */
-static void heard_ask(ndo_net *n, const ndo_msg_key_request_t *k)
+/* Another receiver's request, accepted (not stale): those tiles count as
+ * asked for, here too — unless they are this peer's own, which it never
+ * holds (a sender flooded with requests does not scan its table for each),
+ * or the request comes under their sender's own id: the sender drops
+ * that as its own message looped back, so only a forgery says it, and
+ * believed it would keep every receiver from asking (a rogue repeating it
+ * every 10 ms cut a lossy watch's requests from 26 to 2). */
+static void heard_ask(ndo_net *n, const ndo_msg_header_t *h, const ndo_msg_key_request_t *k)
 {
-	if (k->sender == n->ctx.self_id)
+	if (k->sender == n->ctx.self_id || h->sender_id == k->sender)
 		return;
 	for (int j = 0; j < k->ntiles; j++)
 		asked_of(n, k->sender, k->codes[j], k->coarse, 1)->at = n->now;
@@ -811,8 +815,16 @@ static void on_message(ndo_net *n, int t, const uint8_t *data, size_t len, int s
 		return;
 	}
 	note_order(n, t, m.hdr);
-	if (t == NDO_MSG_KEY_REQUEST)
-		heard_ask(n, &m.u.key_request);
+	if (t == NDO_MSG_KEY_REQUEST) {
+		/* its arrays stay with the queue when accept() keeps it */
+		const ndo_msg_header_t h = *m.hdr;
+		const ndo_msg_key_request_t k = m.u.key_request;
+		const uint64_t was = n->st.accepted;
+		accept(n, t, &m);
+		if (n->st.accepted > was)
+			heard_ask(n, &h, &k);
+		return;
+	}
 	if (t == NDO_MSG_TILE && m.u.tile.encoding != NDO_ENC_RAW) {
 		if (hold(n, &m) || decode_encoded(n, &m))
 			return;

@@ -61,12 +61,13 @@ static int wavy_owner_and_watch(ndo_bus *bus, const ndo_codec_params *cp, int64_
 
 /* 300 steps of a wavy level-6 owner streaming `spec` to a watch through
  * faults f, both polled every dt seconds of the fake clock (every step a
- * frame; the watch asking for keyframes when `ask`; a keyed session under
- * `key`): the frames the watch gave (seen[step] set for each), the largest
- * distance of one from the owner's positions at its step (of the
- * diagonal), and both ends' statistics; a line on stdout unless `quiet`.
- * 0, or −1. */
-enum { STREAM_STEPS = 300 };
+ * frame; `ask` STREAM_ASK: the watch asks for keyframes; STREAM_FORGED: a
+ * forger on the bus, under the owner's own id, asks for tiles 0..63 of
+ * the owner every step; a keyed session under `key`): the frames the watch
+ * gave (seen[step] set for each), the largest distance of one from the
+ * owner's positions at its step (of the diagonal), and both ends'
+ * statistics; a line on stdout unless `quiet`.  0, or −1. */
+enum { STREAM_STEPS = 300, STREAM_ASK = 1, STREAM_FORGED = 2 };
 typedef struct streamed {
 	int frames;
 	int64_t last;
@@ -93,7 +94,17 @@ static int stream_to_watch(const char *spec, const ndo_faults *f, int ask, const
 		ndo_bus_destroy(bus);
 		return -1;
 	}
-	ndo_net_ask_keys(nw, ask);
+	ndo_net_ask_keys(nw, ask & STREAM_ASK);
+	ndo_net *forger = NULL;
+	int32_t codes[64];
+	for (int k = 0; k < 64; k++)
+		codes[k] = k;
+	if (ask & STREAM_FORGED) {
+		ndo_link *fl;
+		ndo_link_open_mem(bus, &fl);
+		ndo_net_create(fl, "T", 11, &forger);
+		ndo_net_attach(forger, 79, 6);
+	}
 	ndo_grid *og = ndo_session_grid(s);
 	double *x = ndo_grid_f64(og, NDO_CH_POSITION, 3);
 	const double *x0 = ndo_grid_f64(og, NDO_CH_REST, 3);
@@ -112,6 +123,14 @@ static int stream_to_watch(const char *spec, const ndo_faults *f, int ask, const
 					x[3 * k + d] = x0[3 * k + d] + 0.01 * (double)step * sin(3 * x0[3 * k + (d + 1) % 3]);
 			ndo_grid_sync(og);
 			ndo_session_publish(s, step, 0.01 * (double)step);
+		}
+		if (forger) {
+			ndo_msg_key_request_t r = {.sender = 11, .ntiles = 64, .codes = codes};
+			ndo_net_publish(forger, NDO_MSG_KEY_REQUEST, &r);
+			ndo_net_poll(forger, t);
+			ndo_msg m;
+			while (ndo_net_next(forger, &m))
+				ndo_msg_free(&m);
 		}
 		ndo_watch_update(w, t);
 		ndo_grid *fr;
@@ -138,12 +157,17 @@ static int stream_to_watch(const char *spec, const ndo_faults *f, int ask, const
 		ndo_net_stats_format(nw, buf, sizeof buf);
 		printf("    %s, %g %% lost, %g %% late%s: %d frames of %d, the last of step %lld; %s; "
 		       "the owner sent %llu keyframes, %llu of them asked for\n", spec, 100 * f->drop,
-		       100 * f->reorder, ask ? ", asking" : "", out->frames, STREAM_STEPS,
+		       100 * f->reorder,
+		       (ask & STREAM_FORGED) ? ", asking, a forger asking too"
+		       : ask                 ? ", asking"
+		                             : "",
+		       out->frames, STREAM_STEPS,
 		       (long long)out->last, buf, (unsigned long long)out->enc.keyframes,
 		       (unsigned long long)out->enc.keys_forced);
 	}
 	ndo_session_destroy(s, NULL);
 	ndo_watch_destroy(w);
+	ndo_net_destroy(forger);
 	ndo_bus_destroy(bus);
 	return 0;
 }

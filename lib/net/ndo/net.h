@@ -144,12 +144,15 @@ void ndo_net_set_tile_want(ndo_net *n, ndo_net_tile_want_fn want, void *user);
  * NDO_NET_ASK_AGAIN; 0 until the network reorders anything) — its reference
  * lost, not late — has its keyframe asked of its sender in a key_request_t
  * (ndo/msg.h; the sender's session answers it, ndo/codec.h
- * ndo_codec_want_key).  A tile is asked for again — counting the
- * requests other receivers made, which are multicast too — only when no
- * frame of it decoded since and twice the usual wait from a request to its
- * keyframe has passed (smoothed over the keyframes that came, as TCP times
- * its round trips; within NDO_NET_ASK_MIN..NDO_NET_ASK_AGAIN seconds): the
- * request or the keyframe was lost.  A tile lost then costs the frames of a
+ * ndo_codec_want_key).  While no frame of a tile asked for has decoded,
+ * it is asked for again — counting the requests other receivers made,
+ * which are multicast too, but not one that names the tile's sender as its
+ * own sender (a forgery: the sender drops it as its own) — only once twice
+ * the usual wait from a request to its keyframe has passed (smoothed over
+ * the keyframes that came, as TCP times its round trips; within
+ * NDO_NET_ASK_MIN..NDO_NET_ASK_AGAIN seconds): the request or the keyframe
+ * was lost.  Once a frame of it decodes, its next loss is asked for
+ * without that wait.  A tile lost then costs the frames of a
  * round trip, not those up to its next periodic keyframe.  Off: the receiver publishes nothing of
  * its own accord (a recorded log, a silent observer). */
 #define NDO_NET_ASK_MIN 0.01
