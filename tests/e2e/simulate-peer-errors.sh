@@ -63,3 +63,22 @@ expect_error "unwritable frames (a file where their directory goes)" 1 \
 expect_error "diverged" 3 '^simulate-peer: diverged at step [0-9]+ ' \
 	simulate-peer -q --dt 0.5 --perturb 1e-3 -n 100 s3.tgrid -o o.tgrid
 if [ -e o.tgrid ]; then fail "nothing written" "o.tgrid exists"; else pass "nothing written"; fi
+# A known false alarm (docs/simulate-peer.md): the thesis' figure 5.3 at
+# level 2, symplectic Euler at its automatic step (a quarter of the force's
+# period) is stable, but the work counted from the power at the steps' ends
+# misses the push of step 2.  The error says so, and the run without the
+# energy test keeps a bounded energy.
+remesh --shape wavy -l 2 -o wavy2.tgrid
+expect_error "diverged at a step a quarter of the force's period: the hint" 3 \
+	"step is 0.25 of a force's period, where the work counted from the power at the steps' ends can miss a push" \
+	simulate-peer -q -i symplectic-euler -s "$NDO_ROOT/samples/thesis-fig5.3.scene" -t 5 wavy2.tgrid \
+	-o o.tgrid
+if simulate-peer -q -i symplectic-euler -s "$NDO_ROOT/samples/thesis-fig5.3.scene" -t 5 \
+	--energy-bound 0 --log e.csv wavy2.tgrid -o o.tgrid 2>err.log &&
+	most=$(awk -F, 'NR > 1 && $4 + $5 > m { m = $4 + $5 } END { print m }' e.csv) &&
+	awk -v m="$most" 'BEGIN { exit !(m > 0.1 && m < 1) }'; then
+	pass "the same run without the energy test: stable (largest energy $most J)"
+else
+	fail "the same run without the energy test" "exit or energy: ${most:-?} J; $(head -1 err.log)"
+fi
+rm -f o.tgrid
