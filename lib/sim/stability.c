@@ -127,7 +127,8 @@ static int unstable(ndo_method m, const poly *R, double omega, double gamma, dou
 
 /* A mode's trial steps: h_k = h_(k−1) · 1.02 from 10⁻⁹/ref (ref = max(ω,
  * γ)) while below 10⁴/ref, about 1,150 of them.  The scan (strided 1)
- * tries every STRIDE-th of them and, past the first that is unstable, the ones of the stride before it one by one: the same
+ * tries every STRIDE-th of them and, past the first that is unstable, the
+ * ones of the stride before it one by one: the same
  * first unstable trial step as trying them all, unless a run of unstable
  * steps shorter than a stride (an 88 % range of h) lay between two stable
  * trial steps — and then all of them (strided 0) would still miss one
@@ -142,6 +143,12 @@ static int unstable(ndo_method m, const poly *R, double omega, double gamma, dou
  * times too large).  About 100 trial steps instead of 1,150, with the
  * bisection below. */
 #define STRIDE 32
+
+/* Whether a method's scans may be strided (above). */
+static int strides(ndo_method m)
+{
+	return m != NDO_RKF45;
+}
 
 /* The smallest h > 0 at which the method turns unstable on one mode (R:
  * poly_of(m)); or, once every step up to `above` or beyond is stable, a
@@ -211,10 +218,10 @@ double ndo_stability_interval(ndo_method m, int imaginary)
 	if (ndo_method_is_implicit(m))
 		return INFINITY;
 	if (imaginary)
-		return mode_limit(m, 1, 0, 1); /* hω on an undamped mode */
+		return mode_limit(m, 1, 0, strides(m)); /* hω on an undamped mode */
 	/* The negative real axis: a pure decay u' = −λu is the mode ω → 0 of
 	 * u'' + γu' = 0, whose nonzero eigenvalue is −γ. */
-	return mode_limit(m, 0, 1, 1);
+	return mode_limit(m, 0, 1, strides(m));
 }
 
 /* ndo_stable_step, its modes' limits found in full, every trial step
@@ -235,7 +242,7 @@ double ndo__stable_step_scan(ndo_method m, double omega, double gamma, int *boun
 		return INFINITY;
 	}
 	const poly R = poly_of(m);
-	const int strided = fast && m != NDO_RKF45; /* see mode_limit_above */
+	const int strided = fast && strides(m);
 	/* The modes lie anywhere in (0, ω]; lower ones can bind when damping
 	 * is heavy.  Scan ω geometrically down to 10⁻⁴ ω_max. */
 	double best = INFINITY, at = omega;
