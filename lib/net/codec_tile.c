@@ -455,6 +455,11 @@ static entry *entry_of(const ndo_codec *c, const ndo_msg_tile_t *t)
 	return NULL;
 }
 
+int ndo_codec_tile_known(const ndo_codec *c, const ndo_msg_tile_t *t)
+{
+	return entry_of(c, t) != NULL;
+}
+
 int ndo_codec_base_state(const ndo_codec *c, const ndo_msg_tile_t *t)
 {
 	if (t->encoding == NDO_ENC_RAW || t->encoding != c->p.encoding || t->base_step < 0)

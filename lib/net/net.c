@@ -597,6 +597,44 @@ static int decode_encoded(ndo_net *n, ndo_msg *m)
 	return 0;
 }
 
+/* A held tile of a tile this receiver never decoded a frame of: only a
+ * reordered keyframe could bring its reference (a new sender's, or a
+ * rogue's). */
+static int unknown_tile(const ndo_net *n, const ndo_msg_tile_t *t)
+{
+	const ndo_codec *c = codec_of(n, t);
+	return !c || !ndo_codec_tile_known(c, t);
+}
+
+/* The held tile given up when the array is full (*unknown_out: an unknown
+ * tile's): the oldest unknown one; else the oldest of the sender holding
+ * the most (and hold() gives up a new unknown tile rather than a known
+ * one).  So a sender that floods the array with tiles whose reference
+ * never comes, under one id or many, pushes out its own and not the
+ * others' (when the oldest of all went, a rogue's 128 such tiles a step
+ * cut a reordered stream from 299 frames of 300 to 171, and under a new id
+ * each to 147; test_session a_flood_pushes_out_its_own_held_tiles).  At most HOLD_MAX² steps, only when
+ * full. */
+static int evictee(const ndo_net *n, int *unknown_out)
+{
+	int pick = -1, pick_unknown = 0, pick_count = 0;
+	for (int k = 0; k < n->nheld; k++) {
+		const ndo_msg_tile_t *t = &n->held[k].m.u.tile;
+		const int unknown = unknown_tile(n, t);
+		int count = 0;
+		for (int q = 0; !unknown && q < n->nheld; q++)
+			count += n->held[q].m.u.tile.hdr.sender_id == t->hdr.sender_id;
+		const int better = pick < 0                       ? 1
+		                   : unknown != pick_unknown      ? unknown
+		                   : !unknown && count != pick_count ? count > pick_count
+		                   : n->held[k].since < n->held[pick].since;
+		if (better)
+			pick = k, pick_unknown = unknown, pick_count = count;
+	}
+	*unknown_out = pick_unknown;
+	return pick;
+}
+
 /* An encoded tile whose reference has not come yet, but may (a frame
  * overtaken by the next): 1 when held, undecoded, until release_held()
  * decodes it.  Decoding it now would drop it, and with it every frame
@@ -606,12 +644,11 @@ static int hold(ndo_net *n, ndo_msg *m)
 	const ndo_codec *codec = codec_of(n, &m->u.tile);
 	if (!codec || ndo_codec_base_state(codec, &m->u.tile) != NDO_BASE_PENDING)
 		return 0;
-	if (n->nheld == HOLD_MAX) { /* the oldest goes */
-		int old = 0;
-		for (int k = 1; k < n->nheld; k++)
-			if (n->held[k].since < n->held[old].since)
-				old = k;
-		unhold(n, old, 1);
+	if (n->nheld == HOLD_MAX) {
+		int unknown, k = evictee(n, &unknown);
+		if (!unknown && unknown_tile(n, &m->u.tile))
+			return 0; /* this one goes (decoded: `nobase`), not a known tile */
+		unhold(n, k, 1);
 	}
 	n->held[n->nheld] = (struct held){*m, n->now};
 	n->held[n->nheld].m.hdr = (const ndo_msg_header_t *)&n->held[n->nheld].m.u;

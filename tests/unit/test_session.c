@@ -697,6 +697,24 @@ static void unreferenced_frames_are_bounded(void)
 	ndo_bus_destroy(bus);
 }
 
+/* A rogue that floods the watch with tiles predicted from steps that never
+ * come (128 a step, under one new id or a new id each) pushes out its own
+ * held tiles, not those of the owner's reordered stream (when the oldest
+ * of all went: 173 frames of 300 against 298). */
+static void a_flood_pushes_out_its_own_held_tiles(void)
+{
+	ndo_faults f = {.reorder = 0.05, .delay_ms = 2, .jitter_ms = 2, .seed = 3};
+	streamed plain, one, many;
+	CHECK(stream_to_watch("hier:1e-4", &f, 0, NULL, 0.01, 0, &plain) == 0 &&
+	          stream_to_watch("hier:1e-4", &f, STREAM_FLOOD, NULL, 0.01, 0, &one) == 0 &&
+	          stream_to_watch("hier:1e-4", &f, STREAM_FLOOD_IDS, NULL, 0.01, 0, &many) == 0,
+	      "%s", ndo_errdetail());
+	CHECK(plain.frames >= STREAM_STEPS - 10 && one.frames >= plain.frames - 10 &&
+	          many.frames >= plain.frames - 10,
+	      "frames of %d: %d, with a rogue's flood under one id %d, under new ids %d",
+	      STREAM_STEPS, plain.frames, one.frames, many.frames);
+}
+
 /* The quad-tree codes of the tiles sender 11 sent on T_TILE (a spy's
  * callback; level 5, no send level). */
 typedef struct tile_codes {
@@ -840,5 +858,6 @@ int main(void)
 	RUN(lost_frames_ask_for_keyframes);
 	RUN(unreferenced_frames_are_bounded);
 	RUN(key_requests_are_bounded);
+	RUN(a_flood_pushes_out_its_own_held_tiles);
 	return ck_failed_cases != 0;
 }

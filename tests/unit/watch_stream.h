@@ -11,6 +11,7 @@
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 
 /* An owner of the wavy surface at `level` (its rest shape the position) in
@@ -63,11 +64,57 @@ static int wavy_owner_and_watch(ndo_bus *bus, const ndo_codec_params *cp, int64_
  * faults f, both polled every dt seconds of the fake clock (every step a
  * frame; `ask` STREAM_ASK: the watch asks for keyframes; STREAM_FORGED: a
  * forger on the bus, under the owner's own id, asks for tiles 0..63 of
- * the owner every step; a keyed session under `key`): the frames the watch
- * gave (seen[step] set for each), the largest distance of one from the
- * owner's positions at its step (of the diagonal), and both ends'
- * statistics; a line on stdout unless `quiet`.  0, or −1. */
-enum { STREAM_STEPS = 300, STREAM_ASK = 1, STREAM_FORGED = 2 };
+ * the owner every step; STREAM_FLOOD: a rogue sends 128 copies of the
+ * owner's last tile every step, predicted from steps that never come,
+ * under its own id (STREAM_FLOOD_IDS: a new id each); a keyed session
+ * under `key`): the frames the watch gave (seen[step] set for each), the
+ * largest distance of one from the owner's positions at its step (of the
+ * diagonal), and both ends' statistics; a line on stdout unless `quiet`.
+ * 0, or −1. */
+enum {
+	STREAM_STEPS = 300,
+	STREAM_ASK = 1,
+	STREAM_FORGED = 2,
+	STREAM_FLOOD = 4,
+	STREAM_FLOOD_IDS = 8
+};
+
+/* What a spy on the bus saw last on T_TILE. */
+typedef struct stream_spy {
+	uint8_t buf[1 << 16];
+	size_t len;
+} stream_spy;
+
+static void stream_spy_take(void *user, const char *channel, const void *data, size_t len)
+{
+	stream_spy *sp = user;
+	if (strcmp(channel, "T_TILE") == 0 && len <= sizeof sp->buf) {
+		memcpy(sp->buf, data, len);
+		sp->len = len;
+	}
+}
+
+/* The rogue of STREAM_FLOOD: 128 copies of the spied tile, each predicted
+ * from a step that never comes. */
+static void stream_flood(ndo_link *rogue, const stream_spy *sp, int ids, int64_t *seq)
+{
+	ndo_msg m;
+	if (!sp->len || ndo_msg_decode(NDO_MSG_TILE, sp->buf, sp->len, &m) != NDO_DROP_NONE)
+		return;
+	for (int k = 0; k < 128; k++, (*seq)++) {
+		m.u.tile.hdr.sender_id = ids ? (int32_t)(1000 + *seq) : 777;
+		m.u.tile.hdr.seq = *seq;
+		m.u.tile.step = 100000 + *seq;
+		m.u.tile.base_step = 99999 + *seq;
+		uint8_t *buf;
+		size_t len;
+		if (ndo_msg_encode(NDO_MSG_TILE, &m.u.tile, &buf, &len) == 0) {
+			ndo_link_publish(rogue, "T_TILE", buf, len);
+			free(buf);
+		}
+	}
+	ndo_msg_free(&m);
+}
 typedef struct streamed {
 	int frames;
 	int64_t last;
@@ -105,6 +152,14 @@ static int stream_to_watch(const char *spec, const ndo_faults *f, int ask, const
 		ndo_net_create(fl, "T", 11, &forger);
 		ndo_net_attach(forger, 79, 6);
 	}
+	ndo_link *spyl = NULL, *rogue = NULL;
+	stream_spy *sp = NULL;
+	int64_t rseq = 0;
+	if (ask & (STREAM_FLOOD | STREAM_FLOOD_IDS)) {
+		ndo_link_open_mem(bus, &spyl);
+		ndo_link_open_mem(bus, &rogue);
+		sp = calloc(1, sizeof *sp);
+	}
 	ndo_grid *og = ndo_session_grid(s);
 	double *x = ndo_grid_f64(og, NDO_CH_POSITION, 3);
 	const double *x0 = ndo_grid_f64(og, NDO_CH_REST, 3);
@@ -123,6 +178,10 @@ static int stream_to_watch(const char *spec, const ndo_faults *f, int ask, const
 					x[3 * k + d] = x0[3 * k + d] + 0.01 * (double)step * sin(3 * x0[3 * k + (d + 1) % 3]);
 			ndo_grid_sync(og);
 			ndo_session_publish(s, step, 0.01 * (double)step);
+		}
+		if (sp) {
+			ndo_link_poll(spyl, t, stream_spy_take, sp);
+			stream_flood(rogue, sp, (ask & STREAM_FLOOD_IDS) != 0, &rseq);
 		}
 		if (forger) {
 			ndo_msg_key_request_t r = {.sender = 11, .ntiles = 64, .codes = codes};
@@ -158,9 +217,11 @@ static int stream_to_watch(const char *spec, const ndo_faults *f, int ask, const
 		printf("    %s, %g %% lost, %g %% late%s: %d frames of %d, the last of step %lld; %s; "
 		       "the owner sent %llu keyframes, %llu of them asked for\n", spec, 100 * f->drop,
 		       100 * f->reorder,
-		       (ask & STREAM_FORGED) ? ", asking, a forger asking too"
-		       : ask                 ? ", asking"
-		                             : "",
+		       (ask & STREAM_FORGED)      ? ", asking, a forger asking too"
+		       : (ask & STREAM_FLOOD_IDS) ? ", a rogue flooding under new ids"
+		       : (ask & STREAM_FLOOD)     ? ", a rogue flooding"
+		       : ask                      ? ", asking"
+		                                  : "",
 		       out->frames, STREAM_STEPS,
 		       (long long)out->last, buf, (unsigned long long)out->enc.keyframes,
 		       (unsigned long long)out->enc.keys_forced);
@@ -168,6 +229,9 @@ static int stream_to_watch(const char *spec, const ndo_faults *f, int ask, const
 	ndo_session_destroy(s, NULL);
 	ndo_watch_destroy(w);
 	ndo_net_destroy(forger);
+	ndo_link_destroy(spyl);
+	ndo_link_destroy(rogue);
+	free(sp);
 	ndo_bus_destroy(bus);
 	return 0;
 }

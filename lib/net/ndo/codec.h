@@ -373,6 +373,8 @@ ndo_drop ndo_codec_decode_tile(ndo_codec *c, ndo_msg_tile_t *t);
  * side effect. */
 enum { NDO_BASE_READY, NDO_BASE_PENDING, NDO_BASE_GONE };
 int ndo_codec_base_state(const ndo_codec *c, const ndo_msg_tile_t *t);
+/* 1 when a frame of the tile's sender and range has been decoded here. */
+int ndo_codec_tile_known(const ndo_codec *c, const ndo_msg_tile_t *t);
 
 /* After ndo_codec_decode_tile() of a predicted tile t: the steps skipped
  * before it (0 when none) and the tile of the k-th of them (0-based,

@@ -33,14 +33,16 @@ typedef struct ndo_net_stats {
 	uint64_t own;                  /* our own, looped back (not drops) */
 	uint64_t dropped[NDO_DROP_N];  /* by reason; [NDO_DROP_INJECTED] from faults */
 	uint64_t gaps;                 /* messages missing by sequence numbers */
-	uint64_t late;                 /* arrived after a later one (reordered; an encoded
-	                                  tile overtaken by the frame it is the reference
-	                                  of counts in `held` instead) */
+	uint64_t late;                 /* accepted after a later one of its sender
+	                                  (reordered; an encoded tile that came before
+	                                  its reference counts in `held`, and here too
+	                                  when it is released after a later message of
+	                                  its sender was accepted) */
 	uint64_t superseded;           /* tiles replaced by a newer one before use */
 	uint64_t held;                 /* encoded tiles that came before their reference
 	                                  frame, held for it (decoded once it came; `nobase`
-	                                  when it cannot come any more, after 1 s, or the
-	                                  oldest of 64 held) */
+	                                  when it cannot come any more, after 1 s, or
+	                                  pushed out of 64 held: docs/protocol.md) */
 	uint64_t holding;              /* of those, held now */
 	uint64_t keys_asked;           /* tiles this receiver asked a keyframe of
 	                                  (ndo_net_ask_keys) */
