@@ -83,6 +83,7 @@ struct ndo_net {
 	struct held {
 		ndo_msg m;
 		double since;
+		int unknown; /* of a tile no frame of which was decoded here (evictee) */
 	} held[HOLD_MAX];
 	int nheld;
 	int ask;         /* ndo_net_ask_keys */
@@ -612,15 +613,17 @@ static int unknown_tile(const ndo_net *n, const ndo_msg_tile_t *t)
  * one).  So a sender that floods the array with tiles whose reference
  * never comes, under one id or many, pushes out its own and not the
  * others' (when the oldest of all went, a rogue's 128 such tiles a step
- * cut a reordered stream from 299 frames of 300 to 171, and under a new id
- * each to 147; test_session a_flood_pushes_out_its_own_held_tiles).  At most HOLD_MAX² steps, only when
- * full. */
+ * cut a reordered stream from 299 frames of 300 to 171, and under a new
+ * id each to 147; test_session a_flood_pushes_out_its_own_held_tiles).
+ * At most HOLD_MAX² steps, only when full, and no codec lookup: each held
+ * tile's `unknown` is taken when it is held and cleared when a frame of
+ * its tile decodes (release_held). */
 static int evictee(const ndo_net *n, int *unknown_out)
 {
 	int pick = -1, pick_unknown = 0, pick_count = 0;
 	for (int k = 0; k < n->nheld; k++) {
 		const ndo_msg_tile_t *t = &n->held[k].m.u.tile;
-		const int unknown = unknown_tile(n, t);
+		const int unknown = n->held[k].unknown;
 		int count = 0;
 		for (int q = 0; !unknown && q < n->nheld; q++)
 			count += n->held[q].m.u.tile.hdr.sender_id == t->hdr.sender_id;
@@ -644,13 +647,14 @@ static int hold(ndo_net *n, ndo_msg *m)
 	const ndo_codec *codec = codec_of(n, &m->u.tile);
 	if (!codec || ndo_codec_base_state(codec, &m->u.tile) != NDO_BASE_PENDING)
 		return 0;
+	const int unknown = unknown_tile(n, &m->u.tile);
 	if (n->nheld == HOLD_MAX) {
-		int unknown, k = evictee(n, &unknown);
-		if (!unknown && unknown_tile(n, &m->u.tile))
+		int full_unknown, k = evictee(n, &full_unknown);
+		if (!full_unknown && unknown)
 			return 0; /* this one goes (decoded: `nobase`), not a known tile */
 		unhold(n, k, 1);
 	}
-	n->held[n->nheld] = (struct held){*m, n->now};
+	n->held[n->nheld] = (struct held){*m, n->now, unknown};
 	n->held[n->nheld].m.hdr = (const ndo_msg_header_t *)&n->held[n->nheld].m.u;
 	n->nheld++;
 	n->st.held++;
@@ -680,6 +684,7 @@ static void release_held(ndo_net *n, const ndo_msg_tile_t *t)
 			const ndo_msg_tile_t *tl = &n->held[k].m.u.tile;
 			if (!same_tile(tl, t))
 				continue;
+			n->held[k].unknown = 0; /* a frame of its tile decoded */
 			const ndo_codec *c = codec_of(n, tl);
 			int st = c ? ndo_codec_base_state(c, tl) : NDO_BASE_GONE;
 			if (st == NDO_BASE_GONE) {
