@@ -1714,6 +1714,8 @@ void ndo_session_codec_stats(const ndo_session *s, ndo_codec_stats *enc, ndo_cod
 			ndo_codec_stats_get(s->cenc, &c);
 			enc->keys_asked += c.keys_asked;
 			enc->keys_forced += c.keys_forced;
+			enc->keyframes += c.keyframes;
+			enc->encoded += c.encoded;
 		}
 	}
 	if (dec) {

@@ -501,8 +501,6 @@ static void summary(peer_run *pr, const char *how)
 	}
 	ndo_codec_stats enc, dec;
 	ndo_session_codec_stats(ndo_peer_session(p), &enc, &dec);
-	enc.keyframes += ls.enc.keyframes; /* the send level's encoder: its tiles too */
-	enc.encoded += ls.enc.encoded;
 	if (enc.keys_asked)
 		fprintf(stderr, "%s: receivers that lost frames asked for the keyframes of %lld tiles; "
 		        "%lld keyframes sent early for them (of %lld keyframes in %lld tiles sent)\n",

@@ -237,9 +237,11 @@ int64_t ndo_session_refine_others(ndo_session *s, int64_t *nstep);
 int ndo_session_frame(ndo_session *s, ndo_grid **out);
 
 /* The tile encoding in force (raw until a joiner has the description),
- * and its statistics: `enc` this peer's encoder (its keyframe requests,
- * keys_asked and keys_forced, with those of the send level's encoder),
- * `dec` the decoder of the others' tiles (either may be NULL). */
+ * and its statistics: `enc` this peer's encoder (its tiles and keyframes,
+ * encoded and keyframes, and keyframe requests, keys_asked and
+ * keys_forced, with those of the send level's encoder; the rest the
+ * object's encoder's alone: ndo_session_level_stats_get has the send
+ * level's), `dec` the decoder of the others' tiles (either may be NULL). */
 const ndo_codec_params *ndo_session_codec(const ndo_session *s);
 void ndo_session_codec_stats(const ndo_session *s, ndo_codec_stats *enc, ndo_codec_stats *dec);
 /* Nodes (stored) this peer sends at full precision in every step: its
