@@ -554,8 +554,10 @@ static ndo_codec *codec_of(const ndo_net *n, const ndo_msg_tile_t *t)
 }
 
 /* An encoded tile decoded in place (and checked against the box), the
- * steps skipped before it queued (ndo_net_skipped_tiles): 0, or it was
- * dropped (counted, freed). */
+ * steps skipped before it queued (ndo_net_skipped_tiles): 0; or it was
+ * dropped (counted, freed): −1 undecoded, 1 decoded but outside the box
+ * (the codec keeps it as its tile's reference all the same, as for a frame
+ * that comes after it in order). */
 static int decode_encoded(ndo_net *n, ndo_msg *m)
 {
 	/* decoded here, in arrival order: each frame is a reference for
@@ -563,12 +565,13 @@ static int decode_encoded(ndo_net *n, ndo_msg *m)
 	ndo_codec *codec = codec_of(n, &m->u.tile);
 	const int key = m->u.tile.base_step < 0;
 	ndo_drop r = codec ? ndo_codec_decode_tile(codec, &m->u.tile) : NDO_DROP_ENCODING;
-	if (r == NDO_DROP_NONE) /* the decoded state, against the box */
+	const int decoded = r == NDO_DROP_NONE;
+	if (decoded) /* the decoded state, against the box */
 		r = ndo_msg_check_box(&m->u.tile, &n->ctx);
 	if (r != NDO_DROP_NONE) {
 		n->st.dropped[r]++;
 		ndo_msg_free(m);
-		return -1;
+		return decoded ? 1 : -1;
 	}
 	m->decoded = 1;
 	if (n->nasked) { /* its frames decode again: a loss asks again at once */
@@ -868,11 +871,17 @@ static void on_message(ndo_net *n, int t, const uint8_t *data, size_t len, int s
 		return;
 	}
 	if (t == NDO_MSG_TILE && m.u.tile.encoding != NDO_ENC_RAW) {
-		if (hold(n, &m) || decode_encoded(n, &m))
+		if (hold(n, &m))
 			return;
 		const ndo_msg_tile_t done = m.u.tile; /* its header and range (accept() may free
 		                                          its arrays), for release_held() */
-		accept(n, t, &m);
+		const int r = decode_encoded(n, &m);
+		if (r < 0)
+			return;
+		if (r == 0)
+			accept(n, t, &m);
+		/* decoded, kept or not: the frames held for it decode now (each
+		 * checked against the box itself), not when their 1 s is up */
 		release_held(n, &done);
 		return;
 	}

@@ -715,6 +715,113 @@ static void a_flood_pushes_out_its_own_held_tiles(void)
 	      STREAM_STEPS, plain.frames, one.frames, many.frames);
 }
 
+/* A relay from one bus to another that keeps back the tiles of one step
+ * until told (relay_flush), so that they come after the next step's. */
+typedef struct relayed {
+	ndo_link *out;
+	int64_t stash_step;
+	struct {
+		uint8_t *data;
+		size_t len;
+	} stash[64];
+	int nstash;
+} relayed;
+
+static void relay(void *user, const char *channel, const void *data, size_t len)
+{
+	relayed *r = user;
+	ndo_msg m;
+	if (strcmp(channel, "T_TILE") == 0 && r->nstash < 64 &&
+	    ndo_msg_decode(NDO_MSG_TILE, data, len, &m) == NDO_DROP_NONE) {
+		const int keep = m.u.tile.step == r->stash_step;
+		ndo_msg_free(&m);
+		if (keep && (r->stash[r->nstash].data = malloc(len))) {
+			memcpy(r->stash[r->nstash].data, data, len);
+			r->stash[r->nstash++].len = len;
+			return;
+		}
+	}
+	ndo_link_publish(r->out, channel, data, len);
+}
+
+static void relay_flush(relayed *r)
+{
+	for (int k = 0; k < r->nstash; k++) {
+		ndo_link_publish(r->out, "T_TILE", r->stash[k].data, r->stash[k].len);
+		free(r->stash[k].data);
+	}
+	r->nstash = 0;
+}
+
+/* A frame that overtook its reference waits held; when the reference
+ * comes and decodes but is refused (a node outside the object's box: a
+ * broken or hostile sender), the codec keeps it as the tile's reference
+ * all the same, as it does in order, so the held frame decodes then and is
+ * checked itself.  Before 2026-11-30 it stayed held, and every later frame
+ * of its tile with it, until its 1 s was up or a keyframe came: here the
+ * watch gave none of steps 4-7. */
+static void a_refused_reference_releases_its_frames(void)
+{
+	ndo_bus *bus, *wbus;
+	ndo_bus_create(&bus);
+	ndo_bus_create(&wbus);
+	ndo_codec_params cp;
+	ndo_codec_parse("predict:1e-4", &cp);
+	relayed r = {.stash_step = 3};
+	ndo_link *in;
+	ndo_link_open_mem(bus, &in);
+	ndo_link_open_mem(wbus, &r.out);
+	ndo_session *s;
+	ndo_watch *w;
+	ndo_net *nw;
+	double diag, t = 0;
+	CHECK(wavy_owner_and_watch_on(bus, wbus, &cp, 81, 5, 0, NULL, NULL, &s, &w, &nw, &diag) == 0,
+	      "owner: %s", ndo_errdetail());
+	ndo_grid *og = ndo_session_grid(s);
+	double *x = ndo_grid_f64(og, NDO_CH_POSITION, 3);
+	const double *x0 = ndo_grid_f64(og, NDO_CH_REST, 3);
+	uint8_t seen[8] = {0};
+	for (int64_t step = 0; step < 8; step++) {
+		for (size_t k = 0; k < og->count; k++)
+			x[3 * k] = x0[3 * k] + 0.001 * (double)step;
+		if (step == 3) /* one node 10 diagonals out: its tile refused */
+			x[0] += 10 * diag;
+		ndo_grid_sync(og);
+		ndo_session_publish(s, step, 0.1 * (double)step);
+		t += 0.1;
+		ndo_session_update(s, t);
+		ndo_link_poll(in, t, relay, &r);
+		if (step == 4) { /* step 3's tiles after step 4's */
+			CHECK(r.nstash > 0, "no tile of step 3 kept back");
+			relay_flush(&r);
+		}
+		ndo_watch_update(w, t);
+		ndo_grid *fr;
+		while (ndo_watch_next(w, &fr) == 1) {
+			if (fr->step >= 0 && fr->step < 8)
+				seen[fr->step] = 1;
+			ndo_grid_destroy(fr);
+		}
+		if (step == 4) {
+			const ndo_net_stats *ns = ndo_net_stats_get(nw);
+			CHECK(ns->held > 0 && ns->dropped[NDO_DROP_BOX] > 0 && ns->holding == 0,
+			      "step 3's tile refused after step 4's: held %llu, refused %llu, "
+			      "still holding %llu", (unsigned long long)ns->held,
+			      (unsigned long long)ns->dropped[NDO_DROP_BOX],
+			      (unsigned long long)ns->holding);
+		}
+	}
+	CHECK(!seen[3] && seen[4] && seen[5] && seen[6] && seen[7],
+	      "frames of steps 3-7 given: %d %d %d %d %d (0 1 1 1 1)", seen[3], seen[4], seen[5],
+	      seen[6], seen[7]);
+	ndo_session_destroy(s, NULL);
+	ndo_watch_destroy(w);
+	ndo_link_destroy(in);
+	ndo_link_destroy(r.out);
+	ndo_bus_destroy(bus);
+	ndo_bus_destroy(wbus);
+}
+
 /* The quad-tree codes of the tiles sender 11 sent on T_TILE (a spy's
  * callback; level 5, no send level). */
 typedef struct tile_codes {
@@ -859,5 +966,6 @@ int main(void)
 	RUN(unreferenced_frames_are_bounded);
 	RUN(key_requests_are_bounded);
 	RUN(a_flood_pushes_out_its_own_held_tiles);
+	RUN(a_refused_reference_releases_its_frames);
 	return ck_failed_cases != 0;
 }

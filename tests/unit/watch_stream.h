@@ -15,14 +15,14 @@
 #include <string.h>
 
 /* An owner of the wavy surface at `level` (its rest shape the position) in
- * encoding cp, sending at `coarse_levels` below, and a watch on the bus
- * whose link has faults f (or none), both nets under `key` (or none), the
- * watch's net in *wnet (or NULL); the box's diagonal.  0, or −1 (said on
- * stderr). */
-static int wavy_owner_and_watch(ndo_bus *bus, const ndo_codec_params *cp, int64_t object,
-                                int level, int coarse_levels, const ndo_faults *f,
-                                const ndo_key *key, ndo_session **s, ndo_watch **w,
-                                ndo_net **wnet, double *diag)
+ * encoding cp, sending at `coarse_levels` below, on `bus`, and a watch on
+ * `wbus` (the same bus, or another that a test relays to) whose link has
+ * faults f (or none), both nets under `key` (or none), the watch's net in
+ * *wnet (or NULL); the box's diagonal.  0, or −1 (said on stderr). */
+static int wavy_owner_and_watch_on(ndo_bus *bus, ndo_bus *wbus, const ndo_codec_params *cp,
+                                   int64_t object, int level, int coarse_levels,
+                                   const ndo_faults *f, const ndo_key *key, ndo_session **s,
+                                   ndo_watch **w, ndo_net **wnet, double *diag)
 {
 	ndo_link *l, *lw;
 	ndo_net *n, *nw;
@@ -43,7 +43,7 @@ static int wavy_owner_and_watch(ndo_bus *bus, const ndo_codec_params *cp, int64_
 		fprintf(stderr, "owner: %s\n", ndo_errdetail());
 		return -1;
 	}
-	ndo_link_open_mem(bus, &lw);
+	ndo_link_open_mem(wbus, &lw);
 	if (f)
 		ndo_link_faults(lw, f, &lw);
 	ndo_net_create(lw, "T", 12, &nw);
@@ -58,6 +58,16 @@ static int wavy_owner_and_watch(ndo_bus *bus, const ndo_codec_params *cp, int64_
 	ndo_codec_box(x0, ndo_session_grid(*s)->count, lo, ext);
 	*diag = sqrt(ext[0] * ext[0] + ext[1] * ext[1] + ext[2] * ext[2]);
 	return 0;
+}
+
+/* The same, owner and watch on one bus. */
+static int wavy_owner_and_watch(ndo_bus *bus, const ndo_codec_params *cp, int64_t object,
+                                int level, int coarse_levels, const ndo_faults *f,
+                                const ndo_key *key, ndo_session **s, ndo_watch **w,
+                                ndo_net **wnet, double *diag)
+{
+	return wavy_owner_and_watch_on(bus, bus, cp, object, level, coarse_levels, f, key, s, w,
+	                               wnet, diag);
 }
 
 /* 300 steps of a wavy level-6 owner streaming `spec` to a watch through
