@@ -48,6 +48,8 @@ accel_interior(const ndo_sim *s, const double *restrict u, const double *restric
 	const double *restrict v0x = full ? up->v0 : NULL, *restrict v0y = full ? up->v0 + cnt : NULL,
 	                       *restrict v0z = full ? up->v0 + 2 * cnt : NULL;
 	double pe2 = 0, ke2 = 0, pw = 0, um = 0, vku = 0;
+	/* the input power at ½(v + v'), v' = v + h a (ndo__power_velocity) */
+#define SE_POWER (upd == NDO__UPD_SYMPLECTIC || upd == NDO__UPD_STORE_SE)
 	for (size_t k = k0; k < k1; k++) {
 		const size_t lo = (size_t)s->ispan[k].a, hi = (size_t)s->ispan[k].b;
 		/* Four nodes at a time (sim_private.h, ndo__v4), then the rest one
@@ -69,8 +71,9 @@ accel_interior(const ndo_sim *s, const double *restrict u, const double *restric
 		const T gx = mi * (fx - kx) - ga * Vx;                                          \
 		const T gy = mi * (fy - ky) - ga * Vy;                                          \
 		const T gz = mi * (fz - kz) - ga * Vz;                                          \
+		/* symplectic Euler's new velocity */                                           \
+		const T nx = Vx + h * gx, ny = Vy + h * gy, nz = Vz + h * gz;                   \
 		if (upd == NDO__UPD_SYMPLECTIC) {                                               \
-			const T nx = Vx + h * gx, ny = Vy + h * gy, nz = Vz + h * gz;               \
 			S(vox + p, nx), S(voy + p, ny), S(voz + p, nz);                             \
 			S(uox + p, Ux + h * nx), S(uoy + p, Uy + h * ny), S(uoz + p, Uz + h * nz);  \
 		} else if (upd == NDO__UPD_HALF) {                                              \
@@ -90,7 +93,10 @@ accel_interior(const ndo_sim *s, const double *restrict u, const double *restric
 		if (hasD) {                                                                     \
 			Pe += Ux * kx + Uy * ky + Uz * kz;                                          \
 			Ke += L(mass + p) * (Vx * Vx + Vy * Vy + Vz * Vz);                          \
-			Pw += fx * Vx + fy * Vy + fz * Vz;                                          \
+			if (SE_POWER) /* 2 × the step's mean power (below) */                       \
+				Pw += fx * (Vx + nx) + fy * (Vy + ny) + fz * (Vz + nz);                 \
+			else                                                                        \
+				Pw += fx * Vx + fy * Vy + fz * Vz;                                      \
 			Vk += Vx * kx + Vy * ky + Vz * kz;                                          \
 			UMAX(Ux * Ux + Uy * Uy + Uz * Uz);                                          \
 		}                                                                               \
@@ -134,9 +140,10 @@ accel_interior(const ndo_sim *s, const double *restrict u, const double *restric
 		}
 	}
 	if (hasD) {
-		ndo__diag_add(d, pe2, ke2, pw, um);
+		ndo__diag_add(d, pe2, ke2, SE_POWER ? 0.5 * pw : pw, um);
 		d->vku += vku;
 	}
+#undef SE_POWER
 }
 
 /* The acceleration at one component of a node, used as up says (or
@@ -144,7 +151,7 @@ accel_interior(const ndo_sim *s, const double *restrict u, const double *restric
 static void border_update(const ndo_sim *s, const ndo__upd *up, double *a, const double *u,
                           const double *v, size_t q, double g)
 {
-	if (!up) {
+	if (!up || up->mode == NDO__UPD_STORE_SE) {
 		a[q] = g;
 		return;
 	}
@@ -188,17 +195,18 @@ static void accel_border(const ndo_sim *s, const double *u, const double *v, con
 			double f = F ? F[(size_t)c * cnt + p] : 0, vc = v[(size_t)c * cnt + p];
 			border_update(s, up, a, u, v, (size_t)c * cnt + p,
 			              s->minv[p] * (f - ku) - s->gam[p] * vc);
+			const double vp = ndo__power_velocity(up, v, (size_t)c * cnt + p);
 			if (d) {
 				d->pe2 += U[p] * ku;
 				d->vku += vc * ku;
 				d->ke2 += s->mass[p] * vc * vc;
-				d->power += f * vc;
+				d->power += f * vp;
 			}
 			if (t) {
 				t[4 * c] = U[p] * ku;
 				t[4 * c + 1] = vc * ku;
 				t[4 * c + 2] = s->mass[p] * vc * vc;
-				t[4 * c + 3] = f * vc;
+				t[4 * c + 3] = f * vp;
 			}
 		}
 		const double u2 = u[p] * u[p] + u[cnt + p] * u[cnt + p] + u[2 * cnt + p] * u[2 * cnt + p];
@@ -263,14 +271,15 @@ void ndo__held_at(ndo_sim *s, double *buf, double tau)
 /* The power the held nodes put into the active ones: Σ v_p · c u_q over
  * the edges from an active p to a held q (the part of −K u that the held
  * displacements contribute).  Only for the divergence bound. */
-double ndo__held_power(const ndo_sim *s, const double *u, const double *v)
+double ndo__held_power(const ndo_sim *s, const double *u, const double *v, const ndo__upd *up)
 {
 	const size_t cnt = s->count;
 	double pw = 0;
 	for (size_t k = 0; k < s->nhedge; k++) {
 		size_t p = (size_t)s->hedge[k].p, q = (size_t)s->hedge[k].q;
 		for (int c = 0; c < 3; c++)
-			pw += v[(size_t)c * cnt + p] * s->hedge[k].c * u[(size_t)c * cnt + q];
+			pw += ndo__power_velocity(up, v, (size_t)c * cnt + p) * s->hedge[k].c *
+			      u[(size_t)c * cnt + q];
 	}
 	return pw;
 }
@@ -298,7 +307,8 @@ const double *ndo__forces_prepare(ndo_sim *s, double t, const double *u)
 
 /* The kernels counted the penalty springs as forces: move their share
  * from the input power to the potential energy. */
-void ndo__penalty_diag(const ndo_sim *s, const double *u, const double *v, ndo__diag *d)
+void ndo__penalty_diag(const ndo_sim *s, const double *u, const double *v, const ndo__upd *up,
+                       ndo__diag *d)
 {
 	const size_t cnt = s->count;
 	for (size_t k = 0; k < s->npen; k++) {
@@ -308,7 +318,7 @@ void ndo__penalty_diag(const ndo_sim *s, const double *u, const double *v, ndo__
 		for (int c = 0; c < 3; c++) {
 			double du = u[(size_t)c * cnt + p] - s->pen_target[3 * k + c];
 			d->pe2 += s->alpha * du * du;
-			d->power += s->alpha * du * v[(size_t)c * cnt + p];
+			d->power += s->alpha * du * ndo__power_velocity(up, v, (size_t)c * cnt + p);
 			d->vku += s->alpha * du * v[(size_t)c * cnt + p];
 		}
 	}
@@ -355,6 +365,7 @@ NDO_HOT static void accel_chunk(void *arg, int c)
 	case 0: ACCEL_RUNS(0); break;
 	case NDO__UPD_SYMPLECTIC: ACCEL_RUNS(NDO__UPD_SYMPLECTIC); break;
 	case NDO__UPD_HALF: ACCEL_RUNS(NDO__UPD_HALF); break;
+	case NDO__UPD_STORE_SE: ACCEL_RUNS(NDO__UPD_STORE_SE); break;
 	default: ACCEL_RUNS(NDO__UPD_FULL);
 	}
 }
@@ -388,8 +399,8 @@ static void accel_run(ndo_sim *s, double t, const double *u, const double *v, do
 	ndo__sim_run(s, s->nichunk + 1, accel_chunk, &j);
 	if (d) {
 		ndo__diag_sum(s, d);
-		d->power += ndo__held_power(s, u, v);
-		ndo__penalty_diag(s, u, v, d);
+		d->power += ndo__held_power(s, u, v, up);
+		ndo__penalty_diag(s, u, v, up, d);
 	}
 	s->stats.evaluations++;
 }
@@ -402,13 +413,18 @@ void ndo__accel(ndo_sim *s, double t, const double *u, const double *v, double *
 void ndo__accel_update(ndo_sim *s, double t, const double *u, const double *v,
                        const ndo__upd *up, ndo__diag *d)
 {
-	accel_run(s, t, u, v, NULL, up, d);
+	accel_run(s, t, u, v, up->mode == NDO__UPD_STORE_SE ? up->a : NULL, up, d);
 }
 
 /* ---- divergence ------------------------------------------------------------ */
 
 void ndo__pending_work(const ndo_sim *s, double power, double *w, double *w_abs)
 {
+	if (s->pend_mean) { /* the last step's own mean power: its work exactly */
+		*w = s->work + s->pend_h * s->pend_power;
+		*w_abs = s->work_abs + s->pend_h * fabs(s->pend_power);
+		return;
+	}
 	*w = s->work + 0.5 * s->pend_h * (s->pend_power + power);
 	*w_abs = s->work_abs + 0.5 * s->pend_h * (fabs(s->pend_power) + fabs(power));
 }

@@ -784,6 +784,7 @@ int ndo__implicit_step(ndo_sim *s, double h)
 	ndo__sync_planes(s, s->v, 3);
 	s->pend_h = h;
 	s->pend_power = s->last_power;
+	s->pend_mean = 0;
 	s->stats.substeps++;
 	return NDO_OK;
 }

@@ -968,11 +968,14 @@ static void updates_run(const ndo_sim *s, updates *u)
 }
 
 /* A step of size h began with input power P: its work is added, by the
- * trapezoidal rule, when the next step knows the power at its end. */
+ * trapezoidal rule, when the next step knows the power at its end.  For
+ * symplectic Euler P is the step's mean power (accel.c), and its work
+ * h P. */
 static void account(ndo_sim *s, double h)
 {
 	s->pend_h = h;
 	s->pend_power = s->last_power;
+	s->pend_mean = s->p.method == NDO_SYMPLECTIC_EULER;
 }
 
 /* Stage 0 at the current state, with the divergence test. */
@@ -1083,7 +1086,7 @@ static void fused_swap(ndo_sim *s, double *u, double *v)
  * it was (the pass wrote only the spare planes uo, vo). */
 static int fused_first(ndo_sim *s, int mode, double h, double *uo, double *vo)
 {
-	ndo__upd up = {mode, h, uo, vo, NULL, NULL};
+	ndo__upd up = {mode, h, uo, vo, NULL, NULL, NULL};
 	ndo__diag d;
 	ndo__accel_update(s, s->t, s->u, s->v, &up, &d);
 	s->last_power = d.power;
@@ -1114,7 +1117,7 @@ static int step_midpoint_fused(ndo_sim *s, double h)
 		return rc;
 	ndo__sync_planes(s, um, 3);
 	ndo__sync_planes(s, vm, 3);
-	ndo__upd up = {NDO__UPD_FULL, h, un, vn, s->u, s->v};
+	ndo__upd up = {NDO__UPD_FULL, h, un, vn, s->u, s->v, NULL};
 	ndo__accel_update(s, s->t + 0.5 * h, um, vm, &up, NULL);
 	ndo__sync_planes(s, un, 3);
 	ndo__sync_planes(s, vn, 3);
@@ -1131,7 +1134,12 @@ static int step_symplectic(ndo_sim *s, double h)
 	if (fused_fits(s))
 		return step_symplectic_fused(s, h);
 	s->h_mod = h; /* the divergence test bounds the modified energy (accel.c) */
-	int rc = first_stage(s, s->ka[0]);
+	/* the first stage, its input power taken as the fused pass takes it */
+	ndo__upd sp = {.mode = NDO__UPD_STORE_SE, .h = h, .a = s->ka[0]};
+	ndo__diag d;
+	ndo__accel_update(s, s->t, s->u, s->v, &sp, &d);
+	s->last_power = d.power;
+	int rc = ndo__diverged(s, &d, 1);
 	if (rc)
 		return rc;
 	/* v then u, node by node: u's update reads only its own node's v */

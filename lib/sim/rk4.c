@@ -349,8 +349,8 @@ static void rk4_pass_run(ndo_sim *s, rk4_pass *g, int mode, double t, ndo__diag 
 	ndo__sim_run(s, s->nichunk + 1, rk4_chunk, &j);
 	if (d) {
 		ndo__diag_sum(s, d);
-		d->power += ndo__held_power(s, g->U, g->v);
-		ndo__penalty_diag(s, g->U, g->v, d);
+		d->power += ndo__held_power(s, g->U, g->v, NULL);
+		ndo__penalty_diag(s, g->U, g->v, NULL, d);
 	}
 	s->stats.evaluations++;
 }
@@ -803,7 +803,7 @@ static int step_pipeline(ndo_sim *s, double h)
 		bd->umax2 = fmax(bd->umax2, tk[9]);
 	}
 	ndo__diag_sum(s, &d);
-	d.power += ndo__held_power(s, s->u, s->v);
+	d.power += ndo__held_power(s, s->u, s->v, NULL);
 	s->stats.evaluations++;
 	s->last_power = d.power;
 	rc = ndo__diverged(s, &d, 1);

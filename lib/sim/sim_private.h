@@ -128,8 +128,14 @@ struct ndo_sim {
 	double e0, work, work_abs; /* input work up to the last step's start */
 	double work_abs_base;      /* work_abs when the energy bound last restarted
 	                              (ndo_sim_set_active) */
-	double last_power;     /* f·v at the start of the current step */
+	double last_power;     /* f·v at the start of the current step; symplectic
+	                        * Euler: the step's mean power ½ f·(v + v'), whose
+	                        * product with h is the work the step did on its
+	                        * modified energy, exactly (accel.c) */
 	double pend_h, pend_power; /* the last step: its size and start power */
+	int pend_mean;         /* pend_power is the last step's mean power (its work
+	                        * pend_h × pend_power), not its start's (the work by
+	                        * the trapezoidal rule with the next step's) */
 
 	ndo__implicit *imp;
 	int imp_df;            /* ndo_sim_implicit_begin left f(t+h) − f(t) in vs */
@@ -258,11 +264,6 @@ static inline void ndo__diag_add(ndo__diag *d, double pe2, double ke2, double po
 	d->umax2 = fmax(d->umax2, umax2);
 }
 
-/* The power the held nodes put into the active ones, and the penalty
- * springs' share of the diagnostics moved from input power to potential
- * energy (accel.c; the fused RK4 kernel calls them too). */
-double ndo__held_power(const ndo_sim *s, const double *u, const double *v);
-void ndo__penalty_diag(const ndo_sim *s, const double *u, const double *v, ndo__diag *d);
 
 /* One force item's share of the force plane at some of its nodes: force
  * k, item (face or node) q, and the bits d of the item's nodes (a face's
@@ -355,15 +356,46 @@ void ndo__accel(ndo_sim *s, double t, const double *u, const double *v, double *
  *   NDO__UPD_HALF        uo = u + h (0 + ½ v),  vo = v + h (0 + ½ a)
  *                        (the midpoint's stage, as the tableau's sums)
  *   NDO__UPD_FULL        uo = u0 + h v,  vo = v0 + h a  (its finish)
+ *   NDO__UPD_STORE_SE    a stored, as without an update, and the input
+ *                        power taken as NDO__UPD_SYMPLECTIC takes it
+ *                        (symplectic Euler's passes: the fused pass's
+ *                        diagnostics, bit for bit)
  * where (u, v) is the stage state the acceleration is taken at and
  * (u0, v0) the step's.  The outputs are other planes than the inputs. */
-enum { NDO__UPD_SYMPLECTIC = 1, NDO__UPD_HALF, NDO__UPD_FULL };
+enum { NDO__UPD_SYMPLECTIC = 1, NDO__UPD_HALF, NDO__UPD_FULL, NDO__UPD_STORE_SE };
 typedef struct ndo__upd {
 	int mode;
 	double h;
 	double *uo, *vo;
 	const double *u0, *v0; /* NDO__UPD_FULL */
+	double *a;             /* NDO__UPD_STORE_SE */
 } ndo__upd;
+
+/* The velocity at component q that the input power takes: v, or in a
+ * symplectic Euler pass (up) ½(v + v'), v' = v + h a the new one (written
+ * to vo, or made from the stored a) — with the force at the step's start,
+ * the power whose product with h is the step's work on the modified
+ * energy that the divergence test bounds (accel.c; the power at the
+ * steps' ends, by the trapezoidal rule, missed a push between two ends
+ * where the power is 0). */
+static inline double ndo__power_velocity(const ndo__upd *up, const double *v, size_t q)
+{
+	if (!up)
+		return v[q];
+	if (up->mode == NDO__UPD_SYMPLECTIC)
+		return 0.5 * (v[q] + up->vo[q]);
+	if (up->mode == NDO__UPD_STORE_SE)
+		return 0.5 * (v[q] + (v[q] + up->h * up->a[q]));
+	return v[q];
+}
+
+/* The power the held nodes put into the active ones, and the penalty
+ * springs' share of the diagnostics moved from input power to potential
+ * energy, at the velocities ndo__power_velocity takes (up: the pass's
+ * update, or NULL) (accel.c; the fused RK4 kernel calls them too). */
+double ndo__held_power(const ndo_sim *s, const double *u, const double *v, const ndo__upd *up);
+void ndo__penalty_diag(const ndo_sim *s, const double *u, const double *v, const ndo__upd *up,
+                       ndo__diag *d);
 
 /* ndo__accel's acceleration, used at once as `up` says (accel.c). */
 void ndo__accel_update(ndo_sim *s, double t, const double *u, const double *v,
@@ -401,6 +433,7 @@ double ndo__deformation(const ndo_sim *s, double mean[3]);
 
 /* The input work so far, closing the last step with `power`. */
 void ndo__pending_work(const ndo_sim *s, double power, double *w, double *w_abs);
+
 
 /* Implicit methods (implicit.c). */
 int ndo__implicit_step(ndo_sim *s, double h);

@@ -169,14 +169,15 @@ static void unit_run(wave_run *J, int p, int c)
 	ndo__accel_border_nodes(s, u, v, s->f, &up, K->blist + K->boff[c],
 	                        (size_t)(K->boff[c + 1] - K->boff[c]), bt);
 	if (d) {
-		/* ndo__held_power's terms, v at the active node, u at the held */
+		/* ndo__held_power's terms, v at the active node (symplectic
+		 * Euler: ½(v + v')), u at the held */
 		const size_t cnt = s->count;
 		double *et = P->et + (size_t)j * s->nhedge * 3;
 		for (int32_t i = K->eoff[c]; i < K->eoff[c + 1]; i++) {
 			const ndo__edge *e = &s->hedge[K->elist[i]];
 			for (int comp = 0; comp < 3; comp++)
 				et[3 * (size_t)K->elist[i] + (size_t)comp] =
-					v[(size_t)comp * cnt + (size_t)e->p] * e->c *
+					ndo__power_velocity(&up, v, (size_t)comp * cnt + (size_t)e->p) * e->c *
 					u[(size_t)comp * cnt + (size_t)e->q];
 		}
 	}
