@@ -390,6 +390,22 @@ void ndo_net_set_tile_want(ndo_net *n, ndo_net_tile_want_fn want, void *user)
 	n->want_user = user;
 }
 
+/* Message seq of type t from sender s, about to be accepted: the gap it
+ * opens after its sender's newest, or one it fills (reordered, not lost).
+ * Only for messages kept — a stale copy fills no gap (until 2026-11-30 a
+ * duplicate counted `late` and took a gap back before it was dropped) —
+ * and with no sum that overflows (seq is any value ≥ 0: a hostile
+ * INT64_MAX was `last + 1` past the range). */
+static void count_gaps(ndo_net *n, const sender *s, int t, int64_t seq)
+{
+	if (s->last[t] >= 0 && seq - 1 > s->last[t])
+		n->st.gaps += (uint64_t)(seq - s->last[t] - 1);
+	else if (seq < s->last[t] && n->st.gaps > 0) {
+		n->st.gaps--;
+		n->st.late++;
+	}
+}
+
 /* An accepted message (a tile decoded), by its sender's sequence numbers:
  * queued, or a tile kept as its range's newest; freed when stale. */
 static void accept(ndo_net *n, int t, ndo_msg *m)
@@ -397,12 +413,6 @@ static void accept(ndo_net *n, int t, ndo_msg *m)
 	sender *s = find_sender(n, m->hdr->sender_id, 1);
 	s->heard = n->now;
 	int64_t seq = m->hdr->seq;
-	if (seq > s->last[t] + 1 && s->last[t] >= 0)
-		n->st.gaps += (uint64_t)(seq - s->last[t] - 1);
-	else if (seq < s->last[t] && n->st.gaps > 0) {
-		n->st.gaps--; /* a gap filled late: it was reordered, not lost */
-		n->st.late++;
-	}
 	if ((t == NDO_MSG_TILE && n->keep_all) || t == NDO_MSG_HALO || t == NDO_MSG_SOLVE) {
 		/* the caller orders tiles by their step: a tile sent again (an
 		 * older step after a newer one) is not stale here; nor are halos
@@ -410,6 +420,7 @@ static void accept(ndo_net *n, int t, ndo_msg *m)
 		 * phase): a re-sent strip overtaken by a later message — the next
 		 * strip of the same re-send, a checkpoint — was dropped, and a
 		 * lock-step peer waited for it until its step timeout */
+		count_gaps(n, s, t, seq);
 		if (seq > s->last[t])
 			s->last[t] = seq;
 		if (enqueue(n, m) != 0) {
@@ -438,6 +449,7 @@ static void accept(ndo_net *n, int t, ndo_msg *m)
 			ndo_msg_free(m);
 			return;
 		}
+		count_gaps(n, s, t, seq);
 		if (seq > s->last[t])
 			s->last[t] = seq;
 		slot->seq = seq;
@@ -457,6 +469,7 @@ static void accept(ndo_net *n, int t, ndo_msg *m)
 		ndo_msg_free(m);
 		return;
 	}
+	count_gaps(n, s, t, seq);
 	s->last[t] = seq;
 	if (enqueue(n, m) != 0) {
 		ndo_msg_free(m);
@@ -848,8 +861,8 @@ static void on_message(ndo_net *n, int t, const uint8_t *data, size_t len, int s
 		/* its heartbeats (one each 0.2 s from its start) against ours:
 		 * elder when it has sent more, the smaller object id on a tie */
 		int64_t mine = n->seq_out[NDO_MSG_HEARTBEAT];
-		if (m.hdr->seq + 1 > mine ||
-		    (m.hdr->seq + 1 == mine && m.hdr->object_id < n->ctx.object_id)) {
+		if (m.hdr->seq >= mine || /* seq + 1 > mine, without the sum */
+		    (m.hdr->seq == mine - 1 && m.hdr->object_id < n->ctx.object_id)) {
 			n->st.foreign_owner = m.hdr->sender_id;
 			n->st.foreign_object = m.hdr->object_id;
 		}

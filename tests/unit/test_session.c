@@ -386,6 +386,49 @@ static void garbage_is_counted_not_trusted(void)
 	ndo_bus_destroy(bus);
 }
 
+/* Heartbeats of sender 7 with sequence numbers 0, 1, 3, a copy of 1,
+ * then 2, INT64_MAX and 5: `gaps` counts the one missing (2), `late` none
+ * (2 comes after 3 and, not a tile, is dropped `stale` as the copy is:
+ * neither fills a gap), then INT64_MAX − 4 more, and 5 is stale.  Until
+ * 2026-11-30 the copy and 2 each took the gap back and counted `late`
+ * before they were dropped, and after INT64_MAX the next one's `last + 1`
+ * overflowed (UBSan stops the sanitizer build there). */
+static void sequence_counters_count_what_is_kept(void)
+{
+	ndo_bus *bus;
+	ndo_bus_create(&bus);
+	ndo_link *l, *evil;
+	ndo_net *n;
+	ndo_link_open_mem(bus, &l);
+	ndo_link_open_mem(bus, &evil);
+	ndo_net_create(l, "T", 11, &n);
+	ndo_net_attach(n, 79, 3);
+	const int64_t seqs[] = {0, 1, 3, 1, 2, INT64_MAX, 5};
+	const uint64_t gaps[] = {0, 0, 1, 1, 1, (uint64_t)INT64_MAX - 4 + 1, (uint64_t)INT64_MAX - 3};
+	const uint64_t stale[] = {0, 0, 0, 1, 2, 2, 3};
+	for (int k = 0; k < 7; k++) {
+		ndo_msg_heartbeat_t hb = {{NDO_PROTOCOL_VERSION, 79, 7, seqs[k], 0}, 10 * k, 0.1 * k, 0};
+		uint8_t *buf;
+		size_t len;
+		CHECK(ndo_msg_encode(NDO_MSG_HEARTBEAT, &hb, &buf, &len) == 0, "encode");
+		ndo_link_publish(evil, "T_HEARTBEAT", buf, len);
+		free(buf);
+		ndo_net_poll(n, 0.01 * k);
+		ndo_msg m;
+		while (ndo_net_next(n, &m))
+			ndo_msg_free(&m);
+		const ndo_net_stats *st = ndo_net_stats_get(n);
+		CHECK(st->gaps == gaps[k] && st->late == 0 && st->dropped[NDO_DROP_STALE] == stale[k],
+		      "after seq %lld: gaps %llu, late %llu, stale %llu (%llu, 0, %llu)",
+		      (long long)seqs[k], (unsigned long long)st->gaps, (unsigned long long)st->late,
+		      (unsigned long long)st->dropped[NDO_DROP_STALE], (unsigned long long)gaps[k],
+		      (unsigned long long)stale[k]);
+	}
+	ndo_net_destroy(n); /* and its link */
+	ndo_link_destroy(evil);
+	ndo_bus_destroy(bus);
+}
+
 /* A send level: an owner of a level-5 wavy surface sends its state at
  * level 3; a watch's frames are level-3 grids, the owner's every 4th node
  * (raw: exactly; predict: within the encoding's bound), and the error the
@@ -959,6 +1002,7 @@ int main(void)
 	RUN(late_joiner_over_lossy_link);
 	RUN(encoded_tiles_are_no_snapshot);
 	RUN(garbage_is_counted_not_trusted);
+	RUN(sequence_counters_count_what_is_kept);
 	RUN(send_level_frames_and_error);
 	RUN(reordered_frames_are_held);
 	RUN(late_references_are_waited_for);
