@@ -172,9 +172,11 @@ static int scratch(ndo_codec *c, int nodes)
 	return 0;
 }
 
-/* The entry of (sender, code), made when missing (NULL: out of memory). */
-static entry *get(ndo_codec *c, int32_t sender, int32_t code, int nodes)
+/* The entry of (sender, code), made when missing (*made set; NULL: out
+ * of memory). */
+static entry *get(ndo_codec *c, int32_t sender, int32_t code, int nodes, int *made)
 {
+	*made = 0;
 	for (size_t k = 0; k < c->n; k++)
 		if (c->e[k]->sender == sender && c->e[k]->code == code) {
 			c->e[k]->used = ++c->clock;
@@ -212,7 +214,20 @@ static entry *get(ndo_codec *c, int32_t sender, int32_t code, int nodes)
 	e->used = ++c->clock;
 	c->e[c->n++] = e;
 	c->memory += entry_size(nodes);
+	*made = 1;
 	return e;
+}
+
+/* Entry e, just made, given up: its frame did not decode. */
+static void unmake(ndo_codec *c, entry *e)
+{
+	for (size_t k = 0; k < c->n; k++)
+		if (c->e[k] == e) {
+			c->memory -= entry_size(e->nodes);
+			entry_free(e);
+			c->e[k] = c->e[--c->n];
+			return;
+		}
 }
 
 static void forget(entry *e, int32_t epoch)
@@ -258,7 +273,8 @@ int ndo_codec_encode_tile(ndo_codec *c, int32_t self, const ndo_grid *g, const u
 	int rc = scratch(c, nodes);
 	if (rc)
 		return rc;
-	entry *e = get(c, self, ndo_quad_code(q), nodes);
+	int made;
+	entry *e = get(c, self, ndo_quad_code(q), nodes, &made);
 	if (!e)
 		return ndo__fail(NDO_ENOMEM, "out of memory");
 	if (e->epoch != t->epoch && !standalone)
@@ -390,16 +406,25 @@ ndo_drop ndo_codec_decode_tile(ndo_codec *c, ndo_msg_tile_t *t)
 		return NDO_DROP_RANGE;
 	if (scratch(c, nodes))
 		return NDO_DROP_RANGE;
-	entry *e = get(c, t->hdr.sender_id, ndo_quad_code(q), nodes);
+	/* An entry is made only for a frame that decodes: before 2026-11-30
+	 * a corrupt one under a new id each left one, and a flood of them
+	 * (300,000 16-byte keyframes) made the table 400 MB and every later
+	 * tile's lookups 1 ms. */
+	int made;
+	entry *e = get(c, t->hdr.sender_id, ndo_quad_code(q), nodes, &made);
 	double *vals = malloc(6 * (size_t)nodes * sizeof *vals);
 	if (!e || !vals) {
 		free(vals);
+		if (e && made)
+			unmake(c, e);
 		return NDO_DROP_RANGE;
 	}
 	int keep = t->epoch >= e->epoch; /* an old partition's frame is no reference */
 	if (e->epoch != t->epoch) {
 		if (!keep && t->base_step >= 0) {
 			free(vals);
+			if (made)
+				unmake(c, e);
 			c->st.nobase++;
 			return NDO_DROP_NOBASE;
 		}
@@ -411,6 +436,8 @@ ndo_drop ndo_codec_decode_tile(ndo_codec *c, ndo_msg_tile_t *t)
 	                                      t->base_step, vals, vals + 3, 6, &c->fr);
 	if (r != NDO_DROP_NONE) {
 		free(vals);
+		if (made)
+			unmake(c, e);
 		if (r == NDO_DROP_CORRUPT)
 			c->st.corrupt++;
 		if (r == NDO_DROP_NOBASE)

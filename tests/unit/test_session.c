@@ -740,6 +740,71 @@ static void unreferenced_frames_are_bounded(void)
 	ndo_bus_destroy(bus);
 }
 
+/* Keyframes that do not decode, under a new sender id each, leave nothing
+ * in the receiver's codec: until 2026-11-30 each left its (sender, tile)
+ * entry, so a flood grew the table without bound and every later tile's
+ * lookups with it (300,000 of them: 400 MB, 1 ms a tile). */
+static void undecodable_tiles_leave_no_entry(void)
+{
+	ndo_bus *bus;
+	ndo_bus_create(&bus);
+	ndo_codec_params cp;
+	ndo_codec_parse("hier:1e-4", &cp);
+	ndo_link *spyl, *evil;
+	ndo_link_open_mem(bus, &spyl);
+	ndo_link_open_mem(bus, &evil);
+	ndo_session *s;
+	ndo_watch *w;
+	ndo_net *nw;
+	double diag;
+	CHECK(wavy_owner_and_watch(bus, &cp, 82, 5, 0, NULL, NULL, &s, &w, &nw, &diag) == 0,
+	      "owner: %s", ndo_errdetail());
+	spied sp = {.channel = "T_TILE"};
+	ndo_session_publish(s, 0, 0);
+	ndo_session_update(s, 0.1);
+	ndo_link_poll(spyl, 0.1, spy, &sp);
+	ndo_watch_update(w, 0.1);
+	ndo_msg m;
+	CHECK(sp.n > 0 && ndo_msg_decode(NDO_MSG_TILE, sp.buf, sp.len, &m) == NDO_DROP_NONE,
+	      "no tile seen (%d)", sp.n);
+	const uint64_t corrupt0 = ndo_net_stats_get(nw)->dropped[NDO_DROP_CORRUPT];
+	uint8_t junk[16];
+	uint64_t rng = 9;
+	const int flood = 500;
+	for (int k = 0; k < flood; k++) {
+		for (size_t b = 0; b < sizeof junk; b++)
+			junk[b] = (uint8_t)ndo_rng_next(&rng);
+		m.u.tile.hdr.sender_id = 5000 + k;
+		m.u.tile.base_step = -1;
+		free(m.u.tile.data);
+		m.u.tile.data = malloc(sizeof junk);
+		memcpy(m.u.tile.data, junk, sizeof junk);
+		m.u.tile.nbytes = (int32_t)sizeof junk;
+		uint8_t *buf;
+		size_t len;
+		if (ndo_msg_encode(NDO_MSG_TILE, &m.u.tile, &buf, &len) == 0) {
+			ndo_link_publish(evil, "T_TILE", buf, len);
+			free(buf);
+		}
+	}
+	ndo_watch_update(w, 0.2);
+	int known = 0;
+	for (int k = 0; k < flood; k++) {
+		m.u.tile.hdr.sender_id = 5000 + k;
+		known += ndo_codec_tile_known(ndo_net_codec(nw), &m.u.tile);
+	}
+	ndo_msg_free(&m);
+	const uint64_t corrupt = ndo_net_stats_get(nw)->dropped[NDO_DROP_CORRUPT] - corrupt0;
+	CHECK(corrupt == (uint64_t)flood && known == 0,
+	      "%llu of %d junk keyframes dropped as corrupt, %d left an entry",
+	      (unsigned long long)corrupt, flood, known);
+	ndo_session_destroy(s, NULL);
+	ndo_watch_destroy(w);
+	ndo_link_destroy(spyl);
+	ndo_link_destroy(evil);
+	ndo_bus_destroy(bus);
+}
+
 /* A rogue that floods the watch with tiles predicted from steps that never
  * come (128 a step, under one new id or a new id each) pushes out its own
  * held tiles, not those of the owner's reordered stream (when the oldest
@@ -1008,6 +1073,7 @@ int main(void)
 	RUN(late_references_are_waited_for);
 	RUN(lost_frames_ask_for_keyframes);
 	RUN(unreferenced_frames_are_bounded);
+	RUN(undecodable_tiles_leave_no_entry);
 	RUN(key_requests_are_bounded);
 	RUN(a_flood_pushes_out_its_own_held_tiles);
 	RUN(a_refused_reference_releases_its_frames);
