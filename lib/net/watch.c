@@ -538,6 +538,21 @@ static int release(ndo_watch *w, int32_t epoch)
 	return rc;
 }
 
+/* 1 when tile t carries a node its sender owns under partition m, of
+ * the nodes a frame takes from it (a coarse tile's all, a fine one's every
+ * 2^fk-th when the run sends a coarser level: as on_tile copies them). */
+static int carries_own(const ndo_watch *w, const epoch_map *m, const ndo_msg_tile_t *t)
+{
+	const int fine = !(t->channels & NDO_TILE_COARSE), mask = fine ? (1 << w->fk) - 1 : 0,
+	          sh = fine ? w->fk : 0;
+	for (int j = t->j0; j <= t->j1; j++)
+		for (int i = t->i0; i <= t->i1; i++)
+			if (!(i & mask) && !(j & mask) &&
+			    m->owner[w->canon[ndo_node(w->fw, i >> sh, j >> sh)]] == t->hdr.sender_id)
+				return 1;
+	return 0;
+}
+
 static int on_tile(ndo_watch *w, const ndo_msg_tile_t *t)
 {
 	int32_t from = t->hdr.sender_id;
@@ -555,11 +570,20 @@ static int on_tile(ndo_watch *w, const ndo_msg_tile_t *t)
 		w->st.unused++;
 		return 0;
 	}
-	if (t->step > w->max_step)
-		w->max_step = t->step;
 	epoch_map *m = find_epoch(w, t->epoch);
 	if (!m) /* its partition may come later (reordered): keep it */
 		return hold(w, t);
+	/* Only a tile with a node of its sender's opens a frame or moves the
+	 * newest step: until 2026-11-30 a sender of none (a rogue in an open
+	 * session) opened a frame a tile, and 16 of them at steps ahead gave
+	 * up every open frame of the owner's and moved the frames handed out
+	 * past all its steps (test_session a_stranger_opens_no_frames). */
+	if (!carries_own(w, m, t)) {
+		w->st.unused++;
+		return 0;
+	}
+	if (t->step > w->max_step)
+		w->max_step = t->step;
 	int failed = 0;
 	pending *p = frame_of(w, t->step, &failed);
 	if (!p) {

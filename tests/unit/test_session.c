@@ -805,6 +805,70 @@ static void undecodable_tiles_leave_no_entry(void)
 	ndo_bus_destroy(bus);
 }
 
+/* A stranger (an id that owns no node) that sends the watch tiles of
+ * steps far ahead, 16 a step: its tiles are unused and the owner's 40
+ * frames all come.  Until 2026-11-30 each opened a frame: the owner's open
+ * frames were given up and the frames handed out moved past its steps
+ * (0 of 40 came). */
+static void a_stranger_opens_no_frames(void)
+{
+	ndo_bus *bus;
+	ndo_bus_create(&bus);
+	ndo_codec_params cp;
+	ndo_codec_parse("raw", &cp);
+	ndo_link *spyl, *evil;
+	ndo_link_open_mem(bus, &spyl);
+	ndo_link_open_mem(bus, &evil);
+	ndo_session *s;
+	ndo_watch *w;
+	ndo_net *nw;
+	double diag, t = 0;
+	CHECK(wavy_owner_and_watch(bus, &cp, 83, 4, 0, NULL, NULL, &s, &w, &nw, &diag) == 0,
+	      "owner: %s", ndo_errdetail());
+	ndo_grid *og = ndo_session_grid(s);
+	double *x = ndo_grid_f64(og, NDO_CH_POSITION, 3);
+	spied sp = {.channel = "T_TILE"};
+	int frames = 0;
+	int64_t rseq = 0;
+	for (int64_t step = 0; step < 40; step++) {
+		for (size_t k = 0; k < og->count; k++)
+			x[3 * k] += 0.001;
+		ndo_grid_sync(og);
+		ndo_session_publish(s, step, 0.1 * (double)step);
+		t += 0.1;
+		ndo_session_update(s, t);
+		ndo_link_poll(spyl, t, spy, &sp);
+		ndo_msg m;
+		if (sp.n > 0 && ndo_msg_decode(NDO_MSG_TILE, sp.buf, sp.len, &m) == NDO_DROP_NONE) {
+			for (int k = 0; k < 16; k++, rseq++) {
+				m.u.tile.hdr.sender_id = 777;
+				m.u.tile.hdr.seq = rseq;
+				m.u.tile.step = 100000 + rseq;
+				uint8_t *buf;
+				size_t len;
+				if (ndo_msg_encode(NDO_MSG_TILE, &m.u.tile, &buf, &len) == 0) {
+					ndo_link_publish(evil, "T_TILE", buf, len);
+					free(buf);
+				}
+			}
+			ndo_msg_free(&m);
+		}
+		ndo_watch_update(w, t);
+		ndo_grid *fr;
+		while (ndo_watch_next(w, &fr) == 1) {
+			frames += fr->step < 40;
+			ndo_grid_destroy(fr);
+		}
+	}
+	CHECK(rseq > 0 && frames >= 39, "%d of the owner's 40 frames with a stranger's %lld tiles",
+	      frames, (long long)rseq);
+	ndo_session_destroy(s, NULL);
+	ndo_watch_destroy(w);
+	ndo_link_destroy(spyl);
+	ndo_link_destroy(evil);
+	ndo_bus_destroy(bus);
+}
+
 /* A rogue that floods the watch with tiles predicted from steps that never
  * come (128 a step, under one new id or a new id each) pushes out its own
  * held tiles, not those of the owner's reordered stream (when the oldest
@@ -1074,6 +1138,7 @@ int main(void)
 	RUN(lost_frames_ask_for_keyframes);
 	RUN(unreferenced_frames_are_bounded);
 	RUN(undecodable_tiles_leave_no_entry);
+	RUN(a_stranger_opens_no_frames);
 	RUN(key_requests_are_bounded);
 	RUN(a_flood_pushes_out_its_own_held_tiles);
 	RUN(a_refused_reference_releases_its_frames);
