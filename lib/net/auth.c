@@ -22,7 +22,8 @@ typedef struct window {
 	uint8_t instance[16];
 	uint64_t top; /* newest counter seen + 1 (0: none yet) */
 	uint64_t bits[NDO_REPLAY_WINDOW / 64]; /* bit c % W: counter c seen */
-	uint64_t used; /* for evicting the least recently used */
+	uint64_t used; /* the clock at its last message taken: the least
+	                  recently heard of the windows that may go is taken */
 	double heard;  /* when a fresh message last came */
 } window;
 
@@ -271,7 +272,6 @@ int ndo_auth_fresh(ndo_auth *a, int32_t sender, const ndo_auth_from *from, doubl
 		w->sender = sender;
 		memcpy(w->instance, from->instance, 16);
 	}
-	w->used = ++a->clock;
 	uint64_t c = from->counter;
 	uint64_t *word = &w->bits[(c / 64) % (NDO_REPLAY_WINDOW / 64)];
 	uint64_t bit = 1ull << (c % 64);
@@ -287,6 +287,7 @@ int ndo_auth_fresh(ndo_auth *a, int32_t sender, const ndo_auth_from *from, doubl
 		w->top = c + 1;
 		*word |= bit;
 		w->heard = now;
+		w->used = ++a->clock;
 		return 1;
 	}
 	if (w->top - c > NDO_REPLAY_WINDOW - 64)
@@ -295,5 +296,6 @@ int ndo_auth_fresh(ndo_auth *a, int32_t sender, const ndo_auth_from *from, doubl
 		return 0;
 	*word |= bit;
 	w->heard = now;
+	w->used = ++a->clock;
 	return 1;
 }

@@ -15,8 +15,9 @@
 
 #define MAX_SENDERS 64
 /* Tiles held for their reference (struct ndo_net's held): at most this
- * many at once (the oldest goes first, as `nobase`), each at most this
- * long — a reference lost, not late, is replaced by the next keyframe. */
+ * many at once (which goes first, as `nobase`: evictee()), each at most
+ * this long — a reference lost, not late, is replaced by the next
+ * keyframe. */
 #define HOLD_MAX 64
 #define HOLD_SECONDS 1.0
 /* Tiles whose keyframe was asked for lately, by this receiver or another

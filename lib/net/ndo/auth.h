@@ -38,7 +38,9 @@ extern "C" {
 
 #define NDO_KEY_BYTES 32
 /* Messages a sender may be reordered by and still count as new: a bitmap
- * of this many counters below the newest per sender (IPsec's window). */
+ * of this many counters per sender (IPsec's window), of which the
+ * NDO_REPLAY_WINDOW − 64 below the newest are remembered (the newest's
+ * word is partly ahead of it). */
 #define NDO_REPLAY_WINDOW 8192
 /* The environment variable that may hold the key (64 hex digits). */
 #define NDO_KEY_ENV "NDO_KEY"
