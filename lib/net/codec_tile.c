@@ -37,7 +37,8 @@ typedef struct entry {
 	int since_key;      /* encoder: frames sent since the last keyframe */
 	int want_key;       /* encoder: a receiver asked for a keyframe */
 	cached c[CACHED];   /* encoder: the last frames sent */
-	uint64_t used;
+	size_t at;          /* its place in the codec's e[] */
+	struct entry *older, *newer; /* the order of use (get()) */
 	/* decoder: the last frame decoded (for ndo_codec_skipped) */
 	int64_t dec_step, dec_base;
 	double dec_time, base_time;
@@ -47,9 +48,16 @@ struct ndo_codec {
 	ndo_codec_params p;
 	int level;
 	ndo_codec_work *w;
-	entry **e;
-	size_t n, cap, memory, memory_max;
-	uint64_t clock;
+	/* The entries: in e[], found by (sender, code) in slot[] (open
+	 * addressing, nslot a power of two at least twice n), and in the order
+	 * of their last use from oldest (the first forgotten) to newest: each
+	 * step O(1), whatever the count.  Until 2026-11-30 every lookup and
+	 * every forgetting scanned them all, and a flood of valid keyframes
+	 * of one-node tiles under new ids, up to memory_max, made that
+	 * millions a message. */
+	entry **e, **slot;
+	size_t n, cap, nslot, memory, memory_max;
+	entry *oldest, *newest;
 	ndo_codec_stats st;
 	double *x, *v;      /* a tile's values, scratch */
 	uint8_t *cls;
@@ -139,6 +147,7 @@ void ndo_codec_destroy(ndo_codec *c)
 	for (size_t k = 0; k < c->n; k++)
 		entry_free(c->e[k]);
 	free(c->e);
+	free(c->slot);
 	free(c->x), free(c->v), free(c->cls);
 	free(c->fr.x), free(c->fr.k), free(c->fr.have);
 	ndo_codec_work_destroy(c->w);
@@ -146,6 +155,7 @@ void ndo_codec_destroy(ndo_codec *c)
 }
 
 const ndo_codec_params *ndo_codec_params_of(const ndo_codec *c) { return &c->p; }
+void ndo_codec_set_memory(ndo_codec *c, size_t bytes) { c->memory_max = bytes; }
 void ndo_codec_stats_get(const ndo_codec *c, ndo_codec_stats *st) { *st = c->st; }
 
 /* Scratch for a tile of `nodes`. */
@@ -172,34 +182,118 @@ static int scratch(ndo_codec *c, int nodes)
 	return 0;
 }
 
-/* The entry of (sender, code), made when missing (*made set; NULL: out
- * of memory). */
+static size_t home(const ndo_codec *c, int32_t sender, int32_t code)
+{
+	uint64_t k = ((uint64_t)(uint32_t)sender << 32 | (uint32_t)code) * 0x9e3779b97f4a7c15ull;
+	return (size_t)(k ^ k >> 29) & (c->nslot - 1);
+}
+
+/* The entry of (sender, code), or NULL. */
+static entry *find(const ndo_codec *c, int32_t sender, int32_t code)
+{
+	if (!c->nslot)
+		return NULL;
+	for (size_t i = home(c, sender, code);; i = (i + 1) & (c->nslot - 1)) {
+		entry *e = c->slot[i];
+		if (!e || (e->sender == sender && e->code == code))
+			return e;
+	}
+}
+
+static void slot_put(ndo_codec *c, entry *e)
+{
+	size_t i = home(c, e->sender, e->code);
+	while (c->slot[i])
+		i = (i + 1) & (c->nslot - 1);
+	c->slot[i] = e;
+}
+
+/* Room in slot[] for one more entry: 0, or NDO_ENOMEM. */
+static int slot_room(ndo_codec *c)
+{
+	if (2 * (c->n + 1) <= c->nslot)
+		return 0;
+	size_t ns = c->nslot ? 2 * c->nslot : 128;
+	entry **sl = calloc(ns, sizeof *sl);
+	if (!sl)
+		return NDO_ENOMEM;
+	free(c->slot);
+	c->slot = sl;
+	c->nslot = ns;
+	for (size_t k = 0; k < c->n; k++)
+		slot_put(c, c->e[k]);
+	return 0;
+}
+
+/* Entry e out of slot[]: the entries after it in its run moved back
+ * where their probes pass (linear probing's deletion). */
+static void slot_erase(ndo_codec *c, const entry *e)
+{
+	const size_t mask = c->nslot - 1;
+	size_t i = home(c, e->sender, e->code);
+	while (c->slot[i] != e)
+		i = (i + 1) & mask;
+	for (size_t j = (i + 1) & mask; c->slot[j]; j = (j + 1) & mask) {
+		size_t h = home(c, c->slot[j]->sender, c->slot[j]->code);
+		/* slot[j] may fill the hole at i when its home is not in (i, j] */
+		if (((j - h) & mask) >= ((j - i) & mask)) {
+			c->slot[i] = c->slot[j];
+			i = j;
+		}
+	}
+	c->slot[i] = NULL;
+}
+
+static void unlink_use(ndo_codec *c, entry *e)
+{
+	*(e->older ? &e->older->newer : &c->oldest) = e->newer;
+	*(e->newer ? &e->newer->older : &c->newest) = e->older;
+	e->older = e->newer = NULL;
+}
+
+static void link_newest(ndo_codec *c, entry *e)
+{
+	e->older = c->newest;
+	e->newer = NULL;
+	*(c->newest ? &c->newest->newer : &c->oldest) = e;
+	c->newest = e;
+}
+
+/* Entry e forgotten: out of slot[], the order of use and e[]. */
+static void drop_entry(ndo_codec *c, entry *e)
+{
+	slot_erase(c, e);
+	unlink_use(c, e);
+	c->e[e->at] = c->e[--c->n];
+	c->e[e->at]->at = e->at;
+	c->memory -= entry_size(e->nodes);
+	entry_free(e);
+}
+
+/* The entry of (sender, code), the newest in use, made when missing
+ * (*made set; NULL: out of memory). */
 static entry *get(ndo_codec *c, int32_t sender, int32_t code, int nodes, int *made)
 {
 	*made = 0;
-	for (size_t k = 0; k < c->n; k++)
-		if (c->e[k]->sender == sender && c->e[k]->code == code) {
-			c->e[k]->used = ++c->clock;
-			return c->e[k];
-		}
-	while (c->memory + entry_size(nodes) > c->memory_max && c->n) { /* forget the least used */
-		size_t lru = 0;
-		for (size_t k = 1; k < c->n; k++)
-			if (c->e[k]->used < c->e[lru]->used)
-				lru = k;
-		c->memory -= entry_size(c->e[lru]->nodes);
-		entry_free(c->e[lru]);
-		c->e[lru] = c->e[--c->n];
+	entry *e = find(c, sender, code);
+	if (e) {
+		unlink_use(c, e);
+		link_newest(c, e);
+		return e;
 	}
+	while (c->memory + entry_size(nodes) > c->memory_max && c->n) /* forget the least used */
+		drop_entry(c, c->oldest);
 	if (c->n == c->cap) {
 		size_t cap = c->cap ? 2 * c->cap : 64;
-		entry **e = realloc(c->e, cap * sizeof *e);
-		if (!e)
+		entry **ne = realloc(c->e, cap * sizeof *ne);
+		if (!ne)
 			return NULL;
-		c->e = e;
+		c->e = ne;
 		c->cap = cap;
 	}
-	entry *e = calloc(1, sizeof *e);
+	if (slot_room(c))
+		return NULL;
+	e = calloc(1, sizeof *e);
 	if (!e || ndo_codec_hist_init(&e->h, nodes)) {
 		free(e);
 		return NULL;
@@ -211,23 +305,13 @@ static entry *get(ndo_codec *c, int32_t sender, int32_t code, int nodes, int *ma
 	e->last_key = e->last_sent = e->dec_step = e->dec_base = -1;
 	for (int k = 0; k < CACHED; k++)
 		e->c[k].step = -1;
-	e->used = ++c->clock;
+	e->at = c->n;
 	c->e[c->n++] = e;
+	slot_put(c, e);
+	link_newest(c, e);
 	c->memory += entry_size(nodes);
 	*made = 1;
 	return e;
-}
-
-/* Entry e, just made, given up: its frame did not decode. */
-static void unmake(ndo_codec *c, entry *e)
-{
-	for (size_t k = 0; k < c->n; k++)
-		if (c->e[k] == e) {
-			c->memory -= entry_size(e->nodes);
-			entry_free(e);
-			c->e[k] = c->e[--c->n];
-			return;
-		}
 }
 
 static void forget(entry *e, int32_t epoch)
@@ -376,21 +460,19 @@ int ndo_codec_last_positions(const ndo_codec *c, double *x)
 
 int ndo_codec_want_key(ndo_codec *c, int32_t self, int32_t code)
 {
-	for (size_t k = 0; k < c->n; k++)
-		if (c->e[k]->sender == self && c->e[k]->code == code) {
-			c->st.keys_asked++;
-			c->e[k]->want_key = c->e[k]->last_key >= 0; /* none sent yet: the first is one */
-			return 1;
-		}
-	return 0;
+	entry *e = find(c, self, code);
+	if (!e)
+		return 0;
+	c->st.keys_asked++;
+	e->want_key = e->last_key >= 0; /* none sent yet: the first is one */
+	return 1;
 }
 
 void ndo_codec_forget_tile(ndo_codec *c, int32_t self, ndo_quad q)
 {
-	int32_t code = ndo_quad_code(q);
-	for (size_t k = 0; k < c->n; k++)
-		if (c->e[k]->sender == self && c->e[k]->code == code)
-			forget(c->e[k], c->e[k]->epoch);
+	entry *e = find(c, self, ndo_quad_code(q));
+	if (e)
+		forget(e, e->epoch);
 }
 
 ndo_drop ndo_codec_decode_tile(ndo_codec *c, ndo_msg_tile_t *t)
@@ -416,7 +498,7 @@ ndo_drop ndo_codec_decode_tile(ndo_codec *c, ndo_msg_tile_t *t)
 	if (!e || !vals) {
 		free(vals);
 		if (e && made)
-			unmake(c, e);
+			drop_entry(c, e);
 		return NDO_DROP_RANGE;
 	}
 	int keep = t->epoch >= e->epoch; /* an old partition's frame is no reference */
@@ -424,7 +506,7 @@ ndo_drop ndo_codec_decode_tile(ndo_codec *c, ndo_msg_tile_t *t)
 		if (!keep && t->base_step >= 0) {
 			free(vals);
 			if (made)
-				unmake(c, e);
+				drop_entry(c, e);
 			c->st.nobase++;
 			return NDO_DROP_NOBASE;
 		}
@@ -437,7 +519,7 @@ ndo_drop ndo_codec_decode_tile(ndo_codec *c, ndo_msg_tile_t *t)
 	if (r != NDO_DROP_NONE) {
 		free(vals);
 		if (made)
-			unmake(c, e);
+			drop_entry(c, e);
 		if (r == NDO_DROP_CORRUPT)
 			c->st.corrupt++;
 		if (r == NDO_DROP_NOBASE)
@@ -475,11 +557,7 @@ static entry *entry_of(const ndo_codec *c, const ndo_msg_tile_t *t)
 	ndo_quad q;
 	if (ndo_quad_from_range(c->level, t->depth, t->i0, t->j0, t->i1, t->j1, &q) != 0)
 		return NULL;
-	int32_t code = ndo_quad_code(q);
-	for (size_t k = 0; k < c->n; k++)
-		if (c->e[k]->sender == t->hdr.sender_id && c->e[k]->code == code)
-			return c->e[k];
-	return NULL;
+	return find(c, t->hdr.sender_id, ndo_quad_code(q));
 }
 
 int ndo_codec_tile_known(const ndo_codec *c, const ndo_msg_tile_t *t)

@@ -27,6 +27,11 @@
  *                                    of 2 bands holds: the bits a value left after
  *                                    each prediction the receiver could
  *                                    make (docs/peers.md, "Not done")
+ *   bench_peers flood [-l LEVEL]     (level 6 unless given) a receiver's
+ *                                    time a message under a flood of
+ *                                    valid keyframes of its smallest tile,
+ *                                    a new sender id each (hier:1e-4;
+ *                                    docs/protocol.md, "Keyframe requests")
  */
 #include "../unit/peer_world.h"
 #include "../unit/watch_stream.h"
@@ -34,6 +39,9 @@
 #include "ndo/partition.h"
 #include "ndo/quadtree.h"
 #include "ndo/topology.h"
+
+#include <time.h>
+#include <unistd.h>
 
 static double run_split(setup *su, int n, ndo_peer_stats *st)
 {
@@ -366,6 +374,103 @@ static void keyframes(void)
 	              (ndo_faults){.reorder = 0.05, .delay_ms = 2, .jitter_ms = 2}, 0.002, SEEDS);
 }
 
+static double mono_s(void)
+{
+	struct timespec ts;
+	clock_gettime(CLOCK_MONOTONIC, &ts);
+	return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+/* The resident set in MB (/proc/self/statm), or NaN. */
+static double rss_mb(void)
+{
+	FILE *f = fopen("/proc/self/statm", "r");
+	long pages = 0, res = -1;
+	if (f) {
+		if (fscanf(f, "%ld %ld", &pages, &res) != 2)
+			res = -1;
+		fclose(f);
+	}
+	return res < 0 ? NAN : (double)res * (double)sysconf(_SC_PAGESIZE) / 1048576.0;
+}
+
+static void flood(int level)
+{
+	enum { BATCH = 20000, BATCHES = 15 };
+	ndo_grid *g;
+	if (ndo_shape_make("wavy", level, NULL, &g) || ndo_grid_add(g, NDO_CH_VELOCITY, NDO_F64, 3, NULL))
+		return;
+	ndo_codec_params p;
+	ndo_codec_parse("hier:1e-4", &p);
+	ndo_codec_box(ndo_grid_f64(g, NDO_CH_POSITION, 3), g->count, p.lo, p.ext);
+	ndo_codec *tx;
+	uint8_t *cls = malloc(g->count);
+	memset(cls, NDO_NODE_LOSSY, g->count);
+	const ndo_quad q = {level + 1, 0, 0}; /* one cell */
+	int i0, j0, i1, j1;
+	ndo_quad_range(level, q, &i0, &j0, &i1, &j1);
+	ndo_msg_tile_t t;
+	memset(&t, 0, sizeof t);
+	t.hdr = (ndo_msg_header_t){NDO_PROTOCOL_VERSION, 79, 5, 0, 0};
+	t.depth = (int8_t)q.depth, t.i0 = i0, t.j0 = j0, t.i1 = i1, t.j1 = j1;
+	t.channels = NDO_TILE_POSITION | NDO_TILE_VELOCITY;
+	if (ndo_codec_create(&p, level, &tx) || ndo_codec_encode_tile(tx, 5, g, cls, q, 0, &t)) {
+		fprintf(stderr, "bench_peers flood: %s\n", ndo_errdetail());
+		return;
+	}
+	ndo_bus *bus;
+	ndo_link *l, *evil;
+	ndo_net *n;
+	ndo_bus_create(&bus);
+	ndo_link_open_mem(bus, &l);
+	ndo_link_open_mem(bus, &evil);
+	ndo_net_create(l, "T", 11, &n);
+	ndo_net_attach(n, 79, level);
+	ndo_net_set_codec(n, &p, level);
+	printf("A level-%d receiver (hier:1e-4) fed keyframes of a one-cell tile (%d nodes, %d "
+	       "bytes of payload), a new sender id each, in batches of %d; the time of its polls "
+	       "(decode included) a message, and its resident memory.\n\n",
+	       level, (i1 - i0 + 1) * (j1 - j0 + 1), t.nbytes, BATCH);
+	printf("| messages | µs a message, this batch | decoded | RSS (MB) |\n|---:|---:|---:|---:|\n");
+	int32_t id = 1000;
+	for (int b = 0; b < BATCHES; b++) {
+		double took = 0;
+		for (int k = 0; k < BATCH; k++, id++) {
+			t.hdr.sender_id = id;
+			uint8_t *buf;
+			size_t len;
+			if (ndo_msg_encode(NDO_MSG_TILE, &t, &buf, &len) == 0) {
+				ndo_link_publish(evil, "T_TILE", buf, len);
+				free(buf);
+			}
+			if (k % 1000 == 999) {
+				double t0 = mono_s();
+				ndo_net_poll(n, 0.001 * (double)id);
+				ndo_msg *tiles;
+				size_t nt;
+				if (ndo_net_take_tiles(n, &tiles, &nt) == 0) {
+					for (size_t m = 0; m < nt; m++)
+						ndo_msg_free(&tiles[m]);
+					free(tiles);
+				}
+				took += mono_s() - t0;
+			}
+		}
+		ndo_codec_stats st;
+		ndo_codec_stats_get(ndo_net_codec(n), &st);
+		printf("| %d | %.2f | %llu | %.0f |\n", (b + 1) * BATCH, 1e6 * took / BATCH,
+		       (unsigned long long)st.decoded, rss_mb());
+		fflush(stdout);
+	}
+	ndo_net_destroy(n);
+	ndo_link_destroy(evil);
+	ndo_bus_destroy(bus);
+	ndo_codec_destroy(tx);
+	free(t.data);
+	free(cls);
+	ndo_grid_destroy(g);
+}
+
 int main(int argc, char **argv)
 {
 	int level = argc > 3 && strcmp(argv[2], "-l") == 0 ? atoi(argv[3]) : 5;
@@ -379,10 +484,12 @@ int main(int argc, char **argv)
 		keyframes();
 	else if (argc > 1 && strcmp(argv[1], "halo-bits") == 0)
 		halo_bits(argc > 3 ? level : 6);
+	else if (argc > 1 && strcmp(argv[1], "flood") == 0)
+		flood(argc > 3 ? level : 6);
 	else {
-		fprintf(stderr, "usage: bench_peers lag|realtime|split|keyframes|halo-bits [-l LEVEL]  "
-		                "(LEVEL: 6 for "
-		                "halo-bits, 5 for the others, unless given)\n");
+		fprintf(stderr, "usage: bench_peers lag|realtime|split|keyframes|halo-bits|flood "
+		                "[-l LEVEL]  (LEVEL: 6 for halo-bits and flood, 5 for the others, "
+		                "unless given)\n");
 		return 2;
 	}
 	return 0;

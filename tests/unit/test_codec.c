@@ -598,6 +598,71 @@ static void a_level_10_object_keeps_every_tiles_history(void)
 	ndo_grid_destroy(g);
 }
 
+/* The histories beyond ndo_codec_set_memory go least recently used first,
+ * and every other is still found, after thousands made and forgotten
+ * (the index of (sender, tile) and the order of use, codec_tile.c): room
+ * for 50 tiles' histories, the same tile under 2,000 senders, then 10 of
+ * the newest 50 used again and 10 new ones — the 10 forgotten are the
+ * oldest of the 40 not used again. */
+static void least_used_histories_go_first(void)
+{
+	const int level = 3;
+	ndo_grid *g;
+	CHECK(ndo_shape_make("wavy", level, NULL, &g) == 0, "wavy");
+	ndo_grid_add(g, NDO_CH_VELOCITY, NDO_F64, 3, NULL);
+	ndo_codec_params p;
+	ndo_codec_parse("predict", &p);
+	double *x = ndo_grid_f64(g, NDO_CH_POSITION, 3);
+	ndo_codec_box(x, g->count, p.lo, p.ext);
+	ndo_codec *tx;
+	CHECK(ndo_codec_create(&p, level, &tx) == 0, "created");
+	uint8_t *cls = malloc(g->count);
+	memset(cls, NDO_NODE_LOSSY, g->count);
+	const ndo_quad q = {2, 1, 0};
+	int i0, j0, i1, j1;
+	ndo_quad_range(level, q, &i0, &j0, &i1, &j1);
+	const size_t nodes = (size_t)(i1 - i0 + 1) * (size_t)(j1 - j0 + 1);
+	/* a tile's history: 40 bytes a node a frame (entry_size, codec_tile.c) */
+	ndo_codec_set_memory(tx, 50 * nodes * 40 * NDO_CODEC_HISTORY);
+	int keys = 0; /* of the last encode() */
+#define ENCODE(id, step)                                                                  \
+	do {                                                                              \
+		ndo_msg_tile_t t_ = state_tile(level, q, step);                               \
+		CHECK(ndo_codec_encode_tile(tx, id, g, cls, q, 0, &t_) == 0, "sender %d", id); \
+		keys = t_.base_step < 0;                                                      \
+		free(t_.values), free(t_.data);                                               \
+	} while (0)
+	for (int id = 1; id <= 2000; id++)
+		ENCODE(id, 0);
+	for (size_t k = 0; k < 3 * g->count; k++) /* every tile moves */
+		x[k] += 1e-3;
+	for (int id = 1951; id <= 1960; id++) { /* used again: kept */
+		ENCODE(id, 1);
+		CHECK(!keys, "sender %d, one of the newest 50: forgotten", id);
+	}
+	for (int id = 3001; id <= 3010; id++)
+		ENCODE(id, 0);
+	int kept = 0, forgotten = 0;
+	for (size_t k = 0; k < 3 * g->count; k++)
+		x[k] += 1e-3;
+	for (int id = 1951; id <= 2000; id++) {
+		ENCODE(id, id <= 1960 ? 2 : 1);
+		if (id > 1960 && id <= 1970)
+			forgotten += keys;
+		else
+			kept += !keys;
+		if (id == 1960) /* room for the forgotten ones made again */
+			ndo_codec_set_memory(tx, 200 * nodes * 40 * NDO_CODEC_HISTORY);
+	}
+	CHECK(forgotten == 10 && kept == 40,
+	      "of the 10 least used, %d forgotten (10); of the other 40, %d kept (40)", forgotten,
+	      kept);
+#undef ENCODE
+	ndo_codec_destroy(tx);
+	free(cls);
+	ndo_grid_destroy(g);
+}
+
 static void specs_and_description_lines(void)
 {
 	ndo_codec_params p;
@@ -670,6 +735,7 @@ int main(void)
 	RUN(hostile_predicted_payloads);
 	RUN(tiles_in_place);
 	RUN(a_level_10_object_keeps_every_tiles_history);
+	RUN(least_used_histories_go_first);
 	RUN(specs_and_description_lines);
 	return ck_failed_cases != 0;
 }

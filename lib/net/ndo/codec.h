@@ -327,6 +327,11 @@ size_t ndo_codec_classify(int level, const int32_t *owner, int32_t self, uint8_t
 int ndo_codec_create(const ndo_codec_params *p, int level, ndo_codec **out);
 void ndo_codec_destroy(ndo_codec *c); /* accepts NULL */
 const ndo_codec_params *ndo_codec_params_of(const ndo_codec *c);
+/* The memory the tiles' histories may take (each (sender, tile) pair's
+ * NDO_CODEC_HISTORY frames): beyond it the least recently used are
+ * forgotten (their next frame a keyframe, or `nobase` here).  By default
+ * twice the object's, at least 256 MB. */
+void ndo_codec_set_memory(ndo_codec *c, size_t bytes);
 
 /* Encode a position+velocity tile of g (f64 position and velocity) for
  * quad-tree node q, step `t->step`, time, epoch already set in *t: fills
