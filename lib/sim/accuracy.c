@@ -278,7 +278,10 @@ static int by_ids(const ndo_acc *a)
 	return NDO_OK;
 }
 
-int ndo_acc_sim(ndo_acc *a, int level, ndo_method method, double tol, ndo_sim **out)
+/* ndo_acc_sim; energy_test 0: without the energy bound (the choice's own
+ * runs, ndo_acc_choose), the NaN/Inf and size tests kept. */
+static int acc_sim(ndo_acc *a, int level, ndo_method method, double tol, int energy_test,
+                   ndo_sim **out)
 {
 	*out = NULL;
 	int rc = ensure_level(a, level);
@@ -303,6 +306,8 @@ int ndo_acc_sim(ndo_acc *a, int level, ndo_method method, double tol, ndo_sim **
 	p.method = method;
 	if (tol > 0)
 		p.tol = tol;
+	if (!energy_test)
+		p.energy_bound = 0;
 	p.forces = forces;
 	p.nforces = a->sc->nforces;
 	rc = ndo_sim_create(level, d->x, a->has_v ? d->v : NULL, d->rest, d->pin, &p, out);
@@ -310,6 +315,11 @@ int ndo_acc_sim(ndo_acc *a, int level, ndo_method method, double tol, ndo_sim **
 	if (rc == NDO_OK)
 		ndo_sim_set_time(*out, a->t0, 0);
 	return rc;
+}
+
+int ndo_acc_sim(ndo_acc *a, int level, ndo_method method, double tol, ndo_sim **out)
+{
+	return acc_sim(a, level, method, tol, 1, out);
 }
 
 void ndo_acc_displacement(const ndo_acc *a, const ndo_sim *s, double *u)
@@ -349,11 +359,12 @@ double ndo_acc_sampled(const ndo_acc *a)
 	return a->umax;
 }
 
-int ndo_acc_run(ndo_acc *a, const ndo_acc_config *c, ndo_acc_result *r)
+/* ndo_acc_run; energy_test as acc_sim's. */
+static int acc_run(ndo_acc *a, const ndo_acc_config *c, int energy_test, ndo_acc_result *r)
 {
 	memset(r, 0, sizeof *r);
 	ndo_sim *s;
-	int rc = ndo_acc_sim(a, c->level, c->method, c->tol, &s);
+	int rc = acc_sim(a, c->level, c->method, c->tol, energy_test, &s);
 	if (rc)
 		return rc;
 	r->u = malloc(3 * nodes_of(c->level) * sizeof(double));
@@ -388,6 +399,11 @@ int ndo_acc_run(ndo_acc *a, const ndo_acc_config *c, ndo_acc_result *r)
 		return rc;
 	}
 	return NDO_OK;
+}
+
+int ndo_acc_run(ndo_acc *a, const ndo_acc_config *c, ndo_acc_result *r)
+{
+	return acc_run(a, c, 1, r);
 }
 
 void ndo_acc_result_free(ndo_acc_result *r)
@@ -1013,11 +1029,25 @@ static double against(int q, int top, const double *u, const double *ustar)
 	return d;
 }
 
+/* The choice's own runs, its pilots and measured runs, without the
+ * energy test: each is at most 0.9 × the critical step of its level's top
+ * mode (power iteration), where a linear scene cannot diverge, and the
+ * test's input work, the power at the steps' ends, misses a push at steps
+ * that are a large part of a force's period (docs/simulate-peer.md): the
+ * thesis' figure 5.3 at input level 2 stopped the whole choice as
+ * "diverged" at a level-0 pilot.  The NaN/Inf and size tests stay. */
+static int choice_run(ndo_acc *a, const ndo_acc_config *c, ndo_acc_result *r)
+{
+	return acc_run(a, c, 0, r);
+}
+
 /* A level's two measured runs (ndo_acc_choose: symplectic Euler and RK4
  * at 0.9 × their critical steps) as a job that may run on a thread of its
  * own beside that level's pilot: they read only the level's restriction,
  * made before.  A run whose critical step is not known is not made here
- * (rc NDO_EINVAL: made again, in order, where it is needed). */
+ * (rc NDO_EINVAL: made again, in order, where it is needed), nor is one
+ * that diverged taken from here (made again, for its error's detail,
+ * which is its thread's). */
 typedef struct measure_job {
 	ndo_acc *a;
 	ndo_acc_config c[2];
@@ -1029,7 +1059,7 @@ static void *measure_run(void *arg)
 {
 	measure_job *j = arg;
 	for (int k = 0; k < 2; k++)
-		j->rc[k] = j->c[k].steps > 0 ? ndo_acc_run(j->a, &j->c[k], &j->r[k]) : NDO_EINVAL;
+		j->rc[k] = j->c[k].steps > 0 ? choice_run(j->a, &j->c[k], &j->r[k]) : NDO_EINVAL;
 	return NULL;
 }
 
@@ -1052,6 +1082,9 @@ int ndo_acc_choose(ndo_acc *a, double target, int metres, double T, ndo_acc_choi
 		return ndo__fail(NDO_EINVAL, "the accuracy %g is outside (0, 1)", target);
 	if (!(T > 0))
 		return ndo__fail(NDO_EINVAL, "no duration");
+	/* The pilots from level 2, or at levels n − 2 and n − 1 for an input
+	 * at level 2 or 3: the space error needs two of them, below the
+	 * input's level (the next pilot is never the input's level itself). */
 	int n = a->level, p0 = n - 2 < 2 ? (n - 2 > 0 ? n - 2 : 0) : 2;
 	if (n < 2)
 		return ndo__fail(NDO_EINVAL, "level %d: --accuracy needs level 2 or finer", n);
@@ -1090,11 +1123,17 @@ int ndo_acc_choose(ndo_acc *a, double target, int metres, double T, ndo_acc_choi
 		             beside_fits(a, &c, a->threads, 2 * companion_bytes(a, &j->c[1], p)) &&
 		             pthread_create(&th, NULL, measure_run, j) == 0;
 		ndo_acc_result res;
-		rc = ndo_acc_run(a, &c, &res);
+		rc = choice_run(a, &c, &res);
 		if (beside)
 			pthread_join(th, NULL);
-		if (rc)
+		if (rc) {
+			/* every level's prediction comes from the pilots: no choice
+			 * without this one */
+			char d[256];
+			snprintf(d, sizeof d, "%s", ndo_errdetail());
+			rc = ndo__fail(rc, "the pilot at level %d (rk4, step %.4g s): %s", p, c.h, d);
 			goto out;
+		}
 		pu[p] = res.u, ph[p] = c.h, umax = res.umax, top = p;
 		if (p == p0)
 			continue;
@@ -1147,7 +1186,13 @@ int ndo_acc_choose(ndo_acc *a, double target, int metres, double T, ndo_acc_choi
 	 * time-error constant C in e = C h^p (against the pilot), and at the
 	 * top its force evaluations per step (the cost is counted by
 	 * ndo_acc_work, not timed: the same choice on any load). */
-	double C[L][2], tot[L][2], evals_per_step[2] = {0, 0};
+	double C[L][2] = {{0}}, tot[L][2] = {{0}}, evals_per_step[2] = {0, 0};
+	/* A method whose measured run at a level diverged (or has no critical
+	 * step) is no candidate there, nor above the pilots when that level is
+	 * the top (its C comes from there); the others stay.  lost: the last
+	 * such run, for the error when nothing is left. */
+	int failed[L][2] = {{0}};
+	char lost[256] = "";
 	int lo = qmin >= 0 && qmin < top ? qmin : top;
 	for (int q = lo; q <= top; q++)
 		for (int k = 0; k < 2; k++) {
@@ -1157,17 +1202,25 @@ int ndo_acc_choose(ndo_acc *a, double target, int metres, double T, ndo_acc_choi
 				res = mj[q].r[k];
 				mj[q].r[k].u = NULL;
 				mj[q].rc[k] = NDO_EINVAL;
-			} else if (!(c.steps > 0) || (rc = ndo_acc_run(a, &c, &res))) {
-				rc = rc ? rc : ndo__fail(NDO_EDIVERGED, "%s: no critical step",
-				                         ndo_method_names[ms[k]]);
-				goto out;
+			} else if (!(c.steps > 0) || (rc = choice_run(a, &c, &res))) {
+				if (rc && rc != NDO_EDIVERGED)
+					goto out;
+				if (rc)
+					snprintf(lost, sizeof lost, "%s at level %d, step %.4g s: %s",
+					         ndo_method_names[ms[k]], q, c.h, ndo_errdetail());
+				else
+					snprintf(lost, sizeof lost, "%s at level %d: no critical step",
+					         ndo_method_names[ms[k]], q);
+				rc = NDO_OK;
+				failed[q][k] = 1;
+				continue;
 			}
 			int p = ndo_method_order(ms[k]);
 			double d = ndo_acc_distance(q, res.u, pu[q]);
 			double denom = pow(c.h, p) - (ms[k] == NDO_RK4 ? pow(ph[q], p) : 0);
 			C[q][k] = denom > 0 ? d / denom : 0;
 			tot[q][k] = against(q, top, res.u, ustar);
-			if (q == top)
+			if (q == top || !(evals_per_step[k] > 0)) /* the top's when it ran */
 				evals_per_step[k] =
 				    res.node_evals / ((double)c.steps * (double)ndo_vertex_count(q));
 			ndo_acc_result_free(&res);
@@ -1199,7 +1252,7 @@ int ndo_acc_choose(ndo_acc *a, double target, int metres, double T, ndo_acc_choi
 			if (q > top && !pruned[k] && hprev[k] > 0 &&
 			    cost_floor(a, T, hprev[k] * pow(2, q - hlevel[k]), q, ms[k]) >= ch->cpu)
 				pruned[k] = 1;
-			if (pruned[k])
+			if (pruned[k] || failed[measured ? q : top][k])
 				continue;
 			double hc = critical_at(a, q, ms[k]), Ck = C[measured ? q : top][k];
 			if (q > ch->critical_top)
@@ -1230,7 +1283,7 @@ int ndo_acc_choose(ndo_acc *a, double target, int metres, double T, ndo_acc_choi
 		}
 	}
 	if (!isfinite(ch->cpu))
-		rc = ndo__fail(NDO_EDIVERGED, "no stable configuration");
+		rc = ndo__fail(NDO_EDIVERGED, "no stable configuration%s%s", *lost ? "; " : "", lost);
 out:
 #undef ES
 	ch->pilot_cpu = cpu_now() - started;

@@ -96,6 +96,19 @@ else
 	fail "--info --accuracy" "$(cat m.log)"
 fi
 
+# An input at level 2 pilots at levels 0 and 1: figure 5.3 for 1 s, whose
+# pilots' steps (0.5 s, 0.25 s) sample the 1 Hz force where it is 0.  The
+# choice's runs go without the energy test, whose false alarm there
+# stopped the whole choice as "diverged" (exit 1).
+F53=$NDO_ROOT/samples/thesis-fig5.3.scene
+remesh --shape wavy -l 2 -o w2.tgrid
+if simulate-peer -s "$F53" -t 1 --accuracy 0.1 --info w2.tgrid 2>w2.log &&
+	grep -q '^simulate-peer: --accuracy 0.1 .*: level [0-2], .*; pilots at levels up to 1)$' w2.log; then
+	pass "--accuracy 0.1 from a level-2 input: pilots at levels 0-1, a choice"
+else
+	fail "--accuracy from a level-2 input" "$(tail -1 w2.log)"
+fi
+
 # Refusals, before any run, one line, exit 2.
 expect_error "an accuracy level 4 cannot reach" 2 \
 	'^simulate-peer: --accuracy 0.0001 of the largest displacement: out of reach at level 4: .* this input allows .* at best, and level (5|6|7|8|9|10) would be needed$' \

@@ -194,16 +194,17 @@ int ndo_method_order(ndo_method m);
 
 /* --accuracy: the configuration that meets `target` — relative to the
  * largest displacement (metres = 0) or in metres — at the least predicted
- * cost, for a run of `duration` seconds.  Candidates: every level from 2
- * (or the input's, if lower) to the input's, and the two methods that
+ * cost, for a run of `duration` seconds.  Candidates: every level from
+ * the first pilot's (below) to the input's, and the two methods that
  * dominate the work-precision diagram of the membrane (symplectic Euler
  * for rough answers, RK4 otherwise), each at its largest stable step
  * (0.9 × critical) or the step whose predicted time error fits.
  *
  * The prediction: pilots run the scene with RK4 at half its critical step
- * at levels from 2 up, each one level finer, until a level one above the
- * last pilot is predicted to suffice or the next pilot would be the input
- * level itself; the last two pilots' difference gives the space error of
+ * at levels from 2 up (an input at level 2 or 3: at levels n − 2 and
+ * n − 1), each one level finer, until a level one above the last pilot is
+ * predicted to suffice or the next pilot would be the input level
+ * itself; the last two pilots' difference gives the space error of
  * every level as above (by r = 4 per level), the last one the largest
  * displacement.  At the last pilot level, RK4 and symplectic Euler at
  * 0.9 × their critical steps against the pilot give each method's error
@@ -217,7 +218,14 @@ int ndo_method_order(ndo_method m);
  * level's predicted space error alone is above the target — *choice gets
  * reachable = 0, the input level's predicted error (best_m) and the level
  * that would meet it (level_needed, by r per level), and nothing runs.
- * NDO_EINVAL: target ≤ 0, or relative target ≥ 1; errors of the pilots. */
+ * The pilots and measured runs go without the energy test (at most 0.9 ×
+ * a critical step; its input work misses pushes at steps that are a large
+ * part of a force's period), the NaN/Inf and size tests kept; a measured
+ * run that still diverges takes its method out at its level (and above
+ * the pilots, when it is the top's).
+ * NDO_EINVAL: target ≤ 0, or relative target ≥ 1; NDO_EDIVERGED: a pilot
+ * diverged, or no candidate was left (the detail names the run); errors
+ * of the pilots. */
 typedef struct ndo_acc_choice {
 	ndo_acc_config c;
 	double target_m;        /* the target in metres */
