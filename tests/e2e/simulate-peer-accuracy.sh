@@ -108,6 +108,15 @@ if simulate-peer -s "$F53" -t 1 --accuracy 0.1 --info w2.tgrid 2>w2.log &&
 else
 	fail "--accuracy from a level-2 input" "$(tail -1 w2.log)"
 fi
+# The chosen run goes without the test too, unless --energy-bound asks for
+# it: from level 3 at 0.9 the choice is rk4 at level 1 at 0.5 s, half the
+# force's period, which the test stopped at its first step (exit 3).
+remesh --shape wavy -l 3 -o w3.tgrid
+check "--accuracy 0.9 from a level-3 input runs its choice (rk4 at half the force's period)" \
+	simulate-peer -q -s "$F53" -t 1 --accuracy 0.9 w3.tgrid -o w3a.tgrid
+expect_error "--accuracy with --energy-bound 10: the chosen run keeps the test" 3 \
+	"^simulate-peer: diverged at step 1 .*: energy .* exceeds 10 × .*the step is 0.5 of a force's period" \
+	simulate-peer -q -s "$F53" -t 1 --accuracy 0.9 --energy-bound 10 w3.tgrid -o never.tgrid
 
 # Refusals, before any run, one line, exit 2.
 expect_error "an accuracy level 4 cannot reach" 2 \

@@ -83,7 +83,8 @@ static __attribute__((noreturn)) void usage(void)
 	    "                          per coordinate, [0, 1e6] (default 0)\n"
 	    "      --seed S            seed for --perturb (default 0)\n"
 	    "      --energy-bound F    diverged when the energy exceeds F x (initial energy\n"
-	    "                          + input work), [0, 1e12] (default 10; 0: off)\n"
+	    "                          + input work), [0, 1e12] (default 10; 0: off;\n"
+	    "                          with --accuracy: off unless given)\n"
 	    "      --max-memory SIZE   refuse a run that needs more, before it allocates\n"
 	    "                          (bytes, or with k, M, G, T; default: the memory\n"
 	    "                          available now); the error estimate's time window\n"
@@ -482,7 +483,10 @@ static void options(run *r, int argc, char **argv)
 		case 'k': keys[n] = "stiffness", vals[n++] = optarg; break;
 		case 'b': keys[n] = "damping", vals[n++] = optarg; break;
 		case 'o': keys[n] = "output", vals[n++] = optarg; break;
-		case OPT_SETTING: keys[n] = opts[idx].name, vals[n++] = optarg; break;
+		case OPT_SETTING:
+			keys[n] = opts[idx].name, vals[n++] = optarg;
+			r->energy_bound_set |= !strcmp(opts[idx].name, "energy-bound");
+			break;
 		case OPT_PEER:
 		case OPT_PEER_FLAG: peer_option(&r->net, opts[idx].name, optarg); break;
 		case OPT_THREADS: {

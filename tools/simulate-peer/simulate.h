@@ -60,6 +60,7 @@ typedef struct run {
 	 * scene at every level coarser than the input (error estimates). */
 	double accuracy;
 	int accuracy_metres;
+	int energy_bound_set; /* --energy-bound on the command line (the chosen run's test) */
 	ndo_acc *acc;
 	double *coarse;    /* a coarser run's output work array */
 	/* --sleep D (metres; 0: off); sleep_set: given on the command line */
