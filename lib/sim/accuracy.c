@@ -3,6 +3,7 @@
  * level coarser), and the cheapest configuration that meets a stated
  * error (ndo/accuracy.h; issue 18). */
 #include "ndo/accuracy.h"
+#include "accuracy_private.h"
 #include "ndo/machine.h"
 
 #include "ndo/restrict.h"
@@ -1011,6 +1012,14 @@ static int64_t steps_for(double T, double h)
 	return n < 1 ? 1 : (int64_t)fmin(n, 1e12);
 }
 
+double ndo__acc_budget(double target_m, double es, int measured, int input)
+{
+	double budget = (measured ? MARGIN_MEASURED : MARGIN) * target_m - es;
+	if (budget <= 0 && input)
+		budget = MARGIN * (target_m - es);
+	return budget;
+}
+
 /* The least predicted CPU time of `T` seconds at steps no longer than h. */
 static double cost_floor(ndo_acc *a, double T, double h, int level, ndo_method m)
 {
@@ -1242,9 +1251,7 @@ int ndo_acc_choose(ndo_acc *a, double target, int metres, double T, ndo_acc_choi
 	for (int q = qmin >= 0 ? qmin : n; q <= n; q++) {
 		int measured = q <= top;
 		double margin = measured ? MARGIN_MEASURED : MARGIN;
-		double budget = margin * target_m - es[q];
-		if (budget <= 0)
-			budget = MARGIN * (target_m - es[q]); /* only the input level: what is left */
+		double budget = ndo__acc_budget(target_m, es[q], measured, q == n);
 		if (budget <= 0)
 			continue;
 		for (int k = 0; k < 2; k++) {

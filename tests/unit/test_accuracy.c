@@ -8,6 +8,7 @@
  * benchmark.) */
 #include "check.h"
 #include "ndo/ndo.h"
+#include "accuracy_private.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -499,6 +500,33 @@ static void a_diverging_measured_run_drops_its_level(void)
 	}
 }
 
+/* The margin (ndo__acc_budget): 0.7 of E where measured, 0.5 where
+ * predicted; only the input's level, with no finer level to go to, may
+ * use half of what E leaves beyond that.  Until 2026-12 every level could,
+ * so a level whose measured space error was above 0.7 of E (the bunny's
+ * level 3 of 5 for 3 s at 0.9, above its level 2's: its coarse levels are
+ * blobs) was a candidate at up to (1 + es) / 2 of E. */
+static void the_margin_gives_way_only_at_the_input_level(void)
+{
+	const struct {
+		double es;
+		int measured, input;
+		double want; /* the budget, m, for E = 1 m; 0: none */
+	} t[] = {
+		{0.6, 1, 0, 0.1}, {0.6, 0, 0, 0}, {0.4, 0, 0, 0.1}, /* the margins */
+		{0.8, 1, 0, 0},   {0.8, 0, 0, 0},                  /* a coarser level: none */
+		{0.8, 1, 1, 0.1}, {0.6, 0, 1, 0.2},                /* the input's: half what is left */
+		{1.2, 1, 1, 0},   {1, 0, 1, 0},                    /* ... if anything is */
+	};
+	for (size_t k = 0; k < sizeof t / sizeof *t; k++) {
+		double b = ndo__acc_budget(1, t[k].es, t[k].measured, t[k].input);
+		CHECK(t[k].want > 0 ? fabs(b - t[k].want) < 1e-12 : b <= 0,
+		      "space error %g of E, %s, %s level: budget %g of E, want %g", t[k].es,
+		      t[k].measured ? "measured" : "predicted", t[k].input ? "the input's" : "a coarser",
+		      b, t[k].want);
+	}
+}
+
 /* The cost is counted, not timed (ndo_acc_work): two machineries over
  * the same scene choose the same configuration at the same predicted cost;
  * the work grows with the steps and the integrated (unpinned) vertices,
@@ -605,5 +633,6 @@ int main(void)
 	RUN(the_measured_runs_beside_are_the_same_choice);
 	RUN(coarse_inputs_choose);
 	RUN(a_diverging_measured_run_drops_its_level);
+	RUN(the_margin_gives_way_only_at_the_input_level);
 	return ck_failed_cases != 0;
 }
