@@ -118,6 +118,28 @@ expect_error "--accuracy with --energy-bound 10: the chosen run keeps the test" 
 	"^simulate-peer: diverged at step 1 .*: energy .* exceeds 10 × .*the step is 0.5 of a force's period" \
 	simulate-peer -q -s "$F53" -t 1 --accuracy 0.9 --energy-bound 10 w3.tgrid -o never.tgrid
 
+# --accuracy chooses the integrator and the step, so the steps too: a
+# scene's are ignored (euler without damping stopped it with "--dt auto:
+# euler has no stable step without damping", exit 2; a dt of 1 s printed
+# "rk4 will diverge" before running the choice), the command line's are
+# refused, and the duration is -t or the scene's time.
+printf 'integrator euler\ndamping 0\ndt 1\nsteps 7\ntime 0.5\nforce face at=0,0,1 radius=0.2 amplitude=1 frequency=1\n' >euler.scene
+if simulate-peer -s euler.scene --accuracy 0.1 --info s4.tgrid 2>eu.log &&
+	! grep -q -e warning -e 'dt auto' -e ' euler[: ]' eu.log &&
+	grep -q '^simulate-peer: --accuracy 0.1 .*: level [234], [a-z4-]*, step [0-9.e-]* s, [0-9]* steps; ' eu.log; then
+	pass "--accuracy ignores the scene's integrator (euler, no damping), step and steps"
+else
+	fail "--accuracy with a scene's integrator and step" "$(cat eu.log)"
+fi
+for o in "-i rk4" "--dt 0.01" "--dt-safety 0.5" "-n 10"; do
+	expect_error "--accuracy with $o on the command line" 2 \
+		"^simulate-peer: --accuracy chooses the integrator and the step: not with --[a-z-]+ \(give the duration with -t\)$" \
+		simulate-peer -s "$SC" $o --accuracy 0.1 s4.tgrid -o never.tgrid
+done
+expect_error "--accuracy without a duration" 2 \
+	"^simulate-peer: --accuracy: no duration: give -t T \(or 'time T' in the scene\)$" \
+	simulate-peer -s /dev/null --accuracy 0.1 s4.tgrid -o never.tgrid
+
 # Refusals, before any run, one line, exit 2.
 expect_error "an accuracy level 4 cannot reach" 2 \
 	'^simulate-peer: --accuracy 0.0001 of the largest displacement: out of reach at level 4: .* this input allows .* at best, and level (5|6|7|8|9|10) would be needed$' \

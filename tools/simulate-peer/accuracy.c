@@ -60,7 +60,7 @@ void accuracy_plan(run *r)
 	if (!r->accuracy)
 		return;
 	int n = r->g->level;
-	double T = r->dt * (double)r->steps;
+	double T = r->sc.duration; /* options() refuses --accuracy without it */
 	ndo_acc_choice ch;
 	int rc = ndo_acc_choose(r->acc, r->accuracy, r->accuracy_metres, T, &ch);
 	const char *want = r->accuracy_metres ? " m" : " of the largest displacement";

@@ -104,7 +104,9 @@ static __attribute__((noreturn)) void usage(void)
 	    "                          predicted cost: E a share of the largest\n"
 	    "                          displacement, (0, 1), or with 'm' metres; prints\n"
 	    "                          the choice, refuses (exit 2) an E the input's level\n"
-	    "                          cannot reach.  Every single-process run not\n"
+	    "                          cannot reach; for -t T (or the scene's time), not\n"
+	    "                          with -i, --dt, --dt-safety or -n (a scene's are\n"
+	    "                          ignored).  Every single-process run not\n"
 	    "                          --quiet ends with its estimated time and space\n"
 	    "                          errors (also in --log; a peer's run does not)\n"
 	    "      --sleep D[m]        tiles of 32x32 nodes with no force, whose nodes\n"
@@ -521,6 +523,13 @@ static void options(run *r, int argc, char **argv)
 	}
 	if (r->accuracy && r->net.role)
 		ndo_usage_error("--accuracy: a single process only (not with --owner or --join)");
+	/* --accuracy chooses the integrator and the step, so the steps too: a
+	 * scene's are ignored (accuracy_plan), the command line's refused. */
+	for (int k = 0; r->accuracy && k < n; k++)
+		if (!strcmp(keys[k], "integrator") || !strcmp(keys[k], "dt") ||
+		    !strcmp(keys[k], "dt-safety") || !strcmp(keys[k], "steps"))
+			ndo_usage_error("--accuracy chooses the integrator and the step: not with --%s "
+			                "(give the duration with -t)", keys[k]);
 	if (r->sleep > 0 && r->net.role)
 		ndo_usage_error("--sleep: a single process only (not with --owner or --join)");
 	if (optind + 1 < argc)
@@ -535,6 +544,8 @@ static void options(run *r, int argc, char **argv)
 	free(keys);
 	free(vals);
 	r->keys = r->vals = NULL;
+	if (r->accuracy && !(r->sc.duration > 0))
+		ndo_usage_error("--accuracy: no duration: give -t T (or 'time T' in the scene)");
 	if (r->net.role != NDO_ROLE_JOINER && ndo_is_stdio(r->in) && isatty(STDIN_FILENO))
 		ndo_usage_error("no input: give a grid file or pipe one in");
 	if (!r->info && (r->net.role != NDO_ROLE_JOINER || r->sc.output))

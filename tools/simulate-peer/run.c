@@ -78,6 +78,11 @@ void setup(run *r)
 		memcpy(r->allpins, pin, g->count);
 	}
 	ndo_sim_params p = r->sc.sim;
+	/* With --accuracy this simulation only gives the initial state and
+	 * the input level's top mode (plan): the method is the choice's, and
+	 * an implicit one's solver is not made for nothing. */
+	if (r->accuracy)
+		p.method = NDO_RK4;
 	/* Peers share the work between processes already: one thread each
 	 * unless asked. */
 	p.threads = r->threads ? r->threads : r->net.role ? 1 : ndo_cpu_count();
@@ -109,7 +114,8 @@ static const char *bound_name(int b)
 	}
 }
 
-/* The critical step, the step size and the step count. */
+/* The critical step, the step size and the step count (with --accuracy,
+ * the top mode alone: the integrator and step are the choice's). */
 void plan(run *r)
 {
 	ndo_method m = ndo_sim_method(r->sim);
@@ -117,11 +123,14 @@ void plan(run *r)
 	if (ndo_sim_critical(r->sim, &r->crit))
 		ndo_die("critical step: %s", ndo_errdetail());
 	ndo_critical *c = &r->crit;
-	if (!r->quiet) {
+	if (!r->quiet)
 		fprintf(stderr, "%s: level %d, %zu vertices: lambda_max(M^-1 K) = %.4g 1/s^2 "
 		        "(omega_max = %.4g rad/s, %d power iterations), damping rate %.4g 1/s\n",
 		        ndo_progname, r->g->level, ndo_vertex_count(r->g->level), c->lambda_max,
 		        c->omega_max, c->iterations, c->gamma);
+	if (r->accuracy)
+		return;
+	if (!r->quiet) {
 		if (isinf(c->h_crit))
 			fprintf(stderr, "%s: %s: stable at any step\n", ndo_progname, name);
 		else if (c->h_crit == 0)

@@ -71,7 +71,8 @@ typedef struct run {
 /* run.c: load the input, rest shape, pins and forces; create the
  * simulation. */
 void setup(run *r);
-/* The critical step, the step size and the step count (prints them). */
+/* The critical step, the step size and the step count (prints them; with
+ * --accuracy only the input level's top mode, the rest is the choice's). */
 void plan(run *r);
 /* --log: open the CSV log with its header (nothing without --log); one row
  * of `sim`'s energies at `step`. */
