@@ -1160,6 +1160,14 @@ int ndo_acc_choose(ndo_acc *a, double target, int metres, double T, ndo_acc_choi
 		if (p + 1 >= n || (qmin >= 0 && qmin <= p + 1 && converged))
 			break;
 	}
+	/* A share of no motion is no target (it was 0 m: "no stable
+	 * configuration", or a share of 0 m divided by). */
+	if (!metres && !(umax > 0)) {
+		rc = ndo__fail(NDO_EINVAL, "nothing moves in the pilots' runs (levels %d-%d: the "
+		               "largest displacement is 0 m): a share of it is no target; give one "
+		               "in metres", p0, top);
+		goto out;
+	}
 	/* u*: the top pilot extrapolated (Richardson in the level, r per
 	 * level); every pilot's space error measured against it. */
 	if ((rc = ndo_acc_prolong(top - 1, top, pu[top - 1], &ustar)))

@@ -140,6 +140,27 @@ expect_error "--accuracy without a duration" 2 \
 	"^simulate-peer: --accuracy: no duration: give -t T \(or 'time T' in the scene\)$" \
 	simulate-peer -s /dev/null --accuracy 0.1 s4.tgrid -o never.tgrid
 
+# Where nothing moves (no force, from rest; or 1e-9 s, under the
+# positions' rounding) a share of the largest displacement, 0 m, is no
+# target: refused (it was "no stable configuration", exit 1, or "inf of
+# the largest displacement").  In metres such a run is chosen and run, and
+# no message prints a share of nothing (NaN) — nor does a plain run's
+# estimate.
+expect_error "--accuracy 0.1 where nothing moves" 2 \
+	"^simulate-peer: --accuracy: nothing moves in the pilots' runs \(levels 2-3: the largest displacement is 0 m\): a share of it is no target; give one in metres$" \
+	simulate-peer -q -s /dev/null -t 1 --accuracy 0.1 s4.tgrid -o never.tgrid
+expect_error "--accuracy 0.1 over 1e-9 s" 2 "^simulate-peer: --accuracy: nothing moves in the pilots' runs" \
+	simulate-peer -q -s "$SC" -t 1e-9 --accuracy 0.1 s4.tgrid -o never.tgrid
+if simulate-peer -s /dev/null -t 1 --accuracy 0.01m s4.tgrid -o still.tgrid 2>still.log &&
+	simulate-peer -s /dev/null -t 1 s4.tgrid -o still2.tgrid 2>>still.log &&
+	! grep -Eqiw 'nan|inf' still.log &&
+	grep -q '^simulate-peer: --accuracy 0.01 m = 0.01 m .*; predicted error 0 m (time 0 m, space 0 m)' still.log &&
+	[ "$(grep -c '^simulate-peer: error estimate: 0 m (the largest displacement is 0 m): time 0 m (' still.log)" = 2 ]; then
+	pass "--accuracy 0.01m and a plain run where nothing moves: no NaN or inf printed"
+else
+	fail "a still scene's messages" "$(grep -e accuracy -e estimate still.log)"
+fi
+
 # Refusals, before any run, one line, exit 2.
 expect_error "an accuracy level 4 cannot reach" 2 \
 	'^simulate-peer: --accuracy 0.0001 of the largest displacement: out of reach at level 4: .* this input allows .* at best, and level (5|6|7|8|9|10) would be needed$' \

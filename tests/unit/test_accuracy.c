@@ -461,6 +461,25 @@ static void coarse_inputs_choose(void)
 	}
 }
 
+/* Nothing moves (no force, from rest): a share of the largest
+ * displacement, 0 m, is no target (it was 0 m, and "no stable
+ * configuration"); in metres every configuration is exact, and the
+ * cheapest is chosen at a predicted error of 0 m. */
+static void a_still_scene_takes_a_target_in_metres_only(void)
+{
+	fixture f;
+	make(&f, 4, "damping 0.1", at_rest);
+	ndo_acc_choice ch;
+	int rc = ndo_acc_choose(f.a, 0.1, 0, 1, &ch);
+	CHECK(rc == NDO_EINVAL && strstr(ndo_errdetail(), "nothing moves"), "0.1: rc %d (%s)", rc,
+	      ndo_errdetail());
+	rc = ndo_acc_choose(f.a, 0.01, 1, 1, &ch);
+	CHECK(rc == NDO_OK && ch.reachable && ch.umax == 0 && ch.error_m == 0 && ch.c.level == 2,
+	      "0.01 m: rc %d (%s), reachable %d, largest displacement %g m, error %g m, level %d", rc,
+	      rc ? ndo_errdetail() : "", ch.reachable, ch.umax, ch.error_m, ch.c.level);
+	unmake(&f);
+}
+
 /* A measured run that diverges takes its method out at its level, not
  * the choice: a level's top mode given at 0.6 of its frequency puts both
  * methods' measured runs there at 1.5 times their true critical steps
@@ -634,5 +653,6 @@ int main(void)
 	RUN(coarse_inputs_choose);
 	RUN(a_diverging_measured_run_drops_its_level);
 	RUN(the_margin_gives_way_only_at_the_input_level);
+	RUN(a_still_scene_takes_a_target_in_metres_only);
 	return ck_failed_cases != 0;
 }

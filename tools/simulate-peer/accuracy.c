@@ -27,6 +27,20 @@ void accuracy_option(run *r, const char *arg)
 	r->accuracy_metres = metres;
 }
 
+/* "R of the largest displacement, U m" — or, where nothing moved (U = 0),
+ * "the largest displacement is 0 m": a share of nothing is not printed (it
+ * was NaN or inf). */
+static const char *share(char *buf, size_t n, double m, double umax, const char *ufmt)
+{
+	char u[32];
+	snprintf(u, sizeof u, ufmt, umax);
+	if (umax > 0)
+		snprintf(buf, n, "%.3g of the largest displacement, %s m", m / umax, u);
+	else
+		snprintf(buf, n, "the largest displacement is 0 m");
+	return buf;
+}
+
 /* The run's initial state as the accuracy machinery's scene. */
 static void make_acc(run *r)
 {
@@ -73,14 +87,15 @@ void accuracy_plan(run *r)
 	if (!ch.reachable) {
 		char need[64];
 		if (ch.level_needed > NDO_MAX_LEVEL)
-			snprintf(need, sizeof need, "a level finer than %d, the finest grid", NDO_MAX_LEVEL);
+			snprintf(need, sizeof need, "a level finer than %d, the finest grid,", NDO_MAX_LEVEL);
 		else
 			snprintf(need, sizeof need, "level %d", ch.level_needed);
+		char sh[96];
 		fprintf(stderr, "%s: --accuracy %g%s: out of reach at level %d: its space error alone is "
-		        "about %.3g m (%.3g of the largest displacement, %.3g m; estimated from levels "
-		        "%d and %d); this input allows %.2g%s at best, and %s would be needed\n",
-		        ndo_progname, r->accuracy, want, n, ch.best_m, ch.best_m / ch.umax, ch.umax,
-		        ch.pilot_top - 1, ch.pilot_top,
+		        "about %.3g m (%s; estimated from levels %d and %d); this input allows %.2g%s at "
+		        "best, and %s would be needed\n",
+		        ndo_progname, r->accuracy, want, n, ch.best_m,
+		        share(sh, sizeof sh, ch.best_m, ch.umax, "%.3g"), ch.pilot_top - 1, ch.pilot_top,
 		        r->accuracy_metres ? ch.best_m : ch.best_m / ch.umax, r->accuracy_metres ? " m" : "",
 		        need);
 		ndo_close_stdout();
@@ -88,14 +103,17 @@ void accuracy_plan(run *r)
 	}
 	if (!r->quiet) {
 		double pred = ch.error_m;
+		char rel[32] = ""; /* the share, where something moves */
+		if (ch.umax > 0)
+			snprintf(rel, sizeof rel, "%.3g: ", pred / ch.umax);
 		fprintf(stderr, "%s: --accuracy %g%s = %.3g m (largest displacement %.3g m, predicted): "
-		        "level %d, %s, step %.4g s, %lld steps; predicted error %.3g m (%.3g: time %.3g m, "
+		        "level %d, %s, step %.4g s, %lld steps; predicted error %.3g m (%stime %.3g m, "
 		        "space %.3g m), cost %.3g node-evaluations, about %.3g s CPU; choosing took %.3g "
 		        "s (%.3g s CPU; pilots at levels up to %d)\n",
 		        ndo_progname, r->accuracy, want, ch.target_m, ch.umax, ch.c.level,
-		        ndo_method_names[ch.c.method], ch.c.h, (long long)ch.c.steps, pred,
-		        pred / ch.umax, ch.time_m, ch.space_m, ch.node_evals, ch.cpu, ch.pilot_wall,
-		        ch.pilot_cpu, ch.pilot_top);
+		        ndo_method_names[ch.c.method], ch.c.h, (long long)ch.c.steps, pred, rel,
+		        ch.time_m, ch.space_m, ch.node_evals, ch.cpu, ch.pilot_wall, ch.pilot_cpu,
+		        ch.pilot_top);
 		if (ch.c.level < n)
 			fprintf(stderr, "%s: level %d is subdivided to the input's level %d for the output "
 			        "and the frames\n", ndo_progname, ch.c.level, n);
@@ -257,15 +275,31 @@ void accuracy_report(run *r)
 	r->coarse = NULL;
 	double rel = umax > 0 ? 1 / umax : NAN, tot = e.total_m;
 	if (!r->quiet) {
-		if (isnan(e.time_m) && isnan(e.space_m))
+		if (isnan(e.time_m) && isnan(e.space_m)) {
 			snprintf(report, sizeof report, "%s: error estimate: none (%s)\n", ndo_progname, e.why);
-		else
-			snprintf(report, sizeof report, "%s: error estimate: %.3g m (%.3g of the largest "
-			         "displacement, %.4g m): time %.3g m (%.3g; %s), space %.3g m (%.3g; against "
-			         "level %d, %g per level)%s%s; estimating took %.3g s CPU\n",
-			         ndo_progname, tot, tot * rel, umax, e.time_m, e.time_m * rel, e.time_how,
-			         e.space_m, e.space_m * rel, level - 1, e.rate,
+		} else {
+			/* a part not estimated says so (its why follows), and the
+			 * total is then the other's; shares only of some motion */
+			char sh[96], how[320], tpart[400], spart[160];
+			double shown = isnan(tot) ? (isnan(e.time_m) ? e.space_m : e.time_m) : tot;
+			snprintf(how, sizeof how, "against level %d, %g per level", level - 1, e.rate);
+			const double m[2] = {e.time_m, e.space_m};
+			const char *hows[2] = {e.time_how, how};
+			char *part[2] = {tpart, spart};
+			size_t size[2] = {sizeof tpart, sizeof spart};
+			for (int k = 0; k < 2; k++) {
+				if (isnan(m[k]))
+					snprintf(part[k], size[k], "not estimated");
+				else if (umax > 0)
+					snprintf(part[k], size[k], "%.3g m (%.3g; %s)", m[k], m[k] * rel, hows[k]);
+				else
+					snprintf(part[k], size[k], "%.3g m (%s)", m[k], hows[k]);
+			}
+			snprintf(report, sizeof report, "%s: error estimate: %.3g m (%s): time %s, space "
+			         "%s%s%s; estimating took %.3g s CPU\n",
+			         ndo_progname, shown, share(sh, sizeof sh, shown, umax, "%.4g"), tpart, spart,
 			         *e.why ? "; not estimated: " : "", e.why, e.cpu);
+		}
 	}
 	if (r->logging)
 		fprintf(r->log.f, "# error_estimate time_m=%.6g space_m=%.6g total_m=%.6g "

@@ -226,7 +226,8 @@ int ndo_method_order(ndo_method m);
  * part of a force's period), the NaN/Inf and size tests kept; a measured
  * run that still diverges takes its method out at its level (and above
  * the pilots, when it is the top's).
- * NDO_EINVAL: target ≤ 0, or relative target ≥ 1; NDO_EDIVERGED: a pilot
+ * NDO_EINVAL: target ≤ 0, or relative target ≥ 1, or a relative target
+ * when nothing moves in the pilots (umax 0); NDO_EDIVERGED: a pilot
  * diverged, or no candidate was left (the detail names the run); errors
  * of the pilots. */
 typedef struct ndo_acc_choice {
