@@ -935,6 +935,15 @@ static int est_finish(struct ndo__acc_est *E, const double *u, double umax, ndo_
 int ndo_acc_estimate_run(ndo_acc *a, const ndo_acc_config *c, const double *u, double umax,
                          ndo_acc_estimate *e)
 {
+	if (c->steps < 1) {
+		/* nothing to compare: the companions' steps (the coarse one's
+		 * T/steps) would be 0/0 */
+		memset(e, 0, sizeof *e);
+		e->time_m = e->space_m = e->total_m = e->rate = NAN;
+		e->umax = umax;
+		snprintf(e->why, sizeof e->why, "a run of no steps");
+		return NDO_OK;
+	}
 	struct ndo__acc_est E;
 	double t0 = thread_cpu();
 	est_prepare(a, c, a->threads, &E);
@@ -952,8 +961,8 @@ static void *est_thread(void *arg)
 int ndo_acc_estimate_begin(ndo_acc *a, const ndo_acc_config *c)
 {
 	ndo_acc_estimate_cancel(a);
-	if (a->threads < 2)
-		return NDO_OK; /* no core beside the run's: after it (ndo_acc_estimate_end) */
+	if (a->threads < 2 || c->steps < 1)
+		return NDO_OK; /* no core beside the run's, or no run: after it (ndo_acc_estimate_end) */
 	struct ndo__acc_est *E = malloc(sizeof *E);
 	if (!E)
 		return ndo__fail(NDO_ENOMEM, "out of memory");

@@ -72,6 +72,17 @@ else
 	fail "time estimate against the step" "$(tm h1.csv) -> $(tm h2.csv)"
 fi
 
+# A run of no steps (-n 0: the input written back with its velocities) has
+# no estimate (its coarse companion's step was 0/0: "level 3 at -nan s",
+# "nan of the largest displacement").
+if simulate-peer -s "$SC" -n 0 s4.tgrid -o n0.tgrid 2>n0.log &&
+	grep -q '^simulate-peer: error estimate: none (a run of no steps)$' n0.log &&
+	! grep -Eqiw 'nan|inf' n0.log; then
+	pass "-n 0: no estimate, and no NaN printed"
+else
+	fail "-n 0's estimate" "$(grep estimate n0.log)"
+fi
+
 # --accuracy: the choice is printed, it runs, the output is at the input's
 # level, and the achieved error (against the reference) meets the target.
 simulate-peer -s "$SC" -t 0.5 --accuracy 0.1 s4.tgrid -o a.tgrid --log a.csv 2>a.log

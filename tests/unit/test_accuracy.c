@@ -322,6 +322,31 @@ static void the_estimate_begun_beside_the_run_is_the_same(void)
 	unmake(&f); /* destroyed while its companions run: stopped within a step */
 }
 
+/* A run of no steps has nothing to estimate: both parts NaN and why says
+ * so, by ndo_acc_estimate_run and by _begin/_end on two threads (the
+ * coarse companion's step was 0/0: "level 3 at -nan s"). */
+static void a_run_of_no_steps_has_no_estimate(void)
+{
+	fixture f;
+	poked(&f);
+	ndo_acc_config c = {4, NDO_RK4, 0.05, 0, 0};
+	ndo_acc_result r;
+	CHECK(ndo_acc_run(f.a, &c, &r) == NDO_OK, "a run of no steps");
+	for (int t = 1; t <= 2; t++) {
+		ndo_acc_estimate e;
+		ndo_acc_set_threads(f.a, t);
+		int rc = t == 1 ? ndo_acc_estimate_run(f.a, &c, r.u, r.umax, &e)
+		                : (ndo_acc_estimate_begin(f.a, &c),
+		                   ndo_acc_estimate_end(f.a, &c, r.u, r.umax, &e));
+		CHECK(rc == NDO_OK && isnan(e.time_m) && isnan(e.space_m) && isnan(e.total_m) &&
+		      !strcmp(e.why, "a run of no steps") && !strstr(e.time_how, "nan"),
+		      "%d thread(s): rc %d, time %g m, space %g m ('%s'; '%s')", t, rc, e.time_m,
+		      e.space_m, e.time_how, e.why);
+	}
+	ndo_acc_result_free(&r);
+	unmake(&f);
+}
+
 static void bad_targets_are_refused(void)
 {
 	fixture f;
@@ -645,6 +670,7 @@ int main(void)
 	RUN(total_adds_the_fields);
 	RUN(the_window_beside_is_the_same_estimate);
 	RUN(the_estimate_begun_beside_the_run_is_the_same);
+	RUN(a_run_of_no_steps_has_no_estimate);
 	RUN(bad_targets_are_refused);
 	RUN(finer_levels_that_cannot_win_are_not_analysed);
 	RUN(known_mode_and_memory_limit);

@@ -148,9 +148,9 @@ double ndo_acc_distance(int level, const double *a, const double *b);
 
 /* The errors of a run of configuration c whose final displacement is u
  * (at c->level) and largest displacement umax.  NaN parts were not
- * estimated (level 0, a companion diverged, forces by ids): `why` says
- * which.  cpu: what estimating cost (CPU s); node_evals: the companion
- * runs' force evaluations × vertices. */
+ * estimated (level 0, a companion diverged, forces by ids, a run of no
+ * steps): `why` says which.  cpu: what estimating cost (CPU s);
+ * node_evals: the companion runs' force evaluations × vertices. */
 typedef struct ndo_acc_estimate {
 	double time_m, space_m; /* m */
 	double total_m;         /* the two together, m: the largest node's
