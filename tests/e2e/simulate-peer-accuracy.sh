@@ -183,6 +183,12 @@ expect_error "accuracy 0 metres is out of range" 2 '^simulate-peer: --accuracy: 
 	simulate-peer --accuracy 0m s4.tgrid -o never.tgrid
 expect_error "accuracy not a number" 2 "^simulate-peer: --accuracy: '1%' is not a number" \
 	simulate-peer --accuracy 1% s4.tgrid -o never.tgrid
+# strtod's ERANGE is a number out of a double's range, not "not a number"
+expect_error "accuracy 1e-320 (subnormal) is outside the range" 2 \
+	'^simulate-peer: --accuracy: 1e-320 is outside the range: under 2.2e-308, the smallest normal double$' \
+	simulate-peer --accuracy 1e-320 s4.tgrid -o never.tgrid
+expect_error "accuracy 1e400 is out of range" 2 '^simulate-peer: --accuracy: 1e400 is outside \(0, 1\)' \
+	simulate-peer --accuracy 1e400 s4.tgrid -o never.tgrid
 expect_error "accuracy with peers" 2 '^simulate-peer: --accuracy: a single process only' \
 	simulate-peer --owner --accuracy 0.1 s4.tgrid -o never.tgrid
 expect_error "accuracy with forces by face ids" 2 \
@@ -259,6 +265,9 @@ expect_error "sleep negative" 2 '^simulate-peer: --sleep: -1 is outside \[0, 1e6
 	simulate-peer --sleep -1 s4.tgrid -o never.tgrid
 expect_error "sleep not a distance" 2 "^simulate-peer: --sleep: '1mm' is not a distance in metres" \
 	simulate-peer --sleep 1mm s4.tgrid -o never.tgrid
+expect_error "sleep 1e-320 (subnormal) is outside the range" 2 \
+	'^simulate-peer: --sleep: 1e-320 is outside the range: under 2.2e-308' \
+	simulate-peer --sleep 1e-320 s4.tgrid -o never.tgrid
 expect_error "sleep with rkf45" 2 '^simulate-peer: --sleep: sleeping tiles: rkf45 steps are not fixed' \
 	simulate-peer -q -i rkf45 --sleep 1e-6 -t 0.1 s4.tgrid -o never.tgrid
 expect_error "sleep with peers" 2 '^simulate-peer: --sleep: a single process only' \

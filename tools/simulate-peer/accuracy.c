@@ -17,9 +17,16 @@ void accuracy_option(run *r, const char *arg)
 	errno = 0;
 	double e = strtod(arg, &end);
 	int metres = end != arg && strcmp(end, "m") == 0;
-	if (end == arg || (*end && !metres) || errno || !isfinite(e))
+	/* strtod's ERANGE is a number beyond a double's range, not none:
+	 * 1e400 (inf) is outside the range below, 1e-320 (subnormal) and
+	 * 1e-1000 (0) under the normal doubles */
+	int range = errno == ERANGE;
+	if (end == arg || (*end && !metres) || (!range && !isfinite(e)))
 		ndo_usage_error("--accuracy: '%s' is not a number (E, a share of the largest "
 		                "displacement in (0, 1), or Em, metres)", arg);
+	if (range && fabs(e) < 1)
+		ndo_usage_error("--accuracy: %s is outside the range: under 2.2e-308, the smallest "
+		                "normal double", arg);
 	if (metres ? !(e > 0 && e <= 1e6) : !(e > 0 && e < 1))
 		ndo_usage_error("--accuracy: %s is outside %s", arg,
 		                metres ? "(0, 1e6] metres" : "(0, 1) (a share of the largest displacement)");
@@ -160,8 +167,12 @@ void sleep_option(run *r, const char *arg)
 	char *end;
 	errno = 0;
 	double d = strtod(arg, &end);
-	if (end == arg || (*end && strcmp(end, "m") != 0) || errno || !isfinite(d))
+	int range = errno == ERANGE; /* a number beyond a double's range (as --accuracy's) */
+	if (end == arg || (*end && strcmp(end, "m") != 0) || (!range && !isfinite(d)))
 		ndo_usage_error("--sleep: '%s' is not a distance in metres", arg);
+	if (range && fabs(d) < 1)
+		ndo_usage_error("--sleep: %s is outside the range: under 2.2e-308, the smallest "
+		                "normal double", arg);
 	if (!(d >= 0 && d <= 1e6))
 		ndo_usage_error("--sleep: %s is outside [0, 1e6] metres", arg);
 	r->sleep = d;
