@@ -56,6 +56,17 @@ expect_error "missing scene" 1 'nothere.scene: No such file' \
 	simulate-peer -s nothere.scene s3.tgrid -o o.tgrid
 expect_error "bad scene line" 1 "bad.scene:2: integrator: 'leapfrog' is not euler" \
 	simulate-peer -s bad.scene s3.tgrid -o o.tgrid
+# The options the manual says a scene file cannot hold (it claimed "All
+# settings" until 2026-12) are unknown settings there.
+notscene=$(sed -n '/^Not from a scene file/,/peers. options\.$/p' "$NDO_ROOT/tools/simulate-peer.1" |
+	sed -n 's/^\.BR* \\-\\-\([a-z\\-]*\).*/\1/p' | sed 's/\\//g')
+[ "$(echo $notscene)" = "accuracy sleep threads max-memory info" ] ||
+	fail "the manual's options not from a scene file" "found: '$(echo $notscene)'"
+for k in $notscene; do
+	printf '%s 1\n' "$k" >k.scene
+	expect_error "scene key '$k' (not a scene's setting)" 1 "^simulate-peer: k.scene:1: unknown setting '$k'$" \
+		simulate-peer -s k.scene s3.tgrid -o o.tgrid
+done
 : >notadir
 expect_error "unwritable frames (a file where their directory goes)" 1 \
 	'notadir/f0.tgrid: cannot create directory notadir: Not a directory' \
