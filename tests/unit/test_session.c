@@ -665,79 +665,112 @@ static void spy(void *user, const char *channel, const void *data, size_t len)
 	sp->n++;
 }
 
+/* An owner of the wavy surface streaming `spec` to a watch on one bus
+ * (wavy_owner_and_watch), a spy on its tiles and a rogue's link beside. */
+typedef struct rogue_bus {
+	ndo_bus *bus;
+	ndo_link *spyl, *evil;
+	ndo_session *s;
+	ndo_watch *w;
+	ndo_net *nw;
+	double diag;
+	spied sp;
+} rogue_bus;
+
+static int rogue_bus_open(rogue_bus *r, const char *spec, int64_t object, int level)
+{
+	ndo_codec_params cp;
+	ndo_codec_parse(spec, &cp);
+	ndo_bus_create(&r->bus);
+	ndo_link_open_mem(r->bus, &r->spyl);
+	ndo_link_open_mem(r->bus, &r->evil);
+	r->sp = (spied){.channel = "T_TILE"};
+	return wavy_owner_and_watch(r->bus, &cp, object, level, 0, NULL, NULL, &r->s, &r->w,
+	                            &r->nw, &r->diag);
+}
+
+static void rogue_bus_close(rogue_bus *r)
+{
+	ndo_session_destroy(r->s, NULL);
+	ndo_watch_destroy(r->w);
+	ndo_link_destroy(r->spyl);
+	ndo_link_destroy(r->evil);
+	ndo_bus_destroy(r->bus);
+}
+
+/* The rogue sends tile t. */
+static void rogue_send(rogue_bus *r, const ndo_msg_tile_t *t)
+{
+	uint8_t *buf;
+	size_t len;
+	if (ndo_msg_encode(NDO_MSG_TILE, t, &buf, &len) == 0) {
+		ndo_link_publish(r->evil, "T_TILE", buf, len);
+		free(buf);
+	}
+}
+
+/* The owner publishes step `step` at t (every node moved along x), the spy
+ * and the watch take what came: the watch's frames of steps below `below`
+ * counted in *frames. */
+static void rogue_bus_step(rogue_bus *r, int64_t step, double t, int64_t below, int *frames)
+{
+	ndo_grid *og = ndo_session_grid(r->s);
+	double *x = ndo_grid_f64(og, NDO_CH_POSITION, 3);
+	for (size_t k = 0; k < og->count; k++)
+		x[3 * k] += 0.001;
+	ndo_grid_sync(og);
+	ndo_session_publish(r->s, step, 0.1 * (double)step);
+	ndo_session_update(r->s, t);
+	ndo_link_poll(r->spyl, t, spy, &r->sp);
+	ndo_watch_update(r->w, t);
+	ndo_grid *fr;
+	while (ndo_watch_next(r->w, &fr) == 1) {
+		*frames += fr->step < below;
+		ndo_grid_destroy(fr);
+	}
+}
+
 /* Predicted tiles whose reference never comes (a hostile or broken
  * sender): held at most 64 at once (the oldest `nobase` first), each at
  * most 1 s, and the owner's frames still reach the watch. */
 static void unreferenced_frames_are_bounded(void)
 {
-	ndo_bus *bus;
-	ndo_bus_create(&bus);
-	ndo_codec_params cp;
-	ndo_codec_parse("predict:1e-4", &cp);
-	ndo_link *spyl, *evil;
-	ndo_link_open_mem(bus, &spyl);
-	ndo_link_open_mem(bus, &evil);
-	ndo_session *s;
-	ndo_watch *w;
-	ndo_net *nw;
-	double diag, t = 0;
-	CHECK(wavy_owner_and_watch(bus, &cp, 80, 5, 0, NULL, NULL, &s, &w, &nw, &diag) == 0,
-	      "owner: %s", ndo_errdetail());
-	ndo_grid *og = ndo_session_grid(s);
-	double *x = ndo_grid_f64(og, NDO_CH_POSITION, 3);
-	spied sp = {.channel = "T_TILE"};
+	rogue_bus r;
+	CHECK(rogue_bus_open(&r, "predict:1e-4", 80, 5) == 0, "owner: %s", ndo_errdetail());
+	double t = 0;
 	int frames = 0;
 	for (int64_t step = 0; step < 40; step++) {
 		if (step == 20) { /* the flood: 100 frames predicted from steps never sent */
 			ndo_msg m;
-			CHECK(sp.n > 0 && ndo_msg_decode(NDO_MSG_TILE, sp.buf, sp.len, &m) == NDO_DROP_NONE,
-			      "no tile seen (%d)", sp.n);
+			CHECK(r.sp.n > 0 &&
+			          ndo_msg_decode(NDO_MSG_TILE, r.sp.buf, r.sp.len, &m) == NDO_DROP_NONE,
+			      "no tile seen (%d)", r.sp.n);
 			for (int k = 0; k < 100; k++) {
 				m.u.tile.step = 1000 + k;
 				m.u.tile.base_step = 999 + k;
-				uint8_t *buf;
-				size_t len;
-				if (ndo_msg_encode(NDO_MSG_TILE, &m.u.tile, &buf, &len) == 0) {
-					ndo_link_publish(evil, "T_TILE", buf, len);
-					free(buf);
-				}
+				rogue_send(&r, &m.u.tile);
 			}
 			ndo_msg_free(&m);
-			ndo_watch_update(w, t);
-			const ndo_net_stats *ns = ndo_net_stats_get(nw);
+			ndo_watch_update(r.w, t);
+			const ndo_net_stats *ns = ndo_net_stats_get(r.nw);
 			CHECK(ns->held == 100 && ns->holding == 64 && ns->dropped[NDO_DROP_NOBASE] == 36,
 			      "after the flood: held %llu, holding %llu, nobase %llu (100, 64, 36)",
 			      (unsigned long long)ns->held, (unsigned long long)ns->holding,
 			      (unsigned long long)ns->dropped[NDO_DROP_NOBASE]);
 			frames = 0;
 		}
-		for (size_t k = 0; k < og->count; k++)
-			x[3 * k] += 0.001;
-		ndo_grid_sync(og);
-		ndo_session_publish(s, step, 0.1 * (double)step);
 		t += 0.1;
-		ndo_session_update(s, t);
-		ndo_link_poll(spyl, t, spy, &sp);
-		ndo_watch_update(w, t);
-		ndo_grid *fr;
-		while (ndo_watch_next(w, &fr) == 1) {
-			frames++;
-			ndo_grid_destroy(fr);
-		}
+		rogue_bus_step(&r, step, t, INT64_MAX, &frames);
 	}
-	const ndo_net_stats *ns = ndo_net_stats_get(nw);
+	const ndo_net_stats *ns = ndo_net_stats_get(r.nw);
 	char buf[600];
-	ndo_net_stats_format(nw, buf, sizeof buf);
+	ndo_net_stats_format(r.nw, buf, sizeof buf);
 	printf("    after the flood and 2 s: %d frames of 20; %s\n", frames, buf);
 	CHECK(ns->holding == 0 && ns->dropped[NDO_DROP_NOBASE] == 100 && frames >= 19,
 	      "2 s later: holding %llu, nobase %llu (100), %d frames of 20",
 	      (unsigned long long)ns->holding, (unsigned long long)ns->dropped[NDO_DROP_NOBASE],
 	      frames);
-	ndo_session_destroy(s, NULL);
-	ndo_watch_destroy(w);
-	ndo_link_destroy(spyl);
-	ndo_link_destroy(evil);
-	ndo_bus_destroy(bus);
+	rogue_bus_close(&r);
 }
 
 /* Keyframes that do not decode, under a new sender id each, leave nothing
@@ -746,28 +779,14 @@ static void unreferenced_frames_are_bounded(void)
  * lookups with it (300,000 of them: 400 MB, 1 ms a tile). */
 static void undecodable_tiles_leave_no_entry(void)
 {
-	ndo_bus *bus;
-	ndo_bus_create(&bus);
-	ndo_codec_params cp;
-	ndo_codec_parse("hier:1e-4", &cp);
-	ndo_link *spyl, *evil;
-	ndo_link_open_mem(bus, &spyl);
-	ndo_link_open_mem(bus, &evil);
-	ndo_session *s;
-	ndo_watch *w;
-	ndo_net *nw;
-	double diag;
-	CHECK(wavy_owner_and_watch(bus, &cp, 82, 5, 0, NULL, NULL, &s, &w, &nw, &diag) == 0,
-	      "owner: %s", ndo_errdetail());
-	spied sp = {.channel = "T_TILE"};
-	ndo_session_publish(s, 0, 0);
-	ndo_session_update(s, 0.1);
-	ndo_link_poll(spyl, 0.1, spy, &sp);
-	ndo_watch_update(w, 0.1);
+	rogue_bus r;
+	CHECK(rogue_bus_open(&r, "hier:1e-4", 82, 5) == 0, "owner: %s", ndo_errdetail());
+	int frames = 0;
+	rogue_bus_step(&r, 0, 0.1, INT64_MAX, &frames);
 	ndo_msg m;
-	CHECK(sp.n > 0 && ndo_msg_decode(NDO_MSG_TILE, sp.buf, sp.len, &m) == NDO_DROP_NONE,
-	      "no tile seen (%d)", sp.n);
-	const uint64_t corrupt0 = ndo_net_stats_get(nw)->dropped[NDO_DROP_CORRUPT];
+	CHECK(r.sp.n > 0 && ndo_msg_decode(NDO_MSG_TILE, r.sp.buf, r.sp.len, &m) == NDO_DROP_NONE,
+	      "no tile seen (%d)", r.sp.n);
+	const uint64_t corrupt0 = ndo_net_stats_get(r.nw)->dropped[NDO_DROP_CORRUPT];
 	uint8_t junk[16];
 	uint64_t rng = 9;
 	const int flood = 500;
@@ -780,93 +799,51 @@ static void undecodable_tiles_leave_no_entry(void)
 		m.u.tile.data = malloc(sizeof junk);
 		memcpy(m.u.tile.data, junk, sizeof junk);
 		m.u.tile.nbytes = (int32_t)sizeof junk;
-		uint8_t *buf;
-		size_t len;
-		if (ndo_msg_encode(NDO_MSG_TILE, &m.u.tile, &buf, &len) == 0) {
-			ndo_link_publish(evil, "T_TILE", buf, len);
-			free(buf);
-		}
+		rogue_send(&r, &m.u.tile);
 	}
-	ndo_watch_update(w, 0.2);
+	ndo_watch_update(r.w, 0.2);
 	int known = 0;
 	for (int k = 0; k < flood; k++) {
 		m.u.tile.hdr.sender_id = 5000 + k;
-		known += ndo_codec_tile_known(ndo_net_codec(nw), &m.u.tile);
+		known += ndo_codec_tile_known(ndo_net_codec(r.nw), &m.u.tile);
 	}
 	ndo_msg_free(&m);
-	const uint64_t corrupt = ndo_net_stats_get(nw)->dropped[NDO_DROP_CORRUPT] - corrupt0;
+	const uint64_t corrupt = ndo_net_stats_get(r.nw)->dropped[NDO_DROP_CORRUPT] - corrupt0;
 	CHECK(corrupt == (uint64_t)flood && known == 0,
 	      "%llu of %d junk keyframes dropped as corrupt, %d left an entry",
 	      (unsigned long long)corrupt, flood, known);
-	ndo_session_destroy(s, NULL);
-	ndo_watch_destroy(w);
-	ndo_link_destroy(spyl);
-	ndo_link_destroy(evil);
-	ndo_bus_destroy(bus);
+	rogue_bus_close(&r);
 }
 
 /* A stranger (an id that owns no node) that sends the watch tiles of
  * steps far ahead, 16 a step: its tiles are unused and the owner's 40
  * frames all come.  Until 2026-11-30 each opened a frame: the owner's open
  * frames were given up and the frames handed out moved past its steps
- * (0 of 40 came). */
+ * (1 of 40 came). */
 static void a_stranger_opens_no_frames(void)
 {
-	ndo_bus *bus;
-	ndo_bus_create(&bus);
-	ndo_codec_params cp;
-	ndo_codec_parse("raw", &cp);
-	ndo_link *spyl, *evil;
-	ndo_link_open_mem(bus, &spyl);
-	ndo_link_open_mem(bus, &evil);
-	ndo_session *s;
-	ndo_watch *w;
-	ndo_net *nw;
-	double diag, t = 0;
-	CHECK(wavy_owner_and_watch(bus, &cp, 83, 4, 0, NULL, NULL, &s, &w, &nw, &diag) == 0,
-	      "owner: %s", ndo_errdetail());
-	ndo_grid *og = ndo_session_grid(s);
-	double *x = ndo_grid_f64(og, NDO_CH_POSITION, 3);
-	spied sp = {.channel = "T_TILE"};
+	rogue_bus r;
+	CHECK(rogue_bus_open(&r, "raw", 83, 4) == 0, "owner: %s", ndo_errdetail());
+	double t = 0;
 	int frames = 0;
 	int64_t rseq = 0;
 	for (int64_t step = 0; step < 40; step++) {
-		for (size_t k = 0; k < og->count; k++)
-			x[3 * k] += 0.001;
-		ndo_grid_sync(og);
-		ndo_session_publish(s, step, 0.1 * (double)step);
-		t += 0.1;
-		ndo_session_update(s, t);
-		ndo_link_poll(spyl, t, spy, &sp);
 		ndo_msg m;
-		if (sp.n > 0 && ndo_msg_decode(NDO_MSG_TILE, sp.buf, sp.len, &m) == NDO_DROP_NONE) {
+		if (r.sp.n > 0 && ndo_msg_decode(NDO_MSG_TILE, r.sp.buf, r.sp.len, &m) == NDO_DROP_NONE) {
 			for (int k = 0; k < 16; k++, rseq++) {
 				m.u.tile.hdr.sender_id = 777;
 				m.u.tile.hdr.seq = rseq;
 				m.u.tile.step = 100000 + rseq;
-				uint8_t *buf;
-				size_t len;
-				if (ndo_msg_encode(NDO_MSG_TILE, &m.u.tile, &buf, &len) == 0) {
-					ndo_link_publish(evil, "T_TILE", buf, len);
-					free(buf);
-				}
+				rogue_send(&r, &m.u.tile);
 			}
 			ndo_msg_free(&m);
 		}
-		ndo_watch_update(w, t);
-		ndo_grid *fr;
-		while (ndo_watch_next(w, &fr) == 1) {
-			frames += fr->step < 40;
-			ndo_grid_destroy(fr);
-		}
+		t += 0.1;
+		rogue_bus_step(&r, step, t, 40, &frames);
 	}
 	CHECK(rseq > 0 && frames >= 39, "%d of the owner's 40 frames with a stranger's %lld tiles",
 	      frames, (long long)rseq);
-	ndo_session_destroy(s, NULL);
-	ndo_watch_destroy(w);
-	ndo_link_destroy(spyl);
-	ndo_link_destroy(evil);
-	ndo_bus_destroy(bus);
+	rogue_bus_close(&r);
 }
 
 /* A rogue that floods the watch with tiles predicted from steps that never
