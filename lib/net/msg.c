@@ -383,6 +383,23 @@ static ndo_drop check_header(const ndo_msg *m, const ndo_msg_ctx *c)
 	return NDO_DROP_NONE;
 }
 
+/* Node values of halo_t and solve_t against the box: per node a state
+ * (per_node 6: velocity, then displacement u = x − X) or a vector of
+ * velocities (3: the conjugate-gradient solve's, M⁻¹r and M⁻¹A·u are
+ * velocities); velocity components within ±vmax, displacement components
+ * within ±umax (ndo_msg_set_box). */
+static ndo_drop nodes_in_box(const double *v, int64_t nvalues, int per_node,
+                             const ndo_msg_ctx *ctx)
+{
+	if (!ctx->has_box || per_node <= 0)
+		return NDO_DROP_NONE;
+	for (int64_t k = 0; k < nvalues; k += per_node)
+		for (int c = 0; c < per_node; c++)
+			if (fabs(v[k + c]) > (c < 3 ? ctx->vmax : ctx->umax))
+				return NDO_DROP_BOX;
+	return NDO_DROP_NONE;
+}
+
 /* Types whose fields are checked against the level. */
 static int needs_level(ndo_msg_type t)
 {
@@ -525,7 +542,9 @@ ndo_drop ndo_msg_validate(const ndo_msg *m, const ndo_msg_ctx *c)
 			return NDO_DROP_RANGE;
 		if (h->nvalues != 6 * count)
 			return NDO_DROP_LENGTH;
-		return finite_all(h->values, h->nvalues) ? NDO_DROP_NONE : NDO_DROP_NONFINITE;
+		if (!finite_all(h->values, h->nvalues))
+			return NDO_DROP_NONFINITE;
+		return nodes_in_box(h->values, h->nvalues, 6, c);
 	}
 	case NDO_MSG_SOLVE: {
 		const ndo_msg_solve_t *h = &m->u.solve;
@@ -539,9 +558,9 @@ ndo_drop ndo_msg_validate(const ndo_msg *m, const ndo_msg_ctx *c)
 			return NDO_DROP_RANGE;
 		if (h->nvalues != h->per_node * count)
 			return NDO_DROP_LENGTH;
-		return finite_all(h->values, h->nvalues) && finite_all(h->sums, h->nsums)
-		               ? NDO_DROP_NONE
-		               : NDO_DROP_NONFINITE;
+		if (!finite_all(h->values, h->nvalues) || !finite_all(h->sums, h->nsums))
+			return NDO_DROP_NONFINITE;
+		return nodes_in_box(h->values, h->nvalues, h->per_node, c);
 	}
 	case NDO_MSG_KEY_REQUEST: {
 		const ndo_msg_key_request_t *k = &m->u.key_request;
@@ -593,6 +612,8 @@ int ndo_msg_set_box(ndo_msg_ctx *ctx, const double lo[3], const double hi[3])
 		ctx->hi[c] = hi[c] + NDO_BOX_SLACK * diag;
 	}
 	ctx->vmax = NDO_SPEED_MAX * diag;
+	/* x within the slack of the box, the rest X within the box itself */
+	ctx->umax = (1 + NDO_BOX_SLACK) * diag;
 	ctx->has_box = 1;
 	return 0;
 }

@@ -200,6 +200,58 @@ static void solves_checked(void)
 	CHECK(roundtrip(NDO_MSG_SOLVE, &h, &unknown) == NDO_DROP_UNKNOWN, "before the description");
 }
 
+/* The node values of halos, checkpoints and split steps against the
+ * object's box, as a tile's state is: a velocity component above vmax, a
+ * displacement u = x − X above 1 + NDO_BOX_SLACK diagonals (x within the
+ * slack, X within the box), a vector of the solve (velocities) above vmax
+ * are `box`; partial sums only finite.  A member's halo of 1e300s used to
+ * pass (finite) and end a 2-peer rk4 run with "the state is not finite". */
+static void node_values_checked_against_the_box(void)
+{
+	ndo_msg_ctx c = {.object_id = 42, .level = 4, .self_id = 1};
+	const double lo[3] = {0, 0, 0}, hi[3] = {3, 4, 0}; /* diagonal 5 */
+	CHECK(ndo_msg_set_box(&c, lo, hi) == 0, "set the box");
+	CHECK(c.umax == 25, "the displacement bound: 5 diagonals (got %g)", c.umax);
+	int32_t start[1] = {10}, len[1] = {2};
+	double v[12] = {0};
+	ndo_msg_halo_t h = {.hdr = {NDO_PROTOCOL_VERSION, 42, 7, 0, 0}, .step = 5, .time = 0.1,
+	                    .confirmed = 1, .nruns = 1, .start = start, .len = len, .nvalues = 12,
+	                    .values = v};
+	v[9] = 24.9, v[10] = -24.9, v[6] = -0.99 * c.vmax;
+	CHECK(roundtrip(NDO_MSG_HALO, &h, &c) == NDO_DROP_NONE, "a halo within the bounds passes");
+	struct { int at; double val; const char *what; } bad[] = {
+		{9, 25.1, "a displacement 5.02 diagonals"}, {11, -1e300, "a displacement of -1e300"},
+		{6, 1.01 * c.vmax, "a velocity above vmax"}, {0, 1e300, "a velocity of 1e300"}};
+	for (size_t k = 0; k < sizeof bad / sizeof *bad; k++) {
+		double keep = v[bad[k].at];
+		v[bad[k].at] = bad[k].val;
+		h.checkpoint = 0;
+		CHECK(roundtrip(NDO_MSG_HALO, &h, &c) == NDO_DROP_BOX, "a halo with %s: box", bad[k].what);
+		h.checkpoint = 1;
+		CHECK(roundtrip(NDO_MSG_HALO, &h, &c) == NDO_DROP_BOX, "a checkpoint with %s: box",
+		      bad[k].what);
+		v[bad[k].at] = keep;
+	}
+	h.checkpoint = 0;
+	ndo_msg_ctx nobox = {.object_id = 42, .level = 4, .self_id = 1};
+	v[0] = 1e300;
+	CHECK(roundtrip(NDO_MSG_HALO, &h, &nobox) == NDO_DROP_NONE, "no box (a point): finite passes");
+	v[0] = 0;
+	/* solve_t: a state strip as a halo, a vector as velocities, sums finite */
+	double sums[2] = {1e300, -1e300};
+	ndo_msg_solve_t m = {.hdr = {NDO_PROTOCOL_VERSION, 42, 7, 0, 0}, .step = 5, .phase = 1,
+	                     .per_node = 6, .nruns = 1, .start = start, .len = len, .nvalues = 12,
+	                     .values = v, .nsums = 2, .sums = sums};
+	CHECK(roundtrip(NDO_MSG_SOLVE, &m, &c) == NDO_DROP_NONE, "a state strip within the bounds, "
+	      "sums of ±1e300: passes");
+	v[10] = 26;
+	CHECK(roundtrip(NDO_MSG_SOLVE, &m, &c) == NDO_DROP_BOX, "a state strip's displacement: box");
+	m.per_node = 3, m.nvalues = 6;
+	CHECK(roundtrip(NDO_MSG_SOLVE, &m, &c) == NDO_DROP_NONE, "a vector of 26 (a velocity) passes");
+	v[4] = -2 * c.vmax;
+	CHECK(roundtrip(NDO_MSG_SOLVE, &m, &c) == NDO_DROP_BOX, "a vector above vmax: box");
+}
+
 /* A keyframe request (key_request_t): a nonzero sender, 1..64 tiles, each
  * a quad-tree code of the object's level (or of the send level's, coarse). */
 static void key_requests_checked(void)
@@ -566,6 +618,7 @@ int main(void)
 	RUN(coarse_tiles_checked);
 	RUN(halos_checked);
 	RUN(solves_checked);
+	RUN(node_values_checked_against_the_box);
 	RUN(key_requests_checked);
 	RUN(bytes_checked_before_decoding);
 	RUN(control_messages_checked);

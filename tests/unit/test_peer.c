@@ -1613,6 +1613,63 @@ static void strangers_tiles_are_not_used(void)
 	world_free(w);
 }
 
+/* ---- hostile halos ---------------------------------------------------------- */
+/* A sender on the bus under any id (a member's: without a key anyone can
+ * claim one, docs/peers.md "Not done"), attached to the object. */
+static ndo_net *rogue_net(world *w, int32_t id)
+{
+	ndo_link *l;
+	ndo_net *rogue;
+	ndo_link_open_mem(w->bus, &l);
+	ndo_net_create(l, "T", id, &rogue);
+	ndo_net_attach(rogue, 77, LEVEL);
+	return rogue;
+}
+
+/* A halo (or checkpoint) of every node of the grid, each value `val`. */
+static int rogue_halo(ndo_net *rogue, world *w, int64_t step, int32_t epoch, double val)
+{
+	size_t count = ndo_peer_grid(w->p[0])->count;
+	int32_t start = 0, len = (int32_t)count;
+	double *vals = malloc(6 * count * sizeof *vals);
+	for (size_t k = 0; k < 6 * count; k++)
+		vals[k] = val;
+	ndo_msg_halo_t h = {.step = step, .epoch = epoch, .confirmed = 1, .nruns = 1,
+	                    .start = &start, .len = &len, .nvalues = (int32_t)(6 * count),
+	                    .values = vals};
+	int rc = ndo_net_publish(rogue, NDO_MSG_HALO, &h);
+	free(vals);
+	return rc;
+}
+
+/* A halo under a member's id, of the step its neighbour waits for, every
+ * value 1e300: dropped as outside the object's box (ndo_msg_validate), so
+ * the run goes on, exact.  It used to pass (finite) and end the run: "the
+ * state is not finite". */
+static void a_members_wild_halo_is_dropped(void)
+{
+	setup su = {.integrator = "rk4", .dt = 0.002, .steps = 100, .clock = NDO_CLOCK_LOCKSTEP,
+	            .peers = 2};
+	world *w = world_new();
+	add_owner(w, &su);
+	add_joiner(w, &su, POIS[0]);
+	ndo_net *rogue = rogue_net(w, 11); /* the joiner's id */
+	while (w->t < 5 && ndo_peer_step(w->p[0]) < 50)
+		run(w, w->t + TICK);
+	int32_t e = ndo_session_epoch(ndo_peer_session(w->p[0]));
+	CHECK(rogue_halo(rogue, w, ndo_peer_step(w->p[0]) + 1, e, 1e300) == 0, "publish");
+	int r = run(w, w->t + 30);
+	const ndo_net_stats *ns = ndo_net_stats_get(ndo_session_net(ndo_peer_session(w->p[0])));
+	double *x = solo(&su);
+	double d = difference(ndo_peer_grid(w->p[0]), x);
+	CHECK(r == 0 && w->state[0] == NDO_PEER_DONE && d == 0 && ns->dropped[NDO_DROP_BOX] >= 1,
+	      "a member's halo of 1e300: run %d, owner state %d, differs by %.3g, %llu dropped as box",
+	      r, w->state[0], d, (unsigned long long)ns->dropped[NDO_DROP_BOX]);
+	free(x);
+	ndo_net_destroy(rogue);
+	world_free(w);
+}
+
 /* ---- record and replay ---------------------------------------------------- */
 typedef struct frames {
 	ndo_watch *w;
@@ -1984,6 +2041,7 @@ int main(void)
 	RUN(a_done_owners_lost_leave_costs_a_gather);
 	RUN(owner_quit_ends_the_others);
 	RUN(strangers_tiles_are_not_used);
+	RUN(a_members_wild_halo_is_dropped);
 	RUN(a_replayed_log_gives_the_live_frames);
 	RUN(lost_tiles_are_held_on_request);
 	return ck_failed_cases != 0;

@@ -163,17 +163,21 @@ typedef struct ndo_msg_ctx {
 	 * below the object's, and such a tile is out of range. */
 	int coarse;
 	/* The bound on state (has_box ≠ 0; ndo_msg_set_box): positions and
-	 * rest positions within lo..hi, velocity components within ±vmax. */
+	 * rest positions within lo..hi, velocity components within ±vmax,
+	 * displacement components (x − X: halos, checkpoints, split steps)
+	 * within ±umax. */
 	int has_box;
-	double lo[3], hi[3], vmax;
+	double lo[3], hi[3], vmax, umax;
 } ndo_msg_ctx;
 
 /* The object's box (its rest shape's, as the owner's description says):
  * state within NDO_BOX_SLACK box diagonals of it, velocities below
- * NDO_SPEED_MAX diagonals per second.  The bound stops wild values — a
- * flipped exponent bit, a coordinate of 1e300 — from reaching the
- * simulation whoever sent them; small forgeries are the key's business
- * (ndo/auth.h).  0, or NDO_EINVAL for a box that is not finite. */
+ * NDO_SPEED_MAX diagonals per second, and so a displacement u = x − X
+ * (x within the slack, X within the box) below 1 + NDO_BOX_SLACK
+ * diagonals a component.  The bound stops wild values — a flipped
+ * exponent bit, a coordinate of 1e300 — from reaching the simulation
+ * whoever sent them; small forgeries are the key's business (ndo/auth.h).
+ * 0, or NDO_EINVAL for a box that is not finite. */
 #define NDO_BOX_SLACK 4.0
 #define NDO_SPEED_MAX 1e9
 int ndo_msg_set_box(ndo_msg_ctx *ctx, const double lo[3], const double hi[3]);
@@ -193,7 +197,13 @@ ndo_drop ndo_msg_check_box(const ndo_msg_tile_t *t, const ndo_msg_ctx *ctx);
 
 /* Check every field of a decoded message (not its sequence number):
  * NDO_DROP_NONE or the reason to drop it.  Messages from self_id are the
- * caller's business (LCM loops a peer's own messages back). */
+ * caller's business (LCM loops a peer's own messages back).  Against the
+ * box (NDO_DROP_BOX): a raw tile's state (ndo_msg_check_box), a halo's
+ * or checkpoint's velocities and displacements, a split step's state
+ * strip likewise and its vectors (the conjugate-gradient solve's, of
+ * velocities) as velocities; its partial sums are only finite (rkf45's
+ * error travels as DBL_MAX when an attempt blew up, and the solve's dot
+ * products scale with masses and forces, which the box does not bound). */
 ndo_drop ndo_msg_validate(const ndo_msg *m, const ndo_msg_ctx *ctx);
 
 /* Encode a message given as its generated struct (a ndo_msg_tile_t * for
