@@ -1670,6 +1670,55 @@ static void a_members_wild_halo_is_dropped(void)
 	world_free(w);
 }
 
+/* Strangers' empty halos of the next partition (a taint, last words) are
+ * kept for it like anyone's, but once it is in force they are not its
+ * members': the run stays exact, keeps its checkpoints, and the owner
+ * hears every peer's last word.  Until 2026-11-30 the stash handed them on
+ * unchecked: "inexact at 0 (peer 666)", checkpoints stopped, and 8
+ * strangers' last words left no place for the joiner's. */
+static void strangers_next_partition_halos_are_not_taken(void)
+{
+	setup su = {.integrator = "rk4", .dt = 0.002, .steps = 200, .clock = NDO_CLOCK_LOCKSTEP,
+	            .peers = 3, .step_timeout = 0.2};
+	world *w = world_new();
+	add_owner(w, &su);
+	add_joiner(w, &su, POIS[0]);
+	add_joiner(w, &su, POIS[1]);
+	ndo_net *rogue[9];
+	for (int k = 0; k < 9; k++)
+		rogue[k] = rogue_net(w, 600 + k);
+	while (w->t < 5 && ndo_peer_step(w->p[0]) < 100)
+		run(w, w->t + TICK);
+	int32_t e = ndo_session_epoch(ndo_peer_session(w->p[0]));
+	ndo_peer_stats st0;
+	ndo_peer_stats_get(w->p[0], &st0);
+	/* the taint, and 8 last words, all of partition e + 1 */
+	ndo_msg_halo_t h = {.step = 0, .epoch = e + 1};
+	int bad = ndo_net_publish(rogue[8], NDO_MSG_HALO, &h) != 0;
+	for (int k = 0; k < 8; k++) {
+		ndo_msg_halo_t word = {.step = su.steps, .epoch = e + 1, .confirmed = 1};
+		bad |= ndo_net_publish(rogue[k], NDO_MSG_HALO, &word) != 0;
+	}
+	run(w, w->t + 0.01);
+	ndo_peer_destroy(w->p[2], "bye"); /* partition e + 1 */
+	w->p[2] = NULL;
+	int r = run(w, 60);
+	double *x = solo(&su);
+	double d = difference(ndo_peer_grid(w->p[0]), x);
+	ndo_peer_stats st;
+	ndo_peer_stats_get(w->p[0], &st);
+	CHECK(!bad && r == 0 && w->state[0] == NDO_PEER_DONE && d == 0 && st.exact &&
+	          st.inexact_at < 0 && st.unsaid == 0 && st.checkpoints > st0.checkpoints + 2,
+	      "strangers' halos of the next partition: done %d, differs by %.3g, exact %d (inexact "
+	      "at %lld, from peer %d), %d last words missing, checkpoints %lld after %lld", r == 0,
+	      d, st.exact, (long long)st.inexact_at, st.inexact_peer, st.unsaid,
+	      (long long)st.checkpoints, (long long)st0.checkpoints);
+	free(x);
+	for (int k = 0; k < 9; k++)
+		ndo_net_destroy(rogue[k]);
+	world_free(w);
+}
+
 /* ---- record and replay ---------------------------------------------------- */
 typedef struct frames {
 	ndo_watch *w;
@@ -2042,6 +2091,7 @@ int main(void)
 	RUN(owner_quit_ends_the_others);
 	RUN(strangers_tiles_are_not_used);
 	RUN(a_members_wild_halo_is_dropped);
+	RUN(strangers_next_partition_halos_are_not_taken);
 	RUN(a_replayed_log_gives_the_live_frames);
 	RUN(lost_tiles_are_held_on_request);
 	return ck_failed_cases != 0;
