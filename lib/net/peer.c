@@ -18,9 +18,29 @@
 
 #define RESEND_MAX 0.2      /* s: the longest gap between re-sends */
 #define IDLE_WAIT 0.05      /* s: the longest a caller sleeps (protocol timers) */
-#define STASH_MAX 8192      /* tiles kept for later steps or partitions */
 #define LAST_COPIES 3       /* the owner leaves once its last frame went out this often */
 #define LAST_GAPS 16        /* ... and this many first re-send gaps after it gathered */
+
+/* The stashes (tiles, halos) keep messages for later, in two classes:
+ * of the partition in force (its members', of a step this peer has not
+ * reached, or before it made its region) and of the next partition
+ * (anyone's: its members are not known yet, unstash checks them).  Each
+ * class holds at most STASH_COUNT messages and stash_budget() bytes —
+ * STASH_GRIDS grids' worth of state (6 doubles a node), more than all
+ * peers' strips of the steps they can be ahead (reach()) — and keeps what
+ * it has: a message that does not fit is dropped (counted stale), and one
+ * that was needed comes again, since a peer waiting for this one re-sends.
+ * Until 2026-11-30 each stash kept 8192 messages of any partition and step
+ * and then dropped the oldest: a stranger's halos of a far partition made
+ * each peer of a level-4 run hold 311 MB (a level-7 one could hold 13 GB),
+ * and past the count each message cost a 0.9 MB memmove. */
+#define STASH_COUNT 2048
+#define STASH_GRIDS 4
+#define STASH_FLOOR ((size_t)1 << 20) /* bytes: room for a few datagrams at the
+                                         smallest levels */
+typedef struct stash_use {
+	size_t count[2], bytes[2]; /* [0] the partition in force, [1] the next */
+} stash_use;
 
 /* A repeated message's timer: the next one not before `at`, the gaps
  * doubling from the first up to RESEND_MAX (gap 0: none sent yet). */
@@ -98,6 +118,7 @@ struct ndo_peer {
 	/* tiles for later */
 	ndo_msg_tile_t *stash;
 	size_t nstash, capstash;
+	stash_use tuse;
 	/* exact lock-step (ndo/peer.h): halos of `W` rings exchanged every `K`
 	 * steps as displacement tiles, whole regions every `N` */
 	int exact, W, K, N;
@@ -122,6 +143,7 @@ struct ndo_peer {
 	int64_t ahead;         /* the step begun ahead of its halo (ndo_sim_step_begin), −1 */
 	ndo_msg_halo_t *hstash; /* halos for later steps or partitions */
 	size_t nhstash, caphstash;
+	stash_use huse;
 	ndo__ps *ps;           /* rkf45 and the implicit methods: steps of several
 	                          exchanges (peer_solve.h), when exact */
 	double split_t0;       /* ... the last progress of the step waited for */
@@ -335,14 +357,62 @@ static void write_tile(ndo_peer *p, const ndo_msg_tile_t *t, int fill)
 	p->times[t->step & 63].time = t->time;
 }
 
+/* How far ahead of this peer another peer of its partition can be: a
+ * neighbour one exchange (K steps: it waits for this peer's halo), any
+ * peer of a chain of NDO_MAX_PEERS one exchange each, and one more (the
+ * owner's re-sends of a restart's checkpoint use the same reach). */
+static int64_t reach(const ndo_peer *p)
+{
+	return (int64_t)p->K * (NDO_MAX_PEERS + 1);
+}
+
+/* The step this peer is at, or goes back to (a restart waiting for its
+ * checkpoint). */
+static int64_t base_step(const ndo_peer *p)
+{
+	return p->rs_step > p->cur ? p->rs_step : p->cur;
+}
+
+/* Bytes a stashed message holds: its arrays and its copy's bookkeeping. */
+static size_t stash_size(size_t structure, int64_t ints, int64_t doubles)
+{
+	return structure + 64 + 4 * (size_t)ints + 8 * (size_t)doubles;
+}
+
+static size_t stash_budget(const ndo_peer *p)
+{
+	return STASH_GRIDS * 6 * sizeof(double) * p->count + STASH_FLOOR;
+}
+
+/* May a message of partition `epoch` at `step`, of `size` bytes, wait in
+ * the stash whose use is *u?  Not one of a partition after the next (this
+ * peer missed one: it installs the newest, re-sent every heartbeat, and
+ * the neighbours re-send meanwhile), nor one of a step further ahead than
+ * a peer of this partition can be, nor one its class has no room for. */
+static int stash_admit(ndo_peer *p, stash_use *u, int32_t epoch, int64_t step, size_t size)
+{
+	int32_t now = ndo_session_epoch(p->s);
+	int next = epoch > now;
+	if (epoch > now + 1 ||
+	    (!next && p->announced && p->simulating && step > base_step(p) + reach(p)) ||
+	    u->count[next] >= STASH_COUNT || u->bytes[next] + size > stash_budget(p)) {
+		p->st.stale++;
+		return 0;
+	}
+	u->count[next]++;
+	u->bytes[next] += size;
+	return 1;
+}
+
+static size_t tile_size(const ndo_msg_tile_t *t)
+{
+	return stash_size(sizeof *t, 0, t->nvalues);
+}
+
 static int stash_tile(ndo_peer *p, const ndo_msg_tile_t *t)
 {
-	if (p->nstash == STASH_MAX) { /* drop the oldest */
-		free(p->stash[0].values);
-		memmove(p->stash, p->stash + 1, (p->nstash - 1) * sizeof *p->stash);
-		p->nstash--;
-		p->st.stale++;
-	}
+	if (!stash_admit(p, &p->tuse, t->epoch, t->step, tile_size(t)))
+		return 0;
 	if (p->nstash == p->capstash) {
 		size_t cap = p->capstash ? 2 * p->capstash : 64;
 		ndo_msg_tile_t *q = realloc(p->stash, cap * sizeof *q);
@@ -440,6 +510,11 @@ static int halo_later(const ndo_peer *p, const ndo_msg_halo_t *h)
 static void halo_free(ndo_msg_halo_t *h)
 {
 	free(h->start), free(h->len), free(h->values);
+}
+
+static size_t halo_size(const ndo_msg_halo_t *h)
+{
+	return stash_size(sizeof *h, 2 * (int64_t)h->nruns, h->nvalues);
 }
 
 static void on_checkpoint(ndo_peer *p, const ndo_msg_halo_t *h);
@@ -555,12 +630,8 @@ static void on_halo(void *user, const ndo_msg_halo_t *h)
 		write_halo(p, h);
 		return;
 	}
-	if (p->nhstash == STASH_MAX) { /* drop the oldest */
-		halo_free(&p->hstash[0]);
-		memmove(p->hstash, p->hstash + 1, (p->nhstash - 1) * sizeof *p->hstash);
-		p->nhstash--;
-		p->st.stale++;
-	}
+	if (!stash_admit(p, &p->huse, h->epoch, h->step, halo_size(h)))
+		return;
 	if (p->nhstash == p->caphstash) {
 		size_t cap = p->caphstash ? 2 * p->caphstash : 16;
 		ndo_msg_halo_t *q = realloc(p->hstash, cap * sizeof *q);
@@ -591,11 +662,21 @@ static void on_halo(void *user, const ndo_msg_halo_t *h)
 	p->st.stashed++;
 }
 
+/* A message kept in a stash: its class's use, as of the partition now in
+ * force. */
+static void stash_count(const ndo_peer *p, stash_use *u, int32_t epoch, size_t size)
+{
+	int next = epoch > ndo_session_epoch(p->s);
+	u->count[next]++;
+	u->bytes[next] += size;
+}
+
 /* Use what the stash holds for now; drop what is too old. */
 static void unstash(ndo_peer *p)
 {
 	size_t keep = 0;
 	int wrote = 0;
+	p->tuse = p->huse = (stash_use){{0, 0}, {0, 0}};
 	for (size_t k = 0; k < p->nstash; k++) {
 		ndo_msg_tile_t *t = &p->stash[k];
 		if (outside(p, t->epoch, t->hdr.sender_id)) {
@@ -606,6 +687,7 @@ static void unstash(ndo_peer *p)
 			free(t->values);
 			wrote = 1;
 		} else {
+			stash_count(p, &p->tuse, t->epoch, tile_size(t));
 			p->stash[keep++] = *t;
 		}
 	}
@@ -620,6 +702,7 @@ static void unstash(ndo_peer *p)
 			write_halo(p, h); /* its nodes' duplicates too */
 			halo_free(h);
 		} else {
+			stash_count(p, &p->huse, h->epoch, halo_size(h));
 			p->hstash[keep++] = *h;
 		}
 	}
@@ -2590,6 +2673,16 @@ ndo_clock ndo_peer_clock(const ndo_peer *p) { return p->clock; }
 const char *ndo_peer_message(const ndo_peer *p) { return p->message; }
 void ndo__peer_deaf_to_checkpoints(ndo_peer *p, double until) { p->ck_deaf_until = until; }
 int ndo__peer_ask_checkpoint(ndo_peer *p, int64_t step) { return ck_ask_send(p, step); }
+
+size_t ndo__peer_stash_bytes(const ndo_peer *p)
+{
+	size_t n = p->ps ? ndo__ps_stash_bytes(p->ps) : 0;
+	for (size_t k = 0; k < p->nstash; k++)
+		n += tile_size(&p->stash[k]);
+	for (size_t k = 0; k < p->nhstash; k++)
+		n += halo_size(&p->hstash[k]);
+	return n;
+}
 int ndo_peer_simulating(const ndo_peer *p) { return p->simulating; }
 int ndo_peer_started(const ndo_peer *p) { return p->started; }
 void ndo_peer_stats_get(const ndo_peer *p, ndo_peer_stats *st)

@@ -44,7 +44,22 @@
 #define CG_TOL 1e-13       /* |r| ≤ CG_TOL |b| (2-norms over every unknown) */
 #define CG_MAX 20000       /* iterations before the solve gives up */
 #define PHASE_MAX 16777215 /* phases in one step */
-#define STASH_MAX 4096     /* messages kept for later phases */
+/* The stash keeps messages of later phases in two classes, of the
+ * partition in force (its members': peer.c checks) and of the next one
+ * (anyone's: take() checks them once it is in force), each at most
+ * STASH_COUNT messages and STASH_GRIDS grids' worth of state (6 doubles a
+ * node; a peer's phase is one strip of 3 or 6 a node, and the others can
+ * be at most a step ahead) plus STASH_FLOOR bytes.  It keeps what it has:
+ * a message that does not fit is dropped, and a re-send brings it again.
+ * Not kept either: a phase of a partition after the next (this peer
+ * missed one, and installs the newest when its partition message comes
+ * again), or more than REACH steps after the step under way.  Until
+ * 2026-11-30 it kept 4096 messages of any partition and step: a stranger
+ * could make a level-7 peer hold 6 GB. */
+#define STASH_COUNT 2048
+#define STASH_GRIDS 4
+#define STASH_FLOOR ((size_t)1 << 20)
+#define REACH (NDO_MAX_PEERS + 1)
 
 enum {
 	IDLE,       /* no step under way */
@@ -104,6 +119,8 @@ struct ndo__ps {
 	int nsums[NDO_MAX_PEERS];
 	stashed *stash;
 	size_t nstash, capstash;
+	size_t scount[2], sbytes[2]; /* the stash's classes: [0] the partition in
+	                                force, [1] the next */
 	sent last[SLOTS];
 	/* rkf45: the state the step began with (abort) */
 	double *snap_u, *snap_v;
@@ -284,10 +301,21 @@ static void take(ndo__ps *ps, const ndo_msg_solve_t *m)
 		}
 }
 
+static size_t msg_size(const ndo_msg_solve_t *m)
+{
+	return sizeof *m + 64 + 8 * (size_t)m->nruns + 8 * (size_t)m->nvalues +
+	       8 * (size_t)m->nsums;
+}
+
 static int stash(ndo__ps *ps, const ndo_msg_solve_t *m)
 {
-	if (ps->nstash >= STASH_MAX)
-		return 0; /* a flood of future phases: a re-send brings what is needed */
+	int32_t epoch = ndo_session_epoch(ps->s);
+	int next = m->epoch > epoch;
+	size_t size = msg_size(m);
+	if (m->epoch > epoch + 1 || (!next && ps->step >= 0 && m->step > ps->step + REACH) ||
+	    ps->scount[next] >= STASH_COUNT ||
+	    ps->sbytes[next] + size > STASH_GRIDS * 6 * sizeof(double) * ps->count + STASH_FLOOR)
+		return 0; /* a re-send brings what is needed */
 	if (ps->nstash == ps->capstash) {
 		size_t cap = ps->capstash ? 2 * ps->capstash : 32;
 		stashed *q = realloc(ps->stash, cap * sizeof *q);
@@ -316,6 +344,8 @@ static int stash(ndo__ps *ps, const ndo_msg_solve_t *m)
 	if (m->nsums)
 		memcpy(c->sums, m->sums, (size_t)m->nsums * sizeof *c->sums);
 	ps->nstash++;
+	ps->scount[next]++;
+	ps->sbytes[next] += size;
 	return 0;
 }
 
@@ -342,6 +372,7 @@ static void unstash(ndo__ps *ps)
 	int32_t epoch = ndo_session_epoch(ps->s);
 	int64_t want = awaited(ps);
 	size_t keep = 0;
+	ps->scount[0] = ps->scount[1] = ps->sbytes[0] = ps->sbytes[1] = 0;
 	for (size_t k = 0; k < ps->nstash; k++) {
 		ndo_msg_solve_t *m = &ps->stash[k].m;
 		int64_t key = key_of(m->step, m->phase);
@@ -351,10 +382,21 @@ static void unstash(ndo__ps *ps)
 			take(ps, m);
 			free_msg(m);
 		} else {
+			int next = m->epoch > epoch;
+			ps->scount[next]++;
+			ps->sbytes[next] += msg_size(m);
 			ps->stash[keep++] = ps->stash[k];
 		}
 	}
 	ps->nstash = keep;
+}
+
+size_t ndo__ps_stash_bytes(const ndo__ps *ps)
+{
+	size_t n = 0;
+	for (size_t k = 0; k < ps->nstash; k++)
+		n += msg_size(&ps->stash[k].m);
+	return n;
 }
 
 /* Does the halo hold the awaited phase's values, and have every peer's

@@ -73,6 +73,9 @@ int ndo__ps_behind(const ndo__ps *ps, int64_t step);
  * in peer_solve.c says why three). */
 int ndo__ps_resend(ndo__ps *ps);
 
+/* Bytes its stash of later phases holds (tests: peer_test.h). */
+size_t ndo__ps_stash_bytes(const ndo__ps *ps);
+
 typedef struct ndo__ps_stats {
 	int64_t phases;      /* exchanges sent */
 	int64_t messages;    /* their messages */

@@ -15,6 +15,10 @@ void ndo__peer_deaf_to_checkpoints(ndo_peer *p, double until);
  * the owner does for a part it lacks; from a joiner, anyone could). */
 int ndo__peer_ask_checkpoint(ndo_peer *p, int64_t step);
 
+/* Bytes the peer's stashes hold (tiles, halos and a split step's phases
+ * kept for later, stash_size's count, arrays and bookkeeping). */
+size_t ndo__peer_stash_bytes(const ndo_peer *p);
+
 /* The session forgets every member, as a joiner that had not yet had a
  * peer list when the owner died (session.c): the owner's successor is
  * still the partition's (a successor chosen among the members was every

@@ -1719,6 +1719,68 @@ static void strangers_next_partition_halos_are_not_taken(void)
 	world_free(w);
 }
 
+/* Halos and split steps' phases kept for later are bounded: of a
+ * partition after the next, or of a step further ahead than a peer of the
+ * partition can be, none; of the next partition (anyone's) and of the
+ * partition in force (its members') each at most a few grids' worth.  A
+ * stranger's 2000 whole-grid halos and phases of the next partition, a
+ * member's of a step 1000 ahead, and both of partition e + 1000 leave each
+ * peer holding about 2 MB (until 2026-11-30, every one of them: 8192
+ * halos and 4096 phases, 330 MB at level 4), and the run goes on. */
+static void later_halos_and_phases_are_bounded(void)
+{
+	for (int m = 0; m < 2; m++) {
+		const char *method = m ? "backward-euler" : "rk4";
+		setup su = {.integrator = method, .dt = 0.002, .steps = 150,
+		            .clock = NDO_CLOCK_LOCKSTEP, .peers = 2};
+		world *w = world_new();
+		add_owner(w, &su);
+		add_joiner(w, &su, POIS[0]);
+		ndo_net *stranger = rogue_net(w, 666), *member = rogue_net(w, 11);
+		while (w->t < 5 && ndo_peer_step(w->p[0]) < 50)
+			run(w, w->t + TICK);
+		int32_t e = ndo_session_epoch(ndo_peer_session(w->p[0]));
+		int64_t cur = ndo_peer_step(w->p[0]);
+		size_t count = ndo_peer_grid(w->p[0])->count;
+		int32_t start = 0, len = (int32_t)count;
+		double *vals = calloc(6 * count, sizeof *vals);
+		int bad = 0;
+		for (int k = 0; k < 2000 && !bad; k++) {
+			ndo_msg_halo_t h = {.step = cur + k % 5, .epoch = e + 1, .confirmed = 1, .nruns = 1,
+			                    .start = &start, .len = &len, .nvalues = (int32_t)(6 * count),
+			                    .values = vals};
+			ndo_msg_solve_t v = {.step = cur + k % 5, .phase = k, .epoch = e + 1, .per_node = 6,
+			                     .nruns = 1, .start = &start, .len = &len,
+			                     .nvalues = (int32_t)(6 * count), .values = vals};
+			bad |= ndo_net_publish(stranger, NDO_MSG_HALO, &h) != 0;
+			bad |= ndo_net_publish(stranger, NDO_MSG_SOLVE, &v) != 0;
+			h.epoch = v.epoch = e, h.step = v.step = cur + 1000 + k;
+			bad |= ndo_net_publish(member, NDO_MSG_HALO, &h) != 0;
+			bad |= ndo_net_publish(member, NDO_MSG_SOLVE, &v) != 0;
+			h.epoch = v.epoch = e + 1000;
+			bad |= ndo_net_publish(stranger, NDO_MSG_HALO, &h) != 0;
+			bad |= ndo_net_publish(stranger, NDO_MSG_SOLVE, &v) != 0;
+			if (k % 20 == 19)
+				run(w, w->t + TICK);
+		}
+		run(w, w->t + TICK);
+		size_t held[2] = {ndo__peer_stash_bytes(w->p[0]), ndo__peer_stash_bytes(w->p[1])};
+		int r = run(w, w->t + 60);
+		CHECK(!bad && held[0] < (4u << 20) && held[1] < (4u << 20),
+		      "%s: after the flood the owner's stashes hold %.1f MB, the joiner's %.1f MB "
+		      "(expected under 4)", method, held[0] / 1e6, held[1] / 1e6);
+		CHECK(r == 0 && w->state[0] == NDO_PEER_DONE && w->state[1] == NDO_PEER_DONE,
+		      "%s: after the flood the run ends: %d, states %d %d", method, r, w->state[0],
+		      w->state[1]);
+		printf("    %s: after the flood the stashes hold %.2f and %.2f MB\n", method,
+		       held[0] / 1e6, held[1] / 1e6);
+		free(vals);
+		ndo_net_destroy(stranger);
+		ndo_net_destroy(member);
+		world_free(w);
+	}
+}
+
 /* ---- record and replay ---------------------------------------------------- */
 typedef struct frames {
 	ndo_watch *w;
@@ -2092,6 +2154,7 @@ int main(void)
 	RUN(strangers_tiles_are_not_used);
 	RUN(a_members_wild_halo_is_dropped);
 	RUN(strangers_next_partition_halos_are_not_taken);
+	RUN(later_halos_and_phases_are_bounded);
 	RUN(a_replayed_log_gives_the_live_frames);
 	RUN(lost_tiles_are_held_on_request);
 	return ck_failed_cases != 0;
