@@ -24,9 +24,10 @@
 
 typedef struct ndo__ck ndo__ck;
 
-/* A store for a grid of `count` stored nodes of which `ncanon` are
- * canonical.  0 or NDO_ENOMEM. */
-int ndo__ck_create(size_t count, size_t ncanon, ndo__ck **out);
+/* A store for the grid of a level-`level` object (its stored nodes; of
+ * them, only the canonical ones are kept: a seam's duplicates are
+ * ignored).  0 or NDO_ENOMEM. */
+int ndo__ck_create(int level, ndo__ck **out);
 void ndo__ck_destroy(ndo__ck *ck);
 
 /* Keep the state of n canonical nodes at `step` (u, v: 3 per node) and
@@ -37,8 +38,9 @@ void ndo__ck_destroy(ndo__ck *ck);
  * step is never evicted. */
 void ndo__ck_put(ndo__ck *ck, int64_t step, double time, double substep, size_t n,
                  const int32_t *nodes, const double *u, const double *v);
-/* ... from a checkpoint message (runs of node indices). */
-void ndo__ck_put_msg(ndo__ck *ck, const ndo_msg_halo_t *h);
+/* ... from a checkpoint message (runs of node indices); owner: per stored
+ * node its peer, and only the sender's nodes are kept (NULL: any). */
+void ndo__ck_put_msg(ndo__ck *ck, const ndo_msg_halo_t *h, const int32_t *owner);
 
 /* The newest step whose every canonical node is held, −1: none. */
 int64_t ndo__ck_whole(const ndo__ck *ck);

@@ -959,7 +959,7 @@ int ndo_peer_checkpoint_default(int level)
 
 static int ck_ready(ndo_peer *p)
 {
-	if (!p->ck && ndo__ck_create(p->count, p->ncanon, &p->ck))
+	if (!p->ck && ndo__ck_create(p->level, &p->ck))
 		return ndo__fail(NDO_ENOMEM, "out of memory");
 	return 0;
 }
@@ -1022,12 +1022,20 @@ static int ck_resend(ndo_peer *p)
  * owner to restart from; a joiner to restart from if it succeeds the
  * owner, and its region's part of a restart step), and a joiner the
  * owner's re-sends; messages of an older partition are not used (their
- * steps after its restart step may have been computed with older values). */
+ * steps after its restart step may have been computed with older values).
+ * A member's part is of the partition in force (one of the next is not
+ * known to be its member's: its owner asks again, ck_ask) and only the
+ * nodes of its region are kept (the owner's re-sends: any); and no part
+ * of a step further ahead than a peer of the partition can be (reach()).
+ * Until 2026-11-30 a member's id on a checkpoint of any nodes 20 steps
+ * ahead, its duplicates counted, made the owner's restart step one that
+ * nobody held (checkpoint.c put_one), and the peers waited for ever. */
 static void on_checkpoint(ndo_peer *p, const ndo_msg_halo_t *h)
 {
-	int32_t from = h->hdr.sender_id;
+	int32_t from = h->hdr.sender_id, epoch = ndo_session_epoch(p->s);
 	int from_owner = !p->owner && from == ndo_session_owner_id(p->s);
-	if (h->epoch < ndo_session_epoch(p->s) || !p->sim || !(from_owner || member(p, from))) {
+	if (h->epoch < epoch || !p->sim || !(from_owner || (member(p, from) && h->epoch == epoch)) ||
+	    (p->simulating && h->step > base_step(p) + reach(p))) {
 		p->st.stale++;
 		return;
 	}
@@ -1050,7 +1058,7 @@ static void on_checkpoint(ndo_peer *p, const ndo_msg_halo_t *h)
 			p->failed = NDO_ENOMEM;
 		return;
 	}
-	ndo__ck_put_msg(p->ck, h);
+	ndo__ck_put_msg(p->ck, h, from_owner ? NULL : owner_channel(p));
 	ck_whole(p);
 }
 

@@ -16,6 +16,8 @@
 
 #include "peer_world.h"
 #include "peer_test.h"
+#include "checkpoint.h"
+#include "ndo/topology.h"
 
 #define LEVEL 4
 
@@ -1781,6 +1783,95 @@ static void later_halos_and_phases_are_bounded(void)
 	}
 }
 
+/* A checkpoint message of every duplicate node and all canonical nodes
+ * but the last `missing` (level 4): its runs and values, 6 a node. */
+static ndo_msg_halo_t forged_checkpoint(int64_t step, int32_t epoch, size_t missing)
+{
+	const int L = LEVEL;
+	size_t w = (2u << L) + 1, count = w * ((1u << L) + 1), ncanon = 0, seen = 0;
+	for (size_t k = 0; k < count; k++)
+		ncanon += ndo_canonical(L, (int)(k % w), (int)(k / w)) == k;
+	ndo_msg_halo_t h = {.step = step, .time = 0.1, .epoch = epoch, .confirmed = 1,
+	                    .checkpoint = 1};
+	h.start = malloc(count * sizeof *h.start);
+	h.len = malloc(count * sizeof *h.len);
+	for (size_t k = 0; k < count; k++) {
+		int canonical = ndo_canonical(L, (int)(k % w), (int)(k / w)) == k;
+		if (canonical && seen++ >= ncanon - missing)
+			continue;
+		if (h.nruns && h.start[h.nruns - 1] + h.len[h.nruns - 1] == (int32_t)k)
+			h.len[h.nruns - 1]++;
+		else
+			h.start[h.nruns] = (int32_t)k, h.len[h.nruns++] = 1;
+		h.nvalues += 6;
+	}
+	h.values = calloc((size_t)h.nvalues, sizeof(double));
+	return h;
+}
+
+/* The checkpoint store keeps canonical nodes only: a message of every
+ * seam duplicate (47 at level 4) and all canonical nodes but 47 does not
+ * make its step whole.  Until 2026-11-30 the duplicates counted, and the
+ * store called the step whole with 47 canonical nodes missing. */
+static void the_checkpoint_store_counts_canonical_nodes_only(void)
+{
+	ndo__ck *ck;
+	CHECK(ndo__ck_create(LEVEL, &ck) == 0, "create");
+	ndo_msg_halo_t h = forged_checkpoint(40, 0, 47);
+	h.hdr.sender_id = 11;
+	ndo__ck_put_msg(ck, &h, NULL);
+	CHECK(ndo__ck_whole(ck) == -1, "47 canonical nodes missing: the newest whole step is %lld "
+	      "(expected none, -1)", (long long)ndo__ck_whole(ck));
+	free(h.start), free(h.len), free(h.values);
+	h = forged_checkpoint(40, 0, 0);
+	h.hdr.sender_id = 11;
+	ndo__ck_put_msg(ck, &h, NULL);
+	CHECK(ndo__ck_whole(ck) == 40, "every canonical node: whole at %lld (expected 40)",
+	      (long long)ndo__ck_whole(ck));
+	free(h.start), free(h.len), free(h.values);
+	ndo__ck_destroy(ck);
+}
+
+/* A member's id on a checkpoint of a later step (every duplicate node and
+ * all canonical nodes but 47, any region's), then a peer leaves: the
+ * restart goes back to a step every peer holds, and the run ends exact.
+ * Until 2026-11-30 such a checkpoint 20 steps ahead made the owner's
+ * restart step one that nobody held, and both survivors waited for it for
+ * ever. */
+static void a_members_forged_checkpoint_does_not_hold_the_restart(void)
+{
+	for (int ahead = 5; ahead <= 20; ahead += 15) {
+		setup su = {.integrator = "rk4", .dt = 0.002, .steps = 300, .clock = NDO_CLOCK_LOCKSTEP,
+		            .peers = 3, .step_timeout = 0.2};
+		world *w = world_new();
+		add_owner(w, &su);
+		add_joiner(w, &su, POIS[0]);
+		add_joiner(w, &su, POIS[1]);
+		ndo_net *rogue = rogue_net(w, 11); /* the first joiner's id */
+		while (w->t < 5 && ndo_peer_step(w->p[0]) < 100)
+			run(w, w->t + TICK);
+		int32_t e = ndo_session_epoch(ndo_peer_session(w->p[0]));
+		ndo_msg_halo_t h = forged_checkpoint(ndo_peer_step(w->p[0]) + ahead, e, 47);
+		int bad = ndo_net_publish(rogue, NDO_MSG_HALO, &h) != 0;
+		run(w, w->t + 0.01);
+		ndo_peer_destroy(w->p[2], "bye");
+		w->p[2] = NULL;
+		int r = run(w, w->t + 30);
+		double *x = solo(&su);
+		double d = difference(ndo_peer_grid(w->p[0]), x);
+		ndo_peer_stats st;
+		ndo_peer_stats_get(w->p[0], &st);
+		CHECK(!bad && r == 0 && w->state[0] == NDO_PEER_DONE && d == 0 && st.restarts >= 1,
+		      "a forged checkpoint %d steps ahead, then a leave: ended %d, owner state %d at "
+		      "step %lld, differs by %.3g, %lld restarts", ahead, r == 0, w->state[0],
+		      (long long)ndo_peer_step(w->p[0]), d, (long long)st.restarts);
+		free(h.start), free(h.len), free(h.values);
+		free(x);
+		ndo_net_destroy(rogue);
+		world_free(w);
+	}
+}
+
 /* ---- record and replay ---------------------------------------------------- */
 typedef struct frames {
 	ndo_watch *w;
@@ -2155,6 +2246,8 @@ int main(void)
 	RUN(a_members_wild_halo_is_dropped);
 	RUN(strangers_next_partition_halos_are_not_taken);
 	RUN(later_halos_and_phases_are_bounded);
+	RUN(the_checkpoint_store_counts_canonical_nodes_only);
+	RUN(a_members_forged_checkpoint_does_not_hold_the_restart);
 	RUN(a_replayed_log_gives_the_live_frames);
 	RUN(lost_tiles_are_held_on_request);
 	return ck_failed_cases != 0;
