@@ -309,14 +309,14 @@ static nb *neighbour(ndo__rb *rb, int32_t id)
 	return NULL;
 }
 
-void ndo__rb_receive(ndo__rb *rb, const ndo_msg_halo_t *h, double now)
+int ndo__rb_receive(ndo__rb *rb, const ndo_msg_halo_t *h, double now)
 {
 	if (!rb->w)
-		return;
+		return 0;
 	int64_t s = h->step;
 	if (s < rb->base || s >= rb->base + rb->win || !xstep(rb, s)) {
 		rb->st.dropped++;
-		return;
+		return 0;
 	}
 	slot *S = at(rb, s);
 	const int32_t from = h->hdr.sender_id;
@@ -327,7 +327,7 @@ void ndo__rb_receive(ndo__rb *rb, const ndo_msg_halo_t *h, double now)
 			int32_t c = h->start[r] + q, k = rb->hidx[c];
 			if (k < 0 || rb->hown[k] != from || rb->r.canon[c] != c)
 				continue;
-			got = 1;
+			got++;
 			if (S->hs[k] == H_CONFIRMED)
 				continue; /* a confirmed value is final */
 			double *in = S->hin + 6 * (size_t)k;
@@ -354,6 +354,7 @@ void ndo__rb_receive(ndo__rb *rb, const ndo_msg_halo_t *h, double now)
 		n->gap = rb->resend0;
 		n->next = now + n->gap;
 	}
+	return got;
 }
 
 /* The halo of step s into the simulation (which is at s): received

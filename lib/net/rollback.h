@@ -69,8 +69,10 @@ int ndo__rb_set_region(ndo__rb *rb, const ndo__rb_region *r);
  * waits for confirmation and the window slides freely. */
 int ndo__rb_restart(ndo__rb *rb, int64_t step, int exact);
 
-/* Another peer's halo (of the partition in force). */
-void ndo__rb_receive(ndo__rb *rb, const ndo_msg_halo_t *h, double now);
+/* Another peer's halo (of the partition in force).  Returns the halo
+ * nodes of its sender it holds (0: none, or a step outside the window:
+ * dropped). */
+int ndo__rb_receive(ndo__rb *rb, const ndo_msg_halo_t *h, double now);
 
 /* What arrived since the last call: roll back and recompute to the
  * present if an input of an earlier step changed, confirm the steps whose

@@ -1872,6 +1872,52 @@ static void a_members_forged_checkpoint_does_not_hold_the_restart(void)
 	}
 }
 
+/* Realtime with rollback: a member's halo (or frame tile) of a step far
+ * ahead is not where the others are.  Beyond the run's last step it is
+ * dropped; beyond rollback's window it is not kept, and so moves nothing:
+ * the owner keeps the pace (750 steps in 1.5 s).  Until 2026-11-30 either
+ * moved the newest step seen, and the owner "caught up" at every update:
+ * 1,450 steps in 1.5 s with a halo of step 10^12. */
+static void realtime_keeps_the_pace_after_a_far_step(void)
+{
+	for (int c = 0; c < 3; c++) {
+		setup su = {.integrator = "euler", .dt = 0.002, .steps = 1500,
+		            .clock = NDO_CLOCK_REALTIME, .peers = 2};
+		world *w = world_new();
+		add_owner(w, &su);
+		add_joiner(w, &su, POIS[0]);
+		ndo_net *rogue = rogue_net(w, 11); /* the joiner's id */
+		while (w->t < 5 && ndo_peer_step(w->p[0]) < 50)
+			run(w, w->t + TICK);
+		int32_t e = ndo_session_epoch(ndo_peer_session(w->p[0]));
+		int64_t s0 = ndo_peer_step(w->p[0]);
+		int64_t far = c == 0 ? 1000000000000LL : s0 + 600; /* past the end; past the window */
+		int bad;
+		if (c < 2) {
+			bad = rogue_halo(rogue, w, far, e, 0);
+		} else { /* a frame of the whole grid */
+			ndo_grid *g;
+			ndo_grid_create(LEVEL, &g);
+			ndo_grid_add(g, NDO_CH_VELOCITY, NDO_F64, 3, NULL);
+			ndo_msg_tile_t t = {0};
+			ndo_tile_pack(g, (ndo_quad){0, 0, 0}, NDO_TILE_POSITION | NDO_TILE_VELOCITY, &t);
+			t.step = 1000000000000LL;
+			t.epoch = e;
+			bad = ndo_net_publish(rogue, NDO_MSG_TILE, &t);
+			free(t.values);
+			ndo_grid_destroy(g);
+		}
+		run(w, w->t + 1.5);
+		int64_t steps = ndo_peer_step(w->p[0]) - s0;
+		CHECK(!bad && steps <= 1.5 / su.dt + 10,
+		      "a member's %s of step %lld: the owner took %lld steps in 1.5 s (the pace: %.0f)",
+		      c < 2 ? "halo" : "frame", (long long)(c < 2 ? far : 1000000000000LL),
+		      (long long)steps, 1.5 / su.dt);
+		ndo_net_destroy(rogue);
+		world_free(w);
+	}
+}
+
 /* ---- record and replay ---------------------------------------------------- */
 typedef struct frames {
 	ndo_watch *w;
@@ -2248,6 +2294,7 @@ int main(void)
 	RUN(later_halos_and_phases_are_bounded);
 	RUN(the_checkpoint_store_counts_canonical_nodes_only);
 	RUN(a_members_forged_checkpoint_does_not_hold_the_restart);
+	RUN(realtime_keeps_the_pace_after_a_far_step);
 	RUN(a_replayed_log_gives_the_live_frames);
 	RUN(lost_tiles_are_held_on_request);
 	return ck_failed_cases != 0;
