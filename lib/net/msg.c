@@ -548,7 +548,8 @@ ndo_drop ndo_msg_validate(const ndo_msg *m, const ndo_msg_ctx *c)
 	}
 	case NDO_MSG_SOLVE: {
 		const ndo_msg_solve_t *h = &m->u.solve;
-		if (h->step < 0 || h->phase < 0 || h->epoch < 0 ||
+		if (h->step < 0 || h->step > NDO_MAX_SOLVE_STEP || h->phase < 0 ||
+		    h->phase > NDO_MAX_PHASE || h->epoch < 0 ||
 		    (h->per_node != 0 && h->per_node != 3 && h->per_node != 6))
 			return NDO_DROP_RANGE;
 		if (h->nsums < 0 || h->nsums > NDO_MAX_SUMS)

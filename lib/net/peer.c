@@ -396,6 +396,15 @@ static int64_t base_step(const ndo_peer *p)
 	return p->rs_step > p->cur ? p->rs_step : p->cur;
 }
 
+/* Is `step` of partition `epoch` one no peer sends: after the run's last,
+ * or further ahead of this peer, running in that partition, than a peer of
+ * it can be? */
+static int too_far(const ndo_peer *p, int32_t epoch, int64_t step)
+{
+	return beyond_final(p, step) || (epoch == ndo_session_epoch(p->s) && p->announced &&
+	                                 p->simulating && step > base_step(p) + reach(p));
+}
+
 /* Bytes a stashed message holds: its arrays and its copy's bookkeeping. */
 static size_t stash_size(size_t structure, int64_t ints, int64_t doubles)
 {
@@ -416,9 +425,8 @@ static int stash_admit(ndo_peer *p, stash_use *u, int32_t epoch, int64_t step, s
 {
 	int32_t now = ndo_session_epoch(p->s);
 	int next = epoch > now;
-	if (epoch > now + 1 ||
-	    (!next && p->announced && p->simulating && step > base_step(p) + reach(p)) ||
-	    u->count[next] >= STASH_COUNT || u->bytes[next] + size > stash_budget(p)) {
+	if (epoch > now + 1 || too_far(p, epoch, step) || u->count[next] >= STASH_COUNT ||
+	    u->bytes[next] + size > stash_budget(p)) {
 		p->st.stale++;
 		return 0;
 	}
@@ -556,9 +564,14 @@ static double silence(const ndo_peer *p)
 
 /* Note a halo or a split step's phase (of any partition) from another
  * peer `id`: its partition, its newest step in that partition and when it
- * came. */
+ * came.  Only a peer of the partition in force counts (those are the ones
+ * asked about: strangers took the NDO_MAX_PEERS places), and only a step
+ * one can be at (too_far: until 2026-11-30 a member's id on one halo of a
+ * far step made that member look dead to alive_at_cur for good). */
 static void heard(ndo_peer *p, int32_t id, int32_t epoch, int64_t step)
 {
+	if (!member(p, id) || too_far(p, epoch, step))
+		return;
 	int k, free_k = -1;
 	for (k = 0; k < NDO_MAX_PEERS; k++) {
 		if (p->heard[k].id == id)

@@ -43,7 +43,6 @@
 
 #define CG_TOL 1e-13       /* |r| ≤ CG_TOL |b| (2-norms over every unknown) */
 #define CG_MAX 20000       /* iterations before the solve gives up */
-#define PHASE_MAX 16777215 /* phases in one step */
 /* The stash keeps messages of later phases in two classes, of the
  * partition in force (its members': peer.c checks) and of the next one
  * (anyone's: take() checks them once it is in force), each at most
@@ -153,7 +152,7 @@ int ndo__ps_rings(ndo_method m)
 
 static int64_t key_of(int64_t step, int32_t phase)
 {
-	return step * (PHASE_MAX + 1) + phase;
+	return step * (NDO_MAX_PHASE + 1) + phase;
 }
 
 static void free_msg(ndo_msg_solve_t *m)
@@ -355,7 +354,9 @@ void ndo__ps_receive(ndo__ps *ps, const ndo_msg_solve_t *m)
 	if (m->epoch < epoch)
 		return;
 	int i = m->epoch == epoch ? member_index(ps, m->hdr.sender_id) : -1;
-	if (i >= 0 && m->step > ps->seen[i])
+	/* (not a step further ahead than a peer can be: one far ahead would
+	 * hide that the peer is behind, ndo__ps_behind) */
+	if (i >= 0 && m->step > ps->seen[i] && (ps->step < 0 || m->step <= ps->step + REACH))
 		ps->seen[i] = m->step;
 	int64_t key = key_of(m->step, m->phase), want = awaited(ps);
 	if (m->epoch == epoch && key == want) {
@@ -461,8 +462,8 @@ static int send_slot(ndo__ps *ps, int b)
 		}
 		ndo_msg_solve_t m;
 		memset(&m, 0, sizeof m);
-		m.step = sl->key / (PHASE_MAX + 1);
-		m.phase = (int32_t)(sl->key % (PHASE_MAX + 1));
+		m.step = sl->key / (NDO_MAX_PHASE + 1);
+		m.phase = (int32_t)(sl->key % (NDO_MAX_PHASE + 1));
 		m.per_node = (int8_t)vpn;
 		m.nruns = (int32_t)nr;
 		m.start = start;
@@ -497,9 +498,9 @@ static void peek_strip(ndo__ps *ps, double *vals)
  * of `planes`/the state; `sums`) goes out and is taken as received. */
 static int next_phase(ndo__ps *ps, int vpn, const double *planes, const double *sums, int nsums)
 {
-	if (ps->phase >= PHASE_MAX)
+	if (ps->phase >= NDO_MAX_PHASE)
 		return ndo__fail(NDO_EDIVERGED, "step %lld takes more than %d exchanges",
-		                 (long long)ps->step, PHASE_MAX);
+		                 (long long)ps->step, NDO_MAX_PHASE);
 	ps->phase++;
 	int b = (int)(ps->st.phases % SLOTS); /* the oldest (not by phase: a step's last
 	                                        and the next step's first may share it) */
@@ -1035,6 +1036,9 @@ static int implicit_advance(ndo__ps *ps)
 int ndo__ps_advance(ndo__ps *ps, int64_t step, double h)
 {
 	ndo__clear_error();
+	if (step > NDO_MAX_SOLVE_STEP) /* its phases' keys would overflow */
+		return ndo__fail(NDO_ERANGE, "step %lld: a split step's exchanges go to step %lld",
+		                 (long long)step, (long long)NDO_MAX_SOLVE_STEP);
 	if (ps->step != step || ps->state == IDLE) {
 		ps->step = step;
 		ps->phase = -1;

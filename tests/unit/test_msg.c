@@ -167,7 +167,10 @@ static void halos_checked(void)
 }
 
 /* A split step's exchange (solve_t): runs as in a halo, 0, 3 or 6 finite
- * values a node, at most NDO_MAX_SUMS finite partial sums. */
+ * values a node, at most NDO_MAX_SUMS finite partial sums, a phase up to
+ * NDO_MAX_PHASE and a step up to NDO_MAX_SOLVE_STEP (until 2026-11-30 any:
+ * phase 2^24 of step s was phase 0 of s + 1 to the receiver, and a step
+ * past 2^39 overflowed its key). */
 static void solves_checked(void)
 {
 	ndo_msg_ctx c = {.object_id = 42, .level = 4, .self_id = 1};
@@ -187,6 +190,16 @@ static void solves_checked(void)
 	CHECK(roundtrip(NDO_MSG_SOLVE, &h, &c) == NDO_DROP_NONE, "sums only");
 	h.phase = -1;
 	CHECK(roundtrip(NDO_MSG_SOLVE, &h, &c) == NDO_DROP_RANGE, "a negative phase");
+	/* the key step · 2^24 + phase: neither aliased nor overflowed */
+	h.phase = NDO_MAX_PHASE, h.step = NDO_MAX_SOLVE_STEP;
+	CHECK(roundtrip(NDO_MSG_SOLVE, &h, &c) == NDO_DROP_NONE, "the last phase of the last step");
+	h.phase = NDO_MAX_PHASE + 1;
+	CHECK(roundtrip(NDO_MSG_SOLVE, &h, &c) == NDO_DROP_RANGE, "phase 2^24 (the next step's 0)");
+	h.phase = 3, h.step = NDO_MAX_SOLVE_STEP + 1;
+	CHECK(roundtrip(NDO_MSG_SOLVE, &h, &c) == NDO_DROP_RANGE, "step 2^39 (its key overflows)");
+	h.step = INT64_MAX;
+	CHECK(roundtrip(NDO_MSG_SOLVE, &h, &c) == NDO_DROP_RANGE, "step INT64_MAX");
+	h.step = 5;
 	h.phase = 3, h.nsums = NDO_MAX_SUMS + 1;
 	CHECK(roundtrip(NDO_MSG_SOLVE, &h, &c) == NDO_DROP_RANGE, "too many sums");
 	h.nsums = 2, sums[1] = INFINITY;

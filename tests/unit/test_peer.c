@@ -1918,6 +1918,45 @@ static void realtime_keeps_the_pace_after_a_far_step(void)
 	}
 }
 
+/* A member's id on one halo of a far step (within the run) does not make
+ * that member look dead: the owner, deaf for 0.5 s (its neighbour's halos
+ * lost, the neighbour alive), waits past its step timeout for the re-sends
+ * instead of going on with older values, and the run stays exact.  Until
+ * 2026-11-30 the far step was taken as the member's newest (heard), the
+ * member was no longer "at most an exchange ahead", and the owner timed it
+ * out: the run was not exact. */
+static void a_far_step_does_not_make_a_member_look_dead(void)
+{
+	setup su = {.integrator = "rk4", .dt = 0.002, .steps = 300, .clock = NDO_CLOCK_LOCKSTEP,
+	            .peers = 2, .step_timeout = 0.2};
+	world *w = world_new();
+	add_owner(w, &su);
+	add_joiner(w, &su, POIS[0]);
+	ndo_net *rogue = rogue_net(w, 11); /* the joiner's id */
+	while (w->t < 5 && ndo_peer_step(w->p[0]) < 100)
+		run(w, w->t + TICK);
+	int32_t e = ndo_session_epoch(ndo_peer_session(w->p[0]));
+	ndo_msg_halo_t h = {.step = ndo_peer_step(w->p[0]) + 150, .epoch = e, .confirmed = 1};
+	int bad = ndo_net_publish(rogue, NDO_MSG_HALO, &h) != 0;
+	run(w, w->t + 0.01);
+	w->deaf[0] = 1;
+	run(w, w->t + 0.5);
+	w->deaf[0] = 0;
+	int r = run(w, w->t + 30);
+	double *x = solo(&su);
+	double d = difference(ndo_peer_grid(w->p[0]), x);
+	ndo_peer_stats st;
+	ndo_peer_stats_get(w->p[0], &st);
+	CHECK(!bad && r == 0 && w->state[0] == NDO_PEER_DONE && d == 0 && st.timeouts == 0 &&
+	          st.inexact_at < 0,
+	      "a member's halo 150 steps ahead, then 0.5 s deaf: done %d, differs by %.3g, %lld "
+	      "timeouts, not exact from step %lld", r == 0, d, (long long)st.timeouts,
+	      (long long)st.inexact_at);
+	free(x);
+	ndo_net_destroy(rogue);
+	world_free(w);
+}
+
 /* ---- record and replay ---------------------------------------------------- */
 typedef struct frames {
 	ndo_watch *w;
@@ -2295,6 +2334,7 @@ int main(void)
 	RUN(the_checkpoint_store_counts_canonical_nodes_only);
 	RUN(a_members_forged_checkpoint_does_not_hold_the_restart);
 	RUN(realtime_keeps_the_pace_after_a_far_step);
+	RUN(a_far_step_does_not_make_a_member_look_dead);
 	RUN(a_replayed_log_gives_the_live_frames);
 	RUN(lost_tiles_are_held_on_request);
 	return ck_failed_cases != 0;

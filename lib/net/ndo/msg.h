@@ -46,6 +46,11 @@ extern "C" {
 #define NDO_MAX_TEXT 255      /* bytes of a leave's message */
 #define NDO_MAX_SUMS 16       /* partial sums in one solve_t */
 #define NDO_MAX_KEY_TILES 64  /* tiles in one key_request_t */
+/* A split step's exchanges are ordered by the key step · 2²⁴ + phase
+ * (lib/net/peer_solve.c): a phase past NDO_MAX_PHASE would alias the next
+ * step's, and a step past NDO_MAX_SOLVE_STEP overflow the key. */
+#define NDO_MAX_PHASE 16777215
+#define NDO_MAX_SOLVE_STEP ((INT64_C(1) << 39) - 1)
 
 /* LCM 1.3.1 sends a message as one datagram when channel + 1 (NUL) +
  * payload ≤ 65,499 bytes (plus its 8-byte header: 65,507, the largest
