@@ -40,6 +40,7 @@
                                          smallest levels */
 typedef struct stash_use {
 	size_t count[2], bytes[2]; /* [0] the partition in force, [1] the next */
+	int32_t epoch;             /* ... as of this partition */
 } stash_use;
 
 /* A repeated message's timer: the next one not before `at`, the gaps
@@ -421,10 +422,14 @@ static size_t stash_budget(const ndo_peer *p)
  * peer missed one: it installs the newest, re-sent every heartbeat, and
  * the neighbours re-send meanwhile), nor one of a step further ahead than
  * a peer of this partition can be, nor one its class has no room for. */
+static void stash_prune(ndo_peer *p);
+
 static int stash_admit(ndo_peer *p, stash_use *u, int32_t epoch, int64_t step, size_t size)
 {
 	int32_t now = ndo_session_epoch(p->s);
 	int next = epoch > now;
+	if (u->epoch != now)
+		stash_prune(p); /* a new partition: what the old ones left goes */
 	if (epoch > now + 1 || too_far(p, epoch, step) || u->count[next] >= STASH_COUNT ||
 	    u->bytes[next] + size > stash_budget(p)) {
 		p->st.stale++;
@@ -707,12 +712,46 @@ static void stash_count(const ndo_peer *p, stash_use *u, int32_t epoch, size_t s
 	u->bytes[next] += size;
 }
 
+/* Drop what the stashes hold of an older partition, or of the one in
+ * force from a peer outside it, and count the rest by class as of the
+ * partition in force (a joiner installs partitions before it has made its
+ * region, and the old one's halos would fill the class of the new one's). */
+static void stash_prune(ndo_peer *p)
+{
+	int32_t now = ndo_session_epoch(p->s);
+	size_t keep = 0;
+	p->tuse = p->huse = (stash_use){.epoch = now};
+	for (size_t k = 0; k < p->nstash; k++) {
+		ndo_msg_tile_t *t = &p->stash[k];
+		if (outside(p, t->epoch, t->hdr.sender_id)) {
+			p->st.stale++;
+			free(t->values);
+		} else {
+			stash_count(p, &p->tuse, t->epoch, tile_size(t));
+			p->stash[keep++] = *t;
+		}
+	}
+	p->nstash = keep;
+	keep = 0;
+	for (size_t k = 0; k < p->nhstash; k++) {
+		ndo_msg_halo_t *h = &p->hstash[k];
+		if (outside(p, h->epoch, h->hdr.sender_id)) {
+			p->st.stale++;
+			halo_free(h);
+		} else {
+			stash_count(p, &p->huse, h->epoch, halo_size(h));
+			p->hstash[keep++] = *h;
+		}
+	}
+	p->nhstash = keep;
+}
+
 /* Use what the stash holds for now; drop what is too old. */
 static void unstash(ndo_peer *p)
 {
 	size_t keep = 0;
 	int wrote = 0;
-	p->tuse = p->huse = (stash_use){{0, 0}, {0, 0}};
+	p->tuse = p->huse = (stash_use){.epoch = ndo_session_epoch(p->s)};
 	for (size_t k = 0; k < p->nstash; k++) {
 		ndo_msg_tile_t *t = &p->stash[k];
 		if (outside(p, t->epoch, t->hdr.sender_id)) {
