@@ -383,6 +383,32 @@ static ndo_drop check_header(const ndo_msg *m, const ndo_msg_ctx *c)
 	return NDO_DROP_NONE;
 }
 
+/* The spread of one message's positions (or displacements) so far, a
+ * component: lo..hi. */
+typedef struct spread {
+	double lo[3], hi[3];
+} spread;
+
+static void spread_init(spread *s)
+{
+	for (int c = 0; c < 3; c++)
+		s->lo[c] = INFINITY, s->hi[c] = -INFINITY;
+}
+
+static void spread_add(spread *s, int c, double x)
+{
+	s->lo[c] = fmin(s->lo[c], x);
+	s->hi[c] = fmax(s->hi[c], x);
+}
+
+static int spread_over(const spread *s, double most)
+{
+	for (int c = 0; c < 3; c++)
+		if (s->hi[c] - s->lo[c] > most)
+			return 1;
+	return 0;
+}
+
 /* Node values of halo_t and solve_t against the box: per node a state
  * (per_node 6: velocity, then displacement u = x − X) or a vector of
  * velocities (3: the conjugate-gradient solve's, M⁻¹r and M⁻¹A·u are
@@ -393,11 +419,17 @@ static ndo_drop nodes_in_box(const double *v, int64_t nvalues, int per_node,
 {
 	if (!ctx->has_box || per_node <= 0)
 		return NDO_DROP_NONE;
+	spread u;
+	spread_init(&u);
 	for (int64_t k = 0; k < nvalues; k += per_node)
-		for (int c = 0; c < per_node; c++)
+		for (int c = 0; c < per_node; c++) {
 			if (fabs(v[k + c]) > (c < 3 ? ctx->vmax : ctx->umax))
 				return NDO_DROP_BOX;
-	return NDO_DROP_NONE;
+			if (c >= 3)
+				spread_add(&u, c - 3, v[k + c]);
+		}
+	/* x's spread and X's, the box's extent (a diagonal at most) */
+	return spread_over(&u, ctx->spread + ctx->diag) ? NDO_DROP_BOX : NDO_DROP_NONE;
 }
 
 /* Types whose fields are checked against the level. */
@@ -612,9 +644,13 @@ int ndo_msg_set_box(ndo_msg_ctx *ctx, const double lo[3], const double hi[3])
 		ctx->lo[c] = lo[c] - NDO_BOX_SLACK * diag;
 		ctx->hi[c] = hi[c] + NDO_BOX_SLACK * diag;
 	}
+	ctx->diag = diag;
 	ctx->vmax = NDO_SPEED_MAX * diag;
-	/* x within the slack of the box, the rest X within the box itself */
-	ctx->umax = (1 + NDO_BOX_SLACK) * diag;
+	ctx->drift = NDO_DRIFT_MAX * diag;
+	ctx->spread = (1 + 2 * NDO_BOX_SLACK) * diag;
+	/* x within the slack of the box moved by the drift, the rest X within
+	 * the box itself */
+	ctx->umax = (1 + NDO_BOX_SLACK + NDO_DRIFT_MAX) * diag;
 	ctx->has_box = 1;
 	return 0;
 }
@@ -662,6 +698,8 @@ ndo_drop ndo_msg_check_box(const ndo_msg_tile_t *t, const ndo_msg_ctx *ctx)
 	int vpn = ndo_tile_values_per_node(t->channels);
 	if (vpn <= 0 || t->nvalues % vpn)
 		return NDO_DROP_LENGTH;
+	spread at;
+	spread_init(&at);
 	for (int32_t k = 0; k < t->nvalues; k += vpn) {
 		const double *v = t->values + k;
 		for (int bit = 0; bit < 3; bit++) { /* position, velocity, rest */
@@ -673,13 +711,18 @@ ndo_drop ndo_msg_check_box(const ndo_msg_tile_t *t, const ndo_msg_ctx *ctx)
 						return NDO_DROP_NONFINITE;
 					if (!ctx->has_box)
 						continue;
-					if (bit == 1 ? fabs(v[c]) > ctx->vmax
-					             : v[c] < ctx->lo[c] || v[c] > ctx->hi[c])
+					if (bit == 0) { /* a body may have drifted whole */
+						if (v[c] < ctx->lo[c] - ctx->drift || v[c] > ctx->hi[c] + ctx->drift)
+							return NDO_DROP_BOX;
+						spread_add(&at, c, v[c]);
+					} else if (bit == 1 ? fabs(v[c]) > ctx->vmax
+					                    : v[c] < ctx->lo[c] || v[c] > ctx->hi[c]) {
 						return NDO_DROP_BOX;
+					}
 				}
 			}
 			v += 3;
 		}
 	}
-	return NDO_DROP_NONE;
+	return ctx->has_box && spread_over(&at, ctx->spread) ? NDO_DROP_BOX : NDO_DROP_NONE;
 }

@@ -74,6 +74,30 @@ OWNER_OPTS="--halo-steps 4" exact "3 peers, rk4, a halo exchange every 4 steps" 
 OWNER_OPTS="--publish-every 0" \
 	exact "2 peers, midpoint, whole regions only at the end" 2 midpoint quiet.tgrid
 
+# A free body drifts whole (the scene's force pushes one cap): at 400 s the
+# scene has moved about 28 m, 8 diagonals of its rest box.  Until 2026-11-30
+# receivers bounded positions to 4 diagonals from that box: the owner's -o
+# kept the joiner's region of an earlier step (its last tiles dropped as
+# `box`), exit 0.
+simulate-peer -q wavy4.tgrid -s "$SCENE" -i rk4 -t 400 -o solo-drift.tgrid 2>>solo.err ||
+	fail "single process, 400 s"
+drift=$(/usr/bin/python3 - solo-drift.tgrid "$NDO_ROOT/tests/e2e" <<'PY'
+import sys
+sys.path.insert(0, sys.argv[2])
+import numpy as np, tgrid
+_, _, _, g = tgrid.read(sys.argv[1])
+r = g["rest"].reshape(-1, 3)
+u = (g["position"] - g["rest"]).reshape(-1, 3).mean(axis=0)
+print(f"{np.linalg.norm(u) / np.linalg.norm(r.max(0) - r.min(0)):.1f}")
+PY
+)
+if awk -v d="${drift:-0}" 'BEGIN { exit !(d > 4) }'; then
+	SOLO=solo-drift.tgrid RUN_TIME=400 \
+		exact "2 peers, rk4, 400 s: the body drifted $drift box diagonals" 2 rk4 drift.tgrid
+else
+	fail "a body drifting past 4 box diagonals" "it drifted ${drift:-?} diagonals"
+fi
+
 # A simulating peer takes of the others' whole regions only the last step's
 # (the owner's -o, a joiner's own -o): it passes over their frames between,
 # undecoded (the network line counts them), unless it writes frames itself.

@@ -212,8 +212,10 @@ static void net_unsigned(void) { nets(0, 1, 0, NDO_DROP_UNSIGNED); }
 static void net_keyed_to_open(void) { nets(1, 0, 0, NDO_DROP_KEYED); }
 static void net_wrong_key(void) { nets(2, 1, 0, NDO_DROP_WRONGKEY); }
 
-/* The object's box: a tile with a position 5 diagonals out, a wild
- * velocity, or NaN is dropped; one just inside is taken. */
+/* The object's box: a tile with one node more than 1 + 2 · 4 diagonals
+ * from the others, a position past the drift bound, a wild velocity, or
+ * NaN is dropped; a tile that has drifted whole by 1000 diagonals is
+ * taken, as is one just inside the spread. */
 static void box(void)
 {
 	ndo_msg_ctx c = {.object_id = 1, .level = 2, .self_id = 9};
@@ -249,11 +251,23 @@ static void box(void)
 	CHECK(ndo_msg_validate(&m, &c) == NDO_DROP_NONE, "inside: %s",
 	      ndo_drop_name(ndo_msg_validate(&m, &c)));
 	double diag = sqrt(12.0);
-	m.u.tile.values[6] = 1 + 3.9 * diag; /* a position: within 4 diagonals */
-	CHECK(ndo_msg_validate(&m, &c) == NDO_DROP_NONE, "4 diagonals is the bound");
-	m.u.tile.values[6] = 1 + 4.1 * diag;
-	CHECK(ndo_msg_validate(&m, &c) == NDO_DROP_BOX, "outside the bound: %s",
+	m.u.tile.values[6] = 0.5 + 8.9 * diag; /* a position 8.9 diagonals from the others */
+	CHECK(ndo_msg_validate(&m, &c) == NDO_DROP_NONE, "9 diagonals' spread is the bound");
+	m.u.tile.values[6] = 0.5 + 9.1 * diag;
+	CHECK(ndo_msg_validate(&m, &c) == NDO_DROP_BOX, "one node outside the spread: %s",
 	      ndo_drop_name(ndo_msg_validate(&m, &c)));
+	const int vpn = ndo_tile_values_per_node(m.u.tile.channels);
+	for (int32_t k = 0; k < m.u.tile.nvalues; k += vpn) /* the body drifted whole */
+		m.u.tile.values[k + 2] = 0.5 + 1000 * diag;
+	m.u.tile.values[6] = 0.5;
+	CHECK(ndo_msg_validate(&m, &c) == NDO_DROP_NONE, "drifted whole by 1000 diagonals: %s",
+	      ndo_drop_name(ndo_msg_validate(&m, &c)));
+	for (int32_t k = 0; k < m.u.tile.nvalues; k += vpn)
+		m.u.tile.values[k + 2] = 1 + (NDO_DRIFT_MAX + 4.1) * diag;
+	CHECK(ndo_msg_validate(&m, &c) == NDO_DROP_BOX, "past the drift bound: %s",
+	      ndo_drop_name(ndo_msg_validate(&m, &c)));
+	for (int32_t k = 0; k < m.u.tile.nvalues; k += vpn)
+		m.u.tile.values[k + 2] = 0.5;
 	m.u.tile.values[6] = 0.5;
 	m.u.tile.values[4] = 2e9 * diag; /* a velocity */
 	CHECK(ndo_msg_validate(&m, &c) == NDO_DROP_BOX, "a wild velocity: %s",

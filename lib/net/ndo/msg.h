@@ -167,23 +167,31 @@ typedef struct ndo_msg_ctx {
 	 * NDO_TILE_COARSE is of the level − coarse grid.  0: no send level
 	 * below the object's, and such a tile is out of range. */
 	int coarse;
-	/* The bound on state (has_box ≠ 0; ndo_msg_set_box): positions and
-	 * rest positions within lo..hi, velocity components within ±vmax,
-	 * displacement components (x − X: halos, checkpoints, split steps)
-	 * within ±umax. */
+	/* The bound on state (has_box ≠ 0; ndo_msg_set_box): rest positions
+	 * within lo..hi; positions within `drift` of lo..hi, and those of one
+	 * message within `spread` of each other a component; velocity
+	 * components within ±vmax; displacement components (x − X: halos,
+	 * checkpoints, split steps) within ±umax, and within `spread` + one
+	 * diagonal of each other. */
 	int has_box;
-	double lo[3], hi[3], vmax, umax;
+	double lo[3], hi[3], vmax, umax, drift, spread, diag;
 } ndo_msg_ctx;
 
 /* The object's box (its rest shape's, as the owner's description says):
- * state within NDO_BOX_SLACK box diagonals of it, velocities below
- * NDO_SPEED_MAX diagonals per second, and so a displacement u = x − X
- * (x within the slack, X within the box) below 1 + NDO_BOX_SLACK
- * diagonals a component.  The bound stops wild values — a flipped
- * exponent bit, a coordinate of 1e300 — from reaching the simulation
- * whoever sent them; small forgeries are the key's business (ndo/auth.h).
- * 0, or NDO_EINVAL for a box that is not finite. */
+ * the rest within NDO_BOX_SLACK box diagonals of it; a state's positions
+ * as a body's — within NDO_BOX_SLACK diagonals of the box moved anywhere
+ * up to NDO_DRIFT_MAX diagonals (the nodes of one message within
+ * 1 + 2 · NDO_BOX_SLACK diagonals of each other a component: the box's
+ * extent and its slack on either side) — so that a free body that drifts
+ * whole, as the simulation lets it (docs/simulate-peer.md), is not cut
+ * off; velocities below NDO_SPEED_MAX diagonals per second; and a
+ * displacement u = x − X (X within the box) likewise.  The bound stops
+ * wild values — a flipped exponent bit, a coordinate of 1e300, one node
+ * far from the others — from reaching the simulation whoever sent them;
+ * small forgeries are the key's business (ndo/auth.h).  0, or NDO_EINVAL
+ * for a box that is not finite. */
 #define NDO_BOX_SLACK 4.0
+#define NDO_DRIFT_MAX 1e6
 #define NDO_SPEED_MAX 1e9
 int ndo_msg_set_box(ndo_msg_ctx *ctx, const double lo[3], const double hi[3]);
 /* The box of `count` points (x: count × 3 doubles) as the owner's
