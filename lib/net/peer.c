@@ -712,42 +712,12 @@ static void stash_count(const ndo_peer *p, stash_use *u, int32_t epoch, size_t s
 	u->bytes[next] += size;
 }
 
-/* Drop what the stashes hold of an older partition, or of the one in
- * force from a peer outside it, and count the rest by class as of the
- * partition in force (a joiner installs partitions before it has made its
- * region, and the old one's halos would fill the class of the new one's). */
-static void stash_prune(ndo_peer *p)
-{
-	int32_t now = ndo_session_epoch(p->s);
-	size_t keep = 0;
-	p->tuse = p->huse = (stash_use){.epoch = now};
-	for (size_t k = 0; k < p->nstash; k++) {
-		ndo_msg_tile_t *t = &p->stash[k];
-		if (outside(p, t->epoch, t->hdr.sender_id)) {
-			p->st.stale++;
-			free(t->values);
-		} else {
-			stash_count(p, &p->tuse, t->epoch, tile_size(t));
-			p->stash[keep++] = *t;
-		}
-	}
-	p->nstash = keep;
-	keep = 0;
-	for (size_t k = 0; k < p->nhstash; k++) {
-		ndo_msg_halo_t *h = &p->hstash[k];
-		if (outside(p, h->epoch, h->hdr.sender_id)) {
-			p->st.stale++;
-			halo_free(h);
-		} else {
-			stash_count(p, &p->huse, h->epoch, halo_size(h));
-			p->hstash[keep++] = *h;
-		}
-	}
-	p->nhstash = keep;
-}
-
-/* Use what the stash holds for now; drop what is too old. */
-static void unstash(ndo_peer *p)
+/* The stashes as of the partition in force: what is of an older
+ * partition, or of the one in force from a peer outside it, dropped; with
+ * `use`, what is for now taken (written); the rest counted by class (a
+ * joiner installs partitions before it has made its region, and the old
+ * one's halos would fill the class of the new one's). */
+static void stash_sweep(ndo_peer *p, int use)
 {
 	size_t keep = 0;
 	int wrote = 0;
@@ -757,7 +727,7 @@ static void unstash(ndo_peer *p)
 		if (outside(p, t->epoch, t->hdr.sender_id)) {
 			p->st.stale++;
 			free(t->values);
-		} else if (!later(p, t)) {
+		} else if (use && !later(p, t)) {
 			write_tile(p, t, 0);
 			free(t->values);
 			wrote = 1;
@@ -773,7 +743,7 @@ static void unstash(ndo_peer *p)
 		if (outside(p, h->epoch, h->hdr.sender_id)) {
 			p->st.stale++;
 			halo_free(h);
-		} else if (!halo_later(p, h)) {
+		} else if (use && !halo_later(p, h)) {
 			write_halo(p, h); /* its nodes' duplicates too */
 			halo_free(h);
 		} else {
@@ -785,6 +755,11 @@ static void unstash(ndo_peer *p)
 	if (wrote)
 		ndo_grid_sync(ndo_session_grid(p->s));
 }
+
+static void stash_prune(ndo_peer *p) { stash_sweep(p, 0); }
+
+/* Use what the stash holds for now; drop what is too old. */
+static void unstash(ndo_peer *p) { stash_sweep(p, 1); }
 
 /* The session's solve_fn: another peer's part of a split step. */
 static void on_solve(void *user, const ndo_msg_solve_t *m)
