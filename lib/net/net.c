@@ -307,16 +307,34 @@ static size_t slot_hash(int32_t sender, int32_t code, int16_t ch, size_t mask)
 	return (size_t)(h ^ (h >> 29)) & mask;
 }
 
+/* Is slot o still of use: a tile waits in it, or its sender is still in
+ * the senders' table (which forgets the least recently heard beyond
+ * MAX_SENDERS; then that sender's sequence numbers are gone anyway)? */
+static int slot_live(ndo_net *n, const tile_slot *o)
+{
+	return o->sender && (o->pending || find_sender(n, o->sender, 0));
+}
+
 static tile_slot *find_slot(ndo_net *n, int32_t sender, int32_t code, int16_t ch)
 {
-	if (n->used * 2 >= n->nslots) { /* grow, rehash */
-		size_t cap = n->nslots ? 2 * n->nslots : 256;
+	if (n->used * 2 >= n->nslots) {
+		/* rehash without the slots of forgotten senders, larger when the
+		 * others fill more than a quarter (so that a quarter of it comes
+		 * in before the next rehash): until 2026-11-30 a slot stayed for
+		 * good, and a flood of tiles under new ids grew the table (and
+		 * every ndo_net_take_tiles' scan) a slot a message */
+		size_t live = 0;
+		for (size_t k = 0; k < n->nslots; k++)
+			live += (size_t)slot_live(n, &n->slots[k]);
+		size_t cap = n->nslots ? n->nslots : 256;
+		while (4 * (live + 1) > cap)
+			cap *= 2;
 		tile_slot *s = calloc(cap, sizeof *s);
 		if (!s)
 			return NULL;
 		for (size_t k = 0; k < n->nslots; k++) {
 			tile_slot *o = &n->slots[k];
-			if (!o->sender)
+			if (!slot_live(n, o))
 				continue;
 			size_t i = slot_hash(o->sender, o->code, o->channels, cap - 1);
 			while (s[i].sender)
@@ -326,6 +344,8 @@ static tile_slot *find_slot(ndo_net *n, int32_t sender, int32_t code, int16_t ch
 		free(n->slots);
 		n->slots = s;
 		n->nslots = cap;
+		n->used = live;
+		n->st.tile_slots = cap;
 	}
 	size_t i = slot_hash(sender, code, ch, n->nslots - 1);
 	while (n->slots[i].sender &&

@@ -971,6 +971,45 @@ static void a_refused_reference_releases_its_frames(void)
 	ndo_bus_destroy(wbus);
 }
 
+/* Tiles under a new sender id each, 5,000 of them: the owner's table of
+ * (sender, tile) pairs for stale checks keeps those of the 64 senders
+ * heard most lately (and those whose tile waits to be taken), and the
+ * owner's frames still reach the watch.  Until 2026-11-30 every pair
+ * stayed, a slot a message for good (and every ndo_net_take_tiles
+ * scanned them all). */
+static void strangers_pairs_are_forgotten(void)
+{
+	rogue_bus r;
+	CHECK(rogue_bus_open(&r, "raw", 84, 4) == 0, "owner: %s", ndo_errdetail());
+	double t = 0;
+	int frames = 0;
+	int32_t id = 20000;
+	for (int64_t step = 0; step < 20; step++) {
+		ndo_msg m;
+		if (step >= 5 && step < 15 && r.sp.n > 0 &&
+		    ndo_msg_decode(NDO_MSG_TILE, r.sp.buf, r.sp.len, &m) == NDO_DROP_NONE) {
+			for (int k = 0; k < 500; k++) {
+				m.u.tile.hdr.sender_id = id++;
+				rogue_send(&r, &m.u.tile);
+			}
+			ndo_msg_free(&m);
+		}
+		t += 0.1;
+		rogue_bus_step(&r, step, t, 20, &frames);
+	}
+	/* the owner's net: a simulating peer's tiles go through the table
+	 * (a watch keeps every tile, in order) */
+	const ndo_net_stats *ns = ndo_net_stats_get(ndo_session_net(r.s));
+	printf("    %d strangers' tiles: %llu slots, %d frames of 20\n", id - 20000,
+	       (unsigned long long)ns->tile_slots, frames);
+	/* 5,000 pairs kept would take 10,000 slots or more; a poll's 500
+	 * tiles wait (pending) until the owner takes them: 2,048 */
+	CHECK(id - 20000 == 5000 && ns->tile_slots <= 4096 && frames >= 19,
+	      "%d strangers' tiles: %llu slots (at most 4096), %d frames of 20", id - 20000,
+	      (unsigned long long)ns->tile_slots, frames);
+	rogue_bus_close(&r);
+}
+
 /* The quad-tree codes of the tiles sender 11 sent on T_TILE (a spy's
  * callback; level 5, no send level). */
 typedef struct tile_codes {
@@ -1116,6 +1155,7 @@ int main(void)
 	RUN(unreferenced_frames_are_bounded);
 	RUN(undecodable_tiles_leave_no_entry);
 	RUN(a_stranger_opens_no_frames);
+	RUN(strangers_pairs_are_forgotten);
 	RUN(key_requests_are_bounded);
 	RUN(a_flood_pushes_out_its_own_held_tiles);
 	RUN(a_refused_reference_releases_its_frames);

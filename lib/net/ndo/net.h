@@ -55,6 +55,10 @@ typedef struct ndo_net_stats {
 	 * smaller object id); 0 none */
 	int32_t foreign_owner;
 	int64_t foreign_object;
+	/* the table of (sender, tile) pairs kept for stale checks: its size
+	 * in slots (at least twice the pairs kept; the pairs of senders
+	 * forgotten — beyond the 64 heard most lately — go when it fills) */
+	uint64_t tile_slots;
 } ndo_net_stats;
 
 /* Take ownership of `link`; channels are PREFIX_SUFFIX (ndo_msg_suffix).
