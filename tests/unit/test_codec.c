@@ -553,6 +553,22 @@ static void tiles_in_place(void)
 	ndo_grid_destroy(g);
 }
 
+/* A predict encoder of the wavy surface at `level` (its box the surface's),
+ * the grid with a velocity channel in *g and every node LOSSY in *cls. */
+static ndo_codec *wavy_encoder(int level, ndo_grid **g, uint8_t **cls)
+{
+	CHECK(ndo_shape_make("wavy", level, NULL, g) == 0, "level-%d wavy", level);
+	ndo_grid_add(*g, NDO_CH_VELOCITY, NDO_F64, 3, NULL);
+	ndo_codec_params p;
+	ndo_codec_parse("predict", &p);
+	ndo_codec_box(ndo_grid_f64(*g, NDO_CH_POSITION, 3), (*g)->count, p.lo, p.ext);
+	ndo_codec *tx = NULL;
+	CHECK(ndo_codec_create(&p, level, &tx) == 0, "created");
+	*cls = malloc((*g)->count);
+	memset(*cls, NDO_NODE_LOSSY, (*g)->count);
+	return tx;
+}
+
 /* Every tile of a level-10 object keeps its history: after the first step's
  * keyframes, the next step's frames are predicted.  Until 2026-11-30 the
  * history of all tiles was capped at 256 MB, below a level-10 object's
@@ -562,16 +578,9 @@ static void a_level_10_object_keeps_every_tiles_history(void)
 {
 	const int level = 10;
 	ndo_grid *g;
-	CHECK(ndo_shape_make("wavy", level, NULL, &g) == 0, "level-10 wavy");
-	ndo_grid_add(g, NDO_CH_VELOCITY, NDO_F64, 3, NULL);
-	ndo_codec_params p;
-	ndo_codec_parse("predict", &p);
+	uint8_t *cls;
+	ndo_codec *tx = wavy_encoder(level, &g, &cls);
 	double *x = ndo_grid_f64(g, NDO_CH_POSITION, 3);
-	ndo_codec_box(x, g->count, p.lo, p.ext);
-	ndo_codec *tx;
-	CHECK(ndo_codec_create(&p, level, &tx) == 0, "created");
-	uint8_t *cls = malloc(g->count);
-	memset(cls, NDO_NODE_LOSSY, g->count);
 	const int depth = ndo_tile_depth(level, NDO_TILE_POSITION | NDO_TILE_VELOCITY, "NDO_TILE");
 	int cols, rows;
 	ndo_quad_dims(depth, &cols, &rows);
@@ -608,16 +617,9 @@ static void least_used_histories_go_first(void)
 {
 	const int level = 3;
 	ndo_grid *g;
-	CHECK(ndo_shape_make("wavy", level, NULL, &g) == 0, "wavy");
-	ndo_grid_add(g, NDO_CH_VELOCITY, NDO_F64, 3, NULL);
-	ndo_codec_params p;
-	ndo_codec_parse("predict", &p);
+	uint8_t *cls;
+	ndo_codec *tx = wavy_encoder(level, &g, &cls);
 	double *x = ndo_grid_f64(g, NDO_CH_POSITION, 3);
-	ndo_codec_box(x, g->count, p.lo, p.ext);
-	ndo_codec *tx;
-	CHECK(ndo_codec_create(&p, level, &tx) == 0, "created");
-	uint8_t *cls = malloc(g->count);
-	memset(cls, NDO_NODE_LOSSY, g->count);
 	const ndo_quad q = {2, 1, 0};
 	int i0, j0, i1, j1;
 	ndo_quad_range(level, q, &i0, &j0, &i1, &j1);
