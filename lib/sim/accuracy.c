@@ -55,6 +55,14 @@ struct ndo_acc {
 /* The pilots' differences must fall by this much per level before the
  * last pair is trusted for the levels above. */
 #define TRUST 2.0
+/* The coarsest level whose pilot, with the one below, may predict the
+ * input's level without having been seen to converge: levels 0-2 (4 to
+ * 34 vertices) are blobs whose differences say nothing of finer levels
+ * (figure 5.3 from level 3 at 0.1: levels 1-2 put level 3 at 0.034 of the
+ * motion, its run's estimate at 0.28).  From level 3 on the
+ * extrapolated predictions are those of docs/bench/accuracy.md, within
+ * 0.24-2.1 of the truth. */
+#define TOP_TRUSTED 3
 /* The pilots' step: RK4 at half its critical step, whose own time error is
  * (0.5/0.9)^4 ≈ 0.1 of RK4's at its largest step — negligible next to the
  * space differences the pilots measure. */
@@ -1100,9 +1108,13 @@ int ndo_acc_choose(ndo_acc *a, double target, int metres, double T, ndo_acc_choi
 		return ndo__fail(NDO_EINVAL, "the accuracy %g is outside (0, 1)", target);
 	if (!(T > 0))
 		return ndo__fail(NDO_EINVAL, "no duration");
-	/* The pilots from level 2, or at levels n − 2 and n − 1 for an input
-	 * at level 2 or 3: the space error needs two of them, below the
-	 * input's level (the next pilot is never the input's level itself). */
+	/* The pilots from level 2, or from level n − 2 for an input at level
+	 * 2 or 3: the space error needs two of them.  They stop below the
+	 * input's level once their differences fall by TRUST a level, or
+	 * their last is at TOP_TRUSTED or finer (the last pair then predicts
+	 * the finer levels); else they go on to the input's level itself,
+	 * whose space error is then measured as its run's estimate measures
+	 * it (against level n − 1). */
 	int n = a->level, p0 = n - 2 < 2 ? (n - 2 > 0 ? n - 2 : 0) : 2;
 	if (n < 2)
 		return ndo__fail(NDO_EINVAL, "level %d: --accuracy needs level 2 or finer", n);
@@ -1166,7 +1178,8 @@ int ndo_acc_choose(ndo_acc *a, double target, int metres, double T, ndo_acc_choi
 		 * 2–4) differs little from the next and says nothing of finer
 		 * ones. */
 		int converged = p >= p0 + 2 && D[p] > 0 && D[p - 1] >= TRUST * D[p];
-		if (p + 1 >= n || (qmin >= 0 && qmin <= p + 1 && converged))
+		if (p >= n || (p + 1 >= n && (converged || p >= TOP_TRUSTED)) ||
+		    (qmin >= 0 && qmin <= p + 1 && converged))
 			break;
 	}
 	/* A share of no motion is no target (it was 0 m: "no stable

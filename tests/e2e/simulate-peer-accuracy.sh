@@ -107,27 +107,41 @@ else
 	fail "--info --accuracy" "$(cat m.log)"
 fi
 
-# An input at level 2 pilots at levels 0 and 1: figure 5.3 for 1 s, whose
-# pilots' steps (0.5 s, 0.25 s) sample the 1 Hz force where it is 0.  The
-# choice's runs go without the energy test, whose false alarm there
-# stopped the whole choice as "diverged" (exit 1).
+# An input at level 2 pilots at levels 0, 1 and 2 (levels 0-1 never show
+# the differences falling, so the input's level is piloted too): figure
+# 5.3 for 1 s, whose pilots' steps (0.5 s, 0.25 s) sample the 1 Hz force
+# where it is 0.  The choice's runs go without the energy test, whose false
+# alarm there stopped the whole choice as "diverged" (exit 1).  At 0.1 the
+# input's own space error, 0.11 of the motion (the run's own estimate
+# says as much), is out of reach: until 2026-12 the pilots stopped at
+# level 1, predicted level 2 at a quarter of level 1's error, and chose it.
 F53=$NDO_ROOT/samples/thesis-fig5.3.scene
 remesh --shape wavy -l 2 -o w2.tgrid
-if simulate-peer -s "$F53" -t 1 --accuracy 0.1 --info w2.tgrid 2>w2.log &&
-	grep -q '^simulate-peer: --accuracy 0.1 .*: level [0-2], .*; pilots at levels up to 1)$' w2.log; then
-	pass "--accuracy 0.1 from a level-2 input: pilots at levels 0-1, a choice"
+if simulate-peer -s "$F53" -t 1 --accuracy 0.2 --info w2.tgrid 2>w2.log &&
+	grep -q '^simulate-peer: --accuracy 0.2 .*: level [0-2], .*; pilots at levels up to 2)$' w2.log; then
+	pass "--accuracy 0.2 from a level-2 input: pilots at levels 0-2, a choice"
 else
 	fail "--accuracy from a level-2 input" "$(tail -1 w2.log)"
 fi
+expect_error "--accuracy 0.1 from a level-2 input is out of its reach" 2 \
+	'^simulate-peer: --accuracy 0.1 of the largest displacement: out of reach at level 2: .*estimated from levels 1 and 2\); this input allows 0.1[1-9] at best, and level [3-9] would be needed$' \
+	simulate-peer -q -s "$F53" -t 1 --accuracy 0.1 w2.tgrid -o never.tgrid
 # The chosen run goes without the test too, unless --energy-bound asks for
-# it: from level 3 at 0.9 the choice is rk4 at level 1 at 0.5 s, half the
+# it: from level 2 at 0.9 the choice is rk4 at level 1 at 0.5 s, half the
 # force's period, which the test stopped at its first step (exit 3).
-remesh --shape wavy -l 3 -o w3.tgrid
-check "--accuracy 0.9 from a level-3 input runs its choice (rk4 at half the force's period)" \
-	simulate-peer -q -s "$F53" -t 1 --accuracy 0.9 w3.tgrid -o w3a.tgrid
+check "--accuracy 0.9 from a level-2 input runs its choice (rk4 at half the force's period)" \
+	simulate-peer -q -s "$F53" -t 1 --accuracy 0.9 w2.tgrid -o w2a.tgrid
 expect_error "--accuracy with --energy-bound 10: the chosen run keeps the test" 3 \
 	"^simulate-peer: diverged at step 1 .*: energy .* exceeds 10 × .*the step is 0.5 of a force's period" \
-	simulate-peer -q -s "$F53" -t 1 --accuracy 0.9 --energy-bound 10 w3.tgrid -o never.tgrid
+	simulate-peer -q -s "$F53" -t 1 --accuracy 0.9 --energy-bound 10 w2.tgrid -o never.tgrid
+# From level 3 at 0.1: pilots at levels 1-3, and the input's own space
+# error (0.28 of the motion) refused before any run; until 2026-12 the
+# pilots stopped at level 2, chose level 3 at a predicted 0.034, and its
+# run's estimate said 0.28.
+remesh --shape wavy -l 3 -o w3.tgrid
+expect_error "--accuracy 0.1 from a level-3 input is out of its reach" 2 \
+	'^simulate-peer: --accuracy 0.1 of the largest displacement: out of reach at level 3: .*estimated from levels 2 and 3\); this input allows 0.2[0-9] at best' \
+	simulate-peer -q -s "$F53" -t 1 --accuracy 0.1 w3.tgrid -o never.tgrid
 
 # --accuracy chooses the integrator and the step, so the steps too: a
 # scene's are ignored (euler without damping stopped it with "--dt auto:
