@@ -458,13 +458,13 @@ double ndo__deformation(const ndo_sim *s, double mean[3])
 int ndo__size_needs_state(const ndo_sim *s, const ndo__diag *d)
 {
 	const double umax = sqrt(d->umax2);
-	return umax > 100 * s->rest_size && umax > s->udrift;
+	return umax > NDO_SIM_DEFORM_MAX * s->rest_size && umax > s->udrift;
 }
 
 int ndo__size_is_drift(ndo_sim *s, const ndo__diag *d)
 {
 	double mean[3];
-	if (!(ndo__deformation(s, mean) <= 100 * s->rest_size))
+	if (!(ndo__deformation(s, mean) <= NDO_SIM_DEFORM_MAX * s->rest_size))
 		return 0;
 	s->udrift = sqrt(d->umax2) + s->rest_size;
 	return 1;
@@ -501,7 +501,7 @@ int ndo__diverged(ndo_sim *s, const ndo__diag *d, int commit)
 		 * displacement puts it, measured here (a pass over the nodes, made
 		 * again only once some node has gone a size further). */
 		double mean[3], dev = ndo__deformation(s, mean);
-		if (!(dev <= 100 * s->rest_size))
+		if (!(dev <= NDO_SIM_DEFORM_MAX * s->rest_size))
 			return ndo__fail(NDO_EDIVERGED,
 			                 "a node is %.3g m from where the body's mean displacement "
 			                 "(%.3g m) puts it, more than 100 × the object's size (%.3g m)",

@@ -212,10 +212,12 @@ static void net_unsigned(void) { nets(0, 1, 0, NDO_DROP_UNSIGNED); }
 static void net_keyed_to_open(void) { nets(1, 0, 0, NDO_DROP_KEYED); }
 static void net_wrong_key(void) { nets(2, 1, 0, NDO_DROP_WRONGKEY); }
 
-/* The object's box: a tile with one node more than 1 + 2 · 4 diagonals
- * from the others, a position past the drift bound, a wild velocity, or
- * NaN is dropped; a tile that has drifted whole by 1000 diagonals is
- * taken, as is one just inside the spread. */
+/* The object's box: a tile with one node more than
+ * 1 + 2 · NDO_SIM_DEFORM_MAX diagonals from the others, a position past
+ * the drift bound, a wild velocity, or NaN is dropped; a tile that has
+ * drifted whole by 1000 diagonals is taken, as is one just inside the
+ * spread (a body deformed as far as the simulation lets it) or just inside
+ * the drift bound with that deformation. */
 static void box(void)
 {
 	ndo_msg_ctx c = {.object_id = 1, .level = 2, .self_id = 9};
@@ -251,9 +253,10 @@ static void box(void)
 	CHECK(ndo_msg_validate(&m, &c) == NDO_DROP_NONE, "inside: %s",
 	      ndo_drop_name(ndo_msg_validate(&m, &c)));
 	double diag = sqrt(12.0);
-	m.u.tile.values[6] = 0.5 + 8.9 * diag; /* a position 8.9 diagonals from the others */
-	CHECK(ndo_msg_validate(&m, &c) == NDO_DROP_NONE, "9 diagonals' spread is the bound");
-	m.u.tile.values[6] = 0.5 + 9.1 * diag;
+	m.u.tile.values[6] = 0.5 + 200.9 * diag; /* a position 200.9 diagonals from the others */
+	CHECK(ndo_msg_validate(&m, &c) == NDO_DROP_NONE, "201 diagonals' spread is the bound: %s",
+	      ndo_drop_name(ndo_msg_validate(&m, &c)));
+	m.u.tile.values[6] = 0.5 + 201.1 * diag;
 	CHECK(ndo_msg_validate(&m, &c) == NDO_DROP_BOX, "one node outside the spread: %s",
 	      ndo_drop_name(ndo_msg_validate(&m, &c)));
 	const int vpn = ndo_tile_values_per_node(m.u.tile.channels);
@@ -263,7 +266,12 @@ static void box(void)
 	CHECK(ndo_msg_validate(&m, &c) == NDO_DROP_NONE, "drifted whole by 1000 diagonals: %s",
 	      ndo_drop_name(ndo_msg_validate(&m, &c)));
 	for (int32_t k = 0; k < m.u.tile.nvalues; k += vpn)
-		m.u.tile.values[k + 2] = 1 + (NDO_DRIFT_MAX + 4.1) * diag;
+		m.u.tile.values[k + 2] = 1 + (NDO_DRIFT_MAX + NDO_SIM_DEFORM_MAX - 0.1) * diag;
+	CHECK(ndo_msg_validate(&m, &c) == NDO_DROP_NONE,
+	      "drifted to the bound and deformed as far as the simulation lets it: %s",
+	      ndo_drop_name(ndo_msg_validate(&m, &c)));
+	for (int32_t k = 0; k < m.u.tile.nvalues; k += vpn)
+		m.u.tile.values[k + 2] = 1 + (NDO_DRIFT_MAX + NDO_SIM_DEFORM_MAX + 0.1) * diag;
 	CHECK(ndo_msg_validate(&m, &c) == NDO_DROP_BOX, "past the drift bound: %s",
 	      ndo_drop_name(ndo_msg_validate(&m, &c)));
 	for (int32_t k = 0; k < m.u.tile.nvalues; k += vpn)

@@ -8,6 +8,7 @@
 #include "ndo/msg.h"
 #include "ndo/net.h"
 #include "ndo/quadtree.h"
+#include "ndo/sim.h"
 #include "ndo/status.h"
 #include "ndo/tile.h"
 
@@ -215,19 +216,21 @@ static void solves_checked(void)
 
 /* The node values of halos, checkpoints and split steps against the
  * object's box, as a tile's state is: a velocity component above vmax, a
- * displacement u = x − X past the drift bound or more than 1 + 2 · 4 + 1
- * diagonals from another of the message (x's spread, X's), a vector of
- * the solve (velocities) above vmax are `box`; partial sums only finite.
- * A member's halo of 1e300s used to pass (finite) and end a 2-peer rk4
- * run with "the state is not finite". */
+ * displacement u = x − X past the drift bound or more than
+ * 1 + 2 · NDO_SIM_DEFORM_MAX + 1 diagonals from another of the message
+ * (x's spread, X's), a vector of the solve (velocities) above vmax are
+ * `box`; partial sums only finite.  A member's halo of 1e300s used to
+ * pass (finite) and end a 2-peer rk4 run with "the state is not finite";
+ * a body deformed 100 diagonals either way (one the simulation runs) was
+ * refused at 10 diagonals. */
 static void node_values_checked_against_the_box(void)
 {
 	ndo_msg_ctx c = {.object_id = 42, .level = 4, .self_id = 1};
 	const double lo[3] = {0, 0, 0}, hi[3] = {3, 4, 0}; /* diagonal 5 */
 	CHECK(ndo_msg_set_box(&c, lo, hi) == 0, "set the box");
-	CHECK(c.umax == (5 + NDO_DRIFT_MAX) * 5 && c.spread == 45,
-	      "the displacement bound: 5 diagonals and the drift (got %g), the spread 9 (got %g)",
-	      c.umax, c.spread);
+	CHECK(c.umax == (1 + NDO_SIM_DEFORM_MAX + NDO_DRIFT_MAX) * 5 && c.spread == 201 * 5,
+	      "the displacement bound: 101 diagonals and the drift (got %g), the spread 201 "
+	      "(got %g)", c.umax, c.spread);
 	int32_t start[1] = {10}, len[1] = {2};
 	double v[12] = {0};
 	ndo_msg_halo_t h = {.hdr = {NDO_PROTOCOL_VERSION, 42, 7, 0, 0}, .step = 5, .time = 0.1,
@@ -237,9 +240,12 @@ static void node_values_checked_against_the_box(void)
 	CHECK(roundtrip(NDO_MSG_HALO, &h, &c) == NDO_DROP_NONE, "a halo within the bounds passes");
 	v[3] = v[9] = 1000 * 5, v[4] = v[10] = -1000 * 5;
 	CHECK(roundtrip(NDO_MSG_HALO, &h, &c) == NDO_DROP_NONE, "a halo drifted 1000 diagonals passes");
+	v[3] = -100 * 5, v[9] = 100 * 5, v[4] = v[10] = 0;
+	CHECK(roundtrip(NDO_MSG_HALO, &h, &c) == NDO_DROP_NONE,
+	      "a halo of a body deformed 100 diagonals either way passes");
 	v[3] = v[4] = v[9] = 0, v[10] = -49.9;
 	struct { int at; double val; const char *what; } bad[] = {
-		{9, 50.1, "a displacement 10.02 diagonals from the other's"},
+		{9, 1011, "a displacement 202.2 diagonals from the other's"},
 		{11, -1e300, "a displacement of -1e300"},
 		{6, 1.01 * c.vmax, "a velocity above vmax"}, {0, 1e300, "a velocity of 1e300"}};
 	for (size_t k = 0; k < sizeof bad / sizeof *bad; k++) {
@@ -264,11 +270,12 @@ static void node_values_checked_against_the_box(void)
 	                     .values = v, .nsums = 2, .sums = sums};
 	CHECK(roundtrip(NDO_MSG_SOLVE, &m, &c) == NDO_DROP_NONE, "a state strip within the bounds, "
 	      "sums of ±1e300: passes");
-	v[10] = 51;
-	CHECK(roundtrip(NDO_MSG_SOLVE, &m, &c) == NDO_DROP_BOX, "a state strip's displacement 10.2 "
+	v[10] = 1011;
+	CHECK(roundtrip(NDO_MSG_SOLVE, &m, &c) == NDO_DROP_BOX, "a state strip's displacement 202.2 "
 	      "diagonals from the other's: box");
 	m.per_node = 3, m.nvalues = 6;
-	CHECK(roundtrip(NDO_MSG_SOLVE, &m, &c) == NDO_DROP_NONE, "a vector of 51 (a velocity) passes");
+	CHECK(roundtrip(NDO_MSG_SOLVE, &m, &c) == NDO_DROP_NONE,
+	      "a vector of 1011 (a velocity) passes");
 	v[4] = -2 * c.vmax;
 	CHECK(roundtrip(NDO_MSG_SOLVE, &m, &c) == NDO_DROP_BOX, "a vector above vmax: box");
 }

@@ -1683,6 +1683,24 @@ static void a_members_wild_halo_is_dropped(void)
 	world_free(w);
 }
 
+/* A body deformed far, as the single process runs it: a constant point
+ * force of 200 N on the thesis' scene stretches it to 34 box diagonals a
+ * component in 0.6 s (the simulation's divergence test allows 100 from
+ * where the mean displacement puts a node).  2 peers give the single
+ * process's result; until 2026-12-01 the receivers bounded one message's
+ * nodes to 9 diagonals of each other, dropped the halos as `box` and the
+ * run stalled at step 169. */
+static void a_large_deformation_splits_exactly(void)
+{
+	setup su = {.integrator = "rk4", .dt = 0.002, .steps = 300, .clock = NDO_CLOCK_LOCKSTEP,
+	            .peers = 2, .extra = "force point at=0,0,1 amplitude=200 direction=0,0,1"};
+	ndo_peer_stats st;
+	int ok;
+	double d = split_run(&su, 2, &st, &ok);
+	CHECK(ok && d == 0, "2 peers, a body deformed 34 diagonals: %s, differs by %.3g",
+	      ok ? "done" : "not done", d);
+}
+
 /* Strangers' empty halos of the next partition (a taint, last words) are
  * kept for it like anyone's, but once it is in force they are not its
  * members': the run stays exact, keeps its checkpoints, and the owner
@@ -2343,6 +2361,7 @@ int main(void)
 	RUN(owner_quit_ends_the_others);
 	RUN(strangers_tiles_are_not_used);
 	RUN(a_members_wild_halo_is_dropped);
+	RUN(a_large_deformation_splits_exactly);
 	RUN(strangers_next_partition_halos_are_not_taken);
 	RUN(later_halos_and_phases_are_bounded);
 	RUN(the_checkpoint_store_counts_canonical_nodes_only);

@@ -933,8 +933,8 @@ static void a_refused_reference_releases_its_frames(void)
 	for (int64_t step = 0; step < 8; step++) {
 		for (size_t k = 0; k < og->count; k++)
 			x[3 * k] = x0[3 * k] + 0.001 * (double)step;
-		if (step == 3) /* one node 10 diagonals out: its tile refused */
-			x[0] += 10 * diag;
+		if (step == 3) /* one node 250 diagonals out: its tile refused */
+			x[0] += 250 * diag;
 		ndo_grid_sync(og);
 		ndo_session_publish(s, step, 0.1 * (double)step);
 		t += 0.1;

@@ -179,12 +179,14 @@ typedef struct ndo_msg_ctx {
 
 /* The object's box (its rest shape's, as the owner's description says):
  * the rest within NDO_BOX_SLACK box diagonals of it; a state's positions
- * as a body's — within NDO_BOX_SLACK diagonals of the box moved anywhere
- * up to NDO_DRIFT_MAX diagonals (the nodes of one message within
- * 1 + 2 · NDO_BOX_SLACK diagonals of each other a component: the box's
- * extent and its slack on either side) — so that a free body that drifts
- * whole, as the simulation lets it (docs/simulate-peer.md), is not cut
- * off; velocities below NDO_SPEED_MAX diagonals per second; and a
+ * as a body's — within NDO_SIM_DEFORM_MAX (100, ndo/sim.h) diagonals of
+ * the box moved anywhere up to NDO_DRIFT_MAX diagonals (the nodes of one
+ * message within 1 + 2 · NDO_SIM_DEFORM_MAX diagonals of each other a
+ * component: the box's extent and the deformation on either side) — so
+ * that a free body that drifts whole, or deforms as far as the
+ * simulation's divergence test lets it (a node within 100 diagonals of
+ * where the body's mean displacement puts it), is not cut off;
+ * velocities below NDO_SPEED_MAX diagonals per second; and a
  * displacement u = x − X (X within the box) likewise.  The bound stops
  * wild values — a flipped exponent bit, a coordinate of 1e300, one node
  * far from the others — from reaching the simulation whoever sent them;

@@ -216,6 +216,11 @@ typedef struct ndo_sim ndo_sim;
  * ±NDO_SIM_MAX_COORD (naming the node), a degenerate rest triangle or a
  * bad parameter, NDO_EINVAL for a force item out of range. */
 #define NDO_SIM_MAX_COORD 1e100
+/* The divergence test's bound on the shape (ndo_sim_step): a node more
+ * than this many rest bounding-box diagonals from where the body's mean
+ * displacement puts it has diverged; a state within it is a legitimate
+ * one, which the network's bound on state lets through (ndo/msg.h). */
+#define NDO_SIM_DEFORM_MAX 100.0
 int ndo_sim_create(int level, const double *x, const double *v, const double *rest,
                    const uint8_t *pin, const ndo_sim_params *p, ndo_sim **out);
 
@@ -246,10 +251,10 @@ int ndo_sim_threads(const ndo_sim *s);
  *
  * Every step first checks the state it starts from: NaN or Inf, an energy
  * beyond energy_bound × (initial energy + input work), or a node further
- * than 100 × the rest shape's bounding-box diagonal from where the
- * integrated nodes' mass-weighted mean displacement puts it (from its
- * rest position moved with the body: a free body that drifts whole does
- * not diverge) mean divergence.  Then the step returns NDO_EDIVERGED, leaves
+ * than NDO_SIM_DEFORM_MAX (100) × the rest shape's bounding-box diagonal
+ * from where the integrated nodes' mass-weighted mean displacement puts it
+ * (from its rest position moved with the body: a free body that drifts
+ * whole does not diverge) mean divergence.  Then the step returns NDO_EDIVERGED, leaves
  * the state as it is (the first bad state, at ndo_sim_time) and records
  * what was wrong in ndo_errdetail().  Call ndo_sim_check() to test the
  * state after the last step.  Other errors: NDO_EINVAL (h not positive
