@@ -290,8 +290,11 @@ int ndo_auth_fresh(ndo_auth *a, int32_t sender, const ndo_auth_from *from, doubl
 		w->used = ++a->clock;
 		return 1;
 	}
-	if (w->top - c > NDO_REPLAY_WINDOW - 64)
-		return 0; /* older than the window remembers */
+	/* older than the window remembers: NDO_REPLAY_WINDOW − 64 below the
+	 * newest (top − 1), whose word is never one the newest's moves have
+	 * cleared (until 2026-12-01 `top − c`, one fewer than auth.h says) */
+	if (w->top - 1 - c > NDO_REPLAY_WINDOW - 64)
+		return 0;
 	if (*word & bit)
 		return 0;
 	*word |= bit;

@@ -114,6 +114,18 @@ static void seal_open(void)
 	CHECK(ndo_auth_fresh(b, 5, &f, 0) == 1, "a window further: fresh");
 	f.counter = 11;
 	CHECK(ndo_auth_fresh(b, 5, &f, 0) == 0, "older than the window: refused");
+	/* its depth, as auth.h and protocol.md state it: the
+	 * NDO_REPLAY_WINDOW − 64 counters below the newest (until 2026-12-01
+	 * one fewer: the 8,128th below was refused) */
+	const uint64_t newest = 100000, deep = NDO_REPLAY_WINDOW - 64;
+	f.counter = newest;
+	CHECK(ndo_auth_fresh(b, 9, &f, 0) == 1, "sender 9's newest: fresh");
+	f.counter = newest - deep;
+	CHECK(ndo_auth_fresh(b, 9, &f, 0) == 1, "the %llu-th below the newest: fresh",
+	      (unsigned long long)deep);
+	CHECK(ndo_auth_fresh(b, 9, &f, 0) == 0, "and once only");
+	f.counter = newest - deep - 1;
+	CHECK(ndo_auth_fresh(b, 9, &f, 0) == 0, "one more below: older than the window");
 	for (uint64_t q = 20000; q < 20000 + 3 * NDO_REPLAY_WINDOW; q += 3) {
 		f.counter = q;
 		if (!ndo_auth_fresh(b, 5, &f, 0)) {
