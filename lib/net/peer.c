@@ -1609,6 +1609,8 @@ static int joiner_ready(ndo_peer *p)
 		prm.nforces = sc.nforces;
 		rc = ndo_sim_from_grid(g, &prm, &p->sim);
 		ndo_scene_forces_free(forces, sc.nforces);
+		if (rc == 0) /* --restiffen counts from the run's first step */
+			ndo_sim_set_first_step(p->sim, p->first);
 	}
 	free(pins);
 	ndo_scene_free(&sc);
@@ -2429,6 +2431,39 @@ static int events(ndo_peer *p)
 	return rc;
 }
 
+/* --restiffen S: K is re-assembled every S steps from the shape of that
+ * step, and a peer holds only its region's and halo's shapes.  In exact
+ * lock-step an exchange comes at every re-assembly (K a divisor of S: the
+ * halo's outer rings, re-assembled mid-exchange from values not yet
+ * exact, kept those rows until the next re-assembly, 1e-5 of the largest
+ * displacement off with K 2 and S 5), and checkpoints come at multiples
+ * of S, where a restart re-assembles K from the checkpoint's state
+ * (ndo_sim_set_first_step): until 2026-12-01 a peer counted S from its
+ * own first step and kept its K through restarts, and a join ended 1.1
+ * of the largest displacement off, reported exact. */
+static void restiffen_align(ndo_peer *p, int S)
+{
+	if (S <= 0 || p->hold || p->clock != NDO_CLOCK_LOCKSTEP)
+		return;
+	int K = p->K, g = K;
+	for (int b = S; b;) {
+		int t = g % b;
+		g = b, b = t;
+	}
+	int64_t C = p->C;
+	if (C > 0) {
+		C = (C + S - 1) / S * S;
+		if (C > 1000000000)
+			C = 1000000000 / S * S;
+	}
+	if (g != K || C != p->C)
+		note(p, "restiffen %d: a halo exchange every %d step%s, checkpoints every %lld "
+		     "steps (K is re-assembled where the peers exchange and restart)", S, g,
+		     g == 1 ? "" : "s", (long long)C);
+	p->K = g;
+	p->C = (int)C;
+}
+
 /* ---- the public calls ----------------------------------------------------------- */
 int ndo_peer_update(ndo_peer *p, double now)
 {
@@ -2621,6 +2656,8 @@ int ndo_peer_create(const ndo_peer_opts *o, ndo_net *net, ndo_grid *grid, ndo_si
 		p->cur = p->first = grid->step;
 		p->tcur = grid->time;
 		p->final = grid->step + run->steps;
+		ndo_sim_set_first_step(sim, p->first);
+		restiffen_align(p, ndo_sim_restiffen_every(sim));
 		/* the steps whose whole regions go out, for watches that count
 		 * what they lost (ndo/watch.h): exact lock-step every N (0: the
 		 * first and last only), otherwise every step */

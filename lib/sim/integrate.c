@@ -627,11 +627,29 @@ int64_t ndo_sim_step_count(const ndo_sim *s) { return s->step; }
 int ndo_sim_level(const ndo_sim *s) { return s->level; }
 int ndo_sim_threads(const ndo_sim *s) { return ndo_pool_threads(s->pool); }
 ndo_method ndo_sim_method(const ndo_sim *s) { return s->p.method; }
+int ndo_sim_restiffen_every(const ndo_sim *s) { return s->p.restiffen; }
 
 void ndo_sim_set_time(ndo_sim *s, double t, int64_t step)
 {
+	/* a sim that has not stepped begins its run here (a single process
+	 * continuing a grid of step 100 counts --restiffen's steps from it);
+	 * otherwise the state is another (a peer's restart, maybe at the step
+	 * it was at, on a new region): the next step re-assembles K as that
+	 * step's K is (ndo__restiffen_due) */
+	if (!s->k_fixed && s->stats.steps == 0 && s->k_at == s->k_first)
+		s->k_first = s->k_at = step;
+	else
+		s->k_at = NDO__K_STALE;
 	s->t = t;
 	s->step = step;
+}
+
+void ndo_sim_set_first_step(ndo_sim *s, int64_t first)
+{
+	if (s->k_at != s->k_first || first != s->k_first)
+		s->k_at = NDO__K_STALE;
+	s->k_first = first;
+	s->k_fixed = 1;
 }
 
 void ndo_sim_stats_get(const ndo_sim *s, ndo_sim_stats *st) { *st = s->stats; }
@@ -1275,13 +1293,13 @@ static double cpu_seconds(void)
 	return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
 }
 
-int ndo__restiffen(ndo_sim *s)
+int ndo__restiffen(ndo_sim *s, int from_rest)
 {
 	double t0 = cpu_seconds();
 	double *x = malloc(3 * s->count * sizeof *x);
 	if (!x)
 		return ndo__fail(NDO_ENOMEM, "out of memory re-assembling K");
-	positions_aos(s, s->u, x);
+	positions_aos(s, from_rest ? NULL : s->u, x);
 	int rc = ndo_stencil_build(s->level, x, s->p.material.stiffness, &s->st);
 	free(x);
 	if (rc) {
@@ -1297,11 +1315,37 @@ int ndo__restiffen(ndo_sim *s)
 	return NDO_OK;
 }
 
+/* The step whose shape the K of the step from s->step is assembled from:
+ * the last multiple of S steps after the run's first step, or that step
+ * (the rest shape). */
+static int64_t restiffen_step(const ndo_sim *s)
+{
+	int64_t rel = s->step - s->k_first, S = s->p.restiffen;
+	return rel > 0 ? s->k_first + rel / S * S : s->k_first;
+}
+
+int ndo__restiffen_pending(const ndo_sim *s)
+{
+	return s->p.restiffen > 0 && restiffen_step(s) != s->k_at;
+}
+
+/* K as the step from s->step reads it.  A single process re-assembles it
+ * every S steps from the shape of that step.  A peer that restarted from a
+ * checkpoint (ndo_sim_set_time) holds the K of another step, or rows of
+ * another region: it re-assembles the step's K from the rest shape or
+ * from the state it restarted from, which is that K when the restart step
+ * is a multiple of S (the owner puts its checkpoints there); at any other
+ * step, from the current shape: not the single process's K (a run that
+ * restarted there without a checkpoint is not exact anyway). */
 int ndo__restiffen_due(ndo_sim *s)
 {
-	if (s->p.restiffen > 0 && s->stats.steps > 0 && s->stats.steps % s->p.restiffen == 0)
-		return ndo__restiffen(s);
-	return NDO_OK;
+	if (!ndo__restiffen_pending(s))
+		return NDO_OK;
+	int64_t want = restiffen_step(s);
+	int rc = ndo__restiffen(s, want == s->k_first);
+	if (rc == NDO_OK)
+		s->k_at = want;
+	return rc;
 }
 
 int ndo__step_tableau(ndo_sim *s, double h)
@@ -1581,8 +1625,7 @@ static int sim_step_begin(ndo_sim *s, double h, size_t n, const int32_t *pending
 	if (!(h > 0) || !isfinite(h))
 		return ndo__fail(NDO_EINVAL, "step size %g: must be positive and finite", h);
 	/* a re-assembly due at this step reads the pending nodes' state */
-	if (s->p.method != NDO_RK4 || !n || s->sleep ||
-	    (s->p.restiffen > 0 && s->stats.steps > 0 && s->stats.steps % s->p.restiffen == 0))
+	if (s->p.method != NDO_RK4 || !n || s->sleep || ndo__restiffen_pending(s))
 		return 0;
 	/* the step's threads: the units run now on them, in the ring they lay out */
 	if (s->pool && !s->picked)

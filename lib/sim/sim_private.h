@@ -113,6 +113,13 @@ struct ndo_sim {
 
 	double t;
 	int64_t step;
+	/* --restiffen: K is assembled from the shape at k_first (the rest
+	 * shape: the run's first step) or at the last multiple of S steps
+	 * after it; k_at the step the K held was assembled for (NDO__K_STALE:
+	 * unknown, after the state jumped to another step), k_fixed: k_first
+	 * set by ndo_sim_set_first_step, not moved by ndo_sim_set_time */
+	int64_t k_first, k_at;
+	int k_fixed;
 	ndo_sim_stats stats;
 	double h_sub;          /* rkf45's next sub-step */
 	/* rkf45's step under way (ndo_sim_rkf45_begin): its end, the next
@@ -482,8 +489,10 @@ void ndo__sync_planes(const ndo_sim *s, double *planes, int nplanes);
 
 /* K re-assembled from the deformed shape X + u (integrate.c); _due: when
  * a step starts and the restiffen period says so. */
-int ndo__restiffen(ndo_sim *s);
+#define NDO__K_STALE INT64_MIN
+int ndo__restiffen(ndo_sim *s, int from_rest);
 int ndo__restiffen_due(ndo_sim *s);
+int ndo__restiffen_pending(const ndo_sim *s);
 
 /* R(z) = Σ r_k z^k of an explicit Runge–Kutta method; returns the
  * degree, or −1 for a method that is not one (integrate.c). */

@@ -847,6 +847,8 @@ static int rc_realtime;
 /* ... and the first joiner must have succeeded the owner (its leave lost
  * after its last step) and restarted from a checkpoint it held whole */
 static int rc_successor;
+/* ... and another scene line ("restiffen 7\n"), or NULL */
+static const char *rc_extra;
 
 /* `every`: checkpoint_every (< 0: none, the reference, which must differ);
  * k: steps per halo exchange. */
@@ -867,7 +869,9 @@ static void restart_case(int what, double drop, uint64_t seed, int every, int k)
 	            .peers = rc_peers ? rc_peers : what == JOIN ? 2 : 3,
 	            .step_timeout = 0.2, .checkpoint_every = every, .halo_steps = k,
 	            .level = rc_level, .bands = rc_bands, .block = rc_block,
-	            .extra = strcmp(method, "rkf45") == 0 ? "tol 1e-7\n" : NULL};
+	            .extra = rc_extra                         ? rc_extra
+	                     : strcmp(method, "rkf45") == 0 ? "tol 1e-7\n"
+	                                                    : NULL};
 	const double want = restart_tolerance(method);
 	if (drop > 0 || rc_at_start)
 		su.faults = (ndo_faults){.drop = drop, .delay_ms = 2, .jitter_ms = 2, .seed = seed};
@@ -1015,6 +1019,46 @@ static void restarts_keep_the_single_process(void)
 	rc_second = 2;
 	restart_case(KILL, 0.1, seed + 62, 0, 1);
 	rc_peers = 0, rc_second = 0;
+}
+
+
+/* K re-assembled from the deformed shape (--restiffen S) is part of the
+ * state a step reads, and the peers hold only their regions' shapes: an
+ * exchange every K steps must come at every re-assembly (the owner takes
+ * K a divisor of S: a halo's outer rings, re-assembled from positions
+ * not yet exact, kept those rows until the next re-assembly, 1e-5 of the
+ * largest displacement off with K 2 and S 5), and a restart must find K
+ * as the single process had it at the restart step (checkpoints at
+ * multiples of S; K re-assembled there, or from the rest shape at the
+ * first step).  Until 2026-12-01 a peer counted S from its own first
+ * step and kept its K through restarts: a join at level 4 ended 1.1 of
+ * the largest displacement off, reported exact. */
+static void restiffening_peers_keep_the_single_process(void)
+{
+	static const struct { const char *method; int K, S; } splits[] = {
+	    {"rk4", 2, 5}, {"rk4", 4, 6}, {"midpoint", 3, 4}};
+	for (size_t k = 0; k < sizeof splits / sizeof *splits; k++) {
+		char extra[32];
+		snprintf(extra, sizeof extra, "restiffen %d\n", splits[k].S);
+		setup su = {.integrator = splits[k].method, .dt = 0.02, .steps = 40,
+		            .clock = NDO_CLOCK_LOCKSTEP, .peers = 2, .halo_steps = splits[k].K,
+		            .extra = extra};
+		ndo_peer_stats st;
+		int ok;
+		double d = split_run(&su, 2, &st, &ok);
+		CHECK(ok && d == 0 && st.exact, "%s, 2 peers, restiffen %d, halo steps %d: done %d, "
+		      "differs by %.3g (expected 0: bit for bit), exact %d", splits[k].method,
+		      splits[k].S, splits[k].K, ok, d, st.exact);
+	}
+	rc_extra = "restiffen 7\n";
+	for (int what = KILL; what <= JOIN; what++)
+		restart_case(what, 0, 3 + (uint64_t)what, 0, 1);
+	rc_method = "backward-euler";
+	restart_case(JOIN, 0, 5, 0, 1);
+	rc_method = "rkf45";
+	restart_case(KILL, 0, 6, 0, 1);
+	rc_method = NULL;
+	rc_extra = NULL;
 }
 
 /* A peer killed (or leaving) after the owner announced the first
@@ -2349,6 +2393,7 @@ int main(void)
 	RUN(an_observer_on_its_way_follows_the_successor);
 	RUN(an_observer_with_an_old_partition_follows_the_successor);
 	RUN(restarts_keep_the_single_process);
+	RUN(restiffening_peers_keep_the_single_process);
 	RUN(a_peer_lost_at_the_start);
 	RUN(split_restarts_keep_the_single_process);
 	RUN(a_peer_waiting_for_its_checkpoint_lives);

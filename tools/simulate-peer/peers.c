@@ -550,6 +550,11 @@ int peers_main(run *r)
 			                "process's result: run it lock-step, or ask for an extrapolated or "
 			                "held boundary with --boundary extrapolate or hold",
 			                ndo_method_names[m]);
+		if (c->clock == NDO_CLOCK_REALTIME && !c->boundary_inexact && r->sc.sim.restiffen > 0)
+			ndo_usage_error("--clock realtime: --restiffen does not roll back (a rollback "
+			                "would need K as it was at an earlier step), so it would not end on "
+			                "the single process's result: run it lock-step, or ask for an "
+			                "extrapolated or held boundary with --boundary extrapolate or hold");
 		plan(r);
 		if (c->publish_seconds > 0) {
 			/* every T s: the nearest whole number of steps, at least one */

@@ -403,8 +403,20 @@ int ndo_sim_check(ndo_sim *s);
 double ndo_sim_time(const ndo_sim *s);
 int64_t ndo_sim_step_count(const ndo_sim *s);
 void ndo_sim_set_time(ndo_sim *s, double t, int64_t step);
+/* The step the run began at (default: the step of the first
+ * ndo_sim_set_time before any step, else 0): --restiffen's S steps count
+ * from it, and K for a step is assembled from the rest shape up to S
+ * steps after it, then from the shape at the last multiple of S.  A peer
+ * sets it to the run's first step; after ndo_sim_set_time on a sim that
+ * has stepped (a restart), the next step re-assembles K as it is at that
+ * step: from the rest shape, or from the state when the step
+ * is a multiple of S (the single process's K; at any other step K is
+ * taken from the current shape, not the single process's). */
+void ndo_sim_set_first_step(ndo_sim *s, int64_t first);
 int ndo_sim_level(const ndo_sim *s);
 ndo_method ndo_sim_method(const ndo_sim *s);
+/* --restiffen: K re-assembled every this many steps (0: never). */
+int ndo_sim_restiffen_every(const ndo_sim *s);
 
 /* Counters since creation. */
 typedef struct ndo_sim_stats {
