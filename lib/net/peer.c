@@ -2526,6 +2526,15 @@ int ndo_peer_update(ndo_peer *p, double now)
 			         "; %zu nodes of step %lld never arrived here: no result",
 			         behind_last(p), (long long)p->final);
 		}
+		/* a run of no steps (-n 0): the owner held the whole first step,
+		 * gathered and ended at once, before this joiner started; it
+		 * holds the object at that step, the run's result (until
+		 * 2026-12-01 it ended "the session ended at step 0", exit 4) */
+		if (!p->owner && !p->started && p->sim && p->final <= p->first &&
+		    p->end_reason != NDO_LEAVE_TIMEOUT) {
+			p->cur = p->first;
+			complete = 1;
+		}
 		if (complete) {
 			/* what -o holds of older steps: the others' last tiles lost
 			 * (every copy) before the owner's leave */

@@ -1022,6 +1022,23 @@ static void restarts_keep_the_single_process(void)
 }
 
 
+/* A run of no steps (-n 0): the owner holds the whole first step, gathers
+ * at once and ends the session, maybe before a joiner has started; the
+ * joiner, which holds the object at that step, saw the run complete.
+ * Until 2026-12-01 it ended with "the session ended at step 0: the owner
+ * quit: run complete at step 0", exit 4. */
+static void a_run_of_no_steps_completes_everywhere(void)
+{
+	for (int n = 2; n <= 3; n++) {
+		setup su = {.integrator = "rk4", .dt = 0.02, .steps = 0, .clock = NDO_CLOCK_LOCKSTEP,
+		            .peers = n};
+		ndo_peer_stats st;
+		int ok;
+		double d = split_run(&su, n, &st, &ok);
+		CHECK(ok && !(d > 0), "%d peers, 0 steps: every peer done %d, differs by %.3g", n, ok, d);
+	}
+}
+
 /* K re-assembled from the deformed shape (--restiffen S) is part of the
  * state a step reads, and the peers hold only their regions' shapes: an
  * exchange every K steps must come at every re-assembly (the owner takes
@@ -2394,6 +2411,7 @@ int main(void)
 	RUN(an_observer_with_an_old_partition_follows_the_successor);
 	RUN(restarts_keep_the_single_process);
 	RUN(restiffening_peers_keep_the_single_process);
+	RUN(a_run_of_no_steps_completes_everywhere);
 	RUN(a_peer_lost_at_the_start);
 	RUN(split_restarts_keep_the_single_process);
 	RUN(a_peer_waiting_for_its_checkpoint_lives);
