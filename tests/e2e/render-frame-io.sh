@@ -89,6 +89,8 @@ expect_error "no rest channel" 1 "no rest channel .* displacement" render-frame 
 expect_error "position:w" 1 "channel 'position' has 3 components, no 'w'" render-frame --color-by position:w a.tgrid -o x.png
 $py "$rc" grid-poke a.tgrid nan.tgrid 3 2 nan >/dev/null
 expect_error "NaN position" 1 "^render-frame: nan\.tgrid: position of node \(3, 2\) is not finite" render-frame nan.tgrid -o x.png
+# refined, the file's node is named (and the refined grid is not read after it is freed)
+expect_error "NaN position, refined" 1 "^render-frame: nan\.tgrid: position of node \(3, 2\) is not finite$" render-frame -k 1 nan.tgrid -o x.png
 expect_error "level + K > 10" 1 "level 3 refined by 8 exceeds the largest level, 10" render-frame -k 8 a.tgrid -o x.png
 expect_error "more samples than llvmpipe has" 1 "16 samples per pixel: this OpenGL .* has at most" render-frame --msaa 16 a.tgrid -o x.png
 expect_error "missing shader directory" 1 "shader /nonexistent/surface\.vert: not found \(NDO_SHADER_DIR\)" env NDO_SHADER_DIR=/nonexistent render-frame a.tgrid -o x.png

@@ -156,6 +156,13 @@ int rf_scene_prepare(rf_scene *s, const ndo_grid *in, int subdivide, const rf_co
 	const ndo_grid *g = in;
 	ndo_grid *fine = NULL;
 	int rc;
+	/* Checked before refining, so that the node named is the file's
+	 * (refined, a NaN spreads over the butterfly's reach). */
+	const ndo_channel *ipos = ndo_grid_find(in, NDO_CH_POSITION);
+	for (size_t k = 0; k < in->count * 3; k++)
+		if (!isfinite(value(ipos, k / 3, (int)(k % 3))))
+			return ndo__fail(NDO_ERANGE, "position of node (%zu, %zu) is not finite",
+			                 k / 3 % (size_t)in->w, k / 3 / (size_t)in->w);
 	if (subdivide > 0) {
 		if (in->level + subdivide > NDO_MAX_LEVEL)
 			return ndo__fail(NDO_ERANGE, "level %d refined by %d exceeds the largest level, %d",
@@ -177,10 +184,14 @@ int rf_scene_prepare(rf_scene *s, const ndo_grid *in, int subdivide, const rf_co
 	for (size_t k = 0; k < g->count * 3; k++) {
 		double v = value(pos, k / 3, (int)(k % 3));
 		if (!isfinite(v)) {
+			/* finite values the refinement took beyond DBL_MAX; the
+			 * message is made before `fine` (g) is freed */
+			rc = ndo__fail(NDO_ERANGE, "position of node (%zu, %zu) of the grid refined "
+			               "by %d levels is not finite", k / 3 % (size_t)g->w,
+			               k / 3 / (size_t)g->w, subdivide);
 			free(tmp);
 			ndo_grid_destroy(fine);
-			return ndo__fail(NDO_ERANGE, "position of node (%zu, %zu) is not finite",
-			                 k / 3 % (size_t)g->w, k / 3 / (size_t)g->w);
+			return rc;
 		}
 		lo[k % 3] = fmin(lo[k % 3], v);
 		hi[k % 3] = fmax(hi[k % 3], v);
@@ -206,11 +217,12 @@ int rf_scene_prepare(rf_scene *s, const ndo_grid *in, int subdivide, const rf_co
 		if (!isfinite(tmp[k])) {
 			/* only a later frame of a sequence can get here: it moved
 			 * beyond 1e38 times the first frame's size */
+			rc = ndo__fail(NDO_ERANGE, "node (%zu, %zu) is %.3g sizes of the first frame away "
+			               "from it: cannot be drawn in one picture (use --refit)",
+			               k / 3 % (size_t)g->w, k / 3 / (size_t)g->w, v);
 			free(tmp);
 			ndo_grid_destroy(fine);
-			return ndo__fail(NDO_ERANGE, "node (%zu, %zu) is %.3g sizes of the first frame away "
-			                 "from it: cannot be drawn in one picture (use --refit)",
-			                 k / 3 % (size_t)g->w, k / 3 / (size_t)g->w, v);
+			return rc;
 		}
 	}
 	ndo_pad(g->level, 1, tmp, 3 * sizeof *tmp, s->position);
