@@ -128,3 +128,14 @@ if $py "$rc" compare box-default.png box-yup.png --mean 0 --p99 0 >/dev/null &&
 else
 	fail "default view" "a remeshed mesh's default is not the +y front view, or a shape's not +z"
 fi
+# remesh run under a path ($NDO_BIN/remesh, ./bin/remesh) is remesh too, and
+# -s, --shape's short form, makes a shape
+"$NDO_BIN/remesh" box.off -l 3 -o box3-path.tgrid 2>/dev/null
+render-frame -s 160x120 box3-path.tgrid -o box-path-default.png
+check "default view: a mesh remeshed by \$NDO_BIN/remesh stands on +y" \
+	$py "$rc" compare box-path-default.png box-yup.png --mean 0 --p99 0
+remesh -s ellipsoid -l 3 -o e3.tgrid
+render-frame -s 160x120 e3.tgrid -o e3-default.png
+render-frame -s 160x120 --up 0,0,1 --azimuth 30 e3.tgrid -o e3-zup.png
+check "default view: a shape made with -s keeps +z" \
+	$py "$rc" compare e3-default.png e3-zup.png --mean 0 --p99 0

@@ -144,15 +144,45 @@ void rf_camera_view(const rf_camera *c, const double center[3], double radius, d
 	out->light[2] = (float)(cos(le) * cos(la));
 }
 
-int rf_camera_for_grid(rf_camera *c, const char *history)
+/* Whether the history's first line, split at its blanks (an argument
+ * with blanks is quoted, ndo_grid_add_history), is remesh — run under
+ * any path — of a mesh, not of a shape (-s, -sNAME, --shape, --shape=). */
+static int remeshed_from_mesh(const char *history)
 {
-	if (c->have_up || !history || strncmp(history, "remesh ", 7) != 0)
-		return 0;
 	const char *end = strchr(history, '\n');
 	size_t len = end ? (size_t)(end - history) : strlen(history);
-	for (const char *q = history; q + 7 <= history + len; q++)
-		if (strncmp(q, "--shape", 7) == 0)
+	const char *p = history, *stop = history + len;
+	if (len == 0)
+		return 0;
+	for (int k = 0; p < stop; k++) {
+		const char *t = p;
+		while (p < stop && *p != ' ')
+			p++;
+		size_t n = (size_t)(p - t);
+		if (p < stop)
+			p++;
+		if (k == 0) {
+			/* the program: its name after the last '/', quotes aside */
+			if (n && t[n - 1] == '\'')
+				n--;
+			const char *name = t;
+			for (const char *q = t; q < t + n; q++)
+				if (*q == '/' || *q == '\'')
+					name = q + 1;
+			if ((size_t)(t + n - name) != 6 || strncmp(name, "remesh", 6) != 0)
+				return 0;
+		} else if ((n >= 2 && strncmp(t, "-s", 2) == 0) ||
+		           (n >= 7 && strncmp(t, "--shape", 7) == 0)) {
 			return 0;
+		}
+	}
+	return 1;
+}
+
+int rf_camera_for_grid(rf_camera *c, const char *history)
+{
+	if (c->have_up || !history || !remeshed_from_mesh(history))
+		return 0;
 	c->up[0] = 0, c->up[1] = 1, c->up[2] = 0;
 	if (!c->have_azimuth)
 		c->azimuth = 240;
