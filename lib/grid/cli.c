@@ -14,6 +14,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 const char *ndo_progname = "ndo";
@@ -164,12 +165,31 @@ ndo_grid *ndo_cli_load(const char *path)
 
 void ndo_cli_check_output(const char *path)
 {
+	if (path && !*path)
+		ndo_usage_error("--output: an empty file name");
 	if (!ndo_is_stdio(path) && ndo_unknown_extension(path))
 		ndo_usage_error("%s: unknown output extension (use .tgrid, .obj, .ply, "
 		                ".stl, .glb or .gltf)", path);
 	if (ndo_is_stdio(path) && isatty(STDOUT_FILENO))
 		ndo_usage_error("refusing to write a binary grid to a terminal "
 		                "(use -o FILE or a pipe)");
+	if (ndo_is_stdio(path))
+		return;
+	/* Before the work, which may take minutes: a missing directory, a
+	 * directory or a place the user cannot write fails now, with the
+	 * message the write would give.  The probe is the temporary file
+	 * the write will make beside the destination, removed at once;
+	 * devices and pipes are left alone (opening one may consume it). */
+	struct stat st;
+	if (stat(path, &st) == 0 && !S_ISREG(st.st_mode)) {
+		if (S_ISDIR(st.st_mode))
+			ndo_die("%s: cannot write %s: %s", path, path, strerror(EISDIR));
+		return;
+	}
+	ndo_outfile o;
+	if (ndo_out_open(path, &o) != NDO_OK)
+		ndo_die("%s: %s", path, ndo_errdetail());
+	ndo_out_abort(&o);
 }
 
 void ndo_cli_save(const char *path, ndo_grid *g)

@@ -54,6 +54,15 @@ expect_error empty 1 'empty\.off: empty file' remesh empty.off -o out.tgrid
 expect_error truncated 1 'truncated\.off: ' remesh truncated.off -o out.tgrid
 expect_error missing 1 'nosuch\.off: No such file' remesh nosuch.off -o out.tgrid
 [ ! -e out.tgrid ] && pass "no-output-on-failure" || fail "no-output-on-failure" "out.tgrid written"
+# a bad output fails before the work, as ndo/cli.h promises (bunny00 to
+# level 7 takes seconds; the check, milliseconds), and an empty -o "$OUT"
+# is a usage error, not 'cannot rename onto :' after the work
+expect_error missing-output-dir-first 1 'nodir/x\.tgrid: cannot write nodir/x\.tgrid: No such file or directory$' \
+	timeout 3 remesh "$M/bunny00.off" -l 7 -o nodir/x.tgrid
+mkdir -p adir
+expect_error output-is-directory-first 1 'adir: cannot write adir: Is a directory$' \
+	timeout 3 remesh "$M/bunny00.off" -l 7 -o adir
+expect_error empty-output-name 2 '--output: an empty file name$' remesh octa.off -o ''
 expect_error bad-param 2 "--param: 'x' is not hierarchical or spring" remesh octa.off --param x
 expect_error bad-sweeps 2 '--sweeps' remesh octa.off --sweeps 1000
 expect_error two-inputs 2 'one input mesh at a time' remesh octa.off octa.off
