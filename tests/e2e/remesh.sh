@@ -51,3 +51,23 @@ if [ "$(json cactus-subdivided.json subdivided)" = 1 ] && [ "$(json cactus-subdi
 	&& below "$hc" 0.02; then pass "cactus-subdivided-close"
 else fail "cactus-subdivided-close" "subdivided $(json cactus-subdivided.json subdivided), Hausdorff $hc"; fi
 
+
+# A mesh of any size within the coordinates' range is remeshed as its
+# unit-sized copy (a power of two, exact, and back): hand.off scaled by
+# 1e-100 stopped with SIGFPE (a NaN in CGAL's Hausdorff distance), by
+# 1e-200 reported "-nan%" (the diagonal's square underflowed), and by 1e40
+# gave a grid 2.7 times as far from the mesh.
+remesh_ok hand-unit 4 "$M/hand.off" --rotations 4
+hu=$(json hand-unit.json hausdorff_rel) du=$(json hand-unit.json diagonal)
+for f in 1e-100 1e-200 1e40; do
+	awk -v f="$f" 'NF == 0 || /^#/ { print; next } !h { h = 1; print; next }
+		!n { n = $1; print; next } v < n { v++; printf "%.17g %.17g %.17g\n", $1 * f, $2 * f, $3 * f; next }
+		{ print }' "$M/hand.off" >"hand$f.off"
+	remesh_ok "hand-scaled-$f" 4 "hand$f.off" --rotations 4 || continue
+	hs=$(json "hand-scaled-$f.json" hausdorff_rel) ds=$(json "hand-scaled-$f.json" diagonal)
+	if [ "$hs" = "$hu" ] && awk -v a="$ds" -v b="$du" -v f="$f" 'BEGIN { r = a / (b * f); exit !(r > 0.999999 && r < 1.000001) }'; then
+		pass "hand scaled by $f: the unit copy's Hausdorff $hs, diagonal $ds"
+	else
+		fail "hand scaled by $f" "Hausdorff $hs (unit $hu), diagonal $ds (unit $du)"
+	fi
+done

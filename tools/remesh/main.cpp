@@ -197,6 +197,42 @@ struct MeshOptions {
 	const char *json_path = nullptr;
 };
 
+/* The power of two that brings the mesh's largest extent into [1, 2):
+ * the pipeline's tolerances are a unit-sized mesh's, and far from it they
+ * failed (hand.off scaled by 1e-100: a NaN in CGAL's Hausdorff distance,
+ * SIGFPE; by 1e-200: the diagonal's square underflowed to 0, "-nan%";
+ * by 1e40 or 1e60: a grid 2-4.6 times as far from the mesh).  Scaling by
+ * 2^e is exact for every coordinate that stays a normal double, so the
+ * grid scaled back is what a unit-sized copy gives (the pipeline gives
+ * the same grid at any power-of-two scale).  Capped so that the largest
+ * |coordinate| stays under 2^1000: 0 for a mesh with no extent. */
+static int unit_exponent(const Mesh &m)
+{
+	if (m.p.empty())
+		return 0;
+	double ext = 0, big = 0;
+	for (int k = 0; k < 3; k++) {
+		double lo = m.p[0][k], hi = lo;
+		for (const Vec3 &p : m.p)
+			lo = std::min(lo, p[k]), hi = std::max(hi, p[k]);
+		ext = std::max(ext, hi - lo);
+		big = std::max(big, std::max(std::fabs(lo), std::fabs(hi)));
+	}
+	if (!(ext > 0) || !std::isfinite(ext) || !std::isfinite(big))
+		return 0;
+	int e = -std::ilogb(ext);
+	if (big > 0)
+		e = std::min(e, 1000 - std::ilogb(big));
+	return e;
+}
+
+static void scale_mesh(Mesh &m, int e)
+{
+	for (Vec3 &p : m.p)
+		for (int k = 0; k < 3; k++)
+			p[k] = std::ldexp(p[k], e);
+}
+
 static ndo_grid *remesh_file(const char *path, int level, const MeshOptions &o, Report &r)
 {
 	r.input = path && strcmp(path, "-") != 0 ? path : "stdin";
@@ -213,6 +249,9 @@ static ndo_grid *remesh_file(const char *path, int level, const MeshOptions &o, 
 	for (const std::string &n : r.notes)
 		ndo_warn("%s: %s", r.input.c_str(), n.c_str());
 	r.in_vertices = m.p.size(), r.in_faces = m.f.size();
+	const int e = unit_exponent(m);
+	if (e)
+		scale_mesh(m, e);
 	double t2 = now_seconds();
 	r.t_validate = t2 - t1;
 	std::vector<Vec3> s;
@@ -250,7 +289,13 @@ static ndo_grid *remesh_file(const char *path, int level, const MeshOptions &o, 
 	r.t_resample = t5 - t4;
 	if (o.report || o.json) {
 		measure_quality(m, g, true, true, r.q);
+		r.q.diag = std::ldexp(r.q.diag, -e); /* the input's own units (the rest are shares) */
 		r.t_quality = now_seconds() - t5;
+	}
+	if (e) {
+		double *pos = ndo_grid_f64(g, NDO_CH_POSITION, 3);
+		for (size_t k = 0; pos && k < 3 * g->count; k++)
+			pos[k] = std::ldexp(pos[k], -e);
 	}
 	return g;
 }
