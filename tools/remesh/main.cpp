@@ -201,7 +201,7 @@ struct MeshOptions {
  * the pipeline's tolerances are a unit-sized mesh's, and far from it they
  * failed (hand.off scaled by 1e-100: a NaN in CGAL's Hausdorff distance,
  * SIGFPE; by 1e-200: the diagonal's square underflowed to 0, "-nan%";
- * by 1e40 or 1e60: a grid 2-4.6 times as far from the mesh).  Scaling by
+ * by 1e40 or 1e60: a grid 2.7-4.6 times as far from the mesh).  Scaling by
  * 2^e is exact for every coordinate that stays a normal double, so the
  * grid scaled back is what a unit-sized copy gives (the pipeline gives
  * the same grid at any power-of-two scale).  Capped so that the largest
