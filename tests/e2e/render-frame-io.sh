@@ -83,6 +83,16 @@ expect_error "second grid of a stream truncated" 1 "broken-stream\.tgrid, grid 2
 if [ -f bs-0.png ] && [ ! -e bs-1.png ]; then pass "frames before the bad grid kept"; else fail "frames before the bad grid kept" "$(ls bs-*)"; fi
 expect_error "unwritable output" 1 "^render-frame: cannot write nodir/x\.png: No such file or directory$" render-frame "${opts[@]}" a.tgrid -o nodir/x.png
 expect_error "full disk" 1 "/dev/full" render-frame "${opts[@]}" a.tgrid -o /dev/full
+# The output is a PNG, and its name must say so: -o x.jpg wrote a PNG there,
+# and -o naming the input grid replaced it with a picture of it.
+expect_error "-o x.jpg" 2 "^render-frame: --output: 'x\.jpg' is not a \.png name" \
+	render-frame "${opts[@]}" a.tgrid -o x.jpg
+cp a.tgrid keep.tgrid
+expect_error "-o the input grid" 2 "^render-frame: --output: 'keep\.tgrid' is not a \.png name" \
+	render-frame "${opts[@]}" keep.tgrid -o keep.tgrid
+check "the input grid is kept" cmp -s a.tgrid keep.tgrid
+[ ! -e x.jpg ] || fail "-o x.jpg wrote x.jpg"
+check "-o X.PNG (any case)" render-frame "${opts[@]}" a.tgrid -o X.PNG
 expect_error "no owner channel" 1 "^render-frame: a\.tgrid: no owner channel" render-frame --color-by owner a.tgrid -o x.png
 expect_error "no such channel" 1 "no channel 'velocity' to colour by" render-frame --color-by velocity a.tgrid -o x.png
 expect_error "no rest channel" 1 "no rest channel .* displacement" render-frame --color-by displacement a.tgrid -o x.png

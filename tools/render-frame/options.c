@@ -9,6 +9,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <strings.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #define MAX_SIZE 16384 /* llvmpipe's largest framebuffer */
@@ -21,9 +23,9 @@ static __attribute__((noreturn)) void usage(void)
 	       "(default, or '-': standard input), and writes one PNG per grid.\n"
 	       "\n"
 	       "Output:\n"
-	       "  -o, --output OUT      a PNG file; with a %%d (frame-%%04d.png) one numbered file\n"
-	       "                        per grid (its directory made when missing); without,\n"
-	       "                        each grid of a stream replaces OUT\n"
+	       "  -o, --output OUT      a PNG file (OUT ends in .png); with a %%d (frame-%%04d.png)\n"
+	       "                        one numbered file per grid (its directory made when\n"
+	       "                        missing); without, each grid of a stream replaces OUT\n"
 	       "                        (the latest frame).  Default: standard output, PNGs\n"
 	       "                        back to back\n"
 	       "      --start-number N  number of the first frame, 0..999999999 (default 0)\n"
@@ -178,6 +180,21 @@ static int check_pattern(const char *out)
 		ndo_usage_error("--output: '%s' has %d %%d conversions; one numbers the frames", out,
 		                conversions);
 	return conversions;
+}
+
+/* The output is a PNG, so its name says .png: `-o x.jpg` wrote a PNG
+ * under a name that says otherwise, and `render-frame x.tgrid -o x.tgrid`
+ * replaced the input with a picture of it (until 2026-12).  A device or
+ * a pipe (/dev/null, a FIFO) takes what comes. */
+static void check_png_name(const char *out)
+{
+	struct stat st;
+	if (stat(out, &st) == 0 && !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode))
+		return;
+	size_t n = strlen(out);
+	if (n < 4 || strcasecmp(out + n - 4, ".png") != 0)
+		ndo_usage_error("--output: '%s' is not a .png name (render-frame writes PNG images)",
+		                out);
 }
 
 void rf_output_name(const rf_options *o, long number, char *buf, size_t size)
@@ -395,9 +412,10 @@ void rf_options_parse(int argc, char **argv, rf_options *o)
 	if (o->lcm.timeout < 0)
 		o->lcm.timeout = 30;
 	if (o->use_lcm) {
-		if (o->output && !ndo_is_stdio(o->output))
+		if (o->output && !ndo_is_stdio(o->output)) {
 			o->numbered = check_pattern(o->output);
-		else if (isatty(STDOUT_FILENO))
+			check_png_name(o->output);
+		} else if (isatty(STDOUT_FILENO))
 			ndo_usage_error("standard output is a terminal: give -o OUT.png");
 		return;
 	}
@@ -410,6 +428,7 @@ void rf_options_parse(int argc, char **argv, rf_options *o)
 			ndo_usage_error("no input: give a grid file or pipe one in");
 	if (o->output && !ndo_is_stdio(o->output)) {
 		o->numbered = check_pattern(o->output);
+		check_png_name(o->output);
 		if (!o->numbered && o->ninputs > 1)
 			ndo_usage_error("--output: '%s' has no %%d to number the frames of %d inputs "
 			                "(e.g. frame-%%04d.png)", o->output, o->ninputs);
