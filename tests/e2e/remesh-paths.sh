@@ -82,3 +82,20 @@ check shape-ellipsoid remesh --shape ellipsoid --axes 2,1,0.5 -l 2 --map gnomoni
 check shape-wavy remesh --shape wavy --amplitude 0.1 --frequency 3 -l 2 -o w.obj
 check shape-tetra remesh --shape tetra -l 1 -o t.tgrid
 expect_error shape-unknown 2 '--shape' remesh --shape cube
+# --report and --json measure the grid against an input mesh: with a shape
+# there is none (they printed nothing, exit 0)
+expect_error shape-report 2 '^remesh: --report measures the grid against an input mesh: not with --shape' \
+	remesh --shape sphere -l 2 --report -o s.tgrid
+expect_error shape-json 2 '^remesh: --json measures the grid against an input mesh: not with --shape' \
+	remesh --shape sphere -l 2 --json=s.json -o s.tgrid
+
+# --json stays JSON whatever bytes the input's name holds (a name that is
+# not UTF-8 made it unreadable): such a byte is U+FFFD, UTF-8 passes as it is
+cp octa.off "$(printf 'o\xe9\xff.off')" && cp octa.off "oé.off"
+if remesh "$(printf 'o\xe9\xff.off')" -l 2 --rotations 4 --json=latin.json -o latin.tgrid 2>latin.err &&
+	remesh "oé.off" -l 2 --rotations 4 --json=utf8.json -o utf8.tgrid 2>>latin.err &&
+	[ "$(/usr/bin/python3 -c 'import json, sys; print(json.load(open(sys.argv[1]))["input"], json.load(open(sys.argv[2]))["input"])' latin.json utf8.json)" = "o��.off oé.off" ]; then
+	pass "--json of a file name that is not UTF-8 is JSON"
+else
+	fail "--json and a name that is not UTF-8" "$(cat latin.err; head -c 200 latin.json)"
+fi

@@ -60,7 +60,8 @@ static __attribute__((noreturn)) void usage(void)
 	       "                        open surface's coincident border edges, as UV-seam\n"
 	       "                        splits leave them, and say so)\n"
 	       "      --report          print timings and quality on stderr (Hausdorff and\n"
-	       "                        RMS distance, fold-overs, self-intersections, stretch)\n"
+	       "                        RMS distance, fold-overs, self-intersections, stretch;\n"
+	       "                        a mesh's: not with --shape)\n"
 	       "      --json[=FILE]     the same as JSON, on stderr or into FILE ('-': stdout)\n"
 	       "Shapes:\n"
 	       "  -s, --shape NAME      tetra, sphere, ellipsoid or wavy\n"
@@ -95,16 +96,43 @@ struct Report {
 	std::vector<std::string> notes;
 };
 
+/* The length of the well-formed UTF-8 sequence at s[i] (RFC 3629: no
+ * overlong forms, no surrogates, nothing past U+10FFFF), or 0. */
+static size_t utf8_len(const std::string &s, size_t i)
+{
+	const unsigned char c = (unsigned char)s[i];
+	size_t n = c < 0x80 ? 1 : c >= 0xc2 && c <= 0xdf ? 2 : c >= 0xe0 && c <= 0xef ? 3
+	         : c >= 0xf0 && c <= 0xf4 ? 4 : 0;
+	if (n == 0 || i + n > s.size())
+		return 0;
+	for (size_t k = 1; k < n; k++)
+		if (((unsigned char)s[i + k] & 0xc0) != 0x80)
+			return 0;
+	const unsigned char d = (unsigned char)s[i + 1];
+	if ((c == 0xe0 && d < 0xa0) || (c == 0xed && d > 0x9f) || (c == 0xf0 && d < 0x90) ||
+	    (c == 0xf4 && d > 0x8f))
+		return 0;
+	return n;
+}
+
+/* A JSON string: quotes and backslashes escaped, control characters as
+ * blanks, and a byte that is not UTF-8 (a file name may hold any) as
+ * U+FFFD, so that the document stays JSON (until 2026-12 such a name made
+ * --json's output unreadable). */
 static std::string json_str(const std::string &s)
 {
 	std::string o = "\"";
-	for (char c : s) {
-		if (c == '"' || c == '\\')
-			o += '\\', o += c;
+	for (size_t i = 0; i < s.size();) {
+		const char c = s[i];
+		const size_t n = utf8_len(s, i);
+		if (n == 0)
+			o += "\\ufffd", i++;
+		else if (c == '"' || c == '\\')
+			o += '\\', o += c, i++;
 		else if ((unsigned char)c < 0x20)
-			o += ' ';
+			o += ' ', i++;
 		else
-			o += c;
+			o.append(s, i, n), i += n;
 	}
 	return o + "\"";
 }
@@ -430,6 +458,9 @@ int main(int argc, char **argv)
 		ndo_usage_error("'%s': give an input mesh or --shape, not both", input);
 	if (shape && (mo.dom.map == DomainMap::Spring || mo.dom.map == DomainMap::Blend) && map_name)
 		ndo_usage_error("--map: %s is for meshes; shapes use equal-area or gnomonic", map_name);
+	if (shape && (mo.report || mo.json))
+		ndo_usage_error("--%s measures the grid against an input mesh: not with --shape",
+		                mo.report ? "report" : "json");
 	ndo_cli_check_output(out);
 	bool to_stdout = !out || strcmp(out, "-") == 0;
 	if (mo.json && mo.json_path && strcmp(mo.json_path, "-") == 0 && to_stdout)
@@ -459,12 +490,13 @@ int main(int argc, char **argv)
 			} else if (strcmp(mo.json_path, "-") == 0) {
 				print_json(stdout, r);
 			} else {
-				FILE *f = fopen(mo.json_path, "w");
-				if (!f)
-					ndo_die("--json: %s: %s", mo.json_path, strerror(errno));
-				print_json(f, r);
-				if (fclose(f) != 0)
-					ndo_die("--json: %s: %s", mo.json_path, strerror(errno));
+				/* a temporary file renamed over FILE: never half a document */
+				ndo_outfile f;
+				if (ndo_out_open(mo.json_path, &f) != NDO_OK)
+					ndo_die("--json: %s", ndo_errdetail());
+				print_json(f.f, r);
+				if (ndo_out_commit(&f) != NDO_OK)
+					ndo_die("--json: %s", ndo_errdetail());
 			}
 		}
 	}
