@@ -63,6 +63,11 @@ mkdir -p adir
 expect_error output-is-directory-first 1 'adir: cannot write adir: Is a directory$' \
 	timeout 3 remesh "$M/bunny00.off" -l 7 -o adir
 expect_error empty-output-name 2 '--output: an empty file name$' remesh octa.off -o ''
+# and so does --json's file (it failed after the work)
+expect_error json-missing-dir-first 1 '^remesh: --json: cannot write nodir/j\.json: No such file or directory$' \
+	timeout 3 remesh "$M/bunny00.off" -l 7 --json=nodir/j.json -o x.tgrid
+[ ! -e x.tgrid ] || fail "json-missing-dir-first" "x.tgrid written"
+expect_error empty-json-name 2 '^remesh: --json=: an empty file name$' remesh octa.off --json= -o x.tgrid
 expect_error bad-param 2 "--param: 'x' is not hierarchical or spring" remesh octa.off --param x
 expect_error bad-sweeps 2 '--sweeps' remesh octa.off --sweeps 1000
 expect_error two-inputs 2 'one input mesh at a time' remesh octa.off octa.off
