@@ -173,22 +173,28 @@ void ndo_cli_check_output(const char *path)
 	if (ndo_is_stdio(path) && isatty(STDOUT_FILENO))
 		ndo_usage_error("refusing to write a binary grid to a terminal "
 		                "(use -o FILE or a pipe)");
+	ndo_cli_check_writable(path, path);
+}
+
+void ndo_cli_check_writable(const char *what, const char *path)
+{
 	if (ndo_is_stdio(path))
 		return;
 	/* Before the work, which may take minutes: a missing directory, a
 	 * directory or a place the user cannot write fails now, with the
 	 * message the write would give.  The probe is the temporary file
 	 * the write will make beside the destination, removed at once;
-	 * devices and pipes are left alone (opening one may consume it). */
+	 * devices and pipes are left alone (opening one may consume it, or
+	 * wait for a reader). */
 	struct stat st;
 	if (stat(path, &st) == 0 && !S_ISREG(st.st_mode)) {
 		if (S_ISDIR(st.st_mode))
-			ndo_die("%s: cannot write %s: %s", path, path, strerror(EISDIR));
+			ndo_die("%s: cannot write %s: %s", what, path, strerror(EISDIR));
 		return;
 	}
 	ndo_outfile o;
 	if (ndo_out_open(path, &o) != NDO_OK)
-		ndo_die("%s: %s", path, ndo_errdetail());
+		ndo_die("%s: %s", what, ndo_errdetail());
 	ndo_out_abort(&o);
 }
 

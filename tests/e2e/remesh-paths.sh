@@ -68,6 +68,13 @@ expect_error json-missing-dir-first 1 '^remesh: --json: cannot write nodir/j\.js
 	timeout 3 remesh "$M/bunny00.off" -l 7 --json=nodir/j.json -o x.tgrid
 [ ! -e x.tgrid ] || fail "json-missing-dir-first" "x.tgrid written"
 expect_error empty-json-name 2 '^remesh: --json=: an empty file name$' remesh octa.off --json= -o x.tgrid
+# a pipe is not probed (opening it would wait for a reader): the JSON goes
+# through it after the work
+mkfifo json.fifo
+cat json.fifo >fifo.json &
+if timeout 20 remesh octa.off -l 2 --rotations 4 --json=json.fifo -o fifo.tgrid 2>fifo.err && wait $! &&
+	grep -q '"closed_manifold": true' fifo.json; then pass "--json into a named pipe"
+else fail "--json into a named pipe" "$(cat fifo.err)"; fi
 expect_error bad-param 2 "--param: 'x' is not hierarchical or spring" remesh octa.off --param x
 expect_error bad-sweeps 2 '--sweeps' remesh octa.off --sweeps 1000
 expect_error two-inputs 2 'one input mesh at a time' remesh octa.off octa.off

@@ -465,14 +465,10 @@ int main(int argc, char **argv)
 	bool to_stdout = !out || strcmp(out, "-") == 0;
 	if (mo.json && mo.json_path && strcmp(mo.json_path, "-") == 0 && to_stdout)
 		ndo_usage_error("--json=-: standard output already carries the grid; use -o");
-	if (mo.json && mo.json_path && !ndo_is_stdio(mo.json_path)) {
-		/* before the work, as the grid's -o (ndo_cli_check_output) */
-		ndo_outfile f;
+	if (mo.json && mo.json_path) { /* before the work, as the grid's -o */
 		if (!*mo.json_path)
 			ndo_usage_error("--json=: an empty file name");
-		if (ndo_out_open(mo.json_path, &f) != NDO_OK)
-			ndo_die("--json: %s", ndo_errdetail());
-		ndo_out_abort(&f);
+		ndo_cli_check_writable("--json", mo.json_path);
 	}
 	ndo_grid *g;
 	if (shape) {

@@ -64,6 +64,11 @@ ndo_grid *ndo_cli_load(const char *path);
  * first, before any work, so a bad path fails early. */
 void ndo_cli_save(const char *path, ndo_grid *g);
 void ndo_cli_check_output(const char *path);
+/* Die ("prog: what: cannot write path: …") unless a file written later
+ * at `path` (through ndo_out_open) can be: its directory exists and is
+ * writable, and it is not a directory.  Standard output, devices and
+ * pipes pass unopened.  ndo_cli_check_output() ends with it. */
+void ndo_cli_check_writable(const char *what, const char *path);
 
 /* Flush and close stdout; on any write error, die (a full disk or a
  * closed pipe fails the pipeline instead of passing silently).  Call at
