@@ -12,7 +12,8 @@
 #   4. the speed of lock-step with 1, 2, 4 and 8 peers at levels 5-9
 #      (PEERS_LEVELS), against the single process, and the traffic per step;
 #      PEERS_COUNTS picks the runs: N peers, Nnf without frames
-#      (--publish-every 0), Nq with --partition quadtree (the default from
+#      (--publish-every 0), Nf10 with frames every 10 steps (the default
+#      before 2026-12-01), Nq with --partition quadtree (the default from
 #      level 3 is bands of whole rows), Nqnf both.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
@@ -152,10 +153,11 @@ for level in ${PEERS_LEVELS:-5 6 7 8 9}; do
 	t=${TL[$level]}
 	sps=""
 	steps=""
-	for n in ${PEERS_COUNTS:-1 2 2nf 4 8}; do
+	for n in ${PEERS_COUNTS:-1 2 2f10 2nf 4 8}; do
 		rs="" ratios="" cs="" wt="" hb="" fb=""
 		np=${n%nf} own=() kind=""
 		[ "$n" != "$np" ] && own=(--publish-every 0) kind=" (no frames)"
+		[ "${np%f10}" != "$np" ] && np=${np%f10} own=(--publish-every 10) kind=" (frames every 10 steps)"
 		[ "${np%q}" != "$np" ] && np=${np%q} own+=(--partition quadtree) kind=" quad-tree$kind"
 		for rep in $(seq "${PEERS_REPS:-3}"); do
 			one=$(solo "$level" "$t")
@@ -277,7 +279,9 @@ load1=$(cut -d' ' -f1-3 /proc/loadavg)
 	echo "the scheduler as much as for the network).  Load average (1, 5, 15 min) before:"
 	echo "$load0, after: $load1 (the 4- and 8-peer runs load the machine themselves).  Computing and waiting"
 	echo "are the owner's; halo and whole-region kB are what the owner sent per step"
-	echo "(whole regions every 10 steps, the default \`--publish-every\`)."
+	echo "(whole regions at the default \`--publish-rate 30\`: every N steps, at least 10, N"
+	echo "fixed at the start from the run's predicted speed, about 30 frames a second here;"
+	echo "*frames every 10 steps*: \`--publish-every 10\`, the default before 2026-12-01)."
 	echo
 	echo "$speed"
 	echo

@@ -2,7 +2,7 @@
 """peers_plot.py OUT.svg < TABLE — speedup of exact lock-step peers over one
 process against the level, one line per row label of the markdown table of
 tests/bench/peers.sh section 4 (a colour per peer count; dashed: the
-quad-tree's regions, thin: no frames between).  Plain SVG: no plotting
+quad-tree's regions, dotted: frames every 10 steps, thin: no frames between).  Plain SVG: no plotting
 library needed."""
 import sys
 
@@ -42,7 +42,8 @@ for i, (label, pts) in enumerate(sorted(rows.items(), key=lambda r: order(r[0]))
     pts.sort()
     n = int(label.split(" ")[0])
     c = colors.get(n, "black")
-    dash = ' stroke-dasharray="6 3"' if "quad-tree" in label else ""
+    dash = (' stroke-dasharray="6 3"' if "quad-tree" in label else
+            ' stroke-dasharray="2 2"' if "every 10" in label else "")
     width = 1 if "no frames" in label else 2
     path = " ".join(f"{x(lv):.1f},{y(s):.1f}" for lv, s in pts)
     out.append(f'<polyline points="{path}" fill="none" stroke="{c}" stroke-width="{width}"{dash}/>')

@@ -42,6 +42,35 @@ for case in "0.05s 5 steps" "0.034s 3 steps" "0.004s 1 step"; do
 		fail "--publish-every $1" "$out"
 	fi
 done
+# --publish-rate (30 by default, at least 10 steps): the steps of 1/R s at the
+# run's predicted speed, rounded up; the prediction is counted (rk4: 33 ns a
+# node-step, times the peers), so these are exact on any machine
+expect_error "--publish-rate 0" 2 '--publish-rate: 0 is outside' \
+	simulate-peer --owner s3.tgrid --publish-rate 0
+expect_error "--publish-rate with --publish-every" 2 '^simulate-peer: --publish-every and --publish-rate: one or the other' \
+	simulate-peer --owner s3.tgrid --publish-rate 5 --publish-every 3
+expect_error "a joiner choosing the frame rate" 2 '^simulate-peer: --publish-rate: the owner decides it' \
+	simulate-peer --join --publish-rate 5
+for case in "::6602 steps (about 30 a second at the predicted 1.98e+05 steps/s" \
+	"--peers 2::13204 steps (about 30 a second at the predicted 3.96e+05" \
+	"--publish-rate 1e6::1 step (about 1.98e+05 a second" \
+	"--clock realtime --dt 0.01 --publish-rate 20::5 steps (about 20 a second at the predicted 100 steps/s"; do
+	opts=${case%%::*} want=${case#*::}
+	# shellcheck disable=SC2086
+	out=$(simulate-peer --owner s3.tgrid $opts --info 2>&1)
+	if grep -qF "whole regions every $want" <<<"$out"; then
+		pass "--publish-rate, level 3${opts:+, $opts}: every $want"
+	else
+		fail "--publish-rate, level 3${opts:+, $opts}" "$out"
+	fi
+done
+# realtime at 100 steps/s: 4 steps would do, the default keeps 10 (no line)
+out=$(simulate-peer --owner s3.tgrid --clock realtime --dt 0.01 --info 2>&1)
+if grep -q "whole regions every" <<<"$out"; then
+	fail "the default frame interval's floor of 10 steps" "$out"
+else
+	pass "the default frame interval's floor of 10 steps (realtime, 100 steps/s)"
+fi
 expect_error "--partition unknown" 2 "--partition: 'spiral' is not quadtree, table41, metis or bands" \
 	simulate-peer --owner s3.tgrid --partition spiral
 expect_error "--clock unknown" 2 "--clock: 'wall' is not lockstep or realtime" \

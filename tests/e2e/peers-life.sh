@@ -153,9 +153,10 @@ wait $first; rf=$?
 	fail "the first owner after a second one" "first exit $rf, joiner exit $rj"
 
 # --- an observer writes every frame asked for (issue 16) -------------------------------
-# Whole regions travel every 10 steps (--publish-every's default), so the
+# Whole regions travel every 10 steps (--publish-every 10), so the
 # observer sees steps 0, 10, ... 50 and writes each as a frame.
-simulate-peer -q --owner wavy4.tgrid -s "$SCENE" --dt 0.01 -t 0.5 --peers 2 --start-timeout 20 -o watched.tgrid &
+simulate-peer -q --owner wavy4.tgrid -s "$SCENE" --dt 0.01 -t 0.5 --peers 2 --start-timeout 20 \
+	--publish-every 10 -o watched.tgrid &
 owner=$!
 mkdir -p obs
 simulate-peer --join --frames 'obs/f%03d.tgrid' --frame-every 10 -o observed.tgrid 2>obs.err &

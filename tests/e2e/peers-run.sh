@@ -109,11 +109,12 @@ fi
 # A simulating peer takes of the others' whole regions only the last step's
 # (the owner's -o, a joiner's own -o): it passes over their frames between,
 # undecoded (the network line counts them), unless it writes frames itself.
-# Both peers' -o are the single process's.
+# Both peers' -o are the single process's.  Frames every 10 steps: by default
+# (--publish-rate 30) a level-4 run this short would send only its first and last.
 for jopts in "-o joined.tgrid" "-o joined.tgrid --frames jf/f%03d.tgrid --frame-every 100"; do
 	rm -f joined.tgrid
 	simulate-peer --owner wavy4.tgrid -s "$SCENE" -i rk4 -t 10 --peers 2 --start-timeout 30 \
-		-o owned.tgrid 2>owner.err &
+		--publish-every 10 -o owned.tgrid 2>owner.err &
 	pids=($!)
 	# shellcheck disable=SC2086
 	simulate-peer --join --poi 250 --start-timeout 30 $jopts 2>joiner1.err &

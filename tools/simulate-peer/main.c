@@ -142,10 +142,16 @@ static __attribute__((noreturn)) void usage(void)
 	    "                          (default 1; wider halos, fewer round trips; rkf45\n"
 	    "                          and the implicit methods exchange within each step)\n"
 	    "      --publish-every N   owner: whole regions every N steps for\n"
-	    "                          observers and render-frame (default 10; 0: only\n"
-	    "                          the first and last step), or every T seconds of\n"
+	    "                          observers and render-frame (0: only the first\n"
+	    "                          and last step), or every T seconds of\n"
 	    "                          simulated time with Ts (e.g. 0.04s: 25 Hz; the\n"
 	    "                          nearest whole number of steps, at least 1)\n"
+	    "                          (default: --publish-rate 30, at least 10 steps)\n"
+	    "      --publish-rate R    owner: whole regions at most about R times a\n"
+	    "                          second of wall time, 1e-6..1e6: every N steps, N\n"
+	    "                          fixed at the start from the run's predicted\n"
+	    "                          speed (a count per node and method, the same on\n"
+	    "                          any machine: docs/peers.md; realtime: --speed/dt)\n"
 	    "      --checkpoint-every C\n"
 	    "                          owner, lockstep (every method): every simulating\n"
 	    "                          peer sends its region's exact state to the others\n"
@@ -444,6 +450,7 @@ static void options(run *r, int argc, char **argv)
 		{"boundary", required_argument, 0, OPT_PEER},
 		{"halo-steps", required_argument, 0, OPT_PEER},
 		{"publish-every", required_argument, 0, OPT_PEER},
+		{"publish-rate", required_argument, 0, OPT_PEER},
 		{"send-level", required_argument, 0, OPT_PEER},
 		{"checkpoint-every", required_argument, 0, OPT_PEER},
 		{"precondition", required_argument, 0, OPT_PEER},

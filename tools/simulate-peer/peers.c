@@ -52,7 +52,7 @@ static ndo_part_method owner_partition(const peer_cli *c, int level)
 static const char *const owner_only[] = {"partition", "clock", "speed", "peers", "boundary",
                                          "step-timeout", "gather-timeout", "encoding",
                                          "halo-steps", "publish-every", "send-level",
-                                         "checkpoint-every", NULL};
+                                         "checkpoint-every", "publish-rate", NULL};
 static uint32_t given; /* bit k: owner_only[k] was given */
 
 void peer_option(peer_cli *c, const char *name, const char *arg)
@@ -120,6 +120,8 @@ void peer_option(peer_cli *c, const char *name, const char *arg)
 			c->publish_seconds = 0;
 		}
 		c->publish_every_set = 1;
+	} else if (strcmp(name, "publish-rate") == 0) {
+		c->publish_rate = ndo_opt_double(opt, arg, 1e-6, 1e6);
 	} else if (strcmp(name, "checkpoint-every") == 0) {
 		/* 0: none (the library's 0 is its default, its < 0 none) */
 		c->checkpoint_every = (int)ndo_opt_long(opt, arg, 0, 1000000000);
@@ -184,6 +186,8 @@ void peer_check(const peer_cli *c, const char *scene, const char *in, int n,
 			ndo_usage_error("the peers' options need --owner or --join");
 		return;
 	}
+	if (c->publish_rate > 0 && c->publish_every_set)
+		ndo_usage_error("--publish-every and --publish-rate: one or the other");
 	if (c->role != NDO_ROLE_JOINER)
 		return;
 	for (int k = 0; owner_only[k]; k++)
@@ -327,6 +331,56 @@ static void observe(peer_run *pr, double now)
 		ndo_grid_destroy(pr->last);
 		pr->last = f;
 	}
+}
+
+/* The default --publish-rate: whole regions about this many times a second
+ * of wall time, and at least PUBLISH_EVERY_MIN steps apart. */
+enum { PUBLISH_RATE = 30, PUBLISH_EVERY_MIN = 10 };
+
+/* The run's steps per second of wall time as the owner predicts them, for
+ * --publish-rate: realtime's is --speed / dt; lock-step's the peers' count
+ * times one thread's on this method and grid, at the single-thread rates
+ * of docs/bench/threads.md and docs/bench/multigrid.md (2-core Intel Xeon,
+ * 2026-11-30; rkf45 at its sub-steps of the thesis' scene) — counted, not
+ * timed, so that one command sends the same frames on any machine and at
+ * any load (frame k is step k·N: a recording's frames, and the watches'
+ * lost-frame counts, must not depend on how busy the machine was). */
+static double predicted_rate(const run *r, const peer_cli *c, size_t nodes)
+{
+	if (c->clock == NDO_CLOCK_REALTIME)
+		return (c->speed > 0 ? c->speed : 1) / r->dt;
+	double ns; /* a node-step's nanoseconds */
+	switch (r->sc.sim.method) {
+	case NDO_EULER:
+	case NDO_SYMPLECTIC_EULER: ns = 7; break;
+	case NDO_MIDPOINT: ns = 15; break;
+	case NDO_RK4: ns = 33; break;
+	case NDO_RKF45: ns = 200; break;
+	default: ns = 120; break; /* backward-euler, trapezoid: multigrid */
+	}
+	return (c->peers > 1 ? c->peers : 1) / (ns * 1e-9 * (double)(nodes ? nodes : 1));
+}
+
+/* --publish-every, from --publish-rate (or its default) where not given:
+ * the steps of 1/rate seconds at the predicted speed, rounded up (at most
+ * that rate), at least PUBLISH_EVERY_MIN by default and 1 when asked. */
+static void publish_interval(run *r, peer_cli *c, size_t nodes)
+{
+	if (c->publish_every_set)
+		return;
+	double rate = c->publish_rate > 0 ? c->publish_rate : PUBLISH_RATE;
+	double q = ceil(predicted_rate(r, c, nodes) / rate);
+	int least = c->publish_rate > 0 ? 1 : PUBLISH_EVERY_MIN;
+	c->publish_every = q < least ? least : q > 1e9 ? 1000000000 : (int)q;
+	ndo_method m = r->sc.sim.method;
+	int every_step = c->hold_boundary || (c->clock == NDO_CLOCK_REALTIME &&
+	                                      (m == NDO_RKF45 || ndo_method_is_implicit(m)));
+	if (!r->quiet && !every_step && (c->publish_rate > 0 || c->publish_every != PUBLISH_EVERY_MIN))
+		fprintf(stderr, "%s: whole regions every %d step%s (about %.3g a second at the "
+		        "predicted %.3g steps/s; --publish-rate %g)\n", ndo_progname, c->publish_every,
+		        c->publish_every == 1 ? "" : "s",
+		        predicted_rate(r, c, nodes) / c->publish_every, predicted_rate(r, c, nodes),
+		        rate);
 }
 
 /* The owner's object: the single process's setup, as a grid with every
@@ -566,6 +620,7 @@ int peers_main(run *r)
 				        c->publish_every == 1 ? "" : "s", c->publish_every * r->dt,
 				        c->publish_seconds);
 		}
+		publish_interval(r, c, r->g->count);
 		if (r->info) {
 			ndo_close_stdout();
 			return NDO_EXIT_OK;

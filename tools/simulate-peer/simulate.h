@@ -24,6 +24,7 @@ typedef struct peer_cli {
 	int halo_steps, publish_every, publish_every_set, checkpoint_every;
 	int block;             /* --precondition block */
 	double publish_seconds; /* --publish-every Ts: every T s of simulated time */
+	double publish_rate;    /* --publish-rate R (0: not given) */
 	int send_level; /* −1: the simulated level */
 	ndo_codec_params codec; /* --encoding (raw by default) */
 	ndo_faults faults;     /* --drop --delay --jitter --reorder --fault-seed */
