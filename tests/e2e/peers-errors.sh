@@ -44,7 +44,9 @@ for case in "0.05s 5 steps" "0.034s 3 steps" "0.004s 1 step"; do
 done
 # --publish-rate (30 by default, at least 10 steps): the steps of 1/R s at the
 # run's predicted speed, rounded up; the prediction is counted (rk4: 33 ns a
-# node-step, times the peers), so these are exact on any machine
+# node-step, times the peers), so these are exact on any machine.  With the
+# owner's --frames every F steps, a divisor of F (F when the largest under the
+# rate's is less than half of it), so that the owner's frames are whole.
 expect_error "--publish-rate 0" 2 '--publish-rate: 0 is outside' \
 	simulate-peer --owner s3.tgrid --publish-rate 0
 expect_error "--publish-rate with --publish-every" 2 '^simulate-peer: --publish-every and --publish-rate: one or the other' \
@@ -54,7 +56,11 @@ expect_error "a joiner choosing the frame rate" 2 '^simulate-peer: --publish-rat
 for case in "::6602 steps (about 30 a second at the predicted 1.98e+05 steps/s" \
 	"--peers 2::13204 steps (about 30 a second at the predicted 3.96e+05" \
 	"--publish-rate 1e6::1 step (about 1.98e+05 a second" \
-	"--clock realtime --dt 0.01 --publish-rate 20::5 steps (about 20 a second at the predicted 100 steps/s"; do
+	"--clock realtime --dt 0.01 --publish-rate 20::5 steps (about 20 a second at the predicted 100 steps/s" \
+	"--frames f/%d.tgrid --frame-every 20::20 steps (about 9.9e+03 a second at the predicted 1.98e+05 steps/s; --publish-rate 30, to suit --frame-every)" \
+	"--frames f/%d.tgrid --frame-every 100000::6250 steps (about 31.7 a second" \
+	"--frames f/%d.tgrid --frame-every 999999937::999999937 steps (" \
+	"--frames f/%d.tgrid --frame-every 30 --publish-rate 1e5::2 steps ("; do
 	opts=${case%%::*} want=${case#*::}
 	# shellcheck disable=SC2086
 	out=$(simulate-peer --owner s3.tgrid $opts --info 2>&1)

@@ -372,15 +372,30 @@ static void publish_interval(run *r, peer_cli *c, size_t nodes)
 	double q = ceil(predicted_rate(r, c, nodes) / rate);
 	int least = c->publish_rate > 0 ? 1 : PUBLISH_EVERY_MIN;
 	c->publish_every = q < least ? least : q > 1e9 ? 1000000000 : (int)q;
+	/* the owner's own --frames (every F steps) show the others' regions as
+	 * they travelled: a divisor of F keeps every one of them whole — the
+	 * largest at most the rate's, unless under half of it (F prime, say):
+	 * then F itself, fewer than the rate */
+	int64_t f = r->sc.frames ? r->sc.frame_every : 0, n = c->publish_every, d = 1;
+	if (f > 0 && f <= 1000000000 && f % n) {
+		for (int64_t i = 1; i * i <= f; i++)
+			if (f % i == 0) {
+				if (i <= n && i > d)
+					d = i;
+				if (f / i <= n && f / i > d)
+					d = f / i;
+			}
+		c->publish_every = (int)(2 * d < n ? f : d);
+	}
 	ndo_method m = r->sc.sim.method;
 	int every_step = c->hold_boundary || (c->clock == NDO_CLOCK_REALTIME &&
 	                                      (m == NDO_RKF45 || ndo_method_is_implicit(m)));
 	if (!r->quiet && !every_step && (c->publish_rate > 0 || c->publish_every != PUBLISH_EVERY_MIN))
 		fprintf(stderr, "%s: whole regions every %d step%s (about %.3g a second at the "
-		        "predicted %.3g steps/s; --publish-rate %g)\n", ndo_progname, c->publish_every,
-		        c->publish_every == 1 ? "" : "s",
+		        "predicted %.3g steps/s; --publish-rate %g%s)\n", ndo_progname,
+		        c->publish_every, c->publish_every == 1 ? "" : "s",
 		        predicted_rate(r, c, nodes) / c->publish_every, predicted_rate(r, c, nodes),
-		        rate);
+		        rate, c->publish_every != n ? ", to suit --frame-every" : "");
 }
 
 /* The owner's object: the single process's setup, as a grid with every
