@@ -228,6 +228,27 @@ double *ndo_grid_f64(ndo_grid *g, const char *name, int comps)
 	return ndo_grid_find(g, name)->data;
 }
 
+int ndo_grid_nonfinite(const ndo_grid *g, const char *name, int *i, int *j)
+{
+	const ndo_channel *c = ndo_grid_find(g, name);
+	if (!c || (c->type != NDO_F64 && c->type != NDO_F32))
+		return 0;
+	size_t n = g->count * (size_t)c->comps;
+	for (size_t k = 0; k < n; k++) {
+		double v = c->type == NDO_F64 ? ((const double *)c->data)[k]
+		                              : (double)((const float *)c->data)[k];
+		if (!isfinite(v)) {
+			size_t node = k / (size_t)c->comps;
+			if (i)
+				*i = (int)(node % (size_t)g->w);
+			if (j)
+				*j = (int)(node / (size_t)g->w);
+			return 1;
+		}
+	}
+	return 0;
+}
+
 /* Quote one argument the way a POSIX shell would need it. */
 static size_t quote_arg(const char *a, char *out)
 {

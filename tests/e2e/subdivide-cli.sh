@@ -111,3 +111,32 @@ sys.exit(not np.array_equal(a, b))'; then
 else fail "disagreeing seam duplicates" "$(head -2 seam.err)"; fi
 if subdivide s5.tgrid -o /dev/null 2>quiet.err && [ ! -s quiet.err ]; then pass "no warning for a grid ndo wrote"
 else fail "warning for a grid ndo wrote" "$(head -1 quiet.err)"; fi
+
+# A position that is not finite spreads over the butterfly's reach: named
+# at the file's node and refused (simulate-peer and render-frame refuse it
+# too), nothing written; and finite positions that refine beyond ±DBL_MAX.
+PYTHONPATH=$NDO_ROOT/tests/e2e /usr/bin/python3 - <<'PYEOF'
+import gridfile, numpy as np
+g = gridfile.read("s5.tgrid")
+x = g["channels"]["position"].copy()
+x[2, 3, 1] = np.nan
+gridfile.write_grid("nan.tgrid", {"level": g["level"], "step": 0, "time": 0.0, "history": "",
+                                  "ch": {"position": x}})
+x = g["channels"]["position"].astype('<f4')
+x[1, 5, 2] = np.inf
+gridfile.write_grid("inf32.tgrid", {"level": g["level"], "step": 0, "time": 0.0, "history": "",
+                                    "ch": {"position": x}})
+gridfile.write_grid("huge.tgrid", {"level": g["level"], "step": 0, "time": 0.0, "history": "",
+                                   "ch": {"position": g["channels"]["position"] * 1.7e308}})
+PYEOF
+expect_error "a NaN position" 1 "^subdivide: nan\.tgrid: position of node \(3, 2\) is not finite$" \
+	subdivide nan.tgrid -o never.obj
+expect_error "an infinite f32 position, from a pipe" 1 \
+	"^subdivide: standard input: position of node \(5, 1\) is not finite$" \
+	bash -c 'subdivide <inf32.tgrid >never.tgrid'
+expect_error "positions refined beyond the doubles" 1 \
+	"huge\.tgrid: position of node \([0-9]+, [0-9]+\) of the grid refined by 2 levels is not finite" \
+	subdivide -l 2 huge.tgrid -o never.tgrid
+rm -f never.tgrid
+if [ ! -e never.obj ] && ! ls ./*.tmp.* >/dev/null 2>&1; then pass "nothing written for a position that is not finite"
+else fail "a refused position left a file" "$(ls never.obj ./*.tmp.* 2>&1)"; fi

@@ -25,7 +25,8 @@ static __attribute__((noreturn)) void usage(void)
 	       "  -h, --help         show this help and exit\n"
 	       "      --version      show the version and exit\n"
 	       "\n"
-	       "Exit status: 0 success, 1 bad input or failed write, 2 usage error.\n",
+	       "Exit status: 0 success, 1 bad input (also a position that is not finite)\n"
+	       "or failed write, 2 usage error.\n",
 	       ndo_progname);
 	ndo_close_stdout();
 	exit(NDO_EXIT_OK);
@@ -94,6 +95,13 @@ int main(int argc, char **argv)
 		         chn, di, dj);
 		ndo_grid_sync(g);
 	}
+	/* A NaN or an infinity spreads over the butterfly's reach and makes a
+	 * mesh no viewer draws; simulate-peer and render-frame refuse it, so
+	 * subdivide names it at the file's node rather than pass it on. */
+	const char *name = ndo_is_stdio(in) ? "standard input" : in;
+	int bi, bj;
+	if (ndo_grid_nonfinite(g, NDO_CH_POSITION, &bi, &bj))
+		ndo_die("%s: position of node (%d, %d) is not finite", name, bi, bj);
 	if (g->level + levels > NDO_MAX_LEVEL)
 		ndo_usage_error("--levels: level %d + %d exceeds the largest level, %d",
 		                g->level, levels, NDO_MAX_LEVEL);
@@ -101,6 +109,12 @@ int main(int argc, char **argv)
 	ndo_grid *fine;
 	if (ndo_subdivide_levels(g, levels, rule, &fine) != NDO_OK)
 		ndo_die("%s", ndo_errdetail());
+	/* Finite positions near ±DBL_MAX can refine beyond it (the mask's
+	 * weights sum to 1 but its positive ones to 1.25). */
+	if (ndo_grid_nonfinite(fine, NDO_CH_POSITION, &bi, &bj))
+		ndo_die("%s: position of node (%d, %d) of the grid refined by %d level%s is not "
+		        "finite: the input's positions are too large", name, bi, bj, levels,
+		        levels == 1 ? "" : "s");
 	double t1 = now();
 	if (verbose)
 		fprintf(stderr, "%s: level %d → %d: %zu → %zu stored nodes, %d channels, %.3f ms\n",

@@ -108,6 +108,12 @@ int ndo_grid_convert(ndo_grid *g, const char *name, ndo_type type);
  * another width, is an integer channel, or memory runs out. */
 double *ndo_grid_f64(ndo_grid *g, const char *name, int comps);
 
+/* The first stored node (row by row) with a value of channel `name` (f64
+ * or f32) that is NaN or infinite: 1, and its (i, j) when those pointers
+ * are not NULL; 0 when every value is finite, or the channel is absent
+ * or holds integers. */
+int ndo_grid_nonfinite(const ndo_grid *g, const char *name, int *i, int *j);
+
 /* Append one command line (argv, shell-quoted where needed) to the
  * grid's history. */
 int ndo_grid_add_history(ndo_grid *g, int argc, char *const argv[]);
