@@ -100,3 +100,29 @@ else
 	fail "the same run without the energy test" "exit or energy: ${most:-?} J; $(head -1 err.log)"
 fi
 rm -f o.tgrid
+
+# --log: its place checked before the work (as -o's), not after the setup
+# and --accuracy's pilots; '-' beside a grid on standard output would put
+# the CSV and the binary grid in one stream (exit 0 until 2026-12); the
+# file of -o or the input would be replaced by the CSV.
+expect_error "--log in a missing directory, before the work" 1 \
+	'^simulate-peer: --log: cannot write nodir/run\.csv: No such file or directory$' \
+	simulate-peer --log nodir/run.csv s3.tgrid -o o.tgrid
+expect_error "--log - with the grid on standard output" 2 \
+	'^simulate-peer: --log -: the grid goes to standard output too' \
+	bash -c 'simulate-peer -q -n 2 --log - s3.tgrid >mixed.out'
+expect_error "--log naming the output" 2 '^simulate-peer: --log o\.tgrid: that is the output \(-o\)$' \
+	simulate-peer -q -n 2 --log o.tgrid s3.tgrid -o o.tgrid
+cp s3.tgrid keep3.tgrid
+expect_error "--log naming the input" 2 '^simulate-peer: --log \./keep3\.tgrid: that is the input grid$' \
+	simulate-peer -q -n 2 --log ./keep3.tgrid keep3.tgrid -o o.tgrid
+if cmp -s s3.tgrid keep3.tgrid && [ ! -e o.tgrid ]; then pass "--log refused: the input kept, nothing written"
+else fail "--log refused" "the input changed or o.tgrid written"; fi
+if simulate-peer -q -n 2 --log - s3.tgrid -o o.tgrid >log.out 2>err.log &&
+	[ "$(head -c 5 log.out)" = "step," ] && [ "$(wc -l <log.out)" -eq 5 ]; then
+	pass "--log - with -o FILE: the CSV on standard output"
+else fail "--log - with -o FILE" "$(head -1 err.log)"; fi
+expect_error "a frame path too long, before the work" 2 \
+	'^simulate-peer: --frames: the path for frame 0 is too long$' \
+	simulate-peer -q --frames 'f%4090d.tgrid' s3.tgrid -o o.tgrid
+rm -f o.tgrid

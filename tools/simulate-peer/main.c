@@ -11,6 +11,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -77,7 +78,8 @@ static __attribute__((noreturn)) void usage(void)
 	    "                          the initial state; out/ is made when missing)\n"
 	    "      --frame-every N     a frame every N steps, 1..1e12 (default 1)\n"
 	    "      --log FILE          CSV log: step, time, step size, energies, input\n"
-	    "                          work, max displacement, rkf45 sub-steps\n"
+	    "                          work, max displacement, rkf45 sub-steps ('-':\n"
+	    "                          standard output, with -o FILE)\n"
 	    "      --log-every N       a log row every N steps, 1..1e12 (default 1)\n"
 	    "      --perturb A         add a seeded random displacement of up to A metres\n"
 	    "                          per coordinate, [0, 1e6] (default 0)\n"
@@ -406,6 +408,35 @@ static void finish(run *r)
 
 /* ---- options ------------------------------------------------------------------ */
 
+/* Two names of one file: the same string, or the same existing file. */
+static int same_file(const char *a, const char *b)
+{
+	if (!a || !b || ndo_is_stdio(a) || ndo_is_stdio(b))
+		return 0;
+	struct stat sa, sb;
+	return strcmp(a, b) == 0 || (stat(a, &sa) == 0 && stat(b, &sb) == 0 &&
+	                             sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino);
+}
+
+/* --log FILE, before the work (as -o is): a place it cannot be written
+ * fails now, not after the setup, the critical step and --accuracy's
+ * pilots; '-' beside a grid on standard output would put the CSV and the
+ * binary grid in one stream; the file of -o, the input or the rest shape
+ * would be replaced by the CSV (or replace it). */
+static void check_log(run *r, int grid_out)
+{
+	const char *log = r->sc.log;
+	if (ndo_is_stdio(log) && grid_out && ndo_is_stdio(r->sc.output))
+		ndo_usage_error("--log -: the grid goes to standard output too; give -o FILE, or the "
+		                "log a file");
+	const char *other[] = {r->sc.output, r->in, r->sc.rest};
+	const char *what[] = {"the output (-o)", "the input grid", "the rest grid (--rest)"};
+	for (int k = 0; k < 3; k++)
+		if (same_file(log, other[k]))
+			ndo_usage_error("--log %s: that is %s", log, what[k]);
+	ndo_cli_check_writable("--log", log);
+}
+
 static void options(run *r, int argc, char **argv)
 {
 	enum { OPT_INFO = 256, OPT_VERSION, OPT_SETTING, OPT_PEER, OPT_PEER_FLAG, OPT_THREADS,
@@ -555,11 +586,16 @@ static void options(run *r, int argc, char **argv)
 		ndo_usage_error("--accuracy: no duration: give -t T (or 'time T' in the scene)");
 	if (r->net.role != NDO_ROLE_JOINER && ndo_is_stdio(r->in) && isatty(STDIN_FILENO))
 		ndo_usage_error("no input: give a grid file or pipe one in");
-	if (!r->info && (r->net.role != NDO_ROLE_JOINER || r->sc.output))
+	int grid_out = r->net.role != NDO_ROLE_JOINER || r->sc.output;
+	if (!r->info && grid_out)
 		ndo_cli_check_output(r->sc.output);
+	if (!r->info && r->sc.log)
+		check_log(r, grid_out);
 	if (r->sc.frames) {
 		char probe[4096];
-		snprintf(probe, sizeof probe, r->sc.frames, 0);
+		int len = snprintf(probe, sizeof probe, r->sc.frames, 0);
+		if (len < 0 || (size_t)len >= sizeof probe)
+			ndo_usage_error("--frames: the path for frame 0 is too long");
 		if (ndo_unknown_extension(probe))
 			ndo_usage_error("--frames: %s: unknown extension (use .tgrid, .obj, .ply, .stl, "
 			                ".glb or .gltf)", probe);
