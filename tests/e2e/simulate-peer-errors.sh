@@ -126,3 +126,12 @@ expect_error "a frame path too long, before the work" 2 \
 	'^simulate-peer: --frames: the path for frame 0 is too long$' \
 	simulate-peer -q --frames 'f%4090d.tgrid' s3.tgrid -o o.tgrid
 rm -f o.tgrid
+
+# A step under the smallest normal double is a step of 0 to the steps
+# (they flush subnormal numbers): refused before the run, not "step size
+# 1e-310: must be positive and finite" (exit 1) at the first step.
+for o in "--dt 1e-320" "-t 1e-310" "--dt-safety 1e-310"; do
+	expect_error "a subnormal step ($o)" 2 \
+		"^simulate-peer: the step [0-9.e+-]+ s is under 2\.2e-308 s, the smallest normal double" \
+		simulate-peer -q $o s3.tgrid -o o.tgrid
+done

@@ -4,6 +4,7 @@
  * owner and peers of a shared run (peers.c) call them. */
 #include "simulate.h"
 
+#include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -160,6 +161,14 @@ void plan(run *r)
 		r->steps = (int64_t)fmax(1, n);
 		r->dt = r->sc.duration / (double)r->steps;
 	}
+	/* The steps run with subnormal numbers flushed to zero (ndo_fp_flush:
+	 * they cost 100 times a normal one), so a step under the smallest
+	 * normal double is a step of 0, refused by the first step as "not
+	 * positive" after the setup: --dt 1e-320, -t 1e-310, --dt-safety
+	 * 1e-310. */
+	if (r->dt < DBL_MIN)
+		ndo_usage_error("the step %g s is under 2.2e-308 s, the smallest normal double, "
+		                "which the steps take as 0 (--dt, -t or --dt-safety)", r->dt);
 	if (!r->quiet)
 		fprintf(stderr, "%s: step %.4g s%s, %lld steps to t = %.6g s\n", ndo_progname, r->dt,
 		        r->sc.dt_auto ? " (auto)" : "", (long long)r->steps,
