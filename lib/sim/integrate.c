@@ -514,6 +514,17 @@ int ndo_sim_create(int level, const double *x, const double *v, const double *re
 		 * (thesis appendix B: the viscous force −b ∂u/∂t per unit area,
 		 * lumped like the mass); the acceleration needs B_ii / m_i. */
 		s->gam[q] = p->material.damping / p->material.density + p->material.mass_damping;
+		/* A density so small that a node's mass is not a normal double
+		 * (ρ = 1e-310) gave 1/m = inf: λ_max(M⁻¹K) inf, "stable at any
+		 * step", and a NaN state at the first step. */
+		if (!isfinite(s->minv[q]) || !isfinite(s->gam[q])) {
+			rc = ndo__fail(NDO_ERANGE, "density %g: node (%d, %d)'s mass %g kg is too small "
+			               "for a double's range (%s overflows)",
+			               p->material.density, (int)(q % (size_t)s->w),
+			               (int)(q / (size_t)s->w), s->mass[q],
+			               isfinite(s->minv[q]) ? "the damping rate b/density" : "its inverse");
+			goto fail;
+		}
 		for (int d = 0; d < 3; d++) {
 			lo[d] = fmin(lo[d], aos[3 * q + d]);
 			hi[d] = fmax(hi[d], aos[3 * q + d]);

@@ -135,3 +135,8 @@ for o in "--dt 1e-320" "-t 1e-310" "--dt-safety 1e-310"; do
 		"^simulate-peer: the step [0-9.e+-]+ s is under 2\.2e-308 s, the smallest normal double" \
 		simulate-peer -q $o s3.tgrid -o o.tgrid
 done
+# A density whose nodes' masses are not normal doubles: 1/m overflowed,
+# and --info said "rk4: stable at any step".
+expect_error "a density too small for the doubles" 1 \
+	"density 1e-310: node \(0, 0\)'s mass [0-9.e+-]+ kg is too small for a double's range \(its inverse overflows\)" \
+	simulate-peer --info --density 1e-310 s3.tgrid

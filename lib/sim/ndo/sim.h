@@ -213,8 +213,9 @@ typedef struct ndo_sim ndo_sim;
  * takes its canonical node's values.  K and M are assembled from the rest
  * shape.  Time and step count start at 0 (ndo_sim_set_time to change).
  * NDO_ERANGE for non-finite input, a coordinate or velocity beyond
- * ±NDO_SIM_MAX_COORD (naming the node), a degenerate rest triangle or a
- * bad parameter, NDO_EINVAL for a force item out of range. */
+ * ±NDO_SIM_MAX_COORD (naming the node), a degenerate rest triangle, a
+ * density under which a node's mass (or b/density) leaves a double's range,
+ * or a bad parameter, NDO_EINVAL for a force item out of range. */
 #define NDO_SIM_MAX_COORD 1e100
 /* The divergence test's bound on the shape (ndo_sim_step): a node more
  * than this many rest bounding-box diagonals from where the body's mean
