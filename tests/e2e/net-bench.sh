@@ -49,6 +49,16 @@ expect_error "bad loss" 2 "^net-bench: --loss" net-bench --loss 2
 expect_error "unwritable CSV" 1 "^net-bench: no/such/dir/x.csv: " net-bench -l 4 -e raw --csv no/such/dir/x.csv
 expect_error "unwritable table" 1 "^net-bench: no/such/dir/x.md: " net-bench -l 4 -e raw -o no/such/dir/x.md
 expect_error "stray argument" 2 "^net-bench: unexpected argument" net-bench extra
+# A usage error before anything is written: a send level above -l's
+# printed the table's head on standard output first (and, run without
+# root, the namespace's error came instead of it).
+expect_error "send level above the level: nothing on stdout" 2 \
+	"^net-bench: --send-level: 5 is above the level 4 \(0\.\.4\)$" net-bench -q -l 4 -s 5
+[ -s out.log ] && fail "send level above the level: nothing on stdout" "$(head -c 100 out.log)"
+expect_error "send level above the level, unprivileged" 2 "^net-bench: --send-level: 5 is above" \
+	setpriv --reuid=65534 --regid=65534 --clear-groups "$NDO_BIN/net-bench" -q -l 4 -s 5
+expect_error "the CSV and the table in one file" 2 "^net-bench: --csv t\.txt: that is the table's file" \
+	net-bench -q -l 4 -e raw --csv t.txt -o t.txt
 [ ! -e no/such/dir ] || fail "unwritable CSV or table" "a file appeared"
 
 # 3. 2 peers, each compact encoding RUNS times, against the raw 2-peer run

@@ -216,6 +216,17 @@ int main(int argc, char **argv)
 	}
 	if (optind < argc)
 		ndo_usage_error("unexpected argument '%s'", argv[optind]);
+	/* Every usage error before anything is written or the namespace made:
+	 * a send level above -l's printed the table's head on standard output
+	 * first, and without root the namespace's error hid it. */
+	if (level >= 0)
+		for (int k = 0; k < nsend; k++)
+			if (sends[k] > level)
+				ndo_usage_error("--send-level: %d is above the level %d (0..%d)",
+				                (int)sends[k], level, level);
+	if (csv && output && !ndo_is_stdio(csv) && !ndo_is_stdio(output) &&
+	    strcmp(csv, output) == 0)
+		ndo_usage_error("--csv %s: that is the table's file (-o) too", csv);
 	static ndo_key key;
 	int keyed = ndo_key_resolve(key_file, &key);
 	if (keyed < 0)
@@ -266,11 +277,6 @@ int main(int argc, char **argv)
 	if (tf)
 		table_head(tf);
 	int failed = 0;
-	if (level >= 0)
-		for (int k = 0; k < nsend; k++)
-			if (sends[k] > level)
-				ndo_usage_error("--send-level: %d is above the level %d (0..%d)",
-				                (int)sends[k], level, level);
 	if (!nsend) /* the row's own level */
 		sends[nsend++] = -1;
 	for (int l = lo; l <= hi && !failed; l++)
