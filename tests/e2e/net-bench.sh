@@ -14,7 +14,7 @@ if net-bench -q -l 4 -e predict -t 1 --csv row.csv -o table.txt >stdout.txt 2>er
 	/usr/bin/python3 - row.csv <<'PY' >check.txt
 import csv, math, sys
 rows = list(csv.DictReader(open(sys.argv[1])))
-need = "level encoding bits_per_node_update mbit_s max_error_rel rms_error_rel encode_ms decode_ms latency_p50_us latency_p99_us kernel_drops".split()
+need = "level encoding bits_per_node_update mbit_s max_error_rel rms_error_rel encode_ms decode_ms latency_p50_us latency_p99_us kernel_drops halo_bits".split()
 r = rows[0] if rows else {}
 bad = [c for c in need if c not in r]
 if len(rows) != 1 or bad:
@@ -29,6 +29,8 @@ if not 0 < f["rms_error_rel"] <= f["max_error_rel"]: why.append("rms error")
 if not (f["encode_ms"] > 0 and f["decode_ms"] > 0): why.append("times")
 if not 0 < f["latency_p50_us"] <= f["latency_p99_us"] < 1e6: why.append("latency")
 if f["kernel_drops"] != 0: why.append(f"kernel drops {f['kernel_drops']}")
+# the 2 peers' halos: counted apart from the wire's bits (not a viewer's)
+if not f["halo_bits"] > 0: why.append(f"halo bits {f['halo_bits']}")
 print("ok" if not why else "; ".join(why),
       f"{f['bits_per_node_update']:.3g} bits/node/update, max error {f['max_error_rel']:.3g}")
 PY

@@ -49,7 +49,8 @@ static __attribute__((noreturn)) void usage(void)
 	       "Columns, as a listener on every channel of the run sees the traffic: bits\n"
 	       "per node per update (over W x H nodes and the owner's steps) of the state\n"
 	       "tiles' payload alone and of every message on the wire (with message, LCM,\n"
-	       "UDP and IPv4 headers), both in the steady state (after the last join,\n"
+	       "UDP and IPv4 headers; the simulating peers' halos apart, in the CSV's\n"
+	       "halo_bits), both in the steady state (after the last join,\n"
 	       "before the last step, which goes exact), and of the whole run with the\n"
 	       "joins and the last step; Mbit/s of the steady state at the rate the run\n"
 	       "went, the position error the encoding introduced (max and RMS over the\n"
@@ -82,7 +83,7 @@ static const char *const header =
 	"steps_per_s,max_error_rel,rms_error_rel,encode_ms,decode_ms,latency_p50_us,"
 	"latency_p99_us,kernel_drops,messages,resends,nobase,corrupt,observer_frames,"
 	"observer_incomplete,divergence,thesis_mbit_s,send_level,vertices,bits_per_vertex_update,"
-	"level_max_error_rel,level_rms_error_rel,disp_max_error_rel,disp_rms_error_rel";
+	"level_max_error_rel,level_rms_error_rel,disp_max_error_rel,disp_rms_error_rel,halo_bits";
 
 static void csv_row(FILE *f, const nb_row *r)
 {
@@ -95,7 +96,7 @@ static void csv_row(FILE *f, const nb_row *r)
 	                                   : NAN;
 	fprintf(f, "%d,%s,%g,%d,%lld,%zu,%zu,%.4g,%.4g,%.4g,%.4g,%.4g,%.4g,%.4g,%.4g,%.4g,%.4g,%lld,"
 	        "%.4g,%.4g,%.3g,%.3g,%.4g,%.4g,%.4g,%.4g,%ld,"
-	        "%llu,%llu,%llu,%llu,%lld,%lld,%.3g,%.4g,%d,%zu,%.4g,%.3g,%.3g,%.3g,%.3g\n",
+	        "%llu,%llu,%llu,%llu,%lld,%lld,%.3g,%.4g,%d,%zu,%.4g,%.3g,%.3g,%.3g,%.3g,%.4g\n",
 	        r->level, r->encoding, r->loss, r->peers, (long long)r->steps, r->nodes,
 	        r->exact_nodes, r->bits_per_node_update, r->payload_bits, r->total_bits,
 	        b[NB_ENCODED], b[NB_RAW_STATE], b[NB_REST], b[NB_FINAL], b[NB_HEARTBEAT],
@@ -106,7 +107,7 @@ static void csv_row(FILE *f, const nb_row *r)
 	        (unsigned long long)r->resends, (unsigned long long)r->nobase,
 	        (unsigned long long)r->corrupt, (long long)r->frames, (long long)r->incomplete,
 	        r->divergence, thesis_mbit(r->level), r->send_level, r->vertices, r->bits_per_vertex,
-	        r->level_max_rel, r->level_rms_rel, r->disp_max_rel, r->disp_rms_rel);
+	        r->level_max_rel, r->level_rms_rel, r->disp_max_rel, r->disp_rms_rel, b[NB_HALO]);
 }
 
 static void table_head(FILE *f)
