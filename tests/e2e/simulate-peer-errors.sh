@@ -140,3 +140,12 @@ done
 expect_error "a density too small for the doubles" 1 \
 	"density 1e-310: node \(0, 0\)'s mass [0-9.e+-]+ kg is too small for a double's range \(its inverse overflows\)" \
 	simulate-peer --info --density 1e-310 s3.tgrid
+# --rest - beside an input on standard input: one grid there, the input's
+# (the rest grid, read after it, found "standard input: empty input").
+expect_error "--rest - with the input on standard input" 2 \
+	"^simulate-peer: --rest -: standard input holds the input grid" \
+	bash -c 'simulate-peer -q -n 2 --rest - <s3.tgrid >o.tgrid'
+if simulate-peer -q -n 2 --rest - s3.tgrid -o o.tgrid <s3.tgrid 2>err.log; then
+	pass "--rest - with the input a file"
+else fail "--rest - with the input a file" "$(head -1 err.log)"; fi
+rm -f o.tgrid

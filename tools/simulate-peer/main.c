@@ -586,6 +586,12 @@ static void options(run *r, int argc, char **argv)
 		ndo_usage_error("--accuracy: no duration: give -t T (or 'time T' in the scene)");
 	if (r->net.role != NDO_ROLE_JOINER && ndo_is_stdio(r->in) && isatty(STDIN_FILENO))
 		ndo_usage_error("no input: give a grid file or pipe one in");
+	/* One grid on standard input: the input's, unless a file is given
+	 * (the rest grid read after it found nothing: "empty input"). */
+	if (r->sc.rest && ndo_is_stdio(r->sc.rest) && ndo_is_stdio(r->in) &&
+	    r->net.role != NDO_ROLE_JOINER)
+		ndo_usage_error("--rest -: standard input holds the input grid; give the input or "
+		                "the rest grid as a file");
 	int grid_out = r->net.role != NDO_ROLE_JOINER || r->sc.output;
 	if (!r->info && grid_out)
 		ndo_cli_check_output(r->sc.output);
