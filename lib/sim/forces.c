@@ -88,13 +88,25 @@ int ndo__forces_resolve(ndo_sim *s, const ndo_force *forces, int nforces)
 			return ndo__fail(NDO_ERANGE, "force %d: amplitude, frequency and phase must "
 			                 "be finite, the frequency ≥ 0", k + 1);
 		if (in->kind != NDO_FORCE_PRESSURE && !in->normal) {
-			double l = sqrt(in->dir[0] * in->dir[0] + in->dir[1] * in->dir[1] +
-			                in->dir[2] * in->dir[2]);
-			if (!(l > 0) || !isfinite(l))
-				return ndo__fail(NDO_ERANGE, "force %d: the direction must be a nonzero "
-				                 "finite vector", k + 1);
+			double d[3] = {in->dir[0], in->dir[1], in->dir[2]};
+			double l = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+			/* The squares of a direction's components under 1e-154 or over
+			 * 1e154 leave the doubles (direction=1e-300,0,0 had length 0,
+			 * 1e200,0,0 length inf, both refused as not "nonzero finite"):
+			 * there the vector is first divided by its largest component.
+			 * Elsewhere the length as before, so that results keep their
+			 * bits. */
+			if (!(l > 1e-150 && l < 1e150)) {
+				double m = fmax(fabs(d[0]), fmax(fabs(d[1]), fabs(d[2])));
+				if (!(m > 0) || !isfinite(m))
+					return ndo__fail(NDO_ERANGE, "force %d: the direction must be a nonzero "
+					                 "finite vector", k + 1);
+				for (int c = 0; c < 3; c++)
+					d[c] /= m;
+				l = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+			}
 			for (int c = 0; c < 3; c++)
-				f->f.dir[c] = in->dir[c] / l;
+				f->f.dir[c] = d[c] / l;
 		}
 		if (in->kind == NDO_FORCE_PRESSURE) {
 			s->has_pressure = 1;

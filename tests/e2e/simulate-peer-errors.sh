@@ -149,3 +149,14 @@ if simulate-peer -q -n 2 --rest - s3.tgrid -o o.tgrid <s3.tgrid 2>err.log; then
 	pass "--rest - with the input a file"
 else fail "--rest - with the input a file" "$(head -1 err.log)"; fi
 rm -f o.tgrid
+# A force's direction is any nonzero finite vector: one whose components'
+# squares leave the doubles (1e-300,0,0: length 0; 1e200,0,0: inf) was
+# refused as "must be a nonzero finite vector"; it is the same run as 1,0,0.
+for d in 1,0,0 1e-300,0,0 1e200,0,0; do
+	simulate-peer -q -n 4 --force "point nodes=3:3 direction=$d" --log "dir-$d.csv" s3.tgrid \
+		-o o.tgrid 2>err.log || fail "direction $d" "$(head -1 err.log)"
+done
+if cmp -s dir-1,0,0.csv dir-1e-300,0,0.csv && cmp -s dir-1,0,0.csv dir-1e200,0,0.csv; then
+	pass "tiny and huge force directions: the unit direction's run"
+else fail "tiny and huge force directions" "the logs differ from direction=1,0,0's"; fi
+rm -f o.tgrid
