@@ -21,6 +21,10 @@ check "thesis corners" subdivide --corners thesis s5.tgrid -o s6t.tgrid
 for ext in obj ply stl glb gltf; do
 	check "export .$ext" subdivide -l 0 s5.tgrid -o "s5.$ext"
 done
+# a .gltf's buffer goes beside it, as the manual says (it did not say so)
+if [ -s s5.bin ] && grep -q 'NAME.*\.bin' "$NDO_ROOT/tools/subdivide.1"; then
+	pass ".gltf: its buffer beside it, as NAME.bin, and the manual says so"
+else fail ".gltf's buffer" "s5.bin missing or tools/subdivide.1 silent about it"; fi
 if [ "$(grep -c '^v ' s5.obj)" = 2050 ] && [ "$(grep -c '^f ' s5.obj)" = 4096 ]; then
 	pass "obj has 2·4^5+2 vertices and 4^6 faces"
 else
