@@ -2,6 +2,7 @@
  * (ndo/grid.h). */
 #include "ndo/grid.h"
 #include "grid_private.h"
+#include "ndo/gridfile.h"
 #include "ndo/status.h"
 
 #include <math.h>
@@ -279,6 +280,43 @@ static size_t quote_arg(const char *a, char *out)
 	return n;
 }
 
+/* A history over NDO_HISTORY_MAX bytes is one no reader takes: a grid
+ * that came through thousands of tools (a simulation continued in
+ * chunks) could go through none more, and simulate-peer said so after
+ * its whole run.  The first line stays (where the grid came from: what
+ * render-frame reads), then a line saying how many were dropped, then the
+ * newest lines that fit; a newest line that alone does not fit is cut. */
+static void trim_history(char *h)
+{
+	size_t len = strlen(h);
+	if (len <= NDO_HISTORY_MAX)
+		return;
+	char *second = strchr(h, '\n');
+	size_t first = second ? (size_t)(second - h) + 1 : 0;
+	if (first > NDO_HISTORY_MAX / 2) /* a first line that alone fills it */
+		first = 0;
+	char mark[96];
+	size_t lines = 0, room = NDO_HISTORY_MAX - first - (sizeof mark - 1);
+	const char *keep = h + len; /* the newest whole lines within room */
+	while (keep > h + first) {
+		const char *start = keep - 1;
+		while (start > h + first && start[-1] != '\n')
+			start--;
+		if ((size_t)(h + len - start) > room)
+			break;
+		keep = start;
+	}
+	if (keep == h + len) /* the newest line alone is too long: its tail */
+		keep = h + len - room;
+	for (const char *q = h + first; q < keep; q++)
+		lines += *q == '\n';
+	int n = snprintf(mark, sizeof mark, "# %zu earlier line%s dropped: the history is kept "
+	                 "under %u bytes\n", lines, lines == 1 ? "" : "s", NDO_HISTORY_MAX);
+	size_t tail = (size_t)(h + len - keep);
+	memmove(h + first + (size_t)n, keep, tail + 1);
+	memcpy(h + first, mark, (size_t)n);
+}
+
 int ndo_grid_add_history(ndo_grid *g, int argc, char *const argv[])
 {
 	size_t len = 0;
@@ -297,5 +335,6 @@ int ndo_grid_add_history(ndo_grid *g, int argc, char *const argv[])
 	if (argc == 0)
 		*p++ = '\n';
 	*p = '\0';
+	trim_history(h);
 	return NDO_OK;
 }

@@ -294,6 +294,59 @@ static void save_is_atomic(void)
 	ndo_grid_destroy(g2);
 }
 
+/* A history at NDO_HISTORY_MAX (a grid through thousands of tools) takes
+ * one more command line: the first line stays, the oldest after it go,
+ * the newest is last, and the grid is written and read back.  It was
+ * written longer than the cap, and no tool could write the grid any more
+ * ("history of 1048593 bytes exceeds 1048576", after simulate-peer's run). */
+static void a_full_history_keeps_its_first_and_newest_lines(void)
+{
+	ndo_grid *g, *h = NULL;
+	ndo_grid_create(1, &g);
+	const char *first = "remesh bunny.off -l 6\n";
+	size_t cap = NDO_HISTORY_MAX;
+	char *hist = malloc(cap + 1);
+	strcpy(hist, first);
+	size_t n = strlen(first);
+	for (int k = 0; n + 40 < cap - 7; k++)
+		n += (size_t)sprintf(hist + n, "simulate-peer -n 10 s.tgrid -o s.tgrid\n");
+	while (n < cap - 7)
+		hist[n++] = 'y';
+	hist[n++] = '\n';
+	hist[n] = 0;
+	free(g->history);
+	g->history = hist;
+	char *argv[] = {"subdivide", "-l", "1", "s.tgrid"};
+	CHECK(ndo_grid_add_history(g, 4, argv) == NDO_OK, "add: %s", ndo_errdetail());
+	size_t len = strlen(g->history);
+	CHECK(len <= cap, "history of %zu bytes, over %zu", len, cap);
+	CHECK(strncmp(g->history, first, strlen(first)) == 0, "the first line kept");
+	CHECK(strstr(g->history, "earlier lines dropped") != NULL, "the drop said");
+	const char *tail = "\nsubdivide -l 1 s.tgrid\n";
+	CHECK(len > strlen(tail) && strcmp(g->history + len - strlen(tail), tail) == 0,
+	      "the newest line last");
+	char path[] = "/tmp/ndo-history-XXXXXX";
+	int fd = mkstemp(path);
+	CHECK(fd >= 0, "mkstemp");
+	close(fd);
+	CHECK(ndo_grid_save(path, g) == NDO_OK, "save: %s", ndo_errdetail());
+	CHECK(ndo_grid_load(path, &h) == NDO_OK && same_grid(g, h), "load after save");
+	ndo_grid_destroy(h);
+	/* a newest line that alone is over the cap: its tail */
+	size_t big = cap + cap / 2;
+	char *arg = malloc(big + 1);
+	memset(arg, 'z', big);
+	arg[big] = 0;
+	char *argv2[] = {arg};
+	CHECK(ndo_grid_add_history(g, 1, argv2) == NDO_OK, "add a huge line");
+	CHECK(strlen(g->history) <= cap, "history of %zu bytes after a huge line",
+	      strlen(g->history));
+	CHECK(ndo_grid_save(path, g) == NDO_OK, "save after a huge line: %s", ndo_errdetail());
+	free(arg);
+	unlink(path);
+	ndo_grid_destroy(g);
+}
+
 int main(void)
 {
 	ck_program = "gridfile";
@@ -303,5 +356,6 @@ int main(void)
 	RUN(single_bit_flips_rejected);
 	RUN(forged_headers_rejected);
 	RUN(save_is_atomic);
+	RUN(a_full_history_keeps_its_first_and_newest_lines);
 	return ck_failed_cases != 0;
 }

@@ -115,7 +115,9 @@ double *ndo_grid_f64(ndo_grid *g, const char *name, int comps);
 int ndo_grid_nonfinite(const ndo_grid *g, const char *name, int *i, int *j);
 
 /* Append one command line (argv, shell-quoted where needed) to the
- * grid's history. */
+ * grid's history.  Over NDO_HISTORY_MAX bytes (ndo/gridfile.h), the first
+ * line stays, a line "# N earlier lines dropped: ..." follows, then the
+ * newest lines that fit (a newest line over the cap alone: its tail). */
 int ndo_grid_add_history(ndo_grid *g, int argc, char *const argv[]);
 
 #ifdef __cplusplus
