@@ -100,8 +100,10 @@ int main(int argc, char **argv)
 	 * subdivide names it at the file's node rather than pass it on. */
 	const char *name = ndo_is_stdio(in) ? "standard input" : in;
 	int bi, bj;
-	if (ndo_grid_nonfinite(g, NDO_CH_POSITION, &bi, &bj))
+	if (ndo_grid_nonfinite(g, NDO_CH_POSITION, &bi, &bj)) {
+		ndo_grid_destroy(g);
 		ndo_die("%s: position of node (%d, %d) is not finite", name, bi, bj);
+	}
 	if (g->level + levels > NDO_MAX_LEVEL)
 		ndo_usage_error("--levels: level %d + %d exceeds the largest level, %d",
 		                g->level, levels, NDO_MAX_LEVEL);
@@ -111,10 +113,13 @@ int main(int argc, char **argv)
 		ndo_die("%s", ndo_errdetail());
 	/* Finite positions near ±DBL_MAX can refine beyond it (the mask's
 	 * weights sum to 1 but its positive ones to 1.25). */
-	if (ndo_grid_nonfinite(fine, NDO_CH_POSITION, &bi, &bj))
+	if (ndo_grid_nonfinite(fine, NDO_CH_POSITION, &bi, &bj)) {
+		ndo_grid_destroy(g);
+		ndo_grid_destroy(fine);
 		ndo_die("%s: position of node (%d, %d) of the grid refined by %d level%s is not "
 		        "finite: the input's positions are too large", name, bi, bj, levels,
 		        levels == 1 ? "" : "s");
+	}
 	double t1 = now();
 	if (verbose)
 		fprintf(stderr, "%s: level %d → %d: %zu → %zu stored nodes, %d channels, %.3f ms\n",
