@@ -429,9 +429,16 @@ void ndo__pending_work(const ndo_sim *s, double power, double *w, double *w_abs)
 	*w_abs = s->work_abs + 0.5 * s->pend_h * (fabs(s->pend_power) + fabs(power));
 }
 
-/* The largest distance of an integrated node's displacement from their
- * mass-weighted mean (mean: that mean). */
-double ndo__deformation(const ndo_sim *s, double mean[3])
+/* The largest distance of an integrated node's displacement, or a
+ * projected pin's, from the integrated nodes' mass-weighted mean (mean:
+ * that mean).  The pins count: they are the body's nodes as much as the
+ * others, and a free part driven 1,000 box diagonals from the pins it
+ * hangs on, barely deformed itself, is a body stretched 1,000 diagonals —
+ * until 2026-12-01 the test measured the integrated nodes alone and let
+ * it run, while the peers' messages, which bound one message's nodes to
+ * 1 + 2 · NDO_SIM_DEFORM_MAX diagonals of each other, dropped the halos
+ * that held a pin and such a node, and a 2-peer run stalled. */
+double ndo__deformation(const ndo_sim *s, double mean[3], int *pin)
 {
 	const size_t cnt = s->count;
 	double m = 0, su[3] = {0, 0, 0}, dev2 = 0;
@@ -452,21 +459,41 @@ double ndo__deformation(const ndo_sim *s, double mean[3])
 			}
 			dev2 = fmax(dev2, r2);
 		}
-	return sqrt(dev2);
+	double pin2 = 0;
+	for (size_t k = 0; k < s->nppin; k++) {
+		const size_t p = (size_t)s->ppin[k];
+		double r2 = 0;
+		for (int e = 0; e < 3; e++) {
+			double r = s->u[(size_t)e * cnt + p] - mean[e];
+			r2 += r * r;
+		}
+		pin2 = fmax(pin2, r2);
+	}
+	if (pin)
+		*pin = pin2 > dev2;
+	return sqrt(fmax(dev2, pin2));
+}
+
+/* The largest |u| of a node the size test measures: an integrated one's
+ * (d, NaN kept) or a projected pin's. */
+static double size_umax(const ndo_sim *s, const ndo__diag *d)
+{
+	const double umax = sqrt(d->umax2);
+	return s->upin > umax ? s->upin : umax;
 }
 
 int ndo__size_needs_state(const ndo_sim *s, const ndo__diag *d)
 {
-	const double umax = sqrt(d->umax2);
+	const double umax = size_umax(s, d);
 	return umax > NDO_SIM_DEFORM_MAX * s->rest_size && umax > s->udrift;
 }
 
 int ndo__size_is_drift(ndo_sim *s, const ndo__diag *d)
 {
 	double mean[3];
-	if (!(ndo__deformation(s, mean) <= NDO_SIM_DEFORM_MAX * s->rest_size))
+	if (!(ndo__deformation(s, mean, NULL) <= NDO_SIM_DEFORM_MAX * s->rest_size))
 		return 0;
-	s->udrift = sqrt(d->umax2) + s->rest_size;
+	s->udrift = size_umax(s, d) + s->rest_size;
 	return 1;
 }
 
@@ -491,7 +518,7 @@ int ndo__diverged(ndo_sim *s, const ndo__diag *d, int commit)
 		E = 0.5 * (d->pe2 + d->ke2 - s->h_mod * d->vku);
 	if (!isfinite(E) || !isfinite(d->umax2) || !isfinite(d->power))
 		return ndo__fail(NDO_EDIVERGED, "the state is not finite (NaN or Inf)");
-	double umax = sqrt(d->umax2);
+	double umax = size_umax(s, d);
 	if (ndo__size_needs_state(s, d)) {
 		/* Beyond 100 × the object's size from rest: a free body may have
 		 * got there whole (the thesis' figure 5.3, level 4, a stable step:
@@ -500,12 +527,14 @@ int ndo__diverged(ndo_sim *s, const ndo__diag *d, int commit)
 		 * test is on each node's distance from where the body's mean
 		 * displacement puts it, measured here (a pass over the nodes, made
 		 * again only once some node has gone a size further). */
-		double mean[3], dev = ndo__deformation(s, mean);
+		int pin;
+		double mean[3], dev = ndo__deformation(s, mean, &pin);
 		if (!(dev <= NDO_SIM_DEFORM_MAX * s->rest_size))
 			return ndo__fail(NDO_EDIVERGED,
-			                 "a node is %.3g m from where the body's mean displacement "
+			                 "a %snode is %.3g m from where the body's mean displacement "
 			                 "(%.3g m) puts it, more than 100 × the object's size (%.3g m)",
-			                 dev, sqrt(mean[0] * mean[0] + mean[1] * mean[1] + mean[2] * mean[2]),
+			                 pin ? "pinned " : "", dev,
+			                 sqrt(mean[0] * mean[0] + mean[1] * mean[1] + mean[2] * mean[2]),
 			                 s->rest_size);
 		if (commit)
 			s->udrift = umax + s->rest_size;

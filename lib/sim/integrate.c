@@ -365,6 +365,47 @@ static int build_spans(ndo_sim *s)
 	return build_held_edges(s);
 }
 
+/* The largest |u| of the pins the size test measures (s->ppin). */
+static void pins_size(ndo_sim *s)
+{
+	const size_t cnt = s->count;
+	double m2 = 0;
+	for (size_t k = 0; k < s->nppin; k++) {
+		const size_t p = (size_t)s->ppin[k];
+		double r2 = 0;
+		for (int c = 0; c < 3; c++)
+			r2 += s->u[(size_t)c * cnt + p] * s->u[(size_t)c * cnt + p];
+		m2 = fmax(m2, r2);
+	}
+	s->upin = sqrt(m2);
+}
+
+/* The projected pins among the nodes mask marks (canonical; NULL: every
+ * node), which the size test measures: a peer's region's, whose values its
+ * messages carry, as the single process measures all of them.  Penalty
+ * pins are integrated, measured as any node. */
+static int region_pins(ndo_sim *s, const uint8_t *mask)
+{
+	free(s->ppin);
+	s->ppin = NULL;
+	s->nppin = 0;
+	s->upin = 0;
+	if (s->p.pin_mode != NDO_PINS_PROJECT)
+		return NDO_OK;
+	size_t n = 0;
+	for (size_t p = 0; p < s->count; p++)
+		n += s->pin[p] && s->canon[p] == (int32_t)p && (!mask || mask[p]);
+	if (!n)
+		return NDO_OK;
+	if (!(s->ppin = malloc(n * sizeof *s->ppin)))
+		return ndo__fail(NDO_ENOMEM, "out of memory for the pins");
+	for (size_t p = 0; p < s->count; p++)
+		if (s->pin[p] && s->canon[p] == (int32_t)p && (!mask || mask[p]))
+			s->ppin[s->nppin++] = (int32_t)p;
+	pins_size(s);
+	return NDO_OK;
+}
+
 static int set_active(ndo_sim *s, const uint8_t *mask)
 {
 	for (size_t p = 0; p < s->count; p++) {
@@ -560,7 +601,7 @@ int ndo_sim_create(int level, const double *x, const double *v, const double *re
 	}
 	if ((rc = ndo__forces_resolve(s, p->forces, p->nforces)))
 		goto fail;
-	if ((rc = workspace(s)) || (rc = set_active(s, NULL)))
+	if ((rc = workspace(s)) || (rc = set_active(s, NULL)) || (rc = region_pins(s, NULL)))
 		goto fail;
 	if (p->threads > 1) {
 		size_t nodes = 0;
@@ -615,7 +656,7 @@ void ndo_sim_destroy(ndo_sim *s)
 	ndo_stencil_free(&s->st);
 	planes_free(s->X), planes_free(s->u), planes_free(s->v);
 	planes_free(s->mass), planes_free(s->minv), planes_free(s->gam);
-	free(s->pin), free(s->active), free(s->canon), free(s->pend);
+	free(s->pin), free(s->active), free(s->canon), free(s->pend), free(s->ppin);
 	ndo_pool_destroy(s->pool);
 	free(s->espan), free(s->ispan), free(s->bact), free(s->hedge), free(s->hmove),
 	    free(s->hread);
@@ -735,6 +776,8 @@ void ndo_sim_set(ndo_sim *s, size_t n, const int32_t *nodes, const double *x,
 				s->v[(size_t)c * cnt + p] = v[3 * k + c];
 		}
 	}
+	if (x && s->nppin) /* a pin may be among them */
+		pins_size(s);
 	state_written(s, n, nodes);
 }
 
@@ -800,6 +843,8 @@ void ndo_sim_set_displacements(ndo_sim *s, size_t n, const int32_t *nodes, const
 				s->v[(size_t)c * cnt + p] = v[3 * k + c];
 		}
 	}
+	if (u && s->nppin) /* as ndo_sim_set */
+		pins_size(s);
 	state_written(s, n, nodes);
 }
 
@@ -817,6 +862,8 @@ int ndo_sim_set_active(ndo_sim *s, const uint8_t *mask)
 	s->ext_active = mask != NULL;
 	s->udrift = 0; /* another set of nodes: the size test measures again */
 	int rc = set_active(s, mask);
+	if (!rc)
+		rc = region_pins(s, mask);
 	ndo__implicit_invalidate(s, 1);
 	/* The energy bound is over the integrated nodes: a new region starts
 	 * it again from its own energy (a peer that takes over a moving region

@@ -68,6 +68,13 @@ struct ndo_sim {
 	double udrift;         /* the size test (ndo__diverged): the largest |u| up to
 	                        * which the state was seen to be a drift of the whole
 	                        * body, not a deformation (0: none yet) */
+	/* The projected pins of the nodes stepped (the whole object's, or
+	 * those within ndo_sim_set_active's region: the ones its messages
+	 * carry), canonical indices, and the largest |u| among them: the size
+	 * test measures them with the integrated nodes (ndo__deformation) */
+	int32_t *ppin;
+	size_t nppin;
+	double upin;
 
 	/* The active canonical nodes as runs: all of them (for elementwise
 	 * updates), the interior ones (fast stencil), and the positions in
@@ -425,18 +432,21 @@ void ndo__border_terms_sum(const ndo_sim *s, const double *terms, ndo__diag *d);
  * (accel.c).  commit: close the last step's work with this power. */
 int ndo__diverged(ndo_sim *s, const ndo__diag *d, int commit);
 /* Whether ndo__diverged, given diagnostics d, would measure the
- * deformation of s's state (a node beyond 100 × the rest size from rest,
- * past the drift seen so far): it reads the state, so its caller must hold
+ * deformation of s's state (a node, an integrated one or a projected pin,
+ * beyond 100 × the rest size from rest, past the drift seen so far): it reads the state, so its caller must hold
  * the state d describes (wave.c's runs test after the fact: integrate.c
  * runs them again up to that step first). */
 int ndo__size_needs_state(const ndo_sim *s, const ndo__diag *d);
 /* With s holding that state: 1, and the drift noted, when no integrated
- * node is 100 × the rest size from the nodes' mass-weighted mean
- * displacement; 0 otherwise (ndo__diverged then fails). */
+ * node nor projected pin is 100 × the rest size from the integrated nodes'
+ * mass-weighted mean displacement; 0 otherwise (ndo__diverged then
+ * fails). */
 int ndo__size_is_drift(ndo_sim *s, const ndo__diag *d);
-/* The largest distance of an integrated node's displacement from their
- * mass-weighted mean (mean: that mean; accel.c). */
-double ndo__deformation(const ndo_sim *s, double mean[3]);
+/* The largest distance of an integrated node's displacement, or a
+ * projected pin's (s->ppin), from the integrated nodes' mass-weighted mean
+ * (mean: that mean; *pin, when not NULL: whether that node is a pin;
+ * accel.c). */
+double ndo__deformation(const ndo_sim *s, double mean[3], int *pin);
 
 /* The input work so far, closing the last step with `power`. */
 void ndo__pending_work(const ndo_sim *s, double power, double *w, double *w_abs);

@@ -837,6 +837,75 @@ static int same_run(ndo_sim *a, ndo_sim *b, size_t nn, double *xa, double *va, d
 	       sa.substeps == sb.substeps;
 }
 
+/* The size test measures the pins with the other nodes: a body whose
+ * free part stands 101 sizes from its pins (moved whole, not deformed
+ * itself) has diverged, with every method, naming a pinned node, at 99
+ * sizes it has not; a region of the free part alone does not measure the
+ * pins (its messages carry none), a region that holds them does.  Until
+ * 2026-12-01 only the integrated nodes were measured, and a free part any
+ * distance from its pins ran on, while the peers' messages bound one
+ * message's nodes to 201 sizes of each other and a 2-peer run stalled
+ * (test_peer a_pinned_body_driven_far_splits_exactly). */
+static void a_body_far_from_its_pins_is_diverging(void)
+{
+	const int level = 4;
+	ndo_grid *g = shape("wavy", level);
+	const int w = g->w, n = 1 << level;
+	uint8_t *pin = calloc(g->count, 1), *left = calloc(g->count, 1);
+	uint8_t *right = calloc(g->count, 1);
+	for (int j = 0; j <= 2; j++) /* a patch at corner A */
+		for (int i = 0; i <= 2; i++)
+			pin[ndo_canonical(level, i, j)] = 1;
+	for (size_t q = 0; q < g->count; q++) {
+		int i = (int)(q % (size_t)w);
+		left[q] = i < n;
+		right[q] = !left[q] && i < 2 * n; /* column 2N is column 0 */
+	}
+	double *x = malloc(3 * g->count * sizeof *x);
+	const double *X = g->ch[0].data;
+	for (int m = 0; m < NDO_METHOD_COUNT; m++) {
+		const char *name = ndo_method_names[m];
+		ndo_sim_params p;
+		ndo_sim_defaults(&p);
+		p.method = m;
+		p.solver = NDO_SOLVER_CHOLMOD;
+		p.energy_bound = 0; /* the size test alone */
+		/* sizes off; the region (NULL: the whole object); diverged */
+		const struct {
+			double off;
+			const uint8_t *region;
+			int diverged;
+			const char *what;
+		} cases[] = {{99, NULL, 0, ""},
+		             {101, NULL, 1, ""},
+		             {101, right, 0, ", a region without the pins"},
+		             {101, left, 1, ", the region of the pins"}};
+		for (size_t k = 0; k < sizeof cases / sizeof *cases; k++) {
+			ndo_sim *s = make(g, NULL, NULL, pin, &p);
+			const double size = s->rest_size;
+			memcpy(x, X, 3 * g->count * sizeof *x);
+			for (size_t q = 0; q < g->count; q++)
+				if (!pin[ndo_canonical(level, (int)(q % (size_t)w), (int)(q / (size_t)w))])
+					x[3 * q + 2] += cases[k].off * size;
+			ndo_sim_set(s, 0, NULL, x, NULL);
+			int rc = cases[k].region ? ndo_sim_set_active(s, cases[k].region) : 0;
+			if (rc == 0)
+				rc = ndo_sim_step(s, 0.002);
+			if (cases[k].diverged)
+				CHECK(rc == NDO_EDIVERGED && strstr(ndo_errdetail(), "a pinned node is"),
+				      "%s, the free part %g sizes from its pins%s: %d (%s), not diverged at "
+				      "a pin", name, cases[k].off, cases[k].what, rc,
+				      rc ? ndo_errdetail() : "ran");
+			else
+				CHECK(rc == 0, "%s, the free part %g sizes from its pins%s: %s", name,
+				      cases[k].off, cases[k].what, ndo_errdetail());
+			ndo_sim_destroy(s);
+		}
+	}
+	free(pin), free(left), free(right), free(x);
+	ndo_grid_destroy(g);
+}
+
 /* The size test measures the shape, not where the body is: a free body
  * moving at 100 m/s (no force, no damping) goes 1,000 m — about 290 × its
  * size — in 10 s without "diverging", with each of the seven methods, and ndo_sim_steps gives single steps' bits on 1-3
@@ -2270,6 +2339,7 @@ int main(void)
 	RUN(steps_are_single_steps);
 	RUN(compact_force_items_are_the_items);
 	RUN(a_drifting_body_is_not_diverging);
+	RUN(a_body_far_from_its_pins_is_diverging);
 	RUN(results_are_pinned_across_versions);
 	RUN(rkf45_in_parts_is_the_step);
 	RUN(rkf45_resumes_from_state_time_and_substep);

@@ -217,10 +217,11 @@ typedef struct ndo_sim ndo_sim;
  * density under which a node's mass (or b/density) leaves a double's range,
  * or a bad parameter, NDO_EINVAL for a force item out of range. */
 #define NDO_SIM_MAX_COORD 1e100
-/* The divergence test's bound on the shape (ndo_sim_step): a node more
- * than this many rest bounding-box diagonals from where the body's mean
- * displacement puts it has diverged; a state within it is a legitimate
- * one, which the network's bound on state lets through (ndo/msg.h). */
+/* The divergence test's bound on the shape (ndo_sim_step): a node — a
+ * projected pin too — more than this many rest bounding-box diagonals
+ * from where the body's mean displacement puts it has diverged; a state
+ * within it is a legitimate one, which the network's bound on state lets
+ * through (ndo/msg.h: one message's nodes within twice it of each other). */
 #define NDO_SIM_DEFORM_MAX 100.0
 int ndo_sim_create(int level, const double *x, const double *v, const double *rest,
                    const uint8_t *pin, const ndo_sim_params *p, ndo_sim **out);
@@ -255,7 +256,9 @@ int ndo_sim_threads(const ndo_sim *s);
  * than NDO_SIM_DEFORM_MAX (100) × the rest shape's bounding-box diagonal
  * from where the integrated nodes' mass-weighted mean displacement puts it
  * (from its rest position moved with the body: a free body that drifts
- * whole does not diverge) mean divergence.  Then the step returns NDO_EDIVERGED, leaves
+ * whole does not diverge; a projected pin is such a node, so the free part
+ * of a pinned body may not go further than that from its pins; with
+ * ndo_sim_set_active, the region's nodes and pins) mean divergence.  Then the step returns NDO_EDIVERGED, leaves
  * the state as it is (the first bad state, at ndo_sim_time) and records
  * what was wrong in ndo_errdetail().  Call ndo_sim_check() to test the
  * state after the last step.  Other errors: NDO_EINVAL (h not positive
