@@ -1762,6 +1762,44 @@ static void a_large_deformation_splits_exactly(void)
 	      ok ? "done" : "not done", d);
 }
 
+/* A pinned body driven far, as far as one process takes it: the thesis'
+ * scene held by a cap at its bottom and pushed up whole by 1e7 N, its
+ * free part carried away from the pins nearly undeformed (at step 15 the
+ * free nodes lie within 0.5 box diagonals of their mean, 101 from the
+ * pins).  The single process refuses the state once a pin is 100
+ * diagonals from where the free nodes' mean displacement puts it (step
+ * 15); 2 peers give its result at step 14.  Until 2026-12-01 the
+ * simulation measured the free nodes alone and ran on to step 57 (the free
+ * part 1,450 diagonals from the pins, 94 across itself), while the
+ * receivers bound one message's nodes to 1 + 2 · 100 diagonals of each
+ * other: the halos that held a pin and a free node were dropped as `box`
+ * from step 22 (218 diagonals) and the 2-peer run stalled there. */
+static void a_pinned_body_driven_far_splits_exactly(void)
+{
+	setup su = {.integrator = "rk4", .dt = 0.002, .clock = NDO_CLOCK_LOCKSTEP, .peers = 2,
+	            .extra = "pin at=0,0,-1 radius=0.3\n"
+	                     "force face at=0,0,0 radius=10 amplitude=1e7 direction=0,0,1"};
+	/* the steps of the last state one process accepts (at most 100) */
+	ndo_scene sc;
+	ndo_grid *g;
+	ndo_sim *sim = object(&su, &sc, &g);
+	int64_t n = 0;
+	while (n < 100 && ndo_sim_step(sim, su.dt) == 0 && ndo_sim_check(sim) == 0)
+		n++;
+	ndo_sim_destroy(sim);
+	ndo_grid_destroy(g);
+	ndo_scene_free(&sc);
+	CHECK(n >= 10 && n < 100, "one process took %lld steps, not refused after 10 to 100",
+	      (long long)n);
+	su.steps = n;
+	ndo_peer_stats st;
+	int ok;
+	double d = split_run(&su, 2, &st, &ok);
+	CHECK(ok && d == 0, "2 peers, a pinned body driven as far as one process takes it (%lld "
+	      "steps): %s (the owner at step %lld), differs by %.3g", (long long)n,
+	      ok ? "done" : "not done", (long long)st.steps, d);
+}
+
 /* Strangers' empty halos of the next partition (a taint, last words) are
  * kept for it like anyone's, but once it is in force they are not its
  * members': the run stays exact, keeps its checkpoints, and the owner
@@ -2425,6 +2463,7 @@ int main(void)
 	RUN(strangers_tiles_are_not_used);
 	RUN(a_members_wild_halo_is_dropped);
 	RUN(a_large_deformation_splits_exactly);
+	RUN(a_pinned_body_driven_far_splits_exactly);
 	RUN(strangers_next_partition_halos_are_not_taken);
 	RUN(later_halos_and_phases_are_bounded);
 	RUN(the_checkpoint_store_counts_canonical_nodes_only);

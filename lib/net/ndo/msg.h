@@ -184,8 +184,9 @@ typedef struct ndo_msg_ctx {
  * message within 1 + 2 · NDO_SIM_DEFORM_MAX diagonals of each other a
  * component: the box's extent and the deformation on either side) — so
  * that a free body that drifts whole, or deforms as far as the
- * simulation's divergence test lets it (a node within 100 diagonals of
- * where the body's mean displacement puts it), is not cut off;
+ * simulation's divergence test lets it (a node, a pinned one too, within
+ * 100 diagonals of where the body's mean displacement puts it), is not
+ * cut off;
  * velocities below NDO_SPEED_MAX diagonals per second; and a
  * displacement u = x − X (X within the box) likewise.  The bound stops
  * wild values — a flipped exponent bit, a coordinate of 1e300, one node
