@@ -38,7 +38,7 @@ def ply(name, V, F, strips=False):
     with open(name, "wb") as f:
         f.write(head.encode())
         for v in V: f.write(struct.pack("<3d", *v))
-        for t in F: f.write(struct.pack("<B3i", 3, *t))
+        for t in F: f.write(struct.pack("<B%di" % len(t), len(t), *t))
 def stl(name, V, F):
     with open(name, "wb") as f:
         f.write(b"solid but binary".ljust(80, b" ") + struct.pack("<I", len(F)))
@@ -54,6 +54,32 @@ off("octa.off", V, F); ply("strips.ply", V, F, strips=True); stl("octa.stl", V, 
 # UV seams: vertex 0 split in two along the edges 4-0 and 0-5 (the faces
 # on vertex 3's side use the copy, 6), as exporters of textured models do
 obj("seams.obj", V + [V[0]], [tuple(6 if (i == 0 and 3 in t) else i for i in t) for t in F])
+# OBJ faces as written (the octahedron's lines 1-6 vertices, 7-14 faces,
+# its third face on line 9 spoiled): a vertex 0, one past the last, a
+# word, two corners, a relative reference (-3: the fourth of six) that
+# repeats a corner; a 0 on line 1 before any vertex (CGAL took it as the
+# first vertex); a relative one before the first vertex (line 4, after
+# three); valid relative references and tab-separated ones
+def objtext(name, lines):
+    with open(name, "w") as f: f.write("".join(l + "\n" for l in lines))
+OV = ["v %r %r %r" % v for v in V]
+OF = ["f %d %d %d" % tuple(i + 1 for i in t) for t in F]
+for tag, face in (("zero", "f 2 4 0"), ("onepast", "f 2 4 7"), ("word", "f 2 4 x"),
+                  ("twocorners", "f 2 4"), ("relrepeat", "f 2 4 -3")):
+    objtext("%s.obj" % tag, OV + OF[:2] + [face] + OF[3:])
+objtext("zerofirst.obj", ["f 0 3 5"] + OF[1:] + OV)
+objtext("relbefore.obj", OV[:3] + ["f -3 -1 -5"] + OV[3:] + OF)
+objtext("relative.obj", OV + ["f %d %d %d" % tuple(i - 6 for i in t) for t in F])
+objtext("tabs.obj", OV + [l.replace(" ", "\t") for l in OF])
+# OFF and PLY count from 0: a repeated corner, two corners in their third
+# face
+for tag, t in (("repeat", (1, 3, 3)), ("twocorners", (1, 3))):
+    G = list(F); G[2] = t
+    ply("%s.ply" % tag, V, G)
+    with open("%s.off" % tag, "w") as f:
+        f.write("OFF\n%d %d 0\n" % (len(V), len(G)))
+        f.writelines("%r %r %r\n" % v for v in V)
+        f.writelines("%d %s\n" % (len(u), " ".join(map(str, u))) for u in G)
 # an octahedron whose top passed through its bottom: crosses itself
 off("crossed.off", [(-1.5, 0.5, 0.3)] + V[1:], F)
 # a tetrahedron written as two quads (a pillow): triangulating both by
@@ -79,6 +105,30 @@ for f in nan.stl inf.stl; do
 		remesh "$f" -o out.tgrid --report
 done
 [ ! -e out.tgrid ] && pass "no grid written for bad coordinates" || fail "bad coordinates" "out.tgrid written"
+
+# Faces: a bad vertex reference named as the file numbers faces and
+# vertices — OBJ from 1, the face by its place among the faces and its
+# line, a relative reference as written; OFF and PLY from 0.  A 0 in an
+# OBJ face was "face 2 refers to vertex 6 of 6", and before any vertex it
+# was taken as the first
+while read -r f msg; do
+	expect_error "$f: the face named as the file has it" 1 "^remesh: $f: $msg\$" remesh "$f" -o out.tgrid
+done <<'FACES'
+zero.obj face 3 \(line 9\) refers to vertex 0: OBJ numbers vertices from 1
+zerofirst.obj face 1 \(line 1\) refers to vertex 0: OBJ numbers vertices from 1
+onepast.obj face 3 \(line 9\) refers to vertex 7 of 6
+word.obj face 3 \(line 9\): 'x' is not a vertex reference
+twocorners.obj face 3 \(line 9\) has 2 vertices
+relrepeat.obj face 3 \(line 9\) repeats vertex 4 \(written -3\) \(degenerate face\)
+relbefore.obj face 1 \(line 4\) refers to vertex -5, before the first: 3 vertices come before its line
+repeat.off face 2 repeats vertex 3 \(degenerate face\)
+twocorners.off face 2 has 2 vertices
+repeat.ply face 2 repeats vertex 3 \(degenerate face\)
+twocorners.ply face 2 has 2 vertices
+FACES
+[ ! -e out.tgrid ] && pass "no grid written for bad faces" || fail "bad faces" "out.tgrid written"
+ok obj-relative-references 2 relative.obj
+ok obj-tab-separated 2 tabs.obj
 
 # Formats: PLY triangle strips; glTF with its .bin beside it (remesh's own
 # -o x.gltf); binary STL, GLB and glTF on standard input

@@ -22,6 +22,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cerrno>
 #include <cmath>
 #include <cstdlib>
 #include <set>
@@ -173,6 +174,118 @@ static std::string bad_coordinate(double x, double y, double z)
 	return "";
 }
 
+static std::string plural(long n, const char *one, const char *many)
+{
+	return std::to_string(n) + " " + (n == 1 ? one : many);
+}
+
+/* How the file numbers its faces and vertices, for messages: OBJ counts
+ * both from 1 (a face by its place among the `f` lines, with its line; a
+ * vertex referred to relatively, as −1 for the last before the line, is
+ * named with what was written), OFF and PLY from 0, STL has facets and
+ * their corners. */
+struct Names {
+	std::string ext;
+	std::vector<long> line;             /* OBJ: each face's line */
+	std::vector<std::vector<long>> ref; /* OBJ: each face's references as written */
+
+	std::string face(std::size_t f) const
+	{
+		if (ext == "obj")
+			return "face " + std::to_string(f + 1) + " (line " + std::to_string(line[f]) + ")";
+		return (ext == "stl" ? "facet " : "face ") + std::to_string(f);
+	}
+	/* vertex v (0-based, as read), corner k of face f */
+	std::string vertex(std::size_t f, std::size_t k, std::size_t v) const
+	{
+		if (ext != "obj")
+			return "vertex " + std::to_string(v);
+		std::string s = "vertex " + std::to_string(v + 1);
+		if (ref[f][k] < 0)
+			s += " (written " + std::to_string(ref[f][k]) + ")";
+		return s;
+	}
+};
+
+/* The faces of an OBJ file as the file numbers them (a vertex reference is
+ * the number before any '/': 1 for the file's first vertex, or −1 for the
+ * last vertex before the line, −2 the one before it).  CGAL 5.5's reader,
+ * whose points are kept, takes 0 as a relative reference to the vertex
+ * after the line (a 0 in a file of 6 vertices was reported as "vertex 6
+ * of 6"; before a later `v` line, silently that vertex), lets a reference
+ * one past the last vertex through its own test, turns a relative one
+ * before the first vertex into an index near 2^64 and reads "f 1\t2\t3"
+ * as a face of one vertex: the references are read here.  False with the
+ * face and the reference named in *why. */
+static bool obj_faces(const std::string &data, Names &names,
+                      std::vector<std::vector<std::size_t>> &polys, std::string &why)
+{
+	/* each line's first word, comments cut */
+	auto first_word = [](std::string &line, std::istringstream &ls, std::string &tok) {
+		size_t hash = line.find('#');
+		if (hash != std::string::npos)
+			line.erase(hash);
+		ls.clear();
+		ls.str(line);
+		return bool(ls >> tok);
+	};
+	std::string line, tok;
+	std::istringstream ls;
+	std::size_t nv = 0;
+	{
+		std::istringstream in(data);
+		while (std::getline(in, line))
+			nv += first_word(line, ls, tok) && tok == "v";
+	}
+	std::istringstream in(data);
+	long lineno = 0;
+	std::size_t before = 0; /* vertices before the line */
+	polys.clear();
+	names.line.clear();
+	names.ref.clear();
+	while (std::getline(in, line)) {
+		lineno++;
+		if (!first_word(line, ls, tok))
+			continue;
+		if (tok == "v")
+			before++;
+		if (tok != "f")
+			continue;
+		const std::size_t f = polys.size();
+		names.line.push_back(lineno);
+		names.ref.emplace_back();
+		polys.emplace_back();
+		while (ls >> tok) {
+			std::string num = tok.substr(0, tok.find('/'));
+			char *end;
+			errno = 0;
+			long r = std::strtol(num.c_str(), &end, 10);
+			if (num.empty() || *end != '\0' || errno == ERANGE) {
+				why = names.face(f) + ": '" + tok + "' is not a vertex reference";
+				return false;
+			}
+			if (r == 0) {
+				why = names.face(f) + " refers to vertex 0: OBJ numbers vertices from 1";
+				return false;
+			}
+			if (r > 0 && (unsigned long)r > nv) {
+				why = names.face(f) + " refers to vertex " + std::to_string(r) + " of " +
+				      std::to_string(nv);
+				return false;
+			}
+			if (r < -(long)before) {
+				why = names.face(f) + " refers to vertex " + std::to_string(r) + ", before the " +
+				      "first: " + plural((long)before, "vertex comes", "vertices come") +
+				      " before its line";
+				return false;
+			}
+			names.ref[f].push_back(r);
+			polys[f].push_back(r > 0 ? (std::size_t)r - 1 : before - (std::size_t)-r);
+		}
+	}
+	return true;
+}
+
 static bool read_cgal(const std::string &ext, std::istream &is,
                       std::vector<Point> &pts,
                       std::vector<std::vector<std::size_t>> &polys)
@@ -267,7 +380,8 @@ static bool read_assimp(const std::string &path, const std::string &data,
  * ears) would make that edge non-manifold, so such a polygon takes a fan
  * whose diagonals are all new, from the first corner that has one. */
 static bool triangulate(const std::vector<Point> &pts,
-                        std::vector<std::vector<std::size_t>> &polys, std::string &why)
+                        std::vector<std::vector<std::size_t>> &polys, const Names &names,
+                        std::string &why)
 {
 	auto key = [](std::size_t a, std::size_t b) {
 		return a < b ? std::make_pair(a, b) : std::make_pair(b, a);
@@ -277,7 +391,8 @@ static bool triangulate(const std::vector<Point> &pts,
 		for (size_t k = 0; k < pg.size(); k++)
 			edges.insert(key(pg[k], pg[(k + 1) % pg.size()]));
 	std::vector<std::vector<std::size_t>> tris;
-	for (auto &pg : polys) {
+	for (std::size_t f = 0; f < polys.size(); f++) {
+		const std::vector<std::size_t> &pg = polys[f];
 		if (pg.size() == 3) {
 			tris.push_back(pg);
 			continue;
@@ -288,8 +403,8 @@ static bool triangulate(const std::vector<Point> &pts,
 		std::vector<CGAL::Triple<int, int, int>> out;
 		PMP::triangulate_hole_polyline(ring, std::back_inserter(out));
 		if (out.size() != pg.size() - 2) {
-			why = "a polygon of " + std::to_string(pg.size()) +
-			      " vertices cannot be triangulated";
+			why = names.face(f) + ": a polygon of " + std::to_string(pg.size()) +
+			      " vertices that cannot be triangulated";
 			return false;
 		}
 		std::vector<std::array<std::size_t, 3>> cand;
@@ -365,6 +480,8 @@ bool load(const std::string &path, Mesh &m, bool weld, std::vector<std::string> 
 		return false;
 	}
 	std::string ext = from_stdin ? sniff(data) : lower_ext(path);
+	Names names;
+	names.ext = ext;
 	std::vector<Point> pts;
 	std::vector<std::vector<std::size_t>> polys;
 	/* PLY triangle strips (a common scan format) are beyond CGAL's PLY
@@ -379,6 +496,15 @@ bool load(const std::string &path, Mesh &m, bool weld, std::vector<std::string> 
 		{
 			QuietCerr quiet;
 			ok = read_cgal(ext, is, pts, polys);
+		}
+		/* OBJ: the faces read again, as the file numbers them (obj_faces),
+		 * and a reference CGAL refused named */
+		if (ext == "obj" && (ok || ascii_defect(ext, data).empty())) {
+			std::vector<std::vector<std::size_t>> faces;
+			if (!obj_faces(data, names, faces, why))
+				return false;
+			if (ok)
+				polys.swap(faces);
 		}
 		if (!ok) {
 			std::string d = ext == "off" || ext == "obj" ? ascii_defect(ext, data) : "";
@@ -420,24 +546,39 @@ bool load(const std::string &path, Mesh &m, bool weld, std::vector<std::string> 
 		                                                 " vertices, a point cloud?)";
 		return false;
 	}
+	/* Faces named as the file numbers them (assimp's formats: as assimp
+	 * numbers them, from 0); a face that repeats a vertex is refused here,
+	 * before triangulation renumbers the faces. */
 	bool poly = false;
 	for (size_t i = 0; i < polys.size(); i++) {
-		if (polys[i].size() < 3) {
-			why = "face " + std::to_string(i) + " has " +
-			      std::to_string(polys[i].size()) + " vertices";
+		const std::vector<std::size_t> &pg = polys[i];
+		if (pg.size() < 3) {
+			why = names.face(i) + " has " + plural((long)pg.size(), "vertex", "vertices");
 			return false;
 		}
-		for (std::size_t v : polys[i])
-			if (v >= pts.size()) {
-				why = "face " + std::to_string(i) + " refers to vertex " +
-				      std::to_string(v) + " of " + std::to_string(pts.size());
+		for (std::size_t k = 0; k < pg.size(); k++)
+			if (pg[k] >= pts.size()) {
+				why = names.face(i) + " refers to " + names.vertex(i, k, pg[k]) + " of " +
+				      std::to_string(pts.size());
 				return false;
 			}
-		poly |= polys[i].size() > 3;
+		for (std::size_t k = 1; k < pg.size(); k++)
+			for (std::size_t l = 0; l < k; l++) {
+				if (pg[k] != pg[l])
+					continue;
+				if (ext == "stl")
+					why = names.face(i) + ": corners " + std::to_string(l) + " and " +
+					      std::to_string(k) + " are the same point (degenerate facet)";
+				else
+					why = names.face(i) + " repeats " + names.vertex(i, k, pg[k]) +
+					      " (degenerate face)";
+				return false;
+			}
+		poly |= pg.size() > 3;
 	}
 	if (poly) {
 		size_t np = polys.size();
-		if (!triangulate(pts, polys, why))
+		if (!triangulate(pts, polys, names, why))
 			return false;
 		notes.push_back("triangulated " + std::to_string(np) + " polygons into " +
 		                std::to_string(polys.size()) + " triangles");
@@ -449,11 +590,6 @@ bool load(const std::string &path, Mesh &m, bool weld, std::vector<std::string> 
 	for (size_t i = 0; i < polys.size(); i++)
 		m.f[i] = {(int)polys[i][0], (int)polys[i][1], (int)polys[i][2]};
 	return true;
-}
-
-static std::string plural(long n, const char *one, const char *many)
-{
-	return std::to_string(n) + " " + (n == 1 ? one : many);
 }
 
 bool validate(Mesh &m, bool weld, std::vector<std::string> &notes, std::string &why,

@@ -36,8 +36,13 @@ struct Mesh {
  * and within ±1e100 (else the vertex as the file numbers it is named).
  * Polygons are triangulated (CGAL) without creating an edge the mesh
  * already has.  On standard input the format is recognized from the
- * bytes (OFF, OBJ, PLY, ASCII and binary STL, glTF, GLB).  Returns false
- * with a one-line reason in *why. */
+ * bytes (OFF, OBJ, PLY, ASCII and binary STL, glTF, GLB).  A face that
+ * refers to a vertex the file lacks (OBJ's 0, a relative reference before
+ * the first vertex), repeats one or has fewer than three is refused.
+ * Returns false with a one-line reason in *why, naming faces and vertices
+ * as the file numbers them: OBJ from 1 (a face by its place among the `f`
+ * lines and its line; a relative reference as written too), OFF and PLY
+ * from 0, STL by facet and corner. */
 bool load(const std::string &path, Mesh &m, bool weld, std::vector<std::string> &notes,
           std::string &why);
 
