@@ -71,15 +71,22 @@ objtext("zerofirst.obj", ["f 0 3 5"] + OF[1:] + OV)
 objtext("relbefore.obj", OV[:3] + ["f -3 -1 -5"] + OV[3:] + OF)
 objtext("relative.obj", OV + ["f %d %d %d" % tuple(i - 6 for i in t) for t in F])
 objtext("tabs.obj", OV + [l.replace(" ", "\t") for l in OF])
-# OFF and PLY count from 0: a repeated corner, two corners in their third
-# face
-for tag, t in (("repeat", (1, 3, 3)), ("twocorners", (1, 3))):
+# OFF and PLY count from 0: a vertex past the last, -1, a repeated corner,
+# two corners in their third face (line 11 of the OFF)
+for tag, t in (("past", (1, 3, 6)), ("minus", (1, 3, -1)), ("repeat", (1, 3, 3)),
+               ("twocorners", (1, 3))):
     G = list(F); G[2] = t
     ply("%s.ply" % tag, V, G)
     with open("%s.off" % tag, "w") as f:
         f.write("OFF\n%d %d 0\n" % (len(V), len(G)))
         f.writelines("%r %r %r\n" % v for v in V)
         f.writelines("%d %s\n" % (len(u), " ".join(map(str, u))) for u in G)
+# a non-manifold edge (four faces on the edge 1-2 of remesh.bash's), after
+# an unreferenced vertex: named as the file numbers it, not as renumbered
+NV = [(9, 9, 9), (0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1), (1, 1, 1), (-1, -1, -1)]
+NF = [(0, 2, 1), (0, 1, 3), (0, 3, 2), (1, 2, 3), (0, 1, 4), (0, 5, 1), (0, 4, 5), (1, 5, 4)]
+NF = [tuple(i + 1 for i in t) for t in NF]
+off("nonmanifold.off", NV, NF); obj("nonmanifold.obj", NV, NF)
 # an octahedron whose top passed through its bottom: crosses itself
 off("crossed.off", [(-1.5, 0.5, 0.3)] + V[1:], F)
 # a tetrahedron written as two quads (a pillow): triangulating both by
@@ -121,8 +128,14 @@ word.obj face 3 \(line 9\): 'x' is not a vertex reference
 twocorners.obj face 3 \(line 9\) has 2 vertices
 relrepeat.obj face 3 \(line 9\) repeats vertex 4 \(written -3\) \(degenerate face\)
 relbefore.obj face 1 \(line 4\) refers to vertex -5, before the first: 3 vertices come before its line
+nonmanifold.obj not manifold: 1 edge shared by more than two faces \(first: vertices 2–3\)
+past.off face 2 \(line 11\) refers to vertex 6 of 6
+minus.off face 2 \(line 11\) refers to vertex -1 of 6
 repeat.off face 2 repeats vertex 3 \(degenerate face\)
 twocorners.off face 2 has 2 vertices
+nonmanifold.off not manifold: 1 edge shared by more than two faces \(first: vertices 1–2\)
+past.ply face 2 refers to vertex 6 of 6
+minus.ply face 2 refers to vertex -1 of 6
 repeat.ply face 2 repeats vertex 3 \(degenerate face\)
 twocorners.ply face 2 has 2 vertices
 FACES

@@ -96,12 +96,14 @@ struct QuietCerr {
 
 /* Why an ASCII OFF or OBJ file CGAL refused cannot be read: the first
  * vertex whose coordinates are not finite numbers, or the vertices it
- * lacks.  Only a diagnosis (the reading is CGAL's): "" when none found. */
+ * lacks; an OFF face's vertex index that is not one of its vertices (OBJ's
+ * faces: obj_faces).  Only a diagnosis (the reading is CGAL's): "" when
+ * none found. */
 static std::string ascii_defect(const std::string &ext, const std::string &data)
 {
 	std::istringstream in(data);
 	std::string line;
-	long lineno = 0, vertex = ext == "obj" ? 1 : 0, declared = -1, seen = 0;
+	long lineno = 0, vertex = ext == "obj" ? 1 : 0, declared = -1, seen = 0, face = 0;
 	bool header = false;
 	while (std::getline(in, line)) {
 		lineno++;
@@ -128,7 +130,22 @@ static std::string ascii_defect(const std::string &ext, const std::string &data)
 			declared = std::strtol(tok.c_str(), nullptr, 10);
 			continue;
 		} else if (seen >= declared) {
-			break;
+			/* a face: its corner count, then as many vertex indices */
+			long n = std::strtol(tok.c_str(), nullptr, 10);
+			for (long k = 0; k < n && ls >> tok; k++) {
+				char *end;
+				errno = 0;
+				long v = std::strtol(tok.c_str(), &end, 10);
+				if (*end != '\0' || errno == ERANGE)
+					return "face " + std::to_string(face) + " (line " + std::to_string(lineno) +
+					       "): '" + tok + "' is not a vertex index";
+				if (v < 0 || v >= declared)
+					return "face " + std::to_string(face) + " (line " + std::to_string(lineno) +
+					       ") refers to vertex " + std::to_string(v) + " of " +
+					       std::to_string(declared);
+			}
+			face++;
+			continue;
 		} else {
 			coords.push_back(tok);
 		}
@@ -198,8 +215,8 @@ struct Names {
 	/* vertex v (0-based, as read), corner k of face f */
 	std::string vertex(std::size_t f, std::size_t k, std::size_t v) const
 	{
-		if (ext != "obj")
-			return "vertex " + std::to_string(v);
+		if (ext != "obj") /* PLY's indices are signed: −1 read as 2^64 − 1 */
+			return "vertex " + std::to_string((long long)v);
 		std::string s = "vertex " + std::to_string(v + 1);
 		if (ref[f][k] < 0)
 			s += " (written " + std::to_string(ref[f][k]) + ")";
@@ -482,6 +499,7 @@ bool load(const std::string &path, Mesh &m, bool weld, std::vector<std::string> 
 	std::string ext = from_stdin ? sniff(data) : lower_ext(path);
 	Names names;
 	names.ext = ext;
+	m.base = ext == "obj" ? 1 : 0;
 	std::vector<Point> pts;
 	std::vector<std::vector<std::size_t>> polys;
 	/* PLY triangle strips (a common scan format) are beyond CGAL's PLY
@@ -595,17 +613,22 @@ bool load(const std::string &path, Mesh &m, bool weld, std::vector<std::string> 
 bool validate(Mesh &m, bool weld, std::vector<std::string> &notes, std::string &why,
               long *selfintersect)
 {
-	/* Repeated corners: a face that is not a triangle. */
+	/* Repeated corners: a face that is not a triangle (load refuses them in
+	 * the formats CGAL reads, naming the file's face; here assimp's). */
 	for (size_t i = 0; i < m.f.size(); i++) {
 		const Tri &t = m.f[i];
 		if (t[0] == t[1] || t[1] == t[2] || t[2] == t[0]) {
 			why = "face " + std::to_string(i) + " repeats vertex " +
-			      std::to_string(t[0] == t[1] || t[0] == t[2] ? t[0] : t[1]) +
+			      std::to_string((t[0] == t[1] || t[0] == t[2] ? t[0] : t[1]) + m.base) +
 			      " (degenerate face)";
 			return false;
 		}
 	}
-	/* Drop unreferenced vertices (they would change the Euler number). */
+	/* Drop unreferenced vertices (they would change the Euler number);
+	 * file[v]: the number the file gives vertex v, for messages. */
+	std::vector<long> file(m.p.size());
+	for (size_t v = 0; v < m.p.size(); v++)
+		file[v] = (long)v + m.base;
 	std::vector<int> used(m.p.size(), -1);
 	int nv = 0;
 	for (const Tri &t : m.f)
@@ -616,10 +639,12 @@ bool validate(Mesh &m, bool weld, std::vector<std::string> &notes, std::string &
 		notes.push_back("dropped " + plural((long)(m.p.size() - nv), "unreferenced vertex",
 		                                   "unreferenced vertices"));
 		std::vector<Vec3> q(nv);
+		std::vector<long> fq(nv);
 		for (size_t v = 0; v < m.p.size(); v++)
 			if (used[v] >= 0)
-				q[used[v]] = m.p[v];
+				q[used[v]] = m.p[v], fq[used[v]] = file[v];
 		m.p.swap(q);
+		file.swap(fq);
 		for (Tri &t : m.f)
 			for (int &v : t)
 				v = used[v];
@@ -651,8 +676,8 @@ bool validate(Mesh &m, bool weld, std::vector<std::string> &notes, std::string &
 	}
 	if (nonmanifold) {
 		why = "not manifold: " + plural(nonmanifold, "edge", "edges") +
-		      " shared by more than two faces (first: vertices " + std::to_string(ea) +
-		      "–" + std::to_string(eb) + ")";
+		      " shared by more than two faces (first: vertices " + std::to_string(file[ea]) +
+		      "–" + std::to_string(file[eb]) + ")";
 		return false;
 	}
 	std::vector<Point> pts;

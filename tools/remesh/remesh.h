@@ -24,6 +24,8 @@ using Tri = std::array<int, 3>;
 struct Mesh {
 	std::vector<Vec3> p;
 	std::vector<Tri> f;
+	int base = 0; /* the number the file gives its first vertex, for messages:
+	                 1 for OBJ, 0 for the other formats */
 };
 
 /* Read `path` ("-" or empty: stdin).  OFF, OBJ, PLY and STL go through
@@ -42,12 +44,14 @@ struct Mesh {
  * Returns false with a one-line reason in *why, naming faces and vertices
  * as the file numbers them: OBJ from 1 (a face by its place among the `f`
  * lines and its line; a relative reference as written too), OFF and PLY
- * from 0, STL by facet and corner. */
+ * from 0 (an OFF face with its line), STL by facet and corner; m.base
+ * says which for validate's messages. */
 bool load(const std::string &path, Mesh &m, bool weld, std::vector<std::string> &notes,
           std::string &why);
 
 /* CGAL validation: triangle mesh, no degenerate faces, manifold, closed,
- * one component, Euler characteristic 2, outward orientation.  Inward
+ * one component, Euler characteristic 2, outward orientation (a vertex
+ * named as the file numbers it, m.base, whatever was dropped).  Inward
  * orientation is fixed in place (and noted).  Unreferenced vertices are
  * dropped (and noted).  An open surface whose border edges coincide in
  * pairs (split along UV seams) is stitched when `weld` (CGAL
