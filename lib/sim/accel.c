@@ -416,6 +416,48 @@ void ndo__accel_update(ndo_sim *s, double t, const double *u, const double *v,
 	accel_run(s, t, u, v, up->mode == NDO__UPD_STORE_SE ? up->a : NULL, up, d);
 }
 
+/* ---- the input work -------------------------------------------------------- */
+
+double ndo__stage_power(const ndo_sim *s, const double *F, const double *U, const ndo__vel *w)
+{
+	const size_t cnt = s->count;
+	double pw = 0;
+	if (F && s->has_pressure)
+		for (size_t k = 0; k < s->nespan; k++)
+			for (size_t p = (size_t)s->espan[k].a; p < (size_t)s->espan[k].b; p++)
+				pw += ndo__fv(F, w, p, cnt);
+	else if (F)
+		for (size_t k = 0; k < s->nfnodes; k++)
+			if (s->active[s->fnodes[k]])
+				pw += ndo__fv(F, w, (size_t)s->fnodes[k], cnt);
+	/* f holds the springs' −α (u − x̄) at the pins: theirs is potential
+	 * energy (ndo__penalty_diag), not input */
+	for (size_t k = 0; F && k < s->npen; k++) {
+		const size_t p = (size_t)s->pen[k];
+		if (!s->active[p] || !s->pen_forced[k])
+			continue;
+		for (int c = 0; c < 3; c++)
+			pw += s->alpha * (U[(size_t)c * cnt + p] - s->pen_target[3 * k + c]) *
+			      ndo__vel_at(w, c, p);
+	}
+	double hp = 0;
+	for (size_t k = 0; k < s->nhedge; k++)
+		for (int c = 0; c < 3; c++)
+			hp += ndo__held_term(s, &s->hedge[k], U, w, c);
+	return pw + hp;
+}
+
+double ndo__stage_power_sum(const ndo_sim *s, const double *ft, const double *et)
+{
+	double pw = 0, hp = 0;
+	for (size_t k = 0; k < s->nfnodes; k++)
+		if (s->active[s->fnodes[k]])
+			pw += ft[k];
+	for (size_t k = 0; k < 3 * s->nhedge; k++)
+		hp += et[k];
+	return pw + hp;
+}
+
 /* ---- divergence ------------------------------------------------------------ */
 
 void ndo__pending_work(const ndo_sim *s, double power, double *w, double *w_abs)

@@ -54,7 +54,8 @@ void ndo__chunks_copy_dups(const ndo_sim *s, const ndo__chunks *K, int c, double
 void ndo__chunks_free(ndo__chunks *K)
 {
 	free(K->r0), free(K->r1), free(K->a0), free(K->a1), free(K->lo), free(K->hi);
-	free(K->boff), free(K->blist), free(K->zoff), free(K->zlist), free(K->foff), free(K->fitem);
+	free(K->boff), free(K->blist), free(K->zoff), free(K->zlist), free(K->zfi), free(K->foff),
+	    free(K->fitem);
 	free(K->doff), free(K->dlist), free(K->eoff), free(K->elist);
 	free(K->cfit), free(K->coff), free(K->cnode), free(K->fci), free(K->zci);
 	*K = (ndo__chunks){0};
@@ -131,7 +132,7 @@ int ndo__chunks_build(const ndo_sim *s, ndo__chunks *K, int what)
 		nb = s->nhedge;
 	int32_t *owner = malloc((nb + 1) * sizeof *owner);
 	size_t *pairs = NULL;
-	int32_t *zn = NULL; /* the active force nodes */
+	int32_t *zn = NULL, *zk = NULL; /* the active force nodes, their places in fnodes */
 	K->r0 = malloc((size_t)C * sizeof *K->r0), K->r1 = malloc((size_t)C * sizeof *K->r1);
 	K->a0 = malloc(((size_t)C + 1) * sizeof *K->a0);
 	K->a1 = malloc(((size_t)C + 1) * sizeof *K->a1);
@@ -211,17 +212,21 @@ int ndo__chunks_build(const ndo_sim *s, ndo__chunks *K, int what)
 	/* Force nodes by their chunk: the active ones (f at a held node is
 	 * never read; a peer's region is spared the others' force items). */
 	size_t nz = 0;
-	if (!(zn = malloc((s->nfnodes + 1) * sizeof *zn)))
+	if (!(zn = malloc((s->nfnodes + 1) * sizeof *zn)) ||
+	    !(zk = malloc((s->nfnodes + 1) * sizeof *zk)))
 		goto oom;
 	for (size_t k = 0; k < s->nfnodes; k++) {
 		int32_t p = s->fnodes[k];
 		if (s->active[p])
-			zn[nz] = p, owner[nz++] = own[p];
+			zk[nz] = (int32_t)k, zn[nz] = p, owner[nz++] = own[p];
 	}
-	if (!(K->zlist = bucket(C, nz, owner, &K->zoff)))
+	if (!(K->zlist = bucket(C, nz, owner, &K->zoff)) ||
+	    !(K->zfi = malloc(((size_t)K->zoff[C] + 1) * sizeof *K->zfi)))
 		goto oom;
-	for (int32_t i = 0; i < K->zoff[C]; i++)
+	for (int32_t i = 0; i < K->zoff[C]; i++) {
+		K->zfi[i] = zk[K->zlist[i]];
 		K->zlist[i] = zn[K->zlist[i]];
+	}
 	/* A unit reads one row beyond what it writes, and the nodes of its
 	 * force items. */
 	for (int c = 0; c < C; c++)
@@ -277,10 +282,10 @@ int ndo__chunks_build(const ndo_sim *s, ndo__chunks *K, int what)
 		if (c - K->lo[c] + 1 > K->L)
 			K->L = c - K->lo[c] + 1;
 	}
-	free(rowc), free(own), free(owner), free(pairs), free(zn);
+	free(rowc), free(own), free(owner), free(pairs), free(zn), free(zk);
 	return NDO_OK;
 oom:
-	free(rowc), free(own), free(owner), free(pairs), free(zn);
+	free(rowc), free(own), free(owner), free(pairs), free(zn), free(zk);
 	ndo__chunks_free(K);
 	return NDO_ENOMEM;
 }

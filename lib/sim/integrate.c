@@ -601,6 +601,22 @@ int ndo_sim_create(int level, const double *x, const double *v, const double *re
 	}
 	if ((rc = ndo__forces_resolve(s, p->forces, p->nforces)))
 		goto fail;
+	if (s->npen) {
+		/* which pins are force nodes (their f holds a force besides the
+		 * spring's: ndo__stage_power) */
+		s->pen_forced = calloc(s->npen, 1);
+		uint8_t *mark = calloc(cnt, 1);
+		if (!s->pen_forced || !mark) {
+			free(mark);
+			rc = ndo__fail(NDO_ENOMEM, "out of memory for pins");
+			goto fail;
+		}
+		for (size_t k = 0; k < s->nfnodes; k++)
+			mark[s->fnodes[k]] = 1;
+		for (size_t k = 0; k < s->npen; k++)
+			s->pen_forced[k] = s->has_pressure || mark[s->pen[k]];
+		free(mark);
+	}
 	if ((rc = workspace(s)) || (rc = set_active(s, NULL)) || (rc = region_pins(s, NULL)))
 		goto fail;
 	if (p->threads > 1) {
@@ -661,7 +677,7 @@ void ndo_sim_destroy(ndo_sim *s)
 	free(s->espan), free(s->ispan), free(s->bact), free(s->hedge), free(s->hmove),
 	    free(s->hread);
 	free(s->ichunk), free(s->echunk), free(s->cdiag);
-	free(s->pen), free(s->pen_target);
+	free(s->pen), free(s->pen_target), free(s->pen_forced);
 	if (s->forces)
 		ndo__forces_free(s);
 	planes_free(s->f);

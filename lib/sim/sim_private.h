@@ -102,6 +102,7 @@ struct ndo_sim {
 	size_t npen;
 	int32_t *pen;
 	double alpha, *pen_target; /* 3 per penalty pin */
+	uint8_t *pen_forced;   /* the pin is a force node (ndo__stage_power) */
 
 	/* External forces. */
 	ndo__force *forces;
@@ -308,7 +309,8 @@ int ndo__force_item_nodes(const ndo_sim *s, int k, size_t q, int32_t v[3]);
  * lo[c]..hi[c], those whose writes meet its reads or whose reads meet its
  * writes; L, the lag between passes in the wavefront, is the most chunks
  * from c to lo[c] or hi[c] counting c, at least 2.  The lists by chunk are list[off[c]..off[c+1]):
- * its active border nodes bact[blist[i]]; its active force nodes zlist[i];
+ * its active border nodes bact[blist[i]]; its active force nodes zlist[i]
+ * (zfi[i]: the node's place in s->fnodes);
  * its force items fitem[i] (every item with an active node in the chunk,
  * in the forces' order, its mask those nodes); (NDO__CHUNKS_DUPS) the
  * (duplicate, canonical) pairs it copies, dlist[2i], dlist[2i + 1];
@@ -317,7 +319,7 @@ int ndo__force_item_nodes(const ndo_sim *s, int k, size_t q, int32_t v[3]);
 typedef struct ndo__chunks {
 	int C, L;
 	int32_t *r0, *r1, *a0, *a1, *lo, *hi;
-	int32_t *boff, *blist, *zoff, *zlist, *foff;
+	int32_t *boff, *blist, *zoff, *zlist, *zfi, *foff;
 	ndo__fitem *fitem;
 	int32_t *doff, *dlist, *eoff, *elist;
 	/* The force items compact (ndo__forces_eval_chunk): for a chunk c
@@ -450,6 +452,61 @@ double ndo__deformation(const ndo_sim *s, double mean[3], int *pin);
 
 /* The input work so far, closing the last step with `power`. */
 void ndo__pending_work(const ndo_sim *s, double power, double *w, double *w_abs);
+
+/* The velocities an input power is taken at: V's component c of node p
+ * at V[c·vs + p + vd] (rk4.c's ring; elsewhere vs = count, vd = 0); or,
+ * with V1 (or A) given, the mean ½(V + V1) of a step's velocities before
+ * and after it, V1 = V + h A when only A is kept — the same bits either
+ * way where V1 was made so (midpoint's work: integrate.c, step_rk). */
+typedef struct ndo__vel {
+	const double *V;
+	size_t vs;
+	ptrdiff_t vd;
+	const double *V1, *A;
+	double h;
+} ndo__vel;
+
+static inline double ndo__vel_at(const ndo__vel *w, int c, size_t p)
+{
+	const size_t q = (size_t)((ptrdiff_t)((size_t)c * w->vs + p) + w->vd);
+	const double x = w->V[q];
+	if (w->V1)
+		return 0.5 * (x + w->V1[q]);
+	if (w->A)
+		return 0.5 * (x + (x + w->h * w->A[q]));
+	return x;
+}
+
+/* The input power at a stage whose forces F holds (ndo__forces_prepare's
+ * plane at the stage's time and displacements U, or NULL), at the
+ * velocities w: f·V at the active force nodes in the order of s->fnodes
+ * (every active node, in index order, with pressure), f the external
+ * forces alone (the penalty springs' share taken out), then the held
+ * nodes' power Σ V_p c U_q (ndo__held_power's order).  The pipelines
+ * (rk4.c, wave.c) keep the same terms per node (ndo__fv, ndo__held_term)
+ * and add them in this order (ndo__stage_power_sum): the same bits on
+ * every path and thread count (accel.c). */
+double ndo__stage_power(const ndo_sim *s, const double *F, const double *U, const ndo__vel *w);
+
+/* One force node's term of it: Σ_c F_c V_c, in the order of c. */
+static inline double ndo__fv(const double *F, const ndo__vel *w, size_t p, size_t cnt)
+{
+	return F[p] * ndo__vel_at(w, 0, p) + F[cnt + p] * ndo__vel_at(w, 1, p) +
+	       F[2 * cnt + p] * ndo__vel_at(w, 2, p);
+}
+
+/* One held edge's term for component c: V_p c U_q (ndo__held_power's). */
+static inline double ndo__held_term(const ndo_sim *s, const ndo__edge *e, const double *U,
+                                    const ndo__vel *w, int c)
+{
+	return ndo__vel_at(w, c, (size_t)e->p) * e->c * U[(size_t)c * s->count + (size_t)e->q];
+}
+
+/* The stage power from per-node terms: ft[k] the term of force node
+ * s->fnodes[k] (read only where that node is active), et[3e + c] held edge
+ * e's; the sum ndo__stage_power makes (no penalty pins, no pressure: the
+ * pipelines take neither). */
+double ndo__stage_power_sum(const ndo_sim *s, const double *ft, const double *et);
 
 
 /* Implicit methods (implicit.c). */
