@@ -1059,23 +1059,64 @@ static void updates_run(const ndo_sim *s, updates *u)
 	ndo__sim_run(s, s->nechunk, updates_chunk, u);
 }
 
-/* A step of size h began with input power P: its work is added, by the
- * trapezoidal rule, when the next step knows the power at its end.  For
- * symplectic Euler P is the step's mean power (accel.c), and its work
- * h P. */
-static void account(ndo_sim *s, double h)
+/* A step of size h is done whose mean input power was P: its work h P is
+ * the step's own, added to the input work at the next step's divergence
+ * test (ndo__pending_work).  Symplectic Euler: P = ½ f(t)·(v + v'), the
+ * work on the energy it conserves, exactly (accel.c).  An explicit
+ * Runge–Kutta method: P = Σ b_i f(t_i)·V_i over its stages
+ * (tableau_power), the quadrature the step itself integrates with.  (The
+ * implicit methods still take the power at the steps' ends by the
+ * trapezoidal rule: implicit.c.) */
+static void account(ndo_sim *s, double h, double P)
 {
 	s->pend_h = h;
-	s->pend_power = s->last_power;
-	s->pend_mean = s->p.method == NDO_SYMPLECTIC_EULER;
+	s->pend_power = P;
+	s->pend_mean = 1;
 }
 
-/* Stage 0 at the current state, with the divergence test. */
-static int first_stage(ndo_sim *s, double *a)
+/* The step's mean input power by the method's own quadrature, Σ b_i P_i
+ * (P_i the input power at stage i: s->stage_power).  Applied to the input
+ * work W' = f(t)·v as one more equation, the step gives W exactly this
+ * increment; for a linear membrane it is the forces' term of the step's
+ * energy change, which is, exactly (Cooper 1987, for E = ½ yᵀSy),
+ *   E' − E = h Σ b_i (f_i·V_i − V_iᵀB V_i) + ½ h² Σ_ij m_ij k_iᵀS k_j,
+ *   m_ij = b_i b_j − b_i a_ij − b_j a_ji,
+ * k_i = (V_i, A_i) the stage's derivative: the damping at the stages and
+ * the method's own term, which a diverging step makes grow (forward
+ * Euler: m = 1, ½ h² (aᵀMa + vᵀKv) a step).  So a push between the step's
+ * ends is counted where the stages see it, and only there does the step
+ * put it in. */
+static double tableau_power(const tableau *tb, const double *P)
+{
+	double w = 0;
+	for (int i = 0; i < tb->s; i++)
+		if (tb->b[i] != 0)
+			w += tb->b[i] * P[i];
+	return w;
+}
+
+/* Stage 0 at the current state, with the divergence test.  Forward Euler
+ * (a step h_mean > 0) takes its input power at the mean velocity
+ * ½(v + v'), v' = v + h a, as symplectic Euler's pass does
+ * (NDO__UPD_STORE_SE: the same a): its step's work is h f(t)·½(v + v'),
+ * not its tableau's h f(t)·v.  That one is 0 from rest, where the step
+ * still puts ½ h² f·M⁻¹f into the kinetic energy — the quadrature is
+ * only first order, and from rest its error is the whole work — and the
+ * test stopped every forced run from rest at its first step.  Its
+ * velocity changes by h M⁻¹(f − K u − B v), so the kinetic energy by
+ * h (f − K u − B v)·½(v + v'): the force's share is this work exactly,
+ * and the potential energy's change, h vᵀK ½(u + u'), does not see the
+ * force (u' = u + h v). */
+static int first_stage(ndo_sim *s, double *a, double h_mean)
 {
 	ndo__diag d;
-	ndo__accel(s, s->t, s->u, s->v, a, &d);
-	s->last_power = d.power;
+	if (h_mean > 0) {
+		ndo__upd sp = {.mode = NDO__UPD_STORE_SE, .h = h_mean, .a = a};
+		ndo__accel_update(s, s->t, s->u, s->v, &sp, &d);
+	} else {
+		ndo__accel(s, s->t, s->u, s->v, a, &d);
+	}
+	s->last_power = s->stage_power[0] = d.power;
 	return ndo__diverged(s, &d, 1);
 }
 
@@ -1084,7 +1125,7 @@ static int first_stage(ndo_sim *s, double *a)
 static int rk_stages(ndo_sim *s, const tableau *tb, double h, int k0_ready)
 {
 	int rc;
-	if (!k0_ready && (rc = first_stage(s, s->ka[0])))
+	if (!k0_ready && (rc = first_stage(s, s->ka[0], tb == &tb_euler ? h : 0)))
 		return rc;
 	if (tb->s > 1 && s->any_held)
 		ndo__held_keep(s, s->us); /* held nodes keep u */
@@ -1107,6 +1148,10 @@ static int rk_stages(ndo_sim *s, const tableau *tb, double h, int k0_ready)
 		ndo__sync_planes(s, s->us, 3);
 		ndo__sync_planes(s, s->kv[i], 3);
 		ndo__accel(s, s->t + tb->c[i] * h, s->us, s->kv[i], s->ka[i], NULL);
+		if (tb->b[i] != 0 && tb != &tb_midpoint) { /* f holds the stage's forces */
+			const ndo__vel w = {s->kv[i], s->count, 0, NULL, NULL, 0};
+			s->stage_power[i] = ndo__stage_power(s, s->f, s->us, &w);
+		}
 	}
 	return NDO_OK;
 }
@@ -1136,19 +1181,29 @@ static int step_rk(ndo_sim *s, const tableau *tb, double h)
 	int rc = rk_stages(s, tb, h, 0);
 	if (rc)
 		return rc;
+	/* forward Euler: its mean power (first_stage); midpoint: its stage's
+	 * force at the mean velocity, v' = v + h a₁ as rk_finish makes it */
+	double P = tableau_power(tb, s->stage_power);
+	if (tb == &tb_euler) {
+		P = s->last_power;
+	} else if (tb == &tb_midpoint) {
+		const ndo__vel w = {s->v, s->count, 0, NULL, s->ka[1], h};
+		P = ndo__stage_power(s, s->f, s->us, &w);
+	}
 	rk_finish(s, tb, h);
-	account(s, h);
+	account(s, h, P);
 	s->stats.substeps++;
 	return NDO_OK;
 }
 
-/* Classic RK4 (rk4.c). */
+/* Classic RK4 (rk4.c, which leaves the stages' input powers in
+ * s->stage_power). */
 static int step_rk4(ndo_sim *s, double h)
 {
 	int rc = ndo__rk4_step(s, h);
 	if (rc)
 		return rc;
-	account(s, h);
+	account(s, h, tableau_power(&tb_rk4, s->stage_power));
 	s->stats.substeps++;
 	return NDO_OK;
 }
@@ -1181,7 +1236,7 @@ static int fused_first(ndo_sim *s, int mode, double h, double *uo, double *vo)
 	ndo__upd up = {mode, h, uo, vo, NULL, NULL, NULL};
 	ndo__diag d;
 	ndo__accel_update(s, s->t, s->u, s->v, &up, &d);
-	s->last_power = d.power;
+	s->last_power = s->stage_power[0] = d.power;
 	return ndo__diverged(s, &d, 1);
 }
 
@@ -1194,7 +1249,7 @@ static int step_symplectic_fused(ndo_sim *s, double h)
 	if (rc)
 		return rc;
 	fused_swap(s, un, vn);
-	account(s, h);
+	account(s, h, s->last_power);
 	s->stats.substeps++;
 	return NDO_OK;
 }
@@ -1211,11 +1266,14 @@ static int step_midpoint_fused(ndo_sim *s, double h)
 	ndo__sync_planes(s, vm, 3);
 	ndo__upd up = {NDO__UPD_FULL, h, un, vn, s->u, s->v, NULL};
 	ndo__accel_update(s, s->t + 0.5 * h, um, vm, &up, NULL);
+	/* the stage's force (in f) at the mean velocity (step_rk) */
+	const ndo__vel w = {s->v, s->count, 0, vn, NULL, 0};
+	const double P = ndo__stage_power(s, s->f, um, &w);
 	ndo__sync_planes(s, un, 3);
 	ndo__sync_planes(s, vn, 3);
 	s->ka[0] = s->u, s->ka[1] = s->v;
 	s->u = un, s->v = vn;
-	account(s, h);
+	account(s, h, P);
 	s->stats.substeps++;
 	return NDO_OK;
 }
@@ -1241,7 +1299,7 @@ static int step_symplectic(ndo_sim *s, double h)
 	updates_run(s, &up);
 	ndo__sync_planes(s, s->v, 3);
 	ndo__sync_planes(s, s->u, 3);
-	account(s, h);
+	account(s, h, s->last_power);
 	s->stats.substeps++;
 	return NDO_OK;
 }
@@ -1312,7 +1370,7 @@ static int rkf45_decide(ndo_sim *s, double err)
 	const double h = s->rk_h, H = s->rk_t_end - s->rk_t0;
 	if (err <= 1) {
 		rk_finish(s, tb, h);
-		account(s, h);
+		account(s, h, tableau_power(tb, s->stage_power));
 		s->stats.substeps++;
 		s->stats.last_substep = h;
 		/* The usual controller for a 4th-order error estimate: the
@@ -1630,7 +1688,8 @@ static int steps_wave(ndo_sim *s, double h, int m, double *t, int *done)
 			return rc;
 		}
 		s->stats.evaluations += two;
-		account(s, h);
+		/* midpoint: its stage's power, b = (0, 1) */
+		account(s, h, two ? ndo__wave_power(s, j) : s->last_power);
 		s->stats.substeps++;
 		s->t = t[j + 1];
 		s->step++;

@@ -342,9 +342,15 @@ static void rk4_chunk(void *arg, int c)
 		rk4_runs(s, j->g, j->mode, d, (size_t)s->ichunk[c], (size_t)s->ichunk[c + 1]);
 }
 
-static void rk4_pass_run(ndo_sim *s, rk4_pass *g, int mode, double t, ndo__diag *d)
+/* A pass of stage k at time t; stages 1-3 keep their input power (the
+ * stage velocity read before the pass overwrites it with the next's). */
+static void rk4_pass_run(ndo_sim *s, rk4_pass *g, int mode, int k, double t, ndo__diag *d)
 {
 	g->F = ndo__forces_prepare(s, t, g->U);
+	if (k > 0) {
+		const ndo__vel w = {g->vs, s->count, 0, NULL, NULL, 0};
+		s->stage_power[k] = ndo__stage_power(s, g->F, g->U, &w);
+	}
 	rk4_job j = {s, g, mode, d != NULL};
 	ndo__sim_run(s, s->nichunk + 1, rk4_chunk, &j);
 	if (d) {
@@ -370,21 +376,21 @@ static int step_passes(ndo_sim *s, double h)
 	rk4_pass g = {s->u, A, s->vs, s->kv[2], s->kv[3], s->u, s->v, NULL, NULL, NULL,
 	              h / 2, h / 6, s->count, 0};
 	ndo__diag d;
-	rk4_pass_run(s, &g, RK4_FIRST, s->t, &d);
-	s->last_power = d.power;
+	rk4_pass_run(s, &g, RK4_FIRST, 0, s->t, &d);
+	s->last_power = s->stage_power[0] = d.power;
 	int rc = ndo__diverged(s, &d, 1);
 	if (rc)
 		return rc;
 	ndo__sync_planes(s, A, 3);
 	g.U = A, g.Un = B;
-	rk4_pass_run(s, &g, RK4_MID, s->t + h / 2, NULL);
+	rk4_pass_run(s, &g, RK4_MID, 1, s->t + h / 2, NULL);
 	ndo__sync_planes(s, B, 3);
 	g.U = B, g.Un = A, g.c = h;
-	rk4_pass_run(s, &g, RK4_MID, s->t + h / 2, NULL);
+	rk4_pass_run(s, &g, RK4_MID, 2, s->t + h / 2, NULL);
 	ndo__sync_planes(s, A, 3);
 	ndo__held_at(s, A, h);
 	g.U = A, g.Un = NULL;
-	rk4_pass_run(s, &g, RK4_LAST, s->t + h, NULL);
+	rk4_pass_run(s, &g, RK4_LAST, 3, s->t + h, NULL);
 	ndo__held_at(s, s->u, h);
 	ndo__sync_planes(s, s->u, 3);
 	ndo__sync_planes(s, s->v, 3);
@@ -408,6 +414,9 @@ struct ndo__rk4_plan {
 	int marked, early;     /* late[] and s->pend are plist's; its units not late */
 	int held;              /* the region has held nodes (a peer's) */
 	double *bterms;        /* RK4_BTERMS per active border node */
+	/* Stages 1-3's input power as terms (ndo__stage_power_sum): each
+	 * force node's (s->nfnodes a stage) and each held edge's (3·nhedge) */
+	double *ft, *et;
 	int nunit;
 	rk4_unit *unit;        /* wavefront order */
 	/* The ring (ring_layout): the stage velocity and the running sums, read
@@ -433,7 +442,7 @@ void ndo__rk4_plan_free(ndo_sim *s)
 	if (!P)
 		return;
 	ndo__chunks_free(&P->ch);
-	free(P->late), free(P->plist), free(P->bterms);
+	free(P->late), free(P->plist), free(P->bterms), free(P->ft), free(P->et);
 	free(P->unit);
 	free(P->slot), free(P->prev), free(P->alone), free(P->ring);
 	ndo__units_destroy(&P->u);
@@ -466,7 +475,7 @@ static int plan_build(ndo_sim *s)
 	ndo__units_init(&P->u);
 	s->rk4_plan = P;
 	P->held = s->any_held;
-	if (ndo__chunks_build(s, &P->ch, P->held ? NDO__CHUNKS_DUPS : 0))
+	if (ndo__chunks_build(s, &P->ch, P->held ? NDO__CHUNKS_DUPS | NDO__CHUNKS_EDGES : 0))
 		goto oom;
 	const int C = P->ch.C, L = P->ch.L, w = s->w;
 	P->R = 3 * L + 1;
@@ -478,13 +487,15 @@ static int plan_build(ndo_sim *s)
 	if (!P->slot || !P->prev || !P->alone)
 		goto oom;
 	P->bterms = malloc((RK4_BTERMS * s->nbact + 1) * sizeof *P->bterms);
+	P->ft = malloc((3 * s->nfnodes + 1) * sizeof *P->ft);
+	P->et = malloc((9 * s->nhedge + 1) * sizeof *P->et);
 	/* Units in wavefront order: stage k of chunk c at c + k·L; any unit
 	 * it reads (stage k − 1, chunks ≤ c + L − 1) comes on an earlier
 	 * diagonal. */
 	P->unit = malloc((4 * (size_t)C + 1) * sizeof *P->unit);
 	P->u.state = calloc(4 * (size_t)C, sizeof *P->u.state);
 	P->late = malloc(4 * (size_t)C);
-	if (!P->bterms || !P->unit || !P->u.state || !P->late)
+	if (!P->bterms || !P->ft || !P->et || !P->unit || !P->u.state || !P->late)
 		goto oom;
 	for (int diag = 0; diag < C + 3 * L; diag++)
 		for (int k = 3; k >= 0; k--) {
@@ -682,6 +693,19 @@ static void unit_run(rk4_pipe *J, int k, int c)
 	gl.sd = (ptrdiff_t)((size_t)P->slot[c] * P->S) - (ptrdiff_t)K->r0[c] * s->w;
 	if (K->zoff[c + 1] == K->zoff[c])
 		gl.F = NULL;
+	if (k > 0) {
+		/* the stage's input power at the chunk's force nodes and held
+		 * edges, before the pass overwrites the stage velocity */
+		const ndo__vel w = {gl.vs, gl.ss, gl.sd, NULL, NULL, 0};
+		double *ft = P->ft + (size_t)(k - 1) * s->nfnodes;
+		double *et = P->et + (size_t)(k - 1) * 3 * s->nhedge;
+		for (int32_t i = K->zoff[c]; i < K->zoff[c + 1]; i++)
+			ft[K->zfi[i]] = ndo__fv(g->F, &w, (size_t)K->zlist[i], s->count);
+		for (int32_t i = P->held ? K->eoff[c] : 0; P->held && i < K->eoff[c + 1]; i++)
+			for (int comp = 0; comp < 3; comp++)
+				et[3 * (size_t)K->elist[i] + (size_t)comp] =
+					ndo__held_term(s, &s->hedge[K->elist[i]], g->U, &w, comp);
+	}
 	rk4_runs(s, &gl, J->mode[k], d, (size_t)s->ichunk[c], (size_t)s->ichunk[c + 1]);
 	gl.F = g->F;
 	rk4_border(s, &gl, J->mode[k], K->blist + K->boff[c], (size_t)(K->boff[c + 1] - K->boff[c]),
@@ -805,10 +829,13 @@ static int step_pipeline(ndo_sim *s, double h)
 	ndo__diag_sum(s, &d);
 	d.power += ndo__held_power(s, s->u, s->v, NULL);
 	s->stats.evaluations++;
-	s->last_power = d.power;
+	s->last_power = s->stage_power[0] = d.power;
 	rc = ndo__diverged(s, &d, 1);
 	if (rc)
 		return rc;
+	for (int k = 1; k < 4; k++)
+		s->stage_power[k] = ndo__stage_power_sum(s, P->ft + (size_t)(k - 1) * s->nfnodes,
+		                                         P->et + (size_t)(k - 1) * 3 * s->nhedge);
 	s->stats.evaluations += 3;
 	if (P->held)
 		ndo__held_at(s, un, h); /* the boundary moves on with the step (the spare's

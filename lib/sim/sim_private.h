@@ -146,11 +146,17 @@ struct ndo_sim {
 	double last_power;     /* f·v at the start of the current step; symplectic
 	                        * Euler: the step's mean power ½ f·(v + v'), whose
 	                        * product with h is the work the step did on its
-	                        * modified energy, exactly (accel.c) */
+	                        * modified energy, exactly (accel.c); forward Euler
+	                        * takes it so too (integrate.c, first_stage) */
+	double stage_power[6]; /* the explicit Runge–Kutta step under way: the input
+	                        * power at each stage, f(t_i)·V_i (ndo__stage_power;
+	                        * stage 0's is last_power) */
 	double pend_h, pend_power; /* the last step: its size and start power */
 	int pend_mean;         /* pend_power is the last step's mean power (its work
-	                        * pend_h × pend_power), not its start's (the work by
-	                        * the trapezoidal rule with the next step's) */
+	                        * pend_h × pend_power, what the step itself integrated:
+	                        * integrate.c, account), not its start's (the implicit
+	                        * methods: the work by the trapezoidal rule with the
+	                        * next step's) */
 
 	ndo__implicit *imp;
 	int imp_df;            /* ndo_sim_implicit_begin left f(t+h) − f(t) in vs */
@@ -375,7 +381,9 @@ void ndo__accel(ndo_sim *s, double t, const double *u, const double *v, double *
  *   NDO__UPD_STORE_SE    a stored, as without an update, and the input
  *                        power taken as NDO__UPD_SYMPLECTIC takes it
  *                        (symplectic Euler's passes: the fused pass's
- *                        diagnostics, bit for bit)
+ *                        diagnostics, bit for bit; forward Euler's
+ *                        stage, whose work is taken so too: integrate.c,
+ *                        first_stage)
  * where (u, v) is the stage state the acceleration is taken at and
  * (u0, v0) the step's.  The outputs are other planes than the inputs. */
 enum { NDO__UPD_SYMPLECTIC = 1, NDO__UPD_HALF, NDO__UPD_FULL, NDO__UPD_STORE_SE };
@@ -393,7 +401,8 @@ typedef struct ndo__upd {
  * the power whose product with h is the step's work on the modified
  * energy that the divergence test bounds (accel.c; the power at the
  * steps' ends, by the trapezoidal rule, missed a push between two ends
- * where the power is 0). */
+ * where the power is 0); forward Euler's is taken so too (integrate.c,
+ * first_stage). */
 static inline double ndo__power_velocity(const ndo__upd *up, const double *v, size_t q)
 {
 	if (!up)
@@ -546,6 +555,9 @@ int ndo__rk4_begin(ndo_sim *s, double h, size_t n, const int32_t *pending);
 int ndo__wave_fits(const ndo_sim *s);
 int ndo__wave_run(ndo_sim *s, double h, int m, const double *t);
 void ndo__wave_diag(ndo_sim *s, int j, ndo__diag *d);
+/* Midpoint: step j's input power, its stage's force at the step's mean
+ * velocity (ndo__stage_power's sum). */
+double ndo__wave_power(const ndo_sim *s, int j);
 void ndo__wave_commit(ndo_sim *s, int m);
 int ndo__wave_batch(ndo_sim *s);
 void ndo__wave_plan_free(ndo_sim *s);

@@ -45,6 +45,10 @@ struct ndo__wave_plan {
 	ndo__units u;          /* unit states, 2·cap·C */
 	ndo__diag *dg;         /* cap·C */
 	double *bt, *et;       /* cap·nbact·NDO__BTERMS, cap·nhedge·3 */
+	/* midpoint: each step's input power (its stage's force at its mean
+	 * velocity) as terms
+	 * (ndo__stage_power_sum), cap·nfnodes and cap·nhedge·3 */
+	double *ft, *st;
 };
 
 void ndo__wave_plan_free(ndo_sim *s)
@@ -53,7 +57,7 @@ void ndo__wave_plan_free(ndo_sim *s)
 	if (!P)
 		return;
 	ndo__chunks_free(&P->ch);
-	free(P->dg), free(P->bt), free(P->et);
+	free(P->dg), free(P->bt), free(P->et), free(P->ft), free(P->st);
 	ndo__units_destroy(&P->u);
 	free(P);
 	s->wave_plan = NULL;
@@ -181,6 +185,19 @@ static void unit_run(wave_run *J, int p, int c)
 					u[(size_t)comp * cnt + (size_t)e->q];
 		}
 	}
+	if (second) {
+		/* midpoint's input power (integrate.c, step_rk): the stage's
+		 * force at the chunk's force nodes, and its held edges', at the
+		 * step's mean velocity, the new one just written */
+		const ndo__vel w = {J->xv[a], s->count, 0, J->xv[b], NULL, 0};
+		double *ft = P->ft + (size_t)j * s->nfnodes, *st = P->st + (size_t)j * s->nhedge * 3;
+		for (int32_t i = K->zoff[c]; i < K->zoff[c + 1]; i++)
+			ft[K->zfi[i]] = ndo__fv(s->f, &w, (size_t)K->zlist[i], s->count);
+		for (int32_t i = K->eoff[c]; i < K->eoff[c + 1]; i++)
+			for (int comp = 0; comp < 3; comp++)
+				st[3 * (size_t)K->elist[i] + (size_t)comp] =
+					ndo__held_term(s, &s->hedge[K->elist[i]], u, &w, comp);
+	}
 	ndo__chunks_copy_dups(s, K, c, up.uo);
 	ndo__chunks_copy_dups(s, K, c, up.vo);
 }
@@ -274,12 +291,15 @@ int ndo__wave_run(ndo_sim *s, double h, int m, const double *t)
 	const int C = P->ch.C, pps = s->p.method == NDO_MIDPOINT ? 2 : 1;
 	if (m > P->cap) {
 		free((void *)P->u.state), free(P->dg), free(P->bt), free(P->et);
+		free(P->ft), free(P->st);
 		P->u.state = malloc((size_t)(pps * m * C) * sizeof *P->u.state);
 		P->dg = malloc((size_t)(m * C) * sizeof *P->dg);
 		P->bt = malloc(((size_t)m * s->nbact * NDO__BTERMS + 1) * sizeof *P->bt);
 		P->et = malloc(((size_t)m * s->nhedge * 3 + 1) * sizeof *P->et);
+		P->ft = malloc(((size_t)m * s->nfnodes + 1) * sizeof *P->ft);
+		P->st = malloc(((size_t)m * s->nhedge * 3 + 1) * sizeof *P->st);
 		P->cap = m;
-		if (!P->u.state || !P->dg || !P->bt || !P->et) {
+		if (!P->u.state || !P->dg || !P->bt || !P->et || !P->ft || !P->st) {
 			ndo__wave_plan_free(s);
 			return ndo__fail(NDO_ENOMEM, "out of memory for the steps' pipeline");
 		}
@@ -318,6 +338,13 @@ void ndo__wave_diag(ndo_sim *s, int j, ndo__diag *d)
 			pw += et[k];
 		d->power += pw;
 	}
+}
+
+double ndo__wave_power(const ndo_sim *s, int j)
+{
+	const struct ndo__wave_plan *P = s->wave_plan;
+	return ndo__stage_power_sum(s, P->ft + (size_t)j * s->nfnodes,
+	                            P->st + (size_t)j * s->nhedge * 3);
 }
 
 static void swap(double **a, double **b)

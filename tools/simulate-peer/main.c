@@ -247,16 +247,16 @@ static void diverged(run *r)
 	if (isfinite(r->crit.h_crit) && r->crit.h_crit > 0)
 		snprintf(ratio, sizeof ratio, " = %.3g x the critical step", r->dt / r->crit.h_crit);
 	const char *detail = ndo_errdetail();
-	/* The energy test's input work is the power at the steps' ends,
+	/* The implicit methods' input work is the power at the steps' ends,
 	 * which misses a push between two ends where it is 0 — at steps
 	 * that are a good part of a force's period (docs/simulate-peer.md).
-	 * Not symplectic Euler's: its work is the step's own, exactly. */
+	 * Not the explicit methods': each step counts its own. */
 	double hz = 0;
 	for (int i = 0; i < r->sc.nforces; i++)
 		hz = fmax(hz, r->sc.forces[i].f.frequency);
 	char hint[256] = "";
 	if (strstr(detail, "input work") && r->dt * hz > 0.125 &&
-	    ndo_sim_method(r->sim) != NDO_SYMPLECTIC_EULER)
+	    ndo_method_is_implicit(ndo_sim_method(r->sim)))
 		snprintf(hint, sizeof hint, " (the step is %.2g of a force's period, where the work "
 		         "counted from the power at the steps' ends can miss a push: if the run is "
 		         "stable, --energy-bound 0, or a --dt under an eighth of the period)",
