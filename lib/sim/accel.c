@@ -460,15 +460,12 @@ double ndo__stage_power_sum(const ndo_sim *s, const double *ft, const double *et
 
 /* ---- divergence ------------------------------------------------------------ */
 
-void ndo__pending_work(const ndo_sim *s, double power, double *w, double *w_abs)
+/* Each step closes its own work (integrate.c, account): the work so far
+ * is the committed work and the last step's. */
+void ndo__pending_work(const ndo_sim *s, double *w, double *w_abs)
 {
-	if (s->pend_mean) { /* the last step's own mean power: its work exactly */
-		*w = s->work + s->pend_h * s->pend_power;
-		*w_abs = s->work_abs + s->pend_h * fabs(s->pend_power);
-		return;
-	}
-	*w = s->work + 0.5 * s->pend_h * (s->pend_power + power);
-	*w_abs = s->work_abs + 0.5 * s->pend_h * (fabs(s->pend_power) + fabs(power));
+	*w = s->work + s->pend_h * s->pend_power;
+	*w_abs = s->work_abs + s->pend_h * fabs(s->pend_power);
 }
 
 /* The largest distance of an integrated node's displacement, or a
@@ -542,7 +539,7 @@ int ndo__size_is_drift(ndo_sim *s, const ndo__diag *d)
 int ndo__diverged(ndo_sim *s, const ndo__diag *d, int commit)
 {
 	double work, work_abs;
-	ndo__pending_work(s, d->power, &work, &work_abs);
+	ndo__pending_work(s, &work, &work_abs);
 	if (commit) {
 		s->work = work;
 		s->work_abs = work_abs;
@@ -630,21 +627,9 @@ void ndo_sim_energy_get(ndo_sim *s, ndo_sim_energy *e)
 			double du = s->u[(size_t)c * cnt + (size_t)s->pen[k]] - s->pen_target[3 * k + c];
 			pe2 += s->alpha * du * du;
 		}
-	/* The input power now closes the last step's work estimate. */
-	double power = 0, wabs;
-	const double *F = ndo__forces_prepare(s, s->t, s->u);
-	if (F)
-		for (size_t k = 0; k < s->nespan; k++)
-			for (size_t p = (size_t)s->espan[k].a; p < (size_t)s->espan[k].b; p++)
-				for (int c = 0; c < 3; c++)
-					power += F[(size_t)c * cnt + p] * s->v[(size_t)c * cnt + p];
-	for (size_t k = 0; k < s->npen && F; k++)
-		for (int c = 0; c < 3; c++) {
-			size_t q = (size_t)c * cnt + (size_t)s->pen[k];
-			power += s->alpha * (s->u[q] - s->pen_target[3 * k + c]) * s->v[q];
-		}
+	double wabs;
 	e->kinetic = 0.5 * ke2;
 	e->potential = 0.5 * pe2;
-	ndo__pending_work(s, power, &e->work, &wabs);
+	ndo__pending_work(s, &e->work, &wabs);
 	e->max_displacement = sqrt(um);
 }

@@ -727,6 +727,55 @@ static void prep_chunk(void *ctx, int k)
 			df[q] = f[q] - df[q];
 }
 
+/* The input power of the implicit step under way at velocities V:
+ * f_s·V + the held nodes' power (their u stays put through the step), f_s
+ * the external force the step integrates with — backward Euler f(t+h),
+ * the trapezoid f̄ = ½ (f(t) + f(t+h)) = f(t+h) − ½ df — at the force
+ * nodes in the order ndo__stage_power takes them.  With f and df as
+ * ndo__implicit_prepare leaves them (s->f holds the springs' force at
+ * t + h too, −pen_f1: taken back out; df at a pin is the external
+ * forces' change alone, the springs' taken out there). */
+static double step_power(const ndo_sim *s, const double *V)
+{
+	const size_t cnt = s->count;
+	const double *f = s->f;
+	const double *df = f && s->p.method == NDO_TRAPEZOID ? s->vs : NULL;
+	double pw = 0;
+#define STEP_TERM(p)                                                                           	do {                                                                                   		for (int c = 0; c < 3; c++) {                                                      			const size_t q = (size_t)c * cnt + (p);                                        			pw += (df ? f[q] - 0.5 * df[q] : f[q]) * V[q];                                 		}                                                                                  	} while (0)
+	if (f && s->has_pressure)
+		for (size_t k = 0; k < s->nespan; k++)
+			for (size_t p = (size_t)s->espan[k].a; p < (size_t)s->espan[k].b; p++)
+				STEP_TERM(p);
+	else if (f)
+		for (size_t k = 0; k < s->nfnodes; k++)
+			if (s->active[s->fnodes[k]])
+				STEP_TERM((size_t)s->fnodes[k]);
+#undef STEP_TERM
+	for (size_t k = 0; f && k < s->npen; k++) {
+		const size_t p = (size_t)s->pen[k];
+		if (s->active[p] && s->pen_forced[k])
+			for (int c = 0; c < 3; c++)
+				pw += s->pen_f1[3 * k + (size_t)c] * V[(size_t)c * cnt + p];
+	}
+	return pw + ndo__held_power(s, s->u, V, NULL);
+}
+
+/* The implicit step of size h is done (s->v its new velocities): its
+ * input work, exactly the forces' term of its energy change for the
+ * linear membrane (E = ½ vᵀMv + ½ uᵀKu, K with the springs' α, B = γM):
+ *   backward Euler  E' − E = h f(t+h)·v' − h v'ᵀBv' − ½ (|Δv|²_M + |Δu|²_K)
+ *   trapezoid       E' − E = h f̄·v̄ − h v̄ᵀBv̄,  v̄ = ½ (v + v')
+ * (the trapezoid keeps E but for these; backward Euler loses the last
+ * term besides).  The power at the steps' ends by the trapezoidal rule,
+ * counted until 2026-11-30, is the trapezoid's ½ h (f·v + f'·v'), off by
+ * ¼ h Δf·Δv. */
+void ndo__implicit_account(ndo_sim *s, double h)
+{
+	const double P1 = step_power(s, s->v);
+	s->pend_h = h;
+	s->pend_power = s->p.method == NDO_TRAPEZOID ? 0.5 * (s->imp_power0 + P1) : P1;
+}
+
 int ndo__implicit_prepare(ndo_sim *s, double h, double **accel, double **dforce)
 {
 	const size_t cnt = s->count;
@@ -757,8 +806,12 @@ int ndo__implicit_prepare(ndo_sim *s, double h, double **accel, double **dforce)
 			for (int c = 0; c < 3; c++) {
 				size_t q = (size_t)c * cnt + (size_t)s->pen[k];
 				df[q] += s->alpha * h * s->v[q];
+				/* the spring's force at t + h in f, for step_power */
+				s->pen_f1[3 * k + (size_t)c] = s->alpha * (s->us[q] - s->pen_target[3 * k + c]);
 			}
 	}
+	if (s->p.method == NDO_TRAPEZOID)
+		s->imp_power0 = step_power(s, s->v);
 	*accel = a;
 	*dforce = df;
 	return NDO_OK;
@@ -782,9 +835,7 @@ int ndo__implicit_step(ndo_sim *s, double h)
 	s->stats.solves++;
 	ndo__sync_planes(s, s->u, 3);
 	ndo__sync_planes(s, s->v, 3);
-	s->pend_h = h;
-	s->pend_power = s->last_power;
-	s->pend_mean = 0;
+	ndo__implicit_account(s, h);
 	s->stats.substeps++;
 	return NDO_OK;
 }

@@ -438,9 +438,7 @@ static int sim_implicit_end(ndo_sim *s, double h, const double *x)
 			}
 	ndo__sync_planes(s, s->u, 3);
 	ndo__sync_planes(s, s->v, 3);
-	s->pend_h = h;
-	s->pend_power = s->last_power;
-	s->pend_mean = 0;
+	ndo__implicit_account(s, h);
 	s->stats.substeps++;
 	s->t += h;
 	s->step++;

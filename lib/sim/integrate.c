@@ -603,10 +603,11 @@ int ndo_sim_create(int level, const double *x, const double *v, const double *re
 		goto fail;
 	if (s->npen) {
 		/* which pins are force nodes (their f holds a force besides the
-		 * spring's: ndo__stage_power) */
+		 * spring's: ndo__stage_power), the implicit step's springs */
 		s->pen_forced = calloc(s->npen, 1);
+		s->pen_f1 = malloc(3 * s->npen * sizeof *s->pen_f1);
 		uint8_t *mark = calloc(cnt, 1);
-		if (!s->pen_forced || !mark) {
+		if (!s->pen_forced || !s->pen_f1 || !mark) {
 			free(mark);
 			rc = ndo__fail(NDO_ENOMEM, "out of memory for pins");
 			goto fail;
@@ -677,7 +678,7 @@ void ndo_sim_destroy(ndo_sim *s)
 	free(s->espan), free(s->ispan), free(s->bact), free(s->hedge), free(s->hmove),
 	    free(s->hread);
 	free(s->ichunk), free(s->echunk), free(s->cdiag);
-	free(s->pen), free(s->pen_target), free(s->pen_forced);
+	free(s->pen), free(s->pen_target), free(s->pen_forced), free(s->pen_f1);
 	if (s->forces)
 		ndo__forces_free(s);
 	planes_free(s->f);
@@ -1064,14 +1065,12 @@ static void updates_run(const ndo_sim *s, updates *u)
  * test (ndo__pending_work).  Symplectic Euler: P = ½ f(t)·(v + v'), the
  * work on the energy it conserves, exactly (accel.c).  An explicit
  * Runge–Kutta method: P = Σ b_i f(t_i)·V_i over its stages
- * (tableau_power), the quadrature the step itself integrates with.  (The
- * implicit methods still take the power at the steps' ends by the
- * trapezoidal rule: implicit.c.) */
+ * (tableau_power), the quadrature the step itself integrates with.  The
+ * implicit methods: implicit.c. */
 static void account(ndo_sim *s, double h, double P)
 {
 	s->pend_h = h;
 	s->pend_power = P;
-	s->pend_mean = 1;
 }
 
 /* The step's mean input power by the method's own quadrature, Σ b_i P_i

@@ -151,12 +151,14 @@ struct ndo_sim {
 	double stage_power[6]; /* the explicit Runge–Kutta step under way: the input
 	                        * power at each stage, f(t_i)·V_i (ndo__stage_power;
 	                        * stage 0's is last_power) */
-	double pend_h, pend_power; /* the last step: its size and start power */
-	int pend_mean;         /* pend_power is the last step's mean power (its work
-	                        * pend_h × pend_power, what the step itself integrated:
-	                        * integrate.c, account), not its start's (the implicit
-	                        * methods: the work by the trapezoidal rule with the
-	                        * next step's) */
+	double imp_power0;     /* the trapezoid's step under way: its input power at
+	                        * the velocity it starts from (implicit.c, step_power) */
+	double *pen_f1;        /* the implicit step under way: α (u + h v − x̄) at each
+	                        * penalty pin, 3 a pin (the spring's force at t + h
+	                        * in f, taken back out of the input power) */
+	double pend_h, pend_power; /* the last step: its size and mean input power,
+	                            * whose product is the work the step itself
+	                            * integrated (integrate.c, account) */
 
 	ndo__implicit *imp;
 	int imp_df;            /* ndo_sim_implicit_begin left f(t+h) − f(t) in vs */
@@ -459,8 +461,8 @@ int ndo__size_is_drift(ndo_sim *s, const ndo__diag *d);
  * accel.c). */
 double ndo__deformation(const ndo_sim *s, double mean[3], int *pin);
 
-/* The input work so far, closing the last step with `power`. */
-void ndo__pending_work(const ndo_sim *s, double power, double *w, double *w_abs);
+/* The input work so far, the last step's included. */
+void ndo__pending_work(const ndo_sim *s, double *w, double *w_abs);
 
 /* The velocities an input power is taken at: V's component c of node p
  * at V[c·vs + p + vd] (rk4.c's ring; elsewhere vs = count, vd = 0); or,
@@ -526,6 +528,9 @@ void ndo__implicit_invalidate(ndo_sim *s, int pattern);
  * state (in ka[0]) with the divergence test, and f(t+h) − f(t) (in vs;
  * NULL without forces), f then holding f(t+h) (implicit.c). */
 int ndo__implicit_prepare(ndo_sim *s, double h, double **a, double **df);
+/* The implicit step of size h done (s->u, s->v its new state, f and df
+ * still ndo__implicit_prepare's): its input work closed (implicit.c). */
+void ndo__implicit_account(ndo_sim *s, double h);
 /* The stencil's 6 neighbours (stored indices) and coefficients of
  * canonical node p, as the implicit system's row p has them. */
 void ndo__row_stencil(const ndo_sim *s, size_t p, int32_t nb[6], double cf[6]);

@@ -246,24 +246,9 @@ static void diverged(run *r)
 	char ratio[64] = "";
 	if (isfinite(r->crit.h_crit) && r->crit.h_crit > 0)
 		snprintf(ratio, sizeof ratio, " = %.3g x the critical step", r->dt / r->crit.h_crit);
-	const char *detail = ndo_errdetail();
-	/* The implicit methods' input work is the power at the steps' ends,
-	 * which misses a push between two ends where it is 0 — at steps
-	 * that are a good part of a force's period (docs/simulate-peer.md).
-	 * Not the explicit methods': each step counts its own. */
-	double hz = 0;
-	for (int i = 0; i < r->sc.nforces; i++)
-		hz = fmax(hz, r->sc.forces[i].f.frequency);
-	char hint[256] = "";
-	if (strstr(detail, "input work") && r->dt * hz > 0.125 &&
-	    ndo_method_is_implicit(ndo_sim_method(r->sim)))
-		snprintf(hint, sizeof hint, " (the step is %.2g of a force's period, where the work "
-		         "counted from the power at the steps' ends can miss a push: if the run is "
-		         "stable, --energy-bound 0, or a --dt under an eighth of the period)",
-		         r->dt * hz);
-	fprintf(stderr, "%s: diverged at step %lld (t = %.6g s, step %.4g s%s): %s%s; %s\n",
+	fprintf(stderr, "%s: diverged at step %lld (t = %.6g s, step %.4g s%s): %s; %s\n",
 	        ndo_progname, (long long)ndo_sim_step_count(r->sim), ndo_sim_time(r->sim), r->dt,
-	        ratio, detail, hint,
+	        ratio, ndo_errdetail(),
 	        r->sc.output ? "the output was not written" : "nothing written to standard output");
 	if (r->logging && ndo_out_commit(&r->log))
 		ndo_warn("%s: %s", r->sc.log, ndo_errdetail());
