@@ -1057,11 +1057,12 @@ static double against(int q, int top, const double *u, const double *ustar)
 
 /* The choice's own runs, its pilots and measured runs, without the
  * energy test: each is at most 0.9 × the critical step of its level's top
- * mode (power iteration), where a linear scene cannot diverge, and the
- * test's input work, the power at the steps' ends, misses a push at steps
- * that are a large part of a force's period (docs/simulate-peer.md): the
- * thesis' figure 5.3 at input level 2 stopped the whole choice as
- * "diverged" at a level-0 pilot.  The NaN/Inf and size tests stay. */
+ * mode (power iteration), where a linear scene cannot diverge.  (When the
+ * test's input work was the power at the steps' ends, until 2026-11-30, it
+ * missed a push at steps that are a large part of a force's period,
+ * docs/simulate-peer.md: the thesis' figure 5.3 at input level 2 stopped
+ * the whole choice as "diverged" at a level-0 pilot.)  The NaN/Inf and
+ * size tests stay. */
 static int choice_run(ndo_acc *a, const ndo_acc_config *c, ndo_acc_result *r)
 {
 	return acc_run(a, c, 0, r);

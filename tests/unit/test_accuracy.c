@@ -464,9 +464,9 @@ static void at_rest(const double *X, double *x)
 /* Inputs at levels 2 and 3 pilot from level n − 2, the thesis' figure
  * 5.7 from rest (a force of 1 Hz, 1 s): RK4's pilots at 0.5 s and 0.25 s
  * sample the force where it is 0, and the energy test, from the power at
- * the steps' ends, called them diverged and stopped the choice
- * (docs/simulate-peer.md).  The choice's runs go without it.  Two coarse
- * pilots never show their differences falling, so the input's level is
+ * the steps' ends until 2026-11-30, called them diverged and stopped the
+ * choice (docs/simulate-peer.md).  The choice's runs go without it.  Two
+ * coarse pilots never show their differences falling, so the input's level is
  * piloted too, and its own space error is measured, not extrapolated:
  * a target under it is out of reach (best_m, the input's level's error,
  * above the target), as the run's own estimate would say after it. */

@@ -136,10 +136,11 @@ void accuracy_plan(run *r)
 	/* The chosen run as a plain run: every core, the memory limit (the
 	 * pilots and the estimate's companions keep the scene's settings);
 	 * like the choice's own runs, no energy test unless --energy-bound
-	 * asks for one: its step is at most 0.9 × a critical step, and the
-	 * test's false alarm at steps a large part of a force's period
-	 * (docs/simulate-peer.md) stopped figure 5.3 from level 3 at 0.9,
-	 * rk4 at 0.5 s at level 1. */
+	 * asks for one: its step is at most 0.9 × a critical step, where a
+	 * linear scene cannot diverge (the test's false alarm at steps a large
+	 * part of a force's period, when its work was the power at the steps'
+	 * ends, stopped figure 5.3 from level 2 at 0.9, rk4 at 0.5 s at level
+	 * 1, until 2026-11-30: docs/simulate-peer.md). */
 	ndo_sim_params keep = r->sc.sim;
 	r->sc.sim.threads = r->threads ? r->threads : ndo_cpu_count();
 	r->sc.sim.max_memory = r->max_memory ? r->max_memory : ndo_memory_available();

@@ -222,10 +222,9 @@ int ndo_method_order(ndo_method m);
  * predicted error (best_m) and the level that would meet it
  * (level_needed, by r per level), and nothing runs.
  * The pilots and measured runs go without the energy test (at most 0.9 ×
- * a critical step; its input work misses pushes at steps that are a large
- * part of a force's period), the NaN/Inf and size tests kept; a measured
- * run that still diverges takes its method out at its level (and above
- * the pilots, when it is the top's).
+ * a critical step, where a linear scene cannot diverge), the NaN/Inf and
+ * size tests kept; a measured run that still diverges takes its method
+ * out at its level (and above the pilots, when it is the top's).
  * NDO_EINVAL: target ≤ 0, or relative target ≥ 1, or a relative target
  * when nothing moves in the pilots (umax 0); NDO_EDIVERGED: a pilot
  * diverged, or no candidate was left (the detail names the run); errors

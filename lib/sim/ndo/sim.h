@@ -258,7 +258,13 @@ int ndo_sim_threads(const ndo_sim *s);
  * (from its rest position moved with the body: a free body that drifts
  * whole does not diverge; a projected pin is such a node, so the free part
  * of a pinned body may not go further than that from its pins; with
- * ndo_sim_set_active, the region's nodes and pins) mean divergence.  Then the step returns NDO_EDIVERGED, leaves
+ * ndo_sim_set_active, the region's nodes and pins) mean divergence.  The
+ * input work is each step's own (docs/simulate-peer.md, "Divergence"):
+ * symplectic and forward Euler h f(t)·½(v + v'), midpoint
+ * h f(t + h/2)·½(v + v'), rk4 and rkf45 their stages' h Σ b_i f(t_i)·V_i,
+ * backward Euler h f(t+h)·v', the trapezoid h ½(f(t) + f(t+h))·½(v + v');
+ * the force the held nodes' displacements put on the integrated ones
+ * counts as an external one.  Then the step returns NDO_EDIVERGED, leaves
  * the state as it is (the first bad state, at ndo_sim_time) and records
  * what was wrong in ndo_errdetail().  Call ndo_sim_check() to test the
  * state after the last step.  Other errors: NDO_EINVAL (h not positive
@@ -542,8 +548,9 @@ int ndo_sim_store(const ndo_sim *s, ndo_grid *g);
 typedef struct ndo_sim_energy {
 	double kinetic;          /* ½ Σ m |v|², J */
 	double potential;        /* ½ Σ u·K u (+ ½ α |x − x̄|² at penalty pins), J */
-	double work;             /* ∫ f·v dt of the external forces so far, J
-	                            (sampled once per step) */
+	double work;             /* the external forces' work so far, J, as
+	                            the divergence test counts it: each
+	                            step's own (ndo_sim_step) */
 	double max_displacement; /* max |x − X|, m */
 } ndo_sim_energy;
 void ndo_sim_energy_get(ndo_sim *s, ndo_sim_energy *e);
