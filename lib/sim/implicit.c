@@ -735,22 +735,29 @@ static void prep_chunk(void *ctx, int k)
  * ndo__implicit_prepare leaves them (s->f holds the springs' force at
  * t + h too, −pen_f1: taken back out; df at a pin is the external
  * forces' change alone, the springs' taken out there). */
+static void step_term(double *pw, const double *f, const double *df, const double *V,
+                      size_t p, size_t cnt)
+{
+	for (int c = 0; c < 3; c++) {
+		const size_t q = (size_t)c * cnt + p;
+		*pw += (df ? f[q] - 0.5 * df[q] : f[q]) * V[q];
+	}
+}
+
 static double step_power(const ndo_sim *s, const double *V)
 {
 	const size_t cnt = s->count;
 	const double *f = s->f;
 	const double *df = f && s->p.method == NDO_TRAPEZOID ? s->vs : NULL;
 	double pw = 0;
-#define STEP_TERM(p)                                                                           	do {                                                                                   		for (int c = 0; c < 3; c++) {                                                      			const size_t q = (size_t)c * cnt + (p);                                        			pw += (df ? f[q] - 0.5 * df[q] : f[q]) * V[q];                                 		}                                                                                  	} while (0)
 	if (f && s->has_pressure)
 		for (size_t k = 0; k < s->nespan; k++)
 			for (size_t p = (size_t)s->espan[k].a; p < (size_t)s->espan[k].b; p++)
-				STEP_TERM(p);
+				step_term(&pw, f, df, V, p, cnt);
 	else if (f)
 		for (size_t k = 0; k < s->nfnodes; k++)
 			if (s->active[s->fnodes[k]])
-				STEP_TERM((size_t)s->fnodes[k]);
-#undef STEP_TERM
+				step_term(&pw, f, df, V, (size_t)s->fnodes[k], cnt);
 	for (size_t k = 0; f && k < s->npen; k++) {
 		const size_t p = (size_t)s->pen[k];
 		if (s->active[p] && s->pen_forced[k])

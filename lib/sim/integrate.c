@@ -1063,10 +1063,11 @@ static void updates_run(const ndo_sim *s, updates *u)
 /* A step of size h is done whose mean input power was P: its work h P is
  * the step's own, added to the input work at the next step's divergence
  * test (ndo__pending_work).  Symplectic Euler: P = ½ f(t)·(v + v'), the
- * work on the energy it conserves, exactly (accel.c).  An explicit
- * Runge–Kutta method: P = Σ b_i f(t_i)·V_i over its stages
- * (tableau_power), the quadrature the step itself integrates with.  The
- * implicit methods: implicit.c. */
+ * work on the energy it conserves, exactly (accel.c).  rk4 and rkf45:
+ * P = Σ b_i f(t_i)·V_i over their stages (tableau_power), the quadrature
+ * the step itself integrates with.  Forward Euler and midpoint: the
+ * step's force at its mean velocity ½(v + v') (first_stage, step_rk).
+ * The implicit methods: implicit.c. */
 static void account(ndo_sim *s, double h, double P)
 {
 	s->pend_h = h;
@@ -1100,9 +1101,10 @@ static double tableau_power(const tableau *tb, const double *P)
  * (NDO__UPD_STORE_SE: the same a): its step's work is h f(t)·½(v + v'),
  * not its tableau's h f(t)·v.  That one is 0 from rest, where the step
  * still puts ½ h² f·M⁻¹f into the kinetic energy — the quadrature is
- * only first order, and from rest its error is the whole work — and the
- * test stopped every forced run from rest at its first step.  Its
- * velocity changes by h M⁻¹(f − K u − B v), so the kinetic energy by
+ * only first order, and from rest its error is the whole work — so the
+ * test would stop a run from rest under a force at its first step
+ * (test_sim pins_stay_put, a constant force, did).  The velocity changes
+ * by h M⁻¹(f − K u − B v), so the kinetic energy by
  * h (f − K u − B v)·½(v + v'): the force's share is this work exactly,
  * and the potential energy's change, h vᵀK ½(u + u'), does not see the
  * force (u' = u + h v). */
@@ -1147,7 +1149,8 @@ static int rk_stages(ndo_sim *s, const tableau *tb, double h, int k0_ready)
 		ndo__sync_planes(s, s->us, 3);
 		ndo__sync_planes(s, s->kv[i], 3);
 		ndo__accel(s, s->t + tb->c[i] * h, s->us, s->kv[i], s->ka[i], NULL);
-		if (tb->b[i] != 0 && tb != &tb_midpoint) { /* f holds the stage's forces */
+		/* f holds the stage's forces (midpoint's work: step_rk) */
+		if (tb->b[i] != 0 && tb != &tb_midpoint) {
 			const ndo__vel w = {s->kv[i], s->count, 0, NULL, NULL, 0};
 			s->stage_power[i] = ndo__stage_power(s, s->f, s->us, &w);
 		}
@@ -1181,7 +1184,13 @@ static int step_rk(ndo_sim *s, const tableau *tb, double h)
 	if (rc)
 		return rc;
 	/* forward Euler: its mean power (first_stage); midpoint: its stage's
-	 * force at the mean velocity, v' = v + h a₁ as rk_finish makes it */
+	 * force at the mean velocity, v' = v + h a₁ as rk_finish makes it —
+	 * its stage's quadrature h f(t + h/2)·(v + ½ h a₀) does not see the
+	 * velocity the step's push gives, and counts 0 from rest under a
+	 * force that is 0 at the start (the thesis' sines) while the step puts
+	 * ½ h² f·M⁻¹f into the kinetic energy; the step changes the velocity
+	 * by h a₁, so the kinetic energy by h M a₁·½(v + v'), of which this is
+	 * the forces' share, exactly */
 	double P = tableau_power(tb, s->stage_power);
 	if (tb == &tb_euler) {
 		P = s->last_power;
@@ -1687,7 +1696,7 @@ static int steps_wave(ndo_sim *s, double h, int m, double *t, int *done)
 			return rc;
 		}
 		s->stats.evaluations += two;
-		/* midpoint: its stage's power, b = (0, 1) */
+		/* midpoint: its stage's force at its mean velocity (step_rk) */
 		account(s, h, two ? ndo__wave_power(s, j) : s->last_power);
 		s->stats.substeps++;
 		s->t = t[j + 1];

@@ -46,8 +46,8 @@ struct ndo__wave_plan {
 	ndo__diag *dg;         /* cap·C */
 	double *bt, *et;       /* cap·nbact·NDO__BTERMS, cap·nhedge·3 */
 	/* midpoint: each step's input power (its stage's force at its mean
-	 * velocity) as terms
-	 * (ndo__stage_power_sum), cap·nfnodes and cap·nhedge·3 */
+	 * velocity) as terms (ndo__stage_power_sum), cap·nfnodes and
+	 * cap·nhedge·3 */
 	double *ft, *st;
 };
 
