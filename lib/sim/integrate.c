@@ -778,6 +778,7 @@ void ndo_sim_set(ndo_sim *s, size_t n, const int32_t *nodes, const double *x,
                  const double *v)
 {
 	size_t cnt = s->count;
+	int pinned = 0;
 	s->udrift = 0; /* a drift is the state's: the size test measures again */
 	if (!nodes)
 		n = cnt;
@@ -786,6 +787,7 @@ void ndo_sim_set(ndo_sim *s, size_t n, const int32_t *nodes, const double *x,
 		if (q >= cnt)
 			continue;
 		size_t p = (size_t)s->canon[q];
+		pinned |= s->nppin && s->pin[p];
 		for (int c = 0; c < 3; c++) {
 			if (x)
 				s->u[(size_t)c * cnt + p] = x[3 * k + c] - s->X[(size_t)c * cnt + p];
@@ -793,7 +795,7 @@ void ndo_sim_set(ndo_sim *s, size_t n, const int32_t *nodes, const double *x,
 				s->v[(size_t)c * cnt + p] = v[3 * k + c];
 		}
 	}
-	if (x && s->nppin) /* a pin may be among them */
+	if (x && pinned) /* a pin among them: the size test's largest |u| again */
 		pins_size(s);
 	state_written(s, n, nodes);
 }
@@ -847,12 +849,14 @@ void ndo_sim_set_displacements(ndo_sim *s, size_t n, const int32_t *nodes, const
                                const double *v)
 {
 	const size_t cnt = s->count;
+	int pinned = 0;
 	if (u)
 		s->udrift = 0; /* as ndo_sim_set */
 	for (size_t k = 0; k < n; k++) {
 		if ((size_t)nodes[k] >= cnt)
 			continue;
 		size_t p = (size_t)s->canon[nodes[k]];
+		pinned |= s->nppin && s->pin[p];
 		for (int c = 0; c < 3; c++) {
 			if (u)
 				s->u[(size_t)c * cnt + p] = u[3 * k + c];
@@ -860,7 +864,7 @@ void ndo_sim_set_displacements(ndo_sim *s, size_t n, const int32_t *nodes, const
 				s->v[(size_t)c * cnt + p] = v[3 * k + c];
 		}
 	}
-	if (u && s->nppin) /* as ndo_sim_set */
+	if (u && pinned) /* as ndo_sim_set */
 		pins_size(s);
 	state_written(s, n, nodes);
 }
