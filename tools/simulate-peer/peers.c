@@ -369,7 +369,7 @@ static void publish_interval(run *r, peer_cli *c, size_t nodes)
 	if (c->publish_every_set)
 		return;
 	double rate = c->publish_rate > 0 ? c->publish_rate : PUBLISH_RATE;
-	double q = ceil(predicted_rate(r, c, nodes) / rate);
+	double speed = predicted_rate(r, c, nodes), q = ceil(speed / rate);
 	int least = c->publish_rate > 0 ? 1 : PUBLISH_EVERY_MIN;
 	c->publish_every = q < least ? least : q > 1e9 ? 1000000000 : (int)q;
 	/* the owner's own --frames (every F steps) show the others' regions as
@@ -394,8 +394,7 @@ static void publish_interval(run *r, peer_cli *c, size_t nodes)
 		fprintf(stderr, "%s: whole regions every %d step%s (about %.3g a second at the "
 		        "predicted %.3g steps/s; --publish-rate %g%s)\n", ndo_progname,
 		        c->publish_every, c->publish_every == 1 ? "" : "s",
-		        predicted_rate(r, c, nodes) / c->publish_every, predicted_rate(r, c, nodes),
-		        rate, c->publish_every != n ? ", to suit --frame-every" : "");
+		        speed / c->publish_every, speed, rate, c->publish_every != n ? ", to suit --frame-every" : "");
 }
 
 /* The owner's object: the single process's setup, as a grid with every
