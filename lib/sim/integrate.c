@@ -1360,6 +1360,16 @@ static void rkf45_begin(ndo_sim *s, double H)
 	s->rk_rejected = 0;
 	s->rk_t0 = s->t;
 	s->rk_hsub0 = s->h_sub;
+	s->rk_undo.work = s->work;
+	s->rk_undo.work_abs = s->work_abs;
+	s->rk_undo.pend_h = s->pend_h;
+	s->rk_undo.pend_power = s->pend_power;
+	s->rk_undo.e0 = s->e0;
+	s->rk_undo.e0_set = s->e0_set;
+	s->rk_undo.udrift = s->udrift;
+	s->rk_undo.substeps = s->stats.substeps;
+	s->rk_undo.rejected = s->stats.rejected;
+	s->rk_undo.last_substep = s->stats.last_substep;
 }
 
 static int rkf45_attempt(ndo_sim *s, const uint8_t *rows, double *err)
@@ -1892,4 +1902,14 @@ void ndo_sim_rkf45_abort(ndo_sim *s)
 {
 	s->t = s->rk_t0;
 	s->h_sub = s->rk_hsub0;
+	s->work = s->rk_undo.work;
+	s->work_abs = s->rk_undo.work_abs;
+	s->pend_h = s->rk_undo.pend_h;
+	s->pend_power = s->rk_undo.pend_power;
+	s->e0 = s->rk_undo.e0;
+	s->e0_set = s->rk_undo.e0_set;
+	s->udrift = s->rk_undo.udrift;
+	s->stats.substeps = s->rk_undo.substeps;
+	s->stats.rejected = s->rk_undo.rejected;
+	s->stats.last_substep = s->rk_undo.last_substep;
 }

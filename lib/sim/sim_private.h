@@ -135,6 +135,15 @@ struct ndo_sim {
 	 * ready, the last attempt rejected; the time and h_sub it began at */
 	double rk_t_end, rk_hs, rk_h, rk_t0, rk_hsub0;
 	int rk_last, rk_k0, rk_rejected;
+	/* ... and what its sub-steps change besides the state, which
+	 * ndo_sim_rkf45_abort puts back: the input work (committed and
+	 * pending), the energy bound's reference, the size test's threshold
+	 * and the sub-step counts (the force evaluations were made: they stay) */
+	struct {
+		double work, work_abs, pend_h, pend_power, e0, udrift, last_substep;
+		int e0_set;
+		int64_t substeps, rejected;
+	} rk_undo;
 
 	/* Divergence: the reference energy and the input work. */
 	int e0_set;

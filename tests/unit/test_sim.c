@@ -1300,6 +1300,76 @@ static ndo_grid *rkf45_scene(double **x0, double **v0, ndo_force *f, ndo_sim_par
 	return g;
 }
 
+/* A split rkf45 step that a peer abandons part-way (ndo_sim_rkf45_abort,
+ * the state put back as the peer does it) leaves no trace: taken again, it
+ * ends as the step taken once, with the same sub-step counts and the same
+ * input work, bit for bit.  Until 2026-12-01 abort put back only the time
+ * and the sub-step size: the abandoned sub-steps stayed in the counts and
+ * in the divergence test's input work. */
+static void an_abandoned_rkf45_step_leaves_no_trace(void)
+{
+	double *x0, *v0;
+	ndo_force f;
+	ndo_sim_params p;
+	ndo_grid *g = rkf45_scene(&x0, &v0, &f, &p);
+	size_t nn = 3 * g->count;
+	ndo_sim *a = make(g, x0, v0, NULL, &p), *b = make(g, x0, v0, NULL, &p);
+	int32_t *all = malloc(g->count * sizeof *all);
+	for (size_t k = 0; k < g->count; k++)
+		all[k] = (int32_t)k;
+	double *u = malloc(nn * sizeof *u), *v = malloc(nn * sizeof *v);
+	int abandoned = 0;
+	for (int k = 0; k < 12; k++) {
+		CHECK(ndo_sim_step(a, 0.05) == 0, "step: %s", ndo_errdetail());
+		/* every other step: begun, two sub-steps attempted and decided
+		 * (accepted or not), abandoned, begun again */
+		if (k % 2 == 1) {
+			ndo_sim_get_nodes(b, g->count, all, NULL, u, v);
+			CHECK(ndo_sim_rkf45_begin(b, 0.05) == 0, "begin: %s", ndo_errdetail());
+			int rc = 0;
+			for (int j = 0; j < 2 && rc == 0; j++) {
+				double err;
+				CHECK(ndo_sim_rkf45_attempt(b, NULL, &err, NULL) == 0, "attempt: %s",
+				      ndo_errdetail());
+				rc = ndo_sim_rkf45_decide(b, err);
+			}
+			if (rc == 0) {
+				ndo_sim_set_displacements(b, g->count, all, u, v);
+				ndo_sim_rkf45_abort(b);
+				abandoned++;
+			} else {
+				/* the step ended within two sub-steps: nothing to abandon */
+				CHECK(rc == 1, "decide: %d (%s)", rc, ndo_errdetail());
+				continue;
+			}
+		}
+		CHECK(ndo_sim_step(b, 0.05) == 0, "step: %s", ndo_errdetail());
+	}
+	double *xa = malloc(nn * sizeof *xa), *xb = malloc(nn * sizeof *xb);
+	ndo_sim_get(a, xa, NULL);
+	ndo_sim_get(b, xb, NULL);
+	ndo_sim_stats sa, sb;
+	ndo_sim_stats_get(a, &sa);
+	ndo_sim_stats_get(b, &sb);
+	ndo_sim_energy ea, eb;
+	ndo_sim_energy_get(a, &ea);
+	ndo_sim_energy_get(b, &eb);
+	CHECK(abandoned >= 3, "only %d steps were abandoned part-way", abandoned);
+	CHECK(memcmp(xa, xb, nn * sizeof *xa) == 0, "the state differs by %g", max_diff(xa, xb, nn));
+	CHECK(sa.substeps == sb.substeps && sa.rejected == sb.rejected &&
+	      sa.last_substep == sb.last_substep && sa.steps == sb.steps,
+	      "sub-steps %lld/%lld, rejected %lld/%lld, last %.17g/%.17g, steps %lld/%lld",
+	      (long long)sa.substeps, (long long)sb.substeps, (long long)sa.rejected,
+	      (long long)sb.rejected, sa.last_substep, sb.last_substep, (long long)sa.steps,
+	      (long long)sb.steps);
+	CHECK(ea.work == eb.work, "input work %.17g J, after abandoned steps %.17g J", ea.work,
+	      eb.work);
+	free(xa), free(xb), free(u), free(v), free(all), free(x0), free(v0);
+	ndo_sim_destroy(a);
+	ndo_sim_destroy(b);
+	ndo_grid_destroy(g);
+}
+
 /* rkf45 in parts (ndo/sim.h): begin/attempt/decide is ndo_sim_step bit for
  * bit; the error over a subset of rows is at most the whole one, and the
  * larger of two complementary subsets' is the whole one; peek gives the
@@ -2532,6 +2602,7 @@ int main(void)
 	RUN(a_body_far_from_its_pins_is_diverging);
 	RUN(results_are_pinned_across_versions);
 	RUN(rkf45_in_parts_is_the_step);
+	RUN(an_abandoned_rkf45_step_leaves_no_trace);
 	RUN(rkf45_resumes_from_state_time_and_substep);
 	RUN(power_iteration_finds_lambda_max);
 	RUN(duplicates_agree_after_every_step);

@@ -321,7 +321,8 @@ int ndo_sim_step_begin(ndo_sim *s, double h, size_t n, const int32_t *pending);
  * sub-step next) by err; 1 when the step is complete (time and step count
  * advanced), 0 when another attempt follows, NDO_EDIVERGED when the
  * sub-step underflows.  abort: back to the time and sub-step size the
- * step began with (the caller restores the state). */
+ * step began with, and to its input work, energy bound and sub-step
+ * counts, as if it had not begun (the caller restores the state). */
 int ndo_sim_rkf45_begin(ndo_sim *s, double h);
 int ndo_sim_rkf45_attempt(ndo_sim *s, const uint8_t *rows, double *err, double *h);
 int ndo_sim_rkf45_decide(ndo_sim *s, double err);
