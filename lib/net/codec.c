@@ -127,6 +127,43 @@ NDO_HOT static void class_pass(const uint8_t *restrict cls, int nodes, int enc,
 	cnt[0] = (size_t)nodes - c1 - c2, cnt[1] = c1, cnt[2] = c2;
 }
 
+/* Every node of a frame NDO_HAVE_CODE (its position its code). */
+NDO_HOT static int codes_all(const uint8_t *restrict have, int nodes)
+{
+	unsigned other = 0;
+	for (int n = 0; n < nodes; n++)
+		other |= have[n] ^ NDO_HAVE_CODE;
+	return !other;
+}
+
+/* The decoder's output of a hier tile whose every node is LOSSY: the
+ * positions from the codes k, the velocities from the previous frame's
+ * codes kp (every node NDO_HAVE_CODE; NULL: none, NAN) times inv —
+ * ndo_codec_decode_strided()'s loop over the nodes without its branches,
+ * the same operations (no fused ones: the same doubles). */
+NDO_HOT static void hier_out(const quant *z, const int32_t *restrict k,
+                             const int32_t *restrict kp, double inv, int nodes,
+                             double *restrict x, double *restrict v, size_t S)
+{
+	const double l0 = z->lo[0], l1 = z->lo[1], l2 = z->lo[2];
+	const double q0 = z->q[0], q1 = z->q[1], q2 = z->q[2];
+	for (int n = 0; n < nodes; n++) {
+		const int32_t *kn = k + 3 * (size_t)n;
+		double *xn = x + S * (size_t)n, *vn = v + S * (size_t)n;
+		const double a = l0 + (double)kn[0] * q0, b = l1 + (double)kn[1] * q1,
+		             c = l2 + (double)kn[2] * q2;
+		xn[0] = a, xn[1] = b, xn[2] = c;
+		if (!kp) {
+			vn[0] = vn[1] = vn[2] = NAN;
+			continue;
+		}
+		const int32_t *pn = kp + 3 * (size_t)n;
+		vn[0] = (a - (l0 + (double)pn[0] * q0)) * inv;
+		vn[1] = (b - (l1 + (double)pn[1] * q1)) * inv;
+		vn[2] = (c - (l2 + (double)pn[2] * q2)) * inv;
+	}
+}
+
 /* The largest body a tile of `nodes` can have (bomb check). */
 static size_t body_bound(int nodes)
 {
@@ -673,6 +710,11 @@ ndo_drop ndo_codec_decode_strided(const ndo_codec_params *p, ndo_codec_work *w,
 	/* positions and velocities out (the fast decoder's are: no node of its
 	 * frames is SKIP) */
 	const int hier = enc == NDO_ENC_HIER;
+	if (hier && cnt[1] == (size_t)nodes) {
+		const int est = prev && dtp > 0 && codes_all(prev->have, nodes);
+		hier_out(&z, recon->k, est ? prev->k : NULL, inv, nodes, x, v, S);
+		o.done = 1;
+	}
 	for (int n = 0; n < nodes && !o.done; n++) {
 		if (cls[n] == NDO_NODE_EXACT)
 			continue;
