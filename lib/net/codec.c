@@ -164,6 +164,49 @@ NDO_HOT static void hier_out(const quant *z, const int32_t *restrict k,
 	}
 }
 
+/* hier's encoder, a tile whose every node is LOSSY: whether a position
+ * is NaN, infinite or far from the codes' range (ndo_codec_encode()'s
+ * test, node by node, without branches). */
+NDO_HOT static int hier_far(const quant *z, const double *restrict X, int nodes)
+{
+	const double l0 = z->lo[0], l1 = z->lo[1], l2 = z->lo[2];
+	const double i0 = 1 / z->q[0], i1 = 1 / z->q[1], i2 = 1 / z->q[2], M = CODE_MAX / 2;
+	unsigned far = 0;
+	for (int n = 0; n < nodes; n++) {
+		const double *xn = X + 3 * (size_t)n;
+		const double a = (xn[0] - l0) * i0, b = (xn[1] - l1) * i1, c = (xn[2] - l2) * i2;
+		far |= !(a > -M && a < M) | !(b > -M && b < M) | !(c > -M && c < M);
+	}
+	return far != 0;
+}
+
+/* hier's encoder, a tile whose every node is LOSSY: the largest and the
+ * sum of the squared errors of the codes k against the positions X
+ * (ndo_codec_encode()'s loop over the nodes without its branches: each
+ * node's error in runs the compiler vectorizes, then summed in node order,
+ * the same doubles). */
+NDO_HOT static void hier_err(const quant *z, const int32_t *restrict k, const double *restrict X,
+                             int nodes, double *max2, double *sum2)
+{
+	const double l0 = z->lo[0], l1 = z->lo[1], l2 = z->lo[2];
+	const double q0 = z->q[0], q1 = z->q[1], q2 = z->q[2];
+	double m = 0, s = 0, e2[256];
+	for (int n0 = 0; n0 < nodes; n0 += 256) {
+		const int cnt = nodes - n0 < 256 ? nodes - n0 : 256;
+		const int32_t *kn = k + 3 * (size_t)n0;
+		const double *xn = X + 3 * (size_t)n0;
+		for (int i = 0; i < cnt; i++) {
+			const double a = l0 + (double)kn[3 * i] * q0 - xn[3 * i],
+			             b = l1 + (double)kn[3 * i + 1] * q1 - xn[3 * i + 1],
+			             c = l2 + (double)kn[3 * i + 2] * q2 - xn[3 * i + 2];
+			e2[i] = a * a + b * b + c * c;
+		}
+		for (int i = 0; i < cnt; i++)
+			s += e2[i], m = e2[i] > m ? e2[i] : m;
+	}
+	*max2 = m, *sum2 = s;
+}
+
 /* The largest body a tile of `nodes` can have (bomb check). */
 static size_t body_bound(int nodes)
 {
@@ -303,7 +346,9 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 		int out = 0;
 		const int hier = enc == NDO_ENC_HIER;
 		const double iq[3] = {1 / z.q[0], 1 / z.q[1], 1 / z.q[2]};
-		for (int n = 0; n < nodes; n++) {
+		/* every node LOSSY and none far: nothing to check or make */
+		const int none = hier && lossy == (size_t)nodes && !hier_far(&z, X, nodes);
+		for (int n = 0; n < nodes && !none; n++) {
 			const double *xn = X + 3 * n;
 			int lossy = in->cls[n] == NDO_NODE_LOSSY;
 			if (hier && lossy) {
@@ -357,7 +402,9 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 	                      * nodes' values from its codes, not kept: a node
 	                      * NDO_HAVE_CODE has no x, ndo/codec.h) */
 		double max2 = 0, sum2 = 0;
-		for (int n = 0; n < nodes; n++) {
+		if (enc == NDO_ENC_HIER && lossy == (size_t)nodes)
+			hier_err(&z, recon->k, X, nodes, &max2, &sum2);
+		for (int n = 0; n < nodes && !(enc == NDO_ENC_HIER && lossy == (size_t)nodes); n++) {
 			if (in->cls[n] != NDO_NODE_LOSSY)
 				continue;
 			double e2 = 0;
