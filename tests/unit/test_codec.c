@@ -725,6 +725,85 @@ static void specs_and_description_lines(void)
 	CHECK(ndo_codec_params_take(badbudget, &q) == NDO_EINVAL, "a budget of 0.5 refused");
 }
 
+/* hier on a tile whose every node is LOSSY (codec.c's hier_far(),
+ * hier_err() and hier_out(), without branches): the receiver's positions
+ * what the sender holds, its velocities the difference from the previous
+ * frame over the time between, the encoder's error what the codes it
+ * holds are off by (summed in node order: the same doubles), and a NaN,
+ * an infinite or a far position refused as in a tile with other classes. */
+static void hier_all_lossy_tiles(void)
+{
+	ndo_codec_params p = params("hier:1e-4");
+	ndo_codec_work *w = ndo_codec_work_create();
+	side tx, rx;
+	side_init(&tx), side_init(&rx);
+	static double x[3 * NODES], v[3 * NODES], xo[3 * NODES], vo[3 * NODES], xp[3 * NODES];
+	uint8_t cls[NODES];
+	memset(cls, NDO_NODE_LOSSY, sizeof cls);
+	int bad_x = 0, bad_v = 0, bad_e = 0;
+	for (int64_t s = 0; s < 40; s++) {
+		state(s, x, v, 0.2);
+		ndo_codec_input in = {ROWS, COLS, x, v, cls, s, 0.01 * (double)s, 0, 0};
+		uint8_t *data;
+		size_t len;
+		int64_t base;
+		int un;
+		int rc = ndo_codec_encode(&p, w, &tx.h, 0, &in, &data, &len, &base, &tx.f, &un);
+		CHECK(rc == 0, "step %lld: encoded (%d)", (long long)s, rc);
+		if (rc)
+			break;
+		if (base < 0)
+			ndo_codec_hist_clear(&tx.h);
+		ndo_codec_hist_put(&tx.h, &tx.f);
+		double max2, sum2, m = 0, sum = 0;
+		size_t cnt;
+		ndo_codec_work_error(w, &max2, &sum2, &cnt);
+		ndo_drop r = ndo_codec_decode(&p, NULL, &rx.h, ROWS, COLS, data, len, s,
+		                              0.01 * (double)s, 0, base, xo, vo, &rx.f);
+		free(data);
+		CHECK(r == NDO_DROP_NONE, "step %lld: decoded (%s)", (long long)s, ndo_drop_name(r));
+		if (r != NDO_DROP_NONE)
+			break;
+		if (base < 0)
+			ndo_codec_hist_clear(&rx.h);
+		ndo_codec_hist_put(&rx.h, &rx.f);
+		const double inv = 1 / (0.01 * (double)s - 0.01 * (double)(s - 1));
+		for (int n = 0; n < NODES; n++) {
+			double held[3], e[3];
+			ndo_codec_frame_position(&p, &tx.f, n, held);
+			for (int d = 0; d < 3; d++) {
+				bad_x += xo[3 * n + d] != held[d];
+				const double want = s ? (xo[3 * n + d] - xp[3 * n + d]) * inv : NAN;
+				bad_v += s ? vo[3 * n + d] != want : !isnan(vo[3 * n + d]);
+				e[d] = held[d] - x[3 * n + d];
+			}
+			const double e2 = e[0] * e[0] + e[1] * e[1] + e[2] * e[2];
+			sum += e2, m = e2 > m ? e2 : m;
+		}
+		bad_e += max2 != m || sum2 != sum || cnt != NODES;
+		memcpy(xp, xo, sizeof xp);
+	}
+	CHECK(!bad_x && !bad_v && !bad_e,
+	      "positions as held, velocities from the last frame, the encoder's errors: %d, %d, %d "
+	      "values off", bad_x, bad_v, bad_e);
+	const double far[3] = {NAN, INFINITY, 1e12};
+	for (int k = 0; k < 3; k++) {
+		state(40, x, v, 0.2);
+		x[3 * (NODES / 2) + 1] = far[k];
+		ndo_codec_input in = {ROWS, COLS, x, v, cls, 40, 0.4, 0, 0};
+		uint8_t *data = NULL;
+		size_t len;
+		int64_t base;
+		int un;
+		ndo_codec_frame f = rx.fh.f[1];
+		CHECK(ndo_codec_encode(&p, w, &tx.h, 0, &in, &data, &len, &base, &f, &un) == NDO_ERANGE,
+		      "a position %g refused", far[k]);
+		free(data);
+	}
+	ndo_codec_work_destroy(w);
+	side_free(&tx), side_free(&rx);
+}
+
 int main(void)
 {
 	ck_program = "test_codec";
@@ -739,5 +818,6 @@ int main(void)
 	RUN(a_level_10_object_keeps_every_tiles_history);
 	RUN(least_used_histories_go_first);
 	RUN(specs_and_description_lines);
+	RUN(hier_all_lossy_tiles);
 	return ck_failed_cases != 0;
 }
