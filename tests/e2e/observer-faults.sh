@@ -1,11 +1,13 @@
 #!/usr/bin/env bash
 # An observer whose network reorders or loses messages (issue 20's frames
 # over a real link): over real LCM in a private network namespace, an owner
-# streams the thesis' scene at level 5 every step, 125 steps a second (the
-# wall clock's pace), in predict:1e-4 and hier:1e-4 to an observer (a joiner
-# without --poi) that injects 5 % reordering, or 5 % loss, with a little
-# delay; its -o is the owner's last step, which travels exact (at a send
-# level, every 2nd node of it).
+# streams the thesis' scene at level 5 every step, 31.25 steps a second (a
+# quarter of the wall clock's pace), in predict:1e-4 and hier:1e-4 to an
+# observer (a joiner without --poi) that injects 5 % reordering, or 5 % loss,
+# with a delay of 10-18 ms (a reordered message 41 ms more: the next step's
+# frame overtakes it, 32 ms later, the one after that does not); its -o is
+# the owner's last step, which travels exact (at a send level, every 2nd
+# node of it).
 # - Reordered: a frame that comes before its reference is held until the
 #   reference is decoded (lib/net/net.c): the observer's network line counts
 #   them `held`, and only the few overtaken by their tile's keyframe are
@@ -21,7 +23,13 @@
 #   binaries from before.
 # At twice the pace (250 steps a second) the sanitizer build of the observer
 # did not keep up with hier beside two busy loops (37-115 `nobase`, with 0-1
-# keyframes asked for: its holding gave way, not the asking).
+# keyframes asked for: its holding gave way, not the asking); at 125 steps a
+# second (2 ms delay, 2 ms jitter) neither did it beside 4 busy loops (load
+# 6-8 on 2 cores, 2026-12-01: 46-99 `nobase`, and the owner 0.5 s behind its
+# pace stopped, exit 5, in 6 of 8 runs).  The observer of the sanitizer build
+# costs about 2 ms of processor time a step: a quarter of the pace is about
+# 6 % of a core.  The pace is not what this checks: the owner may fall 30 s
+# behind.
 . "$(dirname "$0")/netns.bash"
 . "$(dirname "$0")/lib.sh"
 
@@ -40,13 +48,14 @@ for fault in reorder drop; do
 		period=
 		[ $fault = drop ] && period=:4096
 		rm -f observed.tgrid owner.tgrid
-		simulate-peer --join --$fault 0.05 --delay 2 --jitter 2 --fault-seed 5 \
+		simulate-peer --join --$fault 0.05 --delay 10 --jitter 8 --fault-seed 5 \
 			-o observed.tgrid 2>obs.err &
 		observer=$!
 		sleep 0.5
 		# realtime: the observer has the time to join, and a frame every step
 		simulate-peer --owner wavy5.tgrid -s "$SCENE" --dt 0.008 -t 1.6 --encoding "$enc$period" \
-			--publish-every 1 --clock realtime "${sl[@]}" -o owner.tgrid 2>owner.err
+			--publish-every 1 --clock realtime --speed 0.25 --step-timeout 30 "${sl[@]}" \
+			-o owner.tgrid 2>owner.err
 		ro=$?
 		wait $observer
 		rv=$?
