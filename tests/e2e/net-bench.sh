@@ -22,7 +22,10 @@ if len(rows) != 1 or bad:
 f = {k: float(r[k]) for k in need if k != "encoding"}
 why = []
 if r["level"] != "4" or not r["encoding"].startswith("predict"): why.append("level/encoding")
-if not 0.5 < f["bits_per_node_update"] < 96: why.append(f"bits {f['bits_per_node_update']}")
+if not 0.5 < f["bits_per_node_update"] < 96:
+    # what they were (each over the steady state's nodes x steps)
+    parts = " ".join(f"{k} {r.get(k + '_bits', '?')}" for k in ("encoded_tile", "raw_tile", "rest_tile", "heartbeat", "control"))
+    why.append(f"bits {f['bits_per_node_update']} ({parts}; {r.get('steady_steps', '?')} steady steps of {r.get('steps', '?')})")
 if not f["mbit_s"] > 0: why.append("mbit_s")
 if not 0 < f["max_error_rel"] <= 1 / 16384 * 1.000001: why.append(f"max error {f['max_error_rel']}")
 if not 0 < f["rms_error_rel"] <= f["max_error_rel"]: why.append("rms error")

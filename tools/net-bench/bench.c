@@ -90,7 +90,11 @@ static long kernel_drops(void)
 /* ---- the wire: a listener thread -------------------------------------------- */
 /* Every message on the run's channels, as any receiver on the bus sees it:
  * its bytes by kind (bench.h, nb_traffic) and, for tiles, the
- * publish-to-receive latency. */
+ * publish-to-receive latency.  The steady state's traffic is told from the
+ * joins' by when each message was published (its header's utime), not by
+ * when this thread got to it: under load the thread lags, and the messages
+ * still in its socket when the steady state began (a joiner's raw snapshot
+ * and rest shape among them) were counted as the steady state's. */
 typedef struct listener {
 	lcm_t *lcm;
 	pthread_t thread;
@@ -100,8 +104,18 @@ typedef struct listener {
 	double *lat; /* µs */
 	size_t n, cap;
 	nb_traffic tr;
+	nb_traffic before; /* published before `mark` (all of it while mark is 0) */
+	int64_t mark;      /* µs since the epoch: the steady state's start (0: not yet) */
 	pthread_mutex_t mu;
 } listener;
+
+/* Now, as the header's utime counts it: µs since the epoch. */
+static int64_t utime_now(void)
+{
+	struct timeval tv;
+	gettimeofday(&tv, NULL);
+	return (int64_t)tv.tv_sec * 1000000 + tv.tv_usec;
+}
 
 static void on_message(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
 {
@@ -138,20 +152,29 @@ static void on_message(const lcm_recv_buf_t *rbuf, const char *channel, void *us
 		}
 		ndo_msg_free(&m);
 	}
-	/* tile_t: type hash (8), then header_t: version (2), object (8),
-	 * sender (4), seq (8), utime (8, big-endian µs) */
+	/* every message: type hash (8), then header_t: version (2), object
+	 * (8), sender (4), seq (8), utime (8, big-endian µs) */
 	double lat = NAN;
-	if (type == NDO_MSG_TILE && rbuf->data_size >= 38) {
+	int64_t ut = 0;
+	if (rbuf->data_size >= 38) {
 		const uint8_t *b = rbuf->data;
-		int64_t ut = 0;
 		for (int k = 30; k < 38; k++)
 			ut = ut << 8 | b[k];
-		lat = (double)((int64_t)tv.tv_sec * 1000000 + tv.tv_usec - ut);
+		if (type == NDO_MSG_TILE)
+			lat = (double)((int64_t)tv.tv_sec * 1000000 + tv.tv_usec - ut);
 	}
 	pthread_mutex_lock(&l->mu);
 	l->tr.messages[kind]++;
 	l->tr.bytes[kind] += wire;
 	l->tr.payload[kind] += payload;
+	/* the peers publish on the thread that sets the mark, so a message
+	 * published after it carries a later utime; one without a header
+	 * (too short) goes with the steady state once it began */
+	if (!l->mark || (rbuf->data_size >= 38 && ut < l->mark)) {
+		l->before.messages[kind]++;
+		l->before.bytes[kind] += wire;
+		l->before.payload[kind] += payload;
+	}
 	if (!isnan(lat)) {
 		if (l->n == l->cap && l->cap < 4000000) {
 			size_t cap = l->cap ? 2 * l->cap : 4096;
@@ -165,13 +188,13 @@ static void on_message(const lcm_recv_buf_t *rbuf, const char *channel, void *us
 	pthread_mutex_unlock(&l->mu);
 }
 
-/* The traffic so far. */
-static nb_traffic listener_traffic(listener *l)
+/* The steady state begins now: what is published from now on is its
+ * traffic (l->tr − l->before once the thread stopped). */
+static void listener_mark(listener *l)
 {
 	pthread_mutex_lock(&l->mu);
-	nb_traffic t = l->tr;
+	l->mark = utime_now();
 	pthread_mutex_unlock(&l->mu);
-	return t;
 }
 
 static void *listen_loop(void *user)
@@ -179,6 +202,11 @@ static void *listen_loop(void *user)
 	listener *l = user;
 	while (!l->stop)
 		lcm_handle_timeout(l->lcm, 50);
+	/* what is still in the socket: published before the stop, as much the
+	 * run's as what came earlier (the kernel delivered it to the socket
+	 * as it was sent) */
+	while (lcm_handle_timeout(l->lcm, 0) > 0)
+		;
 	return NULL;
 }
 
@@ -402,7 +430,7 @@ int nb_run(const nb_opts *o, int level, const ndo_codec_params *enc, double loss
 	ndo_sim_destroy(sim);
 	double t0 = ndo_now(), owner_done = -1;
 	int64_t step0 = -1; /* the owner's step when the steady state began */
-	nb_traffic tr0;
+	nb_traffic tr0; /* the traffic published before the steady state */
 	memset(&tr0, 0, sizeof tr0);
 	while (!rc) {
 		double now = ndo_now();
@@ -444,7 +472,7 @@ int nb_run(const nb_opts *o, int level, const ndo_codec_params *enc, double loss
 				all &= started[k];
 			if (step0 < 0 && all) { /* every join is over: the steady state */
 				step0 = ndo_peer_step(p[0]);
-				tr0 = listener_traffic(&lis);
+				listener_mark(&lis);
 			}
 		}
 		if (state[0] == NDO_PEER_DONE && owner_done < 0) {
@@ -551,6 +579,7 @@ int nb_run(const nb_opts *o, int level, const ndo_codec_params *enc, double loss
 	 * owner's steps after the last join) */
 	row->whole = lis.tr;
 	row->steady = lis.tr;
+	tr0 = lis.before;
 	if (step0 < 0) /* the observer saw no frame: the whole run */
 		step0 = 0, memset(&tr0, 0, sizeof tr0);
 	row->steady_steps = row->steps - 1 - step0; /* the last step apart */
