@@ -1,7 +1,22 @@
 /* test_peer — simulating peers in one process: an owner and joiners on
  * an in-memory bus with a fake clock (ndo/peer.h), the thesis' wavy
  * surface with its sinusoidal face force, against the single-process
- * run of the same scene. */
+ * run of the same scene.
+ *
+ * Its cases are run by four programs, each a quarter of the processor
+ * time or less (all in one took 80 s of the sanitizer build on a quiet
+ * machine, and reached the 300 s limit of tests/run beside other tests at
+ * a load of 4-6 on 2 cores; in three, 2026-12-01, up to 205 s at a load
+ * of 6-9): test_peer (PEER_PROGRAM 0: lock-step, split steps, realtime,
+ * joins, leaves and observers), test_peer_split_restart (1: the restarts
+ * of the methods whose steps take several exchanges), test_peer_lost (2:
+ * peers and the owner lost at the start, in a restart and at the end) and
+ * test_peer_members (3: rk4's restarts, and members' stray, wild, forged
+ * and far messages), tests/unit/test_peer_*.c, which compile this file
+ * with their PEER_PROGRAM.  Each runs the sweeps named in main(). */
+#ifndef PEER_PROGRAM
+#define PEER_PROGRAM 0
+#endif
 #include "check.h"
 #include "ndo/ndo.h"
 #include "ndo/peer.h"
@@ -2339,7 +2354,9 @@ static void observers_under_loss_get_the_last_step(void)
 
 int main(void)
 {
-	ck_program = "test_peer";
+	static const char *const programs[] = {"test_peer", "test_peer_split_restart", "test_peer_lost",
+	                                       "test_peer_members"};
+	ck_program = programs[PEER_PROGRAM];
 	const char *obs = getenv("TEST_PEER_OBSERVERS");
 	if (obs) {
 		/* TEST_PEER_OBSERVERS=N: an observer of an exact run under 10 %
@@ -2432,45 +2449,53 @@ int main(void)
 			             getenv("TEST_PEER_K") ? atoi(getenv("TEST_PEER_K")) : 1);
 		return ck_case_failures != 0; /* no RUN() here: the checks' own count */
 	}
-	RUN(lockstep_is_the_single_process_bit_for_bit);
-	RUN(the_owner_leaves_soon_after_its_last_step);
-	RUN(lockstep_steps_ahead_of_the_halo);
-	RUN(split_steps_are_the_single_process);
-	RUN(lockstep_survives_loss);
-	RUN(split_steps_survive_loss);
-	RUN(realtime_rolls_back_to_the_single_process);
-	RUN(realtime_without_the_pace_stops);
-	RUN(realtime_names_the_halo_steps_it_needs);
-	RUN(a_peer_waiting_on_a_live_neighbour_sleeps);
-	RUN(joins_leaves_and_a_dead_peer);
-	RUN(realtime_predicts_a_dead_peers_ring_with_the_region);
-	RUN(a_late_observer_says_what_the_peers_say);
-	RUN(an_observer_on_its_way_follows_the_successor);
-	RUN(an_observer_with_an_old_partition_follows_the_successor);
-	RUN(restarts_keep_the_single_process);
-	RUN(restiffening_peers_keep_the_single_process);
-	RUN(a_run_of_no_steps_completes_everywhere);
-	RUN(a_peer_lost_at_the_start);
-	RUN(split_restarts_keep_the_single_process);
-	RUN(a_peer_waiting_for_its_checkpoint_lives);
-	RUN(a_lost_checkpoint_is_asked_for);
-	RUN(a_joiner_starts_with_the_owners_partition);
-	RUN(the_owners_death_costs_a_restart);
-	RUN(a_joiner_says_what_it_lacks_of_the_last_step);
-	RUN(observers_under_loss_get_the_last_step);
-	RUN(a_done_owners_lost_leave_costs_a_gather);
-	RUN(owner_quit_ends_the_others);
-	RUN(strangers_tiles_are_not_used);
-	RUN(a_members_wild_halo_is_dropped);
-	RUN(a_large_deformation_splits_exactly);
-	RUN(a_pinned_body_driven_far_splits_exactly);
-	RUN(strangers_next_partition_halos_are_not_taken);
-	RUN(later_halos_and_phases_are_bounded);
-	RUN(the_checkpoint_store_counts_canonical_nodes_only);
-	RUN(a_members_forged_checkpoint_does_not_hold_the_restart);
-	RUN(realtime_keeps_the_pace_after_a_far_step);
-	RUN(a_far_step_does_not_make_a_member_look_dead);
-	RUN(a_replayed_log_gives_the_live_frames);
-	RUN(lost_tiles_are_held_on_request);
+	if (PEER_PROGRAM == 0) {
+		RUN(lockstep_is_the_single_process_bit_for_bit);
+		RUN(the_owner_leaves_soon_after_its_last_step);
+		RUN(lockstep_steps_ahead_of_the_halo);
+		RUN(split_steps_are_the_single_process);
+		RUN(lockstep_survives_loss);
+		RUN(split_steps_survive_loss);
+		RUN(realtime_rolls_back_to_the_single_process);
+		RUN(realtime_without_the_pace_stops);
+		RUN(realtime_names_the_halo_steps_it_needs);
+		RUN(a_peer_waiting_on_a_live_neighbour_sleeps);
+		RUN(joins_leaves_and_a_dead_peer);
+		RUN(realtime_predicts_a_dead_peers_ring_with_the_region);
+		RUN(a_late_observer_says_what_the_peers_say);
+		RUN(an_observer_on_its_way_follows_the_successor);
+		RUN(an_observer_with_an_old_partition_follows_the_successor);
+		RUN(observers_under_loss_get_the_last_step);
+	}
+	if (PEER_PROGRAM == 1) {
+		RUN(split_restarts_keep_the_single_process);
+	}
+	if (PEER_PROGRAM == 2) {
+		RUN(a_peer_lost_at_the_start);
+		RUN(a_peer_waiting_for_its_checkpoint_lives);
+		RUN(a_lost_checkpoint_is_asked_for);
+		RUN(a_joiner_starts_with_the_owners_partition);
+		RUN(the_owners_death_costs_a_restart);
+		RUN(a_joiner_says_what_it_lacks_of_the_last_step);
+		RUN(a_done_owners_lost_leave_costs_a_gather);
+		RUN(owner_quit_ends_the_others);
+	}
+	if (PEER_PROGRAM == 3) {
+		RUN(restarts_keep_the_single_process);
+		RUN(restiffening_peers_keep_the_single_process);
+		RUN(a_run_of_no_steps_completes_everywhere);
+		RUN(strangers_tiles_are_not_used);
+		RUN(a_members_wild_halo_is_dropped);
+		RUN(a_large_deformation_splits_exactly);
+		RUN(a_pinned_body_driven_far_splits_exactly);
+		RUN(strangers_next_partition_halos_are_not_taken);
+		RUN(later_halos_and_phases_are_bounded);
+		RUN(the_checkpoint_store_counts_canonical_nodes_only);
+		RUN(a_members_forged_checkpoint_does_not_hold_the_restart);
+		RUN(realtime_keeps_the_pace_after_a_far_step);
+		RUN(a_far_step_does_not_make_a_member_look_dead);
+		RUN(a_replayed_log_gives_the_live_frames);
+		RUN(lost_tiles_are_held_on_request);
+	}
 	return ck_failed_cases != 0;
 }
