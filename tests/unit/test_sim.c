@@ -1300,6 +1300,64 @@ static ndo_grid *rkf45_scene(double **x0, double **v0, ndo_force *f, ndo_sim_par
 	return g;
 }
 
+/* Two simulations of the rkf45 scene from the same state: one stepped
+ * whole (a), one another way (b), which must end the same. */
+typedef struct rkf45_twins {
+	double *x0, *v0;
+	ndo_force f;
+	ndo_sim_params p;
+	ndo_grid *g;
+	ndo_sim *a, *b;
+	int32_t *all; /* every stored node */
+	size_t nn;    /* 3 · count */
+} rkf45_twins;
+
+static void twins_make(rkf45_twins *t)
+{
+	t->g = rkf45_scene(&t->x0, &t->v0, &t->f, &t->p);
+	t->nn = 3 * t->g->count;
+	t->a = make(t->g, t->x0, t->v0, NULL, &t->p);
+	t->b = make(t->g, t->x0, t->v0, NULL, &t->p);
+	t->all = malloc(t->g->count * sizeof *t->all);
+	for (size_t k = 0; k < t->g->count; k++)
+		t->all[k] = (int32_t)k;
+}
+
+/* b ended as a: the positions, time and step, the sub-step counts and the
+ * input work, bit for bit; b's stats in *sb. */
+static void twins_same(const rkf45_twins *t, const char *what, ndo_sim_stats *sb)
+{
+	double *xa = malloc(t->nn * sizeof *xa), *xb = malloc(t->nn * sizeof *xb);
+	ndo_sim_get(t->a, xa, NULL);
+	ndo_sim_get(t->b, xb, NULL);
+	ndo_sim_stats sa;
+	ndo_sim_stats_get(t->a, &sa);
+	ndo_sim_stats_get(t->b, sb);
+	ndo_sim_energy ea, eb;
+	ndo_sim_energy_get(t->a, &ea);
+	ndo_sim_energy_get(t->b, &eb);
+	CHECK(memcmp(xa, xb, t->nn * sizeof *xa) == 0 && ndo_sim_time(t->a) == ndo_sim_time(t->b) &&
+	      ndo_sim_step_count(t->a) == ndo_sim_step_count(t->b),
+	      "%s: the state differs by %g, t %.17g/%.17g", what, max_diff(xa, xb, t->nn),
+	      ndo_sim_time(t->a), ndo_sim_time(t->b));
+	CHECK(sa.substeps == sb->substeps && sa.rejected == sb->rejected &&
+	      sa.last_substep == sb->last_substep && sa.steps == sb->steps,
+	      "%s: sub-steps %lld/%lld, rejected %lld/%lld, last %.17g/%.17g, steps %lld/%lld", what,
+	      (long long)sa.substeps, (long long)sb->substeps, (long long)sa.rejected,
+	      (long long)sb->rejected, sa.last_substep, sb->last_substep, (long long)sa.steps,
+	      (long long)sb->steps);
+	CHECK(ea.work == eb.work, "%s: input work %.17g J against %.17g J", what, ea.work, eb.work);
+	free(xa), free(xb);
+}
+
+static void twins_free(rkf45_twins *t)
+{
+	free(t->all), free(t->x0), free(t->v0);
+	ndo_sim_destroy(t->a);
+	ndo_sim_destroy(t->b);
+	ndo_grid_destroy(t->g);
+}
+
 /* A split rkf45 step that a peer abandons part-way (ndo_sim_rkf45_abort,
  * the state put back as the peer does it) leaves no trace: taken again, it
  * ends as the step taken once, with the same sub-step counts and the same
@@ -1308,34 +1366,27 @@ static ndo_grid *rkf45_scene(double **x0, double **v0, ndo_force *f, ndo_sim_par
  * in the divergence test's input work. */
 static void an_abandoned_rkf45_step_leaves_no_trace(void)
 {
-	double *x0, *v0;
-	ndo_force f;
-	ndo_sim_params p;
-	ndo_grid *g = rkf45_scene(&x0, &v0, &f, &p);
-	size_t nn = 3 * g->count;
-	ndo_sim *a = make(g, x0, v0, NULL, &p), *b = make(g, x0, v0, NULL, &p);
-	int32_t *all = malloc(g->count * sizeof *all);
-	for (size_t k = 0; k < g->count; k++)
-		all[k] = (int32_t)k;
-	double *u = malloc(nn * sizeof *u), *v = malloc(nn * sizeof *v);
+	rkf45_twins t;
+	twins_make(&t);
+	double *u = malloc(t.nn * sizeof *u), *v = malloc(t.nn * sizeof *v);
 	int abandoned = 0;
 	for (int k = 0; k < 12; k++) {
-		CHECK(ndo_sim_step(a, 0.05) == 0, "step: %s", ndo_errdetail());
+		CHECK(ndo_sim_step(t.a, 0.05) == 0, "step: %s", ndo_errdetail());
 		/* every other step: begun, two sub-steps attempted and decided
 		 * (accepted or not), abandoned, begun again */
 		if (k % 2 == 1) {
-			ndo_sim_get_nodes(b, g->count, all, NULL, u, v);
-			CHECK(ndo_sim_rkf45_begin(b, 0.05) == 0, "begin: %s", ndo_errdetail());
+			ndo_sim_get_nodes(t.b, t.g->count, t.all, NULL, u, v);
+			CHECK(ndo_sim_rkf45_begin(t.b, 0.05) == 0, "begin: %s", ndo_errdetail());
 			int rc = 0;
 			for (int j = 0; j < 2 && rc == 0; j++) {
 				double err;
-				CHECK(ndo_sim_rkf45_attempt(b, NULL, &err, NULL) == 0, "attempt: %s",
+				CHECK(ndo_sim_rkf45_attempt(t.b, NULL, &err, NULL) == 0, "attempt: %s",
 				      ndo_errdetail());
-				rc = ndo_sim_rkf45_decide(b, err);
+				rc = ndo_sim_rkf45_decide(t.b, err);
 			}
 			if (rc == 0) {
-				ndo_sim_set_displacements(b, g->count, all, u, v);
-				ndo_sim_rkf45_abort(b);
+				ndo_sim_set_displacements(t.b, t.g->count, t.all, u, v);
+				ndo_sim_rkf45_abort(t.b);
 				abandoned++;
 			} else {
 				/* the step ended within two sub-steps: nothing to abandon */
@@ -1343,31 +1394,13 @@ static void an_abandoned_rkf45_step_leaves_no_trace(void)
 				continue;
 			}
 		}
-		CHECK(ndo_sim_step(b, 0.05) == 0, "step: %s", ndo_errdetail());
+		CHECK(ndo_sim_step(t.b, 0.05) == 0, "step: %s", ndo_errdetail());
 	}
-	double *xa = malloc(nn * sizeof *xa), *xb = malloc(nn * sizeof *xb);
-	ndo_sim_get(a, xa, NULL);
-	ndo_sim_get(b, xb, NULL);
-	ndo_sim_stats sa, sb;
-	ndo_sim_stats_get(a, &sa);
-	ndo_sim_stats_get(b, &sb);
-	ndo_sim_energy ea, eb;
-	ndo_sim_energy_get(a, &ea);
-	ndo_sim_energy_get(b, &eb);
 	CHECK(abandoned >= 3, "only %d steps were abandoned part-way", abandoned);
-	CHECK(memcmp(xa, xb, nn * sizeof *xa) == 0, "the state differs by %g", max_diff(xa, xb, nn));
-	CHECK(sa.substeps == sb.substeps && sa.rejected == sb.rejected &&
-	      sa.last_substep == sb.last_substep && sa.steps == sb.steps,
-	      "sub-steps %lld/%lld, rejected %lld/%lld, last %.17g/%.17g, steps %lld/%lld",
-	      (long long)sa.substeps, (long long)sb.substeps, (long long)sa.rejected,
-	      (long long)sb.rejected, sa.last_substep, sb.last_substep, (long long)sa.steps,
-	      (long long)sb.steps);
-	CHECK(ea.work == eb.work, "input work %.17g J, after abandoned steps %.17g J", ea.work,
-	      eb.work);
-	free(xa), free(xb), free(u), free(v), free(all), free(x0), free(v0);
-	ndo_sim_destroy(a);
-	ndo_sim_destroy(b);
-	ndo_grid_destroy(g);
+	ndo_sim_stats sb;
+	twins_same(&t, "after abandoned steps", &sb);
+	free(u), free(v);
+	twins_free(&t);
 }
 
 /* rkf45 in parts (ndo/sim.h): begin/attempt/decide is ndo_sim_step bit for
@@ -1376,67 +1409,49 @@ static void an_abandoned_rkf45_step_leaves_no_trace(void)
  * state an accepted attempt leaves, bit for bit. */
 static void rkf45_in_parts_is_the_step(void)
 {
-	double *x0, *v0;
-	ndo_force f;
-	ndo_sim_params p;
-	ndo_grid *g = rkf45_scene(&x0, &v0, &f, &p);
-	size_t nn = 3 * g->count;
-	ndo_sim *a = make(g, x0, v0, NULL, &p), *b = make(g, x0, v0, NULL, &p);
-	uint8_t *left = malloc(g->count), *right = malloc(g->count);
-	int32_t *all = malloc(g->count * sizeof *all);
-	for (size_t k = 0; k < g->count; k++) {
-		left[k] = k % (size_t)g->w < 9;
+	rkf45_twins t;
+	twins_make(&t);
+	const size_t nn = t.nn, count = t.g->count;
+	uint8_t *left = malloc(count), *right = malloc(count);
+	for (size_t k = 0; k < count; k++) {
+		left[k] = k % (size_t)t.g->w < 9;
 		right[k] = !left[k];
-		all[k] = (int32_t)k;
 	}
 	double *pu = malloc(nn * sizeof *pu), *pv = malloc(nn * sizeof *pv);
 	double *u = malloc(nn * sizeof *u), *v = malloc(nn * sizeof *v);
 	int bad_err = 0, bad_peek = 0, attempts = 0;
 	for (int k = 0; k < 20; k++) {
-		CHECK(ndo_sim_step(a, 0.05) == 0, "step: %s", ndo_errdetail());
-		CHECK(ndo_sim_rkf45_begin(b, 0.05) == 0, "begin: %s", ndo_errdetail());
+		CHECK(ndo_sim_step(t.a, 0.05) == 0, "step: %s", ndo_errdetail());
+		CHECK(ndo_sim_rkf45_begin(t.b, 0.05) == 0, "begin: %s", ndo_errdetail());
 		int rc;
 		do {
 			double err, el, er;
-			ndo_sim_rkf45_attempt(b, NULL, &err, NULL);
-			ndo_sim_rkf45_attempt(b, left, &el, NULL);
-			ndo_sim_rkf45_attempt(b, right, &er, NULL);
+			ndo_sim_rkf45_attempt(t.b, NULL, &err, NULL);
+			ndo_sim_rkf45_attempt(t.b, left, &el, NULL);
+			ndo_sim_rkf45_attempt(t.b, right, &er, NULL);
 			bad_err += !(el <= err && er <= err && fmax(el, er) == err);
-			ndo_sim_rkf45_peek(b, g->count, all, pu, pv);
+			ndo_sim_rkf45_peek(t.b, count, t.all, pu, pv);
 			ndo_sim_stats s0, s1;
-			ndo_sim_stats_get(b, &s0);
-			rc = ndo_sim_rkf45_decide(b, err);
-			ndo_sim_stats_get(b, &s1);
+			ndo_sim_stats_get(t.b, &s0);
+			rc = ndo_sim_rkf45_decide(t.b, err);
+			ndo_sim_stats_get(t.b, &s1);
 			attempts++;
 			if (s1.rejected == s0.rejected) {
-				ndo_sim_get_nodes(b, g->count, all, NULL, u, v);
+				ndo_sim_get_nodes(t.b, count, t.all, NULL, u, v);
 				bad_peek += memcmp(u, pu, nn * sizeof *u) != 0 || memcmp(v, pv, nn * sizeof *v) != 0;
 			}
 		} while (rc == 0);
 		CHECK(rc == 1, "decide: %d (%s)", rc, ndo_errdetail());
 	}
-	double *xa = malloc(nn * sizeof *xa), *xb = malloc(nn * sizeof *xb);
-	ndo_sim_get(a, xa, NULL);
-	ndo_sim_get(b, xb, NULL);
-	ndo_sim_stats sa, sb;
-	ndo_sim_stats_get(a, &sa);
-	ndo_sim_stats_get(b, &sb);
-	CHECK(memcmp(xa, xb, nn * sizeof *xa) == 0 && sa.substeps == sb.substeps &&
-	      sa.rejected == sb.rejected && ndo_sim_time(a) == ndo_sim_time(b) &&
-	      ndo_sim_step_count(a) == ndo_sim_step_count(b),
-	      "in parts: differs by %g, %lld/%lld sub-steps, %lld/%lld rejected", max_diff(xa, xb, nn),
-	      (long long)sa.substeps, (long long)sb.substeps, (long long)sa.rejected,
-	      (long long)sb.rejected);
+	ndo_sim_stats sb;
+	twins_same(&t, "in parts", &sb);
 	CHECK(bad_err == 0, "%d of %d attempts: the halves' errors are not the whole's", bad_err,
 	      attempts);
 	CHECK(bad_peek == 0, "%d of %d attempts: peek is not the accepted state", bad_peek, attempts);
 	CHECK(sb.rejected > 0 && sb.substeps > 20, "the run exercises the controller: %lld "
 	      "sub-steps, %lld rejected", (long long)sb.substeps, (long long)sb.rejected);
-	free(xa), free(xb), free(u), free(v), free(pu), free(pv), free(all), free(left), free(right);
-	free(x0), free(v0);
-	ndo_sim_destroy(a);
-	ndo_sim_destroy(b);
-	ndo_grid_destroy(g);
+	free(u), free(v), free(pu), free(pv), free(left), free(right);
+	twins_free(&t);
 }
 
 /* rkf45 resumed from a checkpoint (what a peer's restart does, ndo/peer.h):
