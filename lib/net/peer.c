@@ -75,6 +75,9 @@ struct ndo_peer {
 	int peers_needed;
 	int owner_went; /* a joiner: a message of the owner's run came, so it has
 	                   announced its partition (owner_spoke) */
+	int32_t exact_epoch; /* the newest partition of which a member's confirmed
+	                        strip came (realtime: its window there began at the
+	                        first step, exact; join_point) */
 	int64_t first, final;
 	/* the object */
 	int level;
@@ -667,6 +670,8 @@ static void on_halo(void *user, const ndo_msg_halo_t *h)
 		p->st.stale++;
 		return;
 	}
+	if (h->confirmed && h->nruns > 0 && h->epoch == ndo_session_epoch(p->s))
+		p->exact_epoch = h->epoch;
 	if (!halo_later(p, h)) {
 		write_halo(p, h);
 		return;
@@ -1622,10 +1627,39 @@ static int joiner_ready(ndo_peer *p)
 	return region(p);
 }
 
+/* Realtime with rollback, before this peer started: did the partition in
+ * force begin the run — a member's confirmed strip of it came (exact_epoch)
+ * or waits in the stash for the region?  A window that restarts during the
+ * run confirms nothing (rb_restart), so its strips never say confirmed. */
+static int run_began_here(const ndo_peer *p)
+{
+	int32_t e = ndo_session_epoch(p->s);
+	if (p->exact_epoch == e)
+		return 1;
+	for (size_t k = 0; k < p->nhstash; k++) {
+		const ndo_msg_halo_t *h = &p->hstash[k];
+		if (h->confirmed && h->nruns > 0 && h->epoch == e && member(p, h->hdr.sender_id))
+			return 1;
+	}
+	return 0;
+}
+
 /* A joiner that starts to simulate: the step its neighbours are at.
  * Lock-step: the oldest step its halo holds (a neighbour further on waits
  * for this peer; one behind would not have let the others on).  Realtime:
- * the newest.  At least the snapshot's. */
+ * the newest.  At least the snapshot's.
+ *
+ * Except a realtime joiner of the partition the run began with that holds
+ * the first step whole (its snapshot): it starts there, exact, and
+ * realtime() catches it up.  Its neighbours can still go back there: they
+ * confirm no step past the first without its strips, and a window that
+ * filled stopped them (NDO_EPACE).  Frames of theirs may show newer steps
+ * in its halo (a joiner that stalled took a neighbour's frame of the
+ * partition installed in the same update, before its region — and so the
+ * halo's marks — was made), but nobody computed its region for them:
+ * until 2026-12-01 it started at the newest, not exact, and its
+ * neighbours, never confirmed past step 0, filled their windows
+ * (test_peer realtime_a_stalled_joiner_starts_at_the_first_step). */
 static void join_point(ndo_peer *p)
 {
 	int64_t at = -1;
@@ -1637,6 +1671,9 @@ static void join_point(ndo_peer *p)
 	}
 	if (at < p->fill_step)
 		at = p->fill_step;
+	if (p->rb && !p->started && p->fill_step >= 0 && p->fill_step <= p->first &&
+	    run_began_here(p))
+		at = p->first;
 	p->cur = at;
 	p->tcur = p->times[at & 63].step == at ? p->times[at & 63].time
 	                                        : p->fill_time + (double)(at - p->fill_step) * p->dt;
@@ -2652,6 +2689,7 @@ int ndo_peer_create(const ndo_peer_opts *o, ndo_net *net, ndo_grid *grid, ndo_si
 	p->inexact_at = -1;
 	p->fill_step = -1;
 	p->max_seen = -1;
+	p->exact_epoch = -1;
 	p->created = -1;
 	ndo_session_opts so = o->session;
 	if (!(so.retry > 0))
