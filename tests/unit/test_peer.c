@@ -400,6 +400,74 @@ static void realtime_without_the_pace_stops(void)
 	world_free(w);
 }
 
+/* A realtime joiner of the partition the run begins with that stalls as
+ * it comes (a process descheduled under load) starts at the first step,
+ * exact, and catches up; its neighbours roll back to take its strips.  3
+ * peers in bands (as simulate-peer makes them at level 4: the joiner at
+ * face 600 between the others, so the owner starts without the one at
+ * 250), midpoint with 4 steps an exchange (tests/e2e/peers-realtime.sh's):
+ * the joiner at 250 stalls once it is whole, and took in, all in one update when it woke,
+ * the partition with its region and its neighbour's frames of that
+ * partition, which went into nodes of its new halo before the region was
+ * made.  Until 2026-12-01 it started at that frame's step ("a new
+ * partition ... no longer exact"): nothing past step 0 was ever confirmed,
+ * and the neighbours' windows filled (NDO_EPACE) at step 255 of 300; a
+ * shorter run (the e2e's midpoint, 235 steps) ended off the single
+ * process with no rollback.  Without loss, and under 20 % loss. */
+static void realtime_a_stalled_joiner_starts_at_the_first_step(void)
+{
+	for (int lossy = 0; lossy <= 1; lossy++) {
+		setup su = {.integrator = "midpoint", .dt = 0.02, .steps = 300,
+		            .clock = NDO_CLOCK_REALTIME, .peers = 3, .bands = 1, .halo_steps = 4};
+		if (lossy)
+			su.faults = (ndo_faults){.drop = 0.2, .delay_ms = 10, .seed = 5};
+		world *w = world_new();
+		int rc = add_owner(w, &su);
+		if (!rc)
+			rc = add_joiner(w, &su, 250);
+		if (!rc)
+			rc = add_joiner(w, &su, 600);
+		CHECK(rc == 0, "3 peers");
+		/* whole: its point of interest goes out, and the partition with
+		 * its region comes while it sleeps */
+		ndo_peer *late = w->p[1];
+		while (!ndo_session_ready(ndo_peer_session(late)) && w->t < 10 && run(w, w->t + TICK) == 1)
+			;
+		w->p[1] = NULL;
+		run(w, w->t + 0.5);
+		int64_t others = ndo_peer_step(w->p[2]);
+		w->p[1] = late;
+		int64_t from = -1;
+		while (w->t < 60 && !ndo_peer_started(late) && run(w, w->t + TICK) == 1)
+			;
+		from = ndo_peer_step(late);
+		int done = run(w, 60) == 0;
+		double *x = solo(&su);
+		double d = difference(ndo_peer_grid(w->p[0]), x);
+		free(x);
+		ndo_peer_stats st[3];
+		int64_t rolls = 0;
+		for (int i = 0; i < 3; i++) {
+			ndo_peer_stats_get(w->p[i], &st[i]);
+			CHECK(w->state[i] == NDO_PEER_DONE && st[i].confirmed && st[i].steps == su.steps,
+			      "%s: peer %d in state %d, confirmed %d (frontier %lld), %lld of %lld steps",
+			      lossy ? "20% loss" : "no loss", i, w->state[i], st[i].confirmed,
+			      (long long)st[i].frontier, (long long)st[i].steps, (long long)su.steps);
+			rolls += st[i].rollbacks;
+		}
+		CHECK(done && d == 0 && from == 0 && others > 8 && rolls > 0,
+		      "%s: done %d, differs by %.3g (expected 0), the stalled joiner started at step "
+		      "%lld (expected 0) with its neighbour at %lld, %lld rollbacks", lossy ?
+		      "20% loss" : "no loss", done, d, (long long)from, (long long)others,
+		      (long long)rolls);
+		printf("    %s: the joiner woke with its neighbour at step %lld, started at step %lld; "
+		       "difference %.3g, %lld rollbacks in all (its neighbour's deepest %lld steps)\n",
+		       lossy ? "20% loss, 10 ms" : "no loss", (long long)others, (long long)from, d,
+		       (long long)rolls, (long long)st[2].rollback_depth);
+		world_free(w);
+	}
+}
+
 /* A realtime run whose network delay is longer than --halo-steps steps
  * confirms fewer steps than it takes, and its window fills (exit 5 in
  * simulate-peer): the message says how many steps an exchange would keep
@@ -2459,6 +2527,7 @@ int main(void)
 		RUN(realtime_rolls_back_to_the_single_process);
 		RUN(realtime_without_the_pace_stops);
 		RUN(realtime_names_the_halo_steps_it_needs);
+		RUN(realtime_a_stalled_joiner_starts_at_the_first_step);
 		RUN(a_peer_waiting_on_a_live_neighbour_sleeps);
 		RUN(joins_leaves_and_a_dead_peer);
 		RUN(realtime_predicts_a_dead_peers_ring_with_the_region);
