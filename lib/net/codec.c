@@ -402,9 +402,10 @@ int ndo_codec_encode(const ndo_codec_params *p, ndo_codec_work *w, const ndo_cod
 	                      * nodes' values from its codes, not kept: a node
 	                      * NDO_HAVE_CODE has no x, ndo/codec.h) */
 		double max2 = 0, sum2 = 0;
-		if (enc == NDO_ENC_HIER && lossy == (size_t)nodes)
+		const int all_hier = enc == NDO_ENC_HIER && lossy == (size_t)nodes;
+		if (all_hier)
 			hier_err(&z, recon->k, X, nodes, &max2, &sum2);
-		for (int n = 0; n < nodes && !(enc == NDO_ENC_HIER && lossy == (size_t)nodes); n++) {
+		for (int n = 0; n < nodes && !all_hier; n++) {
 			if (in->cls[n] != NDO_NODE_LOSSY)
 				continue;
 			double e2 = 0;
