@@ -83,6 +83,20 @@ else
 	fail "-n 0's estimate" "$(grep estimate n0.log)"
 fi
 
+# --no-estimate: the run and its summary, no estimate on standard error or in
+# the log, the same result as the run with one (the estimate reads the run,
+# never writes it)
+simulate-peer -s "$SC" -t 0.5 s4.tgrid -o ne1.tgrid --log ne1.csv 2>ne1.log
+if simulate-peer -s "$SC" -t 0.5 --no-estimate s4.tgrid -o ne0.tgrid --log ne0.csv 2>ne0.log &&
+	grep -q '^simulate-peer: [0-9]* steps to t = 0.5 s in .* steps/s' ne0.log &&
+	! grep -q 'estimate' ne0.log && ! grep -q 'estimate' ne0.csv &&
+	grep -q '^simulate-peer: error estimate:' ne1.log &&
+	[ "$($TG ne0.tgrid "bool((position == __import__('tgrid').read('ne1.tgrid')[3]['position']).all() and (velocity == __import__('tgrid').read('ne1.tgrid')[3]['velocity']).all())")" = True ]; then
+	pass "--no-estimate: the run's summary without an estimate, the same result"
+else
+	fail "--no-estimate" "$(tail -2 ne0.log) / $(grep -c estimate ne0.csv) estimate lines in its log"
+fi
+
 # --accuracy: the choice is printed, it runs, the output is at the input's
 # level, and the achieved error (against the reference) meets the target.
 simulate-peer -s "$SC" -t 0.5 --accuracy 0.1 s4.tgrid -o a.tgrid --log a.csv 2>a.log

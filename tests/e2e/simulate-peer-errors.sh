@@ -27,6 +27,10 @@ expect_error "memory limit, CHOLMOD's factor" 1 "step 1: level 6 with backward-e
 # takes multigrid at level 6): 3.8 MB of arrays and about 5 MB more.
 expect_error "memory limit, the multigrid hierarchy" 1 "level 6 with backward-euler needs about [5-9].[0-9]+ MB; the limit is 5 MB" \
 	simulate-peer -q -i backward-euler --dt 0.01 --max-memory 5M s6.tgrid -o o.tgrid
+expect_error "--no-estimate with --accuracy" 2 "--no-estimate: not with --accuracy" \
+	simulate-peer --no-estimate --accuracy 0.1 -t 1 s3.tgrid -o o.tgrid
+expect_error "--no-estimate on a peer" 2 "--no-estimate: a single process only" \
+	simulate-peer --owner --no-estimate s3.tgrid -o o.tgrid
 expect_error "unknown solver" 2 "--solver: 'lu' is not auto, multigrid or cholmod" \
 	simulate-peer -i trapezoid --solver lu s3.tgrid -o o.tgrid
 expect_error "memory limit too small to mean anything" 2 "--max-memory 5: give bytes from 1k" \
@@ -60,7 +64,7 @@ expect_error "bad scene line" 1 "bad.scene:2: integrator: 'leapfrog' is not eule
 # settings" until 2026-12) are unknown settings there.
 notscene=$(sed -n '/^Not from a scene file/,/peers. options\.$/p' "$NDO_ROOT/tools/simulate-peer.1" |
 	sed -n 's/^\.BR* \\-\\-\([a-z\\-]*\).*/\1/p' | sed 's/\\//g')
-[ "$(echo $notscene)" = "accuracy sleep threads max-memory info" ] ||
+[ "$(echo $notscene)" = "accuracy sleep no-estimate threads max-memory info" ] ||
 	fail "the manual's options not from a scene file" "found: '$(echo $notscene)'"
 for k in $notscene; do
 	printf '%s 1\n' "$k" >k.scene

@@ -75,7 +75,7 @@ static void make_acc(run *r)
 void accuracy_plan(run *r)
 {
 	/* Nobody reads an estimate of a quiet run without a log: skip its cost. */
-	if (!r->accuracy && (r->info || (r->quiet && !r->sc.log)))
+	if (!r->accuracy && (r->info || r->no_estimate || (r->quiet && !r->sc.log)))
 		return;
 	make_acc(r);
 	if (!r->accuracy)

@@ -111,6 +111,10 @@ static __attribute__((noreturn)) void usage(void)
 	    "                          ignored).  Every single-process run not\n"
 	    "                          --quiet ends with its estimated time and space\n"
 	    "                          errors (also in --log; a peer's run does not)\n"
+	    "      --no-estimate       a single process: no error estimate (its runs\n"
+	    "                          cost 3/4 of the run's node-steps, more under 128\n"
+	    "                          steps, beside it on another core when the run\n"
+	    "                          has one thread)\n"
 	    "      --sleep D[m]        tiles of 32x32 nodes with no force, whose nodes\n"
 	    "                          move less than D metres from rest (and |v| <\n"
 	    "                          D/(8 dt)) and whose neighbours are as still, are\n"
@@ -425,7 +429,7 @@ static void check_log(run *r, int grid_out)
 static void options(run *r, int argc, char **argv)
 {
 	enum { OPT_INFO = 256, OPT_VERSION, OPT_SETTING, OPT_PEER, OPT_PEER_FLAG, OPT_THREADS,
-	       OPT_MEMORY, OPT_ACCURACY, OPT_SLEEP };
+	       OPT_MEMORY, OPT_ACCURACY, OPT_SLEEP, OPT_NO_ESTIMATE };
 	static const struct option opts[] = {
 		{"scene", required_argument, 0, 's'},
 		{"integrator", required_argument, 0, 'i'},
@@ -486,6 +490,7 @@ static void options(run *r, int argc, char **argv)
 		{"max-memory", required_argument, 0, OPT_MEMORY},
 		{"accuracy", required_argument, 0, OPT_ACCURACY},
 		{"sleep", required_argument, 0, OPT_SLEEP},
+		{"no-estimate", no_argument, 0, OPT_NO_ESTIMATE},
 		{"info", no_argument, 0, OPT_INFO},
 		{"quiet", no_argument, 0, 'q'},
 		{"help", no_argument, 0, 'h'},
@@ -537,6 +542,7 @@ static void options(run *r, int argc, char **argv)
 		}
 		case OPT_ACCURACY: accuracy_option(r, optarg); break;
 		case OPT_SLEEP: sleep_option(r, optarg); break;
+		case OPT_NO_ESTIMATE: r->no_estimate = 1; break;
 		case OPT_INFO: r->info = 1; break;
 		case 'q': r->quiet = 1; break;
 		case 'h': usage();
@@ -555,6 +561,10 @@ static void options(run *r, int argc, char **argv)
 			                "(give the duration with -t)", keys[k]);
 	if (r->sleep > 0 && r->net.role)
 		ndo_usage_error("--sleep: a single process only (not with --owner or --join)");
+	if (r->no_estimate && r->net.role)
+		ndo_usage_error("--no-estimate: a single process only (a peer makes none)");
+	if (r->no_estimate && r->accuracy)
+		ndo_usage_error("--no-estimate: not with --accuracy (it reports the error achieved)");
 	if (optind + 1 < argc)
 		ndo_usage_error("more than one input: '%s'", argv[optind + 1]);
 	r->in = optind < argc ? argv[optind] : NULL;

@@ -38,6 +38,7 @@ typedef struct run {
 	ndo_scene sc;
 	const char *in;
 	int quiet, info;
+	int no_estimate;    /* --no-estimate */
 	ndo_grid *g;       /* the input, then the output */
 	ndo_grid *frame;   /* frames: a copy carrying this command in its history */
 	ndo_sim *sim;
