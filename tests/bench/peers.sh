@@ -138,9 +138,11 @@ load0=$(cut -d' ' -f1-3 /proc/loadavg)
 if want 4; then
 speed="| level | peers | steps | steps/s | × one process | computing per step (ms) | waiting per step (ms) | halo kB per step per peer | whole-region kB per step per peer |
 |---|---|---|---|---|---|---|---|---|"
-# one single-threaded process: its steps/s (the stepping alone)
+# one single-threaded process: its steps/s (the stepping alone; without
+# the error estimate, whose runs would go beside it on the other core:
+# --no-estimate, since 2026-12-01)
 solo() {
-	simulate-peer --threads 1 "$work/wavy$1.tgrid" -s "$SCENE" -t "$2" -o "$work/solo.tgrid" 2>"$work/solo.err"
+	simulate-peer --threads 1 --no-estimate "$work/wavy$1.tgrid" -s "$SCENE" -t "$2" -o "$work/solo.tgrid" 2>"$work/solo.err"
 	grep -o 'in [0-9.e+-]* s: [0-9.e+-]* steps/s' "$work/solo.err" | awk '{print $4}'
 }
 # Each peer run is paired with a single-process run just before it: the

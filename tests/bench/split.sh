@@ -44,7 +44,7 @@ for level in $LEVELS; do
 		one=() two=() blk=() d=""
 		for ((r = 0; r < RUNS; r++)); do
 			# shellcheck disable=SC2046
-			simulate-peer --threads 1 "$grid" -s "$SCENE" $(physics "$m") -o "$work/one.tgrid" \
+			simulate-peer --threads 1 --no-estimate "$grid" -s "$SCENE" $(physics "$m") -o "$work/one.tgrid" \
 				2>"$work/one.err"
 			one+=("$(grep -o '[0-9.]* steps/s' "$work/one.err" | head -1 | cut -d' ' -f1)")
 			# the implicit methods twice: preconditioned by the diagonal (the
