@@ -133,7 +133,9 @@ fi
 # the owner's "N steps to step S in X s"), so setup (remesh, the critical
 # step's power iteration, the snapshot to joiners) is not counted.
 median() { tr ' ' '\n' | grep . | sort -g | awk '{v[NR] = $1} END {print v[int((NR + 1) / 2)]}'; }
-declare -A TL=([5]=10 [6]=5 [7]=2 [8]=0.5 [9]=0.1)
+# long enough that the single process's first steps (its arrays touched
+# for the first time) do not weigh: ~1000-2000 steps at levels 5-8
+declare -A TL=([5]=20 [6]=20 [7]=10 [8]=4 [9]=0.5)
 load0=$(cut -d' ' -f1-3 /proc/loadavg)
 if want 4; then
 speed="| level | peers | steps | steps/s | × one process | computing per step (ms) | waiting per step (ms) | halo kB per step per peer | whole-region kB per step per peer |
