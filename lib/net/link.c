@@ -50,6 +50,11 @@ uint64_t ndo_link_injected_drops(const ndo_link *l)
 	return l ? l->injected : 0;
 }
 
+uint64_t ndo_link_overflows(const ndo_link *l)
+{
+	return l ? l->overflowed : 0;
+}
+
 int ndo_lcm_url(const char *url, int recv_buf, char *out, size_t size)
 {
 	if (!url || !*url)

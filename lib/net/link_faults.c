@@ -83,6 +83,7 @@ static int fault_poll(ndo_link *base, double now, ndo_link_fn fn, void *user)
 	fault_link *l = (fault_link *)base;
 	l->now = now;
 	int rc = ndo_link_poll(l->inner, now, take, l);
+	l->base.overflowed = l->inner->overflowed;
 	if (rc < 0)
 		return rc;
 	if (l->failed) {
@@ -150,8 +151,9 @@ int ndo_link_faults(ndo_link *inner, const ndo_faults *f, ndo_link **out)
 		ndo_link_destroy(inner);
 		return ndo__fail(NDO_ENOMEM, "out of memory");
 	}
-	l->base = (ndo_link){fault_publish, fault_poll, fault_fileno, fault_destroy, 0,
-	                     fault_next_due, fault_ended, ""};
+	l->base = (ndo_link){.publish = fault_publish, .poll = fault_poll, .fileno = fault_fileno,
+	                     .destroy = fault_destroy, .next_due = fault_next_due,
+	                     .ended = fault_ended};
 	l->inner = inner;
 	l->f = *f;
 	l->rng = f->seed;

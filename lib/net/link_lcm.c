@@ -56,6 +56,7 @@ typedef struct lcm_link {
 	char prefix[72];        /* direct: "PREFIX_" */
 	size_t nprefix;
 	unsigned char *buf;     /* direct: one datagram */
+	uint32_t drops;         /* direct: the socket's SO_RXQ_OVFL count, last seen */
 } lcm_link;
 
 static void on_message(const lcm_recv_buf_t *rbuf, const char *channel, void *user)
@@ -76,13 +77,37 @@ static int lcm_publish_(ndo_link *base, const char *channel, const void *data, s
 	return 0;
 }
 
+/* SO_RXQ_OVFL: a datagram carries the socket's count of datagrams the
+ * kernel dropped for a full buffer (32 bits, wrapping) when it was queued;
+ * the link's count grows by what that count grew since the last one. */
+static void overflow_seen(lcm_link *l, struct msghdr *mh)
+{
+	for (struct cmsghdr *c = CMSG_FIRSTHDR(mh); c; c = CMSG_NXTHDR(mh, c))
+		if (c->cmsg_level == SOL_SOCKET && c->cmsg_type == SO_RXQ_OVFL &&
+		    c->cmsg_len >= CMSG_LEN(sizeof(uint32_t))) {
+			uint32_t drops;
+			memcpy(&drops, CMSG_DATA(c), sizeof drops);
+			l->base.overflowed += (uint32_t)(drops - l->drops);
+			l->drops = drops;
+		}
+}
+
 /* Direct: every datagram pending on the socket, without blocking. */
 static int direct_poll(lcm_link *l, ndo_link_fn fn, void *user)
 {
 	int handled = 0;
 	/* bounded: a flood of messages cannot keep a step from ending */
 	for (int k = 0; k < 100000; k++) {
-		ssize_t n = recv(l->fd, l->buf, DGRAM_MAX, MSG_DONTWAIT);
+		union {
+			struct cmsghdr h;
+			char b[CMSG_SPACE(sizeof(uint32_t))];
+		} ctl;
+		struct iovec io = {l->buf, DGRAM_MAX};
+		struct msghdr mh = {.msg_iov = &io, .msg_iovlen = 1, .msg_control = &ctl,
+		                    .msg_controllen = sizeof ctl};
+		ssize_t n = recvmsg(l->fd, &mh, MSG_DONTWAIT);
+		if (n >= 0)
+			overflow_seen(l, &mh);
 		if (n < 0) {
 			if (errno == EINTR)
 				continue;
@@ -200,7 +225,10 @@ static int udpm_socket(struct in_addr group, int port, int rcvbuf)
 	struct sockaddr_in a = {.sin_family = AF_INET, .sin_port = htons((uint16_t)port),
 	                        .sin_addr.s_addr = htonl(INADDR_ANY)};
 	struct ip_mreq mr = {.imr_multiaddr = group, .imr_interface.s_addr = htonl(INADDR_ANY)};
+	/* the kernel's count of datagrams it dropped for a full buffer, with
+	 * each datagram (ndo_link_overflows); the count starts at 0 */
 	if (setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &one, sizeof one) ||
+	    setsockopt(fd, SOL_SOCKET, SO_RXQ_OVFL, &one, sizeof one) ||
 	    bind(fd, (struct sockaddr *)&a, sizeof a) ||
 	    setsockopt(fd, IPPROTO_IP, IP_ADD_MEMBERSHIP, &mr, sizeof mr)) {
 		int err = errno;
@@ -226,7 +254,8 @@ int ndo_link_open_lcm(const char *url, int recv_buf, const char *prefix, int que
 	lcm_link *l = calloc(1, sizeof *l);
 	if (!l)
 		return ndo__fail(NDO_ENOMEM, "out of memory");
-	l->base = (ndo_link){lcm_publish_, lcm_poll_, lcm_fileno_, lcm_destroy_, 0, NULL, NULL, ""};
+	l->base = (ndo_link){.publish = lcm_publish_, .poll = lcm_poll_, .fileno = lcm_fileno_,
+	                     .destroy = lcm_destroy_};
 	l->fd = -1;
 	l->lcm = lcm_create(full);
 	if (!l->lcm) {

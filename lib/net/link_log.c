@@ -121,7 +121,8 @@ int ndo_link_open_log(const char *path, const char *prefix, int batch, ndo_link 
 	log_link *l = calloc(1, sizeof *l);
 	if (!l)
 		return ndo__fail(NDO_ENOMEM, "out of memory");
-	l->base = (ndo_link){log_publish, log_poll, NULL, log_destroy, 0, NULL, log_ended, ""};
+	l->base = (ndo_link){.publish = log_publish, .poll = log_poll, .destroy = log_destroy,
+	                     .ended = log_ended};
 	snprintf(l->path, sizeof l->path, "%s", path);
 	snprintf(l->prefix, sizeof l->prefix, "%s_", prefix);
 	l->prefix_len = strlen(l->prefix);

@@ -117,6 +117,14 @@ void ndo_link_mem_lose(ndo_link *base)
 	compact(l->bus);
 }
 
+void ndo_link_mem_overflow(ndo_link *base)
+{
+	if (!base || base->poll != mem_poll)
+		return;
+	base->overflowed += ((mem_link *)base)->bus->count - ((mem_link *)base)->next;
+	ndo_link_mem_lose(base);
+}
+
 static void mem_destroy(ndo_link *base)
 {
 	mem_link *l = (mem_link *)base;
@@ -141,7 +149,7 @@ int ndo_link_open_mem(ndo_bus *b, ndo_link **out)
 		return ndo__fail(NDO_ENOMEM, "out of memory");
 	}
 	b->links = links;
-	l->base = (ndo_link){mem_publish, mem_poll, NULL, mem_destroy, 0, NULL, NULL, ""};
+	l->base = (ndo_link){.publish = mem_publish, .poll = mem_poll, .destroy = mem_destroy};
 	l->bus = b;
 	l->next = b->count; /* a new link hears only what comes after it */
 	b->links[b->nlinks++] = l;

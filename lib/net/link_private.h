@@ -14,6 +14,9 @@ struct ndo_link {
 	double (*next_due)(const ndo_link *);
 	int (*ended)(const ndo_link *);
 	char note[200]; /* why it ended early, "" if it did not (ndo_link_note) */
+	/* messages lost before this link read them, as the operating system
+	 * (or ndo_link_mem_overflow) counted them: ndo_link_overflows */
+	uint64_t overflowed;
 };
 
 #endif

@@ -955,6 +955,7 @@ int ndo_net_poll(ndo_net *n, double now)
 	if (n->ask && n->nheld)
 		ask_keys(n);
 	n->st.dropped[NDO_DROP_INJECTED] = ndo_link_injected_drops(n->link);
+	n->st.overflowed = ndo_link_overflows(n->link);
 	if (rc < 0)
 		return rc;
 	return (int)(n->st.accepted - before);
@@ -1050,6 +1051,9 @@ void ndo_net_stats_format(const ndo_net *n, char *buf, size_t size)
 		len += snprintf(buf + len, size - (size_t)len, "%s, gaps %llu, published %llu",
 		                *sep == ',' ? ")" : "", (unsigned long long)s->gaps,
 		                (unsigned long long)s->published);
+	if (s->overflowed && len > 0 && (size_t)len < size)
+		len += snprintf(buf + len, size - (size_t)len, ", overflowed %llu",
+		                (unsigned long long)s->overflowed);
 	if (s->held && len > 0 && (size_t)len < size)
 		len += snprintf(buf + len, size - (size_t)len, ", held %llu", (unsigned long long)s->held);
 	if (s->keys_asked && len > 0 && (size_t)len < size)

@@ -54,6 +54,10 @@ int ndo_link_open_mem(ndo_bus *b, ndo_link **out);
  * received until now).  Nothing for a link of another kind. */
 void ndo_link_mem_lose(ndo_link *l);
 
+/* The same loss, counted as an overflow (ndo_link_overflows): what a
+ * socket whose buffer filled while its reader was busy loses, and knows
+ * it lost. */
+void ndo_link_mem_overflow(ndo_link *l);
 /* Fault injection on the receiving side (the application's netem): each
  * message is dropped with probability `drop`; the others are held for
  * delay_ms + U(0, jitter_ms) and, with probability `reorder`, held further
@@ -98,6 +102,15 @@ const char *ndo_link_note(const ndo_link *l);
 /* Messages the fault layer dropped, and delayed, so far (0 for other links). */
 uint64_t ndo_link_injected_drops(const ndo_link *l);
 
+/* Messages lost before the link read them, so far, where the link can
+ * know: LCM's udpm:// group read directly (docs/protocol.md, "LCM
+ * facts"), the datagrams the kernel dropped because the socket's buffer
+ * was full (SO_RXQ_OVFL; learnt with the next datagram that arrives);
+ * ndo_link_mem_overflow's; a fault link, its inner link's.  0 where it
+ * cannot be known (LCM's own receiving thread, a log) — not "nothing
+ * lost".  A peer's silence during such a loss is no sign that it is dead
+ * (ndo_session_update). */
+uint64_t ndo_link_overflows(const ndo_link *l);
 /* Publish: 0, or NDO_EIO (the provider refused; errno-level detail). */
 int ndo_link_publish(ndo_link *l, const char *channel, const void *data, size_t len);
 

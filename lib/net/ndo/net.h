@@ -33,6 +33,9 @@ typedef struct ndo_net_stats {
 	uint64_t own;                  /* our own, looped back (not drops) */
 	uint64_t dropped[NDO_DROP_N];  /* by reason; [NDO_DROP_INJECTED] from faults */
 	uint64_t gaps;                 /* messages missing by sequence numbers */
+	uint64_t overflowed;           /* datagrams the kernel dropped before this
+	                                  receiver read them, its socket's buffer
+	                                  full (ndo_link_overflows) */
 	uint64_t late;                 /* accepted after a later one of its sender
 	                                  (reordered; an encoded tile that came before
 	                                  its reference counts in `held`, and here too
