@@ -98,6 +98,8 @@ struct ndo_peer {
 	int announced, started, simulating, ended, done;
 	int end_reason;   /* the session's end (NDO_EV_ENDED): NDO_LEAVE_* */
 	int32_t epoch_done;    /* the partition the region was last made for */
+	int32_t poi_held;      /* a joiner's POI, asked for once its simulation is
+	                          built (joiner_ready), −1: none or asked */
 	double epoch_t0;       /* ... when (split steps: the others' time to
 	                          show up under it, members_alive) */
 	int64_t cur;
@@ -1624,7 +1626,13 @@ static int joiner_ready(ndo_peer *p)
 		snprintf(d, sizeof d, "%s", ndo_errdetail());
 		return ndo__fail(rc, "the owner's object: %s", d);
 	}
-	return region(p);
+	if ((rc = region(p)))
+		return rc;
+	if (p->poi_held >= 0) {
+		rc = ndo_session_set_poi(p->s, p->poi_held);
+		p->poi_held = -1;
+	}
+	return rc;
 }
 
 /* Realtime with rollback, before this peer started: did the partition in
@@ -2698,6 +2706,20 @@ int ndo_peer_create(const ndo_peer_opts *o, ndo_net *net, ndo_grid *grid, ndo_si
 	so.halo_fn = on_halo;
 	so.solve_fn = on_solve;
 	so.tile_user = p;
+	/* a peer outside the partition — an observer, a joiner building its
+	 * simulation — may be silent as long as a joiner may take to come */
+	if (!(so.outside_timeout > 0))
+		so.outside_timeout = p->o.start_timeout;
+	/* A joiner asks for its share only once it can step it: building the
+	 * simulation is one long call without heartbeats (7 s at level 10 on a
+	 * loaded machine), and a partition that gives it a region meanwhile
+	 * makes the owner count its silence, and drop it, before the start, and
+	 * holds the others' lock-step in a run under way. */
+	p->poi_held = -1;
+	if (!owner && so.poi >= 0) {
+		p->poi_held = so.poi;
+		so.poi = -1;
+	}
 	if (owner) {
 		p->dt = run->dt;
 		p->cur = p->first = grid->step;

@@ -58,6 +58,7 @@ struct ndo_session {
 	double now, next_hb, owner_heard, last_ask, last_full, next_poi;
 	double grace; /* the owner's or a member's silence tolerated, at least (0: none) */
 	int hb_count, full_pending;
+	uint64_t overflowed; /* the link's overflows when last looked at */
 	int32_t poi_acked; /* the POI the owner's last partition shows for us */
 	/* succession (ndo_session_set_succession): on, and the owners that
 	 * fell silent and the peers that left (never followed) */
@@ -1179,6 +1180,18 @@ static int send_hello(ndo_session *s)
 	return ndo_net_publish(s->net, NDO_MSG_HELLO, &h);
 }
 
+/* Owner: how long member `id` may be silent: the timeout in the partition
+ * in force, where its neighbours wait for it; outside it (an observer, a
+ * joiner building its simulation — 7 s at level 10 on a loaded machine —
+ * before it asks for a share) nobody waits, so outside_timeout. */
+static double silence_limit(const ndo_session *s, int32_t id)
+{
+	for (int p = 0; p < s->npeers; p++)
+		if (s->peers[p] == id)
+			return s->o.timeout;
+	return fmax(s->o.timeout, s->o.outside_timeout);
+}
+
 int ndo_session_update(ndo_session *s, double now)
 {
 	/* Silence is counted while this peer listens: of a gap between two
@@ -1188,7 +1201,7 @@ int ndo_session_update(ndo_session *s, double now)
 	 * (an owner stopped for 0.8 s at a timeout of 0.5 s dropped both its
 	 * joiners), while a dead peer's silence still grows by half the
 	 * timeout or more at every update. */
-	const double gap = now - s->now - 0.5 * s->o.timeout;
+	const double prev = s->now, gap = now - prev - 0.5 * s->o.timeout;
 	if (gap > 0) {
 		for (int i = 0; i < s->nm; i++)
 			s->m[i].heard += gap;
@@ -1200,6 +1213,22 @@ int ndo_session_update(ndo_session *s, double now)
 	int rc = ndo_net_poll(s->net, now);
 	if (rc < 0)
 		return rc;
+	/* Nor is it counted while this peer could not hear: when its socket's
+	 * buffer filled since the last update and the kernel dropped datagrams
+	 * (ndo_link_overflows), a peer silent meanwhile may have spoken.  At
+	 * level 10 a whole object is 150 MB: its sender's own copy, looped back,
+	 * overflowed its 64 MiB buffer for seconds, and the owner dropped its
+	 * live joiners for "no heartbeat" (docs/peers.md, "Joins, leaves").  A
+	 * dead peer's silence counts again once the flood is over. */
+	const uint64_t over = ndo_net_stats_get(s->net)->overflowed;
+	if (over != s->overflowed) {
+		s->overflowed = over;
+		const double deaf = now - prev - fmax(gap, 0);
+		for (int i = 0; deaf > 0 && i < s->nm; i++)
+			s->m[i].heard = fmin(now, s->m[i].heard + deaf);
+		if (deaf > 0)
+			s->owner_heard = fmin(now, s->owner_heard + deaf);
+	}
 	ndo_msg m;
 	while (ndo_net_next(s->net, &m)) {
 		rc = handle(s, &m);
@@ -1216,7 +1245,7 @@ int ndo_session_update(ndo_session *s, double now)
 	int owner = s->o.role == NDO_ROLE_OWNER;
 	if (owner) {
 		for (int i = 0; i < s->nm; i++)
-			if (now - s->m[i].heard > fmax(s->o.timeout, s->grace)) {
+			if (now - s->m[i].heard > fmax(silence_limit(s, s->m[i].id), s->grace)) {
 				int32_t id = s->m[i].id;
 				char why[96];
 				snprintf(why, sizeof why, "no heartbeat for %.1f s", now - s->m[i].heard);
@@ -1622,7 +1651,7 @@ int ndo_session_silent(const ndo_session *s)
 {
 	int n = 0;
 	for (int i = 0; i < s->nm; i++)
-		n += s->now - s->m[i].heard > s->o.timeout;
+		n += s->now - s->m[i].heard > silence_limit(s, s->m[i].id);
 	return n;
 }
 void ndo_session_set_exact_halos(ndo_session *s, int on) { s->exact_halos = on != 0; }

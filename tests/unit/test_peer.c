@@ -428,11 +428,13 @@ static void realtime_a_stalled_joiner_starts_at_the_first_step(void)
 		if (!rc)
 			rc = add_joiner(w, &su, 600);
 		CHECK(rc == 0, "3 peers");
-		/* whole: its point of interest goes out, and the partition with
-		 * its region comes while it sleeps */
+		/* whole, and its simulation built (in the update that saw it
+		 * whole): its point of interest goes out in the next, and the
+		 * partition with its region comes while it sleeps */
 		ndo_peer *late = w->p[1];
 		while (!ndo_session_ready(ndo_peer_session(late)) && w->t < 10 && run(w, w->t + TICK) == 1)
 			;
+		run(w, w->t + TICK);
 		w->p[1] = NULL;
 		run(w, w->t + 0.5);
 		int64_t others = ndo_peer_step(w->p[2]);
@@ -2132,6 +2134,51 @@ static void realtime_keeps_the_pace_after_a_far_step(void)
 	}
 }
 
+/* A joiner builds its simulation in one long call, without heartbeats (7 s
+ * at level 10 on a loaded machine): it asks for its share only once that
+ * is done, so the owner, which counts a member's silence from when the
+ * partition holds it, keeps it.  Here the joiner stops for 3 s (three
+ * timeouts) in the update that saw the object whole, as if building took
+ * that long: until 2026-12-01 its point of interest had gone out in that
+ * update, the owner made the 2-peer partition, announced, and dropped the
+ * silent joiner; at level 10 2 peers did not start. */
+static void a_joiner_building_its_simulation_is_kept(void)
+{
+	setup su = {.integrator = "rk4", .dt = 0.01, .steps = 60, .peers = 2, .bands = 1};
+	world *w = world_new();
+	int rc = add_owner(w, &su);
+	if (!rc)
+		rc = add_joiner(w, &su, POIS[0]);
+	CHECK(rc == 0, "2 peers");
+	ndo_peer *slow = w->p[1];
+	while (!ndo_session_ready(ndo_peer_session(slow)) && w->t < 10 && run(w, w->t + TICK) == 1)
+		;
+	int ready = ndo_session_ready(ndo_peer_session(slow));
+	w->p[1] = NULL;
+	run(w, w->t + 3);
+	int owner_started = ndo_peer_started(w->p[0]);
+	w->p[1] = slow;
+	int done = run(w, 60) == 0;
+	double *x = solo(&su);
+	double d = difference(ndo_peer_grid(w->p[0]), x);
+	free(x);
+	ndo_peer_stats so, sj;
+	ndo_peer_stats_get(w->p[0], &so);
+	ndo_peer_stats_get(w->p[1], &sj);
+	printf("    the joiner silent 3 s once whole: the owner %s meanwhile; states %d %d, "
+	       "%lld and %lld steps, %lld repartitions, difference %.3g\n",
+	       owner_started ? "started" : "waited", w->state[0], w->state[1], (long long)so.steps,
+	       (long long)sj.steps, (long long)so.repartitions, d);
+	CHECK(ready && !owner_started && done && w->state[0] == NDO_PEER_DONE &&
+	          w->state[1] == NDO_PEER_DONE && sj.steps == su.steps && so.repartitions == 0 &&
+	          d == 0,
+	      "ready %d, the owner started without it %d, done %d, states %d %d, the joiner took "
+	      "%lld of %lld steps, %lld repartitions, difference %.3g", ready, owner_started, done,
+	      w->state[0], w->state[1], (long long)sj.steps, (long long)su.steps,
+	      (long long)so.repartitions, d);
+	world_free(w);
+}
+
 /* A member's id on one halo of a far step (within the run) does not make
  * that member look dead: the owner, deaf for 0.5 s (its neighbour's halos
  * lost, the neighbour alive), waits past its step timeout for the re-sends
@@ -2563,6 +2610,7 @@ int main(void)
 		RUN(a_members_forged_checkpoint_does_not_hold_the_restart);
 		RUN(realtime_keeps_the_pace_after_a_far_step);
 		RUN(a_far_step_does_not_make_a_member_look_dead);
+		RUN(a_joiner_building_its_simulation_is_kept);
 		RUN(a_replayed_log_gives_the_live_frames);
 		RUN(lost_tiles_are_held_on_request);
 	}

@@ -19,6 +19,9 @@ static double value(size_t node, int d, int64_t step)
 	return (double)node * 0.001 + d + 0.5 * (double)step;
 }
 
+/* the owner's outside_timeout for the sessions opened next (0: the timeout) */
+static double outside_timeout;
+
 static ndo_session *open_peer_enc(ndo_bus *bus, ndo_role role, int32_t id, int32_t poi,
                                   const ndo_faults *f, const ndo_codec_params *codec)
 {
@@ -41,7 +44,7 @@ static ndo_session *open_peer_enc(ndo_bus *bus, ndo_role role, int32_t id, int32
 	}
 	ndo_session_opts o = {.role = role, .poi = poi, .self_id = id, .object_id = role == NDO_ROLE_OWNER ? 77 : 0,
 	                      .scene = "sigma=1\nrho=1\n", .timeout = 1.0, .heartbeat = 0.1, .retry = 0.3,
-	                      .codec = codec};
+	                      .codec = codec, .outside_timeout = outside_timeout};
 	if (ndo_session_create(&o, n, g, &s))
 		return NULL;
 	return s;
@@ -270,6 +273,102 @@ static void a_stall_drops_nobody(void)
 	double seen = silent_until_left(p, 1, &t, &step, &e);
 	CHECK(seen > 0 && e.peer == 2 && seen <= 1.0 + 0.2,
 	      "a silent peer dropped within the timeout (peer %d after %.2f s)", e.peer, seen);
+	for (int i = 0; i < 3; i++)
+		ndo_session_destroy(p[i], NULL);
+	ndo_bus_destroy(bus);
+}
+
+/* The owner's runs of updates, `steps` of them, each after its link lost
+ * what was pending: counted as an overflow (the kernel's full buffer,
+ * ndo_link_overflows) or not (loss on the way, which nobody sees). */
+static void run_losing(ndo_session *p[3], double *t, int64_t *step, int steps, int counted)
+{
+	ndo_link *l = ndo_net_link(ndo_session_net(p[0]));
+	for (int k = 0; k < steps; k++) {
+		if (counted)
+			ndo_link_mem_overflow(l);
+		else
+			ndo_link_mem_lose(l);
+		run(p, 3, t, step, 1);
+	}
+}
+
+/* Silence is not counted while the owner could not hear: 3 s (three
+ * timeouts) in which its socket overflowed at every update — as a level-10
+ * owner's does while its own 150 MB object loops back — drop nobody; the
+ * same loss unseen (on the way) drops both joiners; and once the flood is
+ * over a silent joiner is dropped within the timeout again. */
+static void an_overflowing_receiver_drops_nobody(void)
+{
+	ndo_session *p[3];
+	double t = 0;
+	int64_t step = 0;
+	ndo_bus *bus = three_peers(p, &t, &step);
+	run_losing(p, &t, &step, 300, 1);
+	const ndo_net_stats *st = ndo_net_stats_get(ndo_session_net(p[0]));
+	CHECK(count_events(p[0], NDO_EV_LEFT, NULL) == 0 && st->overflowed > 300,
+	      "the owner dropped a peer while its socket overflowed (%llu datagrams)",
+	      (unsigned long long)st->overflowed);
+	ndo_event e = {0};
+	double seen = silent_until_left(p, 1, &t, &step, &e);
+	CHECK(seen > 0 && e.peer == 2 && seen <= 1.0 + 0.2,
+	      "after the overflow a silent peer is dropped within the timeout (peer %d after %.2f s)",
+	      e.peer, seen);
+	for (int i = 0; i < 3; i++)
+		ndo_session_destroy(p[i], NULL);
+	ndo_bus_destroy(bus);
+	bus = three_peers(p, &t, &step);
+	run_losing(p, &t, &step, 300, 0);
+	CHECK(count_events(p[0], NDO_EV_LEFT, NULL) == 2,
+	      "the owner that lost everything unseen for 3 s kept its joiners");
+	for (int i = 0; i < 3; i++)
+		ndo_session_destroy(p[i], NULL);
+	ndo_bus_destroy(bus);
+}
+
+/* A member outside the partition (an observer; a joiner building its
+ * simulation) may be silent for the owner's outside_timeout (here 5 s),
+ * a simulating one for the timeout (1 s); and a silent outsider does not
+ * count as silent for ndo_session_silent before then. */
+static void outside_the_partition_silence_is_longer(void)
+{
+	ndo_bus *bus;
+	ndo_bus_create(&bus);
+	ndo_session *p[4];
+	double t = 0;
+	int64_t step = 0;
+	outside_timeout = 5;
+	p[0] = open_peer(bus, NDO_ROLE_OWNER, 1, -1, NULL);
+	outside_timeout = 0;
+	p[1] = open_peer(bus, NDO_ROLE_JOINER, 2, 100, NULL);
+	p[2] = open_peer(bus, NDO_ROLE_JOINER, 3, -1, NULL); /* observes */
+	run(p, 3, &t, &step, 60);
+	int np = 0;
+	ndo_session_cells(p[0], &np, NULL);
+	CHECK(np == 2 && count_events(p[0], NDO_EV_JOINED, NULL) == 2,
+	      "a simulating joiner and an observer (%d peers simulate)", np);
+	/* the observer silent for 3 s: kept, and not counted silent */
+	ndo_session *obs = p[2];
+	p[2] = NULL;
+	run(p, 3, &t, &step, 300);
+	CHECK(count_events(p[0], NDO_EV_LEFT, NULL) == 0 && ndo_session_silent(p[0]) == 0,
+	      "the observer silent for 3 s was dropped or counted silent (%d)",
+	      ndo_session_silent(p[0]));
+	/* the simulating joiner silent: dropped within the timeout */
+	p[2] = obs;
+	ndo_event e = {0};
+	double seen = silent_until_left(p, 1, &t, &step, &e);
+	CHECK(seen > 0 && e.peer == 2 && seen <= 1.0 + 0.2,
+	      "a silent simulating peer dropped within the timeout (peer %d after %.2f s)", e.peer,
+	      seen);
+	/* the observer silent for longer than 5 s: dropped */
+	seen = silent_until_left(p, 2, &t, &step, &e);
+	CHECK(seen < 0, "the observer dropped within 3 s");
+	p[2] = NULL;
+	run(p, 3, &t, &step, 300);
+	CHECK(count_events(p[0], NDO_EV_LEFT, &e) == 1 && e.peer == 3,
+	      "the observer silent for 6 s was kept (left: peer %d)", e.peer);
+	p[2] = obs;
 	for (int i = 0; i < 3; i++)
 		ndo_session_destroy(p[i], NULL);
 	ndo_bus_destroy(bus);
@@ -1144,6 +1243,8 @@ int main(void)
 	RUN(join_share_and_reassemble);
 	RUN(timeout_detected_and_repartitioned);
 	RUN(a_stall_drops_nobody);
+	RUN(an_overflowing_receiver_drops_nobody);
+	RUN(outside_the_partition_silence_is_longer);
 	RUN(late_joiner_over_lossy_link);
 	RUN(encoded_tiles_are_no_snapshot);
 	RUN(garbage_is_counted_not_trusted);

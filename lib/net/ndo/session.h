@@ -48,6 +48,11 @@ typedef struct ndo_session_opts {
 	ndo_part_method partition; /* owner: the method (0: quadtree) */
 	double heartbeat;          /* seconds between heartbeats (0: 0.2) */
 	double timeout;            /* silence after which a peer is gone (0: 2.0) */
+	double outside_timeout;    /* owner: the same for a member outside the
+	                              partition in force — an observer, or a joiner
+	                              that takes in the object and builds its
+	                              simulation before it asks for a share
+	                              (0 or less than timeout: timeout) */
 	double retry;              /* joiner: re-ask for the description (0: 1.0) */
 	int64_t object_id;         /* owner: 0 = random; joiner: 0 = the first owner heard */
 	int32_t self_id;           /* 0 = random */
@@ -187,7 +192,8 @@ void ndo_session_set_grace(ndo_session *s, double seconds);
  * way (NDO_EV_ENDED).  Without it (the default) the owner's silence ends
  * the session. */
 void ndo_session_set_succession(ndo_session *s, int on);
-/* Owner: the members silent for longer than the timeout, grace or not. */
+/* Owner: the members silent for longer than the timeout (outside the
+ * partition: outside_timeout), grace or not. */
 int ndo_session_silent(const ndo_session *s);
 
 /* The simulating peers exchange exact halos (ndo/peer.h): whole-region
