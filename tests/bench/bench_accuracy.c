@@ -30,6 +30,21 @@
  *                         and N − 1) and its difference from a pilot at N
  *                         (RK4 at half its critical step), all relative to
  *                         the reference's largest displacement up to t
+ *   predictors N T SCENE... the chooser's space-error measures against the
+ *                         truth: the pilots (RK4 at half the critical step)
+ *                         at levels 2..N; for every top pilot level and
+ *                         every level up to it, the error against the top
+ *                         pair's extrapolation u* over all of top's nodes
+ *                         (ndo_acc_choose's) and over level top − 1's nodes
+ *                         only (as a run's estimate measures its space
+ *                         error), the pilot's true error, and the top
+ *                         pair's differences both ways
+ *   timeorder N T SCENE... the time error's convergence and growth: levels
+ *                         N − 1 and N, RK4 and symplectic Euler at 0.9 × the
+ *                         critical step and its halvings against RK4 at
+ *                         0.05 ×, at T/8 and T, the order observed between a
+ *                         step and its half, and the run's estimate (its two
+ *                         parts on stderr); no reference run
  *
  * SCENE is NAME=INPUT:SCENEFILE[:REST], INPUT a shape name (remesh
  * --shape) or a .tgrid at level N + 2, REST a shape name for the rest shape
@@ -432,6 +447,128 @@ static void cost(int n, int argc, char **argv)
 	}
 }
 
+/* Level q's result at level `to` (q ≤ to): subdivided. */
+static double *up_to(int q, int to, const double *u)
+{
+	double *out;
+	if (ndo_acc_prolong(q, to, u, &out))
+		die("prolong");
+	return out;
+}
+
+/* Level l's result restricted to level l − 1 (its even rows and columns). */
+static double *down_one(int l, const double *u)
+{
+	double *out = malloc(3 * sizeof(double) * (size_t)((2 << (l - 1)) + 1) *
+	                     (size_t)((1 << (l - 1)) + 1));
+	ndo_restrict_nodes(l, 3 * sizeof(double), u, out);
+	return out;
+}
+
+/* The chooser's space-error predictors against the truth: the pilots (RK4
+ * at half the critical step) at levels 2..N; for every top pilot level and
+ * every level q up to it, the space error measured against the top pair's
+ * extrapolation u* over all of top's nodes (ndo_acc_choose's) and over
+ * level top − 1's nodes only (as a run's estimate measures it), and the
+ * true error of q's pilot (at level N, against the reference). */
+static void predictors(int n, int argc, char **argv)
+{
+	printf("scene,top,q,true,all_nodes,shared_nodes,D_all_top,D_shared_top\n");
+	for (int k = 0; k < argc; k++) {
+		bscene b;
+		setup(&b, argv[k], n);
+		double *pu[NDO_MAX_LEVEL + 1] = {0}, tr[NDO_MAX_LEVEL + 1];
+		for (int l = 2; l <= n; l++) {
+			ndo_acc_config c = at_fraction(b.in, l, NDO_RK4, 0.5, b.T);
+			ndo_acc_result r;
+			if (ndo_acc_run(b.in, &c, &r))
+				die("pilot");
+			pu[l] = r.u, r.u = NULL;
+			ndo_acc_result_free(&r);
+			tr[l] = true_error(&b, l, pu[l]);
+		}
+		for (int top = 3; top <= n; top++) {
+			size_t nt = 3 * (size_t)((2 << top) + 1) * (size_t)((1 << top) + 1),
+			       ns = 3 * (size_t)((2 << (top - 1)) + 1) * (size_t)((1 << (top - 1)) + 1);
+			double *sa = up_to(top - 1, top, pu[top - 1]), *ss = down_one(top, pu[top]);
+			double da = ndo_acc_distance(top, pu[top], sa), ds = ndo_acc_distance(top - 1, ss, pu[top - 1]);
+			for (size_t i = 0; i < nt; i++)
+				sa[i] = pu[top][i] + (pu[top][i] - sa[i]) / 3;
+			for (size_t i = 0; i < ns; i++)
+				ss[i] = ss[i] + (ss[i] - pu[top - 1][i]) / 3;
+			for (int q = 2; q <= top; q++) {
+				double *a = up_to(q, top, pu[q]), ea = ndo_acc_distance(top, a, sa), es;
+				free(a);
+				if (q == top) {
+					double *r = down_one(top, pu[top]);
+					es = ndo_acc_distance(top - 1, r, ss);
+					free(r);
+				} else {
+					double *r = up_to(q, top - 1, pu[q]);
+					es = ndo_acc_distance(top - 1, r, ss);
+					free(r);
+				}
+				printf("%s,%d,%d,%.4g,%.4g,%.4g,%.4g,%.4g\n", b.name, top, q, tr[q] / b.umax,
+				       ea / b.umax, es / b.umax, da / b.umax, ds / b.umax);
+			}
+			fflush(stdout);
+			free(sa), free(ss);
+		}
+		for (int l = 2; l <= n; l++)
+			free(pu[l]);
+		teardown(&b);
+	}
+}
+
+/* The time error's convergence: at levels N − 1 and N, RK4 (and
+ * symplectic Euler) at 0.9 × the critical step and its halvings, against
+ * RK4 at 0.05 × critical, at T/8 and T: the error and the order observed
+ * between each step and its half, relative to the reference's largest
+ * displacement (that run's, at T: no reference runs); and the run's estimate
+ * (ndo_acc_estimate_run) at 0.9. */
+static void timeorder(int n, int argc, char **argv)
+{
+	printf("scene,level,method,fraction,t_s,error,observed_order,estimate\n");
+	const ndo_method ms[2] = {NDO_RK4, NDO_SYMPLECTIC_EULER};
+	for (int k = 0; k < argc; k++) {
+		bscene b;
+		setup(&b, argv[k], n);
+		for (int l = n - 1; l <= n; l++)
+			for (int i = 0; i < 2; i++) {
+				double U;
+				double *t8 = run_to(&b, b.in, l, NDO_RK4, 0.05, b.T / 8, NULL),
+				       *t1 = run_to(&b, b.in, l, NDO_RK4, 0.05, b.T, &U);
+				double prev8 = NAN, prev1 = NAN, est = NAN;
+				{
+					ndo_acc_config c = at_fraction(b.in, l, ms[i], 0.9, b.T);
+					ndo_acc_result r;
+					ndo_acc_estimate e;
+					if (ndo_acc_run(b.in, &c, &r) || ndo_acc_estimate_run(b.in, &c, r.u, r.umax, &e))
+						die("run");
+					est = e.time_m / U;
+					fprintf(stderr, "%s level %d %s: time %s\n", b.name, l, ndo_method_names[ms[i]],
+					        e.time_how);
+					ndo_acc_result_free(&r);
+				}
+				for (double f = 0.9; f > 0.1; f /= 2) {
+					double *a8 = run_to(&b, b.in, l, ms[i], f, b.T / 8, NULL),
+					       *a1 = run_to(&b, b.in, l, ms[i], f, b.T, NULL);
+					double e8 = ndo_acc_distance(n, a8, t8) / U,
+					       e1 = ndo_acc_distance(n, a1, t1) / U;
+					printf("%s,%d,%s,%.3g,%.4g,%.3g,%.3g,%.3g\n", b.name, l, ndo_method_names[ms[i]],
+					       f, b.T / 8, e8, log2(prev8 / e8), f == 0.9 ? est : NAN);
+					printf("%s,%d,%s,%.3g,%.4g,%.3g,%.3g,%.3g\n", b.name, l, ndo_method_names[ms[i]],
+					       f, b.T, e1, log2(prev1 / e1), f == 0.9 ? est : NAN);
+					fflush(stdout);
+					prev8 = e8, prev1 = e1;
+					free(a8), free(a1);
+				}
+				free(t8), free(t1);
+			}
+		teardown(&b);
+	}
+}
+
 int main(int argc, char **argv)
 {
 	if (argc >= 5)
@@ -444,8 +581,12 @@ int main(int argc, char **argv)
 		no_reference = 1, cost(atoi(argv[2]), argc - 4, argv + 4);
 	else if (argc >= 5 && strcmp(argv[1], "pilot") == 0)
 		pilot(atoi(argv[2]), argc - 4, argv + 4);
+	else if (argc >= 5 && strcmp(argv[1], "predictors") == 0)
+		predictors(atoi(argv[2]), argc - 4, argv + 4);
+	else if (argc >= 5 && strcmp(argv[1], "timeorder") == 0)
+		no_reference = 1, timeorder(atoi(argv[2]), argc - 4, argv + 4);
 	else {
-		fprintf(stderr, "usage: bench_accuracy estimates|choose|cost|pilot N T NAME=INPUT:SCENE[:REST]...\n");
+		fprintf(stderr, "usage: bench_accuracy estimates|choose|cost|pilot|predictors|timeorder N T NAME=INPUT:SCENE[:REST]...\n");
 		return 2;
 	}
 	return 0;
