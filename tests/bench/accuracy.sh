@@ -22,7 +22,9 @@ S=samples A=tests/bench/accuracy
 # ACCURACY_REPORT_ONLY=1: only rewrite the report from the CSV files of an
 # earlier run (build/bench/accuracy/).  ACCURACY_PARTS: the programs to run
 # (default all: "estimates choose pilot cost"; the others' CSV files of an
-# earlier run are kept and reported).  cost (the chooser's cost model
+# earlier run are kept and reported; "predictors" and "timeorder", the
+# diagnostics of the chooser's space errors and of the time estimate's
+# order and growth, about 3 minutes more, run only when named).  cost (the chooser's cost model
 # against measured CPU time per step, about a minute) runs at the last of
 # LEVELS only.
 for N in $LEVELS; do
@@ -58,6 +60,16 @@ for N in $LEVELS; do
 	if part pilot; then
 		echo "bench_accuracy pilot $N $T ${scenes[2]} ${scenes[5]}" >>"$d/commands-$N"
 		"$B/bench_accuracy" pilot "$N" "$T" "${scenes[2]}" "${scenes[5]}" >"$d/pilot-$N.csv" 2>"$d/pilot-$N.log"
+	fi
+	# The chooser's space-error measures at every top pilot level, and the
+	# time error's order and growth (ACCURACY_PARTS only).
+	if part predictors; then
+		echo "bench_accuracy predictors $N $T ${scenes[*]}" >>"$d/commands-$N"
+		"$B/bench_accuracy" predictors "$N" "$T" "${scenes[@]}" >"$d/predictors-$N.csv" 2>"$d/predictors-$N.log"
+	fi
+	if part timeorder; then
+		echo "bench_accuracy timeorder $N $T ${scenes[*]}" >>"$d/commands-$N"
+		"$B/bench_accuracy" timeorder "$N" "$T" "${scenes[@]}" >"$d/timeorder-$N.csv" 2>"$d/timeorder-$N.log"
 	fi
 	if part choose; then
 		grep '^point,' "$d/choose-$N.log" | sed '1i point,scene,level,method,step_s,cpu_s,error' >"$d/sweep-$N.csv"
@@ -155,6 +167,34 @@ out=docs/bench/accuracy.md
 				"displacement up to t (largest_m)."
 			echo
 			table "$d/pilot-$N.csv"
+		fi
+		if [ -f "$d/predictors-$N.csv" ]; then
+			echo
+			echo "### The chooser's space-error measures at every top pilot level"
+			echo
+			echo "The pilots (RK4 at half the critical step) at levels 2..$N; for each top pilot level and" \
+				"each level q up to it: true, q's pilot against the reference (at level $N); all_nodes, q's" \
+				"pilot against u* = u_top + (u_top − S u_top−1) / 3 over all of top's nodes (what" \
+				"ndo_acc_choose measures); shared_nodes, the same over level top − 1's nodes only (as a" \
+				"run's estimate measures its space error); D_all_top, D_shared_top: |u_top − S u_top−1|" \
+				"both ways; all relative to the reference's largest displacement."
+			echo
+			table "$d/predictors-$N.csv"
+		fi
+		if [ -f "$d/timeorder-$N.csv" ]; then
+			echo
+			echo "### The time error's order and growth"
+			echo
+			echo "Levels $((N - 1)) and $N, each method at fraction × its critical step (0.9 and halvings)" \
+				"against RK4 at 0.05 ×, at t = T/8 and T: error relative to that run's largest" \
+				"displacement; observed_order: log2 of the error's fall from the step before;" \
+				"estimate: the run's time estimate at 0.9 (ndo_acc_estimate_run), the same share."
+			echo
+			table "$d/timeorder-$N.csv"
+			echo
+			echo '```'
+			sed 's/^bench_accuracy: //' "$d/timeorder-$N.log"
+			echo '```'
 		fi
 		echo
 		echo "![accuracy, level $N](../simulate-peer/accuracy-$N.png)"
