@@ -45,6 +45,9 @@
  *                         0.05 ×, at T/8 and T, the order observed between a
  *                         step and its half, and the run's estimate (its two
  *                         parts on stderr); no reference run
+ *   loads N T SCENE...    each face force selected at a point, at levels
+ *                         2..N + 2: the faces it takes, their area and how
+ *                         far their nodes reach from the point
  *
  * SCENE is NAME=INPUT:SCENEFILE[:REST], INPUT a shape name (remesh
  * --shape) or a .tgrid at level N + 2, REST a shape name for the rest shape
@@ -569,6 +572,58 @@ static void timeorder(int n, int argc, char **argv)
 	}
 }
 
+/* What each level makes of a scene's face forces selected at a point
+ * (force face at=X radius=R): the faces whose centroids lie within R at
+ * levels 2..N + 2 (the scene's rest shape restricted), their area and how
+ * far from the point their nodes reach.  The total force is the same at
+ * every level (shared by area): what differs is where it acts. */
+static void loads(int n, int argc, char **argv)
+{
+	printf("scene,force,level,faces,area_m2,reach_m\n");
+	for (int k = 0; k < argc; k++) {
+		bscene b;
+		setup(&b, argv[k], n);
+		for (int l = 2; l <= n + 2; l++) {
+			const double *X = ndo_acc_rest(b.fine, l);
+			uint8_t *pin = calloc(ndo_vertex_count(l) * 4 + 64, 1);
+			ndo_force *f;
+			if (!X || !pin || ndo_scene_resolve(&b.sc, l, X, &f, pin))
+				die("resolve");
+			size_t ntri = (size_t)1 << (2 * l + 2);
+			int32_t *tri = malloc(3 * ntri * sizeof *tri);
+			ndo_triangles(l, tri);
+			for (int q = 0; q < b.sc.nforces; q++) {
+				const ndo_selection *sel = &b.sc.forces[q].sel;
+				if (f[q].kind != NDO_FORCE_FACE || sel->kind != NDO_SEL_AT)
+					continue;
+				double area = 0, reach = 0;
+				for (size_t i = 0; i < f[q].count; i++) {
+					const int32_t *v = tri + 3 * (size_t)f[q].items[i];
+					double e1[3], e2[3];
+					for (int d = 0; d < 3; d++) {
+						e1[d] = X[3 * v[1] + d] - X[3 * v[0] + d];
+						e2[d] = X[3 * v[2] + d] - X[3 * v[0] + d];
+					}
+					double c0 = e1[1] * e2[2] - e1[2] * e2[1], c1 = e1[2] * e2[0] - e1[0] * e2[2],
+					       c2 = e1[0] * e2[1] - e1[1] * e2[0];
+					area += 0.5 * sqrt(c0 * c0 + c1 * c1 + c2 * c2);
+					for (int j = 0; j < 3; j++) {
+						double d0 = X[3 * v[j]] - sel->at[0], d1 = X[3 * v[j] + 1] - sel->at[1],
+						       d2 = X[3 * v[j] + 2] - sel->at[2];
+						reach = fmax(reach, sqrt(d0 * d0 + d1 * d1 + d2 * d2));
+					}
+				}
+				printf("%s,%d,%d,%zu,%.4g,%.4g\n", b.name, q + 1, l, f[q].count, area, reach);
+			}
+			fflush(stdout);
+			free(tri);
+			free(pin);
+			ndo_scene_forces_free(f, b.sc.nforces);
+		}
+		teardown(&b);
+	}
+}
+
 int main(int argc, char **argv)
 {
 	if (argc >= 5)
@@ -585,8 +640,10 @@ int main(int argc, char **argv)
 		predictors(atoi(argv[2]), argc - 4, argv + 4);
 	else if (argc >= 5 && strcmp(argv[1], "timeorder") == 0)
 		no_reference = 1, timeorder(atoi(argv[2]), argc - 4, argv + 4);
+	else if (argc >= 5 && strcmp(argv[1], "loads") == 0)
+		no_reference = 1, loads(atoi(argv[2]), argc - 4, argv + 4);
 	else {
-		fprintf(stderr, "usage: bench_accuracy estimates|choose|cost|pilot|predictors|timeorder N T NAME=INPUT:SCENE[:REST]...\n");
+		fprintf(stderr, "usage: bench_accuracy estimates|choose|cost|pilot|predictors|timeorder|loads N T NAME=INPUT:SCENE[:REST]...\n");
 		return 2;
 	}
 	return 0;
