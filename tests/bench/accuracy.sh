@@ -27,6 +27,14 @@ S=samples A=tests/bench/accuracy
 # order and growth, about 3 minutes more, run only when named).  cost (the chooser's cost model
 # against measured CPU time per step, about a minute) runs at the last of
 # LEVELS only.
+# a mode of bench_accuracy over SCENES... at input level N: its command
+# noted, its table (MODE-N.csv) and log kept
+mode() {
+	local m=$1
+	shift
+	echo "bench_accuracy $m $N $T $*" >>"$d/commands-$N"
+	"$B/bench_accuracy" "$m" "$N" "$T" "$@" >"$d/$m-$N.csv" 2>"$d/$m-$N.log"
+}
 for N in $LEVELS; do
 	[ "${ACCURACY_REPORT_ONLY:-0}" = 1 ] && break
 	# The bunny at the reference level, remeshed once (libcgal-demo's bunny00.off).
@@ -47,30 +55,15 @@ for N in $LEVELS; do
 	if [ -n "$what" ]; then
 		echo "load average at the start ($what, $(date -u +%H:%M) UTC): $(cut -d' ' -f1-3 /proc/loadavg)" >>"$d/load-$N"
 	fi
-	if part estimates; then
-		echo "bench_accuracy estimates $N $T ${scenes[*]}" >>"$d/commands-$N"
-		"$B/bench_accuracy" estimates "$N" "$T" "${scenes[@]}" >"$d/estimates-$N.csv" 2>"$d/estimates-$N.log"
-	fi
-	if part choose; then
-		echo "bench_accuracy choose $N $T ${scenes[*]}" >>"$d/commands-$N"
-		"$B/bench_accuracy" choose "$N" "$T" "${scenes[@]}" >"$d/choose-$N.csv" 2>"$d/choose-$N.log"
-	fi
+	if part estimates; then mode estimates "${scenes[@]}"; fi
+	if part choose; then mode choose "${scenes[@]}"; fi
 	# What a pilot at the input level would tell of level N - 1 (the cost
 	# misses' candidate), on the two scenes whose misses are decided there.
-	if part pilot; then
-		echo "bench_accuracy pilot $N $T ${scenes[2]} ${scenes[5]}" >>"$d/commands-$N"
-		"$B/bench_accuracy" pilot "$N" "$T" "${scenes[2]}" "${scenes[5]}" >"$d/pilot-$N.csv" 2>"$d/pilot-$N.log"
-	fi
+	if part pilot; then mode pilot "${scenes[2]}" "${scenes[5]}"; fi
 	# The chooser's space-error measures at every top pilot level, and the
 	# time error's order and growth (ACCURACY_PARTS only).
-	if part predictors; then
-		echo "bench_accuracy predictors $N $T ${scenes[*]}" >>"$d/commands-$N"
-		"$B/bench_accuracy" predictors "$N" "$T" "${scenes[@]}" >"$d/predictors-$N.csv" 2>"$d/predictors-$N.log"
-	fi
-	if part timeorder; then
-		echo "bench_accuracy timeorder $N $T ${scenes[*]}" >>"$d/commands-$N"
-		"$B/bench_accuracy" timeorder "$N" "$T" "${scenes[@]}" >"$d/timeorder-$N.csv" 2>"$d/timeorder-$N.log"
-	fi
+	if part predictors; then mode predictors "${scenes[@]}"; fi
+	if part timeorder; then mode timeorder "${scenes[@]}"; fi
 	if part choose; then
 		grep '^point,' "$d/choose-$N.log" | sed '1i point,scene,level,method,step_s,cpu_s,error' >"$d/sweep-$N.csv"
 		grep '^level,' "$d/choose-$N.log" | cut -d, -f2- |
