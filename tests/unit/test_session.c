@@ -334,7 +334,7 @@ static void outside_the_partition_silence_is_longer(void)
 {
 	ndo_bus *bus;
 	ndo_bus_create(&bus);
-	ndo_session *p[4];
+	ndo_session *p[3];
 	double t = 0;
 	int64_t step = 0;
 	outside_timeout = 5;
