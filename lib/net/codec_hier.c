@@ -743,7 +743,8 @@ NDO_HOT __attribute__((noinline)) static void level_encode(hier *h, pass *ps, in
 /* P_ENCODE over level s ≥ 1 of a tile whose every node is LOSSY, in two
  * loops: first each node's predictions and choose()'s first test (the
  * prediction within the bound: residuals 0), its codes (and above level 1
- * mag 0 and dk) made, a flag kept (zf, a byte a node); then in raster
+ * mag 0 and dk) made, a flag kept (zf, a byte a node: 0, or 1 + the
+ * context of node()'s flag, made here off the coder's chain); then in raster
  * order a flagged node's flag bit alone, the others through node().  The
  * first loop has no branch on the data and no coder: the floating point
  * of one node overlaps the next's. */
@@ -757,6 +758,7 @@ NDO_HOT __attribute__((noinline)) static void encode_zeros(hier *h, const pass *
 	const int32_t *const K1 = h->k1;
 	int32_t *const kk = h->k, *const dk = h->dk;
 	uint8_t *const mag = h->mag;
+	const uint8_t *const ctx = h->ctx;
 	for (int j = 0; j < R; j += s) {
 		const int i0 = j & s ? 0 : s, di = j & s ? s : 2 * s;
 		for (int i = i0; i < C; i += di) {
@@ -772,7 +774,10 @@ NDO_HOT __attribute__((noinline)) static void encode_zeros(hier *h, const pass *
 				in &= p[d] > -CODE_MAX && p[d] < CODE_MAX;
 			}
 			const int z = (lim <= m2) & in;
-			zf[n] = (uint8_t)z;
+			/* encode_flagged()'s context of the flag (node()'s) */
+			const uint8_t *const cx = ctx + 3 * n;
+			const int nbs = (cx[0] & 3) + (cx[1] & 3) + (cx[2] & 3);
+			zf[n] = (uint8_t)(z * (1 + (cx[0] >> 2) * H_NB + (nbs > 0) + (nbs > 2)));
 			if (!z)
 				continue;
 			for (int d = 0; d < 3; d++) {
@@ -789,6 +794,7 @@ static inline __attribute__((always_inline)) void encode_flagged(hier *h, pass *
                                                                  const uint8_t *zf)
 {
 	const int C = h->cols, R = h->rows;
+	uint16_t *const pn = &h->m.node[0][0]; /* zf: 1 + the flag's context */
 	for (int j = 0; j < R && !ps->bad; j += s) {
 		const int i0 = j & s ? 0 : s, di = j & s ? s : 2 * s;
 		for (int i = i0; i < C; i += di) {
@@ -797,9 +803,7 @@ static inline __attribute__((always_inline)) void encode_flagged(hier *h, pass *
 				node(h, P_ENCODE, ps, i, j, s, !(j & s) ? 0 : i & s ? 2 : 1);
 				continue;
 			}
-			const uint8_t *cx = h->ctx + 3 * n; /* node()'s flag, 0 */
-			const int nbs = (cx[0] & 3) + (cx[1] & 3) + (cx[2] & 3);
-			rc_bit(ps->e, &h->m.node[cx[0] >> 2][nbs == 0 ? 0 : nbs <= 2 ? 1 : 2], 0);
+			rc_bit(ps->e, pn + (zf[n] - 1), 0); /* node()'s flag, 0 */
 		}
 	}
 }
@@ -916,6 +920,53 @@ NAME(const cpx *x, size_t n0, size_t step, int m, const T *tb, const T *tw,     
 CPX_PUT(cpx_put, int64_t)
 CPX_PUT(cpx_put32, int32_t)
 
+/* cpx_put32()'s decoder (x->direct) in a tile whose every node is LOSSY:
+ * the same codes, with the part of each that does not depend on the node's
+ * own references in a loop of its own over the run (vectorized), so that
+ * the loop over the nodes, whose stores are 3 values every `step` nodes
+ * (not vectorized), does one addition a value.  pred_of(16 K1 + tb,
+ * 16 V + tw, β) = (64 K1 + 4 tb + β tw + 32 + 16 β V) >> 6 = K1 + ((4 tb +
+ * β tw + 32 + 16 β V) >> 6) (64 K1 a multiple of 64, the shift a floor);
+ * without the slope (β = 0 in the decoder) K1 + ((tb + 8) >> 4).  With
+ * |tb|, |tw| ≤ 24 × 2^22 (predict_compact()'s `narrow`) 4 tb + β tw + 32
+ * is within ±2^30: int32_t; the codes, K1 plus that (K1 any int32_t
+ * in a hostile stream's reference, 16 β V up to 2^36), in int64_t. */
+static inline __attribute__((always_inline)) void
+cpx_dec32(const cpx *x, size_t n0, size_t step, int m, const int32_t *tb, const int32_t *tw,
+          const uint8_t *tc, unsigned *oor, const int slope, const int fine)
+{
+	const int32_t *const K1 = x->K1, *const V = x->V;
+	int32_t *const kk = x->kk, *const dk = x->dk;
+	uint8_t *const cx = x->cx, *const mag = x->mag, *const fc = x->fc;
+	const int beta = x->beta, nv = 3 * m;
+	int32_t a[3 * RUN_NODES];
+	if (!slope)
+		for (int v = 0; v < nv; v++)
+			a[v] = (tb[v] + 8) >> 4; /* an arithmetic shift (GCC, Clang) */
+	else
+		for (int v = 0; v < nv; v++)
+			a[v] = 4 * tb[v] + beta * tw[v] + 32;
+	unsigned out = 0;
+	for (int q = 0; q < m; q++) {
+		const size_t n = n0 + step * (size_t)q;
+		const int nbs = (tc[3 * q] & 3) + (tc[3 * q + 1] & 3) + (tc[3 * q + 2] & 3);
+		fc[n] = (uint8_t)((tc[3 * q] >> 2) * H_NB + (nbs > 0) + (nbs > 2)); /* nb_of() */
+		for (int d = 0; d < 3; d++) {
+			const size_t u = 3 * n + (size_t)d;
+			const int v = 3 * q + d;
+			/* in int64_t: a reference's code might be any int32_t */
+			const int64_t k = !slope ? (int64_t)K1[u] + a[v]
+			                         : K1[u] + (((int64_t)a[v] + 16 * (int64_t)beta * V[u]) >> 6);
+			out |= (k <= -CODE_MAX) | (k >= CODE_MAX);
+			cx[u] = tc[v];
+			kk[u] = (int32_t)k;
+			if (!fine)
+				mag[u] = 0, dk[u] = (int32_t)(k - K1[u]);
+		}
+	}
+	*oor |= out;
+}
+
 NDO_HOT __attribute__((noinline)) static void predict_compact(hier *h, pass *ps, int s)
 {
 	const int st = 2 * s, C = h->cols, R = h->rows;
@@ -934,15 +985,24 @@ NDO_HOT __attribute__((noinline)) static void predict_compact(hier *h, pass *ps,
 		const uint8_t *ms = x.mag + sst * (size_t)J * (size_t)C;
 		int32_t *dd = Dc + 3 * (size_t)J * (size_t)Cc, *vd = Vc + 3 * (size_t)J * (size_t)Cc;
 		uint8_t *md = Mc + 3 * (size_t)J * (size_t)Cc;
-		for (int I = 0; I < Cc; I++, ds += sst, vs += sst, ms += sst, dd += 3, vd += 3, md += 3)
-			for (int d = 0; d < 3; d++) {
-				dd[d] = ds[d], vd[d] = slope ? vs[d] : 0, md[d] = ms[d];
-				big |= ((uint32_t)dd[d] + SMALL) | ((uint32_t)vd[d] + SMALL);
-			}
+		if (slope)
+			for (int I = 0; I < Cc; I++, ds += sst, vs += sst, ms += sst, dd += 3, vd += 3, md += 3)
+				for (int d = 0; d < 3; d++) {
+					dd[d] = ds[d], vd[d] = vs[d], md[d] = ms[d];
+					big |= ((uint32_t)dd[d] + SMALL) | ((uint32_t)vd[d] + SMALL);
+				}
+		else /* no slope (the decoder's β = 0): Vc unread */
+			for (int I = 0; I < Cc; I++, ds += sst, ms += sst, dd += 3, md += 3)
+				for (int d = 0; d < 3; d++) {
+					dd[d] = ds[d], md[d] = ms[d];
+					big |= (uint32_t)dd[d] + SMALL;
+				}
 	}
 	/* every value within ±2^22: the butterflies (|sum of weights| 24) in
 	 * int32_t, twice the lanes of int64_t */
 	const int narrow = big < 2 * SMALL;
+	/* the decoder's codes in a tile whose every node is LOSSY: cpx_dec32() */
+	const int dec = narrow && ps->direct && h->alllossy;
 	unsigned oor = 0;
 	for (int t = 0; t < 3; t++) {
 		/* the stencil's offsets (values, compact) and its extent */
@@ -983,11 +1043,11 @@ NDO_HOT __attribute__((noinline)) static void predict_compact(hier *h, pass *ps,
 					if (ne == 2) {
 						const unsigned u = (unsigned)Mc[e[0] + d] + Mc[e[1] + d];
 						tb[d] = 8 * ((int64_t)Dc[e[0] + d] + Dc[e[1] + d]);
-						tw[d] = -8 * ((int64_t)Vc[e[0] + d] + Vc[e[1] + d]);
+						tw[d] = slope ? -8 * ((int64_t)Vc[e[0] + d] + Vc[e[1] + d]) : 0;
 						tc[d] = (uint8_t)(g + nb_of(u));
 					} else if (ne == 1) {
 						tb[d] = 16 * (int64_t)Dc[e[0] + d];
-						tw[d] = -16 * (int64_t)Vc[e[0] + d];
+						tw[d] = slope ? -16 * (int64_t)Vc[e[0] + d] : 0;
 						tc[d] = (uint8_t)(g + nb_of(Mc[e[0] + d]));
 					} else {
 						tb[d] = tw[d] = 0;
@@ -1013,12 +1073,21 @@ NDO_HOT __attribute__((noinline)) static void predict_compact(hier *h, pass *ps,
 					for (int v = 0; v < nv; v++)
 						tb32[v] = 8 * (D[v + c[0]] + D[v + c[1]]) + 2 * (D[v + c[2]] + D[v + c[3]]) -
 						          (D[v + c[4]] + D[v + c[5]] + D[v + c[6]] + D[v + c[7]]);
-					for (int v = 0; v < nv; v++)
+					for (int v = 0; v < nv && slope; v++) /* else unread */
 						tw32[v] = -8 * (VV[v + c[0]] + VV[v + c[1]]) -
 						          2 * (VV[v + c[2]] + VV[v + c[3]]) +
 						          (VV[v + c[4]] + VV[v + c[5]] + VV[v + c[6]] + VV[v + c[7]]);
-					cpx_put32(&x, row + (size_t)st * (size_t)I0, (size_t)st, m, tb32, tw32, tc,
-					          &oor);
+					const size_t n0 = row + (size_t)st * (size_t)I0;
+					if (!dec)
+						cpx_put32(&x, n0, (size_t)st, m, tb32, tw32, tc, &oor);
+					else if (!slope && x.fine)
+						cpx_dec32(&x, n0, (size_t)st, m, tb32, tw32, tc, &oor, 0, 1);
+					else if (!slope)
+						cpx_dec32(&x, n0, (size_t)st, m, tb32, tw32, tc, &oor, 0, 0);
+					else if (x.fine)
+						cpx_dec32(&x, n0, (size_t)st, m, tb32, tw32, tc, &oor, 1, 1);
+					else
+						cpx_dec32(&x, n0, (size_t)st, m, tb32, tw32, tc, &oor, 1, 0);
 					continue;
 				}
 				for (int v = 0; v < nv; v++)
