@@ -52,6 +52,12 @@
  *     found before the coder (encode_zeros()), the decoder's flags in
  *     contexts kept (fc) and less around hier in codec.c: 0.67
  *     (hier-speed c90eaed 5; docs/bench/net.md, the fifth pass).
+ *   - the decoder's codes of a run made in two loops (cpx_dec32(): the
+ *     part without the node's own references vectorized, one addition a
+ *     value in the strided loop), no slope copied at β = 0, and the
+ *     encoder's zero nodes' flag contexts made in encode_zeros(): level 7
+ *     enc + dec 0.935 of 9e552f7's, decode 0.886, the same payloads
+ *     (hier-speed 9e552f7 7; docs/bench/net.md, the seventh pass).
  * No entropy coding library in Debian 12 fits (libaec is Rice coding for
  * sampled data): the range coder is LZMA's binary one, written here;
  * tests/unit/test_hier.c checks it against the ideal adaptive length, a
