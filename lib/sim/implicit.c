@@ -568,6 +568,11 @@ static int mg_step(ndo_sim *s, ndo__implicit *im, double h, const double *a, con
 	 * h = 4000 × RK4's limit). */
 	int direct;
 	const int near = ndo__mg_levels(im->mg, &direct) == 1 && !direct, ext = near && im->aprev_ok;
+	/* The solver's loops run where the step's passes run: alone when the
+	 * look at whether the threads pay found they do not (integrate.c,
+	 * threads_pick), or the look would time the solver, two thirds of the
+	 * step, on the threads both ways. */
+	ndo__mg_set_pool(im->mg, s->solo ? NULL : s->pool);
 	mg_pass P = {.s = s, .im = im, .h = h, .a = a, .df = df, .trap = trap, .ext = ext,
 	             .c0 = !near ? 0 : !ext ? h : trap ? 1.5 * h : 2 * h,
 	             .c1 = !ext ? 0 : trap ? -0.5 * h : -h};

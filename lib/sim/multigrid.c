@@ -609,6 +609,11 @@ void ndo__mg_free(ndo__mg *mg)
 	free(mg);
 }
 
+void ndo__mg_set_pool(ndo__mg *mg, ndo_pool *pool)
+{
+	mg->pool = pool;
+}
+
 void ndo__mg_apply(ndo__mg *mg, const double *x, double *y)
 {
 	job J = {.op = OP_AP, .M = mg->lv[0].A, .i1 = x, .o1 = y};

@@ -60,6 +60,11 @@ void ndo__mg_free(ndo__mg *mg);
 int ndo__mg_solve(ndo__mg *mg, const double *b, double *x, double tol, double stall, int max_iter,
                   int *iters, double *relres);
 
+/* The threads the next loops run on (NULL: the caller alone), until the
+ * next call; the pool given to ndo__mg_create until the first.  The same
+ * bits either way. */
+void ndo__mg_set_pool(ndo__mg *mg, ndo_pool *pool);
+
 /* y = A x on the finest level (n × 3 each, row-major; not aliased; x has
  * one double more, x[3n], read and not used). */
 void ndo__mg_apply(ndo__mg *mg, const double *x, double *y);

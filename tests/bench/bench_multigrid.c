@@ -324,10 +324,10 @@ static void steps(int argc, char **argv)
 	double cpu = (double)(t1.tv_sec - t0.tv_sec) + 1e-9 * (double)(t1.tv_nsec - t0.tv_nsec);
 	double wall = (double)(w1.tv_sec - w0.tv_sec) + 1e-9 * (double)(w1.tv_nsec - w0.tv_nsec);
 	printf("%s level %d: %ld steps %.4f CPU s, %.1f steps per CPU s, %.1f steps per s (wall), "
-	       "%.2f iterations/solve, velocities %016llx\n",
+	       "%.2f iterations/solve, %lld steps alone, velocities %016llx\n",
 	       argv[1], level, n, cpu, (double)n / cpu, (double)n / wall,
 	       (double)(st.iterations - st0.iterations) / (double)(st.solves - st0.solves),
-	       (unsigned long long)hash);
+	       (long long)(st.steps_alone - st0.steps_alone), (unsigned long long)hash);
 	ndo_sim_destroy(s);
 	ndo_scene_forces_free(f, 1);
 	ndo_grid_destroy(g);
