@@ -29,6 +29,9 @@
 /* Rows per chunk of a loop: fixed, so partial sums add up in the same order
  * on any thread count. */
 #define CHUNK 4096
+/* Partial sums a chunk (NSUM used). */
+#define NSUM 9
+#define PART 12
 /* Where the stiffness part of every row's diagonal is at most THETA ×
  * its mass part, the operator's condition number is below about
  * 2 (1 + THETA) and conjugate gradients with Jacobi alone beat a V-cycle
@@ -84,13 +87,15 @@ struct ndo__mg {
 	cholmod_factor *L;    /* the coarsest level's factor, or NULL */
 	double *r, *z, *p, *q; /* conjugate gradients, n × 3 each */
 	int r_true;           /* r is b − A x computed from x (not the recurrence's) */
-	double *part;         /* 8 partial sums per chunk */
+	double *part;         /* PART partial sums per chunk */
 };
 
 /* ---- loops over chunks of rows ----------------------------------------- */
 
 enum op {
-	OP_RESID,    /* o1 = i2 − A i1; part: |o1|², |i2|² */
+	OP_RESID,    /* o1 = i2 − A i1; part: |o1|², |i2|²; with dinv (Jacobi,
+	              * CG's start fused) also o2 (p) = dinv∘o1 and part 6..8:
+	              * r·z (z = p), as OP_START computes them */
 	OP_START,    /* Jacobi: o1 (p) = dinv∘i1 (r); part: r·z (z = p is
 	              * not stored: OP_DIR computes it again) */
 	OP_AP,       /* o1 = A i1; part: i1·o1 */
@@ -142,9 +147,11 @@ static inline void row_product(const int *Mp, const int *Mi, const double *Mx, c
  * (right), lower first and upper first, and its right coefficient the next
  * row's left one: 3 loads of x and 6 coefficients a row instead of 7, 7
  * and the row's flag and offsets.  OP_AP: y = A x, s += x·y; OP_RESID:
- * y = b − A x, s += |y|², |b|².  y must not overlap x. */
-static inline void stencil_rows(const mg_stencil *S, enum op op, const double *x,
-                                const double *b, size_t r0, size_t r1, double *y, double s[6])
+ * y = b − A x, s += |y|², |b|², and with p (not NULL) p = dinv∘y,
+ * s[6..8] += y·p.  y and p must not overlap x. */
+static inline __attribute__((always_inline)) void
+stencil_rows(const mg_stencil *S, enum op op, const double *x, const double *b, size_t r0,
+             size_t r1, double *y, double s[NSUM], const double *dinv, double *p)
 {
 	const size_t u = (size_t)S->su[r0], dn = (size_t)S->sd[r0];
 	const double *fu = S->fu, *ful = S->ful, *fr = S->fr, *dg = S->d;
@@ -155,6 +162,7 @@ static inline void stencil_rows(const mg_stencil *S, enum op op, const double *x
 	memcpy(&xu0, x + 3 * (r0 + u - 1), sizeof xu0);
 	double fl = fr[r0 - 1];
 	double s0 = s[0], s1 = s[1], s2 = s[2], s3 = s[3], s4 = s[4], s5 = s[5];
+	double s6 = s[6], s7 = s[7], s8 = s[8];
 	for (size_t r = r0; r < r1; r++) {
 		memcpy(&xp, x + 3 * (r + 1), sizeof xp);
 		memcpy(&xd1, x + 3 * (r - dn + 1), sizeof xd1);
@@ -178,10 +186,17 @@ static inline void stencil_rows(const mg_stencil *S, enum op op, const double *x
 			yr[0] = o0, yr[1] = o1, yr[2] = o2;
 			s0 += o0 * o0, s1 += o1 * o1, s2 += o2 * o2;
 			s3 += bb[0] * bb[0], s4 += bb[1] * bb[1], s5 += bb[2] * bb[2];
+			if (p) {
+				const double dv = dinv[r], z0 = dv * o0, z1 = dv * o1, z2 = dv * o2;
+				double *pr = p + 3 * r;
+				pr[0] = z0, pr[1] = z1, pr[2] = z2;
+				s6 += o0 * z0, s7 += o1 * z1, s8 += o2 * z2;
+			}
 		}
 		xm = x0, x0 = xp, xd0 = xd1, xu0 = xu1, fl = fri;
 	}
 	s[0] = s0, s[1] = s1, s[2] = s2, s[3] = s3, s[4] = s4, s[5] = s5;
+	s[6] = s6, s[7] = s7, s[8] = s8;
 }
 
 /* OP_UPDATE over rows a..e − 1: x += c∘p, r −= c∘q, s[0..2] += |r|² and
@@ -247,7 +262,7 @@ NDO_MG_HOT static void run_chunk(void *ctx, int k)
 	const double *Mx = J->M ? J->M->x : NULL;
 	const double *i1 = J->i1, *i2 = J->i2;
 	double *o1 = J->o1, *o2 = J->o2;
-	double s[6] = {0, 0, 0, 0, 0, 0};
+	double s[PART] = {0};
 	switch (J->op) {
 	case OP_RESID:
 	case OP_AP:
@@ -255,7 +270,12 @@ NDO_MG_HOT static void run_chunk(void *ctx, int k)
 			r1 = r + 1;
 			if (J->S && J->S->run[r]) {
 				r1 = r + (size_t)J->S->run[r] < e ? r + (size_t)J->S->run[r] : e;
-				stencil_rows(J->S, J->op, i1, i2, r, r1, o1, s);
+				if (J->op == OP_AP)
+					stencil_rows(J->S, OP_AP, i1, NULL, r, r1, o1, s, NULL, NULL);
+				else if (J->dinv)
+					stencil_rows(J->S, OP_RESID, i1, i2, r, r1, o1, s, J->dinv, o2);
+				else
+					stencil_rows(J->S, OP_RESID, i1, i2, r, r1, o1, s, NULL, NULL);
 				continue;
 			}
 			double y[3];
@@ -271,6 +291,14 @@ NDO_MG_HOT static void run_chunk(void *ctx, int k)
 			o[0] = bb[0] - y[0], o[1] = bb[1] - y[1], o[2] = bb[2] - y[2];
 			s[0] += o[0] * o[0], s[1] += o[1] * o[1], s[2] += o[2] * o[2];
 			s[3] += bb[0] * bb[0], s[4] += bb[1] * bb[1], s[5] += bb[2] * bb[2];
+			if (J->dinv) {
+				const double dv = J->dinv[r];
+				double *pr = o2 + 3 * r;
+				for (int c = 0; c < 3; c++) {
+					pr[c] = dv * o[c];
+					s[6 + c] += o[c] * pr[c];
+				}
+			}
 		}
 		break;
 	case OP_START:
@@ -349,12 +377,12 @@ NDO_MG_HOT static void run_chunk(void *ctx, int k)
 	}
 	}
 	if (J->part)
-		memcpy(J->part + 8 * (size_t)k, s, sizeof s);
+		memcpy(J->part + PART * (size_t)k, s, NSUM * sizeof *s);
 }
 
-/* Run a job over n rows; sums (may be NULL) receives the six partial sums
- * added in chunk order. */
-static void run(ndo__mg *mg, job *J, size_t n, double sums[6])
+/* Run a job over n rows; sums (may be NULL) receives the NSUM partial
+ * sums added in chunk order. */
+static void run(ndo__mg *mg, job *J, size_t n, double sums[NSUM])
 {
 	int nch = (int)((n + CHUNK - 1) / CHUNK);
 	J->n = n;
@@ -369,11 +397,11 @@ static void run(ndo__mg *mg, job *J, size_t n, double sums[6])
 		for (int k = 0; k < nch; k++)
 			run_chunk(J, k);
 	if (sums) {
-		for (int c = 0; c < 6; c++)
+		for (int c = 0; c < NSUM; c++)
 			sums[c] = 0;
 		for (int k = 0; k < nch; k++)
-			for (int c = 0; c < 6; c++)
-				sums[c] += mg->part[8 * (size_t)k + c];
+			for (int c = 0; c < NSUM; c++)
+				sums[c] += mg->part[PART * (size_t)k + c];
 	}
 }
 
@@ -662,7 +690,7 @@ int ndo__mg_create(int level, const int32_t *nodes, size_t n, cholmod_sparse *A,
 	L->nodes = (int32_t *)nodes;
 	L->A = A;
 	L->mdiag = malloc((n + 1) * sizeof *L->mdiag);
-	mg->part = malloc(8 * ((n + CHUNK - 1) / CHUNK + 1) * sizeof *mg->part);
+	mg->part = malloc(PART * ((n + CHUNK - 1) / CHUNK + 1) * sizeof *mg->part);
 	mg->r = vec(n), mg->z = vec(n), mg->p = vec(n), mg->q = vec(n);
 	mg->nl = 1;
 	if (!L->mdiag || !mg->part || !mg->r || !mg->z || !mg->p || !mg->q) {
@@ -805,7 +833,7 @@ static int precondition(ndo__mg *mg, double *r, double *z)
  * system reaches before the tolerance. */
 static void bounds(ndo__mg *mg, const double *x, double tol, const double bn[3], double bnd[3])
 {
-	double s[6];
+	double s[NSUM];
 	job J = {.op = OP_ABS, .M = mg->lv[0].A, .i1 = x};
 	run(mg, &J, mg->lv[0].n, s);
 	for (int c = 0; c < 3; c++)
@@ -820,11 +848,13 @@ static int jacobi_only(const ndo__mg *mg)
 }
 
 /* Conjugate gradients' first direction from the residual r: z = M⁻¹ r,
- * p = z, rz = (r, z) per column (Jacobi alone: fused in one pass). */
+ * p = z, rz = (r, z) per column (Jacobi alone: fused in one pass; a
+ * solve's first residual pass computes them itself, this is for the
+ * restarts). */
 static int cg_start(ndo__mg *mg, int jac, double *r, double *z, double *p, double rz[3])
 {
 	const size_t n = mg->lv[0].n;
-	double s[6];
+	double s[NSUM];
 	job J;
 	if (jac) {
 		J = (job){.op = OP_START, .dinv = mg->lv[0].dinv, .i1 = r, .o1 = p};
@@ -848,9 +878,13 @@ int ndo__mg_solve(ndo__mg *mg, const double *b, double *x, double tol, double st
 	const cholmod_sparse *A = mg->lv[0].A;
 	const int jac = jacobi_only(mg);
 	double *r = mg->r, *z = mg->z, *p = mg->p, *q = mg->q;
-	double s[6], bnd[3], bn[3], rn[3], rz[3] = {0, 0, 0}, best = INFINITY;
+	double s[NSUM], bnd[3], bn[3], rn[3], rz[3] = {0, 0, 0}, best = INFINITY;
 	int done[3], it = 0, rc, stalls = 0;
+	/* Jacobi alone: the first direction p = z = D⁻¹r and r·z in the same
+	 * pass (the bits of cg_start's) */
 	job J = {.op = OP_RESID, .M = A, .i1 = x, .i2 = b, .o1 = r};
+	if (jac)
+		J.dinv = mg->lv[0].dinv, J.o2 = p;
 	run(mg, &J, n, s);
 	mg->r_true = 1;
 	for (int c = 0; c < 3; c++) {
@@ -860,7 +894,9 @@ int ndo__mg_solve(ndo__mg *mg, const double *b, double *x, double tol, double st
 		done[c] = rn[c] <= bnd[c];
 	}
 	if (!(done[0] && done[1] && done[2])) {
-		if ((rc = cg_start(mg, jac, r, z, p, rz)))
+		if (jac)
+			memcpy(rz, s + 6, 3 * sizeof *rz);
+		else if ((rc = cg_start(mg, jac, r, z, p, rz)))
 			return rc;
 	}
 	while (!(done[0] && done[1] && done[2])) {
