@@ -54,6 +54,7 @@ struct ndo_pool {
 	pthread_cond_t go;    /* a new loop (or quit) for the workers */
 	pthread_cond_t done;  /* the last chunk of a loop finished */
 	uint32_t gen;         /* the loop's generation, under lock */
+	uint64_t loops;       /* loops handed to the workers (ndo_pool_loops) */
 	int quit;
 	void (*fn)(void *, int);
 	void *ctx;
@@ -168,6 +169,7 @@ void ndo_pool_run(ndo_pool *p, int n, void (*fn)(void *ctx, int k), void *ctx)
 	pthread_mutex_lock(&p->lock);
 	if (++p->gen == 0) /* 0 is a worker's "seen nothing yet" */
 		p->gen = 1;
+	p->loops++;
 	uint32_t g = p->gen;
 	p->fn = fn, p->ctx = ctx, p->n = n;
 	p->fp = ndo_fp_get();
@@ -182,4 +184,9 @@ void ndo_pool_run(ndo_pool *p, int n, void (*fn)(void *ctx, int k), void *ctx)
 			pthread_cond_wait(&p->done, &p->lock);
 		pthread_mutex_unlock(&p->lock);
 	}
+}
+
+uint64_t ndo_pool_loops(const ndo_pool *p)
+{
+	return p ? p->loops : 0;
 }

@@ -1602,6 +1602,50 @@ static void duplicates_agree_after_every_step(void)
 	ndo_grid_destroy(g);
 }
 
+/* An implicit step that the look at whether the threads pay (threads_pick)
+ * runs alone runs its multigrid solve alone too, and one on the threads
+ * solves on them: until 2026-12-01 the solver kept the pool it was made
+ * with, so the look timed two thirds of the step on the threads both ways
+ * and, on a loaded machine, chose threads that made backward Euler 0.81×
+ * as fast as one thread (docs/bench/multigrid.md). */
+static void an_implicit_step_alone_solves_alone(void)
+{
+	ndo_grid *g = shape("wavy", 7); /* 32,770 nodes: threads from 20,000 */
+	size_t nn = 3 * g->count;
+	double *x0 = malloc(nn * sizeof *x0), *v0 = malloc(nn * sizeof *v0);
+	random_state(g, 0.01, x0, v0);
+	const ndo_method ms[] = {NDO_BACKWARD_EULER, NDO_TRAPEZOID};
+	for (int im = 0; im < 2; im++) {
+		ndo_sim_params p;
+		ndo_sim_defaults(&p);
+		p.method = ms[im];
+		p.material.damping = 0.1;
+		p.solver = NDO_SOLVER_MULTIGRID;
+		p.threads = 2;
+		ndo_sim *s = make(g, x0, v0, NULL, &p);
+		int alone = 0, threaded = 0, wrong = 0;
+		for (int k = 0; k < 12; k++) {
+			ndo_sim_stats a, b;
+			ndo_sim_stats_get(s, &a);
+			uint64_t before = ndo_pool_loops(s->pool);
+			CHECK(ndo_sim_step(s, 2e-3) == 0, "%s: %s", ndo_method_names[ms[im]],
+			      ndo_errdetail());
+			ndo_sim_stats_get(s, &b);
+			uint64_t loops = ndo_pool_loops(s->pool) - before;
+			if (b.steps_alone > a.steps_alone)
+				alone++, wrong += loops != 0;
+			else
+				threaded++, wrong += loops == 0;
+		}
+		CHECK(alone > 0 && threaded > 0 && wrong == 0,
+		      "%s: %d steps alone, %d on the threads, %d of them with the solver's loops "
+		      "where the step was not", ndo_method_names[ms[im]], alone, threaded, wrong);
+		ndo_sim_destroy(s);
+	}
+	free(x0), free(v0);
+	ndo_grid_destroy(g);
+}
+
 /* Every explicit method gives the same bits on 1, 2 and 3 threads, with
  * forces, pins, penalty springs and a region (the chunks are the grid's,
  * not the threads'), and so do the divergence test's energy and input
@@ -2622,6 +2666,7 @@ int main(void)
 	RUN(power_iteration_finds_lambda_max);
 	RUN(duplicates_agree_after_every_step);
 	RUN(threads_give_the_same_bits);
+	RUN(an_implicit_step_alone_solves_alone);
 	RUN(pins_stay_put);
 	RUN(energy_never_grows_without_input);
 	RUN(divergence_step_matches_prediction);

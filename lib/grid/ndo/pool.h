@@ -13,6 +13,8 @@
 #ifndef NDO_POOL_H
 #define NDO_POOL_H
 
+#include <stdint.h>
+
 typedef struct ndo_pool ndo_pool;
 
 /* The most threads a pool takes (the caller and 255 workers). */
@@ -38,6 +40,11 @@ int ndo_pool_threads(const ndo_pool *p);
  * must not call ndo_pool_run on the same pool, and one thread at a time
  * runs loops on a pool. */
 void ndo_pool_run(ndo_pool *p, int n, void (*fn)(void *ctx, int k), void *ctx);
+
+/* The loops ndo_pool_run has handed to the workers so far (not those it
+ * ran in the caller alone: one thread, NULL, or one chunk); 0 for NULL.
+ * For tests: which code ran on the threads. */
+uint64_t ndo_pool_loops(const ndo_pool *p);
 
 /* The calling thread's floating-point control (x86-64: MXCSR; elsewhere
  * 0 and nothing is changed), set back with ndo_fp_set. */
