@@ -100,6 +100,7 @@ struct ndo_peer {
 	int32_t epoch_done;    /* the partition the region was last made for */
 	int32_t poi_held;      /* a joiner's POI, asked for once its simulation is
 	                          built (joiner_ready), −1: none or asked */
+	int wants_share;       /* a joiner with a POI (not an observer) */
 	double epoch_t0;       /* ... when (split steps: the others' time to
 	                          show up under it, members_alive) */
 	int64_t cur;
@@ -1786,8 +1787,9 @@ static void go(ndo_peer *p)
 		     "%lld", p->cur == p->first ? "starting" : "joining the run", (long long)p->cur, np,
 		     np == 1 ? "" : "s", np == 1 ? "s" : "", p->nowned, p->ncanon,
 		     ndo_clock_name(p->clock), (long long)p->final);
-	else
-		note(p, "observing from step %lld: %d peer%s simulate%s, %s to step %lld",
+	else /* a joiner that asked for a share of a run under way: until it comes */
+		note(p, "%s from step %lld: %d peer%s simulate%s, %s to step %lld",
+		     p->wants_share ? "waiting for its share" : "observing",
 		     (long long)(p->max_seen > p->cur ? p->max_seen : p->cur), np, np == 1 ? "" : "s",
 		     np == 1 ? "s" : "", ndo_clock_name(p->clock), (long long)p->final);
 }
@@ -2718,6 +2720,7 @@ int ndo_peer_create(const ndo_peer_opts *o, ndo_net *net, ndo_grid *grid, ndo_si
 	p->poi_held = -1;
 	if (!owner && so.poi >= 0) {
 		p->poi_held = so.poi;
+		p->wants_share = 1;
 		so.poi = -1;
 	}
 	if (owner) {
