@@ -5,9 +5,12 @@
  * from that node's owner; when the owner quits, the others end cleanly. */
 #include "check.h"
 #include "netns.h"
+#include "ndo/link.h"
 #include "ndo/ndo.h"
 #include "ndo/session.h"
 
+#include <lcm/lcm.h>
+#include <signal.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/wait.h>
@@ -133,6 +136,59 @@ static void run_peers(int npeers, const int32_t *pois)
 static void two_peers(void) { run_peers(2, (int32_t[]){-1, 3000}); }
 static void four_peers_one_observer(void) { run_peers(4, (int32_t[]){10, 1500, 3500, -1}); }
 
+/* A flood's datagrams, each taking its reader 2 ms. */
+static void slow_reader(void *user, const char *channel, const void *data, size_t len)
+{
+	(void)channel, (void)data, (void)len;
+	++*(int *)user;
+	sleep_ms(2);
+}
+
+/* A poll reads for at most a twentieth of a second (link_lcm.c,
+ * POLL_BUDGET), however fast datagrams come: once it read for as long as
+ * they came, and a peer starved of the CPU at level 9, among 8 on 2
+ * cores, read for 15 s without a heartbeat and was dropped.  A sender
+ * publishes a datagram every 0.5 ms for 2 s to a reader that takes 2 ms
+ * each: a poll that read until the socket was empty would take 8 s.
+ * Nothing is lost by stopping: later polls read the rest. */
+static void a_flood_does_not_hold_a_poll(void)
+{
+	ndo_link *l;
+	CHECK(ndo_link_open_lcm(NULL, NDO_RECV_BUF_DEFAULT, "NDO", 0, &l) == 0, "open");
+	if (!l)
+		return;
+	enum { SENT = 4000 };
+	fflush(NULL);
+	pid_t pid = fork();
+	if (pid == 0) {
+		lcm_t *lcm = lcm_create(NULL);
+		char msg[64] = "flood";
+		for (int k = 0; lcm && k < SENT; k++) {
+			lcm_publish(lcm, "NDO_HEARTBEAT", msg, sizeof msg);
+			struct timespec t = {0, 500000L};
+			nanosleep(&t, NULL);
+		}
+		if (lcm)
+			lcm_destroy(lcm);
+		_exit(lcm ? 0 : 1);
+	}
+	int got = 0;
+	sleep_ms(100); /* the flood under way */
+	double t0 = ndo_now();
+	int n = ndo_link_poll(l, 0, slow_reader, &got);
+	double took = ndo_now() - t0;
+	printf("    one poll in the flood: %d datagrams in %.3f s\n", n, took);
+	CHECK(n > 0 && took < 1.0, "a poll took %.3f s (%d datagrams) while the flood went on", took, n);
+	int status = 0;
+	waitpid(pid, &status, 0);
+	CHECK(WIFEXITED(status) && WEXITSTATUS(status) == 0, "the sender failed");
+	for (double end = ndo_now() + 60; got < SENT && ndo_now() < end;)
+		if (ndo_link_poll(l, 0, slow_reader, &got) == 0)
+			sleep_ms(1);
+	CHECK(got == SENT, "%d of %d datagrams read in the end", got, SENT);
+	ndo_link_destroy(l);
+}
+
 int main(void)
 {
 	ck_program = "test_session_lcm";
@@ -142,5 +198,6 @@ int main(void)
 	}
 	RUN(two_peers);
 	RUN(four_peers_one_observer);
+	RUN(a_flood_does_not_hold_a_poll);
 	return ck_failed_cases != 0;
 }
