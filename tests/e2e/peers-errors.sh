@@ -57,7 +57,7 @@ for case in "::6602 steps (about 30 a second at the predicted 1.98e+05 steps/s" 
 	"--peers 2::13204 steps (about 30 a second at the predicted 3.96e+05" \
 	"--publish-rate 1e6::1 step (about 1.98e+05 a second" \
 	"--clock realtime --dt 0.01 --publish-rate 20::5 steps (about 20 a second at the predicted 100 steps/s" \
-	"--frames f/%d.tgrid --frame-every 20::20 steps (about 9.9e+03 a second at the predicted 1.98e+05 steps/s; --publish-rate 30, to suit --frame-every)" \
+	"--frames f/%d.tgrid --frame-every 20::20 steps (about 9.9e+03 a second at the predicted 1.98e+05 steps/s, up to 80 MB a second; --publish-rate 30, to suit --frame-every)" \
 	"--frames f/%d.tgrid --frame-every 100000::6250 steps (about 31.7 a second" \
 	"--frames f/%d.tgrid --frame-every 999999937::999999937 steps (" \
 	"--frames f/%d.tgrid --frame-every 30 --publish-rate 1e5::2 steps ("; do
@@ -68,6 +68,27 @@ for case in "::6602 steps (about 30 a second at the predicted 1.98e+05 steps/s" 
 		pass "--publish-rate, level 3${opts:+, $opts}: every $want"
 	else
 		fail "--publish-rate, level 3${opts:+, $opts}" "$out"
+	fi
+done
+# and by default at most 100 MB a second of whole regions over the object,
+# counted as its nodes (of --send-level) times a node's bytes in the
+# encoding, and a tenth more: level 8 (131,074 nodes) raw at 1.1 × 48 bytes a
+# node is 6.92 MB a frame, 30 a second would be 200 MB/s with 2 peers
+remesh --shape wavy -l 8 -o w8.tgrid 2>/dev/null || fail "remesh"
+for case in "::16 steps (about 14.4 a second at the predicted 230 steps/s, up to 100 MB a second; --publish-rate 30, and by default at most 100 MB a second)" \
+	"--peers 2::32 steps (about 14.4 a second at the predicted 460 steps/s, up to 100 MB a second; --publish-rate 30, and by default at most 100 MB a second)" \
+	"--peers 8::128 steps (" \
+	"--peers 2 --publish-rate 30::16 steps (about 28.7 a second at the predicted 460 steps/s, up to 200 MB a second; --publish-rate 30)" \
+	"--peers 2 --encoding float32::16 steps (about 28.7 a second at the predicted 460 steps/s, up to 50 MB a second; --publish-rate 30)" \
+	"--peers 8 --encoding fixed:1e-4::62 steps (about 29.7 a second at the predicted 1.84e+03 steps/s, up to 24.2 MB a second; --publish-rate 30)" \
+	"--peers 8 --send-level 7::62 steps (about 29.7 a second at the predicted 1.84e+03 steps/s, up to 51.6 MB a second; --publish-rate 30)"; do
+	opts=${case%%::*} want=${case#*::}
+	# shellcheck disable=SC2086
+	out=$(simulate-peer --owner w8.tgrid $opts --info 2>&1)
+	if grep -qF "whole regions every $want" <<<"$out"; then
+		pass "the frames' byte budget, level 8${opts:+, $opts}: every $want"
+	else
+		fail "the frames' byte budget, level 8${opts:+, $opts}" "$out"
 	fi
 done
 # realtime at 100 steps/s: 4 steps would do, the default keeps 10 (no line)

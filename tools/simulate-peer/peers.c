@@ -334,8 +334,37 @@ static void observe(peer_run *pr, double now)
 }
 
 /* The default --publish-rate: whole regions about this many times a second
- * of wall time, and at least PUBLISH_EVERY_MIN steps apart. */
+ * of wall time, at least PUBLISH_EVERY_MIN steps apart, and at most
+ * PUBLISH_BYTES a second of them over the whole object (a gigabit link's
+ * 125 MB/s, less room for the halos): at level 9, 8 peers at 30 frames a
+ * second would send 750 MB/s, which starved the peers that read it on 2
+ * cores, and 2 peers ran 1.45× one process where without frames they ran
+ * 1.75× (docs/bench/peers.md, §4). */
 enum { PUBLISH_RATE = 30, PUBLISH_EVERY_MIN = 10 };
+#define PUBLISH_BYTES 100e6 /* (the message below says 100 MB) */
+
+/* A whole object's frame in bytes, at most: the nodes (of --send-level,
+ * where asked) times a node's bytes in the session's encoding — raw 48
+ * (position and velocity), float32 12, fixed 3 × (bits + 2) bits, which
+ * predict and hier only shrink, so theirs too (an error budget E: the bits
+ * of a step of 2E of the box, ⌈log2(1 / 2E)⌉) — and a tenth more for the
+ * tiles' headers and their shared edges (a level-7 raw frame: 51.5 bytes
+ * a node). */
+static double frame_bytes(const peer_cli *c, size_t nodes, int level)
+{
+	const ndo_codec_params *p = &c->codec;
+	double node = 48;
+	if (p->encoding == NDO_ENC_FLOAT32) {
+		node = 12;
+	} else if (p->encoding != NDO_ENC_RAW) {
+		double bits = p->error > 0 ? ceil(log2(0.5 / p->error)) : p->bits;
+		node = 3 * (bits + 2) / 8;
+	}
+	double n = (double)nodes;
+	if (c->send_level >= 0 && c->send_level < level)
+		n /= pow(4, level - c->send_level);
+	return 1.1 * node * n;
+}
 
 /* The run's steps per second of wall time as the owner predicts them, for
  * --publish-rate: realtime's is --speed / dt; lock-step's the peers' count
@@ -363,13 +392,20 @@ static double predicted_rate(const run *r, const peer_cli *c, size_t nodes)
 
 /* --publish-every, from --publish-rate (or its default) where not given:
  * the steps of 1/rate seconds at the predicted speed, rounded up (at most
- * that rate), at least PUBLISH_EVERY_MIN by default and 1 when asked. */
-static void publish_interval(run *r, peer_cli *c, size_t nodes)
+ * that rate), at least PUBLISH_EVERY_MIN by default and 1 when asked; by
+ * default also at most PUBLISH_BYTES a second. */
+static void publish_interval(run *r, peer_cli *c, size_t nodes, int level)
 {
 	if (c->publish_every_set)
 		return;
 	double rate = c->publish_rate > 0 ? c->publish_rate : PUBLISH_RATE;
 	double speed = predicted_rate(r, c, nodes), q = ceil(speed / rate);
+	double bytes = frame_bytes(c, nodes, level);
+	int capped = 0;
+	if (c->publish_rate <= 0 && ceil(speed * bytes / PUBLISH_BYTES) > q) {
+		q = ceil(speed * bytes / PUBLISH_BYTES);
+		capped = 1;
+	}
 	int least = c->publish_rate > 0 ? 1 : PUBLISH_EVERY_MIN;
 	c->publish_every = q < least ? least : q > 1e9 ? 1000000000 : (int)q;
 	/* the owner's own --frames (every F steps) show the others' regions as
@@ -392,9 +428,11 @@ static void publish_interval(run *r, peer_cli *c, size_t nodes)
 	                                      (m == NDO_RKF45 || ndo_method_is_implicit(m)));
 	if (!r->quiet && !every_step && (c->publish_rate > 0 || c->publish_every != PUBLISH_EVERY_MIN))
 		fprintf(stderr, "%s: whole regions every %d step%s (about %.3g a second at the "
-		        "predicted %.3g steps/s; --publish-rate %g%s)\n", ndo_progname,
-		        c->publish_every, c->publish_every == 1 ? "" : "s",
-		        speed / c->publish_every, speed, rate, c->publish_every != n ? ", to suit --frame-every" : "");
+		        "predicted %.3g steps/s, up to %.3g MB a second; --publish-rate %g%s%s)\n",
+		        ndo_progname, c->publish_every, c->publish_every == 1 ? "" : "s",
+		        speed / c->publish_every, speed, 1e-6 * bytes * speed / c->publish_every,
+		        rate, capped ? ", and by default at most 100 MB a second" : "",
+		        c->publish_every != n ? ", to suit --frame-every" : "");
 }
 
 /* The owner's object: the single process's setup, as a grid with every
@@ -634,7 +672,7 @@ int peers_main(run *r)
 				        c->publish_every == 1 ? "" : "s", c->publish_every * r->dt,
 				        c->publish_seconds);
 		}
-		publish_interval(r, c, r->g->count);
+		publish_interval(r, c, r->g->count, r->g->level);
 		if (r->info) {
 			ndo_close_stdout();
 			return NDO_EXIT_OK;
