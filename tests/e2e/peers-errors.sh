@@ -53,6 +53,18 @@ expect_error "--publish-rate with --publish-every" 2 '^simulate-peer: --publish-
 	simulate-peer --owner s3.tgrid --publish-rate 5 --publish-every 3
 expect_error "a joiner choosing the frame rate" 2 '^simulate-peer: --publish-rate: the owner decides it' \
 	simulate-peer --join --publish-rate 5
+# interval_case GRID NAME "OPTIONS::WANT": the owner's --info with OPTIONS
+# prints "whole regions every WANT"
+interval_case() {
+	local opts=${3%%::*} want=${3#*::} out
+	# shellcheck disable=SC2086
+	out=$(simulate-peer --owner "$1" $opts --info 2>&1)
+	if grep -qF "whole regions every $want" <<<"$out"; then
+		pass "$2${opts:+, $opts}: every $want"
+	else
+		fail "$2${opts:+, $opts}" "$out"
+	fi
+}
 for case in "::6602 steps (about 30 a second at the predicted 1.98e+05 steps/s" \
 	"--peers 2::13204 steps (about 30 a second at the predicted 3.96e+05" \
 	"--publish-rate 1e6::1 step (about 1.98e+05 a second" \
@@ -61,14 +73,7 @@ for case in "::6602 steps (about 30 a second at the predicted 1.98e+05 steps/s" 
 	"--frames f/%d.tgrid --frame-every 100000::6250 steps (about 31.7 a second" \
 	"--frames f/%d.tgrid --frame-every 999999937::999999937 steps (" \
 	"--frames f/%d.tgrid --frame-every 30 --publish-rate 1e5::2 steps ("; do
-	opts=${case%%::*} want=${case#*::}
-	# shellcheck disable=SC2086
-	out=$(simulate-peer --owner s3.tgrid $opts --info 2>&1)
-	if grep -qF "whole regions every $want" <<<"$out"; then
-		pass "--publish-rate, level 3${opts:+, $opts}: every $want"
-	else
-		fail "--publish-rate, level 3${opts:+, $opts}" "$out"
-	fi
+	interval_case s3.tgrid "--publish-rate, level 3" "$case"
 done
 # and by default at most 100 MB a second of whole regions over the object,
 # counted as its nodes (of --send-level) times a node's bytes in the
@@ -82,14 +87,7 @@ for case in "::16 steps (about 14.4 a second at the predicted 230 steps/s, up to
 	"--peers 2 --encoding float32::16 steps (about 28.7 a second at the predicted 460 steps/s, up to 50 MB a second; --publish-rate 30)" \
 	"--peers 8 --encoding fixed:1e-4::62 steps (about 29.7 a second at the predicted 1.84e+03 steps/s, up to 24.2 MB a second; --publish-rate 30)" \
 	"--peers 8 --send-level 7::62 steps (about 29.7 a second at the predicted 1.84e+03 steps/s, up to 51.6 MB a second; --publish-rate 30)"; do
-	opts=${case%%::*} want=${case#*::}
-	# shellcheck disable=SC2086
-	out=$(simulate-peer --owner w8.tgrid $opts --info 2>&1)
-	if grep -qF "whole regions every $want" <<<"$out"; then
-		pass "the frames' byte budget, level 8${opts:+, $opts}: every $want"
-	else
-		fail "the frames' byte budget, level 8${opts:+, $opts}" "$out"
-	fi
+	interval_case w8.tgrid "the frames' byte budget, level 8" "$case"
 done
 # realtime at 100 steps/s: 4 steps would do, the default keeps 10 (no line)
 out=$(simulate-peer --owner s3.tgrid --clock realtime --dt 0.01 --info 2>&1)
