@@ -10,7 +10,6 @@
 #include "ndo/session.h"
 
 #include <lcm/lcm.h>
-#include <signal.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/wait.h>

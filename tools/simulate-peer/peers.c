@@ -338,8 +338,7 @@ static void observe(peer_run *pr, double now)
  * PUBLISH_BYTES a second of them over the whole object (a gigabit link's
  * 125 MB/s, less room for the halos): at level 9, 8 peers at 30 frames a
  * second would send 750 MB/s, which starved the peers that read it on 2
- * cores, and 2 peers ran 1.45× one process where without frames they ran
- * 1.75× (docs/bench/peers.md, §4). */
+ * cores (docs/peers.md, "Whole regions"). */
 enum { PUBLISH_RATE = 30, PUBLISH_EVERY_MIN = 10 };
 #define PUBLISH_BYTES 100e6 /* (the message below says 100 MB) */
 
