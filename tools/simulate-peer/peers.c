@@ -340,7 +340,7 @@ static void observe(peer_run *pr, double now)
  * second would send 750 MB/s, which starved the peers that read it on 2
  * cores (docs/peers.md, "Whole regions"). */
 enum { PUBLISH_RATE = 30, PUBLISH_EVERY_MIN = 10 };
-#define PUBLISH_BYTES 100e6 /* (the message below says 100 MB) */
+#define PUBLISH_BYTES 100e6
 
 /* A whole object's frame in bytes, at most: the nodes (of --send-level,
  * where asked) times a node's bytes in the session's encoding — raw 48
@@ -425,13 +425,15 @@ static void publish_interval(run *r, peer_cli *c, size_t nodes, int level)
 	ndo_method m = r->sc.sim.method;
 	int every_step = c->hold_boundary || (c->clock == NDO_CLOCK_REALTIME &&
 	                                      (m == NDO_RKF45 || ndo_method_is_implicit(m)));
+	char cap[64] = "";
+	if (capped)
+		snprintf(cap, sizeof cap, ", and by default at most %g MB a second", 1e-6 * PUBLISH_BYTES);
 	if (!r->quiet && !every_step && (c->publish_rate > 0 || c->publish_every != PUBLISH_EVERY_MIN))
 		fprintf(stderr, "%s: whole regions every %d step%s (about %.3g a second at the "
 		        "predicted %.3g steps/s, up to %.3g MB a second; --publish-rate %g%s%s)\n",
 		        ndo_progname, c->publish_every, c->publish_every == 1 ? "" : "s",
 		        speed / c->publish_every, speed, 1e-6 * bytes * speed / c->publish_every,
-		        rate, capped ? ", and by default at most 100 MB a second" : "",
-		        c->publish_every != n ? ", to suit --frame-every" : "");
+		        rate, cap, c->publish_every != n ? ", to suit --frame-every" : "");
 }
 
 /* The owner's object: the single process's setup, as a grid with every
