@@ -1671,6 +1671,20 @@ int ndo_sim_step(ndo_sim *s, double h)
  * when the size test must see a step's state (ndo__size_needs_state):
  * the run again up to that step, whose state is then seen as a single
  * step sees it, and the caller goes on from there. */
+/* The runs of steps: RK4's chain (rk4.c) or the wave (wave.c). */
+static int run_steps(ndo_sim *s, double h, int m, const double *t)
+{
+	return s->p.method == NDO_RK4 ? ndo__rk4_chain_run(s, h, m, t) : ndo__wave_run(s, h, m, t);
+}
+
+static void run_commit(ndo_sim *s, int m)
+{
+	if (s->p.method == NDO_RK4)
+		ndo__rk4_chain_commit(s, m);
+	else
+		ndo__wave_commit(s, m);
+}
+
 static int steps_wave(ndo_sim *s, double h, int m, double *t, int *done)
 {
 	*done = 0;
@@ -1678,21 +1692,24 @@ static int steps_wave(ndo_sim *s, double h, int m, double *t, int *done)
 	t[0] = s->t;
 	for (int j = 1; j <= m; j++)
 		t[j] = t[j - 1] + h;
-	int rc = ndo__wave_run(s, h, m, t);
+	int rc = run_steps(s, h, m, t);
 	threads_timed(s, w0, m);
 	if (rc)
 		return rc;
-	const int two = s->p.method == NDO_MIDPOINT;
+	const int rk4 = s->p.method == NDO_RK4, two = s->p.method == NDO_MIDPOINT;
 	for (int j = 0; j < m; j++) {
 		ndo__diag d;
-		ndo__wave_diag(s, j, &d);
+		if (rk4)
+			ndo__rk4_chain_diag(s, j, &d);
+		else
+			ndo__wave_diag(s, j, &d);
 		if (s->p.method == NDO_SYMPLECTIC_EULER)
 			s->h_mod = h;
 		if (ndo__size_needs_state(s, &d)) {
-			int again = j > 0 ? ndo__wave_run(s, h, j, t) : NDO_OK;
+			int again = j > 0 ? run_steps(s, h, j, t) : NDO_OK;
 			if (again)
 				return again;
-			ndo__wave_commit(s, j);
+			run_commit(s, j);
 			*done = j;
 			if (ndo__size_is_drift(s, &d))
 				return NDO_OK; /* step j again from its state, tested as a drift */
@@ -1703,21 +1720,27 @@ static int steps_wave(ndo_sim *s, double h, int m, double *t, int *done)
 		s->stats.evaluations++;
 		s->last_power = d.power;
 		if ((rc = ndo__diverged(s, &d, 1))) {
-			int again = j > 0 ? ndo__wave_run(s, h, j, t) : NDO_OK;
+			int again = j > 0 ? run_steps(s, h, j, t) : NDO_OK;
 			if (again)
 				return again;
-			ndo__wave_commit(s, j);
+			run_commit(s, j);
 			return rc;
 		}
-		s->stats.evaluations += two;
-		/* midpoint: its stage's force at its mean velocity (step_rk) */
-		account(s, h, two ? ndo__wave_power(s, j) : s->last_power);
+		if (rk4) { /* as step_rk4 */
+			ndo__rk4_chain_powers(s, j, d.power);
+			s->stats.evaluations += 3;
+			account(s, h, tableau_power(&tb_rk4, s->stage_power));
+		} else {
+			s->stats.evaluations += two;
+			/* midpoint: its stage's force at its mean velocity (step_rk) */
+			account(s, h, two ? ndo__wave_power(s, j) : s->last_power);
+		}
 		s->stats.substeps++;
 		s->t = t[j + 1];
 		s->step++;
 		s->stats.steps++;
 	}
-	ndo__wave_commit(s, m);
+	run_commit(s, m);
 	*done = m;
 	return NDO_OK;
 }
@@ -1738,11 +1761,11 @@ static int sim_steps(ndo_sim *s, double h, int64_t k)
 	 * bookkeeping costs).  So below that size, steps that run alone
 	 * (threads_pick) go one at a time, and a look at whether the threads
 	 * pay compares those with the wave on the threads. */
-	const int fits = ndo__wave_fits(s);
+	const int rk4 = ndo__rk4_chain_fits(s), fits = rk4 || ndo__wave_fits(s);
 	double t[18]; /* a run's times: up to 16 steps, and one left over */
 	while (k > 0) {
 		int wave = fits && (s->count >= 65536 || s->wave_test || !threads_next_solo(s));
-		int m = k >= 2 && wave ? ndo__wave_batch(s) : 0;
+		int m = k >= 2 && wave ? rk4 ? ndo__rk4_chain_batch(s) : ndo__wave_batch(s) : 0;
 		int rc;
 		if (m >= 2) {
 			/* No single step left over after the runs: a step alone

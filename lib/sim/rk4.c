@@ -48,6 +48,20 @@
  *   memory; the two stage displacements, read at the neighbours, stay
  *   whole planes.
  *
+ * A chain of steps (ndo_sim_steps, no held nodes): two steps as one run
+ * of the pipeline, stage k of step j being pass 4j + k, so that the
+ * threads wait neither between the stages nor between the steps (as
+ * wave.c does for symplectic Euler and midpoint).  Step j goes from state
+ * X_j to X_{j+1}: X_0 the simulation's (u, v), never written, then
+ * ka[0..1] and ka[2..3] in turn; stage 0 of step j + 1 of a chunk waits
+ * for stage 3 of step j of the chunks beside it, which also keeps it from
+ * overwriting stage displacements those still read; the ring holds its
+ * slots twice, one set for the even steps and one for the odd.  Each
+ * step's diagnostics and stage powers are kept per chunk, so that the
+ * divergence tests are made after the run in order, as single steps
+ * make them (integrate.c, steps_wave: a step that fails, the run again
+ * up to it from X_0).
+ *
  * Stages 1-3 run the three coordinates in one loop (the edge planes and
  * 1/m loaded once a node); stage 0 one loop a coordinate, the order its
  * diagnostics are summed in. */
@@ -399,11 +413,6 @@ static int step_passes(ndo_sim *s, double h)
 
 /* ---- the pipeline ------------------------------------------------------------ */
 
-typedef struct rk4_unit {
-	int16_t k;  /* stage */
-	int32_t c;  /* chunk */
-} rk4_unit;
-
 struct ndo__rk4_plan {
 	ndo__chunks ch;        /* what each chunk writes, reads and waits for
 	                        * (sim_private.h); with held nodes, the seam
@@ -413,12 +422,14 @@ struct ndo__rk4_plan {
 	size_t pn;
 	int marked, early;     /* late[] and s->pend are plist's; its units not late */
 	int held;              /* the region has held nodes (a peer's) */
-	double *bterms;        /* RK4_BTERMS per active border node */
-	/* Stages 1-3's input power as terms (ndo__stage_power_sum): each
+	/* Per step of a run (cap steps: one, or a chain's m): stage 0's
+	 * diagnostics, per chunk (C) and as RK4_BTERMS terms per active border
+	 * node; stages 1-3's input power as terms (ndo__stage_power_sum): each
 	 * force node's (s->nfnodes a stage) and each held edge's (3·nhedge) */
+	int cap;
+	ndo__diag *dg;
+	double *bterms;
 	double *ft, *et;
-	int nunit;
-	rk4_unit *unit;        /* wavefront order */
 	/* The ring (ring_layout): the stage velocity and the running sums, read
 	 * at their own node only, live from stage 0 of a chunk to its stage 3,
 	 * in one of R = 3L + 1 slots of S nodes of the share of the thread
@@ -427,13 +438,17 @@ struct ndo__rk4_plan {
 	int R, ring_T;         /* slots a share; the thread count of slot[], prev[] */
 	size_t S;              /* a slot: rows r0..r1 of the widest chunk */
 	int32_t *slot, *prev;
+	int32_t *prevn;        /* the slot's last chunk in a step, which a chain's
+	                        * share's first R chunks wait for two steps later */
+	size_t nslot;          /* the slots; the ring holds them twice: a chain's
+	                        * even steps take the first, odd steps the second */
 	uint8_t *alone;        /* chunks on a slot of their own, out of the shares'
 	                        * turns (late ones, ndo_sim_step_begin) */
 	double *rvs, *rsu, *rsv; /* the ring: vs, su, sv, 3 planes of rps each */
 	size_t rps;
 	size_t ring_cap;       /* slots in ring, when the passes' planes are too small */
 	double *ring;
-	ndo__units u;          /* this step's units' states, 4·C */
+	ndo__units u;          /* the run's units' states, 4·cap·C */
 };
 
 void ndo__rk4_plan_free(ndo_sim *s)
@@ -442,9 +457,8 @@ void ndo__rk4_plan_free(ndo_sim *s)
 	if (!P)
 		return;
 	ndo__chunks_free(&P->ch);
-	free(P->late), free(P->plist), free(P->bterms), free(P->ft), free(P->et);
-	free(P->unit);
-	free(P->slot), free(P->prev), free(P->alone), free(P->ring);
+	free(P->late), free(P->plist), free(P->dg), free(P->bterms), free(P->ft), free(P->et);
+	free(P->slot), free(P->prev), free(P->prevn), free(P->alone), free(P->ring);
 	ndo__units_destroy(&P->u);
 	free(P);
 	s->rk4_plan = NULL;
@@ -463,10 +477,29 @@ static int pipeline_fits(const ndo_sim *s)
 	       s->nispan >= 1 && s->nichunk >= 1;
 }
 
+/* The per-step arrays for runs of up to m steps. */
+static int plan_cap(const ndo_sim *s, struct ndo__rk4_plan *P, int m)
+{
+	if (m <= P->cap)
+		return NDO_OK;
+	const size_t C = (size_t)P->ch.C, M = (size_t)m;
+	free((void *)P->u.state), free(P->dg), free(P->bterms), free(P->ft), free(P->et);
+	P->u.state = malloc(4 * M * C * sizeof *P->u.state);
+	P->dg = malloc(M * C * sizeof *P->dg);
+	P->bterms = malloc((M * RK4_BTERMS * s->nbact + 1) * sizeof *P->bterms);
+	P->ft = malloc((M * 3 * s->nfnodes + 1) * sizeof *P->ft);
+	P->et = malloc((M * 9 * s->nhedge + 1) * sizeof *P->et);
+	P->cap = m;
+	if (P->u.state && P->dg && P->bterms && P->ft && P->et)
+		return NDO_OK;
+	P->cap = 0;
+	return NDO_ENOMEM;
+}
+
 /* The plan: the chunks (chunks.c), with held nodes their seam
  * duplicates too (without, every interior row is one run, so a chunk is
  * whole rows and copies its rows' seams: sync_rows), then the ring's
- * slots, the border nodes' diagnostics and the units' wavefront order. */
+ * slots and a step's diagnostics. */
 static int plan_build(ndo_sim *s)
 {
 	struct ndo__rk4_plan *P = calloc(1, sizeof *P);
@@ -483,26 +516,11 @@ static int plan_build(ndo_sim *s)
 		if ((size_t)(P->ch.r1[c] - P->ch.r0[c] + 1) * (size_t)w > P->S)
 			P->S = (size_t)(P->ch.r1[c] - P->ch.r0[c] + 1) * (size_t)w;
 	P->slot = malloc((size_t)C * sizeof *P->slot), P->prev = malloc((size_t)C * sizeof *P->prev);
+	P->prevn = malloc((size_t)C * sizeof *P->prevn);
 	P->alone = calloc((size_t)C + 1, 1);
-	if (!P->slot || !P->prev || !P->alone)
-		goto oom;
-	P->bterms = malloc((RK4_BTERMS * s->nbact + 1) * sizeof *P->bterms);
-	P->ft = malloc((3 * s->nfnodes + 1) * sizeof *P->ft);
-	P->et = malloc((9 * s->nhedge + 1) * sizeof *P->et);
-	/* Units in wavefront order: stage k of chunk c at c + k·L; any unit
-	 * it reads (stage k − 1, chunks ≤ c + L − 1) comes on an earlier
-	 * diagonal. */
-	P->unit = malloc((4 * (size_t)C + 1) * sizeof *P->unit);
-	P->u.state = calloc(4 * (size_t)C, sizeof *P->u.state);
 	P->late = malloc(4 * (size_t)C);
-	if (!P->bterms || !P->ft || !P->et || !P->unit || !P->u.state || !P->late)
+	if (!P->slot || !P->prev || !P->prevn || !P->alone || !P->late || plan_cap(s, P, 1))
 		goto oom;
-	for (int diag = 0; diag < C + 3 * L; diag++)
-		for (int k = 3; k >= 0; k--) {
-			int c = diag - k * L;
-			if (c >= 0 && c < C)
-				P->unit[P->nunit++] = (rk4_unit){(int16_t)k, c};
-		}
 	return NDO_OK;
 oom:
 	ndo__rk4_plan_free(s);
@@ -538,7 +556,13 @@ static void sync_rows(const ndo_sim *s, double *x, int r0, int r1)
  * count (the others' d counts only the others) and take one slot each
  * after the share's R.  The waits prev adds close no cycle: a wait
  * goes R chunks or more back towards the start and 3 stages up, and the
- * stages' own waits bring it at most 3(L − 1) < R chunks forward again. */
+ * stages' own waits bring it at most 3(L − 1) < R chunks forward again.
+ * The ring holds the slots twice: a chain of steps (ndo__rk4_chain_run)
+ * takes the first for its even steps, the second for its odd ones (a
+ * single step the first), so that a share's first chunks can begin a
+ * step while the step before still runs at the share's end; there a
+ * share's first R chunks (no prev) wait for the slot's last chunk two
+ * steps before (prevn): an earlier step, so no cycle either. */
 static int ring_layout(ndo_sim *s, struct ndo__rk4_plan *P, int T)
 {
 	if (s->rk4_ring_slots > 0 && s->rk4_ring_slots < P->R)
@@ -564,24 +588,32 @@ static int ring_layout(ndo_sim *s, struct ndo__rk4_plan *P, int T)
 				last[j % R] = c;
 				j++;
 			}
+			/* a chain: the share's first R chunks after the slot's last
+			 * chunk two steps before (its own half of the ring) */
+			for (int d = 0, jj = 0; d < b - a && jj < R; d++) {
+				const int c = half ? hi - 1 - d : a + d;
+				if (!P->alone[c])
+					P->prevn[c] = last[jj++];
+			}
 			nslot += (size_t)(j < R ? j : R);
 			for (int c = a; c < b; c++)
 				if (P->alone[c])
-					P->slot[c] = (int32_t)nslot++, P->prev[c] = -1;
+					P->slot[c] = (int32_t)nslot++, P->prev[c] = -1, P->prevn[c] = c;
 		}
 	}
 	free(last);
 	/* The ring: at the start of the planes the passes keep vs, su and sv
 	 * in (nothing there is kept from step to step) when it fits, as it
-	 * does from level 7 up where every node is integrated (level 6 on one
-	 * thread); else in a buffer of its own (step_pipeline binds it). */
-	P->rps = nslot * P->S;
-	if (P->rps > s->count && nslot > P->ring_cap) {
+	 * does from level 7 up where every node is integrated; else in a
+	 * buffer of its own (step_pipeline binds it). */
+	P->nslot = nslot;
+	P->rps = 2 * nslot * P->S;
+	if (P->rps > s->count && 2 * nslot > P->ring_cap) {
 		free(P->ring);
 		P->ring_cap = 0;
 		if (!(P->ring = malloc(9 * P->rps * sizeof *P->ring)))
 			return ndo__fail(NDO_ENOMEM, "out of memory for the RK4 pipeline's ring");
-		P->ring_cap = nslot;
+		P->ring_cap = 2 * nslot;
 	}
 	P->ring_T = T;
 	P->marked = 0; /* a step begun ahead: its late units follow prev too */
@@ -629,122 +661,148 @@ int ndo__rk4_ring_reuses(const ndo_sim *s)
 	return n;
 }
 
+/* A run on the threads: one step, or a chain of m steps (the units of
+ * step j are passes 4j..4j + 3).  Step j goes from state X_j to X_{j+1}
+ * (xbuf: X_0 the simulation's (u, v), never written, then ka[0..1] and
+ * ka[2..3] in turn); its stage displacements share A, B and A2. */
 typedef struct rk4_pipe {
 	ndo_sim *s;
-	rk4_pass g[4];
-	double t[4];
+	rk4_pass g[4];     /* the stages' passes, but for the state */
+	double dt[4];      /* the stages' times after a step's start */
+	const double *t;   /* the steps' start times */
 	int mode[4];
-	double *out[4][2]; /* what each stage writes that the seams copy */
-	int threads;
+	double *out[3];    /* what stages 0-2 write that the seams copy */
+	double *xu[3], *xv[3];
+	int m, threads;
 	const uint8_t *skip; /* units not to run (the late ones, begun ahead) or NULL */
 } rk4_pipe;
 
-static void unit_run(rk4_pipe *J, int k, int c);
-
-/* Unit (k, c), claimed: the units it reads done (run here when nobody
- * has claimed them, waited for when somebody has), then itself. */
-static void unit_take(rk4_pipe *J, int k, int c)
+static int xbuf(int j)
 {
-	struct ndo__rk4_plan *P = J->s->rk4_plan;
-	if (k == 0 && P->prev[c] >= 0) {
-		/* the slot free: its chunk before through stage 3 */
-		int idx = 3 * P->ch.C + P->prev[c];
-		if (ndo__unit_claim(&P->u, idx))
-			unit_take(J, 3, P->prev[c]);
-		else
-			ndo__unit_wait(&P->u, idx);
-	}
-	if (k > 0)
-		for (int q = P->ch.lo[c]; q <= P->ch.hi[c]; q++) {
-			int idx = (k - 1) * P->ch.C + q;
-			if (ndo__unit_claim(&P->u, idx))
-				unit_take(J, k - 1, q);
-			else
-				ndo__unit_wait(&P->u, idx);
-		}
-	unit_run(J, k, c);
-	ndo__unit_done(&P->u, k * P->ch.C + c);
+	return j == 0 ? 0 : j % 2 ? 1 : 2;
 }
 
-static void unit_run(rk4_pipe *J, int k, int c)
+static void unit_run(rk4_pipe *J, int p, int c);
+
+static void unit_need(rk4_pipe *J, int idx);
+
+/* Unit (p, c), claimed: the units it reads done (run here when nobody
+ * has claimed them, waited for when somebody has), then itself. */
+static void unit_take(rk4_pipe *J, int p, int c)
 {
-	/* stages 0..3 (unit_take recurses to k − 1 only for k > 0; said here
-	 * for GCC, whose -Warray-bounds at -O1 did not follow that) */
+	struct ndo__rk4_plan *P = J->s->rk4_plan;
+	const int C = P->ch.C;
+	if (p % 4 == 0) {
+		/* the slot free: its chunk before through stage 3, in this step
+		 * or (a share's first chunks) two steps before (ring_layout) */
+		if (P->prev[c] >= 0)
+			unit_need(J, (p + 3) * C + P->prev[c]);
+		else if (p >= 8)
+			unit_need(J, (p - 5) * C + P->prevn[c]);
+	}
+	if (p > 0) {
+		int lo = P->ch.lo[c], hi = P->ch.hi[c];
+		if (J->m > 1 && J->s->wave_test == 3)
+			lo = hi = c; /* wrong on purpose (tests): the neighbours not waited for */
+		for (int q = lo; q <= hi; q++)
+			unit_need(J, (p - 1) * C + q);
+	}
+	unit_run(J, p, c);
+	ndo__unit_done(&P->u, p * C + c);
+}
+
+/* Unit idx done: run here if nobody has claimed it, else waited for. */
+static void unit_need(rk4_pipe *J, int idx)
+{
+	struct ndo__rk4_plan *P = J->s->rk4_plan;
+	if (ndo__unit_claim(&P->u, idx))
+		unit_take(J, idx / P->ch.C, idx % P->ch.C);
+	else
+		ndo__unit_wait(&P->u, idx);
+}
+
+static void unit_run(rk4_pipe *J, int p, int c)
+{
+	const int j = p / 4, k = p % 4;
+	/* stages 0..3 (said here for GCC, whose -Warray-bounds at -O1 did not
+	 * follow p % 4) */
 	if (k < 0 || k > 3)
 		__builtin_unreachable();
 	ndo_sim *s = J->s;
 	struct ndo__rk4_plan *P = s->rk4_plan;
 	const ndo__chunks *K = &P->ch;
-	const rk4_pass *g = &J->g[k];
+	rk4_pass gl = J->g[k];
+	const int x = xbuf(j), xn = xbuf(j + 1);
+	gl.u = J->xu[x], gl.v = J->xv[x];
+	gl.uo = J->xu[xn], gl.vo = J->xv[xn];
+	if (k == 0)
+		gl.U = gl.u; /* stage 0's displacement: the step's state */
 	if (s->has_forces)
-		ndo__forces_eval_chunk(s, J->t[k], g->U, K, c);
+		ndo__forces_eval_chunk(s, J->t[j] + J->dt[k], gl.U, K, c);
 	ndo__diag *d = NULL;
 	if (k == 0) {
-		d = &s->cdiag[c];
+		d = &P->dg[(size_t)j * (size_t)K->C + (size_t)c];
 		memset(d, 0, sizeof *d);
 	}
 	/* Without pressure and penalty pins (pipeline_fits) the force plane
 	 * is zero but at the force nodes: a chunk with none of them in its
 	 * rows runs the loops without forces, 3 streams of zeros fewer (the
 	 * same bits: f − Ku with f = 0 either way). */
-	rk4_pass gl = *g;
+	const double *F = gl.F;
 	gl.vs = P->rvs, gl.su = P->rsu, gl.sv = P->rsv;
 	gl.ss = P->rps;
-	gl.sd = (ptrdiff_t)((size_t)P->slot[c] * P->S) - (ptrdiff_t)K->r0[c] * s->w;
+	const size_t slot = (size_t)P->slot[c] + (size_t)(j % 2) * P->nslot;
+	gl.sd = (ptrdiff_t)(slot * P->S) - (ptrdiff_t)K->r0[c] * s->w;
 	if (K->zoff[c + 1] == K->zoff[c])
 		gl.F = NULL;
 	if (k > 0) {
 		/* the stage's input power at the chunk's force nodes and held
 		 * edges, before the pass overwrites the stage velocity */
 		const ndo__vel w = {gl.vs, gl.ss, gl.sd, NULL, NULL, 0};
-		double *ft = P->ft + (size_t)(k - 1) * s->nfnodes;
-		double *et = P->et + (size_t)(k - 1) * 3 * s->nhedge;
+		const size_t sk = 3 * (size_t)j + (size_t)(k - 1);
+		double *ft = P->ft + sk * s->nfnodes;
+		double *et = P->et + sk * 3 * s->nhedge;
 		for (int32_t i = K->zoff[c]; i < K->zoff[c + 1]; i++)
-			ft[K->zfi[i]] = ndo__fv(g->F, &w, (size_t)K->zlist[i], s->count);
+			ft[K->zfi[i]] = ndo__fv(F, &w, (size_t)K->zlist[i], s->count);
 		for (int32_t i = P->held ? K->eoff[c] : 0; P->held && i < K->eoff[c + 1]; i++)
 			for (int comp = 0; comp < 3; comp++)
 				et[3 * (size_t)K->elist[i] + (size_t)comp] =
-					ndo__held_term(s, &s->hedge[K->elist[i]], g->U, &w, comp);
+					ndo__held_term(s, &s->hedge[K->elist[i]], gl.U, &w, comp);
 	}
 	rk4_runs(s, &gl, J->mode[k], d, (size_t)s->ichunk[c], (size_t)s->ichunk[c + 1]);
-	gl.F = g->F;
+	gl.F = F;
 	rk4_border(s, &gl, J->mode[k], K->blist + K->boff[c], (size_t)(K->boff[c + 1] - K->boff[c]),
-	           NULL, k == 0 ? P->bterms : NULL);
+	           NULL, k == 0 ? P->bterms + (size_t)j * RK4_BTERMS * s->nbact : NULL);
+	double *out[2] = {k < 3 ? J->out[k] : gl.uo, k < 3 ? NULL : gl.vo};
 	for (int b = 0; b < 2; b++)
-		if (J->out[k][b]) {
+		if (out[b]) {
 			if (P->held) /* rows other chunks may share: the chunk's pairs */
-				ndo__chunks_copy_dups(s, K, c, J->out[k][b]);
+				ndo__chunks_copy_dups(s, K, c, out[b]);
 			else
-				sync_rows(s, J->out[k][b], K->r0[c], K->r1[c]);
+				sync_rows(s, out[b], K->r0[c], K->r1[c]);
 		}
 }
 
-/* Thread `who` of J->threads: every unit in wavefront order, the even
- * threads upward from the bottom of their pair's share of the chunks, the
- * odd ones downward from its top, round the ends to the rest. */
+static void take(void *run, int p, int c)
+{
+	unit_take(run, p, c);
+}
+
+/* Thread `who` of J->threads: every unit (units.h) not to skip, in
+ * wavefront order or (tests, a chain) shuffled. */
 static void pipe_thread(void *arg, int who)
 {
 	rk4_pipe *J = arg;
 	struct ndo__rk4_plan *P = J->s->rk4_plan;
-	const int C = P->ch.C, pairs = (J->threads + 1) / 2, pair = who / 2;
-	const int up = who % 2 == 0;
-	const int start = up ? (int)((long)C * pair / pairs)
-	                     : (int)((long)C * (pair + 1) / pairs) - 1;
-	for (int i = 0; i < P->nunit; i++) {
-		int k = P->unit[i].k, c = P->unit[i].c;
-		c = up ? (start + c) % C : (start - c + C) % C;
-		if (J->skip && J->skip[k * C + c])
-			continue; /* a unit it reads is late too: none is run */
-		if (ndo__unit_claim(&P->u, k * C + c))
-			unit_take(J, k, c);
-	}
+	ndo__units_walk(&P->u, P->ch.C, P->ch.L, 4 * J->m, J->threads, who, J->skip,
+	                J->m > 1 && (J->s->wave_test & 1), (uint64_t)J->s->step, take, J);
 }
 
-/* The pipeline's buffers and the held nodes' stage values for a step of
- * size h; `fresh`: the units' states too (not when a step was begun
- * ahead: its held nodes are set again, from the pending nodes' values
- * that came since). */
-static int pipe_setup(ndo_sim *s, double h, rk4_pipe *J, int fresh)
+/* The pipeline's buffers and the held nodes' stage values for m steps
+ * of size h from times t[0..m) (with held nodes, one); `fresh`: the
+ * units' states too (not when a step was begun ahead: its held nodes
+ * are set again, from the pending nodes' values that came since). */
+static int pipe_setup(ndo_sim *s, double h, int m, const double *t, rk4_pipe *J, int fresh)
 {
 	if (!s->rk4_plan) {
 		int rc = plan_build(s);
@@ -752,19 +810,25 @@ static int pipe_setup(ndo_sim *s, double h, rk4_pipe *J, int fresh)
 			return rc;
 	}
 	struct ndo__rk4_plan *P = s->rk4_plan;
-	double *A = s->us, *B = s->kv[1], *un = s->ka[0], *vn = s->ka[1];
+	if (plan_cap(s, P, m))
+		return ndo__fail(NDO_ENOMEM, "out of memory for the RK4 pipeline");
+	double *A = s->us, *B = s->kv[1];
 	/* Stage 2's displacement: over stage 0's (A) when every node is
 	 * integrated; with held nodes in a buffer of its own, whose held nodes
 	 * stand at t + h while A's are at t + h/2 for stage 1 (the passes move
 	 * A's between the stages: here stages 1 and 3 run at once). */
 	double *A2 = A;
+	*J = (rk4_pipe){.s = s, .t = t, .m = m};
+	J->xu[0] = s->u, J->xv[0] = s->v;
+	J->xu[1] = s->ka[0], J->xv[1] = s->ka[1];
+	J->xu[2] = s->ka[2], J->xv[2] = s->ka[3];
 	if (P->held) {
 		A2 = s->ka[2];
 		if (!s->spare_held) {
 			/* the new state's held nodes are the old ones': copied once,
 			 * then kept (sim_private.h) */
-			memcpy(un, s->u, 3 * s->count * sizeof *un);
-			memcpy(vn, s->v, 3 * s->count * sizeof *vn);
+			memcpy(J->xu[1], s->u, 3 * s->count * sizeof *s->u);
+			memcpy(J->xv[1], s->v, 3 * s->count * sizeof *s->v);
 			s->spare_held = 1;
 		}
 		ndo__held_keep(s, A);
@@ -775,27 +839,59 @@ static int pipe_setup(ndo_sim *s, double h, rk4_pipe *J, int fresh)
 		ndo__held_at(s, A2, h);
 	}
 	const double *F = s->has_forces ? s->f : NULL;
-	*J = (rk4_pipe){.s = s};
-	/* vs, su, sv: the ring's (unit_run) */
-	const rk4_pass g = {s->u, A, NULL, NULL, NULL, s->u, s->v, un, vn, F, h / 2, h / 6, 0, 0};
+	/* vs, su, sv: the ring's; u, v, uo, vo and stage 0's U: the step's
+	 * (unit_run) */
+	const rk4_pass g = {NULL, A, NULL, NULL, NULL, NULL, NULL, NULL, NULL, F, h / 2, h / 6, 0, 0};
 	for (int k = 0; k < 4; k++)
 		J->g[k] = g;
 	J->g[1].U = A, J->g[1].Un = B;
 	J->g[2].U = B, J->g[2].Un = A2, J->g[2].c = h;
 	J->g[3].U = A2, J->g[3].Un = NULL;
-	const double t[4] = {s->t, s->t + h / 2, s->t + h / 2, s->t + h};
+	const double dt[4] = {0, h / 2, h / 2, h};
 	const int mode[4] = {RK4_FIRST, RK4_MID, RK4_MID, RK4_LAST_TO};
-	memcpy(J->t, t, sizeof t);
+	memcpy(J->dt, dt, sizeof dt);
 	memcpy(J->mode, mode, sizeof mode);
-	J->out[0][0] = A, J->out[1][0] = B, J->out[2][0] = A2;
-	J->out[3][0] = un, J->out[3][1] = vn;
+	J->out[0] = A, J->out[1] = B, J->out[2] = A2;
 	J->threads = ndo__sim_threads_now(s);
 	if (fresh) {
-		for (int i = 0; i < 4 * P->ch.C; i++)
+		for (int i = 0; i < 4 * m * P->ch.C; i++)
 			atomic_init(&P->u.state[i], NDO__UNIT_FREE);
 		return ring_bind(s, P, J->threads);
 	}
 	return NDO_OK;
+}
+
+/* Step j's stage-0 diagnostics: the border's in its order, then the
+ * chunks'. */
+static void pipe_diag(ndo_sim *s, int j, ndo__diag *d)
+{
+	const struct ndo__rk4_plan *P = s->rk4_plan;
+	const size_t C = (size_t)P->ch.C;
+	memcpy(s->cdiag, P->dg + (size_t)j * C, C * sizeof *s->cdiag);
+	ndo__diag *bd = &s->cdiag[s->nichunk];
+	memset(bd, 0, sizeof *bd);
+	const double *bt = P->bterms + (size_t)j * RK4_BTERMS * s->nbact;
+	for (size_t k = 0; k < s->nbact; k++) {
+		const double *tk = bt + RK4_BTERMS * k;
+		for (int comp = 0; comp < 3; comp++) {
+			bd->pe2 += tk[comp];
+			bd->ke2 += tk[3 + comp];
+			bd->power += tk[6 + comp];
+		}
+		bd->umax2 = fmax(bd->umax2, tk[9]);
+	}
+	ndo__diag_sum(s, d);
+}
+
+/* Step j's stages 1-3 input powers into s->stage_power. */
+static void pipe_powers(ndo_sim *s, int j)
+{
+	const struct ndo__rk4_plan *P = s->rk4_plan;
+	for (int k = 1; k < 4; k++) {
+		const size_t sk = 3 * (size_t)j + (size_t)(k - 1);
+		s->stage_power[k] =
+			ndo__stage_power_sum(s, P->ft + sk * s->nfnodes, P->et + sk * 3 * s->nhedge);
+	}
 }
 
 static int step_pipeline(ndo_sim *s, double h)
@@ -808,34 +904,22 @@ static int step_pipeline(ndo_sim *s, double h)
 	            s->ahead_h == h && ring_bound(s, s->rk4_plan, ndo__sim_threads_now(s));
 	s->ahead = 0;
 	rk4_pipe J;
-	int rc = pipe_setup(s, h, &J, !ahead);
+	const double t0 = s->t;
+	int rc = pipe_setup(s, h, 1, &t0, &J, !ahead);
 	if (rc)
 		return rc;
 	struct ndo__rk4_plan *P = s->rk4_plan;
-	double *un = s->ka[0], *vn = s->ka[1];
+	double *un = J.xu[1], *vn = J.xv[1];
 	ndo__sim_run(s, J.threads, pipe_thread, &J);
-	/* Stage 0's diagnostics: the border's in its order, then the chunks'. */
-	ndo__diag d, *bd = &s->cdiag[s->nichunk];
-	memset(bd, 0, sizeof *bd);
-	for (size_t k = 0; k < s->nbact; k++) {
-		const double *tk = P->bterms + RK4_BTERMS * k;
-		for (int comp = 0; comp < 3; comp++) {
-			bd->pe2 += tk[comp];
-			bd->ke2 += tk[3 + comp];
-			bd->power += tk[6 + comp];
-		}
-		bd->umax2 = fmax(bd->umax2, tk[9]);
-	}
-	ndo__diag_sum(s, &d);
+	ndo__diag d;
+	pipe_diag(s, 0, &d);
 	d.power += ndo__held_power(s, s->u, s->v, NULL);
 	s->stats.evaluations++;
 	s->last_power = s->stage_power[0] = d.power;
 	rc = ndo__diverged(s, &d, 1);
 	if (rc)
 		return rc;
-	for (int k = 1; k < 4; k++)
-		s->stage_power[k] = ndo__stage_power_sum(s, P->ft + (size_t)(k - 1) * s->nfnodes,
-		                                         P->et + (size_t)(k - 1) * 3 * s->nhedge);
+	pipe_powers(s, 0);
 	s->stats.evaluations += 3;
 	if (P->held)
 		ndo__held_at(s, un, h); /* the boundary moves on with the step (the spare's
@@ -843,6 +927,70 @@ static int step_pipeline(ndo_sim *s, double h)
 	s->ka[0] = s->u, s->ka[1] = s->v;
 	s->u = un, s->v = vn;
 	return NDO_OK;
+}
+
+/* ---- a chain of steps (ndo_sim_steps) ------------------------------------------ */
+
+/* Whether steps can run as a chain: the pipeline's steps with every node
+ * integrated (no held nodes: pins or a peer's region), no sleeping tiles
+ * and no re-assembly of K between the steps. */
+int ndo__rk4_chain_fits(const ndo_sim *s)
+{
+	return s->p.method == NDO_RK4 && pipeline_fits(s) && !s->any_held && !s->sleep &&
+	       s->p.restiffen == 0;
+}
+
+/* Steps a chain takes: 2 (8 passes; wave.c's WAVE_PASSES measured 6-8
+ * passes as about the window a thread keeps in its cache). */
+int ndo__rk4_chain_batch(const ndo_sim *s)
+{
+	(void)s;
+	return 2;
+}
+
+int ndo__rk4_chain_run(ndo_sim *s, double h, int m, const double *t)
+{
+	s->ahead = 0;
+	s->spare_held = 0;
+	rk4_pipe J;
+	int rc = pipe_setup(s, h, m, t, &J, 1);
+	if (rc)
+		return rc;
+	ndo__sim_run(s, J.threads, pipe_thread, &J);
+	if (s->wave_test & 1) /* a shuffling thread that found no memory left units */
+		ndo__units_rest(&s->rk4_plan->u, 4 * m * s->rk4_plan->ch.C, s->rk4_plan->ch.C, take, &J);
+	return NDO_OK;
+}
+
+int ndo__rk4_chain_cap(const ndo_sim *s)
+{
+	return s->rk4_plan ? s->rk4_plan->cap : 0;
+}
+
+void ndo__rk4_chain_diag(ndo_sim *s, int j, ndo__diag *d)
+{
+	pipe_diag(s, j, d);
+}
+
+void ndo__rk4_chain_powers(ndo_sim *s, int j, double last_power)
+{
+	s->last_power = s->stage_power[0] = last_power;
+	pipe_powers(s, j);
+}
+
+static void swap(double **a, double **b)
+{
+	double *t = *a;
+	*a = *b, *b = t;
+}
+
+void ndo__rk4_chain_commit(ndo_sim *s, int m)
+{
+	if (m == 0)
+		return;
+	const int x = xbuf(m);
+	swap(&s->u, x == 1 ? &s->ka[0] : &s->ka[2]);
+	swap(&s->v, x == 1 ? &s->ka[1] : &s->ka[3]);
 }
 
 /* Begin the step ahead (ndo_sim_step_begin): a unit is late when the rows
@@ -946,7 +1094,8 @@ int ndo__rk4_begin(ndo_sim *s, double h, size_t n, const int32_t *pending)
 	if (!P->early)
 		return 0; /* every unit reads them (a quad-tree region): the step runs whole */
 	rk4_pipe J;
-	int rc = pipe_setup(s, h, &J, 1);
+	const double t0 = s->t;
+	int rc = pipe_setup(s, h, 1, &t0, &J, 1);
 	if (rc)
 		return rc;
 	J.skip = P->late;

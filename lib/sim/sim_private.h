@@ -234,10 +234,11 @@ struct ndo_sim {
 	/* Several steps of symplectic Euler or midpoint as one pipeline of
 	 * (pass, chunk) units across the steps (wave.c, ndo_sim_steps): the
 	 * plan, built at the first such run and freed when the chunks or the
-	 * held edges change.  wave_test (tests only; nonzero: the wave also
-	 * where it would not pay, ndo_sim_steps): 4 in its own order, 1 in
-	 * shuffled ones; 3 besides lets a unit wait only for its own chunk's
-	 * pass before (wrong: the test that must catch it). */
+	 * held edges change.  wave_test (tests only; nonzero: the wave, and
+	 * rk4's chain of steps (rk4.c), also where it would not pay,
+	 * ndo_sim_steps): 4 in its own order, 1 in shuffled ones; 3 besides
+	 * lets a unit wait only for its own chunk's pass before (wrong: the
+	 * test that must catch it). */
 	struct ndo__wave_plan *wave_plan;
 	int wave_test;
 
@@ -561,6 +562,19 @@ void ndo__rk4_plan_free(ndo_sim *s);
  * (0 before the pipeline's first step; tests). */
 int ndo__rk4_ring_reuses(const ndo_sim *s);
 int ndo__rk4_begin(ndo_sim *s, double h, size_t n, const int32_t *pending);
+/* RK4's steps as a chain (rk4.c, ndo_sim_steps), as the wave's below:
+ * whether it can take them, and how many a run takes; m steps from times
+ * t[0..m) into spare planes, the state left alone; step j's stage-0
+ * diagnostics; step j's stage powers into s->stage_power (stage 0's
+ * given) and last_power; the state after m steps swapped in. */
+int ndo__rk4_chain_fits(const ndo_sim *s);
+int ndo__rk4_chain_batch(const ndo_sim *s);
+int ndo__rk4_chain_run(ndo_sim *s, double h, int m, const double *t);
+void ndo__rk4_chain_diag(ndo_sim *s, int j, ndo__diag *d);
+void ndo__rk4_chain_powers(ndo_sim *s, int j, double last_power);
+void ndo__rk4_chain_commit(ndo_sim *s, int m);
+/* The most steps a run of the RK4 pipeline has taken (tests). */
+int ndo__rk4_chain_cap(const ndo_sim *s);
 
 /* The wave (wave.c): whether it can take this simulation's steps; m
  * steps of size h from the state (u, v) at times t[0..m) into spare planes,

@@ -9,6 +9,7 @@
 
 #include <pthread.h>
 #include <stdatomic.h>
+#include <stdint.h>
 #include <stdlib.h>
 
 enum { NDO__UNIT_FREE, NDO__UNIT_CLAIMED, NDO__UNIT_DONE };
@@ -64,6 +65,64 @@ static inline int ndo__unit_claim(ndo__units *U, int idx)
 	int free_ = NDO__UNIT_FREE;
 	return atomic_load_explicit(&U->state[idx], memory_order_relaxed) == NDO__UNIT_FREE &&
 	       atomic_compare_exchange_strong(&U->state[idx], &free_, NDO__UNIT_CLAIMED);
+}
+
+/* A pipeline's run on the threads: thread `who` of T walks the units
+ * (pass p, chunk c), unit p·C + c of np·C, and takes (claims, then runs
+ * with what it reads: take) every one it claims, skipping those others
+ * claimed and those marked in skip (NULL: none).  In wavefront order —
+ * pass p of chunk c at c + p·L, so that any unit it reads (pass p − 1,
+ * chunks ≤ c + L − 1) comes on an earlier diagonal — the even threads
+ * upward from the bottom of their pair's share of the chunks, the odd ones
+ * downward from its top, round the ends to the rest; or (tests: shuffled)
+ * in an order shuffled by the thread and the step (seed), where a thread
+ * that finds no memory for it runs none: the caller takes what is left
+ * (ndo__units_rest). */
+typedef void ndo__unit_take_fn(void *run, int p, int c);
+
+static inline void ndo__units_walk(ndo__units *U, int C, int L, int np, int T, int who,
+                                   const uint8_t *skip, int shuffled, uint64_t seed,
+                                   ndo__unit_take_fn *take, void *run)
+{
+	if (shuffled) {
+		const int n = np * C;
+		int *ord = malloc((size_t)n * sizeof *ord);
+		if (!ord)
+			return;
+		for (int i = 0; i < n; i++)
+			ord[i] = i;
+		uint64_t x = 0x9E3779B97F4A7C15u * (uint64_t)(who + 1) + seed;
+		for (int i = n - 1; i > 0; i--) {
+			x = x * 6364136223846793005u + 1442695040888963407u;
+			int r = (int)((x >> 33) % (uint64_t)(i + 1));
+			int tmp = ord[i];
+			ord[i] = ord[r], ord[r] = tmp;
+		}
+		for (int i = 0; i < n; i++)
+			if (!(skip && skip[ord[i]]) && ndo__unit_claim(U, ord[i]))
+				take(run, ord[i] / C, ord[i] % C);
+		free(ord);
+		return;
+	}
+	const int pairs = (T + 1) / 2, pair = who / 2, up = who % 2 == 0;
+	const int start = up ? (int)((long)C * pair / pairs) : (int)((long)C * (pair + 1) / pairs) - 1;
+	for (int diag = 0; diag < C + (np - 1) * L; diag++)
+		for (int p = np - 1; p >= 0; p--) {
+			int c = diag - p * L;
+			if (c < 0 || c >= C)
+				continue;
+			c = up ? (start + c) % C : (start - c + C) % C;
+			if (!(skip && skip[p * C + c]) && ndo__unit_claim(U, p * C + c))
+				take(run, p, c);
+		}
+}
+
+/* After a shuffled walk: the units no thread took (out of memory). */
+static inline void ndo__units_rest(ndo__units *U, int n, int C, ndo__unit_take_fn *take, void *run)
+{
+	for (int i = 0; i < n; i++)
+		if (ndo__unit_claim(U, i))
+			take(run, i / C, i % C);
 }
 
 #endif

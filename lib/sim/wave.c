@@ -223,46 +223,19 @@ static void unit_take(wave_run *J, int p, int c)
 	ndo__unit_done(&P->u, p * P->ch.C + c);
 }
 
-/* Thread `who` of J->threads: every unit in wavefront order, the even
- * threads upward from the bottom of their pair's share of the chunks, the
- * odd ones downward from its top, round the ends to the rest; or (tests)
- * in an order shuffled by the thread and the step. */
+static void take(void *run, int p, int c)
+{
+	unit_take(run, p, c);
+}
+
+/* Thread `who` of J->threads: every unit (units.h), in wavefront order or
+ * (tests) shuffled. */
 static void wave_thread(void *arg, int who)
 {
 	wave_run *J = arg;
 	struct ndo__wave_plan *P = J->s->wave_plan;
-	const int C = P->ch.C, L = P->ch.L, np = J->np;
-	if (J->s->wave_test & 1) {
-		const int n = np * C;
-		int *ord = malloc((size_t)n * sizeof *ord);
-		if (!ord)
-			return; /* the other threads, or the caller below, run them */
-		for (int i = 0; i < n; i++)
-			ord[i] = i;
-		uint64_t x = 0x9E3779B97F4A7C15u * (uint64_t)(who + 1) + (uint64_t)J->s->step;
-		for (int i = n - 1; i > 0; i--) {
-			x = x * 6364136223846793005u + 1442695040888963407u;
-			int r = (int)((x >> 33) % (uint64_t)(i + 1));
-			int tmp = ord[i];
-			ord[i] = ord[r], ord[r] = tmp;
-		}
-		for (int i = 0; i < n; i++)
-			if (ndo__unit_claim(&P->u, ord[i]))
-				unit_take(J, ord[i] / C, ord[i] % C);
-		free(ord);
-		return;
-	}
-	const int pairs = (J->threads + 1) / 2, pair = who / 2, up = who % 2 == 0;
-	const int start = up ? (int)((long)C * pair / pairs) : (int)((long)C * (pair + 1) / pairs) - 1;
-	for (int diag = 0; diag < C + (np - 1) * L; diag++)
-		for (int p = np - 1; p >= 0; p--) {
-			int c = diag - p * L;
-			if (c < 0 || c >= C)
-				continue;
-			c = up ? (start + c) % C : (start - c + C) % C;
-			if (ndo__unit_claim(&P->u, p * C + c))
-				unit_take(J, p, c);
-		}
+	ndo__units_walk(&P->u, P->ch.C, P->ch.L, J->np, J->threads, who, NULL, J->s->wave_test & 1,
+	                (uint64_t)J->s->step, take, J);
 }
 
 /* The run's planes: X_0 = (u, v), B, C and midpoint's M. */
@@ -318,9 +291,7 @@ int ndo__wave_run(ndo_sim *s, double h, int m, const double *t)
 	J.threads = ndo__sim_threads_now(s);
 	ndo__sim_run(s, J.threads, wave_thread, &J);
 	if (s->wave_test & 1) /* a shuffling thread that found no memory left units */
-		for (int i = 0; i < J.np * C; i++)
-			if (ndo__unit_claim(&P->u, i))
-				unit_take(&J, i / C, i % C);
+		ndo__units_rest(&P->u, J.np * C, C, take, &J);
 	return NDO_OK;
 }
 

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The threads' shared work under ThreadSanitizer: the unit tests that run
 # work on several threads at once (the pool, a step's passes and pipelines
-# on the threads, rk4's step begun ahead, the error estimate's and the
+# on the threads, rk4's step begun ahead, runs of steps, the error estimate's and the
 # choice's runs beside each other and beside a run), built by `make test`
 # with SAN=thread under build/tsan/ (Makefile, TSAN_PROGS), must pass with
 # no report.  A racy program made here first shows that the detector and
@@ -68,5 +68,6 @@ run_tsan() {
 run_tsan "the pool" test_pool
 run_tsan "every explicit method's steps on 1, 2 and 3 threads" test_sim threads_give_the_same_bits
 run_tsan "rk4's step begun ahead on the threads" test_sim rk4_begun_ahead
+run_tsan "runs of steps (rk4's chain, symplectic Euler's wave) on 2 threads" test_sim steps_on_threads
 run_tsan "the error estimate and the choice, their runs side by side and beside a run" \
 	test_accuracy

@@ -303,7 +303,7 @@ static void simulate(run *r)
 	accuracy_begin(r);
 	/* Between the steps that log, write a frame or sample the accuracy,
 	 * the steps run with nothing between them: ndo_sim_steps (symplectic
-	 * Euler and midpoint then pipeline several steps; the same bits), at
+	 * Euler, midpoint and rk4 then pipeline several steps; the same bits), at
 	 * most 16 at a time so that interrupts and progress are seen, and as
 	 * even calls (17 steps as 9 and 8, not 16 and 1): a single step costs
 	 * more than a step of a run, and the threads' looks at whether they

@@ -280,11 +280,14 @@ int ndo_sim_step(ndo_sim *s, double h);
  * state as that step left it (NDO_EDIVERGED: the first bad state, at
  * ndo_sim_time; ndo_sim_step_count says how many steps were taken).
  * Symplectic Euler and midpoint without penalty pins, pressure, sleeping
- * tiles, re-assembly of K or a moving boundary run up to 16 steps at a
- * time as one pipeline on the threads, with no wait between the passes
- * or the steps (lib/sim/wave.c) — when the steps run on the threads, or
- * from 65,536 nodes on one (where a pipeline's rows are still in the
- * cache when the next step reads them); the others step one at a time.
+ * tiles, re-assembly of K or a moving boundary run up to six passes (6
+ * steps of symplectic Euler, 3 of midpoint) at a time as one pipeline on
+ * the threads, with no wait between the passes or the steps
+ * (lib/sim/wave.c), and rk4 with no node held either (no pins, not a
+ * peer's region) two steps (lib/sim/rk4.c) — when the steps run on the
+ * threads, or from 65,536 nodes on one (where a pipeline's rows are
+ * still in the cache when the next step reads them); the others step
+ * one at a time.
  * k = 0
  * does nothing; NDO_EINVAL for k < 0 or h not positive and finite. */
 int ndo_sim_steps(ndo_sim *s, double h, int64_t k);
