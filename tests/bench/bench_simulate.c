@@ -720,7 +720,8 @@ int main(int argc, char **argv)
 		pipeline(argc - 2, argv + 2, (const ndo_method[]){NDO_SYMPLECTIC_EULER, NDO_MIDPOINT}, 2,
 		         "fused", 0);
 	else if (argc >= 4 && strcmp(argv[1], "wave") == 0)
-		pipeline(argc - 2, argv + 2, (const ndo_method[]){NDO_SYMPLECTIC_EULER, NDO_MIDPOINT}, 2,
+		pipeline(argc - 2, argv + 2,
+		         (const ndo_method[]){NDO_SYMPLECTIC_EULER, NDO_MIDPOINT, NDO_RK4}, 3,
 		         "ndo_sim_steps", 1);
 	else if (argc == 3 && strcmp(argv[1], "bandwidth") == 0)
 		bandwidth_threads(atoi(argv[2]));

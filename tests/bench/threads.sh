@@ -3,8 +3,9 @@
 # (ndo_sim_params.threads, --threads): rk4, symplectic Euler and midpoint
 # at levels 4-10 (the steps through ndo_sim_steps, as simulate-peer takes
 # them between frames), timed in alternating runs in one process, rk4's
-# pipeline and the other two's fused passes against their passes, their
-# runs of steps (lib/sim/wave.c) against one step at a time, and the memory
+# pipeline and the other two's fused passes against their passes, runs
+# of steps (lib/sim/wave.c, rk4's chain in lib/sim/rk4.c) against one
+# step at a time, and the memory
 # bandwidth of 1 and 2 threads, with the machine's load before and after.  Writes docs/bench/threads.md.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
@@ -28,7 +29,7 @@ load1=$(cut -d' ' -f1-3 /proc/loadavg)
 	echo "The thesis scene (figure 5.3) on the wavy surface, each method at half its critical step."
 	echo "Each row: 7 pairs of runs of at least 0.1 s, one thread then two, in the same process, the steps"
 	echo "through ndo_sim_steps (as simulate-peer runs those between frames: symplectic Euler and midpoint"
-	echo "as one pipeline of up to six passes, lib/sim/wave.c; rk4 a step at a time);"
+	echo "as one pipeline of up to six passes, lib/sim/wave.c; rk4 two steps as one chain of eight, lib/sim/rk4.c);"
 	echo "steps/s are medians, the ratio is the median of the 7 pairs' ratios (a busy machine slows both"
 	echo "runs of a pair alike).  Grids under 20,000 integrated nodes (levels ≤ 6) run on one thread"
 	echo "whatever is asked, so their ratio measures only noise.  The results are the same bits on"
@@ -74,12 +75,13 @@ load1=$(cut -d' ' -f1-3 /proc/loadavg)
 	echo
 	cat "$t-fused"
 	echo
-	echo "## Symplectic Euler and midpoint: one step at a time and several as one pipeline"
+	echo "## One step at a time and several as one pipeline"
 	echo
-	echo "\`bench_simulate wave 2 6 7 8 9 10\`: the same two methods stepped one call of ndo_sim_step at a time"
-	echo "(the fused passes, a run on the threads each) and by ndo_sim_steps (\`lib/sim/wave.c\`: up to six passes"
-	echo "as one pipeline of (pass, chunk) units, no wait between passes or steps; what simulate-peer takes"
-	echo "between frames), timed like the pipeline above.  On one thread ndo_sim_steps takes the pipeline"
+	echo "\`bench_simulate wave 2 6 7 8 9 10\`: symplectic Euler, midpoint and rk4 stepped one call of ndo_sim_step"
+	echo "at a time (the fused passes or rk4's pipeline, a run on the threads each) and by ndo_sim_steps"
+	echo "(\`lib/sim/wave.c\`: up to six passes as one pipeline of (pass, chunk) units, no wait between passes"
+	echo "or steps; rk4's chain, \`lib/sim/rk4.c\`: two steps, eight stages, the same way; what simulate-peer"
+	echo "takes between frames), timed like the pipeline above.  On one thread ndo_sim_steps takes the pipeline"
 	echo "from 65,536 nodes only (levels 6-7: single steps either way).  The same bits either way"
 	echo "(test_sim: steps_are_single_steps).  The table at the top times ndo_sim_steps too."
 	echo
