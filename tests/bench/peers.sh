@@ -287,6 +287,9 @@ load1=$(cut -d' ' -f1-3 /proc/loadavg)
 	echo "(whole regions at the default \`--publish-rate 30\`: every N steps, at least 10, N"
 	echo "fixed at the start from the run's predicted speed, about 30 frames a second here;"
 	echo "*frames every 10 steps*: \`--publish-every 10\`, the default before 2026-12-01)."
+	echo "From level 8 (65,536 nodes and more) the single process runs rk4 two steps at a time as one"
+	echo "chain of its pipeline (lib/sim/rk4.c, since 2026-12-02: about 1.1x single steps there,"
+	echo "docs/simulate-peer.md), which a peer, exchanging halos between its steps, does not."
 	echo
 	echo "$speed"
 	echo
