@@ -1774,7 +1774,7 @@ static int sim_steps(ndo_sim *s, double h, int64_t k)
 			 * one at a time, 217 in runs), and the threads' look times
 			 * each call as steps of its mean time, so a single step
 			 * among runs reads as the threads slowing down. */
-			if (k <= m + 1)
+			if (k <= m + 1 && !(rk4 && s->any_held)) /* (rk4.c: two at most) */
 				m = (int)k;
 			rc = steps_wave(s, h, m, t, &m);
 		} else {

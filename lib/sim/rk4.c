@@ -48,12 +48,14 @@
  *   memory; the two stage displacements, read at the neighbours, stay
  *   whole planes.
  *
- * A chain of steps (ndo_sim_steps, no held nodes): two steps as one run
- * of the pipeline, stage k of step j being pass 4j + k, so that the
- * threads wait neither between the stages nor between the steps (as
- * wave.c does for symplectic Euler and midpoint).  Step j goes from state
- * X_j to X_{j+1}: X_0 the simulation's (u, v), never written, then
- * ka[0..1] and ka[2..3] in turn; stage 0 of step j + 1 of a chunk waits
+ * A chain of steps (ndo_sim_steps; held nodes, pins, that do not move):
+ * two steps as one run of the pipeline, stage k of step j being pass
+ * 4j + k, so that the threads wait neither between the stages nor between
+ * the steps (as wave.c does for symplectic Euler and midpoint).  Step j
+ * goes from state X_j to X_{j+1}: X_0 the simulation's (u, v), never
+ * written, then (ka[0], ka[1]) and (ka[3], tmp) in turn, each with the held
+ * nodes' u and v (spare_held; copied into X_2 at the start of a run);
+ * stage 0 of step j + 1 of a chunk waits
  * for stage 3 of step j of the chunks beside it, which also keeps it from
  * overwriting stage displacements those still read; the ring holds its
  * slots twice, one set for the even steps and one for the odd.  Each
@@ -663,8 +665,8 @@ int ndo__rk4_ring_reuses(const ndo_sim *s)
 
 /* A run on the threads: one step, or a chain of m steps (the units of
  * step j are passes 4j..4j + 3).  Step j goes from state X_j to X_{j+1}
- * (xbuf: X_0 the simulation's (u, v), never written, then ka[0..1] and
- * ka[2..3] in turn); its stage displacements share A, B and A2. */
+ * (xbuf: X_0 the simulation's (u, v), never written, then (ka[0], ka[1])
+ * and (ka[3], tmp) in turn); its stage displacements share A, B and A2. */
 typedef struct rk4_pipe {
 	ndo_sim *s;
 	rk4_pass g[4];     /* the stages' passes, but for the state */
@@ -821,7 +823,7 @@ static int pipe_setup(ndo_sim *s, double h, int m, const double *t, rk4_pipe *J,
 	*J = (rk4_pipe){.s = s, .t = t, .m = m};
 	J->xu[0] = s->u, J->xv[0] = s->v;
 	J->xu[1] = s->ka[0], J->xv[1] = s->ka[1];
-	J->xu[2] = s->ka[2], J->xv[2] = s->ka[3];
+	J->xu[2] = s->ka[3], J->xv[2] = s->tmp; /* (ka[2]: A2 with held nodes) */
 	if (P->held) {
 		A2 = s->ka[2];
 		if (!s->spare_held) {
@@ -931,13 +933,14 @@ static int step_pipeline(ndo_sim *s, double h)
 
 /* ---- a chain of steps (ndo_sim_steps) ------------------------------------------ */
 
-/* Whether steps can run as a chain: the pipeline's steps with every node
- * integrated (no held nodes: pins or a peer's region), no sleeping tiles
- * and no re-assembly of K between the steps. */
+/* Whether steps can run as a chain: the pipeline's steps with held nodes
+ * (pins, a region) that do not move, no sleeping tiles and no
+ * re-assembly of K between the steps.  With held nodes a chain is at most
+ * two steps (ndo__rk4_chain_diag reads X_1 after the run). */
 int ndo__rk4_chain_fits(const ndo_sim *s)
 {
-	return s->p.method == NDO_RK4 && pipeline_fits(s) && !s->any_held && !s->sleep &&
-	       s->p.restiffen == 0;
+	return s->p.method == NDO_RK4 && pipeline_fits(s) && !(s->held_motion && s->nhmove) &&
+	       !s->sleep && s->p.restiffen == 0;
 }
 
 /* Steps a chain takes: 2 (8 passes; wave.c's WAVE_PASSES measured 6-8
@@ -950,12 +953,24 @@ int ndo__rk4_chain_batch(const ndo_sim *s)
 
 int ndo__rk4_chain_run(ndo_sim *s, double h, int m, const double *t)
 {
+	if (m > 2 && s->any_held)
+		return ndo__fail(NDO_EINVAL, "a chain of %d steps with held nodes", m);
 	s->ahead = 0;
-	s->spare_held = 0;
 	rk4_pipe J;
 	int rc = pipe_setup(s, h, m, t, &J, 1);
 	if (rc)
 		return rc;
+	if (s->any_held && m == 2) {
+		/* X_2, the new state, holds the held nodes' u and v (X_1 does:
+		 * spare_held, pipe_setup) */
+		const size_t cnt = s->count;
+		for (size_t p = 0; p < cnt; p++)
+			if (!s->active[p])
+				for (int c = 0; c < 3; c++) {
+					J.xu[2][(size_t)c * cnt + p] = s->u[(size_t)c * cnt + p];
+					J.xv[2][(size_t)c * cnt + p] = s->v[(size_t)c * cnt + p];
+				}
+	}
 	ndo__sim_run(s, J.threads, pipe_thread, &J);
 	if (s->wave_test & 1) /* a shuffling thread that found no memory left units */
 		ndo__units_rest(&s->rk4_plan->u, 4 * m * s->rk4_plan->ch.C, s->rk4_plan->ch.C, take, &J);
@@ -970,6 +985,10 @@ int ndo__rk4_chain_cap(const ndo_sim *s)
 void ndo__rk4_chain_diag(ndo_sim *s, int j, ndo__diag *d)
 {
 	pipe_diag(s, j, d);
+	if (s->nhedge) { /* the held nodes' power, from step j's state (j ≤ 1) */
+		const int x = xbuf(j);
+		d->power += ndo__held_power(s, x ? s->ka[0] : s->u, x ? s->ka[1] : s->v, NULL);
+	}
 }
 
 void ndo__rk4_chain_powers(ndo_sim *s, int j, double last_power)
@@ -989,8 +1008,8 @@ void ndo__rk4_chain_commit(ndo_sim *s, int m)
 	if (m == 0)
 		return;
 	const int x = xbuf(m);
-	swap(&s->u, x == 1 ? &s->ka[0] : &s->ka[2]);
-	swap(&s->v, x == 1 ? &s->ka[1] : &s->ka[3]);
+	swap(&s->u, x == 1 ? &s->ka[0] : &s->ka[3]);
+	swap(&s->v, x == 1 ? &s->ka[1] : &s->tmp);
 }
 
 /* Begin the step ahead (ndo_sim_step_begin): a unit is late when the rows

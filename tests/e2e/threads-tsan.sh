@@ -68,6 +68,6 @@ run_tsan() {
 run_tsan "the pool" test_pool
 run_tsan "every explicit method's steps on 1, 2 and 3 threads" test_sim threads_give_the_same_bits
 run_tsan "rk4's step begun ahead on the threads" test_sim rk4_begun_ahead
-run_tsan "runs of steps (rk4's chain, symplectic Euler's wave) on 2 threads" test_sim steps_on_threads
+run_tsan "runs of steps (rk4's chain, with pins too; symplectic Euler's wave) on 2 threads" test_sim steps_on_threads
 run_tsan "the error estimate and the choice, their runs side by side and beside a run" \
 	test_accuracy

@@ -1043,7 +1043,8 @@ static void compact_force_items_are_the_items(void)
 }
 
 /* ndo_sim_steps (symplectic Euler and midpoint: several steps as one
- * pipeline of (pass, chunk) units, wave.c) is k calls of ndo_sim_step,
+ * pipeline of (pass, chunk) units, wave.c; rk4: two steps as one chain
+ * of its pipeline, rk4.c) is k calls of ndo_sim_step,
  * bit for bit, on 1-3 threads, in its own order and in shuffled ones
  * (wave_test 4 and 1), with forces, seams, and pins that cut rows and hold
  * border and seam nodes; a run that diverges stops at the same step with
@@ -1127,8 +1128,8 @@ static void steps_are_single_steps(void)
 						/* in runs of 1, 5 and the rest: batches and single steps */
 						CHECK(ndo_sim_steps(s, h, 1) == 0 && ndo_sim_steps(s, h, 5) == 0 &&
 						      ndo_sim_steps(s, h, K - 6) == 0, "steps: %s", ndo_errdetail());
-						/* rk4: its chain (rk4.c) where no node is held */
-						CHECK(ms[im] == NDO_RK4 ? pins || ndo__rk4_chain_cap(s) >= 2
+						/* rk4: its chain (rk4.c) */
+						CHECK(ms[im] == NDO_RK4 ? ndo__rk4_chain_cap(s) >= 2
 						                        : s->wave_plan != NULL,
 						      "%s, level %d: the wave not taken", name, level);
 						CHECK(same_run(ref, s, nn, xa, va, xb, vb),
@@ -1163,8 +1164,7 @@ static void steps_are_single_steps(void)
 				ndo_sim *w = make(g, x0, v0, pins ? pin : NULL, &p);
 				w->wave_test = 3;
 				CHECK(ndo_sim_steps(w, h, K) == 0, "steps: %s", ndo_errdetail());
-				CHECK(level == 3 || (ms[im] == NDO_RK4 && pins) || /* (single steps) */
-				          (w->nichunk > 1 && !same_run(ref, w, nn, xa, va, xb, vb)),
+				CHECK(level == 3 || (w->nichunk > 1 && !same_run(ref, w, nn, xa, va, xb, vb)),
 				      "%s, level %d: units run before their neighbours' pass before gave the "
 				      "same bits: the comparison cannot fail", name, level);
 				ndo_sim_destroy(w), ndo_sim_destroy(ref);
@@ -1174,11 +1174,12 @@ static void steps_are_single_steps(void)
 }
 
 /* The runs of steps on 2 threads, small enough for ThreadSanitizer
- * (tests/e2e/threads-tsan.sh): rk4's chain and symplectic Euler's wave at
- * level 7, ndo_sim_steps against single steps, bit for bit. */
+ * (tests/e2e/threads-tsan.sh): rk4's chain (also with pins) and
+ * symplectic Euler's wave at level 7, ndo_sim_steps against single steps,
+ * bit for bit. */
 static void steps_on_threads(void)
 {
-	const ndo_method ms[2] = {NDO_RK4, NDO_SYMPLECTIC_EULER};
+	const ndo_method ms[3] = {NDO_RK4, NDO_RK4, NDO_SYMPLECTIC_EULER};
 	ndo_grid *g = shape("wavy", 7);
 	const size_t nn = 3 * g->count;
 	double *x0 = malloc(nn * sizeof *x0), *v0 = malloc(nn * sizeof *v0);
@@ -1188,23 +1189,27 @@ static void steps_on_threads(void)
 	int32_t faces[NFACES], nodes[4];
 	ndo_force f[3];
 	three_forces(g, 7, faces, nodes, f);
-	for (int im = 0; im < 2; im++) {
+	uint8_t *pin = calloc(g->count, 1);
+	for (size_t q = 0; q < g->count; q += 37)
+		pin[q] = 1;
+	for (int im = 0; im < 3; im++) {
 		ndo_sim_params p;
 		forced_params(&p, ms[im], f);
 		p.threads = 2;
-		ndo_sim *a = make(g, x0, v0, NULL, &p), *b = make(g, x0, v0, NULL, &p);
+		uint8_t *pn = im == 1 ? pin : NULL;
+		ndo_sim *a = make(g, x0, v0, pn, &p), *b = make(g, x0, v0, pn, &p);
 		b->wave_test = 4;
 		for (int k = 0; k < 7; k++)
 			CHECK(ndo_sim_step(a, 2e-4) == 0, "single steps: %s", ndo_errdetail());
 		CHECK(ndo_sim_steps(b, 2e-4, 7) == 0, "steps: %s", ndo_errdetail());
 		CHECK(ms[im] == NDO_RK4 ? ndo__rk4_chain_cap(b) >= 2 : b->wave_plan != NULL,
 		      "%s: no run of steps taken", ndo_method_names[ms[im]]);
-		CHECK(same_run(a, b, nn, xa, va, xb, vb), "%s, 2 threads: ndo_sim_steps differs from "
-		      "single steps by %g", ndo_method_names[ms[im]],
+		CHECK(same_run(a, b, nn, xa, va, xb, vb), "%s%s, 2 threads: ndo_sim_steps differs from "
+		      "single steps by %g", ndo_method_names[ms[im]], pn ? " (pins)" : "",
 		      fmax(max_diff(xa, xb, nn), max_diff(va, vb, nn)));
 		ndo_sim_destroy(a), ndo_sim_destroy(b);
 	}
-	free(x0), free(v0), free(xa), free(va), free(xb), free(vb);
+	free(x0), free(v0), free(xa), free(va), free(xb), free(vb), free(pin);
 	ndo_grid_destroy(g);
 }
 

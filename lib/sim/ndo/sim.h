@@ -283,8 +283,8 @@ int ndo_sim_step(ndo_sim *s, double h);
  * tiles, re-assembly of K or a moving boundary run up to six passes (6
  * steps of symplectic Euler, 3 of midpoint) at a time as one pipeline on
  * the threads, with no wait between the passes or the steps
- * (lib/sim/wave.c), and rk4 with no node held either (no pins, not a
- * peer's region) two steps (lib/sim/rk4.c) — when the steps run on the
+ * (lib/sim/wave.c), and rk4 (pins too, none moving) two steps
+ * (lib/sim/rk4.c) — when the steps run on the
  * threads, or from 65,536 nodes on one (where a pipeline's rows are
  * still in the cache when the next step reads them); the others step
  * one at a time.
