@@ -1664,13 +1664,6 @@ int ndo_sim_step(ndo_sim *s, double h)
 	return rc;
 }
 
-/* m steps of the wave (wave.c) from steps run at times t[0..m): each
- * step's divergence test and accounting in order, as ndo_sim_step makes
- * them; at a step that fails, the run again up to it (the state it
- * started from is still there).  *done: the steps taken — fewer than m
- * when the size test must see a step's state (ndo__size_needs_state):
- * the run again up to that step, whose state is then seen as a single
- * step sees it, and the caller goes on from there. */
 /* The runs of steps: RK4's chain (rk4.c) or the wave (wave.c). */
 static int run_steps(ndo_sim *s, double h, int m, const double *t)
 {
@@ -1685,6 +1678,13 @@ static void run_commit(ndo_sim *s, int m)
 		ndo__wave_commit(s, m);
 }
 
+/* m steps of the wave (wave.c) or of RK4's chain (rk4.c) from steps run
+ * at times t[0..m): each step's divergence test and accounting in order,
+ * as ndo_sim_step makes them; at a step that fails, the run again up to it (the state it
+ * started from is still there).  *done: the steps taken — fewer than m
+ * when the size test must see a step's state (ndo__size_needs_state):
+ * the run again up to that step, whose state is then seen as a single
+ * step sees it, and the caller goes on from there. */
 static int steps_wave(ndo_sim *s, double h, int m, double *t, int *done)
 {
 	*done = 0;
@@ -1727,7 +1727,7 @@ static int steps_wave(ndo_sim *s, double h, int m, double *t, int *done)
 			return rc;
 		}
 		if (rk4) { /* as step_rk4 */
-			ndo__rk4_chain_powers(s, j, d.power);
+			ndo__rk4_chain_powers(s, j, d.power); /* into s->stage_power */
 			s->stats.evaluations += 3;
 			account(s, h, tableau_power(&tb_rk4, s->stage_power));
 		} else {
@@ -1760,9 +1760,10 @@ static int sim_steps(ndo_sim *s, double h, int64_t k)
 	 * 7, where the state stays in the cache anyway and the units'
 	 * bookkeeping costs).  So below that size, steps that run alone
 	 * (threads_pick) go one at a time, and a look at whether the threads
-	 * pay compares those with the wave on the threads. */
+	 * pay compares those with the wave on the threads.  RK4 takes its own
+	 * chain of two steps (rk4.c) the same way. */
 	const int rk4 = ndo__rk4_chain_fits(s), fits = rk4 || ndo__wave_fits(s);
-	double t[18]; /* a run's times: up to 16 steps, and one left over */
+	double t[18]; /* a run's times: up to 6 steps (ndo__wave_batch), and one left over */
 	while (k > 0) {
 		int wave = fits && (s->count >= 65536 || s->wave_test || !threads_next_solo(s));
 		int m = k >= 2 && wave ? rk4 ? ndo__rk4_chain_batch(s) : ndo__wave_batch(s) : 0;

@@ -991,9 +991,9 @@ void ndo__rk4_chain_diag(ndo_sim *s, int j, ndo__diag *d)
 	}
 }
 
-void ndo__rk4_chain_powers(ndo_sim *s, int j, double last_power)
+void ndo__rk4_chain_powers(ndo_sim *s, int j, double power0)
 {
-	s->last_power = s->stage_power[0] = last_power;
+	s->stage_power[0] = power0;
 	pipe_powers(s, j);
 }
 

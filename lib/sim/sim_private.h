@@ -566,7 +566,7 @@ int ndo__rk4_begin(ndo_sim *s, double h, size_t n, const int32_t *pending);
  * whether it can take them, and how many a run takes; m steps from times
  * t[0..m) into spare planes, the state left alone; step j's stage-0
  * diagnostics; step j's stage powers into s->stage_power (stage 0's
- * given) and last_power; the state after m steps swapped in. */
+ * given); the state after m steps swapped in. */
 int ndo__rk4_chain_fits(const ndo_sim *s);
 int ndo__rk4_chain_batch(const ndo_sim *s);
 int ndo__rk4_chain_run(ndo_sim *s, double h, int m, const double *t);
